@@ -1,0 +1,151 @@
+"""The ``fuzzynav`` command line.
+
+``fuzzynav run SCENARIO``      one headless run; a table, or ``--json``
+
+Further sub-commands and ``run`` options come from the modules in
+:data:`EXTENSION_MODULES`. Each may define any of
+
+- ``add_commands(subparsers)``: add sub-commands (each sets ``func`` on its parser);
+- ``add_run_options(parser)``: add options to ``run``;
+- ``run_hook(args, sim)``: called before a ``run`` starts; returns None or a callback
+  ``(result, interrupted) -> None`` called when it ends (also after Ctrl-C).
+
+Exit status: 0 when a run completed, whatever its outcome; 2 for bad input, with the
+error on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from world.perception import PERCEPTION_MODES
+from world.scenario import ScenarioError, resolve_scenario_path
+
+EXIT_BAD_INPUT = 2
+
+
+class UsageError(Exception):
+    """Bad input from the user: printed on stderr, exit status 2."""
+
+
+def _json_default(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    raise TypeError(f"not JSON serialisable: {value!r}")
+
+
+def print_json(data) -> None:
+    print(json.dumps(data, indent=2, default=_json_default, allow_nan=False))
+
+
+def scenario_label(name_or_path: str) -> str:
+    path = resolve_scenario_path(name_or_path)
+    return path.stem if path.parent.name == "scenarios" and path.exists() else str(name_or_path)
+
+
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    from controller.registry import controller_names
+
+    parser.add_argument("--controller", default="paper", choices=controller_names(),
+                        help="which controller drives (default: paper)")
+    parser.add_argument("--fis", type=Path, default=None,
+                        help="drive with a MATLAB .fis file of your own instead (4 inputs, 2 outputs)")
+    parser.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES,
+                        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors")
+    parser.add_argument("--seed", type=int, default=0, help="seeds the sensor noise (default 0)")
+    parser.add_argument("--noise", type=float, default=0.0, metavar="STD_M",
+                        help="sensor noise standard deviation in metres (default 0)")
+    parser.add_argument("--dt", type=float, default=0.02, metavar="SECONDS",
+                        help="control period (default 0.02 s)")
+
+
+def cmd_run(args) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from app.runs import build_simulation, summary
+
+    sim = build_simulation(args.scenario, args.controller, perception=args.perception,
+                           seed=args.seed, fis_path=args.fis, control_period_s=args.dt,
+                           sensor_noise_std_m=args.noise)
+    hooks = [m.run_hook(args, sim) for m in _extensions() if hasattr(m, "run_hook")]
+    try:
+        result = sim.run()
+    except KeyboardInterrupt:
+        result = sim.result()
+        for hook in hooks:
+            if hook is not None:
+                hook(result, interrupted=True)
+        raise
+    for hook in hooks:
+        if hook is not None:
+            hook(result, interrupted=False)
+    label = args.fis.name if args.fis else args.controller
+    row = summary(result, label, scenario_label(args.scenario))
+    if args.json:
+        print_json(row)
+        return 0
+    table = Table(title=f"{result.scenario.name} — {label}, {args.perception} perception")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, value in row.items():
+        if isinstance(value, float):
+            value = f"{value:.4f}"
+        table.add_row(key, str(value))
+    Console().print(table)
+    return 0
+
+
+EXTENSION_MODULES = ("app.fis_commands", "app.experiments", "app.recording", "app.figures",
+                     "app.report", "app.viewer")
+
+
+def _extensions() -> list:
+    """The extension modules that exist (one still being written is skipped)."""
+    import importlib
+
+    found = []
+    for name in EXTENSION_MODULES:
+        try:
+            found.append(importlib.import_module(name))
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+    return found
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="fuzzynav", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run one scenario headless and print its metrics")
+    run.add_argument("scenario", help="s1, s2, s3 (assets/scenarios) or a path to a TOML file")
+    add_run_options(run)
+    run.add_argument("--json", action="store_true", help="print one JSON object")
+    run.set_defaults(func=cmd_run)
+    for module in _extensions():
+        if hasattr(module, "add_run_options"):
+            module.add_run_options(run)
+        if hasattr(module, "add_commands"):
+            module.add_commands(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args) or 0
+    except (ScenarioError, UsageError, ValueError, FileNotFoundError) as exc:
+        print(f"fuzzynav: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("fuzzynav: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

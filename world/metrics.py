@@ -1,0 +1,67 @@
+"""Run metrics: the paper's Eq. 15-17 and Table 4, plus safety numbers of our own.
+
+``path_length_m``
+    Eq. 15: the sum of the distances between successive logged positions.
+``mad_m``, ``rmse_m``
+    Eq. 16-17 with d_ideal = 0: mean absolute and root-mean-square distance of the
+    logged positions from the ideal path, the straight segment from start to target.
+``min_center_distance_m``
+    The paper's "minimum distance to obstacles": centre to centre (the paper treats the
+    robot and the obstacles as points).
+``min_clearance_m``
+    Ours: the smallest distance between the real footprint and an obstacle's surface,
+    the number that says whether the 25 cm safe distance held.
+``time_to_target_s``
+    Time of arrival, or None when the target was not reached.
+``max_abs_voltage_v``
+    The largest applied |voltage| (after saturation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from world.geometry import point_segment_distance
+
+
+def path_length(xy: np.ndarray) -> float:
+    steps = np.diff(np.asarray(xy, dtype=float), axis=0)
+    return float(np.hypot(steps[:, 0], steps[:, 1]).sum())
+
+
+def deviation_from_line(xy: np.ndarray, start, target) -> tuple[float, float]:
+    """(MAD, RMSE) of the points' distances from the start-target segment."""
+    d = point_segment_distance(xy, start, target)
+    return float(np.mean(np.abs(d))), float(math.sqrt(np.mean(d * d)))
+
+
+def _finite_min(values: np.ndarray) -> float | None:
+    finite = values[np.isfinite(values)]
+    return float(finite.min()) if finite.size else None
+
+
+def compute_metrics(result) -> dict:
+    """The metrics of a :class:`world.simulation.SimulationResult` as a plain dict."""
+    log = result.log
+    xy = log.pose[:, :2]
+    sc = result.scenario
+    mad, rmse = deviation_from_line(xy, sc.start, sc.target)
+    applied = log.voltages_v[np.isfinite(log.voltages_v)]
+    reached = result.outcome == "reached"
+    return {
+        "reached": reached,
+        "collided": bool(result.collisions),
+        "outcome": result.outcome,
+        "time_to_target_s": float(log.time_s[-1]) if reached else None,
+        "path_length_m": path_length(xy),
+        "mad_m": mad,
+        "rmse_m": rmse,
+        "min_center_distance_m": _finite_min(log.center_distance_m),
+        "min_clearance_m": _finite_min(log.clearance_m),
+        "max_abs_voltage_v": float(np.abs(applied).max()) if applied.size else 0.0,
+        "sim_time_s": float(log.time_s[-1]),
+        "steps": int(len(log) - 1),
+        "wall_time_s": float(result.wall_time_s),
+    }

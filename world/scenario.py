@@ -1,0 +1,332 @@
+"""Scenario files: where the robot starts, where the target is, what is in the way.
+
+A scenario is a TOML file in ``assets/scenarios/`` (or anywhere, given by path)::
+
+    name = "Scenario 1: three static obstacles"
+    duration_s = 150.0                 # the run times out after this
+    [robot]
+    start = [0.0, 0.0]                 # m
+    heading_rad = 0.0
+    [target]
+    position = [8.0, 8.0]              # m
+    tolerance_m = 0.15                 # arrival when the centre is this close
+    [[obstacles]]
+    position = [4.0, 4.0]              # m, at t = 0
+    radius_m = 0.2
+    velocity = [0.0, 0.0]              # optional, m/s at t = 0
+    acceleration = [0.0, 0.0]          # optional, m/s^2 (paper Eq. 13-14)
+    [disturbance]                      # optional: A sin(w t) on the controller inputs
+    amplitude = 1.0
+    angular_frequency_rad_s = 2.0
+    start_s = 25.0
+    stop_s = 35.0
+
+Optional top-level key: ``description``. Every other key is rejected, and every error
+names the file, the key and the value, so a typo never silently changes a run.
+Files are parsed with :mod:`tomllib`, never evaluated.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from world.geometry import rectangle_circle_clearance
+
+ASSETS_DIR = Path(__file__).resolve().parents[1] / "assets"
+SCENARIO_DIR = ASSETS_DIR / "scenarios"
+
+# The real Husky A200 footprint (notes section 1); the world uses the same numbers
+# from assets/husky.toml, these defaults only serve validation of a file on its own.
+DEFAULT_FOOTPRINT_M = (0.99, 0.67)
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used, with the file, key and value that make it so."""
+
+    def __init__(self, source: str, key: str, value: Any, reason: str):
+        self.source, self.key, self.value, self.reason = source, key, value, reason
+        super().__init__(f"{source}: {key} = {value!r}: {reason}")
+
+
+@dataclass(frozen=True)
+class ObstacleSpec:
+    """A circular obstacle; it follows p(t) = p0 + v0 t + a t^2 / 2 (paper Eq. 13-14)."""
+
+    position: tuple[float, float]
+    radius_m: float
+    velocity: tuple[float, float] = (0.0, 0.0)
+    acceleration: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def is_static(self) -> bool:
+        return self.velocity == (0.0, 0.0) and self.acceleration == (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """``amplitude * sin(angular_frequency_rad_s * t)`` added to every controller input
+    while ``start_s <= t < stop_s`` (paper scenario 3: sin(2t) for 25-35 s)."""
+
+    amplitude: float
+    angular_frequency_rad_s: float
+    start_s: float
+    stop_s: float
+
+    def value(self, t_s: float) -> float:
+        if self.start_s <= t_s < self.stop_s:
+            return self.amplitude * math.sin(self.angular_frequency_rad_s * t_s)
+        return 0.0
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    duration_s: float
+    start: tuple[float, float]
+    heading_rad: float
+    target: tuple[float, float]
+    tolerance_m: float
+    obstacles: tuple[ObstacleSpec, ...] = ()
+    disturbance: Disturbance | None = None
+    description: str = ""
+    source: str = field(default="<memory>", compare=False)
+
+    def replace(self, **changes) -> "Scenario":
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """The scenario as the plain data of its TOML file (``from_dict`` reads it back)."""
+        data: dict[str, Any] = {
+            "name": self.name,
+            "duration_s": self.duration_s,
+            "robot": {"start": list(self.start), "heading_rad": self.heading_rad},
+            "target": {"position": list(self.target), "tolerance_m": self.tolerance_m},
+            "obstacles": [
+                {
+                    "position": list(o.position),
+                    "radius_m": o.radius_m,
+                    "velocity": list(o.velocity),
+                    "acceleration": list(o.acceleration),
+                }
+                for o in self.obstacles
+            ],
+        }
+        if self.description:
+            data["description"] = self.description
+        if self.disturbance is not None:
+            d = self.disturbance
+            data["disturbance"] = {
+                "amplitude": d.amplitude,
+                "angular_frequency_rad_s": d.angular_frequency_rad_s,
+                "start_s": d.start_s,
+                "stop_s": d.stop_s,
+            }
+        return data
+
+    def to_toml(self) -> str:
+        """TOML text that :func:`load_scenario` reads back to an equal scenario."""
+        d = self.to_dict()
+        lines = [f"name = {_toml_str(d['name'])}"]
+        if self.description:
+            lines.append(f"description = {_toml_str(self.description)}")
+        lines += [f"duration_s = {d['duration_s']!r}", "", "[robot]",
+                  f"start = {_toml_list(self.start)}", f"heading_rad = {self.heading_rad!r}",
+                  "", "[target]", f"position = {_toml_list(self.target)}",
+                  f"tolerance_m = {self.tolerance_m!r}"]
+        for o in self.obstacles:
+            lines += ["", "[[obstacles]]", f"position = {_toml_list(o.position)}",
+                      f"radius_m = {o.radius_m!r}", f"velocity = {_toml_list(o.velocity)}",
+                      f"acceleration = {_toml_list(o.acceleration)}"]
+        if self.disturbance is not None:
+            dist = d["disturbance"]
+            lines += ["", "[disturbance]"] + [f"{k} = {v!r}" for k, v in dist.items()]
+        return "\n".join(lines) + "\n"
+
+
+def _toml_str(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _toml_list(values) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+
+
+# ---------------------------------------------------------------------------------------
+# Parsing and validation
+
+
+_TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
+_ROBOT_KEYS = {"start", "heading_rad"}
+_TARGET_KEYS = {"position", "tolerance_m"}
+_OBSTACLE_KEYS = {"position", "radius_m", "velocity", "acceleration"}
+_DISTURBANCE_KEYS = {"amplitude", "angular_frequency_rad_s", "start_s", "stop_s"}
+
+
+class _Reader:
+    """Reads typed values out of nested tables, raising ScenarioError with full key paths."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, key: str, value: Any, reason: str):
+        raise ScenarioError(self.source, key, value, reason)
+
+    def table(self, data: Any, key: str, allowed: set[str], required: set[str]) -> dict:
+        if not isinstance(data, dict):
+            self.fail(key, data, "must be a table")
+        for k in data:
+            if k not in allowed:
+                full = f"{key}.{k}" if key else k
+                self.fail(full, data[k], f"unknown key (allowed: {', '.join(sorted(allowed))})")
+        for k in sorted(required):
+            if k not in data:
+                full = f"{key}.{k}" if key else k
+                self.fail(full, None, "missing required key")
+        return data
+
+    def number(self, value: Any, key: str, *, positive: bool = False,
+               non_negative: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(key, value, "must be a number")
+        value = float(value)
+        if not math.isfinite(value):
+            self.fail(key, value, "must be finite (NaN and inf are not allowed)")
+        if positive and value <= 0:
+            self.fail(key, value, "must be positive")
+        if non_negative and value < 0:
+            self.fail(key, value, "must not be negative")
+        return value
+
+    def point(self, value: Any, key: str) -> tuple[float, float]:
+        if not isinstance(value, list) or len(value) != 2:
+            self.fail(key, value, "must be a list of two numbers [x, y]")
+        return (self.number(value[0], f"{key}[0]"), self.number(value[1], f"{key}[1]"))
+
+    def string(self, value: Any, key: str) -> str:
+        if not isinstance(value, str):
+            self.fail(key, value, "must be a string")
+        return value
+
+
+def scenario_from_dict(
+    data: dict,
+    source: str = "<memory>",
+    footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M,
+) -> Scenario:
+    """Validate plain data (as from a TOML file) and build a :class:`Scenario`.
+
+    Raises
+    ------
+    ScenarioError
+        For an unknown or missing key, a value of the wrong type, NaN or inf, a
+        non-positive radius, tolerance or duration, a start pose whose footprint overlaps
+        an obstacle, a target inside a static obstacle, or overlapping static obstacles.
+    """
+    r = _Reader(source)
+    r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "target"})
+    name = r.string(data["name"], "name")
+    description = r.string(data.get("description", ""), "description")
+    duration_s = r.number(data["duration_s"], "duration_s", positive=True)
+
+    robot = r.table(data["robot"], "robot", _ROBOT_KEYS, {"start"})
+    start = r.point(robot["start"], "robot.start")
+    heading = r.number(robot.get("heading_rad", 0.0), "robot.heading_rad")
+
+    target_t = r.table(data["target"], "target", _TARGET_KEYS, {"position"})
+    target = r.point(target_t["position"], "target.position")
+    tolerance = r.number(target_t.get("tolerance_m", 0.15), "target.tolerance_m", positive=True)
+
+    raw_obstacles = data.get("obstacles", [])
+    if not isinstance(raw_obstacles, list):
+        r.fail("obstacles", raw_obstacles, "must be an array of tables ([[obstacles]])")
+    obstacles = []
+    for i, raw in enumerate(raw_obstacles):
+        key = f"obstacles[{i}]"
+        o = r.table(raw, key, _OBSTACLE_KEYS, {"position", "radius_m"})
+        obstacles.append(ObstacleSpec(
+            position=r.point(o["position"], f"{key}.position"),
+            radius_m=r.number(o["radius_m"], f"{key}.radius_m", positive=True),
+            velocity=r.point(o.get("velocity", [0.0, 0.0]), f"{key}.velocity"),
+            acceleration=r.point(o.get("acceleration", [0.0, 0.0]), f"{key}.acceleration"),
+        ))
+
+    disturbance = None
+    if "disturbance" in data:
+        d = r.table(data["disturbance"], "disturbance", _DISTURBANCE_KEYS, _DISTURBANCE_KEYS)
+        disturbance = Disturbance(
+            amplitude=r.number(d["amplitude"], "disturbance.amplitude"),
+            angular_frequency_rad_s=r.number(d["angular_frequency_rad_s"],
+                                             "disturbance.angular_frequency_rad_s"),
+            start_s=r.number(d["start_s"], "disturbance.start_s", non_negative=True),
+            stop_s=r.number(d["stop_s"], "disturbance.stop_s", non_negative=True),
+        )
+        if disturbance.stop_s < disturbance.start_s:
+            r.fail("disturbance.stop_s", disturbance.stop_s, "must not be before start_s")
+
+    scenario = Scenario(name=name, duration_s=duration_s, start=start, heading_rad=heading,
+                        target=target, tolerance_m=tolerance, obstacles=tuple(obstacles),
+                        disturbance=disturbance, description=description, source=source)
+    check_layout(scenario, footprint_m)
+    return scenario
+
+
+def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M):
+    """Reject layouts no run could start from (raises :class:`ScenarioError`)."""
+    r = _Reader(scenario.source)
+    length, width = footprint_m
+    for i, o in enumerate(scenario.obstacles):
+        clearance = rectangle_circle_clearance(
+            scenario.start, scenario.heading_rad, length, width, o.position, o.radius_m)
+        if clearance <= 0.0:
+            r.fail(f"obstacles[{i}].position", list(o.position),
+                   f"overlaps the robot's footprint at its start {list(scenario.start)}")
+        if o.is_static and math.dist(o.position, scenario.target) < o.radius_m:
+            r.fail("target.position", list(scenario.target),
+                   f"lies inside static obstacle obstacles[{i}] at {list(o.position)} "
+                   f"(radius {o.radius_m} m)")
+    statics = [(i, o) for i, o in enumerate(scenario.obstacles) if o.is_static]
+    for n, (i, a) in enumerate(statics):
+        for j, b in statics[n + 1:]:
+            if math.dist(a.position, b.position) < a.radius_m + b.radius_m:
+                r.fail(f"obstacles[{j}].position", list(b.position),
+                       f"overlaps static obstacle obstacles[{i}] at {list(a.position)}")
+
+
+def scenario_names() -> list[str]:
+    """Names of the scenario files shipped in ``assets/scenarios`` (s1, s2, s3, ...)."""
+    return sorted(p.stem for p in SCENARIO_DIR.glob("*.toml"))
+
+
+def resolve_scenario_path(name_or_path: str | Path) -> Path:
+    """``s1`` -> ``assets/scenarios/s1.toml``; anything else is taken as a path."""
+    text = str(name_or_path)
+    candidate = SCENARIO_DIR / f"{text}.toml"
+    if "/" not in text and "\\" not in text and not text.endswith(".toml") and candidate.exists():
+        return candidate
+    return Path(text)
+
+
+def load_scenario(name_or_path: str | Path,
+                  footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M) -> Scenario:
+    """Load and validate a scenario by shipped name (``s1``) or by path.
+
+    Raises
+    ------
+    ScenarioError
+        The file is missing, is not valid TOML, or fails validation.
+    """
+    path = resolve_scenario_path(name_or_path)
+    source = str(path)
+    if not path.is_file():
+        known = ", ".join(scenario_names())
+        raise ScenarioError(source, "file", str(name_or_path),
+                            f"no such scenario file (shipped scenarios: {known})")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ScenarioError(source, "file", path.name, f"not valid TOML: {exc}") from None
+    return scenario_from_dict(data, source=source, footprint_m=footprint_m)
