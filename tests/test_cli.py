@@ -1,0 +1,63 @@
+"""The command line as a user calls it: JSON keys, tables, exit codes, errors on stderr."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from app.cli import main
+
+RUN_KEYS = {"scenario", "controller", "perception", "reached", "collided", "time_to_target_s",
+            "path_length_m", "mad_m", "rmse_m", "min_center_distance_m", "min_clearance_m",
+            "max_abs_voltage_v", "sim_time_s", "steps", "wall_time_s"}
+
+
+def test_run_json_has_the_documented_keys(capsys):
+    assert main(["run", "s1", "--controller", "p", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert RUN_KEYS <= set(out)
+    assert out["scenario"] == "s1" and out["controller"] == "p" and out["perception"] == "ideal"
+    # The P controller is obstacle-blind: on s1 it drives into the second obstacle.
+    assert out["collided"] is True and out["reached"] is False and out["time_to_target_s"] is None
+    assert out["steps"] > 100 and out["max_abs_voltage_v"] <= 12.0
+
+
+def test_run_reaches_an_open_target(write_toml, capsys):
+    path = write_toml('name = "open"\nduration_s = 60.0\n[robot]\nstart = [0.0, 0.0]\n'
+                      '[target]\nposition = [5.0, -3.0]\n')
+    assert main(["run", str(path), "--controller", "p", "--json", "--perception", "ultrasonic"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["reached"] is True and out["time_to_target_s"] > 0
+    assert out["min_clearance_m"] is None  # no obstacles at all
+
+
+def test_run_table(capsys):
+    assert main(["run", "s2", "--controller", "p"]) == 0
+    out = capsys.readouterr().out
+    assert "path_length_m" in out and "Scenario 2" in out
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["run", "no-such-scenario", "--controller", "p"], "no such scenario file"),
+    (["run", "s1", "--controller", "p", "--dt", "-1"], "control_period_s"),
+])
+def test_bad_input_exits_2_with_message(capsys, argv, needle):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "error" in err
+
+
+def test_bad_scenario_file_names_file_key_value(write_toml, capsys):
+    path = write_toml('name = "x"\nduration_s = 10.0\nwobble = 3\n[robot]\nstart = [0.0, 0.0]\n'
+                      '[target]\nposition = [5.0, 5.0]\n')
+    assert main(["run", str(path), "--controller", "p"]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "wobble" in err and "3" in err
+
+
+def test_console_script_entry_point():
+    proc = subprocess.run([sys.executable, "-m", "app.cli", "run", "s1", "--controller", "p", "--json"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["scenario"] == "s1"

@@ -1,0 +1,122 @@
+"""Scenario files: the shipped ones load, and every kind of bad input is named."""
+
+import math
+
+import pytest
+
+from world.scenario import (Scenario, ScenarioError, load_scenario, scenario_from_dict,
+                            scenario_names)
+
+VALID = """
+name = "test"
+duration_s = 60.0
+[robot]
+start = [0.0, 0.0]
+heading_rad = 0.0
+[target]
+position = [8.0, 8.0]
+tolerance_m = 0.15
+[[obstacles]]
+position = [4.0, 4.0]
+radius_m = 0.2
+"""
+
+
+def test_shipped_scenarios_match_the_paper():
+    assert {"s1", "s2", "s3"} <= set(scenario_names())
+    s1, s2, s3 = (load_scenario(n) for n in ("s1", "s2", "s3"))
+    assert [o.position for o in s1.obstacles] == [(4.0, 4.0), (5.7, 5.0), (7.5, 6.4)]
+    assert all(o.radius_m == 0.2 and o.is_static for o in s1.obstacles)
+    assert s1.start == (0.0, 0.0) and s1.target == (8.0, 8.0) and s1.heading_rad == 0.0
+    static, moving = s2.obstacles
+    assert static.position == (4.0, 3.58) and static.is_static
+    assert moving.position == (8.0, 8.0) and moving.radius_m == 0.3
+    assert moving.acceleration == (-0.001, -0.00123) and moving.velocity == (0.0, 0.0)
+    assert s2.disturbance is None
+    assert s3.obstacles == s2.obstacles
+    d = s3.disturbance
+    assert (d.amplitude, d.angular_frequency_rad_s, d.start_s, d.stop_s) == (1.0, 2.0, 25.0, 35.0)
+    assert d.value(24.99) == 0.0 and d.value(35.0) == 0.0
+    assert d.value(30.0) == pytest.approx(math.sin(60.0))
+
+
+def test_round_trip_through_toml(write_toml):
+    s3 = load_scenario("s3")
+    again = load_scenario(write_toml(s3.to_toml()))
+    assert again == s3
+
+
+def test_valid_file_loads(write_toml):
+    sc = load_scenario(write_toml(VALID))
+    assert isinstance(sc, Scenario) and sc.duration_s == 60.0
+
+
+@pytest.mark.parametrize("old, new, key, value_text", [
+    ('name = "test"', 'name = "test"\ncolour = "red"', "colour", "red"),
+    ("heading_rad = 0.0", "heading_rad = 0.0\nspeed = 1", "robot.speed", "1"),
+    ("radius_m = 0.2", "radius_m = 0.2\nmass = 3", "obstacles[0].mass", "3"),
+    ("tolerance_m = 0.15", "tolerance_m = 0.15\nradius = 1", "target.radius", "1"),
+    ("duration_s = 60.0", 'duration_s = "long"', "duration_s", "long"),
+    ("duration_s = 60.0", "duration_s = nan", "duration_s", "nan"),
+    ("duration_s = 60.0", "duration_s = -1.0", "duration_s", "-1.0"),
+    ("start = [0.0, 0.0]", "start = [0.0, inf]", "robot.start[1]", "inf"),
+    ("start = [0.0, 0.0]", "start = [0.0]", "robot.start", "[0.0]"),
+    ("radius_m = 0.2", "radius_m = 0.0", "obstacles[0].radius_m", "0.0"),
+    ("radius_m = 0.2", "radius_m = -0.3", "obstacles[0].radius_m", "-0.3"),
+    ("tolerance_m = 0.15", "tolerance_m = 0.0", "target.tolerance_m", "0.0"),
+    ("heading_rad = 0.0", "heading_rad = true", "robot.heading_rad", "True"),
+])
+def test_bad_values_are_named(write_toml, old, new, key, value_text):
+    path = write_toml(VALID.replace(old, new))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert str(path) in message and key in message and value_text in message
+    assert info.value.key == key
+
+
+def test_missing_required_key(write_toml):
+    path = write_toml(VALID.replace("[target]\nposition = [8.0, 8.0]\n", "[target]\n"))
+    with pytest.raises(ScenarioError, match=r"target\.position.*missing"):
+        load_scenario(path)
+
+
+def test_start_overlapping_an_obstacle(write_toml):
+    # The footprint reaches 0.495 m ahead of the centre: a 0.2 m obstacle at 0.6 m touches it.
+    path = write_toml(VALID.replace("position = [4.0, 4.0]", "position = [0.6, 0.0]"))
+    with pytest.raises(ScenarioError, match=r"obstacles\[0\]\.position.*footprint"):
+        load_scenario(path)
+    # ... and one at 0.75 m does not.
+    load_scenario(write_toml(VALID.replace("position = [4.0, 4.0]", "position = [0.75, 0.0]")))
+
+
+def test_target_inside_a_static_obstacle(write_toml):
+    path = write_toml(VALID.replace("position = [4.0, 4.0]", "position = [8.1, 8.0]"))
+    with pytest.raises(ScenarioError, match=r"target\.position.*inside static obstacle"):
+        load_scenario(path)
+
+
+def test_target_inside_a_moving_obstacle_is_allowed():
+    # Scenario 2 of the paper starts its moving obstacle on the target.
+    assert load_scenario("s2").obstacles[1].position == load_scenario("s2").target
+
+
+def test_overlapping_static_obstacles(write_toml):
+    text = VALID + "[[obstacles]]\nposition = [4.3, 4.0]\nradius_m = 0.2\n"
+    with pytest.raises(ScenarioError, match=r"obstacles\[1\]\.position.*overlaps static obstacle"):
+        load_scenario(write_toml(text))
+
+
+def test_missing_file_and_bad_toml(write_toml, tmp_path):
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        load_scenario(tmp_path / "nope.toml")
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(write_toml("name = \n"))
+
+
+def test_disturbance_stop_before_start():
+    data = {"name": "x", "duration_s": 1.0, "robot": {"start": [0, 0]},
+            "target": {"position": [5, 5]},
+            "disturbance": {"amplitude": 1, "angular_frequency_rad_s": 2, "start_s": 5, "stop_s": 1}}
+    with pytest.raises(ScenarioError, match="disturbance.stop_s"):
+        scenario_from_dict(data)

@@ -1,0 +1,334 @@
+"""The world: sensors against analytic ray-circle answers, motion against solve_ivp,
+collisions in the step they happen, moving obstacles, perception and determinism."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy.integrate import solve_ivp
+
+from world.arena import Arena
+from world.geometry import (ray_circle_distance, rectangle_circle_clearance, wrap_angle,
+                            wrap_angle_scalar)
+from world.husky import HuskyModel
+from world.perception import Perception, ideal_obstacle_inputs, target_inputs
+from world.scenario import ObstacleSpec, Scenario, load_scenario
+from world.sensors import RangeSensorArray, SensorConfig, SensorMount
+from world.simulation import Simulation
+
+FOOTPRINT = (0.99, 0.67)
+
+
+class ConstantVoltage:
+    def __init__(self, left, right):
+        self.v = np.array((left, right), dtype=float)
+        self.calls = 0
+
+    def reset(self):
+        self.calls = 0
+
+    def __call__(self, inputs):
+        self.calls += 1
+        return self.v
+
+
+def open_field(duration_s=10.0, obstacles=(), target=(100.0, 100.0), heading=0.0):
+    return Scenario(name="open", duration_s=duration_s, start=(0.0, 0.0), heading_rad=heading,
+                    target=target, tolerance_m=0.15, obstacles=tuple(obstacles))
+
+
+# -- geometry ----------------------------------------------------------------------------
+
+@given(st.floats(-50, 50, allow_nan=False))
+def test_wrap_angle_range(angle):
+    w = wrap_angle_scalar(angle)
+    assert -math.pi < w <= math.pi
+    assert math.isclose(math.cos(w), math.cos(angle), abs_tol=1e-9)
+    assert math.isclose(math.sin(w), math.sin(angle), abs_tol=1e-9)
+    assert w == pytest.approx(wrap_angle(angle), abs=1e-12)
+
+
+def test_wrap_angle_edges():
+    assert wrap_angle_scalar(math.pi) == math.pi
+    assert wrap_angle_scalar(-math.pi) == math.pi
+    assert wrap_angle_scalar(3 * math.pi) == pytest.approx(math.pi)
+
+
+def test_rectangle_circle_clearance_cases():
+    # Straight ahead: front edge at 0.495 m.
+    assert rectangle_circle_clearance((0, 0), 0.0, *FOOTPRINT, (2.0, 0.0), 0.2) == pytest.approx(1.305)
+    # Off the corner: distance to the corner (0.495, 0.335) minus the radius.
+    c = rectangle_circle_clearance((0, 0), 0.0, *FOOTPRINT, (1.495, 1.335), 0.2)
+    assert c == pytest.approx(math.hypot(1.0, 1.0) - 0.2)
+    # Rotated by 90 degrees: what was the side is now the front.
+    assert rectangle_circle_clearance((0, 0), math.pi / 2, *FOOTPRINT, (0.0, 2.0), 0.2) == pytest.approx(1.305)
+    assert rectangle_circle_clearance((0, 0), 0.0, *FOOTPRINT, (0.3, 0.0), 0.2) < 0
+
+
+# -- sensors -----------------------------------------------------------------------------
+
+def arena_with(obstacles, pose=(0.0, 0.0, 0.0)):
+    arena = Arena(FOOTPRINT)
+    arena.reset(pose[:2], pose[2], (50.0, 50.0), obstacles)
+    return arena
+
+
+obstacle_strategy = st.tuples(st.floats(-6, 6), st.floats(-6, 6), st.floats(0.1, 0.6))
+
+
+@given(st.lists(obstacle_strategy, min_size=1, max_size=4),
+       st.floats(-math.pi, math.pi), st.integers(1, 7))
+def test_ray_casts_match_analytic_ray_circle_intersection(circles, heading, rays):
+    specs = []
+    for x, y, r in circles:
+        spec = ObstacleSpec((x, y), r)
+        if rectangle_circle_clearance((0, 0), heading, *FOOTPRINT, spec.position, r) > 0.05:
+            specs.append(spec)
+    arena = arena_with(specs, (0.0, 0.0, heading))
+    config = SensorConfig(rays_per_beam=rays, min_range_m=1e-6)
+    sensors = RangeSensorArray(config)
+    readings = sensors.read(arena, 0.0)
+    for k, (origin, direction) in enumerate(sensors.beam_geometry(arena.pose)):
+        expected = math.inf
+        for offset in config.ray_offsets_rad():
+            for spec in specs:
+                expected = min(expected, ray_circle_distance(origin, direction + offset,
+                                                             spec.position, spec.radius_m))
+        if expected > config.max_range_m:
+            expected = math.inf
+        if math.isinf(expected):
+            assert math.isinf(readings[k])
+        else:
+            assert readings[k] == pytest.approx(expected, abs=1e-9)
+
+
+def test_rays_ignore_the_robot_and_see_nothing_in_an_empty_world():
+    readings = RangeSensorArray().read(arena_with([]), 0.0)
+    assert np.all(np.isinf(readings))
+
+
+def test_sensor_range_limits_and_blind_zone():
+    mount = SensorMount("front", 0.495, 0.0, 0.0)
+    config = SensorConfig(mounts=(mount,), rays_per_beam=1, min_range_m=0.05)
+    far = arena_with([ObstacleSpec((0.495 + 4.6 + 0.2, 0.0), 0.2)])
+    assert math.isinf(RangeSensorArray(config).read(far, 0.0)[0])
+    near = arena_with([ObstacleSpec((0.495 + 0.02 + 0.2, 0.0), 0.2)])
+    assert RangeSensorArray(config).read(near, 0.0)[0] == pytest.approx(0.05)
+
+
+def test_noise_is_seeded_and_update_rate_holds_readings():
+    arena = arena_with([ObstacleSpec((2.0, 0.0), 0.3)])
+    config = SensorConfig(noise_std_m=0.05, update_rate_hz=10.0)
+    a, b, c = RangeSensorArray(config, seed=7), RangeSensorArray(config, seed=7), RangeSensorArray(config, seed=8)
+    ra = [a.read(arena, t)[1] for t in np.arange(0, 1, 0.02)]
+    rb = [b.read(arena, t)[1] for t in np.arange(0, 1, 0.02)]
+    rc = [c.read(arena, t)[1] for t in np.arange(0, 1, 0.02)]
+    assert ra == rb and ra != rc
+    # 10 Hz with a 50 Hz caller: each value is held for 5 calls.
+    assert len(set(ra)) == 10
+    assert ra[0] == ra[4] != ra[5]
+
+
+def test_sensor_config_rejects_bad_values():
+    with pytest.raises(ValueError, match="noise_std_m"):
+        SensorConfig(noise_std_m=-1.0)
+    with pytest.raises(ValueError, match="min_range_m"):
+        SensorConfig(min_range_m=5.0)
+
+
+# -- motion: the world against an independent integration -------------------------------
+
+def reference_pose(model, voltages, duration_s, heading0=0.0):
+    """LG state and unicycle kinematics integrated together with solve_ivp (Radau)."""
+    A, B = model.A, model.B
+    u = np.asarray(voltages, dtype=float)
+
+    def rhs(_, z):
+        x = z[:6]
+        v, w, theta = x[2], x[3], z[8]
+        return np.concatenate([A @ x + B @ u, [v * math.cos(theta), v * math.sin(theta), w]])
+
+    z0 = np.zeros(9)
+    z0[8] = heading0
+    sol = solve_ivp(rhs, (0, duration_s), z0, method="Radau", rtol=1e-10, atol=1e-12)
+    return sol.y[6:, -1]
+
+
+@pytest.mark.parametrize("voltages", [(12.0, 12.0), (4.0, 11.0), (-6.0, 9.0), (10.0, -3.0)])
+def test_pose_matches_solve_ivp(voltages):
+    model = HuskyModel.default()
+    sim = Simulation(open_field(duration_s=8.0), ConstantVoltage(*voltages), model=model)
+    result = sim.run()
+    assert result.outcome == "timeout"
+    x, y, theta = reference_pose(model, voltages, result.log.time_s[-1])
+    px, py, ptheta = result.log.pose[-1]
+    assert (px, py) == pytest.approx((x, y), abs=2e-4)
+    assert ptheta == pytest.approx(theta, abs=2e-5)
+
+
+def test_straight_drive_reaches_the_reference_speed():
+    sim = Simulation(open_field(duration_s=6.0), ConstantVoltage(12.0, 12.0))
+    log = sim.run().log
+    model = sim.model
+    expected = model.parameters.wheel_radius_m * 12.0 / model.parameters.motor_torque_ratio
+    assert log.lg_state[-1, 2] == pytest.approx(expected, rel=1e-3)
+    assert abs(log.pose[-1, 1]) < 1e-9 and abs(log.pose[-1, 2]) < 1e-12
+
+
+# -- collisions and obstacles ------------------------------------------------------------
+
+def test_collision_is_reported_in_the_step_it_happens():
+    obstacle = ObstacleSpec((3.0, 0.0), 0.3)
+    sim = Simulation(open_field(duration_s=30.0, obstacles=[obstacle]), ConstantVoltage(12, 12))
+    result = sim.run()
+    assert result.outcome == "collided" and result.collided
+    clearance = result.log.clearance_m[:, 0]
+    # The last row is the state right after the contact; the one before had daylight.
+    assert clearance[-1] <= 0.0 < clearance[-2]
+    event = result.collisions[0]
+    assert event.obstacle_id == 0 and event.time_s == pytest.approx(result.log.time_s[-1])
+    # The robot's front is at the obstacle's surface, not through it.
+    assert result.log.pose[-1, 0] + 0.495 == pytest.approx(3.0 - 0.3, abs=0.02)
+
+
+def test_collision_can_be_recorded_without_stopping():
+    obstacle = ObstacleSpec((3.0, 0.0), 0.3)
+    sim = Simulation(open_field(duration_s=12.0, obstacles=[obstacle]), ConstantVoltage(12, 12),
+                     stop_on_collision=False)
+    result = sim.run()
+    assert result.outcome == "timeout" and result.collided and len(result.collisions) == 1
+
+
+def test_moving_obstacle_follows_its_law_and_keeps_it_after_a_move():
+    spec = ObstacleSpec((10.0, 10.0), 0.3, velocity=(0.1, 0.0), acceleration=(-0.01, 0.02))
+    sim = Simulation(open_field(duration_s=100.0, obstacles=[spec]), ConstantVoltage(0, 0))
+    for _ in range(250):  # 5 s
+        sim.step()
+    t = sim.time_s
+    expected = np.array(spec.position) + np.array(spec.velocity) * t + 0.5 * np.array(spec.acceleration) * t * t
+    obstacle = sim.arena.obstacles[0]
+    assert np.allclose(tuple(obstacle.body.position), expected, atol=1e-9)
+    velocity_before = obstacle.velocity_at(t)
+    sim.arena.move_obstacle(0, (20.0, -5.0))
+    for _ in range(100):  # 2 s more
+        sim.step()
+    tau = sim.time_s - t
+    expected = np.array((20.0, -5.0)) + velocity_before * tau + 0.5 * np.array(spec.acceleration) * tau * tau
+    assert np.allclose(tuple(obstacle.body.position), expected, atol=1e-9)
+
+
+def test_edits_while_running_add_remove_and_move_target():
+    sim = Simulation(open_field(duration_s=50.0), ConstantVoltage(12, 12))
+    for _ in range(10):
+        sim.step()
+    new_id = sim.arena.add_obstacle(ObstacleSpec((6.0, 0.0), 0.3))
+    for _ in range(10):
+        sim.step()
+    assert sim.log.clearance_m.shape[1] == 1 and np.isnan(sim.log.clearance_m[0, 0])
+    sim.arena.remove_obstacle(new_id)
+    sim.arena.move_target((1.5, 0.0))
+    while not sim.done:
+        sim.step()
+    assert sim.outcome == "reached"
+
+
+# -- perception --------------------------------------------------------------------------
+
+def test_target_inputs_sign_convention():
+    d, phi = target_inputs((0.0, 0.0, 0.0), (0.0, 2.0))
+    assert d == pytest.approx(2.0) and phi == pytest.approx(math.pi / 2)  # left is positive
+    _, phi = target_inputs((0.0, 0.0, math.pi / 2), (1.0, 0.0))
+    assert phi == pytest.approx(-math.pi / 2)
+
+
+def test_ideal_perception_cutoff_and_bearing():
+    arena = arena_with([ObstacleSpec((0.0, 2.0), 0.2)])
+    d_o, phi_o, ident = ideal_obstacle_inputs(arena)
+    assert d_o == pytest.approx(2.0 - 0.335 - 0.2) and phi_o == pytest.approx(math.pi / 2) and ident == 0
+    # Surface 2.99 m from the front edge: seen; 3.01 m: nothing detected (NaN, NaN).
+    inside = arena_with([ObstacleSpec((0.495 + 2.99 + 0.2, 0.0), 0.2)])
+    assert ideal_obstacle_inputs(inside)[0] == pytest.approx(2.99)
+    beyond = arena_with([ObstacleSpec((0.495 + 3.01 + 0.2, 0.0), 0.2)])
+    assert all(math.isnan(v) for v in ideal_obstacle_inputs(beyond)[:2])
+    # Behind the robot counts too: the paper's model saw all around.
+    behind = arena_with([ObstacleSpec((-1.5, 0.0), 0.2)])
+    assert ideal_obstacle_inputs(behind)[1] == pytest.approx(math.pi)
+
+
+def test_ultrasonic_perception_uses_the_nearest_sensor():
+    arena = arena_with([ObstacleSpec((2.0, 1.6), 0.4)])  # ahead and to the left
+    sensors = RangeSensorArray()
+    inputs, ranges = Perception("ultrasonic", sensors).inputs(arena, 0.0)
+    k = int(np.argmin(ranges))
+    assert sensors.config.mounts[k].name == "left"
+    assert inputs[1] == pytest.approx(ranges[k]) and inputs[3] == pytest.approx(math.radians(45))
+    empty = arena_with([])
+    inputs, _ = Perception("ultrasonic", RangeSensorArray()).inputs(empty, 0.0)
+    assert math.isnan(inputs[1]) and math.isnan(inputs[3])
+    with pytest.raises(ValueError, match="perception"):
+        Perception("sonar", sensors)
+
+
+# -- the loop ----------------------------------------------------------------------------
+
+def test_same_seed_same_run_and_noise_matters():
+    def run(seed):
+        sim = Simulation(load_scenario("s1"), ConstantVoltage(8, 9), perception="ultrasonic",
+                         seed=seed, sensor_config=SensorConfig(noise_std_m=0.05))
+        return sim.run().log
+    a, b, c = run(3), run(3), run(4)
+    assert np.array_equal(a.ranges_m, b.ranges_m) and np.array_equal(a.pose, b.pose)
+    finite = np.isfinite(a.ranges_m) & np.isfinite(c.ranges_m)
+    assert finite.any() and not np.array_equal(a.ranges_m[finite], c.ranges_m[finite])
+
+
+def test_reset_reproduces_the_run():
+    sim = Simulation(load_scenario("s2"), ConstantVoltage(7, 9))
+    first = sim.run().log
+    sim.reset()
+    second = sim.run().log
+    assert np.array_equal(first.pose, second.pose) and np.array_equal(first.obstacle_xy, second.obstacle_xy)
+
+
+def test_saturation_and_log_conventions():
+    sim = Simulation(open_field(duration_s=1.0), ConstantVoltage(30.0, -20.0))
+    log = sim.run().log
+    assert np.all(log.voltages_v[:-1] == [12.0, -12.0])
+    assert np.all(log.controller_output_v[:-1] == [30.0, -20.0])
+    assert np.all(np.isnan(log.voltages_v[-1]))
+    assert len(log) == 51 and log.time_s[-1] == pytest.approx(1.0)
+
+
+def test_disturbance_is_added_to_the_inputs():
+    sc = load_scenario("s3")
+    sim = Simulation(sc, ConstantVoltage(0.0, 0.0))
+    for _ in range(int(40 / 0.02)):
+        sim.step()
+    log = sim.log
+    window = (log.time_s >= 25.0) & (log.time_s < 35.0)
+    assert np.allclose(log.disturbance[window], np.sin(2.0 * log.time_s[window]))
+    assert np.all(log.disturbance[~window] == 0.0)
+    # The robot stands still, so the undisturbed d_t is constant: the difference is the sine.
+    base = log.inputs[0, 0]
+    assert np.allclose(log.inputs[window, 0] - base, np.sin(2.0 * log.time_s[window]))
+
+
+def test_non_finite_controller_output_is_an_error():
+    sim = Simulation(open_field(), ConstantVoltage(float("nan"), 1.0))
+    with pytest.raises(ValueError, match="non-finite"):
+        sim.step()
+
+
+def test_controller_with_ranges_gets_them():
+    class WantsRanges(ConstantVoltage):
+        needs_ranges = True
+
+        def __call__(self, inputs, ranges_m=None):
+            assert ranges_m is not None and ranges_m.shape == (3,)
+            return super().__call__(inputs)
+
+    ctrl = WantsRanges(1, 1)
+    Simulation(open_field(duration_s=0.2), ctrl).run()
+    assert ctrl.calls == 10
