@@ -1,0 +1,48 @@
+"""Random layouts for sweeps: reproducible, valid, and of the promised shape."""
+
+import numpy as np
+import pytest
+
+from world.layouts import FAMILIES, PASSABLE_GAP_M, generate_layout, generate_layouts
+from world.scenario import check_layout
+
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_layouts_are_reproducible_and_valid(family):
+    a = generate_layouts(family, 20, seed=5)
+    b = generate_layouts(family, 20, seed=5)
+    c = generate_layouts(family, 20, seed=6)
+    assert a == b and a != c
+    assert generate_layout(family, 5, 7) == a[7]  # index i does not depend on n
+    for sc in a:
+        check_layout(sc)
+        assert 6.0 <= np.hypot(*sc.target) <= 12.0
+
+
+def test_standard_family_matches_the_issue():
+    layouts = generate_layouts("standard", 200, seed=1)
+    counts = [sum(o.is_static for o in sc.obstacles) for sc in layouts]
+    assert min(counts) >= 1 and max(counts) <= 4
+    moving_share = np.mean([any(not o.is_static for o in sc.obstacles) for sc in layouts])
+    assert 0.15 < moving_share < 0.35
+    for sc in layouts:
+        statics = [o for o in sc.obstacles if o.is_static]
+        assert all(0.15 <= o.radius_m <= 0.35 for o in statics)
+        for i, a in enumerate(statics):
+            for b in statics[i + 1:]:
+                gap = np.hypot(a.position[0] - b.position[0], a.position[1] - b.position[1]) - a.radius_m - b.radius_m
+                assert gap >= PASSABLE_GAP_M - 1e-9
+
+
+def test_u_trap_blocks_the_straight_line():
+    from world.geometry import point_segment_distance
+    for sc in generate_layouts("u_trap", 10, seed=2):
+        centres = np.array([o.position for o in sc.obstacles])
+        radii = np.array([o.radius_m for o in sc.obstacles])
+        d = point_segment_distance(centres, sc.start, sc.target)
+        assert np.any(d < radii)  # some circle sits on the straight path
+
+
+def test_unknown_family():
+    with pytest.raises(ValueError, match="family"):
+        generate_layout("maze", 0, 0)

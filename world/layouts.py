@@ -1,0 +1,161 @@
+"""Seeded random layouts for sweeps: does a controller generalise beyond three scenarios?
+
+Families
+--------
+``standard``
+    The sweep of issue 3: 1-4 static obstacles of radius 0.15-0.35 m near the straight
+    start-target line, every gap between two obstacles passable (wider than the robot
+    plus both safe distances), a moving obstacle in a quarter of the layouts, a random
+    start heading, the target 6-12 m away in a random direction.
+``clutter``
+    Denser: 5-9 static obstacles in a corridor around the line, gaps still passable.
+``u_trap``
+    A U-shaped cup of obstacles across the line, open away from the robot, so that
+    driving straight at the target ends in a dead end (a local minimum).
+``two_moving``
+    1-2 static obstacles and two moving ones crossing the line.
+
+Layout ``i`` of a sweep with seed ``s`` comes from ``numpy.random.default_rng([s, i])``,
+so the first ``n`` layouts of a seed are the same whatever the sweep's size. Every
+layout is checked by :func:`world.scenario.check_layout`, like a scenario file.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from world.scenario import ObstacleSpec, Scenario, ScenarioError, check_layout
+
+FAMILIES = ("standard", "clutter", "u_trap", "two_moving")
+
+ROBOT_WIDTH_M = 0.67
+SAFE_DISTANCE_M = 0.25
+# A gap is passable when the robot fits with its safe distance on both sides.
+PASSABLE_GAP_M = ROBOT_WIDTH_M + 2 * SAFE_DISTANCE_M
+START_CLEAR_M = 1.2    # no obstacle surface this close to the start centre
+TARGET_CLEAR_M = 1.0   # nor to the target, so that it can be reached safely
+
+
+def _duration_s(distance_m: float) -> float:
+    # Generous: a slow, careful controller at 0.15 m/s still arrives.
+    return 30.0 + distance_m / 0.15
+
+
+def _frame(rng: np.random.Generator):
+    """Start at the origin, the target 6-12 m away in a random direction."""
+    distance = rng.uniform(6.0, 12.0)
+    bearing = rng.uniform(-math.pi, math.pi)
+    target = np.array((distance * math.cos(bearing), distance * math.sin(bearing)))
+    along = target / distance
+    across = np.array((-along[1], along[0]))
+    return np.zeros(2), target, along, across, distance
+
+
+def _fits(centre, radius, placed, start, target) -> bool:
+    if np.linalg.norm(centre - start) - radius < START_CLEAR_M:
+        return False
+    if np.linalg.norm(centre - target) - radius < TARGET_CLEAR_M:
+        return False
+    return all(np.linalg.norm(centre - c) - radius - r >= PASSABLE_GAP_M for c, r in placed)
+
+
+def _scatter(rng, count, start, target, along, across, distance, *, lateral_m,
+             placed=None, radius_range=(0.15, 0.35), tries=200):
+    placed = list(placed or [])
+    for _ in range(count):
+        for _ in range(tries):
+            radius = rng.uniform(*radius_range)
+            centre = start + along * rng.uniform(0.15, 0.85) * distance + across * rng.uniform(-lateral_m, lateral_m)
+            if _fits(centre, radius, placed, start, target):
+                placed.append((centre, radius))
+                break
+    return placed
+
+
+def _moving(rng, start, target, along, across, distance):
+    """A moving obstacle that crosses the line somewhere in its middle part.
+
+    Constant velocity or the paper's constant acceleration from rest, half and half.
+    """
+    radius = rng.uniform(0.2, 0.35)
+    crossing = start + along * rng.uniform(0.3, 0.8) * distance
+    side = rng.choice((-1.0, 1.0))
+    offset = rng.uniform(2.0, 4.0)
+    origin = crossing + side * across * offset
+    if np.linalg.norm(origin - start) - radius < START_CLEAR_M:
+        origin = crossing + side * across * (offset + 2.0)
+    arrival_s = rng.uniform(10.0, 40.0)  # when it would reach the line
+    towards = -side * across
+    if rng.random() < 0.5:
+        velocity = towards * offset / arrival_s
+        acceleration = np.zeros(2)
+    else:
+        velocity = np.zeros(2)
+        acceleration = towards * 2.0 * offset / arrival_s ** 2
+    return ObstacleSpec(tuple(origin), radius, tuple(velocity), tuple(acceleration))
+
+
+def _u_trap(rng, start, target, along, across, distance):
+    """Circles on a U: the bottom across the line, the arms reaching back to the robot."""
+    radius = 0.25
+    depth = rng.uniform(0.4, 0.6) * distance
+    half_width = rng.uniform(1.2, 1.8)
+    arm = rng.uniform(1.2, 2.0)
+    pitch = 2 * radius + 0.1   # closer than the robot is wide: no way through the walls
+    bottom = start + along * depth
+    points = []
+    for s in np.arange(-half_width, half_width + 1e-9, pitch):
+        points.append(bottom + across * s)
+    for side in (-1.0, 1.0):
+        for b in np.arange(pitch, arm + 1e-9, pitch):
+            points.append(bottom + across * side * half_width - along * b)
+    return [(p, radius) for p in points]
+
+
+def generate_layout(family: str, seed: int, index: int) -> Scenario:
+    """Layout ``index`` of family ``family`` for sweep seed ``seed``."""
+    if family not in FAMILIES:
+        raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
+    for attempt in range(50):
+        rng = np.random.default_rng([seed, index, FAMILIES.index(family), attempt])
+        try:
+            return _draw(family, rng, seed, index)
+        except ScenarioError:
+            continue  # e.g. a trap arm under the start footprint: draw again
+    raise RuntimeError(f"no valid {family} layout for seed {seed}, index {index} in 50 draws")
+
+
+def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scenario:
+    start, target, along, across, distance = _frame(rng)
+    moving: list[ObstacleSpec] = []
+    if family == "standard":
+        placed = _scatter(rng, int(rng.integers(1, 5)), start, target, along, across, distance,
+                          lateral_m=1.0)
+        if rng.random() < 0.25:
+            moving.append(_moving(rng, start, target, along, across, distance))
+    elif family == "clutter":
+        placed = _scatter(rng, int(rng.integers(5, 10)), start, target, along, across, distance,
+                          lateral_m=2.5)
+    elif family == "u_trap":
+        placed = _u_trap(rng, start, target, along, across, distance)
+    else:
+        placed = _scatter(rng, int(rng.integers(1, 3)), start, target, along, across, distance,
+                          lateral_m=1.0)
+        moving = [_moving(rng, start, target, along, across, distance) for _ in range(2)]
+    statics = [ObstacleSpec((float(c[0]), float(c[1])), float(r)) for c, r in placed]
+    scenario = Scenario(
+        name=f"{family} #{index} (seed {seed})", duration_s=_duration_s(distance),
+        start=(0.0, 0.0), heading_rad=float(rng.uniform(-math.pi, math.pi)),
+        target=(float(target[0]), float(target[1])), tolerance_m=0.15,
+        obstacles=tuple(statics + moving), source=f"<layout {family} seed={seed} index={index}>")
+    check_layout(scenario)
+    return scenario
+
+
+def generate_layouts(family: str, n: int, seed: int) -> list[Scenario]:
+    """The first ``n`` layouts of a family for a seed."""
+    return [generate_layout(family, seed, i) for i in range(n)]
+
+
