@@ -341,7 +341,8 @@ def _integrate_dense_output(dense) -> np.ndarray:
     return np.einsum("sij,i,j->s", values, half, weights)
 
 
-@pytest.mark.parametrize(("dt_s", "n_steps"), [(0.02, 50), (0.001, 20), (0.1, 5)])
+# Few steps: Radau at these tolerances needs ~800 internal steps per 20 ms.
+@pytest.mark.parametrize(("dt_s", "n_steps"), [(0.02, 12), (0.001, 10), (0.1, 2)])
 def test_zoh_step_matches_radau(model: HuskyModel, dt_s: float, n_steps: int) -> None:
     rng = np.random.default_rng(20240607)
     x_zoh = np.array([1.0, -2.0, 0.3, 0.5, 4.0, -6.0])
