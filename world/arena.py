@@ -11,6 +11,14 @@ restarts its law from where it is put, keeping its current velocity.
 Contacts are reported by pymunk in the step they happen (the robot's shape is a sensor,
 so pymunk reports the overlap without pushing anything) and kept as
 :class:`Collision` events; nothing passes through anything silently.
+
+Speed: the control loop runs tens of thousands of steps per second, where every
+pymunk property read builds a ``Vec2d`` and every tiny numpy call costs a microsecond
+or more. So the hot path talks to the same Chipmunk functions pymunk's properties call,
+through pymunk's own cffi binding (:data:`_cp`), and keeps the per-step scene (obstacle
+centres and clearances) as plain floats, computed once per step and shared by the
+perception, the sensors' prefilter and the log. The public methods return exactly the
+numbers they returned before.
 """
 
 from __future__ import annotations
@@ -22,14 +30,21 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from world.geometry import rectangle_circle_clearance
 from world.scenario import ObstacleSpec
+
+try:  # pymunk's own cffi binding of Chipmunk: the calls its properties make, minus Vec2d.
+    from pymunk._chipmunk import ffi as _ffi
+    from pymunk._chipmunk import lib as _cp
+except ImportError:  # pragma: no cover - a pymunk without it takes the public-API path
+    _ffi = _cp = None
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
 ROBOT_CATEGORY = 0b1
 # Rays ignore the robot's own shape: they see every category but the robot's.
 RAY_FILTER = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ ROBOT_CATEGORY)
+
+_cos, _sin, _hypot = math.cos, math.sin, math.hypot
 
 
 @dataclass(frozen=True)
@@ -58,11 +73,20 @@ class Obstacle:
         self.initial_velocity = np.asarray(velocity, dtype=float)
         self.law_start_s = time_s
         self.is_static = not (self.initial_velocity.any() or self.acceleration.any())
+        # The law as plain floats for the hot path (same operations as position_at).
+        self._law = (*self.initial_position.tolist(), *self.initial_velocity.tolist(),
+                     *(0.5 * self.acceleration).tolist(), float(time_s))
         self.body.position = tuple(self.initial_position)
 
     def position_at(self, time_s: float) -> np.ndarray:
         tau = time_s - self.law_start_s
         return self.initial_position + self.initial_velocity * tau + 0.5 * self.acceleration * tau * tau
+
+    def _xy_at(self, time_s: float) -> tuple[float, float]:
+        """:meth:`position_at` as two floats, bit for bit (same operations, same order)."""
+        px, py, vx, vy, hax, hay, t0 = self._law
+        tau = time_s - t0
+        return px + vx * tau + hax * tau * tau, py + vy * tau + hay * tau * tau
 
     def velocity_at(self, time_s: float) -> np.ndarray:
         return self.initial_velocity + self.acceleration * (time_s - self.law_start_s)
@@ -71,6 +95,20 @@ class Obstacle:
         """The obstacle as a scenario entry, as if its law started at ``time_s``."""
         return ObstacleSpec(tuple(self.position_at(time_s)), self.radius_m,
                             tuple(self.velocity_at(time_s)), tuple(self.acceleration))
+
+
+class _Scene:
+    """The obstacles at one instant as plain floats (the arena's per-step cache).
+
+    ``ids``, ``radii``: per obstacle in the arena's order (the same list objects until
+    the obstacles are edited); ``xy``: ``(x, y)`` centres by the obstacles' laws;
+    ``clearances``: footprint-to-surface distances from the current pose.
+    """
+
+    __slots__ = ("ids", "radii", "xy", "clearances")
+
+    def __init__(self, ids, radii, xy, clearances):
+        self.ids, self.radii, self.xy, self.clearances = ids, radii, xy, clearances
 
 
 class Arena:
@@ -88,6 +126,7 @@ class Arena:
     def __init__(self, footprint_m=(0.99, 0.67), mass_kg: float = 48.39,
                  inertia_kg_m2: float = 3.0556):
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
+        self._half_footprint = (0.5 * self.footprint_m[0], 0.5 * self.footprint_m[1])
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)
         self.robot_shape = pymunk.Poly.create_box(self.robot, self.footprint_m)
@@ -95,6 +134,9 @@ class Arena:
         self.robot_shape.collision_type = ROBOT_COLLISION_TYPE
         self.robot_shape.filter = pymunk.ShapeFilter(categories=ROBOT_CATEGORY)
         self.space.add(self.robot, self.robot_shape)
+        # Chipmunk pointers for the hot path, when this pymunk exposes them.
+        self._robot_ptr = getattr(self.robot, "_body", None) if _cp is not None else None
+        self._space_ptr = getattr(self.space, "_space", None) if _cp is not None else None
         self._pose = (0.0, 0.0, 0.0)
         self.space.on_collision(ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE,
                                 begin=self._on_contact)
@@ -105,6 +147,12 @@ class Arena:
         self._ids = itertools.count()
         self._obstacle_cache: tuple[np.ndarray, np.ndarray, list[int]] | None = None
         self._clearance_cache: np.ndarray | None = None
+        self._scene_cache: _Scene | None = None
+        self._scene_obstacles: list[Obstacle] = []
+        self._scene_ids: list[int] = []
+        self._scene_radii: list[float] = []
+        self._static_xy: list[float] | None = None
+        self._moving: list[Obstacle] = []
         self._any_moving = False
 
     # -- set-up and edits (the viewer calls these while the simulation runs) ----------
@@ -130,7 +178,14 @@ class Arena:
     def _changed(self) -> None:
         self._obstacle_cache = None
         self._clearance_cache = None
-        self._any_moving = any(not o.is_static for o in self.obstacles.values())
+        self._scene_cache = None
+        self._static_xy = None
+        # New lists (never mutated): the log tells an edit by their identity.
+        self._scene_obstacles = list(self.obstacles.values())
+        self._scene_ids = [o.id for o in self._scene_obstacles]
+        self._scene_radii = [o.radius_m for o in self._scene_obstacles]
+        self._moving = [o for o in self._scene_obstacles if not o.is_static]
+        self._any_moving = bool(self._moving)
 
     def add_obstacle(self, spec: ObstacleSpec) -> int:
         """Add an obstacle whose law starts now; returns its id."""
@@ -164,29 +219,81 @@ class Arena:
 
     def _read_pose(self) -> None:
         # Reading pymunk's Vec2d costs microseconds; the pose changes only in step/reset.
-        p = self.robot.position
-        self._pose = (p.x, p.y, self.robot.angle)
+        ptr = self._robot_ptr
+        if ptr is not None:
+            p = _cp.cpBodyGetPosition(ptr)
+            self._pose = (p.x, p.y, _cp.cpBodyGetAngle(ptr))
+        else:
+            p = self.robot.position
+            self._pose = (p.x, p.y, self.robot.angle)
+
+    def _scene(self) -> _Scene:
+        """The obstacles now as plain floats, cached until the next step or edit.
+
+        The clearances are :func:`world.geometry.rectangle_circle_clearance` inlined,
+        with the same operations in the same order (``max``/``min`` written as the
+        comparisons they make), so the numbers are the same to the bit.
+        """
+        scene = self._scene_cache
+        if scene is None:
+            xy = self._static_xy
+            if xy is None:
+                time_s = self.time_s
+                xy = [obstacle._xy_at(time_s) for obstacle in self._scene_obstacles]
+                if not self._any_moving:
+                    # Static centres stay put until an edit (as the old array cache did).
+                    self._static_xy = xy
+            x, y, heading = self._pose
+            c, s = _cos(heading), _sin(heading)
+            ns = -s
+            hx, hy = self._half_footprint
+            clearances = []
+            for (cx, cy), radius in zip(xy, self._scene_radii):
+                dx = cx - x
+                dy = cy - y
+                qx = abs(c * dx + s * dy) - hx
+                qy = abs(ns * dx + c * dy) - hy
+                inside = qy if qy > qx else qx          # max(qx, qy)
+                inside = 0.0 if 0.0 < inside else inside  # min(inside, 0.0)
+                clearances.append(_hypot(0.0 if 0.0 > qx else qx, 0.0 if 0.0 > qy else qy)
+                                  + inside - radius)
+            scene = self._scene_cache = _Scene(self._scene_ids, self._scene_radii, xy,
+                                               clearances)
+        return scene
+
+    def _ray_candidates(self, reach_m: float):
+        """Obstacles a ray from within ``reach_m`` of the robot's centre might hit.
+
+        Returns a list of ``(x, y, radius)`` (empty when nothing is in reach), or None
+        when the space holds shapes the arena does not know (then ask pymunk).
+        """
+        space = self.space
+        shapes = getattr(space, "_shapes", None)
+        if shapes is None or len(shapes) != len(self.obstacles) + 1:
+            return None
+        scene = self._scene()
+        x, y, _ = self._pose
+        found = []
+        for (cx, cy), radius in zip(scene.xy, scene.radii):
+            limit = reach_m + radius
+            dx, dy = cx - x, cy - y
+            if dx * dx + dy * dy <= limit * limit:
+                found.append((cx, cy, radius))
+        return found
 
     def obstacle_arrays(self) -> tuple[np.ndarray, np.ndarray, list[int]]:
         """(centres (n, 2), radii (n,), ids) of the obstacles now."""
         if self._obstacle_cache is None:
-            ids = list(self.obstacles)
-            centres = np.array([self.obstacles[i].position_at(self.time_s) for i in ids],
-                               dtype=float).reshape(-1, 2)
-            radii = np.array([self.obstacles[i].radius_m for i in ids], dtype=float)
-            self._obstacle_cache = (centres, radii, ids)
+            scene = self._scene()
+            centres = np.array(scene.xy, dtype=float).reshape(-1, 2)
+            radii = np.array(scene.radii, dtype=float)
+            self._obstacle_cache = (centres, radii, list(scene.ids))
         return self._obstacle_cache
 
     def clearances(self) -> np.ndarray:
         """Footprint-to-surface distance of each obstacle (m, negative when overlapping)."""
         if self._clearance_cache is None:
-            centres, radii, _ = self.obstacle_arrays()
-            xy, heading = self._pose[:2], self._pose[2]
-            length, width = self.footprint_m
-            # A scalar loop beats numpy for the handful of obstacles a scene holds.
-            self._clearance_cache = np.array(
-                [rectangle_circle_clearance(xy, heading, length, width, c, r)
-                 for c, r in zip(centres.tolist(), radii.tolist())])
+            self._clearance_cache = np.array(self._scene().clearances, dtype=float)
         return self._clearance_cache
 
     # -- stepping ----------------------------------------------------------------------
@@ -201,29 +308,56 @@ class Arena:
         """
         half_turn = 0.5 * yaw_rate_rad_s * dt_s
         chord_scale = math.sin(half_turn) / half_turn if abs(half_turn) > 1e-9 else 1.0
-        mid_heading = self.robot.angle + half_turn
         speed = forward_speed_m_s * chord_scale
-        self.robot.velocity = (speed * math.cos(mid_heading), speed * math.sin(mid_heading))
-        self.robot.angular_velocity = yaw_rate_rad_s
+        ptr = self._robot_ptr
+        if ptr is not None:
+            mid_heading = _cp.cpBodyGetAngle(ptr) + half_turn
+            _cp.cpBodySetVelocity(ptr, (speed * _cos(mid_heading), speed * _sin(mid_heading)))
+            _cp.cpBodySetAngularVelocity(ptr, yaw_rate_rad_s)
+        else:
+            mid_heading = self.robot.angle + half_turn
+            self.robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
+            self.robot.angular_velocity = yaw_rate_rad_s
 
-        t_next = self.time_s + dt_s
-        for obstacle in self.obstacles.values() if self._any_moving else ():
-            if not obstacle.is_static:
-                # Kinematic bodies move by their velocity; give them the chord of the step
-                # so the position at t_next matches the law exactly.
-                chord = (obstacle.position_at(t_next) - obstacle.position_at(self.time_s)) / dt_s
-                obstacle.body.velocity = (float(chord[0]), float(chord[1]))
+        t_now = self.time_s
+        t_next = t_now + dt_s
+        moved = []
+        for obstacle in self._moving:
+            # Kinematic bodies move by their velocity; give them the chord of the step
+            # so the position at t_next matches the law exactly.
+            x1, y1 = obstacle._xy_at(t_next)
+            x0, y0 = obstacle._xy_at(t_now)
+            self._set_body_velocity(obstacle.body, ((x1 - x0) / dt_s, (y1 - y0) / dt_s))
+            moved.append((obstacle.body, (x1, y1)))
         first_new = len(self.collisions)
         self.space.step(dt_s)
         self.time_s = t_next
-        self._read_pose()
+        if ptr is not None:
+            p = _cp.cpBodyGetPosition(ptr)
+            self._pose = (p.x, p.y, _cp.cpBodyGetAngle(ptr))
+        else:
+            self._read_pose()
         self._clearance_cache = None
-        if self._any_moving:
+        self._scene_cache = None
+        if moved:
             self._obstacle_cache = None
-            for obstacle in self.obstacles.values():
-                if not obstacle.is_static:
-                    obstacle.body.position = tuple(obstacle.position_at(t_next))
-        return self.collisions[first_new:]
+            for body, position in moved:
+                self._set_body_position(body, position)
+        return self.collisions[first_new:] if len(self.collisions) > first_new else []
+
+    def _set_body_velocity(self, body: pymunk.Body, velocity: tuple[float, float]) -> None:
+        ptr = getattr(body, "_body", None) if _cp is not None else None
+        if ptr is not None:
+            _cp.cpBodySetVelocity(ptr, velocity)
+        else:
+            body.velocity = velocity
+
+    def _set_body_position(self, body: pymunk.Body, position: tuple[float, float]) -> None:
+        ptr = getattr(body, "_body", None) if _cp is not None else None
+        if ptr is not None:
+            _cp.cpBodySetPosition(ptr, position)
+        else:
+            body.position = position
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         robot_shape, other = arbiter.shapes

@@ -49,23 +49,27 @@ def ideal_obstacle_inputs(arena: Arena, cutoff_m: float = OBSTACLE_CUTOFF_M
                           ) -> tuple[float, float, int]:
     """(d_o, phi_o, obstacle id) of the nearest obstacle by exact geometry; NaN, NaN, -1
     when none is within ``cutoff_m``."""
-    centres, _, ids = arena.obstacle_arrays()
-    if not ids:
+    scene = arena._scene()
+    clearances = scene.clearances
+    if not clearances:
         return math.nan, math.nan, -1
-    clearances = arena.clearances()
-    k = int(np.argmin(clearances))
-    d_o = max(float(clearances[k]), 0.0)
+    # list.index(min(...)) is np.argmin's first minimum, without the numpy call.
+    k = clearances.index(min(clearances))
+    d_o = max(clearances[k], 0.0)
     if d_o > cutoff_m:
         return math.nan, math.nan, -1
+    cx, cy = scene.xy[k]
     x, y, heading = arena.pose
-    phi_o = wrap_angle_scalar(math.atan2(centres[k, 1] - y, centres[k, 0] - x) - heading)
-    return d_o, phi_o, ids[k]
+    phi_o = wrap_angle_scalar(math.atan2(cy - y, cx - x) - heading)
+    return d_o, phi_o, scene.ids[k]
 
 
-def ultrasonic_obstacle_inputs(ranges_m: np.ndarray, mount_angles_rad,
+def ultrasonic_obstacle_inputs(ranges_m, mount_angles_rad,
                                cutoff_m: float = OBSTACLE_CUTOFF_M) -> tuple[float, float]:
     """(d_o, phi_o) from range readings; NaN, NaN when every reading is beyond the cutoff."""
-    k = int(np.argmin(ranges_m))
+    if type(ranges_m) is not list:
+        ranges_m = np.asarray(ranges_m, dtype=float).tolist()
+    k = ranges_m.index(min(ranges_m))  # np.argmin's first minimum
     d_o = float(ranges_m[k])
     if not d_o <= cutoff_m:
         return math.nan, math.nan
@@ -87,11 +91,28 @@ class Perception:
     def inputs(self, arena: Arena, time_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(inputs (4,), sensor ranges (3,)); the sensors are read in both modes so that
         their readings are always logged."""
-        ranges = self.sensors.read(arena, time_s)
+        d_t, d_o, phi_t, phi_o, ranges, _ = self._sense(arena, time_s)
+        return np.array((d_t, d_o, phi_t, phi_o)), ranges
+
+    def _sense(self, arena: Arena, time_s: float, target_xy=None):
+        """The inputs as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges as a list)``.
+
+        ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
+        """
+        sensors = self.sensors
+        ranges = sensors.read(arena, time_s)
+        ranges_list = getattr(sensors, "_ranges_list", None)
+        if ranges_list is None or len(ranges_list) != len(ranges):
+            ranges_list = np.asarray(ranges, dtype=float).tolist()
         pose = arena.pose
-        d_t, phi_t = target_inputs(pose, arena.target)
+        if target_xy is None:
+            target_xy = arena.target
+        # target_inputs inlined.
+        dx, dy = target_xy[0] - pose[0], target_xy[1] - pose[1]
+        d_t = math.hypot(dx, dy)
+        phi_t = wrap_angle_scalar(math.atan2(dy, dx) - pose[2])
         if self.mode == "ideal":
             d_o, phi_o, _ = ideal_obstacle_inputs(arena, self.cutoff_m)
         else:
-            d_o, phi_o = ultrasonic_obstacle_inputs(ranges, self._mount_angles, self.cutoff_m)
-        return np.array((d_t, d_o, phi_t, phi_o)), ranges
+            d_o, phi_o = ultrasonic_obstacle_inputs(ranges_list, self._mount_angles, self.cutoff_m)
+        return d_t, d_o, phi_t, phi_o, ranges, ranges_list

@@ -30,13 +30,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from world.arena import Arena, Collision
-from world.husky import HuskyModel
+from world.husky import N_STATES, HuskyModel
 from world.metrics import compute_metrics
 from world.perception import Perception
 from world.scenario import Scenario
 from world.sensors import RangeSensorArray, SensorConfig
 
 OUTCOMES = ("reached", "collided", "timeout")
+_FLOAT64 = np.dtype(np.float64)
 
 
 @dataclass
@@ -86,12 +87,16 @@ class SimulationResult:
 class _LogBuffer:
     """Growable per-step arrays; obstacles may be added while the simulation runs.
 
-    The per-step floats live in one wide matrix, so a row is written with a single
-    assignment (the loop is dominated by per-call overheads, not by arithmetic).
+    The per-step floats live in one wide matrix. Rows arrive as plain lists and are
+    written into the matrices a block at a time (every ``_FLUSH_ROWS`` rows, and before
+    :meth:`freeze`): one numpy conversion per block instead of several numpy calls per
+    step, which is what the loop's time went to. The obstacles' centre distances are
+    computed per block from the logged pose and centres (``np.hypot``, as before).
     """
 
     _FIELDS = {"time_s": 1, "pose": 3, "lg_state": 6, "inputs": 4, "disturbance": 1,
                "controller_output_v": 2, "voltages_v": 2, "ranges_m": 3, "target_xy": 2}
+    _FLUSH_ROWS = 512
 
     def __init__(self, capacity: int):
         self.n = 0
@@ -102,41 +107,77 @@ class _LogBuffer:
         self.obstacle_radii: list[float] = []
         # Per obstacle column: x, y, centre distance, clearance.
         self.obstacles = np.full((self.capacity, 0, 4), np.nan)
-        self._columns_key: tuple = ()
-        self._columns = np.zeros(0, dtype=int)
+        self._written = 0          # rows already in the matrices
+        self._rows: list = []      # pending rows
+        self._xy: list = []        # pending centres, (x, y) per column
+        self._clearances: list = []  # pending clearances, one per column
+        self._ids_seen = None      # the ids list the pending obstacle data follows
+        self._columns: list[int] = []
+        self._direct = True        # those ids are exactly the columns, in order
 
     def _grow(self) -> None:
         self.capacity *= 2
         self.rows = np.concatenate([self.rows, np.full_like(self.rows, np.nan)])
         self.obstacles = np.concatenate([self.obstacles, np.full_like(self.obstacles, np.nan)])
 
-    def _columns_for(self, ids: list[int], radii) -> np.ndarray:
-        key = tuple(ids)
-        if key != self._columns_key:
-            for obstacle_id, radius in zip(ids, radii):
-                if obstacle_id not in self.obstacle_ids:
-                    self.obstacle_ids.append(obstacle_id)
-                    self.obstacle_radii.append(float(radius))
-                    self.obstacles = np.concatenate(
-                        [self.obstacles, np.full((self.capacity, 1, 4), np.nan)], axis=1)
-            self._columns = np.array([self.obstacle_ids.index(i) for i in ids], dtype=int)
-            self._columns_key = key
-        return self._columns
+    def _set_columns(self, ids: list[int], radii) -> None:
+        new = [(i, r) for i, r in zip(ids, radii) if i not in self.obstacle_ids]
+        if new:
+            self._flush()  # the pending rows have the old number of columns
+            for obstacle_id, radius in new:
+                self.obstacle_ids.append(obstacle_id)
+                self.obstacle_radii.append(float(radius))
+            self.obstacles = np.concatenate(
+                [self.obstacles, np.full((self.capacity, len(new), 4), np.nan)], axis=1)
+        self._columns = [self.obstacle_ids.index(i) for i in ids]
+        self._direct = list(ids) == self.obstacle_ids
+        self._ids_seen = ids
 
-    def append(self, row: list[float], ids, centres, radii, center_distance, clearance) -> None:
-        if self.n == self.capacity:
-            self._grow()
-        i = self.n
-        self.rows[i] = row
-        if ids:
-            cols = self._columns_for(ids, radii)
-            block = self.obstacles[i]
-            block[cols, 0:2] = centres
-            block[cols, 2] = center_distance
-            block[cols, 3] = clearance
+    def append(self, row: list[float], ids: list[int], radii, xy: list[tuple[float, float]],
+               clearances: list[float]) -> None:
+        """Log one row: ``row`` in ``_FIELDS`` order; per obstacle present (``ids``),
+        its radius, its centre and its clearance. The lists are kept until the next
+        flush: callers must not modify them afterwards."""
+        if ids is not self._ids_seen:
+            self._set_columns(ids, radii)
+        self._rows.append(row)
+        if self._direct:
+            if ids:
+                self._xy.append(xy)
+                self._clearances.append(clearances)
+        else:
+            n_columns = len(self.obstacle_ids)
+            padded_xy = [(math.nan, math.nan)] * n_columns
+            padded_clearances = [math.nan] * n_columns
+            for j, column in enumerate(self._columns):
+                padded_xy[column] = xy[j]
+                padded_clearances[column] = clearances[j]
+            self._xy.append(padded_xy)
+            self._clearances.append(padded_clearances)
         self.n += 1
+        if len(self._rows) >= self._FLUSH_ROWS:
+            self._flush()
+
+    def _flush(self) -> None:
+        m = len(self._rows)
+        if not m:
+            return
+        start, stop = self._written, self._written + m
+        while stop > self.capacity:
+            self._grow()
+        rows = self.rows[start:stop]
+        rows[:] = self._rows
+        n_columns = len(self.obstacle_ids)
+        if n_columns and self._xy:
+            block = self.obstacles[start:stop]
+            block[:, :, 0:2] = self._xy
+            block[:, :, 3] = self._clearances
+            block[:, :, 2] = np.hypot(block[:, :, 0] - rows[:, 1:2], block[:, :, 1] - rows[:, 2:3])
+        self._written = stop
+        self._rows, self._xy, self._clearances = [], [], []
 
     def freeze(self) -> SimulationLog:
+        self._flush()
         n = self.n
         fields, start = {}, 0
         for name, width in self._FIELDS.items():
@@ -215,11 +256,14 @@ class Simulation:
         self.sensors.reset(self.seed)
         self.controller.reset()
         self.x = np.zeros(6)
+        self._x_list = [0.0] * 6  # self.x as floats while self.x is self._x_seen
+        self._x_seen = self.x
         self.outcome: str | None = None
         self._wall_time_s = 0.0
         capacity = int(math.ceil(sc.duration_s / self.control_period_s)) + 2
         self._log = _LogBuffer(capacity)
         self._pending: dict | None = None
+        self._plant = (None, None, None)  # (model, dt, step matrix or None)
 
     @property
     def time_s(self) -> float:
@@ -237,61 +281,123 @@ class Simulation:
 
     def sense(self) -> tuple[np.ndarray, np.ndarray, float]:
         """The controller's inputs now (with disturbance), the ranges, the disturbance."""
-        inputs, ranges = self.perception.inputs(self.arena, self.time_s)
-        disturbance = self.disturbance.value(self.time_s) if self.disturbance else 0.0
-        if disturbance:
-            inputs = inputs + disturbance  # NaN (nothing detected) stays NaN
-        return inputs, ranges, disturbance
+        d_t, d_o, phi_t, phi_o, ranges, _, disturbance = self._sense(None)
+        return np.array((d_t, d_o, phi_t, phi_o)), ranges, disturbance
+
+    def _sense(self, target_xy):
+        """:meth:`sense` as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges list,
+        disturbance)``."""
+        perception = self.perception
+        time_s = self.arena.time_s
+        fast = getattr(perception, "_sense", None)
+        if fast is not None:
+            d_t, d_o, phi_t, phi_o, ranges, ranges_list = fast(self.arena, time_s, target_xy)
+        else:  # any object with Perception.inputs()
+            inputs, ranges = perception.inputs(self.arena, time_s)
+            d_t, d_o, phi_t, phi_o = np.asarray(inputs, dtype=float).reshape(4).tolist()
+            ranges_list = np.asarray(ranges, dtype=float).tolist()
+        disturbance = self.disturbance.value(time_s) if self.disturbance else 0.0
+        if disturbance:  # NaN (nothing detected) stays NaN
+            d_t += disturbance
+            d_o += disturbance
+            phi_t += disturbance
+            phi_o += disturbance
+        return d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance
 
     def decide(self, inputs: np.ndarray, ranges: np.ndarray) -> np.ndarray:
-        if getattr(self.controller, "needs_ranges", False):
-            raw = self.controller(inputs, ranges_m=ranges)
+        return np.array(self._decide(inputs, ranges))
+
+    def _decide(self, inputs: np.ndarray, ranges: np.ndarray) -> tuple[float, float]:
+        """The controller's two voltages as floats, checked finite."""
+        controller = self.controller
+        if getattr(controller, "needs_ranges", False):
+            raw = controller(inputs, ranges_m=ranges)
         else:
-            raw = self.controller(inputs)
-        raw = np.asarray(raw, dtype=float).reshape(2)
-        if not np.all(np.isfinite(raw)):
-            raise ValueError(f"controller returned non-finite voltages {raw.tolist()} "
+            raw = controller(inputs)
+        if type(raw) is np.ndarray and raw.dtype is _FLOAT64 and raw.shape == (2,):
+            left, right = raw.tolist()
+        else:
+            left, right = np.asarray(raw, dtype=float).reshape(2).tolist()
+        if not (math.isfinite(left) and math.isfinite(right)):
+            raise ValueError(f"controller returned non-finite voltages {[left, right]} "
                              f"for inputs {inputs.tolist()} at t = {self.time_s:.3f} s")
-        return raw
+        return left, right
 
     def step(self) -> str | None:
         """Advance one control period; returns the outcome once the run has ended."""
-        if self.done:
+        if self.outcome is not None:
             return self.outcome
         started = time.perf_counter()
-        inputs, ranges, disturbance = self.sense()
-        raw = self.decide(inputs, ranges)
+        arena = self.arena
+        target = arena.target
+        target_xy = target.tolist() if type(target) is np.ndarray else [float(v) for v in target]
+        d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
+        inputs = np.array((d_t, d_o, phi_t, phi_o))
+        left, right = self._decide(inputs, ranges)
         limit = self.voltage_limit_v
-        voltages = np.clip(raw, -limit, limit)
-        self._record(inputs, ranges, disturbance, raw, voltages)
+        # np.clip on two finite floats, without the numpy call.
+        v_left = min(max(left, -limit), limit)
+        v_right = min(max(right, -limit), limit)
+        self._record(d_t, d_o, phi_t, phi_o, ranges_list, disturbance, left, right,
+                     v_left, v_right, target_xy)
 
         dt = self.control_period_s
-        self.x, x_mean = self.model.step(self.x, voltages, dt)
-        new_contacts = self.arena.step(float(x_mean[2]), float(x_mean[3]), dt)
+        forward_speed, yaw_rate = self._advance_plant(v_left, v_right, dt)
+        new_contacts = arena.step(forward_speed, yaw_rate, dt)
 
-        pose = self.arena.pose
-        target = self.arena.target
-        if math.hypot(target[0] - pose[0], target[1] - pose[1]) <= self.scenario.tolerance_m:
+        x, y, _ = arena.pose
+        if math.hypot(target_xy[0] - x, target_xy[1] - y) <= self.scenario.tolerance_m:
             self.outcome = "reached"
         elif new_contacts and self.stop_on_collision:
             self.outcome = "collided"
-        elif self.time_s >= self.scenario.duration_s - 1e-9:
+        elif arena.time_s >= self.scenario.duration_s - 1e-9:
             self.outcome = "timeout"
         if self.outcome is not None:
-            inputs, ranges, disturbance = self.sense()
-            nan2 = np.full(2, np.nan)
-            self._record(inputs, ranges, disturbance, nan2, nan2)
+            d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
+            nan = math.nan
+            self._record(d_t, d_o, phi_t, phi_o, ranges_list, disturbance, nan, nan, nan, nan,
+                         None)
         self._wall_time_s += time.perf_counter() - started
         return self.outcome
 
-    def _record(self, inputs, ranges, disturbance, raw, voltages) -> None:
-        centres, radii, ids = self.arena.obstacle_arrays()
-        x, y, heading = self.arena.pose
-        centre_distance = np.hypot(centres[:, 0] - x, centres[:, 1] - y)
+    def _advance_plant(self, v_left: float, v_right: float, dt: float) -> tuple[float, float]:
+        """``HuskyModel.step`` on floats: sets ``self.x``, returns the step-mean forward
+        speed and yaw rate. Same (12 x 8) product with the same ``[x; u]`` as
+        ``HuskyModel.step``, so the same numbers, without its per-call overheads."""
+        model = self.model
+        cached_model, cached_dt, matrix = self._plant
+        if model is not cached_model or dt != cached_dt:
+            matrix = (model.discrete(dt).step_matrix
+                      if type(model).step is HuskyModel.step else None)
+            self._plant = (model, dt, matrix)
+        x = self.x
+        if x is not self._x_seen:  # set from outside since the last step
+            self._x_list = np.asarray(x, dtype=float).reshape(-1).tolist()
+        if matrix is None:
+            self.x, x_mean = model.step(x, np.array((v_left, v_right)), dt)
+            self._x_seen = self.x
+            self._x_list = np.asarray(self.x, dtype=float).tolist()
+            return float(x_mean[2]), float(x_mean[3])
+        result = np.dot(matrix, np.array((*self._x_list, v_left, v_right)))
+        values = result.tolist()
+        self.x = self._x_seen = result[:N_STATES]
+        self._x_list = values[:N_STATES]
+        return values[N_STATES + 2], values[N_STATES + 3]
+
+    def _record(self, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, raw_left, raw_right,
+                v_left, v_right, target_xy) -> None:
+        arena = self.arena
+        x, y, heading = arena.pose
+        if target_xy is None:
+            target_xy = arena.target.tolist()
+        if self.x is not self._x_seen:
+            self._x_list = np.asarray(self.x, dtype=float).reshape(-1).tolist()
+            self._x_seen = self.x
         # Same order as _LogBuffer._FIELDS.
-        row = [self.time_s, x, y, heading, *self.x.tolist(), *inputs.tolist(), disturbance,
-               *raw.tolist(), *voltages.tolist(), *ranges.tolist(), *self.arena.target.tolist()]
-        self._log.append(row, ids, centres, radii, centre_distance, self.arena.clearances())
+        row = [arena.time_s, x, y, heading, *self._x_list, d_t, d_o, phi_t, phi_o, disturbance,
+               raw_left, raw_right, v_left, v_right, *ranges_list, *target_xy]
+        scene = arena._scene()
+        self._log.append(row, scene.ids, scene.radii, scene.xy, scene.clearances)
 
     # -- whole runs --------------------------------------------------------------------
 
