@@ -1,0 +1,349 @@
+"""MATLAB Fuzzy Logic Toolbox ``.fis`` files: a strict reader and a writer.
+
+Supported: what the engine in :mod:`controller.fuzzy` computes -- a Mamdani system with
+AndMethod='min', OrMethod='max', ImpMethod='min', AggMethod='max',
+DefuzzMethod='centroid', membership functions trimf, trapmf, linsmf, linzmf, gaussmf,
+gauss2mf, and AND rules without NOT. Everything else (Sugeno, prod/probor/sum/bisector/
+mom/..., other membership functions, OR rules, negated clauses) is rejected with an error
+that names the file, the line and the value. The file is parsed, never evaluated.
+
+The format::
+
+    [System]
+    Name='fuzzy-husky-paper'
+    Type='mamdani'
+    Version=2.0
+    NumInputs=4
+    NumOutputs=2
+    NumRules=40
+    AndMethod='min'
+    OrMethod='max'
+    ImpMethod='min'
+    AggMethod='max'
+    DefuzzMethod='centroid'
+
+    [Input1]
+    Name='d_t'
+    Range=[-1.13 30]
+    NumMFs=5
+    MF1='VS':'linzmf',[0.2 1]
+    ...
+
+    [Output1]
+    ...
+
+    [Rules]
+    5 0 1 0, 4 1 (1) : 1
+
+A rule line lists, per input, the 1-based term index (0 = the input takes no part), a
+comma, per output the 1-based term index (0 = none), the weight in parentheses, a colon
+and the connection (1 = AND, 2 = OR).
+
+Not stored in a .fis file: the defuzzification grid size (MATLAB passes it to evalfis;
+we read 101, MATLAB's default), units and descriptions.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+from . import membership as mf
+from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable
+
+__all__ = ["read_fis", "write_fis", "loads_fis", "dumps_fis", "FisFormatError"]
+
+
+class FisFormatError(ValueError):
+    """A .fis file we cannot read (malformed or unsupported)."""
+
+
+_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_NUM_RE = re.compile(rf"^{_NUM}$")
+_SECTION_RE = re.compile(r"^\[(System|Input(\d+)|Output(\d+)|Rules)\]$")
+_KV_RE = re.compile(r"^([A-Za-z][A-Za-z0-9]*)\s*=\s*(.*)$")
+_STR_RE = re.compile(r"^'([^']*)'$")
+_VEC_RE = re.compile(r"^\[([^\]]*)\]$")
+_MF_RE = re.compile(r"^'([^']*)'\s*:\s*'([^']*)'\s*,\s*\[([^\]]*)\]$")
+_RULE_RE = re.compile(r"^([^,]*),([^(]*)\(([^)]*)\)\s*:\s*(\S+)$")
+
+_FIXED = {
+    "Type": "mamdani",
+    "AndMethod": "min",
+    "OrMethod": "max",
+    "ImpMethod": "min",
+    "AggMethod": "max",
+    "DefuzzMethod": "centroid",
+}
+_SYSTEM_KEYS = {"Name", "Version", "NumInputs", "NumOutputs", "NumRules"} | set(_FIXED)
+_VAR_KEYS = {"Name", "Range", "NumMFs"}
+
+
+class _Reader:
+    def __init__(self, source: str):
+        self.source = source
+
+    def err(self, lineno: int | None, what: str, value=None) -> FisFormatError:
+        where = f"{self.source}:{lineno}" if lineno else self.source
+        tail = f" (got {value!r})" if value is not None else ""
+        return FisFormatError(f"{where}: {what}{tail}")
+
+    def num(self, lineno: int, text: str, what: str) -> float:
+        t = text.strip()
+        if not _NUM_RE.match(t):
+            raise self.err(lineno, f"{what}: not a number", t)
+        v = float(t)
+        if not math.isfinite(v):
+            raise self.err(lineno, f"{what}: not a finite number", t)
+        return v
+
+    def int_(self, lineno: int, text: str, what: str) -> int:
+        t = text.strip()
+        if not re.fullmatch(r"[+-]?\d+", t):
+            raise self.err(lineno, f"{what}: not an integer", t)
+        return int(t)
+
+    def string(self, lineno: int, text: str, what: str) -> str:
+        m = _STR_RE.match(text.strip())
+        if not m:
+            raise self.err(lineno, f"{what}: expected a quoted string like 'name'", text.strip())
+        return m.group(1)
+
+    def vector(self, lineno: int, text: str, what: str) -> list[float]:
+        m = _VEC_RE.match(text.strip())
+        if not m:
+            raise self.err(lineno, f"{what}: expected a vector like [1 2 3]", text.strip())
+        body = m.group(1).replace(",", " ").split()
+        return [self.num(lineno, t, what) for t in body]
+
+
+def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
+    """Parse .fis text (``source`` names it in error messages)."""
+    rd = _Reader(source)
+    sections: list[tuple[str, int, int, list[tuple[int, str]]]] = []  # (kind, index, line, lines)
+    current = None
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("%") or line.startswith("#"):
+            continue
+        if line.startswith("["):
+            m = _SECTION_RE.match(line)
+            if not m:
+                raise rd.err(lineno, "unknown section", line)
+            if m.group(2):
+                kind, idx = "Input", int(m.group(2))
+            elif m.group(3):
+                kind, idx = "Output", int(m.group(3))
+            else:
+                kind, idx = m.group(1), 0
+            current = (kind, idx, lineno, [])
+            sections.append(current)
+            continue
+        if current is None:
+            raise rd.err(lineno, "text before the first [section]", line)
+        current[3].append((lineno, line))
+
+    kinds = [s[0] for s in sections]
+    for k in ("System", "Rules"):
+        if kinds.count(k) != 1:
+            raise rd.err(None, f"expected exactly one [{k}] section, found {kinds.count(k)}")
+
+    # [System]
+    sysd: dict[str, tuple[int, str]] = {}
+    sys_sec = sections[kinds.index("System")]
+    for lineno, line in sys_sec[3]:
+        m = _KV_RE.match(line)
+        if not m:
+            raise rd.err(lineno, "expected Key=Value in [System]", line)
+        key, val = m.group(1), m.group(2).strip()
+        if key not in _SYSTEM_KEYS:
+            raise rd.err(lineno, f"unknown [System] key {key!r}", line)
+        if key in sysd:
+            raise rd.err(lineno, f"duplicate [System] key {key!r}", line)
+        sysd[key] = (lineno, val)
+    for key in ("Name", "Type", "NumInputs", "NumOutputs", "NumRules"):
+        if key not in sysd:
+            raise rd.err(sys_sec[2], f"[System] lacks {key}=")
+    name = rd.string(*sysd["Name"], "Name")
+    for key, want in _FIXED.items():
+        if key not in sysd:
+            if key == "Type":
+                continue
+            raise rd.err(sys_sec[2], f"[System] lacks {key}= (only {want!r} is supported)")
+        lineno, val = sysd[key]
+        got = rd.string(lineno, val, key)
+        if got.lower() != want:
+            if key == "Type":
+                raise rd.err(lineno, f"unsupported system type {got!r}: only Mamdani systems "
+                                     f"are supported (no Sugeno)", val)
+            raise rd.err(lineno, f"unsupported {key} {got!r}: only {want!r} is supported", val)
+    if "Version" in sysd:
+        lineno, val = sysd["Version"]
+        if rd.num(lineno, val, "Version") != 2.0:
+            raise rd.err(lineno, "unsupported Version (only 2.0)", val)
+    n_in = rd.int_(*sysd["NumInputs"], "NumInputs")
+    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs")
+    n_rules = rd.int_(*sysd["NumRules"], "NumRules")
+
+    def variables(kind: str, count: int) -> list[Variable]:
+        secs = [s for s in sections if s[0] == kind]
+        idxs = [s[1] for s in secs]
+        if idxs != list(range(1, count + 1)):
+            raise rd.err(secs[0][2] if secs else sys_sec[2],
+                         f"expected sections [{kind}1]..[{kind}{count}] in order "
+                         f"(Num{kind}s={count}), found {[f'{kind}{i}' for i in idxs]}")
+        out = []
+        for kind_, idx, start, lines in secs:
+            kv: dict[str, tuple[int, str]] = {}
+            mfs: dict[int, tuple[int, str]] = {}
+            for lineno, line in lines:
+                m = _KV_RE.match(line)
+                if not m:
+                    raise rd.err(lineno, f"expected Key=Value in [{kind}{idx}]", line)
+                key, val = m.group(1), m.group(2).strip()
+                mm = re.fullmatch(r"MF(\d+)", key)
+                if mm:
+                    k = int(mm.group(1))
+                    if k in mfs:
+                        raise rd.err(lineno, f"duplicate {key}", line)
+                    mfs[k] = (lineno, val)
+                    continue
+                if key not in _VAR_KEYS:
+                    raise rd.err(lineno, f"unknown [{kind}{idx}] key {key!r}", line)
+                if key in kv:
+                    raise rd.err(lineno, f"duplicate [{kind}{idx}] key {key!r}", line)
+                kv[key] = (lineno, val)
+            for key in ("Name", "Range", "NumMFs"):
+                if key not in kv:
+                    raise rd.err(start, f"[{kind}{idx}] lacks {key}=")
+            vname = rd.string(*kv["Name"], "Name")
+            rng = rd.vector(*kv["Range"], "Range")
+            if len(rng) != 2 or not rng[0] < rng[1]:
+                raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
+            nmf = rd.int_(*kv["NumMFs"], "NumMFs")
+            if sorted(mfs) != list(range(1, nmf + 1)):
+                raise rd.err(kv["NumMFs"][0], f"expected MF1..MF{nmf} (NumMFs={nmf}), "
+                                              f"found {['MF%d' % k for k in sorted(mfs)]}")
+            terms = []
+            for k in range(1, nmf + 1):
+                lineno, val = mfs[k]
+                m = _MF_RE.match(val)
+                if not m:
+                    raise rd.err(lineno, f"MF{k}: expected 'name':'type',[params]", val)
+                tname, shape = m.group(1), m.group(2)
+                if shape not in mf.SHAPES:
+                    raise rd.err(lineno, f"MF{k}: unsupported membership function type "
+                                         f"{shape!r} (supported: {', '.join(mf.SHAPES)})", val)
+                params = [rd.num(lineno, t, f"MF{k} parameter")
+                          for t in m.group(3).replace(",", " ").split()]
+                try:
+                    terms.append(Term(tname, shape, tuple(params)))
+                except ValueError as e:
+                    raise rd.err(lineno, f"MF{k}: {e}", val) from None
+            try:
+                out.append(Variable(vname, (rng[0], rng[1]), tuple(terms)))
+            except ValueError as e:
+                raise rd.err(start, f"[{kind}{idx}]: {e}") from None
+        return out
+
+    inputs = variables("Input", n_in)
+    outputs = variables("Output", n_out)
+
+    rules_sec = sections[kinds.index("Rules")]
+    rules = []
+    for lineno, line in rules_sec[3]:
+        m = _RULE_RE.match(line)
+        if not m:
+            raise rd.err(lineno, "expected a rule like '1 0 2 0, 3 1 (1) : 1'", line)
+        ant_t, con_t, w_t, conn_t = m.groups()
+        ant = [rd.int_(lineno, t, "antecedent index") for t in ant_t.split()]
+        con = [rd.int_(lineno, t, "consequent index") for t in con_t.split()]
+        if len(ant) != n_in:
+            raise rd.err(lineno, f"the rule has {len(ant)} antecedent indices, "
+                                 f"the system has {n_in} inputs", line)
+        if len(con) != n_out:
+            raise rd.err(lineno, f"the rule has {len(con)} consequent indices, "
+                                 f"the system has {n_out} outputs", line)
+        w = rd.num(lineno, w_t, "rule weight")
+        if not 0.0 <= w <= 1.0:
+            raise rd.err(lineno, "rule weight must be in [0, 1]", w_t.strip())
+        conn = rd.int_(lineno, conn_t, "connection")
+        if conn not in (1, 2):
+            raise rd.err(lineno, "connection must be 1 (AND) or 2 (OR)", conn_t)
+        if conn == 2 and sum(a != 0 for a in ant) > 1:
+            raise rd.err(lineno, "OR rules are not supported (only AND)", line)
+        for v, a in zip(inputs, ant):
+            if a < 0:
+                raise rd.err(lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line)
+            if a > len(v.terms):
+                raise rd.err(lineno, f"term index {a} out of range for input {v.name!r} "
+                                     f"({len(v.terms)} MFs)", line)
+        for v, c in zip(outputs, con):
+            if c < 0:
+                raise rd.err(lineno, f"negated consequents are not supported (output {v.name!r})", line)
+            if c > len(v.terms):
+                raise rd.err(lineno, f"term index {c} out of range for output {v.name!r} "
+                                     f"({len(v.terms)} MFs)", line)
+        try:
+            rules.append(Rule(tuple(a - 1 if a else None for a in ant),
+                              tuple(c - 1 if c else None for c in con), w))
+        except ValueError as e:
+            raise rd.err(lineno, str(e), line) from None
+    if len(rules) != n_rules:
+        raise rd.err(rules_sec[2], f"NumRules={n_rules} but the [Rules] section has {len(rules)} rules")
+    try:
+        return FuzzySystem(inputs, outputs, rules, name=name, n_points=DEFAULT_POINTS)
+    except ValueError as e:
+        raise rd.err(None, str(e)) from None
+
+
+def read_fis(path) -> FuzzySystem:
+    """Read a MATLAB .fis file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise FisFormatError(f"{path}: cannot read: {e}") from None
+    except UnicodeDecodeError as e:
+        raise FisFormatError(f"{path}: not UTF-8 text: {e}") from None
+    return loads_fis(text, str(path))
+
+
+def _num(x: float) -> str:
+    s = repr(float(x))
+    if s.endswith(".0"):
+        s = s[:-2]
+    return s
+
+
+def _quoted(s: str, what: str) -> str:
+    if "'" in s or "\n" in s:
+        raise ValueError(f"cannot write {what} {s!r} to a .fis file (quote or newline)")
+    return f"'{s}'"
+
+
+def dumps_fis(system: FuzzySystem) -> str:
+    """The system as .fis text (numbers written so that they read back exactly)."""
+    L = ["[System]", f"Name={_quoted(system.name, 'system name')}", "Type='mamdani'",
+         "Version=2.0", f"NumInputs={len(system.inputs)}", f"NumOutputs={len(system.outputs)}",
+         f"NumRules={len(system.rules)}", "AndMethod='min'", "OrMethod='max'",
+         "ImpMethod='min'", "AggMethod='max'", "DefuzzMethod='centroid'"]
+    for kind, vs in (("Input", system.inputs), ("Output", system.outputs)):
+        for i, v in enumerate(vs, start=1):
+            L += ["", f"[{kind}{i}]", f"Name={_quoted(v.name, 'variable name')}",
+                  f"Range=[{_num(v.range[0])} {_num(v.range[1])}]", f"NumMFs={len(v.terms)}"]
+            for k, t in enumerate(v.terms, start=1):
+                L.append(f"MF{k}={_quoted(t.name, 'term name')}:'{t.shape}',"
+                         f"[{' '.join(_num(p) for p in t.params)}]")
+    L += ["", "[Rules]"]
+    for r in system.rules:
+        ant = " ".join(str(0 if a is None else a + 1) for a in r.antecedent)
+        con = " ".join(str(0 if c is None else c + 1) for c in r.consequent)
+        L.append(f"{ant}, {con} ({_num(r.weight)}) : 1")
+    return "\n".join(L) + "\n"
+
+
+def write_fis(system: FuzzySystem, path) -> None:
+    """Write a MATLAB .fis file."""
+    Path(path).write_text(dumps_fis(system), encoding="utf-8")

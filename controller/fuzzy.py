@@ -1,0 +1,729 @@
+"""A small, fast, vectorised Mamdani fuzzy inference engine (MATLAB-compatible semantics).
+
+Inference (the MATLAB Fuzzy Logic Toolbox defaults for a Mamdani FIS):
+
+* AND = min over the inputs a rule uses (an input marked ``None`` -- the paper's NONE --
+  takes no part in the rule);
+* the rule weight multiplies the firing strength;
+* implication = min (the consequent term is clipped at the weighted firing strength);
+* aggregation = max over rules;
+* defuzzification = centroid over an evenly spaced grid of the output range,
+  ``np.linspace(lo, hi, n_points)``, 101 points by default (MATLAB's default):
+  ``sum(g * agg(g)) / sum(agg(g))``.
+
+Conventions that are not obvious:
+
+* **NaN input = nothing sensed.** Every membership of a NaN input is 0, so a rule that
+  uses that input does not fire, while a rule with NONE for it is unaffected.
+* **No rule fired -> middle of the range.** When the aggregated membership of an output
+  is zero over the whole grid (no rule fired for that output, or the fired terms vanish on
+  every grid point), the output is ``(lo + hi) / 2``, which is MATLAB's ``evalfis``
+  convention (MATLAB also prints a warning; we do not, this runs in a control loop).
+* Inputs are **not** clipped to their ranges (MATLAB warns but does not clip either):
+  the membership functions are simply evaluated where the value lies; +-inf is allowed.
+
+Speed (the numbers are in bench/bench_fuzzy.py):
+
+* the max over rules of min(w_r, MF_{c_r}(grid)) is computed per consequent term,
+  max_k min(max_{r: c_r = k} w_r, MF_k(grid)) (exactly equal), with every output term
+  sampled on the grid once and only over the grid points where it is not zero;
+* :meth:`FuzzySystem.evaluate` (batch) works block-wise with reusable buffers (fresh
+  multi-megabyte temporaries cost a page fault per 4 KiB page on every call) and lays
+  the aggregate out as (grid point, sample) so every numpy call works on long rows;
+* :meth:`FuzzySystem.evaluate_one` (the control loop) runs memberships, firing strengths
+  and per-term levels as generated straight-line Python (numpy calls on tiny arrays cost
+  1-3 us each), then a handful of numpy calls on the grid.
+
+``evaluate_one(x)`` and ``evaluate(X)[i]`` are identical to the last bit: they do the
+same floating-point operations (min and max are exact; the membership formulas are the
+same expressions; exp is numpy's in both, as math.exp differs in the last bit for a few
+percent of arguments; the two centroid sums run in grid order in both: a cumsum in one,
+a reduce over axis 0 of >= 2 columns in the other).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass, field
+from typing import NamedTuple, Sequence
+
+import numpy as np
+
+from . import membership as mf
+
+__all__ = ["Term", "Variable", "Rule", "FuzzySystem", "Aggregation", "DEFAULT_POINTS"]
+
+DEFAULT_POINTS = 101
+
+
+
+# --------------------------------------------------------------------------- data
+
+
+@dataclass(frozen=True)
+class Term:
+    """A linguistic term: name, MATLAB shape name (trimf, trapmf, linsmf, linzmf, gaussmf,
+    gauss2mf) and its parameters in MATLAB order."""
+
+    name: str
+    shape: str
+    params: tuple[float, ...]
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"term name must be a non-empty string, got {self.name!r}")
+        try:
+            vals = mf.check_params(self.shape, self.params)
+        except ValueError as e:
+            raise ValueError(f"term {self.name!r}: {e}") from None
+        object.__setattr__(self, "params", vals)
+
+    def __call__(self, x) -> np.ndarray:
+        """Membership of x (vectorised)."""
+        return mf.SHAPES[self.shape].func(x, self.params)
+
+
+@dataclass(frozen=True)
+class Variable:
+    """An input or output variable with its range [lo, hi] and its terms (in order)."""
+
+    name: str
+    range: tuple[float, float]
+    terms: tuple[Term, ...]
+    unit: str = field(default="", compare=False)          # documentation only
+    description: str = field(default="", compare=False)   # documentation only
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"variable name must be a non-empty string, got {self.name!r}")
+        try:
+            lo, hi = (float(v) for v in self.range)
+        except (TypeError, ValueError):
+            raise ValueError(f"variable {self.name!r}: range must be [lo, hi], got {self.range!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise ValueError(f"variable {self.name!r}: range needs finite lo < hi, got {[lo, hi]!r}")
+        object.__setattr__(self, "range", (lo, hi))
+        terms = tuple(self.terms)
+        if not terms:
+            raise ValueError(f"variable {self.name!r} has no terms")
+        for t in terms:
+            if not isinstance(t, Term):
+                raise ValueError(f"variable {self.name!r}: terms must be Term objects, got {t!r}")
+        names = [t.name for t in terms]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"variable {self.name!r}: duplicate term names {sorted(dup)!r}")
+        object.__setattr__(self, "terms", terms)
+
+    @property
+    def term_names(self) -> list[str]:
+        return [t.name for t in self.terms]
+
+    def term_index(self, name: str) -> int:
+        for i, t in enumerate(self.terms):
+            if t.name == name:
+                return i
+        raise KeyError(f"variable {self.name!r} has no term {name!r} (terms: {self.term_names})")
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One rule. ``antecedent[i]`` is the index of a term of input i, or None (NONE: the
+    input takes no part). ``consequent[o]`` is the index of a term of output o, or None
+    (the rule says nothing about that output). ``weight`` in [0, 1] multiplies the firing
+    strength. Indices are 0-based (a .fis file counts from 1)."""
+
+    antecedent: tuple[int | None, ...]
+    consequent: tuple[int | None, ...]
+    weight: float = 1.0
+
+    def __post_init__(self):
+        def norm(seq, what):
+            out = []
+            for v in seq:
+                if v is None:
+                    out.append(None)
+                elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0:
+                    out.append(int(v))
+                else:
+                    raise ValueError(f"rule {what} entries must be term indices >= 0 or None, got {v!r}")
+            return tuple(out)
+
+        object.__setattr__(self, "antecedent", norm(self.antecedent, "antecedent"))
+        object.__setattr__(self, "consequent", norm(self.consequent, "consequent"))
+        w = float(self.weight)
+        if not (math.isfinite(w) and 0.0 <= w <= 1.0):
+            raise ValueError(f"rule weight must be in [0, 1], got {self.weight!r}")
+        object.__setattr__(self, "weight", w)
+        if all(a is None for a in self.antecedent):
+            raise ValueError("rule has no antecedent (every input is NONE)")
+        if all(c is None for c in self.consequent):
+            raise ValueError("rule has no consequent (every output is NONE)")
+
+
+class Aggregation(NamedTuple):
+    """What :meth:`FuzzySystem.aggregated` returns (one input vector)."""
+
+    grid: np.ndarray        # (n_outputs, n_points): the output grids
+    membership: np.ndarray  # (n_outputs, n_points): the aggregated output membership
+    output: np.ndarray      # (n_outputs,): the centroids (= evaluate_one)
+
+
+# --------------------------------------------------------------------------- engine
+
+_BLOCK = 16384  # rows per block of memberships / firing strengths in evaluate()
+_CHUNK = 512    # rows per block of the grid aggregation (its buffers stay in cache)
+
+
+class _Workspace:
+    """Reusable buffers for one thread's batch evaluations (fresh multi-megabyte arrays
+    cost a page fault per 4 KiB page on every call, which on a VM is most of the time)."""
+
+    def __init__(self, n_rules: int, n_slots: int, n_points: int):
+        self.cap = 0
+        self.n_rules, self.n_slots = n_rules, n_slots
+        self.a = np.empty((n_points, _CHUNK))
+        self.t = np.empty((n_points, _CHUNK))
+
+    def reserve(self, n: int):
+        if n > self.cap:
+            self.cap = n
+            self.F = np.empty((self.n_rules, n))
+            self.S = np.zeros((self.n_slots, n))  # slots no rule concludes stay 0
+            self.one = np.ones(n)
+
+
+class FuzzySystem:
+    """A Mamdani FIS. Immutable: the ``with_*`` methods return new systems.
+
+    Parameters
+    ----------
+    inputs, outputs : sequences of :class:`Variable` (order = column order of X / Y).
+    rules : sequence of :class:`Rule`.
+    name, description : free text (kept by the .toml and .fis writers).
+    n_points : number of points of the defuzzification grid of every output (>= 2).
+
+    Not thread-safe to *mutate* (it is never mutated); evaluation from several threads is
+    fine (each thread gets its own work buffers).
+    """
+
+    def __init__(self, inputs: Sequence[Variable], outputs: Sequence[Variable],
+                 rules: Sequence[Rule], *, name: str = "fuzzy", description: str = "",
+                 n_points: int = DEFAULT_POINTS):
+        self.name = str(name)
+        self.description = str(description)
+        self.inputs: tuple[Variable, ...] = tuple(inputs)
+        self.outputs: tuple[Variable, ...] = tuple(outputs)
+        self.rules: tuple[Rule, ...] = tuple(rules)
+        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 2:
+            raise ValueError(f"n_points must be an integer >= 2, got {n_points!r}")
+        self.n_points = int(n_points)
+        self._validate()
+        self._compile()
+
+    # pickling (e.g. for a multiprocessing optimiser): rebuild the compiled parts
+    def __getstate__(self):
+        return dict(inputs=self.inputs, outputs=self.outputs, rules=self.rules,
+                    name=self.name, description=self.description, n_points=self.n_points)
+
+    def __setstate__(self, state):
+        self.__init__(state.pop("inputs"), state.pop("outputs"), state.pop("rules"), **state)
+
+    # ------------------------------------------------------------------ structure
+    def _validate(self):
+        if not self.inputs:
+            raise ValueError("a fuzzy system needs at least one input")
+        if not self.outputs:
+            raise ValueError("a fuzzy system needs at least one output")
+        if not self.rules:
+            raise ValueError("a fuzzy system needs at least one rule")
+        for v in self.inputs + self.outputs:
+            if not isinstance(v, Variable):
+                raise ValueError(f"inputs and outputs must be Variable objects, got {v!r}")
+        names = [v.name for v in self.inputs + self.outputs]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"duplicate variable names {sorted(dup)!r}")
+        for r_i, r in enumerate(self.rules):
+            if not isinstance(r, Rule):
+                raise ValueError(f"rule {r_i + 1}: not a Rule object: {r!r}")
+            if len(r.antecedent) != len(self.inputs):
+                raise ValueError(f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
+                                 f"the system has {len(self.inputs)} inputs")
+            if len(r.consequent) != len(self.outputs):
+                raise ValueError(f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
+                                 f"the system has {len(self.outputs)} outputs")
+            for var, idx in zip(self.inputs + self.outputs, r.antecedent + r.consequent):
+                if idx is not None and idx >= len(var.terms):
+                    raise ValueError(f"rule {r_i + 1}: term index {idx} out of range for "
+                                     f"{var.name!r} ({len(var.terms)} terms)")
+
+    @property
+    def input_names(self) -> list[str]:
+        return [v.name for v in self.inputs]
+
+    @property
+    def output_names(self) -> list[str]:
+        return [v.name for v in self.outputs]
+
+    @property
+    def n_inputs(self) -> int:
+        return len(self.inputs)
+
+    @property
+    def n_outputs(self) -> int:
+        return len(self.outputs)
+
+    def rule_text(self, i: int) -> str:
+        """Rule i (0-based) in words, e.g. 'IF d_t IS VL AND phi_t IS VN THEN left IS L
+        AND right IS VS' (with ' WEIGHT w' if w != 1)."""
+        from .rulebase import format_rule
+        return format_rule(self, self.rules[i])
+
+    def __repr__(self):
+        return (f"FuzzySystem({self.name!r}, inputs={self.input_names}, "
+                f"outputs={self.output_names}, rules={len(self.rules)}, n_points={self.n_points})")
+
+    # ------------------------------------------------------------------ compile
+    def _compile(self):
+        n_in, n_out, R = len(self.inputs), len(self.outputs), len(self.rules)
+        # membership rows: input terms (input-major), then ONE (for NONE), then ZERO
+        col = []
+        t = 0
+        for v in self.inputs:
+            col.append(list(range(t, t + len(v.terms))))
+            t += len(v.terms)
+        self._n_cols = t + 2
+        self._ONE, self._ZERO = t, t + 1
+        self._batch_terms = [(col[i][j], i, mf.fast_kernel(term.shape, term.params))
+                             for i, v in enumerate(self.inputs) for j, term in enumerate(v.terms)]
+        # per rule: the membership rows it takes the min of
+        self._rule_rows = [[col[i][idx] for i, idx in enumerate(r.antecedent) if idx is not None]
+                           for r in self.rules]
+        self._W = np.array([r.weight for r in self.rules], dtype=float)
+        self._weighted = not bool(np.all(self._W == 1.0))
+        # consequent slots: slot o * kmax + k = (output o, term k) -> rules concluding it
+        kmax = max(len(v.terms) for v in self.outputs)
+        self._kmax = kmax
+        slots: list[list[int]] = [[] for _ in range(n_out * kmax)]
+        for r_i, r in enumerate(self.rules):
+            for o, k in enumerate(r.consequent):
+                if k is not None:
+                    slots[o * kmax + k].append(r_i)
+        self._slot_rules = [(sl, rs) for sl, rs in enumerate(slots) if rs]
+
+        # output grids and every output term sampled on its grid, once; per (o, k) the
+        # span of grid points where the term is not 0 (outside it min(level, 0) = 0
+        # cannot raise the max)
+        G = self.n_points
+        self._grid = np.empty((n_out, G))
+        self._mfg = np.zeros((n_out, kmax, G))
+        self._agg_terms = []
+        for o, v in enumerate(self.outputs):
+            self._grid[o] = np.linspace(v.range[0], v.range[1], G)
+            terms = []
+            for k, term in enumerate(v.terms):
+                self._mfg[o, k] = term(self._grid[o])
+                nz = np.flatnonzero(self._mfg[o, k])
+                if nz.size and slots[o * kmax + k]:
+                    g0, g1 = int(nz[0]), int(nz[-1]) + 1
+                    terms.append((o * kmax + k, g0, g1,
+                                  np.ascontiguousarray(self._mfg[o, k, g0:g1, None])))
+            # widest support first: if it covers the whole grid it initialises the
+            # aggregate directly (no zero fill, no max)
+            terms.sort(key=lambda q: q[1] - q[2])
+            self._agg_terms.append(terms)
+        # single path layout: sampled terms as (term, output, grid point); the weights
+        # of the two sums [g, 1] as (output, 2, grid point)
+        self._mfgK = np.ascontiguousarray(self._mfg.transpose(1, 0, 2))
+        grid2 = np.ones((n_out, 2, G))
+        grid2[:, 0, :] = self._grid
+        self._grid2 = grid2
+        self._gridcol = [np.ascontiguousarray(self._grid[o][:, None]) for o in range(n_out)]
+        self._mid = [0.5 * (v.range[0] + v.range[1]) for v in self.outputs]
+        self._front = self._generate_front()
+        self._tls = threading.local()
+
+    def _generate_front(self):
+        """Generate straight-line Python for the single-sample path: x -> the level of
+        every consequent slot (max over its rules of the weighted firing strength).
+
+        The code contains only variable names made here and float literals written with
+        repr() (which reads back exactly); the arithmetic is operation for operation the
+        one of the vectorised membership functions, so the results are identical."""
+        lines = ["def front(x):"]
+        n_in = len(self.inputs)
+        lines.append(f"    if len(x) != {n_in}:")
+        lines.append("        raise ValueError(_msg % len(x))")
+        gauss = []  # (target name, exponent expression names)
+        r = repr
+        mnames = {}
+        for i, v in enumerate(self.inputs):
+            xi = f"x{i}"
+            lines.append(f"    {xi} = float(x[{i}])")
+            body = []
+            names = []
+            for j, term in enumerate(v.terms):
+                m = f"m{i}_{j}"
+                names.append(m)
+                p = term.params
+                if term.shape == "trimf":
+                    a, b, c = p
+                    body.append(f"if {xi} == {r(b)}: {m} = 1.0")
+                    if a < b:
+                        body.append(f"elif {r(a)} < {xi} < {r(b)}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
+                    if b < c:
+                        body.append(f"elif {r(b)} < {xi} < {r(c)}: {m} = ({r(c)} - {xi}) / {r(c - b)}")
+                    body.append(f"else: {m} = 0.0")
+                elif term.shape == "trapmf":
+                    a, b, c, d = p
+                    body.append(f"if {xi} >= {r(b)}: y1 = 1.0")
+                    if a < b:
+                        body.append(f"elif {r(a)} <= {xi}: y1 = ({xi} - {r(a)}) / {r(b - a)}")
+                    body.append("else: y1 = 0.0")
+                    body.append(f"if {xi} <= {r(c)}: y2 = 1.0")
+                    if c < d:
+                        body.append(f"elif {xi} <= {r(d)}: y2 = ({r(d)} - {xi}) / {r(d - c)}")
+                    body.append("else: y2 = 0.0")
+                    body.append(f"{m} = y1 if y1 < y2 else y2")
+                elif term.shape == "linsmf":
+                    a, b = p
+                    if a < b:
+                        body.append(f"if {xi} > {r(b)}: {m} = 1.0")
+                        body.append(f"elif {r(a)} <= {xi}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
+                        body.append(f"else: {m} = 0.0")
+                    else:
+                        body.append(f"{m} = 1.0 if {xi} >= {r(a)} else 0.0")
+                elif term.shape == "linzmf":
+                    a, b = p
+                    if a < b:
+                        body.append(f"if {xi} < {r(a)}: {m} = 1.0")
+                        body.append(f"elif {xi} <= {r(b)}: {m} = ({r(b)} - {xi}) / {r(b - a)}")
+                        body.append(f"else: {m} = 0.0")
+                    else:
+                        body.append(f"{m} = 1.0 if {xi} < {r(a)} else 0.0")
+                elif term.shape == "gaussmf":
+                    s, c = p
+                    e = f"e{i}_{j}"
+                    body.append(f"d = {xi} - {r(c)}")
+                    body.append(f"{e} = -(d * d) / {r(2.0 * s * s)}")
+                    gauss.append((i, m, [e]))
+                elif term.shape == "gauss2mf":
+                    s1, c1, s2, c2 = p
+                    e1, e2 = f"e{i}_{j}a", f"e{i}_{j}b"
+                    body.append(f"if {xi} < {r(c1)}:")
+                    body.append(f"    d = {xi} - {r(c1)}")
+                    body.append(f"    {e1} = -(d * d) / {r(2.0 * s1 * s1)}")
+                    body.append(f"else: {e1} = 0.0")
+                    body.append(f"if {xi} > {r(c2)}:")
+                    body.append(f"    d = {xi} - {r(c2)}")
+                    body.append(f"    {e2} = -(d * d) / {r(2.0 * s2 * s2)}")
+                    body.append(f"else: {e2} = 0.0")
+                    gauss.append((i, m, [e1, e2]))
+                else:  # pragma: no cover - check_params guards this
+                    raise AssertionError(term.shape)
+            mnames[i] = names
+            # NaN: nothing sensed, every membership 0 (the Gaussian exponents are NaN,
+            # exp(NaN) = NaN, and are zeroed below)
+            lines.append(f"    if {xi} != {xi}:")
+            lines.append("        " + " = ".join(names + ["0.0"]))
+            for _, _, es in (gg for gg in gauss if gg[0] == i):
+                lines.append("        " + " = ".join(es + ["0.0"]))
+            lines.append("    else:")
+            lines += ["        " + b for b in body]
+        if gauss:
+            exps = [e for _, _, es in gauss for e in es]
+            lines.append(f"    _e = _exp([{', '.join(exps)}]).tolist()")
+            pos = 0
+            for i, m, es in gauss:
+                if len(es) == 1:
+                    val = f"_e[{pos}]"
+                else:
+                    val = f"_e[{pos}] * _e[{pos + 1}]"
+                pos += len(es)
+                lines.append(f"    {m} = 0.0 if x{i} != x{i} else {val}")
+        # firing strengths
+        row_name = {}
+        for i, v in enumerate(self.inputs):
+            for j in range(len(v.terms)):
+                row_name[self._batch_terms_row(i, j)] = f"m{i}_{j}"
+        for r_i, (rows, rule) in enumerate(zip(self._rule_rows, self.rules)):
+            ms = [row_name[rw] for rw in rows]
+            f = f"f{r_i}"
+            if len(ms) == 1:
+                lines.append(f"    {f} = {ms[0]}")
+            else:
+                # numpy.minimum(a, b) semantics for non-NaN values: b if b < a else a
+                lines.append(f"    {f} = {ms[1]} if {ms[1]} < {ms[0]} else {ms[0]}")
+                for mm in ms[2:]:
+                    lines.append(f"    {f} = {mm} if {mm} < {f} else {f}")
+            if self._weighted:
+                lines.append(f"    {f} = {f} * {r(rule.weight)}")
+        # slot levels, term-major (k * n_out + o): the layout of self._mfgK
+        n_out, kmax = len(self.outputs), self._kmax
+        used = dict(self._slot_rules)
+        out = []
+        for k in range(kmax):
+            for o in range(n_out):
+                rs = used.get(o * kmax + k)
+                if not rs:
+                    out.append("0.0")
+                elif len(rs) == 1:
+                    out.append(f"f{rs[0]}")
+                else:
+                    out.append(f"_max({', '.join(f'f{q}' for q in rs)})")
+        lines.append(f"    return [{', '.join(out)}]")
+        src = "\n".join(lines) + "\n"
+        ns = {"_exp": np.exp, "_max": max,
+              "_msg": f"expected {n_in} inputs {self.input_names}, got %d"}
+        exec(compile(src, f"<fuzzy front {self.name}>", "exec"), ns)
+        self._front_src = src
+        return ns["front"]
+
+    def _batch_terms_row(self, i: int, j: int) -> int:
+        return sum(len(v.terms) for v in self.inputs[:i]) + j
+
+    # ------------------------------------------------------------------ batch pieces
+    def _workspace(self, n: int) -> _Workspace:
+        ws = getattr(self._tls, "ws", None)
+        if ws is None:
+            ws = _Workspace(len(self.rules), len(self.outputs) * self._kmax, self.n_points)
+            self._tls.ws = ws
+        ws.reserve(n)
+        return ws
+
+    def _check_X(self, X) -> np.ndarray:
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2 or X.shape[1] != len(self.inputs):
+            raise ValueError(f"X must have shape (N, {len(self.inputs)}) with columns "
+                             f"{self.input_names}, got shape {X.shape}")
+        return X
+
+    def _block_levels(self, Xb: np.ndarray) -> _Workspace:
+        """Memberships, firing strengths (ws.F) and consequent-slot levels (ws.S) of the
+        rows Xb, in the first len(Xb) columns of the thread's work buffers."""
+        n = Xb.shape[0]
+        ws = self._workspace(n)
+        F, S = ws.F, ws.S
+        XT = np.ascontiguousarray(Xb.T)
+        rows = [None] * self._n_cols
+        for row, i, kernel in self._batch_terms:
+            rows[row] = kernel(XT[i])
+        rows[self._ONE] = ws.one[:n]
+        for r_i, rr in enumerate(self._rule_rows):
+            out = F[r_i, :n]
+            if len(rr) == 1:
+                np.copyto(out, rows[rr[0]])
+            else:
+                np.minimum(rows[rr[0]], rows[rr[1]], out=out)
+                for q in rr[2:]:
+                    np.minimum(out, rows[q], out=out)
+        if self._weighted:
+            F[:, :n] *= self._W[:, None]
+        for sl, rs in self._slot_rules:
+            out = S[sl, :n]
+            np.copyto(out, F[rs[0], :n])
+            for q in rs[1:]:
+                np.maximum(out, F[q, :n], out=out)
+        return ws
+
+    def firing_strengths(self, X) -> np.ndarray:
+        """(N, n_rules) firing strengths: min over the inputs a rule uses, times the rule
+        weight (the level at which the rule clips its consequent terms)."""
+        X = self._check_X(X)
+        out = np.empty((X.shape[0], len(self.rules)))
+        for b0 in range(0, X.shape[0], _BLOCK):
+            Xb = X[b0:b0 + _BLOCK]
+            ws = self._block_levels(Xb)
+            out[b0:b0 + len(Xb)] = ws.F[:, :len(Xb)].T
+        return out
+
+    def memberships(self, X) -> list[np.ndarray]:
+        """Per input, an (N, n_terms) array of the memberships of its terms."""
+        X = self._check_X(X)
+        out = []
+        for i, v in enumerate(self.inputs):
+            out.append(np.stack([t(X[:, i]) for t in v.terms], axis=1)
+                       if X.shape[0] else np.empty((0, len(v.terms))))
+        return out
+
+    # ------------------------------------------------------------------ inference
+    def evaluate(self, X) -> np.ndarray:
+        """Crisp outputs for a batch: X (N, n_inputs) -> (N, n_outputs)."""
+        X = self._check_X(X)
+        N = X.shape[0]
+        Y = np.empty((N, len(self.outputs)))
+        G = self.n_points
+        for b0 in range(0, N, _BLOCK):
+            Xb = X[b0:b0 + _BLOCK]
+            nb = Xb.shape[0]
+            ws = self._block_levels(Xb)
+            S = ws.S
+            for c0 in range(0, nb, _CHUNK):
+                n = min(_CHUNK, nb - c0)
+                a = ws.a[:, :n]          # aggregated membership: (grid point, sample)
+                t = ws.t[:, :n]
+                for o, terms in enumerate(self._agg_terms):
+                    filled = False
+                    for sl, g0, g1, mcol in terms:
+                        s = S[sl, c0:c0 + n]
+                        if not filled:
+                            if g0 == 0 and g1 == G:
+                                np.minimum(mcol, s, out=a)
+                                filled = True
+                                continue
+                            a.fill(0.0)
+                            filled = True
+                        tt = t[g0:g1]
+                        np.minimum(mcol, s, out=tt)
+                        np.maximum(a[g0:g1], tt, out=a[g0:g1])
+                    if not filled:
+                        a.fill(0.0)
+                    np.multiply(a, self._gridcol[o], out=t)
+                    # sums over the grid in grid order, as in the single path: numpy
+                    # reduces axis 0 sequentially for >= 2 columns but pairwise for
+                    # a single one, hence the cumsum (sequential) for n == 1
+                    if n >= 2:
+                        num = np.add.reduce(t, axis=0)
+                        den = np.add.reduce(a, axis=0)
+                    else:
+                        num = np.cumsum(t[:, 0])[-1:]
+                        den = np.cumsum(a[:, 0])[-1:]
+                    y = Y[b0 + c0:b0 + c0 + n, o]
+                    y[:] = self._mid[o]
+                    np.divide(num, den, out=y, where=den > 0.0)
+        return Y
+
+    def _agg_one(self, x):
+        """Single-sample path: (aggregated (n_out, G), outputs list); operation for
+        operation the batch's arithmetic (min/max are exact; the sums run in grid order:
+        cumsum here, a reduce over axis 0 of >= 2 columns there)."""
+        if type(x) is np.ndarray:
+            x = x.tolist()  # Python floats: much faster than numpy scalars below
+        s = np.array(self._front(x)).reshape(self._kmax, len(self.outputs), 1)
+        agg = np.minimum(s, self._mfgK).max(axis=0)                      # (n_out, G)
+        sums = np.cumsum(agg[:, None, :] * self._grid2, axis=2)[:, :, -1].tolist()
+        return agg, [nu / de if de > 0.0 else mid for (nu, de), mid in zip(sums, self._mid)]
+
+    def evaluate_one(self, x: Sequence[float]) -> np.ndarray:
+        """Crisp outputs for one input vector (n_inputs,) -> (n_outputs,), identical to
+        ``evaluate(np.array([x]))[0]``. Built for the control loop."""
+        return np.array(self._agg_one(x)[1])
+
+    def evaluate_one_list(self, x: Sequence[float]) -> list[float]:
+        """Like :meth:`evaluate_one` but returns a plain list (saves ~1 us)."""
+        return self._agg_one(x)[1]
+
+    def aggregated(self, x: Sequence[float]) -> Aggregation:
+        """For one input vector: the output grids, the aggregated output membership on
+        them (max over terms of min(level, MF)) and the centroids (= evaluate_one)."""
+        agg, out = self._agg_one(x)
+        return Aggregation(self._grid.copy(), agg, np.array(out))
+
+    # ------------------------------------------------------------------ parameters
+    def parameter_vector(self) -> np.ndarray:
+        """All membership-function parameters, flat: inputs then outputs, terms in order,
+        parameters in MATLAB order. See :meth:`parameter_names`."""
+        return np.array([p for v in self.inputs + self.outputs for t in v.terms for p in t.params])
+
+    def parameter_names(self) -> list[str]:
+        """Names for :meth:`parameter_vector`, e.g. 'd_t.VS.a', 'phi_t.Z.sigma'."""
+        return [f"{v.name}.{t.name}.{pn}" for v in self.inputs + self.outputs for t in v.terms
+                for pn in mf.SHAPES[t.shape].param_names]
+
+    def with_parameter_vector(self, vec) -> "FuzzySystem":
+        """A copy with the membership parameters replaced by ``vec`` (same layout as
+        :meth:`parameter_vector`). Raises ValueError for a wrong length or an invalid
+        shape (e.g. a trimf with a > b, a gaussmf with sigma <= 0)."""
+        vec = np.asarray(vec, dtype=float).ravel()
+        n = sum(len(t.params) for v in self.inputs + self.outputs for t in v.terms)
+        if vec.size != n:
+            raise ValueError(f"parameter vector must have {n} entries, got {vec.size}")
+        it = iter(vec.tolist())
+
+        def rebuild(v: Variable) -> Variable:
+            terms = []
+            for t in v.terms:
+                params = tuple(next(it) for _ in t.params)
+                try:
+                    terms.append(Term(t.name, t.shape, params))
+                except ValueError as e:
+                    raise ValueError(f"variable {v.name!r}: {e}") from None
+            return Variable(v.name, v.range, tuple(terms), v.unit, v.description)
+
+        ins = [rebuild(v) for v in self.inputs]
+        outs = [rebuild(v) for v in self.outputs]
+        return self._replace(inputs=ins, outputs=outs)
+
+    def with_term_params(self, variable: str, term: str, params: Sequence[float],
+                         shape: str | None = None) -> "FuzzySystem":
+        """A copy with one term's parameters (and optionally its shape) replaced."""
+        found = False
+
+        def rebuild(v: Variable) -> Variable:
+            nonlocal found
+            if v.name != variable:
+                return v
+            k = v.term_index(term)
+            old = v.terms[k]
+            terms = list(v.terms)
+            terms[k] = Term(old.name, shape or old.shape, tuple(params))
+            found = True
+            return Variable(v.name, v.range, tuple(terms), v.unit, v.description)
+
+        ins = [rebuild(v) for v in self.inputs]
+        outs = [rebuild(v) for v in self.outputs]
+        if not found:
+            raise KeyError(f"no variable {variable!r} (have {self.input_names + self.output_names})")
+        return self._replace(inputs=ins, outputs=outs)
+
+    def replace(self, **kw) -> "FuzzySystem":
+        """A copy with some constructor arguments replaced (inputs, outputs, rules, name,
+        description, n_points)."""
+        return self._replace(**kw)
+
+    def _replace(self, **kw) -> "FuzzySystem":
+        args = dict(inputs=self.inputs, outputs=self.outputs, rules=self.rules,
+                    name=self.name, description=self.description, n_points=self.n_points)
+        args.update(kw)
+        return FuzzySystem(args.pop("inputs"), args.pop("outputs"), args.pop("rules"), **args)
+
+    def with_rules(self, rules: Sequence[Rule]) -> "FuzzySystem":
+        return self._replace(rules=rules)
+
+    def with_n_points(self, n_points: int) -> "FuzzySystem":
+        return self._replace(n_points=n_points)
+
+    # ------------------------------------------------------------------ files
+    @classmethod
+    def from_fis(cls, path) -> "FuzzySystem":
+        """Read a MATLAB .fis file (Mamdani, min/max, centroid)."""
+        from .fis import read_fis
+        return read_fis(path)
+
+    def to_fis(self, path) -> None:
+        """Write a MATLAB .fis file."""
+        from .fis import write_fis
+        write_fis(self, path)
+
+    @classmethod
+    def from_toml(cls, path) -> "FuzzySystem":
+        """Read a TOML rule base (see controller/rulebase.py)."""
+        from .rulebase import read_toml
+        return read_toml(path)
+
+    def to_toml(self, path) -> None:
+        """Write a TOML rule base."""
+        from .rulebase import write_toml
+        write_toml(self, path)
+
+    def __eq__(self, other):
+        """Same variables (names, ranges, terms), rules and grid: the same function.
+        The system name, description and the variables' units/descriptions are ignored."""
+        if not isinstance(other, FuzzySystem):
+            return NotImplemented
+        return (self.inputs, self.outputs, self.rules, self.n_points) == \
+               (other.inputs, other.outputs, other.rules, other.n_points)
+
+    __hash__ = None  # type: ignore[assignment]
