@@ -1,0 +1,473 @@
+"""fuzzynav's own navigator: two small Mamdani blocks, arbitration by "near", a short memory.
+
+Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
+
+    ranges (left, front, right) --+--> sector memory --> L, F, R --+--> AVOID block --+
+    d_o, phi_o (ideal only) ------+                                 |   (L, F, R, side)|
+                                                     side chooser --+                  |--> blend --> mix --> (left, right) V
+    d_t, phi_t --> [escape: virtual bearing] ------> GOAL block (phi, d_t) ------------+
+                                                    alpha = strength of "near" (L, F, R)
+
+1. **Sectors.** The three ultrasonic readings give the distance seen to the left (+45 deg),
+   ahead and to the right (-45 deg). The same readings exist in both perception modes, so
+   the design works in both. In ``ideal`` perception the nearest obstacle all around
+   (``d_o``, ``phi_o``) is folded into the left or right sector when it is beside the robot
+   (where the beams are blind); in ``ultrasonic`` mode ``d_o``/``phi_o`` are made from the
+   beams anyway. A short **memory** keeps what a beam saw: a remembered distance grows
+   back at ``memory_grow_mps`` once the beam loses the obstacle, so the robot does not turn
+   back into an obstacle that has just left its beam while still beside it.
+2. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
+   speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
+   robot never orbits its target (the paper's trap: its outputs cannot go negative).
+3. **Avoidance block** (12 rules): left / front / right distance (near medium far) and the
+   chosen side -> speed and turn. Close ahead it backs off and turns hard to the chosen
+   side; close beside, it turns away; passing at a medium distance it holds its heading.
+4. **Side chooser** (crisp, with memory): when something appears ahead the robot picks the
+   side to pass on (the target's side, unless that side is the more obstructed one) and
+   *latches* it until the front is clear again, so it never dithers between two sides.
+5. **Arbitration**: ``alpha`` = the strength of "near" over the sectors (a linear-Z of
+   the front distance, and a weaker one of the side distances); the command is
+   ``alpha * avoid + (1 - alpha) * goal``. Avoidance takes precedence as obstacles get near.
+6. **Escape from local minima** (memory): if the target distance has not improved for
+   ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side: the
+   goal block is fed a virtual bearing that pulls towards that boundary, until the robot
+   is ``leave_margin_m`` closer to the target than where it got stuck (the Bug-2 idea).
+7. **Moving obstacles**: the front reading's rate of change is watched; an obstacle that
+   closes faster than the robot drives is treated as nearer (time-to-contact), so the
+   robot slows and yields earlier.
+8. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
+   reduced, never the turn (the loop's saturation would otherwise eat the turn).
+
+Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
+(readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
+parameters are in ``assets/rules/fuzzynav_params.toml``. For speed the two blocks are
+evaluated as one merged system (same rules, disjoint variables: exactly the same outputs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from controller.fuzzy import FuzzySystem, Rule
+
+RULES_DIR = Path(__file__).resolve().parents[1] / "assets" / "rules"
+GOAL_PATH = RULES_DIR / "fuzzynav_goal.toml"
+AVOID_PATH = RULES_DIR / "fuzzynav_avoid.toml"
+PARAMS_PATH = RULES_DIR / "fuzzynav_params.toml"
+
+VOLTAGE_LIMIT_V = 12.0
+# Plant constants for dead reckoning (notes section 1): 12 V both -> 0.617 m/s,
+# (-12, +12) -> 0.62 rad/s; and the sensor mounts (x, y, angle) on the front edge.
+_V_PER_VOLT = 0.617 / 12.0
+_W_PER_VOLT = 0.62 / 12.0
+_HX, _HY = 0.495, 0.335
+_MOUNTS = ((0.495, 0.75 * 0.335, math.radians(45.0)), (0.495, 0.0, 0.0),
+           (0.495, -0.75 * 0.335, math.radians(-45.0)))
+_N_POINTS = 64
+
+# The crisp parameters, their defaults (used when the file lacks a key) and tuning bounds.
+CRISP_DEFAULTS: dict[str, float] = {
+    "control_period_s": 0.02,     # the loop's period (the memory counts calls)
+    "alpha_front_lo_m": 0.5,      # alpha = 1 when the front is nearer than this
+    "alpha_front_hi_m": 2.2,      # alpha = 0 beyond this
+    "alpha_side_lo_m": 0.3,
+    "alpha_side_hi_m": 1.0,
+    "alpha_side_max": 1.0,        # the side sectors alone never take full control
+    "memory_grow_mps": 0.35,      # how fast a remembered distance grows back
+    "side_fold_deg": 30.0,        # ideal: an obstacle this far off-axis counts as beside
+    "latch_front_m": 2.5,         # choose and latch the side when the front is nearer
+    "release_front_m": 3.0,       # release the latch when the front is farther
+    "ttc_gain_s": 1.0,            # front distance shortened by closing speed x this
+    "stall_s": 15.0,               # no progress for this long -> boundary following
+    "stall_progress_m": 0.3,
+    "leave_margin_m": 0.5,
+    "follow_bias_rad": 0.6,       # virtual bearing pulls this far towards the boundary
+    "follow_max_s": 60.0,
+    "follow_lost_m": 2.0,         # nothing remembered this near: stop following
+    "guard_m": 0.8,               # no goal turn towards a passed obstacle nearer than this
+    "guard_speed_v": 6.0,         # ... and drives on at this speed
+    "memory_s": 4.0,              # echoes are remembered this long
+    "store_s": 0.1,               # one echo point per beam per store_s
+    "odo_lag": 0.06,              # dead-reckoning lag factor per period (dt / 0.33 s)
+}
+CRISP_BOUNDS: dict[str, tuple[float, float]] = {
+    "alpha_front_lo_m": (0.2, 0.9),
+    "alpha_front_hi_m": (0.9, 2.5),
+    "alpha_side_lo_m": (0.1, 0.7),
+    "alpha_side_hi_m": (0.7, 1.6),
+    "alpha_side_max": (0.3, 1.0),
+    "memory_grow_mps": (0.1, 1.5),
+    "latch_front_m": (1.0, 3.0),
+    "ttc_gain_s": (0.0, 3.0),
+    "guard_m": (0.5, 2.0),
+    "side_fold_deg": (15.0, 45.0),
+    "memory_s": (1.0, 8.0),
+}
+
+
+def _linz(x: float, lo: float, hi: float) -> float:
+    if x <= lo:
+        return 1.0
+    if x >= hi:
+        return 0.0
+    return (hi - x) / (hi - lo)
+
+
+def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
+    """One system evaluating both blocks: inputs goal's then avoid's, outputs
+    goal_speed, goal_turn, avoid_speed, avoid_turn. Each rule keeps its own block's
+    variables, so every output is exactly what its block alone would give."""
+    gi, go = len(goal.inputs), len(goal.outputs)
+    ai, ao = len(avoid.inputs), len(avoid.outputs)
+    inputs = list(goal.inputs) + list(avoid.inputs)
+    outputs = ([dataclasses.replace(v, name=f"goal_{v.name}") for v in goal.outputs]
+               + [dataclasses.replace(v, name=f"avoid_{v.name}") for v in avoid.outputs])
+    rules = [Rule(r.antecedent + (None,) * ai, r.consequent + (None,) * ao, r.weight)
+             for r in goal.rules]
+    rules += [Rule((None,) * gi + r.antecedent, (None,) * go + r.consequent, r.weight)
+              for r in avoid.rules]
+    return FuzzySystem(inputs, outputs, rules, name="fuzzynav-merged",
+                       n_points=max(goal.n_points, avoid.n_points))
+
+
+def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
+    params = dict(CRISP_DEFAULTS)
+    path = Path(path)
+    if path.exists():
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+        crisp = data.get("crisp", {})
+        unknown = set(crisp) - set(CRISP_DEFAULTS)
+        if unknown:
+            raise ValueError(f"{path}: unknown crisp parameter(s) {sorted(unknown)}")
+        params.update({k: float(v) for k, v in crisp.items()})
+    return params
+
+
+class FuzzyNavController:
+    """The navigator; state (memory) is cleared by :meth:`reset`.
+
+    Attributes for teaching and recording: ``goal``, ``avoid`` (the two blocks),
+    ``last`` (a dict: sectors, side, alpha, mode and both blocks' outputs of the last call).
+    """
+
+    needs_ranges = True
+    name = "fuzzynav"
+
+    def __init__(self, goal: FuzzySystem, avoid: FuzzySystem, params: dict | None = None):
+        if goal.input_names != ["phi_t", "d_t"] or goal.output_names != ["speed", "turn"]:
+            raise ValueError(f"goal block must map (phi_t, d_t) -> (speed, turn), got "
+                             f"{goal.input_names} -> {goal.output_names}")
+        if avoid.input_names != ["left", "front", "right", "side"] or \
+                avoid.output_names != ["speed", "turn"]:
+            raise ValueError(f"avoid block must map (left, front, right, side) -> (speed, turn),"
+                             f" got {avoid.input_names} -> {avoid.output_names}")
+        self.goal = goal
+        self.avoid = avoid
+        self.params = dict(CRISP_DEFAULTS)
+        self.params.update(params or {})
+        self._merged = merge_blocks(goal, avoid)
+        self._eval = self._merged.evaluate_one_list
+        self.reset()
+
+    # -- state -------------------------------------------------------------------------
+    def reset(self) -> None:
+        self.t = 0.0
+        self.mem = [math.inf, math.inf, math.inf]   # remembered left, front, right (m)
+        self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
+        self.prev_front = math.inf
+        self.best_d_t = math.inf   # best target distance during the progress window
+        self.best_t = 0.0
+        self.follow = False        # boundary following (escape) active
+        self.follow_d_t = math.inf
+        self.follow_t = 0.0
+        self.last: dict = {}
+        # Short memory of echoes: points in an odometry frame (dead reckoning from the
+        # voltages this controller commanded), forgotten after memory_s seconds.
+        self.pose = [0.0, 0.0, 0.0]
+        self.vel = [0.0, 0.0]
+        self.cmd = (0.0, 0.0)
+        n = _N_POINTS
+        self.px = np.zeros(n)
+        self.py = np.zeros(n)
+        self.pt = np.full(n, -np.inf)
+        self.k = 0
+        self.next_store = 0.0
+
+    def state(self) -> dict:
+        return {"t": self.t, "mem": list(self.mem), "side": self.side,
+                "prev_front": self.prev_front, "best_d_t": self.best_d_t,
+                "best_t": self.best_t, "follow": self.follow, "follow_d_t": self.follow_d_t,
+                "follow_t": self.follow_t, "pose": list(self.pose), "vel": list(self.vel),
+                "cmd": self.cmd, "points": int(np.isfinite(self.pt).sum())}
+
+    # -- decision ----------------------------------------------------------------------
+    def __call__(self, inputs, ranges_m=None):
+        p = self.params
+        dt = p["control_period_s"]
+        d_t, d_o, phi_t, phi_o = (float(v) for v in inputs)
+        if ranges_m is None:
+            ranges = [math.inf, math.inf, math.inf]
+        else:
+            ranges = [float(v) for v in ranges_m]
+        left, front, right = ranges
+        # Dead reckoning over the last period from the last command (first-order lag).
+        self.t += dt
+        pose, vel = self.pose, self.vel
+        cl, cr = self.cmd
+        lag = p["odo_lag"]
+        vel[0] += (_V_PER_VOLT * 0.5 * (cl + cr) - vel[0]) * lag
+        vel[1] += (_W_PER_VOLT * 0.5 * (cr - cl) - vel[1]) * lag
+        th = pose[2] + 0.5 * vel[1] * dt
+        pose[0] += vel[0] * dt * math.cos(th)
+        pose[1] += vel[0] * dt * math.sin(th)
+        pose[2] += vel[1] * dt
+        x0, y0, th = pose
+        c, s_ = math.cos(th), math.sin(th)
+        # Store echoes (and, in ideal perception, the nearest obstacle) every store_s.
+        if self.t >= self.next_store:
+            self.next_store = self.t + p["store_s"]
+            for (mx, my, ma), r in zip(_MOUNTS, ranges):
+                if r < 3.0:
+                    bx, by = mx + r * math.cos(ma), my + r * math.sin(ma)
+                    self._store(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
+            if d_o == d_o and phi_o == phi_o:
+                cp, sp = math.cos(phi_o), math.sin(phi_o)
+                ext = min(_HX / max(abs(cp), 1e-9), _HY / max(abs(sp), 1e-9))
+                rr = ext + d_o
+                bx, by = rr * cp, rr * sp
+                self._store(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
+        # Remembered points in the body frame: footprint distance per sector.
+        fold = math.radians(p["side_fold_deg"])
+        live = self.pt > self.t - p["memory_s"]
+        if live.any():
+            dx = self.px[live] - x0
+            dy = self.py[live] - y0
+            bx = c * dx + s_ * dy
+            by = c * dy - s_ * dx
+            dist = np.hypot(np.maximum(np.abs(bx) - _HX, 0.0), np.maximum(np.abs(by) - _HY, 0.0))
+            ang = np.arctan2(by, bx)
+            fr = np.abs(ang) < fold
+            lf = (ang >= fold) & (ang <= 2.0)
+            rt = (ang <= -fold) & (ang >= -2.0)
+            if fr.any():
+                front = min(front, float(dist[fr].min()))
+            if lf.any():
+                left = min(left, float(dist[lf].min()))
+            if rt.any():
+                right = min(right, float(dist[rt].min()))
+        # Ideal perception: the nearest obstacle all around, folded into its sector (the
+        # beams are blind between them and beside the robot).
+        hint = 0.0
+        if d_o == d_o and phi_o == phi_o:
+            a = abs(phi_o)
+            if a < fold:
+                front = min(front, d_o)
+                hint = phi_o
+            elif a <= 2.0:
+                if phi_o > 0:
+                    left = min(left, d_o)
+                else:
+                    right = min(right, d_o)
+        # Memory: a remembered distance grows back at memory_grow_mps.
+        grow = p["memory_grow_mps"] * dt
+        mem = self.mem
+        left = mem[0] = min(left, mem[0] + grow)
+        front_mem = mem[1] = min(front, mem[1] + grow)
+        right = mem[2] = min(right, mem[2] + grow)
+        # Time-to-contact: closing faster than the robot could drive -> treat as nearer.
+        front_eff = front_mem
+        if math.isfinite(front) and math.isfinite(self.prev_front):
+            closing = (self.prev_front - front) / dt
+            excess = closing - 0.65
+            if excess > 0.0:
+                front_eff = max(0.0, front_mem - p["ttc_gain_s"] * min(excess, 1.0))
+        self.prev_front = front
+
+        # Side chooser with a latch.
+        if front_eff < p["latch_front_m"]:
+            if self.side == 0.0:
+                self.side = self._choose_side(phi_t, left, right, hint)
+        elif front_eff > p["release_front_m"] and not self.follow:
+            self.side = 0.0
+        side = self.side if self.side != 0.0 else (1.0 if phi_t >= 0 else -1.0)
+
+        # Progress watch -> boundary following.
+        if d_t < self.best_d_t - p["stall_progress_m"]:
+            self.best_d_t, self.best_t = d_t, self.t
+        if self.follow:
+            if (d_t < self.follow_d_t - p["leave_margin_m"]
+                    or self.t - self.follow_t > p["follow_max_s"]
+                    or min(left, front_eff, right) > p["follow_lost_m"]):
+                self.follow = False
+                self.best_d_t, self.best_t = d_t, self.t
+        elif self.t - self.best_t > p["stall_s"]:
+            self.follow = True
+            self.follow_d_t = min(d_t, self.best_d_t)
+            self.follow_t = self.t
+            if self.side == 0.0:
+                self.side = side
+        phi = phi_t
+        if self.follow:
+            # Keep the boundary on the side opposite to the latched turn: pull towards it.
+            side = self.side
+            phi = -side * p["follow_bias_rad"]
+
+        g_speed, g_turn, a_speed, a_turn = self._eval(
+            (phi, d_t, min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side))
+
+        # While passing on the latched side, the goal block may not turn back towards the
+        # obstacle being passed while it is still remembered within guard_m.
+        # It drives on instead (the goal block alone would turn in place).
+        if not self.follow and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
+                                or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"])):
+            g_turn = 0.0
+            g_speed = max(g_speed, p["guard_speed_v"])
+        a_front = _linz(front_eff, p["alpha_front_lo_m"], p["alpha_front_hi_m"])
+        a_side = p["alpha_side_max"] * max(
+            _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
+            _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]))
+        alpha = max(a_front, a_side)
+        speed = alpha * a_speed + (1.0 - alpha) * g_speed
+        turn = alpha * a_turn + (1.0 - alpha) * g_turn
+        limit = VOLTAGE_LIMIT_V
+        if abs(turn) > limit:
+            turn = math.copysign(limit, turn)
+        room = limit - abs(turn)
+        if abs(speed) > room:
+            speed = math.copysign(room, speed)
+        self.last = {"sectors": (left, front_eff, right), "side": side, "alpha": alpha,
+                     "follow": self.follow, "goal": (g_speed, g_turn),
+                     "avoid": (a_speed, a_turn)}
+        self.cmd = (speed - turn, speed + turn)
+        return np.array(self.cmd)
+
+    def _store(self, x: float, y: float) -> None:
+        k = self.k
+        self.px[k] = x
+        self.py[k] = y
+        self.pt[k] = self.t
+        self.k = (k + 1) % _N_POINTS
+
+    @staticmethod
+    def _choose_side(phi_t: float, left: float, right: float, hint: float = 0.0) -> float:
+        """Pass on the side away from the obstacle when its bearing is known (ideal
+        perception), else on the target's side unless that side is the more obstructed."""
+        if abs(hint) > 0.12:
+            return -1.0 if hint > 0 else 1.0
+        pref = 1.0 if phi_t >= 0 else -1.0
+        if pref > 0 and left < right - 0.3 and left < 2.0:
+            return -1.0
+        if pref < 0 and right < left - 0.3 and right < 2.0:
+            return 1.0
+        return pref
+
+
+# ----------------------------------------------------------------------------- factory
+
+def fuzzynav_controller(goal_path: str | Path = GOAL_PATH, avoid_path: str | Path = AVOID_PATH,
+                        params_path: str | Path = PARAMS_PATH) -> FuzzyNavController:
+    return FuzzyNavController(FuzzySystem.from_toml(goal_path), FuzzySystem.from_toml(avoid_path),
+                              load_params(params_path))
+
+
+def export_fis(directory: str | Path) -> list[Path]:
+    """Write the two blocks as MATLAB .fis files (one per block)."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, path in (("goal", GOAL_PATH), ("avoid", AVOID_PATH)):
+        out = directory / f"fuzzynav_{name}.fis"
+        FuzzySystem.from_toml(path).to_fis(out)
+        paths.append(out)
+    return paths
+
+
+# ----------------------------------------------------------------------------- tuning
+
+class FuzzyNavTunable:
+    """The tuning protocol of ``controller.tuning`` (duck-typed): a vector of the crisp
+    parameters in CRISP_BOUNDS followed by the membership parameters of both blocks.
+    Picklable (holds only plain data and FuzzySystems, which pickle)."""
+
+    name = "fuzzynav"
+
+    def __init__(self, goal_path=GOAL_PATH, avoid_path=AVOID_PATH, params_path=PARAMS_PATH,
+                 tune_memberships: bool = False):
+        self.goal = FuzzySystem.from_toml(goal_path)
+        self.avoid = FuzzySystem.from_toml(avoid_path)
+        self.params = load_params(params_path)
+        self.params_path = Path(params_path)
+        self.goal_path, self.avoid_path = Path(goal_path), Path(avoid_path)
+        self.tune_memberships = tune_memberships
+        self._crisp = list(CRISP_BOUNDS)
+
+    def _mf_names(self) -> list[str]:
+        if not self.tune_memberships:
+            return []
+        return ([f"goal.{n}" for n in self.goal.parameter_names()]
+                + [f"avoid.{n}" for n in self.avoid.parameter_names()])
+
+    def parameter_names(self) -> list[str]:
+        return [f"crisp.{k}" for k in self._crisp] + self._mf_names()
+
+    def initial_vector(self) -> np.ndarray:
+        v = [self.params[k] for k in self._crisp]
+        if self.tune_memberships:
+            v += self.goal.parameter_vector().tolist() + self.avoid.parameter_vector().tolist()
+        return np.array(v, dtype=float)
+
+    def bounds(self) -> list[tuple[float, float]]:
+        b = [CRISP_BOUNDS[k] for k in self._crisp]
+        if self.tune_memberships:
+            for value in np.concatenate([self.goal.parameter_vector(),
+                                         self.avoid.parameter_vector()]):
+                span = max(0.3, 0.3 * abs(value))
+                b.append((value - span, value + span))
+        return b
+
+    def _split(self, vector):
+        vector = np.asarray(vector, dtype=float).ravel()
+        n = len(self._crisp)
+        params = dict(self.params)
+        params.update({k: float(x) for k, x in zip(self._crisp, vector[:n])})
+        goal, avoid = self.goal, self.avoid
+        if self.tune_memberships:
+            ng = len(goal.parameter_vector())
+            goal = goal.with_parameter_vector(vector[n:n + ng])
+            avoid = avoid.with_parameter_vector(vector[n + ng:])
+        return goal, avoid, params
+
+    def build(self, vector) -> FuzzyNavController:
+        goal, avoid, params = self._split(vector)
+        return FuzzyNavController(goal, avoid, params)
+
+    def save(self, vector, path=None) -> list[Path]:
+        goal, avoid, params = self._split(vector)
+        params_path = Path(path) if path is not None else self.params_path
+        written = [write_params(params, params_path)]
+        if self.tune_memberships:
+            base = params_path.parent
+            goal.to_toml(base / "fuzzynav_goal.toml")
+            avoid.to_toml(base / "fuzzynav_avoid.toml")
+            written += [base / "fuzzynav_goal.toml", base / "fuzzynav_avoid.toml"]
+        return written
+
+
+def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:
+    path = Path(path)
+    lines = ["# fuzzynav's crisp parameters (arbitration, memory, escape); see",
+             "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.", "", "[crisp]"]
+    for key in CRISP_DEFAULTS:
+        lines.append(f"{key} = {float(params[key])!r}")
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def tunable(**kwargs) -> FuzzyNavTunable:
+    return FuzzyNavTunable(**kwargs)
