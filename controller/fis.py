@@ -302,7 +302,7 @@ def read_fis(path) -> FuzzySystem:
     """Read a MATLAB .fis file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
     except OSError as e:
         raise FisFormatError(f"{path}: cannot read: {e}") from None
     except UnicodeDecodeError as e:
