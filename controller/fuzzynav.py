@@ -68,7 +68,7 @@ _W_PER_VOLT = 0.62 / 12.0
 _HX, _HY = 0.495, 0.335
 _MOUNTS = ((0.495, 0.75 * 0.335, math.radians(45.0)), (0.495, 0.0, 0.0),
            (0.495, -0.75 * 0.335, math.radians(-45.0)))
-_N_POINTS = 64
+_STORE_RANGE_M = 2.0   # echoes farther than this are not remembered
 
 # The crisp parameters, their defaults (used when the file lacks a key) and tuning bounds.
 CRISP_DEFAULTS: dict[str, float] = {
@@ -91,8 +91,9 @@ CRISP_DEFAULTS: dict[str, float] = {
     "follow_lost_m": 2.0,         # nothing remembered this near: stop following
     "guard_m": 0.8,               # no goal turn towards a passed obstacle nearer than this
     "guard_speed_v": 6.0,         # ... and drives on at this speed
-    "memory_s": 4.0,              # echoes are remembered this long
-    "store_s": 0.1,               # one echo point per beam per store_s
+    "memory_s": 3.0,              # echoes are remembered this long
+    "store_s": 0.2,               # one echo point per beam per store_s
+    "sector_s": 0.04,             # remembered sectors recomputed at the sensors' 25 Hz
     "odo_lag": 0.06,              # dead-reckoning lag factor per period (dt / 0.33 s)
 }
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
@@ -173,6 +174,11 @@ class FuzzyNavController:
         self.params.update(params or {})
         self._merged = merge_blocks(goal, avoid)
         self._eval = self._merged.evaluate_one_list
+        self._eval_goal = goal.evaluate_one_list
+        self._eval_avoid = avoid.evaluate_one_list
+        dt = self.params["control_period_s"]
+        self.store_every = max(1, round(self.params["store_s"] / dt))
+        self.sector_every = max(1, round(self.params["sector_s"] / dt))
         self.reset()
 
     # -- state -------------------------------------------------------------------------
@@ -192,27 +198,27 @@ class FuzzyNavController:
         self.pose = [0.0, 0.0, 0.0]
         self.vel = [0.0, 0.0]
         self.cmd = (0.0, 0.0)
-        n = _N_POINTS
-        self.px = np.zeros(n)
-        self.py = np.zeros(n)
-        self.pt = np.full(n, -np.inf)
-        self.k = 0
-        self.next_store = 0.0
+        self.points: list[tuple[float, float, float]] = []   # (x, y, time stored)
+        self.calls = -1
+        self.mem_sectors = (math.inf, math.inf, math.inf)
 
     def state(self) -> dict:
         return {"t": self.t, "mem": list(self.mem), "side": self.side,
                 "prev_front": self.prev_front, "best_d_t": self.best_d_t,
                 "best_t": self.best_t, "follow": self.follow, "follow_d_t": self.follow_d_t,
                 "follow_t": self.follow_t, "pose": list(self.pose), "vel": list(self.vel),
-                "cmd": self.cmd, "points": int(np.isfinite(self.pt).sum())}
+                "cmd": self.cmd, "points": list(self.points)}
 
     # -- decision ----------------------------------------------------------------------
     def __call__(self, inputs, ranges_m=None):
         p = self.params
         dt = p["control_period_s"]
-        d_t, d_o, phi_t, phi_o = (float(v) for v in inputs)
+        d_t, d_o, phi_t, phi_o = (inputs.tolist() if type(inputs) is np.ndarray
+                                  else [float(v) for v in inputs])
         if ranges_m is None:
             ranges = [math.inf, math.inf, math.inf]
+        elif type(ranges_m) is np.ndarray:
+            ranges = ranges_m.tolist()
         else:
             ranges = [float(v) for v in ranges_m]
         left, front, right = ranges
@@ -229,38 +235,55 @@ class FuzzyNavController:
         pose[2] += vel[1] * dt
         x0, y0, th = pose
         c, s_ = math.cos(th), math.sin(th)
-        # Store echoes (and, in ideal perception, the nearest obstacle) every store_s.
-        if self.t >= self.next_store:
-            self.next_store = self.t + p["store_s"]
-            for (mx, my, ma), r in zip(_MOUNTS, ranges):
-                if r < 3.0:
-                    bx, by = mx + r * math.cos(ma), my + r * math.sin(ma)
-                    self._store(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
-            if d_o == d_o and phi_o == phi_o:
-                cp, sp = math.cos(phi_o), math.sin(phi_o)
-                ext = min(_HX / max(abs(cp), 1e-9), _HY / max(abs(sp), 1e-9))
-                rr = ext + d_o
-                bx, by = rr * cp, rr * sp
-                self._store(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
-        # Remembered points in the body frame: footprint distance per sector.
         fold = math.radians(p["side_fold_deg"])
-        live = self.pt > self.t - p["memory_s"]
-        if live.any():
-            dx = self.px[live] - x0
-            dy = self.py[live] - y0
-            bx = c * dx + s_ * dy
-            by = c * dy - s_ * dx
-            dist = np.hypot(np.maximum(np.abs(bx) - _HX, 0.0), np.maximum(np.abs(by) - _HY, 0.0))
-            ang = np.arctan2(by, bx)
-            fr = np.abs(ang) < fold
-            lf = (ang >= fold) & (ang <= 2.0)
-            rt = (ang <= -fold) & (ang >= -2.0)
-            if fr.any():
-                front = min(front, float(dist[fr].min()))
-            if lf.any():
-                left = min(left, float(dist[lf].min()))
-            if rt.any():
-                right = min(right, float(dist[rt].min()))
+        # At the sensors' rate (store_s): store the echoes (and, in ideal perception, the
+        # nearest obstacle), forget points older than memory_s, and recompute the
+        # remembered footprint distance per sector (held between updates).
+        self.calls += 1
+        if self.calls % self.sector_every == 0:
+            points = self.points
+            if self.calls % self.store_every == 0:
+                for (mx, my, ma), r in zip(_MOUNTS, ranges):
+                    if r < _STORE_RANGE_M:
+                        bx, by = mx + r * math.cos(ma), my + r * math.sin(ma)
+                        points.append((x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, self.t))
+                if d_o == d_o and phi_o == phi_o and d_o < _STORE_RANGE_M:
+                    cp, sp = math.cos(phi_o), math.sin(phi_o)
+                    rr = d_o + min(_HX / max(abs(cp), 1e-9), _HY / max(abs(sp), 1e-9))
+                    bx, by = rr * cp, rr * sp
+                    points.append((x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, self.t))
+            oldest = self.t - p["memory_s"]
+            if points and points[0][2] < oldest:
+                points = self.points = [q for q in points if q[2] >= oldest]
+            m_l = m_f = m_r = math.inf
+            tan_f = math.tan(fold)
+            for px, py, _ in points:
+                dx, dy = px - x0, py - y0
+                bx = c * dx + s_ * dy
+                by = c * dy - s_ * dx
+                if bx < -_HX:          # behind the robot: irrelevant going forward
+                    continue
+                ex = bx - _HX if bx > _HX else 0.0
+                ey = abs(by) - _HY
+                if ey < 0.0:
+                    ey = 0.0
+                d = math.sqrt(ex * ex + ey * ey)
+                if bx > 0.0 and abs(by) < tan_f * bx:
+                    if d < m_f:
+                        m_f = d
+                elif by > 0.0:
+                    if d < m_l:
+                        m_l = d
+                elif d < m_r:
+                    m_r = d
+            self.mem_sectors = (m_l, m_f, m_r)
+        m_l, m_f, m_r = self.mem_sectors
+        if m_l < left:
+            left = m_l
+        if m_f < front:
+            front = m_f
+        if m_r < right:
+            right = m_r
         # Ideal perception: the nearest obstacle all around, folded into its sector (the
         # beams are blind between them and beside the robot).
         hint = 0.0
@@ -318,8 +341,22 @@ class FuzzyNavController:
             side = self.side
             phi = -side * p["follow_bias_rad"]
 
-        g_speed, g_turn, a_speed, a_turn = self._eval(
-            (phi, d_t, min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side))
+        # Arbitration weight: the strength of "near" over the sectors.
+        a_front = _linz(front_eff, p["alpha_front_lo_m"], p["alpha_front_hi_m"])
+        a_side = p["alpha_side_max"] * max(
+            _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
+            _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]))
+        alpha = max(a_front, a_side)
+        # Evaluate only the block(s) that take part (both: one merged call; same numbers).
+        avoid_in = (min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side)
+        if alpha <= 0.0:
+            g_speed, g_turn = self._eval_goal((phi, d_t))
+            a_speed = a_turn = 0.0
+        elif alpha >= 1.0:
+            g_speed = g_turn = 0.0
+            a_speed, a_turn = self._eval_avoid(avoid_in)
+        else:
+            g_speed, g_turn, a_speed, a_turn = self._eval((phi, d_t) + avoid_in)
 
         # While passing on the latched side, the goal block may not turn back towards the
         # obstacle being passed while it is still remembered within guard_m.
@@ -328,11 +365,6 @@ class FuzzyNavController:
                                 or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"])):
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
-        a_front = _linz(front_eff, p["alpha_front_lo_m"], p["alpha_front_hi_m"])
-        a_side = p["alpha_side_max"] * max(
-            _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
-            _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]))
-        alpha = max(a_front, a_side)
         speed = alpha * a_speed + (1.0 - alpha) * g_speed
         turn = alpha * a_turn + (1.0 - alpha) * g_turn
         limit = VOLTAGE_LIMIT_V
@@ -346,13 +378,6 @@ class FuzzyNavController:
                      "avoid": (a_speed, a_turn)}
         self.cmd = (speed - turn, speed + turn)
         return np.array(self.cmd)
-
-    def _store(self, x: float, y: float) -> None:
-        k = self.k
-        self.px[k] = x
-        self.py[k] = y
-        self.pt[k] = self.t
-        self.k = (k + 1) % _N_POINTS
 
     @staticmethod
     def _choose_side(phi_t: float, left: float, right: float, hint: float = 0.0) -> float:

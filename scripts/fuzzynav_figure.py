@@ -1,0 +1,97 @@
+"""Draw docs/img/fuzzynav_design.png: the block diagram and the membership functions.
+
+    .venv/bin/python scripts/fuzzynav_figure.py [OUT.png]
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import matplotlib  # noqa: E402
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import FancyBboxPatch  # noqa: E402
+
+from controller.fuzzy import FuzzySystem  # noqa: E402
+from controller.fuzzynav import AVOID_PATH, GOAL_PATH, load_params  # noqa: E402
+
+
+def box(ax, x, y, w, h, text, colour):
+    ax.add_patch(FancyBboxPatch((x, y), w, h, boxstyle="round,pad=0.02", fc=colour, ec="k"))
+    ax.text(x + w / 2, y + h / 2, text, ha="center", va="center", fontsize=8)
+
+
+def arrow(ax, x0, y0, x1, y1):
+    ax.annotate("", (x1, y1), (x0, y0), arrowprops=dict(arrowstyle="->", lw=1))
+
+
+def diagram(ax, p):
+    ax.set_xlim(0, 10)
+    ax.set_ylim(0, 4)
+    ax.axis("off")
+    box(ax, 0.1, 2.6, 1.8, 1.0, "ultrasonic ranges\nleft / front / right\n(+ d_o, phi_o if ideal)", "#eee")
+    box(ax, 0.1, 0.4, 1.8, 0.9, "target radar\nd_t, phi_t", "#eee")
+    box(ax, 2.4, 2.6, 1.9, 1.0, f"echo memory\n(dead reckoning,\n{p['memory_s']:.1f} s) -> L, F, R", "#ffe9b3")
+    box(ax, 2.4, 1.45, 1.9, 0.85, "side chooser\n(latched) +\nstall -> follow", "#ffe9b3")
+    box(ax, 4.9, 2.6, 1.9, 1.0, "AVOID block\n12 Mamdani rules\n(L, F, R, side)", "#cfe3ff")
+    box(ax, 4.9, 0.4, 1.9, 0.9, "GOAL block\n8 Mamdani rules\n(phi, d_t)", "#cfe3ff")
+    box(ax, 7.3, 1.45, 1.3, 1.0, "blend\nalpha*avoid +\n(1-alpha)*goal", "#d8f5d0")
+    box(ax, 8.9, 1.45, 1.0, 1.0, "mix\nL = s - t\nR = s + t", "#d8f5d0")
+    arrow(ax, 1.9, 3.1, 2.4, 3.1)
+    arrow(ax, 4.3, 3.1, 4.9, 3.1)
+    arrow(ax, 1.9, 0.85, 4.9, 0.85)
+    arrow(ax, 3.35, 2.6, 3.35, 2.3)
+    arrow(ax, 4.3, 1.9, 4.9, 2.8)
+    arrow(ax, 4.3, 1.7, 4.9, 1.0)
+    arrow(ax, 6.8, 3.1, 7.3, 2.2)
+    arrow(ax, 6.8, 0.85, 7.3, 1.7)
+    arrow(ax, 8.6, 1.95, 8.9, 1.95)
+    ax.text(6.9, 2.55, "alpha = near(L, F, R)", fontsize=7, style="italic")
+    ax.set_title("fuzzynav: goal seeking and avoidance, arbitrated by the strength of 'near'",
+                 fontsize=10)
+
+
+def mfs(ax, variable, title):
+    lo, hi = variable.range
+    x = np.linspace(lo, hi, 400)
+    for t in variable.terms:
+        ax.plot(x, t(x), label=t.name)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6, loc="center right")
+    ax.set_ylim(-0.05, 1.05)
+    ax.tick_params(labelsize=7)
+
+
+def main():
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs" / "img" / "fuzzynav_design.png"
+    goal, avoid = FuzzySystem.from_toml(GOAL_PATH), FuzzySystem.from_toml(AVOID_PATH)
+    p = load_params()
+    fig = plt.figure(figsize=(12, 7.5))
+    gs = fig.add_gridspec(3, 3, height_ratios=[1.4, 1, 1])
+    diagram(fig.add_subplot(gs[0, :]), p)
+    mfs(fig.add_subplot(gs[1, 0]), goal.inputs[0], "goal: phi_t (rad, > 0 target on the left)")
+    mfs(fig.add_subplot(gs[1, 1]), goal.inputs[1], "goal: d_t (m)")
+    mfs(fig.add_subplot(gs[1, 2]), avoid.inputs[1], "avoid: front (left/right alike) (m)")
+    mfs(fig.add_subplot(gs[2, 0]), goal.outputs[0], "both: speed (V, common mode)")
+    mfs(fig.add_subplot(gs[2, 1]), goal.outputs[1], "both: turn (V, (right-left)/2)")
+    ax = fig.add_subplot(gs[2, 2])
+    d = np.linspace(0, 3.5, 300)
+    lin = lambda x, a, b: np.clip((b - x) / (b - a), 0, 1)  # noqa: E731
+    ax.plot(d, lin(d, p["alpha_front_lo_m"], p["alpha_front_hi_m"]), label="alpha from front")
+    ax.plot(d, p["alpha_side_max"] * lin(d, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
+            label="alpha from left/right")
+    ax.set_title("arbitration: weight of the avoid block (m)", fontsize=9)
+    ax.legend(fontsize=6)
+    ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=90)
+    print("wrote", out)
+
+
+if __name__ == "__main__":
+    main()
