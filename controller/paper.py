@@ -2,17 +2,191 @@
 
 The rules, ranges, term names and shape kinds are the paper's; the membership
 parameters are ours (the paper's figures are missing) and live in
-``assets/rules/paper.toml``, produced by ``fuzzynav tune``.
+``assets/rules/paper.toml``, produced by ``fuzzynav tune`` (the command is in that
+file's header). ``assets/rules/paper_first_design.toml`` keeps the hand-made first
+design the tuner started from.
+
+Tuning parametrisation (:class:`PaperTunable`, 22 numbers). Every variable is laid out
+by a few ordered "anchor" points built from positive widths, so that every shape is
+valid and the terms stay in the paper's order by construction:
+
+* ``d_t`` (5): anchors a0 < a1 < a2 < a3 < a4 (a0 and four widths);
+  VS = linzmf[a0, a1], S = trimf[a0, a1, a2], M = gaussmf[(a3 - a1)/4.71, a2],
+  L = trimf[a2, a3, a4], VL = linsmf[a3, a4]. (sigma = half the mean neighbour
+  distance / 1.1774: the Gaussian is 0.5 half-way to its neighbours' peaks.)
+* ``d_o`` (3): b0 < b1 < b2; near = linzmf[b0, b1], medium = gaussmf[(b2 - b0)/4.71, b1],
+  far = linsmf[b1, b2].
+* ``phi_t`` (4) and ``phi_o`` (5), symmetric left/right: peak p, width w, zero half-width
+  z, foot f (a fraction of p); VN = linzmf[-(p + w), -p], N = trimf[-(p + w), -p, -f p],
+  Z = trimf[-z, 0, z], P = trimf[f p, p, p + w], VP = linsmf[p, p + w]. Z is a triangle,
+  not a Gaussian: a Gaussian Z never vanishes, so "Z -> both wheels VL" kept firing at a
+  few per cent at large bearings, and the wide VL set it clips pulled the slow wheel up
+  and killed the turn. With f > 0 only Z
+  fires for a small bearing, so the robot drives straight and fast when roughly aligned
+  instead of hovering between "Z: full speed" and "P: hard turn". For ``phi_o`` a fourth number, the tail
+  t, makes VP = trimf[p, p + w, p + w + t] (VN mirrored): an obstacle further round
+  than p + w + t (behind the robot) fires no obstacle rule, instead of Table 1's
+  "VP -> go straight" that would fight the target rules.
+* outputs ``left`` and ``right`` (5, shared: the rules are mirror images):
+  v0 < v1 < v2 < v3 < v4; VS = linzmf[v0, v1], S = trimf[v0, v1, v2],
+  M = trimf[v1, v2, v3], L = trimf[v2, v3, v4], VL = linsmf[v3, v4]. No Gaussian on
+  the outputs: a Gaussian never vanishes, so a rule firing at 0.01 clips it into a thin
+  slab over the whole range and that slab drags the centroid (the first design's M did).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from controller.fis_controller import FisController
+import numpy as np
 
-PAPER_RULES = Path(__file__).resolve().parents[1] / "assets" / "rules" / "paper.toml"
+from controller.fis_controller import FisController
+from controller.fuzzy import FuzzySystem
+
+ASSETS = Path(__file__).resolve().parents[1] / "assets" / "rules"
+PAPER_RULES = ASSETS / "paper.toml"
+FIRST_DESIGN = ASSETS / "paper_first_design.toml"
+
+_K = 4.71  # 2 * sqrt(2 ln 2) * 2: Gaussian at 0.5 half-way to the neighbouring peaks
 
 
 def paper_controller(path: str | Path = PAPER_RULES) -> FisController:
     return FisController.from_toml(path, name="paper")
+
+
+# name, lower, upper, starting value (the first design's layout, with the changes the
+# module doc explains: narrower Z, obstacle terms that end behind the robot)
+_PARAMETERS: list[tuple[str, float, float, float]] = [
+    ("d_t.a0", 0.0, 1.5, 0.3),
+    ("d_t.w1", 0.2, 3.0, 1.2),
+    ("d_t.w2", 0.3, 5.0, 2.0),
+    ("d_t.w3", 0.5, 8.0, 3.5),
+    ("d_t.w4", 0.5, 12.0, 5.0),
+    ("d_o.b0", 0.0, 1.5, 0.5),
+    ("d_o.w1", 0.1, 1.5, 0.8),
+    ("d_o.w2", 0.1, 1.5, 0.8),
+    ("phi_t.peak", 0.05, 1.5, 0.3),
+    ("phi_t.width", 0.05, 2.0, 0.4),
+    ("phi_t.zero", 0.05, 1.5, 0.3),
+    ("phi_t.foot", 0.0, 0.9, 0.0),
+    ("phi_o.peak", 0.05, 1.5, 0.4),
+    ("phi_o.width", 0.05, 2.0, 0.4),
+    ("phi_o.zero", 0.05, 1.5, 0.4),
+    ("phi_o.foot", 0.0, 0.9, 0.0),
+    ("phi_o.tail", 0.1, 3.0, 1.0),
+    ("v.v0", -1.0, 3.0, 0.0),
+    ("v.w1", 0.1, 5.0, 2.5),
+    ("v.w2", 0.3, 5.0, 2.5),
+    ("v.w3", 0.3, 6.0, 5.0),
+    ("v.w4", 0.3, 6.0, 5.0),
+]
+
+
+def _five(x0, widths, middle="gaussmf"):
+    a = np.cumsum([x0, *widths])
+    mid = (("gaussmf", ((a[3] - a[1]) / _K, a[2])) if middle == "gaussmf"
+           else ("trimf", (a[1], a[2], a[3])))
+    return [
+        ("linzmf", (a[0], a[1])),
+        ("trimf", (a[0], a[1], a[2])),
+        mid,
+        ("trimf", (a[2], a[3], a[4])),
+        ("linsmf", (a[3], a[4])),
+    ]
+
+
+def _angles(peak, width, halfwidth, foot, tail=None):
+    outer = peak + width
+    inner = foot * peak
+    if tail is None:  # phi_t: the outer terms hold to +-2 pi
+        vn, vp = ("linzmf", (-outer, -peak)), ("linsmf", (peak, outer))
+    else:  # phi_o: the outer terms fall to 0 at outer + tail (an obstacle behind is ignored)
+        vn = ("trimf", (-outer - tail, -outer, -peak))
+        vp = ("trimf", (peak, outer, outer + tail))
+    return [
+        vn,
+        ("trimf", (-outer, -peak, -inner)),
+        ("trimf", (-halfwidth, 0.0, halfwidth)),
+        ("trimf", (inner, peak, outer)),
+        vp,
+    ]
+
+
+class PaperTunable:
+    """The paper controller's membership functions as 22 bounded numbers (module doc).
+
+    Only membership parameters change: the rules (Table 1), ranges, term names and shape
+    kinds come from the first design and stay as they are.
+    """
+
+    name = "paper"
+
+    def __init__(self, template: str | Path = FIRST_DESIGN):
+        self.template_path = Path(template)
+        self._template = FuzzySystem.from_toml(self.template_path)
+
+    def parameter_names(self) -> list[str]:
+        return [p[0] for p in _PARAMETERS]
+
+    def initial_vector(self) -> np.ndarray:
+        return np.array([p[3] for p in _PARAMETERS])
+
+    def bounds(self) -> list[tuple[float, float]]:
+        return [(p[1], p[2]) for p in _PARAMETERS]
+
+    def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
+        """Shape and parameters of every term, by variable, for ``vector``."""
+        v = np.asarray(vector, dtype=float).ravel()
+        if v.size != len(_PARAMETERS):
+            raise ValueError(f"paper tunable: vector must have {len(_PARAMETERS)} entries, got {v.size}")
+        b = np.cumsum(v[5:8])
+        outputs = _five(v[17], v[18:22], middle="trimf")
+        return {
+            "d_t": _five(v[0], v[1:5]),
+            "d_o": [("linzmf", (b[0], b[1])), ("gaussmf", ((b[2] - b[0]) / _K, b[1])),
+                    ("linsmf", (b[1], b[2]))],
+            "phi_t": _angles(*v[8:12]),
+            "phi_o": _angles(*v[12:17]),
+            "left": outputs,
+            "right": outputs,
+        }
+
+    def system(self, vector) -> FuzzySystem:
+        fis = self._template
+        for var, terms in self.terms(vector).items():
+            variable = next(x for x in fis.inputs + fis.outputs if x.name == var)
+            for term, (shape, params) in zip(variable.term_names, terms):
+                fis = fis.with_term_params(var, term, [float(p) for p in params], shape=shape)
+        return fis
+
+    def build(self, vector) -> FisController:
+        return FisController(self.system(vector), name="paper")
+
+    def save(self, vector, path: Path | None = None, header: str = "") -> list[Path]:
+        from controller.rulebase import dumps_toml
+
+        path = Path(path) if path is not None else PAPER_RULES
+        fis = self.system(vector)
+        fis = fis._replace(description="Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
+                                       "membership functions tuned by fuzzynav tune (not from the paper)")
+        names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
+        lines = [
+            "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",
+            "#",
+            "# From the paper: inputs, outputs, ranges, term names, shape kinds, Mamdani",
+            "# min/max/centroid and the 40 rules of Table 1 (weight 1), unchanged.",
+            "# NOT from the paper: the membership parameters, found by `fuzzynav tune`",
+            "# (controller/paper.py documents the 22-number parametrisation; the hand-made",
+            "# starting point is assets/rules/paper_first_design.toml).",
+            "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
+            "#",
+        ]
+        lines += [f"# {line}" if line else "#" for line in header.splitlines()]
+        lines += [f"# tuned vector: {names}", ""]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("\n".join(lines) + "\n" + dumps_toml(fis), encoding="utf-8")
+        return [path]
+
+
+def tunable() -> PaperTunable:
+    return PaperTunable()

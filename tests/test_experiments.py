@@ -1,0 +1,120 @@
+"""tune, sweep, compare and fis export through the command line (tiny budgets)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.tuning import Case, Objective, run_cost, tune
+from controller.fuzzy import FuzzySystem
+from controller.paper import FIRST_DESIGN
+from controller.registry import make_controller
+from controller.tuning import tunable
+from world.scenario import ObstacleSpec, load_scenario
+
+SWEEP_KEYS = {"controller", "family", "perception", "n", "seed", "success_rate", "safe_success_rate",
+              "reached", "collisions", "timeouts", "median_path_length_m", "median_path_ratio",
+              "median_min_clearance_m", "wall_time_s", "runs"}
+
+
+def tiny_case():
+    sc = load_scenario("s1").replace(target=(2.5, 0.5), duration_s=4.0,
+                                     obstacles=(ObstacleSpec((1.5, -1.2), 0.2),))
+    return [Case(sc, "ideal", "tiny")]
+
+
+def test_tune_is_reproducible_with_the_same_seed():
+    t = tunable("paper")
+    runs = [tune(t, tiny_case(), maxiter=1, popsize=1, seed=7, control_period_s=0.1) for _ in range(2)]
+    assert np.array_equal(runs[0].x, runs[1].x) and runs[0].fun == runs[1].fun
+    other = tune(t, tiny_case(), maxiter=1, popsize=1, seed=8, control_period_s=0.1)
+    assert not np.array_equal(other.x, runs[0].x)
+
+
+def test_cost_prefers_reaching_over_timeout_over_collision():
+    t = tunable("paper")
+    objective = Objective(t, [Case(load_scenario("s1"), "ideal", "s1")], control_period_s=0.1)
+    [result] = objective.runs(t.initial_vector())
+    cost = run_cost(result)
+    if result.outcome == "reached":
+        assert cost < 10
+    elif result.collided:
+        assert cost >= 20
+    else:
+        assert 10 <= cost < 20 + 20
+
+
+def test_tune_cli_writes_a_valid_rule_base(tmp_path, capsys):
+    out = tmp_path / "tuned.toml"
+    assert main(["tune", "--scenarios", "s1", "--perception", "ideal", "--maxiter", "1",
+                 "--popsize", "1", "--workers", "1", "--dt", "0.1", "--seed", "3",
+                 "--out", str(out), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["written"] == [str(out)] and data["generations"] == 1
+    assert "fuzzynav tune" in data["command"] and "--seed 3" in data["command"]
+    fis = FuzzySystem.from_toml(out)
+    assert fis.rules == FuzzySystem.from_toml(FIRST_DESIGN).rules
+    assert data["command"] in out.read_text()
+
+
+def test_tune_cli_bad_input(capsys):
+    assert main(["tune", "--controller", "nope", "--maxiter", "1"]) == 2
+    assert main(["tune", "--perception", "sonar", "--maxiter", "1"]) == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_sweep_json(capsys):
+    assert main(["sweep", "--n", "2", "--seed", "5", "--controller", "paper", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert SWEEP_KEYS <= set(data)
+    assert data["n"] == 2 and len(data["runs"]) == 2 and 0 <= data["success_rate"] <= 1
+    assert data["reached"] + data["collisions"] + data["timeouts"] >= 2 - data["reached"]
+
+
+def test_sweep_bad_input(capsys):
+    assert main(["sweep", "--n", "0"]) == 2
+    assert main(["sweep", "--n", "1", "--workers", "8"]) == 2
+
+
+def test_compare_json(capsys):
+    assert main(["compare", "--controllers", "paper,baseline", "--sweep-n", "1", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["controllers"] == ["paper", "baseline"]
+    assert len(data["rows"]) == 6
+    row = data["rows"][0]
+    for key in ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m", "min_clearance_m",
+                "time_to_target_s", "reached", "collided", "paper"):
+        assert key in row
+    assert row["paper"]["path_length_m"] == pytest.approx(11.8332)
+    assert data["rows"][3]["paper"]["path_length_m"] == pytest.approx(12.4996)
+    assert len(data["sweeps"]) == 2 and "runs" not in data["sweeps"][0]
+    assert main(["compare", "--controllers", "nope"]) == 2
+
+
+def test_compare_table(capsys):
+    assert main(["compare", "--controllers", "baseline"]) == 0
+    out = capsys.readouterr().out
+    assert "stand-in" in out and "12.5" in out
+
+
+def test_fis_export_round_trip(tmp_path, capsys):
+    path = tmp_path / "paper.fis"
+    assert main(["fis", "export", str(path)]) == 0
+    text = path.read_text()
+    for label in ("'d_t'", "'d_o'", "'phi_t'", "'phi_o'", "'left'", "'right'", "'VS'", "'near'",
+                  "'medium'", "'far'", "'VN'", "'VP'"):
+        assert label in text
+    assert FuzzySystem.from_fis(path) == make_controller("paper").fis
+    capsys.readouterr()
+    assert main(["run", "s1", "--fis", str(path), "--json"]) == 0
+    via_fis = json.loads(capsys.readouterr().out)
+    assert main(["run", "s1", "--controller", "paper", "--json"]) == 0
+    via_toml = json.loads(capsys.readouterr().out)
+    for key in ("outcome", "path_length_m", "min_clearance_m", "steps"):
+        assert via_fis[key] == via_toml[key]
+
+
+def test_fis_export_bad_path(tmp_path, capsys):
+    assert main(["fis", "export", str(tmp_path / "x.txt")]) == 2
+    assert main(["fis", "export", str(tmp_path / "missing" / "x.fis")]) == 2
