@@ -94,7 +94,9 @@ CRISP_DEFAULTS: dict[str, float] = {
     "memory_s": 3.0,              # echoes are remembered this long
     "store_s": 0.2,               # one echo point per beam per store_s
     "sector_s": 0.04,             # remembered sectors recomputed at the sensors' 25 Hz
-    "odo_lag": 0.06,              # dead-reckoning lag factor per period (dt / 0.33 s)
+    "odo_lag": 0.06,
+    "arrive_m": 1.5,              # avoidance yields to the goal this near the target
+    "memory_creep_mps": 0.15,     # remembered echoes count as nearer by this x their age              # dead-reckoning lag factor per period (dt / 0.33 s)
 }
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
     "alpha_front_lo_m": (0.2, 0.9),
@@ -187,6 +189,7 @@ class FuzzyNavController:
         self.mem = [math.inf, math.inf, math.inf]   # remembered left, front, right (m)
         self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
+        self.prev_obstacle = (math.nan, math.nan)
         self.best_d_t = math.inf   # best target distance during the progress window
         self.best_t = 0.0
         self.follow = False        # boundary following (escape) active
@@ -204,7 +207,8 @@ class FuzzyNavController:
 
     def state(self) -> dict:
         return {"t": self.t, "mem": list(self.mem), "side": self.side,
-                "prev_front": self.prev_front, "best_d_t": self.best_d_t,
+                "prev_front": self.prev_front, "prev_obstacle": self.prev_obstacle,
+                "best_d_t": self.best_d_t,
                 "best_t": self.best_t, "follow": self.follow, "follow_d_t": self.follow_d_t,
                 "follow_t": self.follow_t, "pose": list(self.pose), "vel": list(self.vel),
                 "cmd": self.cmd, "points": list(self.points)}
@@ -215,6 +219,7 @@ class FuzzyNavController:
         dt = p["control_period_s"]
         d_t, d_o, phi_t, phi_o = (inputs.tolist() if type(inputs) is np.ndarray
                                   else [float(v) for v in inputs])
+        d_o_raw = d_o
         if ranges_m is None:
             ranges = [math.inf, math.inf, math.inf]
         elif type(ranges_m) is np.ndarray:
@@ -247,17 +252,14 @@ class FuzzyNavController:
                     if r < _STORE_RANGE_M:
                         bx, by = mx + r * math.cos(ma), my + r * math.sin(ma)
                         points.append((x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, self.t))
-                if d_o == d_o and phi_o == phi_o and d_o < _STORE_RANGE_M:
-                    cp, sp = math.cos(phi_o), math.sin(phi_o)
-                    rr = d_o + min(_HX / max(abs(cp), 1e-9), _HY / max(abs(sp), 1e-9))
-                    bx, by = rr * cp, rr * sp
-                    points.append((x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, self.t))
             oldest = self.t - p["memory_s"]
             if points and points[0][2] < oldest:
                 points = self.points = [q for q in points if q[2] >= oldest]
             m_l = m_f = m_r = math.inf
             tan_f = math.tan(fold)
-            for px, py, _ in points:
+            creep = p["memory_creep_mps"]
+            now = self.t
+            for px, py, pt in points:
                 dx, dy = px - x0, py - y0
                 bx = c * dx + s_ * dy
                 by = c * dy - s_ * dx
@@ -267,7 +269,9 @@ class FuzzyNavController:
                 ey = abs(by) - _HY
                 if ey < 0.0:
                     ey = 0.0
-                d = math.sqrt(ex * ex + ey * ey)
+                # A remembered echo may have moved since (a moving obstacle): it counts
+                # as nearer by memory_creep_mps x its age.
+                d = math.sqrt(ex * ex + ey * ey) - creep * (now - pt)
                 if bx > 0.0 and abs(by) < tan_f * bx:
                     if d < m_f:
                         m_f = d
@@ -287,7 +291,17 @@ class FuzzyNavController:
         # Ideal perception: the nearest obstacle all around, folded into its sector (the
         # beams are blind between them and beside the robot).
         hint = 0.0
-        if d_o == d_o and phi_o == phi_o:
+        if not (d_o == d_o and phi_o == phi_o):
+            self.prev_obstacle = (math.nan, math.nan)
+        else:
+            # An obstacle closing faster than our own motion explains is moving towards
+            # us: it counts as nearer by ttc_gain_s x that excess speed.
+            prev_d, prev_phi = self.prev_obstacle
+            if prev_d == prev_d and abs(phi_o - prev_phi) < 0.3:
+                excess = (prev_d - d_o) / dt - vel[0] * math.cos(phi_o)
+                if excess > 0.05:
+                    d_o = max(0.0, d_o - p["ttc_gain_s"] * min(excess, 0.5))
+            self.prev_obstacle = (d_o_raw, phi_o)
             a = abs(phi_o)
             if a < fold:
                 front = min(front, d_o)
@@ -346,6 +360,13 @@ class FuzzyNavController:
         a_side = p["alpha_side_max"] * max(
             _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
             _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]))
+        # Arriving: an obstacle beside the robot, or ahead but beyond the target, yields
+        # to the goal block as the target gets within arrive_m.
+        if d_t < p["arrive_m"]:
+            k = d_t / p["arrive_m"]
+            a_side *= k
+            if front_eff > d_t:
+                a_front *= k
         alpha = max(a_front, a_side)
         # Evaluate only the block(s) that take part (both: one merged call; same numbers).
         avoid_in = (min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side)
@@ -361,7 +382,8 @@ class FuzzyNavController:
         # While passing on the latched side, the goal block may not turn back towards the
         # obstacle being passed while it is still remembered within guard_m.
         # It drives on instead (the goal block alone would turn in place).
-        if not self.follow and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
+        # Not when the target is nearer than the obstacle being passed.
+        if not self.follow and d_t > min(left, right) + 0.5 and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
                                 or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"])):
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
