@@ -2,7 +2,7 @@
 
 Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
 
-    ranges (left, front, right) --+--> sector memory --> L, F, R --+--> AVOID block --+
+    ranges (left, front, right) --+--> echo memory ----> L, F, R --+--> AVOID block --+
     d_o, phi_o (ideal only) ------+                                 |   (L, F, R, side)|
                                                      side chooser --+                  |--> blend --> mix --> (left, right) V
     d_t, phi_t --> [escape: virtual bearing] ------> GOAL block (phi, d_t) ------------+
@@ -11,31 +11,41 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
 1. **Sectors.** The three ultrasonic readings give the distance seen to the left (+45 deg),
    ahead and to the right (-45 deg). The same readings exist in both perception modes, so
    the design works in both. In ``ideal`` perception the nearest obstacle all around
-   (``d_o``, ``phi_o``) is folded into the left or right sector when it is beside the robot
-   (where the beams are blind); in ``ultrasonic`` mode ``d_o``/``phi_o`` are made from the
-   beams anyway. A short **memory** keeps what a beam saw: a remembered distance grows
-   back at ``memory_grow_mps`` once the beam loses the obstacle, so the robot does not turn
-   back into an obstacle that has just left its beam while still beside it.
-2. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
+   (``d_o``, ``phi_o``) is folded into its sector (ahead within ``side_fold_deg``, else left
+   or right), which covers the gaps between the beams and the robot's flanks; in
+   ``ultrasonic`` mode ``d_o``/``phi_o`` come from the beams anyway.
+2. **Echo memory** (state, cleared by :meth:`reset`). Every ``store_s`` the echoes nearer
+   than 2 m are stored as points in an odometry frame (dead reckoning from the voltages
+   this controller commanded, with the plant's gains and lag); they are forgotten after
+   ``memory_s``. At the sensors' 25 Hz the remembered footprint distance per sector is
+   recomputed, a remembered point counting as nearer by ``memory_creep_mps`` x its age (it
+   may have been a moving obstacle). So an obstacle that has left the beams while beside the
+   robot still holds it off. A remembered sector distance also grows back only at
+   ``memory_grow_mps``.
+3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
    speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
    robot never orbits its target (the paper's trap: its outputs cannot go negative).
-3. **Avoidance block** (12 rules): left / front / right distance (near medium far) and the
+4. **Avoidance block** (13 rules): left / front / right distance (near medium far) and the
    chosen side -> speed and turn. Close ahead it backs off and turns hard to the chosen
    side; close beside, it turns away; passing at a medium distance it holds its heading.
-4. **Side chooser** (crisp, with memory): when something appears ahead the robot picks the
-   side to pass on (the target's side, unless that side is the more obstructed one) and
-   *latches* it until the front is clear again, so it never dithers between two sides.
-5. **Arbitration**: ``alpha`` = the strength of "near" over the sectors (a linear-Z of
-   the front distance, and a weaker one of the side distances); the command is
-   ``alpha * avoid + (1 - alpha) * goal``. Avoidance takes precedence as obstacles get near.
-6. **Escape from local minima** (memory): if the target distance has not improved for
-   ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side: the
-   goal block is fed a virtual bearing that pulls towards that boundary, until the robot
-   is ``leave_margin_m`` closer to the target than where it got stuck (the Bug-2 idea).
-7. **Moving obstacles**: the front reading's rate of change is watched; an obstacle that
-   closes faster than the robot drives is treated as nearer (time-to-contact), so the
-   robot slows and yields earlier.
-8. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
+5. **Side chooser** (crisp, with memory): when something appears ahead (``latch_front_m``)
+   the robot picks the side to pass on (away from the obstacle's bearing when known, else
+   the target's side unless that side is the more obstructed) and *latches* it until the
+   front is clear again, so it never dithers between two sides. While an obstacle is being
+   passed (within ``guard_m`` on the far side), the goal block may not turn back into it.
+6. **Arbitration**: ``alpha`` = the strength of "near" over the sectors (a linear-Z of
+   the front distance, and one of the side distances); the command is
+   ``alpha * avoid + (1 - alpha) * goal``: avoidance takes precedence as obstacles get near.
+   Within ``arrive_m`` of the target, obstacles beside (or beyond the target) yield.
+7. **Moving obstacles**: the front reading's rate of change, and in ideal perception the
+   nearest obstacle's, are watched; an obstacle closing faster than the robot's own motion
+   explains counts as nearer by ``ttc_gain_s`` x the excess speed (time to contact), so the
+   robot turns away and slows earlier.
+8. **Escape from local minima** (memory): if the target distance has not improved for
+   ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side (the
+   goal block is fed a virtual bearing towards it) until it is ``leave_margin_m`` closer to
+   the target than where it got stuck (the Bug-2 idea), or loses the boundary.
+9. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
    reduced, never the turn (the loop's saturation would otherwise eat the turn).
 
 Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``

@@ -37,7 +37,7 @@ def diagram(ax, p):
     box(ax, 0.1, 0.4, 1.8, 0.9, "target radar\nd_t, phi_t", "#eee")
     box(ax, 2.4, 2.6, 1.9, 1.0, f"echo memory\n(dead reckoning,\n{p['memory_s']:.1f} s) -> L, F, R", "#ffe9b3")
     box(ax, 2.4, 1.45, 1.9, 0.85, "side chooser\n(latched) +\nstall -> follow", "#ffe9b3")
-    box(ax, 4.9, 2.6, 1.9, 1.0, "AVOID block\n12 Mamdani rules\n(L, F, R, side)", "#cfe3ff")
+    box(ax, 4.9, 2.6, 1.9, 1.0, "AVOID block\n13 Mamdani rules\n(L, F, R, side)", "#cfe3ff")
     box(ax, 4.9, 0.4, 1.9, 0.9, "GOAL block\n8 Mamdani rules\n(phi, d_t)", "#cfe3ff")
     box(ax, 7.3, 1.45, 1.3, 1.0, "blend\nalpha*avoid +\n(1-alpha)*goal", "#d8f5d0")
     box(ax, 8.9, 1.45, 1.0, 1.0, "mix\nL = s - t\nR = s + t", "#d8f5d0")
