@@ -1,0 +1,1099 @@
+"""Every run as a rerun recording: the 2D world, the paper's time series and more.
+
+``record_run(result, path)`` writes one finished (or interrupted) run to a ``.rrd`` file;
+:class:`LiveRecorder` appends the steps of a running simulation in chunks, for the
+viewer. Both send whole columns on the timeline ``sim_time`` (a duration, nanosecond
+resolution), never one call per step: the entities that have a row at every step go
+out together as one Arrow record batch (``RecordingStream.send_record_batch``: one
+chunk per entity, as ``send_columns`` would make, for one call instead of ~70 of
+them); the obstacles and the target, logged only where they change, with
+``send_columns``; styles (colours, names, radii) once, as static components.
+
+Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
+
+    /world                                  the map; y is up (see "Orientation" below)
+      /robot/footprint                      LineStrips2D: closed outline of the real footprint
+      /robot/heading                        Arrows2D from the centre along the heading
+      /robot/trail                          LineStrips2D: the segment travelled in each step
+                                            (the default view shows every segment up to the cursor)
+      /obstacles/{id}/body                  Points2D of the obstacle's radius (moving ones move)
+      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface
+      /obstacles/{id}/path                  LineStrips2D segments of a moving obstacle's path
+      /target                               Points2D, radius = arrival tolerance
+      /start, /ideal_line                   static: the start, the straight start-target line
+      /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
+      /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
+    /plots                                  Scalars; one entity per series
+      /distance/target, /distance/obstacle_{id}      paper Fig. 13 (centre to centre)
+      /angles/phi_t, /angles/heading                 Fig. 14 (phi_t from the geometry)
+      /obstacle_angles/obstacle_{id}                 Fig. 15 (bearing of each obstacle)
+      /voltage/left, /voltage/right                  Fig. 16 (applied, after saturation)
+      /voltage/left_command, /voltage/right_command  before saturation
+      /voltage/limit_upper, /voltage/limit_lower     the +-12 V saturation
+      /inputs/d_t, /inputs/d_o, /inputs/phi_t, /inputs/phi_o   as the controller saw them
+      /clearance/obstacle_{id}, /clearance/safe      footprint to surface, and 0.25 m
+      /wheels/w_LW, /wheels/w_RW                     wheel speeds (rad/s)
+      /velocity/v, /velocity/w                       v_MH (m/s), w_JH (rad/s)
+      /current/i_L1, /current/i_L2                   motor currents (A)
+      /ranges/{sensor}                               sensor readings (m); NaN = no echo
+      /disturbance                                   value added to the inputs
+      /rules                                         fuzzy controllers only: the firing
+                                                     strength of every rule, one instance
+                                                     (series R1, R2, ...) per rule
+    /meta                                   static TextDocuments
+      /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
+
+The default blueprint (sent first, so that a viewer opening a file still loading uses
+it) puts the world on the left and the paper's figures stacked on the right, with tabs
+for the plant, the sensors, the rules and the run's documents.
+
+Row conventions follow :mod:`world.simulation`: row k holds the state at ``time_s[k]``;
+the voltages of the last row are NaN (no decision follows it), and are logged as NaN.
+A sensor reading of ``inf`` (no echo) is logged as NaN so that plots show a gap. The
+hit point is drawn on the beam's axis at the reading's distance: the log keeps the
+range, not which ray of the cone echoed. Readings are held between sensor updates
+(25 Hz) while the robot moves on, so a hit point may lag its obstacle by one update.
+
+Orientation: rerun's 2D views draw y downwards (rerun issue #1387). ``/world`` carries
+a static ``Transform3D`` that mirrors y, and the default view has origin ``/``, so the
+map is drawn with y up, as in the paper's figures; the logged coordinates are the
+simulation's own.
+
+``rerun`` and ``pyarrow`` are imported inside the functions: the command line imports
+this module for its options on every call.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+import platform
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+TIMELINE = "sim_time"
+APPLICATION_ID = "fuzzynav"
+SAFE_DISTANCE_M = 0.25
+HEADING_ARROW_M = 0.7
+RING_SEGMENTS = 48
+
+# Colours (RGB).
+ROBOT = (40, 110, 220)
+TRAIL = (40, 110, 220)
+TARGET = (30, 160, 60)
+OBSTACLE = (200, 60, 50)
+SAFE_RING = (240, 150, 40)
+OBSTACLE_PATH = (150, 60, 160)
+SENSOR_COLORS = {"left": (0, 170, 200), "front": (120, 120, 120), "right": (200, 0, 170)}
+SERIES_PALETTE = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14),
+                  (148, 103, 189), (140, 86, 75), (227, 119, 194), (127, 127, 127),
+                  (188, 189, 34), (23, 190, 207)]
+# Obstacle series: no green (the target's) and no blue (the robot's).
+OBSTACLE_PALETTE = [(214, 39, 40), (255, 127, 14), (148, 103, 189), (140, 86, 75),
+                    (227, 119, 194), (188, 189, 34), (23, 190, 207), (127, 127, 127)]
+
+
+# ---------------------------------------------------------------------------------------
+# Checks
+
+
+def check_writable_file(path) -> Path:
+    """Raise ValueError (with the reason) unless a file can be written at ``path``.
+
+    The check creates nothing that stays: a file that did not exist is removed again.
+    """
+    path = Path(path)
+    if path.exists() and path.is_dir():
+        raise ValueError(f"--rrd {path}: is a directory, not a file")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.exists():
+        raise ValueError(f"--rrd {path}: directory {parent} does not exist")
+    if not parent.is_dir():
+        raise ValueError(f"--rrd {path}: {parent} is not a directory")
+    existed = path.exists()
+    try:
+        with open(path, "ab"):
+            pass
+    except OSError as exc:
+        raise ValueError(f"--rrd {path}: cannot write there ({exc.strerror or exc})") from None
+    if not existed:
+        try:
+            path.unlink()
+        except OSError:
+            pass
+    return path
+
+
+# ---------------------------------------------------------------------------------------
+# Geometry helpers (vectorised over steps)
+
+
+def _time_column(time_s: np.ndarray):
+    import rerun as rr
+
+    nanos = np.round(np.asarray(time_s, dtype=float) * 1e9).astype(np.int64)
+    return rr.TimeColumn(TIMELINE, duration=nanos.astype("timedelta64[ns]"))
+
+
+def _wrap(angle):
+    return np.mod(angle + math.pi, 2.0 * math.pi) - math.pi
+
+
+def footprint_outlines(pose: np.ndarray, length_m: float, width_m: float) -> np.ndarray:
+    """(n, 5, 2): the closed outline of the footprint at every pose."""
+    hl, hw = 0.5 * length_m, 0.5 * width_m
+    corners = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw), (hl, hw)])
+    c, s = np.cos(pose[:, 2])[:, None], np.sin(pose[:, 2])[:, None]
+    x = pose[:, 0:1] + c * corners[:, 0] - s * corners[:, 1]
+    y = pose[:, 1:2] + s * corners[:, 0] + c * corners[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def _circle(radius: float) -> np.ndarray:
+    a = np.linspace(0.0, 2.0 * math.pi, RING_SEGMENTS + 1)
+    return np.stack([radius * np.cos(a), radius * np.sin(a)], axis=-1)
+
+
+def sensor_geometry(pose: np.ndarray, sensor_config) -> tuple[np.ndarray, np.ndarray]:
+    """(origins (n, k, 2), directions (n, k)) of the k sensors at every pose, the same
+    geometry as ``RangeSensorArray.beam_geometry``."""
+    mounts = sensor_config.mounts
+    mx = np.array([m.x_m for m in mounts])
+    my = np.array([m.y_m for m in mounts])
+    ma = np.array([m.angle_rad for m in mounts])
+    h = pose[:, 2:3]
+    c, s = np.cos(h), np.sin(h)
+    ox = pose[:, 0:1] + c * mx - s * my
+    oy = pose[:, 1:2] + s * mx + c * my
+    return np.stack([ox, oy], axis=-1), h + ma
+
+
+def obstacle_bearings(pose: np.ndarray, obstacle_xy: np.ndarray) -> np.ndarray:
+    """(n, n_obstacles): bearing of each obstacle's centre from the heading, (-pi, pi]."""
+    dx = obstacle_xy[:, :, 0] - pose[:, 0:1]
+    dy = obstacle_xy[:, :, 1] - pose[:, 1:2]
+    out = _wrap(np.arctan2(dy, dx) - pose[:, 2:3])
+    return np.where(out == -math.pi, math.pi, out)
+
+
+def target_geometry(pose: np.ndarray, target_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance, bearing phi_t) of the target at every pose."""
+    dx = target_xy[:, 0] - pose[:, 0]
+    dy = target_xy[:, 1] - pose[:, 1]
+    phi = _wrap(np.arctan2(dy, dx) - pose[:, 2])
+    return np.hypot(dx, dy), np.where(phi == -math.pi, math.pi, phi)
+
+
+# ---------------------------------------------------------------------------------------
+# What a run is recorded with
+
+
+def _sensor_config(sensors):
+    from world.sensors import SensorConfig
+
+    if sensors is None:
+        return SensorConfig()
+    return getattr(sensors, "config", sensors)
+
+
+def _parameters(parameters):
+    if parameters is not None:
+        return parameters
+    from world.husky import HuskyModel
+
+    return HuskyModel.default().parameters
+
+
+def controller_fis(controller):
+    """The controller's ``FuzzySystem`` (its ``fis`` attribute), or None."""
+    fis = getattr(controller, "fis", None) if controller is not None else None
+    if fis is None or not hasattr(fis, "firing_strengths"):
+        return None
+    return fis
+
+
+def controller_label(controller) -> str:
+    if controller is None:
+        return "unknown"
+    name = getattr(controller, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    return type(controller).__name__
+
+
+RULES_PATH = "/plots/rules"
+
+
+def series_paths(obstacle_ids, sensor_names) -> list[str]:
+    """Every single-series time-series entity of a recording (for tests and tools); a
+    fuzzy controller's rules are one more entity, :data:`RULES_PATH`, with one instance
+    per rule."""
+    paths = ["/plots/distance/target", "/plots/angles/phi_t", "/plots/angles/heading",
+             "/plots/voltage/left", "/plots/voltage/right", "/plots/voltage/left_command",
+             "/plots/voltage/right_command", "/plots/voltage/limit_upper",
+             "/plots/voltage/limit_lower", "/plots/inputs/d_t", "/plots/inputs/d_o",
+             "/plots/inputs/phi_t", "/plots/inputs/phi_o", "/plots/clearance/safe",
+             "/plots/wheels/w_LW", "/plots/wheels/w_RW", "/plots/velocity/v",
+             "/plots/velocity/w", "/plots/current/i_L1", "/plots/current/i_L2",
+             "/plots/disturbance"]
+    for i in obstacle_ids:
+        paths += [f"/plots/distance/obstacle_{i}", f"/plots/obstacle_angles/obstacle_{i}",
+                  f"/plots/clearance/obstacle_{i}"]
+    paths += [f"/plots/ranges/{name}" for name in sensor_names]
+    return paths
+
+
+# ---------------------------------------------------------------------------------------
+# Static styling: one record batch for every entity's colours, radii, labels and names
+
+
+@functools.cache
+def _component_types() -> dict:
+    """(archetype, field) -> (descriptor, arrow type), read once from the SDK itself, so
+    that the record batches below carry exactly the metadata ``rr.log`` would."""
+    import rerun as rr
+
+    samples = (rr.SeriesLines(names="x", colors=[(0, 0, 0)], widths=1.0),
+               rr.Scalars(scalars=[0.0]),
+               rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x"),
+               rr.LineStrips2D(strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)],
+                               labels="x"),
+               rr.Arrows2D(vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)]))
+    out = {}
+    for sample in samples:
+        for batch in sample.as_component_batches():
+            d = batch.component_descriptor()
+            archetype = d.archetype.rsplit(".", 1)[-1]
+            out[(archetype, d.component.split(":", 1)[1])] = (d, batch.as_arrow_array().type)
+    return out
+
+
+class _ArrowBatch:
+    """A ready Arrow array as a component batch (rerun's ComponentBatchLike protocol)."""
+
+    def __init__(self, descriptor, array):
+        self._descriptor, self._array = descriptor, array
+
+    def component_descriptor(self):
+        return self._descriptor
+
+    def as_arrow_array(self):
+        return self._array
+
+
+def _vec2_array(archetype: str, name: str, xy):
+    """2D vectors (positions, origins, vectors) as the component's Arrow array."""
+    import pyarrow as pa
+
+    _, arrow_type = _component_types()[(archetype, name)]
+    flat = pa.array(np.ascontiguousarray(xy, dtype=np.float32).reshape(-1))
+    return pa.FixedSizeListArray.from_arrays(flat, type=arrow_type)
+
+
+def _strips_array(strips: np.ndarray):
+    """Line strips from an (n, k, 2) array (strip i has k points) as the LineStrip2D
+    Arrow array, straight from numpy (the SDK's converter loops over strips in Python)."""
+    import pyarrow as pa
+
+    _, arrow_type = _component_types()[("LineStrips2D", "strips")]
+    n, k = strips.shape[0], strips.shape[1]
+    flat = pa.array(np.ascontiguousarray(strips, dtype=np.float32).reshape(-1))
+    points = pa.FixedSizeListArray.from_arrays(flat, type=arrow_type.value_type)
+    offsets = pa.array(np.arange(0, n * k + 1, k, dtype=np.int32))
+    return pa.ListArray.from_arrays(offsets, points, type=arrow_type)
+
+
+def _column(archetype: str, name: str, array, lengths=None):
+    """A ready Arrow array as a ``send_columns`` column: one instance per row unless
+    ``lengths`` says how many each row holds."""
+    import rerun as rr
+
+    descriptor, _ = _component_types()[(archetype, name)]
+    return rr.ComponentColumn(descriptor, _ArrowBatch(descriptor, array), lengths=lengths)
+
+
+@functools.cache
+def _component_field(entity: str, archetype: str, name: str):
+    import pyarrow as pa
+
+    descriptor, arrow_type = _component_types()[(archetype, name)]
+    field = pa.field(f"{entity}:{descriptor.component}", pa.list_(arrow_type),
+                     metadata={"rerun:entity_path": entity,
+                               "rerun:archetype": descriptor.archetype,
+                               "rerun:component": descriptor.component,
+                               "rerun:component_type": descriptor.component_type,
+                               "rerun:kind": "data"})
+    return field, arrow_type
+
+
+class _StaticBatch:
+    """Static components of many entities, sent as one record batch (one chunk each)."""
+
+    def __init__(self):
+        self.fields: list = []
+        self.arrays: list = []
+
+    def add(self, entity: str, archetype: str, **components) -> None:
+        import pyarrow as pa
+
+        for name, value in components.items():
+            values = value if isinstance(value, list) else [value]   # a list: instances
+            if name == "colors":
+                values = [_rgba(v) for v in values]
+            field, arrow_type = _component_field(entity, archetype, name)
+            self.fields.append(field)
+            self.arrays.append(pa.array([values], type=field.type))
+
+    def send(self, rec) -> None:
+        import pyarrow as pa
+
+        if not self.fields:
+            return
+        batch = pa.RecordBatch.from_arrays(self.arrays, schema=pa.schema(self.fields))
+        rec.send_record_batch(batch, index=None)
+        self.fields, self.arrays = [], []
+
+
+class _RowBatch:
+    """Whole columns of many entities that share one time column (one row per step),
+    sent as a single Arrow record batch: ``Chunk.from_record_batch`` makes one chunk per
+    entity, the chunks ``send_columns`` would make, for one call instead of one per
+    entity (about 0.3 ms each, which adds up over ~70 series and every live chunk)."""
+
+    def __init__(self, time_s: np.ndarray):
+        import pyarrow as pa
+
+        nanos = np.round(np.asarray(time_s, dtype=float) * 1e9).astype(np.int64)
+        self.n = len(nanos)
+        self.fields = [pa.field(TIMELINE, pa.duration("ns"))]
+        self.arrays = [pa.array(nanos.astype("timedelta64[ns]"), type=pa.duration("ns"))]
+        self.unit_offsets = pa.array(np.arange(self.n + 1, dtype=np.int32))
+
+    def add(self, entity: str, archetype: str, name: str, instances, lengths=None) -> None:
+        """``instances``: the component's Arrow array; one per row, or ``lengths[i]``
+        of them in row i."""
+        import pyarrow as pa
+
+        field, _ = _component_field(entity, archetype, name)
+        if lengths is None:
+            offsets = self.unit_offsets
+        else:
+            offsets = pa.array(np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32))
+        self.fields.append(field)
+        self.arrays.append(pa.ListArray.from_arrays(offsets, instances))
+
+    def add_scalars(self, entity: str, values) -> None:
+        import pyarrow as pa
+
+        values = pa.array(np.ascontiguousarray(values, dtype=np.float64), type=pa.float64())
+        self.add(entity, "Scalars", "scalars", values)
+
+    def send(self, rec) -> None:
+        import pyarrow as pa
+
+        if len(self.fields) > 1:
+            batch = pa.RecordBatch.from_arrays(self.arrays, schema=pa.schema(self.fields))
+            rec.send_record_batch(batch, index=TIMELINE)
+
+
+# ---------------------------------------------------------------------------------------
+# The column writer shared by record_run and LiveRecorder
+
+
+class _ColumnWriter:
+    """Sends rows [start, end) of a SimulationLog as columns; remembers what it sent so
+    that the next chunk continues it (trail segments, obstacle changes, styles)."""
+
+    def __init__(self, rec, *, footprint_m, sensor_config, voltage_limit_v: float,
+                 fis=None, tolerance_m: float = 0.15):
+        self.rec = rec
+        self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
+        self.sensor_config = sensor_config
+        self.sensor_names = [m.name for m in sensor_config.mounts]
+        self.voltage_limit_v = float(voltage_limit_v)
+        self.fis = fis
+        self.fis_error: str | None = None
+        self.tolerance_m = float(tolerance_m)
+        self.sent = 0
+        self._styled: set[str] = set()
+        self._static = _StaticBatch()
+        self._obstacles: dict[int, tuple[bool, tuple[float, float]]] = {}
+        self._target: tuple[float, float] | None = None
+        self.obstacle_ids: list[int] = []
+        self.n_rules = 0
+
+    # -- low level ---------------------------------------------------------------------
+
+    def _send(self, path: str, tc, columns) -> None:
+        self.rec.send_columns(path, indexes=[tc], columns=columns, strict=True)
+
+    def _style(self, path: str, archetype: str, **components) -> None:
+        """Static styling of an entity, sent with the chunk's other styles."""
+        if path not in self._styled:
+            self._styled.add(path)
+            self._static.add(path, archetype, **components)
+
+    def _scalars(self, path: str, values, name: str, color, width: float = 1.5) -> None:
+        self._style(path, "SeriesLines", names=name, colors=color, widths=width)
+        self._rows.add_scalars(path, values)
+
+    # -- one chunk ---------------------------------------------------------------------
+
+    def send(self, log, start: int, end: int) -> None:
+        if end <= start:
+            return
+        t = log.time_s[start:end]
+        rows = self._rows = _RowBatch(t)
+        pose = log.pose[start:end]
+
+        # -- the robot
+        self._style("/world/robot/footprint", "LineStrips2D", colors=ROBOT, radii=0.015)
+        rows.add("/world/robot/footprint", "LineStrips2D", "strips",
+                 _strips_array(footprint_outlines(pose, *self.footprint_m)))
+        self._style("/world/robot/heading", "Arrows2D", colors=ROBOT, radii=0.02)
+        heading = np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], axis=-1) * HEADING_ARROW_M
+        rows.add("/world/robot/heading", "Arrows2D", "origins",
+                 _vec2_array("Arrows2D", "origins", pose[:, :2]))
+        rows.add("/world/robot/heading", "Arrows2D", "vectors",
+                 _vec2_array("Arrows2D", "vectors", heading))
+        previous = log.pose[start - 1, :2] if start > 0 else pose[0, :2]
+        starts = np.vstack([previous[None, :], pose[:-1, :2]])
+        self._style("/world/robot/trail", "LineStrips2D", colors=TRAIL, radii=0.02)
+        rows.add("/world/robot/trail", "LineStrips2D", "strips",
+                 _strips_array(np.stack([starts, pose[:, :2]], axis=1)))
+
+        # -- the target (only the rows where it moved: latest-at keeps it in between)
+        target = log.target_xy[start:end]
+        keep = np.ones(len(t), bool)
+        keep[1:] = np.any(target[1:] != target[:-1], axis=1)
+        if self._target is not None:
+            keep[0] = bool(np.any(target[0] != np.asarray(self._target)))
+        if keep.any():
+            k = np.flatnonzero(keep)
+            self._style("/world/target", "Points2D", colors=TARGET,
+                        radii=self.tolerance_m, labels="target")
+            self._send("/world/target", _time_column(t[k]),
+                       [_column("Points2D", "positions",
+                                _vec2_array("Points2D", "positions", target[k]))])
+        self._target = (float(target[-1, 0]), float(target[-1, 1]))
+
+        # -- the obstacles
+        self.obstacle_ids = list(log.obstacle_ids)
+        for col, oid in enumerate(log.obstacle_ids):
+            self._send_obstacle(log, col, oid, start, end, t)
+
+        # -- the sensors
+        origins, directions = sensor_geometry(pose, self.sensor_config)
+        ranges = log.ranges_m[start:end]
+        max_range = float(self.sensor_config.max_range_m)
+        half = 0.5 * float(self.sensor_config.beam_width_rad)
+        for k, name in enumerate(self.sensor_names):
+            color = SENSOR_COLORS.get(name, (100, 100, 100))
+            r = ranges[:, k]
+            echo = np.isfinite(r)
+            length = np.where(echo, r, max_range)[:, None]
+            o = origins[:, k]
+            d = directions[:, k][:, None]
+            left = o + length * np.hstack([np.cos(d + half), np.sin(d + half)])
+            right = o + length * np.hstack([np.cos(d - half), np.sin(d - half)])
+            self._style(f"/world/sensors/{name}/beam", "LineStrips2D",
+                        colors=(*color, 160), radii=0.008)
+            rows.add(f"/world/sensors/{name}/beam", "LineStrips2D", "strips",
+                     _strips_array(np.stack([o, left, right, o], axis=1)))
+            hits = (o + np.where(echo, r, 0.0)[:, None] * np.hstack([np.cos(d), np.sin(d)]))[echo]
+            self._style(f"/world/sensors/{name}/hit", "Points2D", colors=color, radii=0.06)
+            rows.add(f"/world/sensors/{name}/hit", "Points2D", "positions",
+                     _vec2_array("Points2D", "positions", hits), lengths=echo.astype(np.int32))
+            self._scalars(f"/plots/ranges/{name}", np.where(echo, r, np.nan),
+                          f"{name} range (m)", color)
+
+        # -- time series: the paper's figures
+        d_t, phi_t = target_geometry(pose, target)
+        self._scalars("/plots/distance/target", d_t, "target", TARGET, 2.0)
+        self._scalars("/plots/angles/phi_t", phi_t, "phi_t (rad)", SERIES_PALETTE[0])
+        self._scalars("/plots/angles/heading", pose[:, 2], "heading (rad)", SERIES_PALETTE[1])
+        if log.obstacle_ids:
+            bearings = obstacle_bearings(pose, log.obstacle_xy[start:end])
+        for col, oid in enumerate(log.obstacle_ids):
+            color = OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)]
+            self._scalars(f"/plots/distance/obstacle_{oid}",
+                          log.center_distance_m[start:end, col], f"obstacle {oid}", color)
+            self._scalars(f"/plots/obstacle_angles/obstacle_{oid}", bearings[:, col],
+                          f"obstacle {oid}", color)
+            self._scalars(f"/plots/clearance/obstacle_{oid}",
+                          log.clearance_m[start:end, col], f"obstacle {oid}", color)
+        constant = np.ones(len(t))
+        self._scalars("/plots/clearance/safe", SAFE_DISTANCE_M * constant,
+                      f"safe {SAFE_DISTANCE_M} m", (120, 120, 120), 1.0)
+        volts = log.voltages_v[start:end]
+        command = log.controller_output_v[start:end]
+        self._scalars("/plots/voltage/left", volts[:, 0], "left (V)", SERIES_PALETTE[0], 2.0)
+        self._scalars("/plots/voltage/right", volts[:, 1], "right (V)", SERIES_PALETTE[1], 2.0)
+        self._scalars("/plots/voltage/left_command", command[:, 0],
+                      "left command (V)", (150, 190, 230), 1.0)
+        self._scalars("/plots/voltage/right_command", command[:, 1],
+                      "right command (V)", (240, 160, 160), 1.0)
+        limit = self.voltage_limit_v
+        self._scalars("/plots/voltage/limit_upper", limit * constant,
+                      f"+{limit:g} V limit", (120, 120, 120), 1.0)
+        self._scalars("/plots/voltage/limit_lower", -limit * constant,
+                      f"-{limit:g} V limit", (120, 120, 120), 1.0)
+
+        # -- time series: beyond the paper
+        inputs = log.inputs[start:end]
+        for j, name in enumerate(("d_t", "d_o", "phi_t", "phi_o")):
+            self._scalars(f"/plots/inputs/{name}", inputs[:, j], name, SERIES_PALETTE[j])
+        lg = log.lg_state[start:end]
+        self._scalars("/plots/wheels/w_LW", lg[:, 0], "w_LW (rad/s)", SERIES_PALETTE[0])
+        self._scalars("/plots/wheels/w_RW", lg[:, 1], "w_RW (rad/s)", SERIES_PALETTE[1])
+        self._scalars("/plots/velocity/v", lg[:, 2], "v_MH (m/s)", SERIES_PALETTE[2])
+        self._scalars("/plots/velocity/w", lg[:, 3], "w_JH (rad/s)", SERIES_PALETTE[3])
+        self._scalars("/plots/current/i_L1", lg[:, 4], "i_L1 left (A)", SERIES_PALETTE[0])
+        self._scalars("/plots/current/i_L2", lg[:, 5], "i_L2 right (A)", SERIES_PALETTE[1])
+        self._scalars("/plots/disturbance", log.disturbance[start:end], "disturbance",
+                      SERIES_PALETTE[7])
+
+        # -- rule firing strengths
+        if self.fis is not None and self.fis_error is None:
+            try:
+                strengths = np.asarray(self.fis.firing_strengths(inputs), dtype=float)
+            except Exception as exc:  # a fuzzy system of another shape: record why not
+                self.fis_error = f"{type(exc).__name__}: {exc}"
+            else:
+                # One entity, one instance per rule: 40 entities would cost 40 chunks of
+                # row ids and times (a third of a long run's file) for the same plot.
+                self.n_rules = n = strengths.shape[1]
+                self._style(RULES_PATH, "SeriesLines", names=[f"R{k + 1}" for k in range(n)],
+                            colors=[SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
+                            widths=[1.0] * n)
+                import pyarrow as pa
+
+                values = pa.array(np.ascontiguousarray(strengths, dtype=np.float64).reshape(-1))
+                rows.add(RULES_PATH, "Scalars", "scalars", values, lengths=np.full(len(t), n))
+        self._static.send(self.rec)
+        rows.send(self.rec)
+        self.sent = end
+
+    def _send_obstacle(self, log, col: int, oid: int, start: int, end: int, t) -> None:
+        xy = log.obstacle_xy[start:end, col]
+        present = np.all(np.isfinite(xy), axis=1)
+        radius = float(log.obstacle_radii_m[col])
+        prev = self._obstacles.get(oid)
+        # Rows where the obstacle appears, moves or vanishes (latest-at keeps the rest).
+        changed = np.ones(len(xy), bool)
+        same_presence = present[1:] == present[:-1]
+        same_place = np.all(xy[1:] == xy[:-1], axis=1) | ~present[1:]
+        changed[1:] = ~(same_presence & same_place)
+        if prev is not None:
+            was_present, was_xy = prev
+            changed[0] = not (present[0] == was_present
+                              and (not present[0] or tuple(xy[0]) == was_xy))
+        rows = np.flatnonzero(changed)
+        base = f"/world/obstacles/{oid}"
+        if len(rows):
+            tc = _time_column(t[rows])
+            lengths = present[rows].astype(np.int32)
+            pos = xy[rows][present[rows]]
+            self._style(f"{base}/body", "Points2D", colors=OBSTACLE, radii=radius,
+                        labels=f"obstacle {oid}")
+            self._send(f"{base}/body", tc,
+                       [_column("Points2D", "positions",
+                                _vec2_array("Points2D", "positions", pos), lengths)])
+            ring = pos[:, None, :] + _circle(radius + SAFE_DISTANCE_M)[None, :, :]
+            self._style(f"{base}/safe_ring", "LineStrips2D", colors=SAFE_RING, radii=0.01)
+            self._send(f"{base}/safe_ring", tc,
+                       [_column("LineStrips2D", "strips", _strips_array(ring), lengths)])
+            # The path: a segment for every move between two present rows.
+            present_rows = rows[present[rows]]
+            if len(present_rows):
+                points = xy[present_rows]
+                before = np.vstack([[np.nan, np.nan], points[:-1]])
+                # A row right after an absence starts afresh (no segment across a gap).
+                gap = np.ones(len(present_rows), bool)
+                gap[1:] = np.diff(np.searchsorted(rows, present_rows)) != 1
+                if prev is not None and prev[0]:
+                    before[0] = prev[1]
+                    gap[0] = rows[0] != present_rows[0]
+                moved = ~gap & np.any(before != points, axis=1)
+                if moved.any():
+                    segs = np.stack([before[moved], points[moved]], axis=1)
+                    self._style(f"{base}/path", "LineStrips2D", colors=OBSTACLE_PATH,
+                                radii=0.015)
+                    self._send(f"{base}/path", _time_column(t[present_rows[moved]]),
+                               [_column("LineStrips2D", "strips", _strips_array(segs))])
+        last = len(xy) - 1
+        self._obstacles[oid] = (bool(present[last]),
+                                (float(xy[last, 0]), float(xy[last, 1])) if present[last]
+                                else (math.nan, math.nan))
+
+
+def _rgba(color) -> int:
+    """(r, g, b) or (r, g, b, a) packed as 0xRRGGBBAA, rerun's colour component."""
+    r, g, b, a = (tuple(color) + (255,))[:4]
+    return (int(r) << 24) | (int(g) << 16) | (int(b) << 8) | int(a)
+
+
+# ---------------------------------------------------------------------------------------
+# Static parts: the world's frame, start and line, metadata, blueprint
+
+
+def _send_static_world(rec, scenario, obstacle_ids=()) -> None:
+    import rerun as rr
+
+    rec.log("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True, strict=True)
+    rec.log("/world/start", rr.Points2D(positions=[scenario.start], radii=0.08,
+                                        colors=[(60, 60, 60)], labels=["start"]),
+            static=True, strict=True)
+    rec.log("/world/ideal_line", rr.LineStrips2D(strips=[[scenario.start, scenario.target]],
+                                                 colors=[(170, 170, 170)], radii=0.01),
+            static=True, strict=True)
+
+
+def _markdown_table(rows: dict) -> str:
+    lines = ["| key | value |", "|---|---|"]
+    for key, value in rows.items():
+        if isinstance(value, float):
+            value = f"{value:.6g}"
+        lines.append(f"| {key} | {value} |")
+    return "\n".join(lines)
+
+
+def _json_safe(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return _json_safe(value.item())
+    return value
+
+
+_VERSIONED = {"fuzzynav": None, "rerun-sdk": "rerun", "numpy": "numpy", "scipy": "scipy",
+              "pymunk": "pymunk", "matplotlib": "matplotlib", "viser": "viser"}
+
+
+@functools.cache
+def package_versions() -> dict:
+    """Python, platform, the packages a run depends on, and the git revision (once per
+    process: reading distribution metadata costs milliseconds a package)."""
+    from importlib import metadata
+
+    out = {"python": platform.python_version(), "platform": platform.platform()}
+    for name, module in _VERSIONED.items():
+        version = getattr(sys.modules.get(module), "__version__", None) if module else None
+        if not isinstance(version, str):
+            try:
+                version = metadata.version(name)
+            except metadata.PackageNotFoundError:
+                version = "not installed"
+        out[name] = version
+    out["git"] = _git_revision()
+    return out
+
+
+def _git_revision() -> str:
+    root = Path(__file__).resolve().parents[1]
+    try:
+        done = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=12"],
+                              cwd=root, capture_output=True, text=True, timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return done.stdout.strip() if done.returncode == 0 and done.stdout.strip() else "unknown"
+
+
+def command_line() -> str:
+    return " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name] + sys.argv[1:])
+
+
+def reproduce_command(scenario, controller, perception, seed, control_period_s) -> str:
+    source = getattr(scenario, "source", "<memory>")
+    where = source if source and source != "<memory>" else "<scenario.toml from /meta/scenario>"
+    stem = Path(where).stem
+    if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
+        where = stem
+    return (f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)} "
+            f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
+
+
+def _send_metadata(rec, *, scenario, controller, fis, parameters, sensor_config, seed,
+                   perception, control_period_s, voltage_limit_v, extra_metadata) -> None:
+    import rerun as rr
+
+    def doc(path, text, markdown=True):
+        media = rr.MediaType.MARKDOWN if markdown else rr.MediaType.TEXT
+        rec.log(path, rr.TextDocument(text, media_type=media), static=True, strict=True)
+
+    doc("/meta/scenario", scenario.to_toml(), markdown=False)
+    if fis is not None:
+        try:
+            from controller.rulebase import dumps_toml
+
+            rules = dumps_toml(fis)
+        except Exception:  # a system the TOML writer refuses: list the rules instead
+            rules = "\n".join(f"R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
+        numbered = "\n".join(f"# R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
+        doc("/meta/rules", numbered + "\n\n" + rules, markdown=False)
+    else:
+        attrs = {k: v for k, v in vars(controller).items() if not k.startswith("_")} \
+            if controller is not None and hasattr(controller, "__dict__") else {}
+        doc("/meta/rules", f"controller {controller_label(controller)!r} is not fuzzy: no rule "
+            f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n", markdown=False)
+    robot = "\n".join(f"{f.name} = {getattr(parameters, f.name)!r}"
+                      for f in dataclasses.fields(parameters))
+    doc("/meta/robot", robot + "\n", markdown=False)
+    sensor_lines = [f"{f.name} = {getattr(sensor_config, f.name)!r}"
+                    for f in dataclasses.fields(sensor_config) if f.name != "mounts"]
+    sensor_lines += [f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, "
+                     f"angle = {m.angle_rad!r} rad" for m in sensor_config.mounts]
+    doc("/meta/sensors", "\n".join(sensor_lines) + "\n", markdown=False)
+    doc("/meta/versions", _markdown_table(package_versions()))
+    run = {"scenario": scenario.name, "scenario file": getattr(scenario, "source", ""),
+           "controller": controller_label(controller), "perception": perception,
+           "seed": seed, "control period (s)": control_period_s,
+           "voltage limit (V)": voltage_limit_v,
+           "reproduce": "`" + reproduce_command(scenario, controller, perception, seed,
+                                                control_period_s) + "`",
+           "command line": "`" + command_line() + "`"}
+    for key, value in (extra_metadata or {}).items():
+        run[str(key)] = value
+    doc("/meta/run", "# Run\n\n" + _markdown_table(run))
+
+
+def _send_metrics(rec, metrics: dict, outcome: str, extra: dict | None = None) -> None:
+    import rerun as rr
+
+    rows = {"outcome": outcome, **metrics, **(extra or {})}
+    text = ("# Metrics\n\n" + _markdown_table(rows) + "\n\n```json\n"
+            + json.dumps(_json_safe(rows), indent=2, default=repr) + "\n```\n")
+    rec.log("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN),
+            static=True, strict=True)
+
+
+def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
+    xs = [scenario.start[0], scenario.target[0]]
+    ys = [scenario.start[1], scenario.target[1]]
+    for o in scenario.obstacles:
+        xs.append(o.position[0])
+        ys.append(o.position[1])
+    if log is not None and len(log):
+        xs += [float(np.nanmin(log.pose[:, 0])), float(np.nanmax(log.pose[:, 0]))]
+        ys += [float(np.nanmin(log.pose[:, 1])), float(np.nanmax(log.pose[:, 1]))]
+    margin = 1.0
+    return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
+
+
+def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None):
+    """The default layout: the world on the left, the paper's plots stacked on the right
+    (further tabs: plant, sensors, rule firing, run information)."""
+    import rerun.blueprint as rrb
+
+    x_range, y_range = _world_bounds(scenario, log)
+    # The view's origin is "/", where /world's mirror applies: scene y = -world y.
+    bounds = rrb.VisualBounds2D(x_range=x_range, y_range=[-y_range[1], -y_range[0]])
+    everything = rrb.VisibleTimeRanges(timeline=TIMELINE, start=rrb.TimeRangeBoundary.infinite(),
+                                       end=rrb.TimeRangeBoundary.cursor_relative())
+    overrides = {"/world/robot/trail": everything}
+    for oid in obstacle_ids:
+        overrides[f"/world/obstacles/{oid}/path"] = everything
+    world = rrb.Spatial2DView(origin="/", contents=["/world/**"], name="world (y up)",
+                              visual_bounds=bounds, overrides=overrides)
+
+    # Every plot shows the whole run, like the paper's figures (the viewer would
+    # otherwise show a window around the time cursor).
+    if log is not None and len(log):
+        whole_run = rrb.TimeRange(
+            start=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[0])),
+            end=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[-1])))
+    else:
+        whole_run = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                  end=rrb.TimeRangeBoundary.infinite())
+
+    def plot(origin, name, **kw):
+        # (Linking the axes to the global range would drop this view range in 0.41.)
+        axis = rrb.TimeAxis(view_range=whole_run)
+        return rrb.TimeSeriesView(origin=origin, name=name, axis_x=axis, **kw)
+
+    paper = rrb.Vertical(
+        plot("/plots/distance", "distance to target and obstacles, m (Fig. 13)"),
+        plot("/plots/angles/phi_t", "target angle phi_t, rad (Fig. 14)"),
+        plot("/plots/angles/heading", "heading, rad (Fig. 14)"),
+        plot("/plots/obstacle_angles", "obstacle angles, rad (Fig. 15)"),
+        plot("/plots/voltage", "wheel voltages, V, with the limit (Fig. 16)"),
+        name="paper figures")
+    plant = rrb.Vertical(
+        plot("/plots/wheels", "wheel speeds, rad/s"),
+        plot("/plots/velocity", "v (m/s) and w (rad/s)"),
+        plot("/plots/current", "motor currents, A"),
+        plot("/plots/inputs", "controller inputs (with disturbance)"),
+        name="plant and inputs")
+    sensing = rrb.Vertical(
+        plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
+        plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
+        plot("/plots/disturbance", "disturbance on the inputs"),
+        name="sensors and safety")
+    tabs = [paper, plant, sensing]
+    if n_rules:
+        tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
+    tabs.append(rrb.Tabs(*[rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
+                           for name in ("run", "metrics", "scenario", "rules", "robot",
+                                        "sensors", "versions")], name="run information"))
+    right = rrb.Tabs(*tabs, active_tab=0)
+    return rrb.Blueprint(rrb.Horizontal(world, right, column_shares=[1, 1]),
+                         rrb.BlueprintPanel(state="collapsed"),
+                         rrb.SelectionPanel(state="collapsed"),
+                         rrb.TimePanel(timeline=TIMELINE, state="collapsed",
+                                       play_state="following"),
+                         auto_views=False)
+
+
+def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
+    import rerun as rr
+
+    rec = rr.RecordingStream(application_id)
+    rec.save(str(path))
+    if recording_name:
+        rec.send_recording_name(recording_name)
+    return rec
+
+
+# ---------------------------------------------------------------------------------------
+# Public API
+
+
+def record_run(result, path, *, controller=None, sensors=None, extra_metadata=None,
+               parameters=None, voltage_limit_v: float = 12.0) -> Path:
+    """Write a run (a ``SimulationResult``, finished or partial) to a rerun recording.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    path : str or Path
+        The ``.rrd`` file (overwritten).
+    controller : optional
+        The controller that drove; with a ``fis`` attribute (a ``FuzzySystem``) the
+        firing strength of every rule is recorded and the rule base stored.
+    sensors : RangeSensorArray or SensorConfig, optional
+        For the beams' geometry (default: ``SensorConfig()``).
+    extra_metadata : dict, optional
+        Added to the ``/meta/run`` document (e.g. ``{"interrupted": True}``).
+    parameters : HuskyParameters, optional
+        The robot's parameters (footprint, stored in ``/meta/robot``); default: the
+        paper's (``HuskyModel.default()``).
+    voltage_limit_v : float
+        The saturation drawn on the voltage plot.
+
+    Returns the path written.
+    """
+    path = Path(path)
+    sensor_config = _sensor_config(sensors)
+    parameters = _parameters(parameters)
+    fis = controller_fis(controller)
+    scenario = result.scenario
+    log = result.log
+    rec = _open_stream(path, recording_name=f"{scenario.name} · {controller_label(controller)}")
+    try:
+        # The layout first: a viewer that opens the file while it loads uses it at once.
+        n_rules = len(getattr(fis, "rules", ())) if fis is not None else 0
+        rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log))
+        _send_static_world(rec, scenario)
+        writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
+                                                 parameters.footprint_width_m),
+                               sensor_config=sensor_config, voltage_limit_v=voltage_limit_v,
+                               fis=fis, tolerance_m=scenario.tolerance_m)
+        writer.send(log, 0, len(log))
+        extra = dict(extra_metadata or {})
+        if writer.fis_error:
+            extra["rule firing"] = f"not recorded ({writer.fis_error})"
+        _send_metadata(rec, scenario=scenario, controller=controller, fis=fis,
+                       parameters=parameters, sensor_config=sensor_config, seed=result.seed,
+                       perception=result.perception, control_period_s=result.control_period_s,
+                       voltage_limit_v=voltage_limit_v, extra_metadata=extra)
+        _send_metrics(rec, result.metrics, result.outcome)
+    finally:
+        rec.disconnect()  # flushes, writes the footer, closes the file
+    return path
+
+
+class LiveRecorder:
+    """Append a running simulation to a recording, a chunk of steps at a time.
+
+    ::
+
+        recorder = LiveRecorder("run.rrd")        # or LiveRecorder(stream=rr.RecordingStream(...))
+        while not sim.done:
+            sim.step()
+            recorder.update(sim)                  # sends the new rows every chunk_steps
+        recorder.close(sim)                       # the rest, the metrics, the file's footer
+
+    ``update`` may be called as often as one likes: rows are sent when ``chunk_steps``
+    of them are waiting and ``min_interval_s`` of wall time has passed since the last
+    send, or when the run has ended. A chunk costs a few tens of milliseconds whatever
+    its size (one chunk per entity, ~75 entities for a fuzzy controller), so the interval
+    keeps a fast-forwarded viewer from spending its time recording. The controller, sensors, robot
+    parameters and voltage limit are read from the simulation. A simulation that is
+    ``reset()`` starts a new log: close this recorder and open a new one
+    (``update`` raises ValueError when the log has shrunk).
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The ``.rrd`` file; or pass ``stream``, an open ``rr.RecordingStream`` whose sinks
+        the caller chose (a viewer, a gRPC server...).
+    chunk_steps : int
+        How many steps to collect before sending them (default 50: one second of
+        simulated time at the default 20 ms period).
+    min_interval_s : float
+        Wall time between two sends at least (default 0.5 s; 0 for none).
+    """
+
+    def __init__(self, path=None, *, stream=None, chunk_steps: int = 50,
+                 min_interval_s: float = 0.5, extra_metadata: dict | None = None):
+        if (path is None) == (stream is None):
+            raise ValueError("LiveRecorder needs exactly one of path and stream")
+        if int(chunk_steps) < 1:
+            raise ValueError(f"chunk_steps = {chunk_steps!r}: must be >= 1")
+        self.path = Path(path) if path is not None else None
+        if self.path is not None:
+            check_writable_file(self.path)
+        if not (math.isfinite(min_interval_s) and min_interval_s >= 0):
+            raise ValueError(f"min_interval_s = {min_interval_s!r}: must be >= 0")
+        self.chunk_steps = int(chunk_steps)
+        self.min_interval_s = float(min_interval_s)
+        self._last_send = -math.inf
+        self.extra_metadata = dict(extra_metadata or {})
+        self._rec = stream if stream is not None else _open_stream(self.path)
+        self._owns_stream = stream is None
+        self._writer: _ColumnWriter | None = None
+        self._sim = None
+        self.closed = False
+
+    @property
+    def rows_sent(self) -> int:
+        return self._writer.sent if self._writer is not None else 0
+
+    def _start(self, sim) -> None:
+        params = sim.model.parameters
+        self._writer = _ColumnWriter(
+            self._rec, footprint_m=(params.footprint_length_m, params.footprint_width_m),
+            sensor_config=sim.sensors.config, voltage_limit_v=sim.voltage_limit_v,
+            fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m)
+        self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
+        _send_static_world(self._rec, sim.scenario)
+        self._send_metadata(sim)
+        ids = sim.arena.obstacle_arrays()[2]
+        n_rules = len(getattr(controller_fis(sim.controller), "rules", ()))
+        self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules))
+
+    def _send_metadata(self, sim) -> None:
+        extra = dict(self.extra_metadata)
+        if self._writer is not None and self._writer.fis_error:
+            extra["rule firing"] = f"not recorded ({self._writer.fis_error})"
+        _send_metadata(self._rec, scenario=sim.scenario, controller=sim.controller,
+                       fis=controller_fis(sim.controller), parameters=sim.model.parameters,
+                       sensor_config=sim.sensors.config, seed=sim.seed,
+                       perception=sim.perception.mode, control_period_s=sim.control_period_s,
+                       voltage_limit_v=sim.voltage_limit_v, extra_metadata=extra)
+
+    def update(self, sim, *, force: bool = False) -> int:
+        """Send the rows logged since the last chunk if ``chunk_steps`` of them wait and
+        ``min_interval_s`` has passed (or the run is over, or ``force``). Returns how
+        many rows were sent."""
+        if self.closed:
+            raise ValueError("LiveRecorder.update after close()")
+        if self._sim is not None and sim is not self._sim:
+            raise ValueError("LiveRecorder records one simulation; open another for this one")
+        if self._writer is None:
+            self._sim = sim
+            self._start(sim)
+        n = _log_length(sim)
+        sent = self._writer.sent
+        if n < sent:
+            raise ValueError(f"the simulation's log shrank from {sent} to {n} rows (reset?): "
+                             f"close this recorder and open a new one")
+        if n == sent:
+            return 0
+        if not (force or sim.done):
+            if n - sent < self.chunk_steps:
+                return 0
+            if time.monotonic() - self._last_send < self.min_interval_s:
+                return 0
+        self._writer.send(sim.log, sent, n)
+        self._last_send = time.monotonic()
+        return n - sent
+
+    def close(self, sim=None, *, extra_metadata: dict | None = None) -> None:
+        """Send what is left, the metrics and the final layout; close the file."""
+        if self.closed:
+            return
+        sim = sim if sim is not None else self._sim
+        if sim is not None and self._writer is not None and _log_length(sim) < self._writer.sent:
+            sim = None  # reset since: its log and metrics belong to another run
+        try:
+            if sim is not None:
+                self.update(sim, force=True)
+                if extra_metadata:
+                    self.extra_metadata.update(extra_metadata)
+                result = sim.result()
+                self._send_metadata(sim)
+                _send_metrics(self._rec, result.metrics, result.outcome)
+                w = self._writer
+                self._rec.send_blueprint(blueprint(sim.scenario, w.obstacle_ids, w.n_rules,
+                                                   result.log))
+        finally:
+            self.closed = True
+            self._rec.flush()
+            if self._owns_stream:
+                self._rec.disconnect()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def _log_length(sim) -> int:
+    """Rows in the simulation's log without copying it (the buffer's count if exposed)."""
+    buffer = getattr(sim, "_log", None)
+    n = getattr(buffer, "n", None)
+    return int(n) if isinstance(n, int) else len(sim.log)
+
+
+# ---------------------------------------------------------------------------------------
+# Command line: fuzzynav run ... --rrd PATH
+
+
+def add_run_options(parser) -> None:
+    parser.add_argument("--rrd", type=Path, default=None, metavar="PATH",
+                        help="write a rerun recording of the run (open it with: rerun PATH)")
+
+
+def run_hook(args, sim):
+    path = getattr(args, "rrd", None)
+    if path is None:
+        return None
+    check_writable_file(path)
+    argv = command_line()
+
+    def write(result, interrupted: bool) -> None:
+        extra = {"command line": "`" + argv + "`"}
+        if interrupted:
+            extra["interrupted"] = f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)" \
+                if len(result.log) else "yes (before the first step)"
+        record_run(result, path, controller=sim.controller, sensors=sim.sensors,
+                   parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v,
+                   extra_metadata=extra)
+        print(f"fuzzynav: recording written to {path} (open it with: rerun {path})",
+              file=sys.stderr)
+
+    return write

@@ -1,0 +1,141 @@
+"""What a rerun recording adds to a run's wall time (issue 4 allows at most +50 %).
+
+For scenario s1 and each controller, repeated and interleaved: the wall time of a run
+(build the simulation and run it to its end) and of ``record_run`` on its result
+(open the file, send the columns, metadata and layout, close the file); the overhead is
+median(record) / median(run). ``LiveRecorder`` (the viewer's chunked mode) is timed the
+same way, as run-with-live-recording against run. Once-per-process costs (importing
+rerun, reading package versions and the git revision) are paid before the timing and
+reported apart.
+
+Controllers: ``p`` (obstacle-blind, it collides after 13.5 s of simulated time, so its
+run is short and the recording's fixed costs weigh most) and the fuzzy one: the
+``paper`` controller if it is installed, otherwise the paper's rule base
+(assets/rules/paper.toml) driven directly by the fuzzy engine.
+
+Run: ``.venv/bin/python bench/bench_recording.py [--repeats N] [--check]``
+(``--check``: exit status 1 when an overhead exceeds 50 %).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+BUDGET = 0.50
+
+
+def import_time_s() -> float:
+    code = "import time; t = time.perf_counter(); import rerun; print(time.perf_counter() - t)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    return float(out.stdout.strip())
+
+
+def fuzzy_controller_factory():
+    """(label, factory) of the fuzzy controller to time, or None."""
+    from controller.registry import controller_names, make_controller
+
+    if "paper" in controller_names():
+        return "paper", lambda: make_controller("paper")
+    try:
+        from controller.fuzzy import FuzzySystem
+        from world.scenario import ASSETS_DIR
+    except ImportError:
+        return None
+    fis = FuzzySystem.from_toml(ASSETS_DIR / "rules" / "paper.toml")
+
+    class PaperRuleBase:
+        name = "paper.toml (engine only)"
+
+        def __init__(self):
+            self.fis = fis
+
+        def reset(self):
+            pass
+
+        def __call__(self, inputs):
+            return self.fis.evaluate_one(inputs)
+
+    return "paper.toml via the engine", PaperRuleBase
+
+
+def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
+    from app.recording import LiveRecorder, record_run
+    from app.runs import build_simulation
+
+    run_s, record_s, live_s, rows = [], [], [], 0
+    for k in range(repeats):
+        started = time.perf_counter()
+        sim = build_simulation("s1", controller_object=factory())
+        result = sim.run()
+        run_s.append(time.perf_counter() - started)
+        rows = len(result.log)
+
+        started = time.perf_counter()
+        record_run(result, out_dir / f"{k}.rrd", controller=sim.controller, sensors=sim.sensors,
+                   parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v)
+        record_s.append(time.perf_counter() - started)
+
+        started = time.perf_counter()
+        sim = build_simulation("s1", controller_object=factory())
+        live = LiveRecorder(out_dir / f"live{k}.rrd")
+        while not sim.done:
+            sim.step()
+            live.update(sim)
+        live.close(sim)
+        live_s.append(time.perf_counter() - started)
+    run, rec, live = (statistics.median(x) for x in (run_s, record_s, live_s))
+    return {"label": label, "rows": rows, "outcome": result.outcome, "run": run, "record": rec,
+            "live": live, "overhead": rec / run, "live_overhead": live / run - 1.0}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--check", action="store_true",
+                        help="exit 1 when an overhead exceeds the 50 %% budget")
+    args = parser.parse_args(argv)
+
+    imported = import_time_s()
+    from app.recording import package_versions, record_run
+    from app.runs import build_simulation
+    from controller.proportional import ProportionalController
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out_dir = Path(tmp)
+        # Once-per-process costs, outside the timing.
+        started = time.perf_counter()
+        package_versions()
+        sim = build_simulation("s1", controller_object=ProportionalController())
+        record_run(sim.run(), out_dir / "warm.rrd", controller=sim.controller)
+        first = time.perf_counter() - started
+
+        rows = [time_controller("p", ProportionalController, args.repeats, out_dir)]
+        fuzzy = fuzzy_controller_factory()
+        if fuzzy is not None:
+            rows.append(time_controller(*fuzzy, max(3, args.repeats // 2), out_dir))
+
+    print(f"import rerun: {imported * 1000:.0f} ms; first record_run in a process "
+          f"(incl. a run, versions, git): {first * 1000:.0f} ms")
+    over = False
+    for r in rows:
+        verdict = "within" if r["overhead"] <= BUDGET else "OVER"
+        over |= r["overhead"] > BUDGET
+        print(f"s1, {r['label']}: {r['rows']} rows ({r['outcome']}); median run "
+              f"{r['run'] * 1000:.0f} ms, record_run {r['record'] * 1000:.0f} ms -> "
+              f"+{r['overhead'] * 100:.0f} % ({verdict} the +{BUDGET * 100:.0f} % budget); "
+              f"run with LiveRecorder {r['live'] * 1000:.0f} ms (+{r['live_overhead'] * 100:.0f} %)")
+    return 1 if (args.check and over) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,588 @@
+"""Rerun recordings read back: entity paths, series equal to the simulation's arrays,
+the time span, the metadata, live chunked recording, Ctrl-C and unwritable paths."""
+
+from __future__ import annotations
+
+import json
+import re
+import tomllib
+from collections import defaultdict
+
+import numpy as np
+import pyarrow as pa
+import pytest
+
+rr = pytest.importorskip("rerun")
+from rerun.chunk import RrdReader  # noqa: E402
+
+from app import recording  # noqa: E402
+from app.cli import main  # noqa: E402
+from app.recording import (RULES_PATH, LiveRecorder, footprint_outlines, record_run,  # noqa: E402
+                           series_paths)
+from app.runs import build_simulation  # noqa: E402
+
+SENSORS = ("left", "front", "right")
+META = ("run", "metrics", "scenario", "rules", "robot", "sensors", "versions")
+
+
+# ---------------------------------------------------------------------------------------
+# Reading a recording back
+
+
+class Recording:
+    """The chunks of an .rrd file, by entity: static components and temporal columns."""
+
+    def __init__(self, path):
+        reader = RrdReader(path)
+        self.recordings = reader.recordings()
+        self.blueprints = reader.blueprints()
+        self.static: dict[str, dict] = defaultdict(dict)
+        self._temporal: dict[str, list] = defaultdict(list)
+        self.timelines: set[str] = set()
+        for chunk in reader.stream():
+            batch = chunk.to_record_batch()
+            names = [n for n in batch.schema.names if ":" in n and not n.startswith("rerun.")]
+            if chunk.is_static:
+                for n in names:
+                    self.static[chunk.entity_path][n] = batch.column(n).to_pylist()[-1]
+                continue
+            self.timelines.update(chunk.timeline_names)
+            times = batch.column("sim_time")
+            assert pa.types.is_duration(times.type), times.type
+            nanos = times.cast(pa.int64()).to_numpy()
+            self._temporal[chunk.entity_path].append((nanos, {n: batch.column(n) for n in names}))
+
+    @property
+    def entities(self) -> set[str]:
+        return set(self.static) | set(self._temporal)
+
+    def rows(self, entity: str, component: str):
+        """(times in ns, a list of per-row values) sorted by time."""
+        times, values = [], []
+        for nanos, columns in self._temporal[entity]:
+            if component in columns:
+                times.append(nanos)
+                values += columns[component].to_pylist()
+        if not times:
+            return np.zeros(0, dtype=np.int64), []
+        times = np.concatenate(times)
+        order = np.argsort(times, kind="stable")
+        return times[order], [values[i] for i in order]
+
+    def scalars(self, entity: str):
+        """(times in ns, values) of a Scalars series with one value per row."""
+        times, values = self.rows(entity, "Scalars:scalars")
+        assert all(len(v) == 1 for v in values), entity
+        return times, np.array([v[0] if v[0] is not None else np.nan for v in values])
+
+    def text(self, entity: str) -> str:
+        return self.static[entity]["TextDocument:text"][0]
+
+
+def nanos(time_s) -> np.ndarray:
+    return np.round(np.asarray(time_s) * 1e9).astype(np.int64)
+
+
+def same(a, b, atol=0.0) -> bool:
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.all((np.isnan(a) & np.isnan(b))
+                                              | (np.abs(a - b) <= atol)))
+
+
+# ---------------------------------------------------------------------------------------
+# Fixtures
+
+
+class FuzzyController:
+    """A fuzzy controller as the project's will be: ``fis`` plus the call protocol."""
+
+    name = "fuzzy-test"
+
+    def __init__(self, fis):
+        self.fis = fis
+
+    def reset(self):
+        pass
+
+    def __call__(self, inputs):
+        return self.fis.evaluate_one(inputs)
+
+
+class TinyFis:
+    """Stand-in for controller.fuzzy.FuzzySystem when that is not importable: two rules
+    on d_t and d_o with triangular memberships."""
+
+    name = "tiny"
+    input_names = ["d_t", "d_o", "phi_t", "phi_o"]
+    output_names = ["left", "right"]
+    rules = ("near target", "obstacle near")
+    inputs = outputs = ()
+
+    def firing_strengths(self, X):
+        X = np.asarray(X, dtype=float)
+        near = np.clip(1.0 - X[:, 0] / 12.0, 0.0, 1.0)
+        obstacle = np.nan_to_num(np.clip(1.0 - X[:, 1] / 3.0, 0.0, 1.0))
+        return np.column_stack([near, obstacle])
+
+    def rule_text(self, k):
+        return f"IF ... THEN ... ({self.rules[k]})"
+
+    def evaluate_one(self, x):
+        return np.array([6.0, 6.5])
+
+
+def make_fuzzy_controller():
+    """The project's paper controller if present; else the paper's rule base on the
+    fuzzy engine; else a tiny stand-in."""
+    from controller.registry import controller_names, make_controller
+
+    if "paper" in controller_names():
+        controller = make_controller("paper")
+        if getattr(controller, "fis", None) is not None:
+            return controller
+    try:
+        from controller.fuzzy import FuzzySystem
+        from world.scenario import ASSETS_DIR
+    except ImportError:
+        return FuzzyController(TinyFis())
+    return FuzzyController(FuzzySystem.from_toml(ASSETS_DIR / "rules" / "paper.toml"))
+
+
+def record(sim, result, path, **kw):
+    return record_run(result, path, controller=sim.controller, sensors=sim.sensors,
+                      parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v, **kw)
+
+
+@pytest.fixture(scope="module")
+def s1_p(tmp_path_factory):
+    sim = build_simulation("s1", "p")
+    result = sim.run()
+    path = tmp_path_factory.mktemp("rrd") / "s1_p.rrd"
+    assert record(sim, result, path) == path
+    return sim, result, Recording(path)
+
+
+@pytest.fixture(scope="module")
+def s2_p(tmp_path_factory):
+    sim = build_simulation("s2", "p")
+    result = sim.run()
+    path = tmp_path_factory.mktemp("rrd") / "s2_p.rrd"
+    record(sim, result, path)
+    return sim, result, Recording(path)
+
+
+@pytest.fixture(scope="module")
+def fuzzy_run(tmp_path_factory):
+    from world.scenario import load_scenario
+
+    scenario = load_scenario("s1").replace(duration_s=8.0)
+    sim = build_simulation(scenario, controller_object=make_fuzzy_controller())
+    result = sim.run()
+    path = tmp_path_factory.mktemp("rrd") / "fuzzy.rrd"
+    record(sim, result, path)
+    return sim, result, Recording(path)
+
+
+# ---------------------------------------------------------------------------------------
+# record_run
+
+
+def test_entity_paths(s1_p):
+    sim, result, rec = s1_p
+    log = result.log
+    world = {"/world", "/world/start", "/world/ideal_line", "/world/target",
+             "/world/robot/footprint", "/world/robot/heading", "/world/robot/trail"}
+    for oid in log.obstacle_ids:
+        world |= {f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/safe_ring"}
+    for name in SENSORS:
+        world |= {f"/world/sensors/{name}/beam", f"/world/sensors/{name}/hit"}
+    plots = set(series_paths(log.obstacle_ids, SENSORS))
+    meta = {f"/meta/{name}" for name in META}
+    assert world | plots | meta <= rec.entities
+    assert RULES_PATH not in rec.entities  # P is not fuzzy
+    # Static obstacles never move: no path entity for them.
+    assert not any(e.endswith("/path") for e in rec.entities)
+    assert [r.application_id for r in rec.recordings] == ["fuzzynav"]
+    assert rec.blueprints, "the default layout is stored with the recording"
+    assert rec.timelines == {"sim_time"}
+
+
+def test_time_span_and_row_count(s1_p):
+    _, result, rec = s1_p
+    log = result.log
+    for entity in series_paths(log.obstacle_ids, SENSORS):
+        times, values = rec.scalars(entity)
+        assert len(values) == len(log), entity
+        assert np.array_equal(times, nanos(log.time_s)), entity
+    times, _ = rec.scalars("/plots/voltage/left")
+    assert times[0] == 0
+    assert times[-1] == nanos(result.metrics["sim_time_s"])
+    assert result.metrics["sim_time_s"] == pytest.approx(log.time_s[-1])
+
+
+def test_series_equal_the_simulation_arrays(s1_p):
+    _, result, rec = s1_p
+    log = result.log
+    expected = {
+        "/plots/voltage/left": log.voltages_v[:, 0],
+        "/plots/voltage/right": log.voltages_v[:, 1],
+        "/plots/voltage/left_command": log.controller_output_v[:, 0],
+        "/plots/voltage/right_command": log.controller_output_v[:, 1],
+        "/plots/wheels/w_LW": log.lg_state[:, 0],
+        "/plots/wheels/w_RW": log.lg_state[:, 1],
+        "/plots/velocity/v": log.lg_state[:, 2],
+        "/plots/velocity/w": log.lg_state[:, 3],
+        "/plots/current/i_L1": log.lg_state[:, 4],
+        "/plots/current/i_L2": log.lg_state[:, 5],
+        "/plots/inputs/d_t": log.inputs[:, 0],
+        "/plots/inputs/d_o": log.inputs[:, 1],
+        "/plots/inputs/phi_t": log.inputs[:, 2],
+        "/plots/inputs/phi_o": log.inputs[:, 3],
+        "/plots/angles/heading": log.pose[:, 2],
+        "/plots/disturbance": log.disturbance,
+        "/plots/voltage/limit_upper": np.full(len(log), 12.0),
+        "/plots/voltage/limit_lower": np.full(len(log), -12.0),
+        "/plots/clearance/safe": np.full(len(log), 0.25),
+    }
+    for k, name in enumerate(SENSORS):  # inf (no echo) is logged as NaN
+        expected[f"/plots/ranges/{name}"] = np.where(np.isinf(log.ranges_m[:, k]), np.nan,
+                                                      log.ranges_m[:, k])
+    for col, oid in enumerate(log.obstacle_ids):
+        expected[f"/plots/distance/obstacle_{oid}"] = log.center_distance_m[:, col]
+        expected[f"/plots/clearance/obstacle_{oid}"] = log.clearance_m[:, col]
+    for entity, want in expected.items():
+        assert same(rec.scalars(entity)[1], want), entity  # bit for bit (float64)
+    # Computed from the pose: equal to the controller's inputs (s1 has no disturbance).
+    assert not log.disturbance.any()
+    assert same(rec.scalars("/plots/distance/target")[1], log.inputs[:, 0], atol=1e-9)
+    assert same(rec.scalars("/plots/angles/phi_t")[1], log.inputs[:, 2], atol=1e-9)
+    # The nearest obstacle's bearing (the controller's phi_o, ideal perception) is one of
+    # the per-obstacle bearings whenever an obstacle is sensed.
+    bearings = np.column_stack([rec.scalars(f"/plots/obstacle_angles/obstacle_{oid}")[1]
+                                for oid in log.obstacle_ids])
+    sensed = ~np.isnan(log.inputs[:, 3])
+    assert sensed.any()
+    gap = np.min(np.abs(bearings[sensed] - log.inputs[sensed, 3][:, None]), axis=1)
+    assert np.all(gap < 1e-9)
+    # The last row has no decision: NaN voltages, kept as NaN.
+    assert np.isnan(rec.scalars("/plots/voltage/left")[1][-1])
+
+
+def test_world_geometry_follows_the_pose(s1_p):
+    sim, result, rec = s1_p
+    log = result.log
+    params = sim.model.parameters
+    times, strips = rec.rows("/world/robot/footprint", "LineStrips2D:strips")
+    assert np.array_equal(times, nanos(log.time_s))
+    got = np.array([row[0] for row in strips])          # one closed strip per row
+    assert got.shape == (len(log), 5, 2)
+    want = footprint_outlines(log.pose, params.footprint_length_m, params.footprint_width_m)
+    assert np.allclose(got, want, atol=1e-5)             # float32 on the wire
+    assert np.allclose(got[:, 0], got[:, 4])             # closed
+    _, origins = rec.rows("/world/robot/heading", "Arrows2D:origins")
+    assert np.allclose(np.array([o[0] for o in origins]), log.pose[:, :2], atol=1e-5)
+    _, trail = rec.rows("/world/robot/trail", "LineStrips2D:strips")
+    trail = np.array([row[0] for row in trail])
+    assert np.allclose(trail[1:, 0], log.pose[:-1, :2], atol=1e-5)
+    assert np.allclose(trail[:, 1], log.pose[:, :2], atol=1e-5)
+    # Static obstacles and the target are logged once (latest-at keeps them).
+    for col, oid in enumerate(log.obstacle_ids):
+        t, pos = rec.rows(f"/world/obstacles/{oid}/body", "Points2D:positions")
+        assert list(t) == [0] and np.allclose(pos[0][0], log.obstacle_xy[0, col], atol=1e-6)
+        radius = rec.static[f"/world/obstacles/{oid}/body"]["Points2D:radii"][0]
+        assert radius == pytest.approx(log.obstacle_radii_m[col], abs=1e-6)
+        _, ring = rec.rows(f"/world/obstacles/{oid}/safe_ring", "LineStrips2D:strips")
+        ring = np.array(ring[0][0])
+        centre = log.obstacle_xy[0, col]
+        assert np.allclose(np.hypot(*(ring - centre).T), log.obstacle_radii_m[col] + 0.25,
+                           atol=1e-5)
+    t, target = rec.rows("/world/target", "Points2D:positions")
+    assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
+    # A hit point for every echo, none without.
+    for k, name in enumerate(SENSORS):
+        _, hits = rec.rows(f"/world/sensors/{name}/hit", "Points2D:positions")
+        assert [len(h) for h in hits] == list(np.isfinite(log.ranges_m[:, k]).astype(int))
+        _, beams = rec.rows(f"/world/sensors/{name}/beam", "LineStrips2D:strips")
+        assert len(beams) == len(log)
+
+
+def test_the_moving_obstacle_moves(s2_p):
+    _, result, rec = s2_p
+    log = result.log
+    moving = [col for col in range(len(log.obstacle_ids))
+              if np.ptp(log.obstacle_xy[:, col, 0]) > 0]
+    assert len(moving) == 1
+    col = moving[0]
+    oid = log.obstacle_ids[col]
+    times, pos = rec.rows(f"/world/obstacles/{oid}/body", "Points2D:positions")
+    assert np.array_equal(times, nanos(log.time_s))
+    assert np.allclose(np.array([p[0] for p in pos]), log.obstacle_xy[:, col], atol=1e-5)
+    times, segs = rec.rows(f"/world/obstacles/{oid}/path", "LineStrips2D:strips")
+    assert np.array_equal(times, nanos(log.time_s[1:]))
+    segs = np.array([s[0] for s in segs])
+    assert np.allclose(segs[:, 0], log.obstacle_xy[:-1, col], atol=1e-5)
+    assert np.allclose(segs[:, 1], log.obstacle_xy[1:, col], atol=1e-5)
+    t, values = rec.scalars(f"/plots/distance/obstacle_{oid}")
+    assert same(values, log.center_distance_m[:, col])
+
+
+def test_metadata_documents(s1_p):
+    sim, result, rec = s1_p
+    scenario = tomllib.loads(rec.text("/meta/scenario"))
+    assert scenario == tomllib.loads(result.scenario.to_toml())
+    block = re.search(r"```json\n(.*)\n```", rec.text("/meta/metrics"), re.S).group(1)
+    metrics = json.loads(block)
+    assert metrics["outcome"] == result.outcome
+    assert metrics["path_length_m"] == pytest.approx(result.metrics["path_length_m"])
+    run = rec.text("/meta/run")
+    assert "| seed | 0 |" in run and "ideal" in run and "p" in run
+    assert "fuzzynav run s1 --controller p --perception ideal --seed 0 --dt 0.02" in run
+    robot = rec.text("/meta/robot")
+    assert f"c_m = {sim.model.parameters.c_m!r}" in robot
+    assert "footprint_length_m" in robot
+    assert "beam_width_rad" in rec.text("/meta/sensors")
+    versions = rec.text("/meta/versions")
+    assert f"| rerun-sdk | {rr.__version__} |" in versions and "numpy" in versions
+    assert "not fuzzy" in rec.text("/meta/rules")
+    name = rec.static["/__properties"].get("RecordingInfo:name")
+    assert name and "Scenario 1" in name[0]
+
+
+def test_fuzzy_controller_records_every_rule(fuzzy_run):
+    sim, result, rec = fuzzy_run
+    fis = sim.controller.fis
+    strengths = fis.firing_strengths(result.log.inputs)
+    n_rules = len(fis.rules)
+    assert strengths.shape == (len(result.log), n_rules)
+    times, rows = rec.rows(RULES_PATH, "Scalars:scalars")
+    assert np.array_equal(times, nanos(result.log.time_s))
+    assert same(np.array(rows, dtype=float), strengths)  # one instance per rule
+    assert strengths.max() > 0.5  # something fired
+    rules = rec.text("/meta/rules")
+    assert f"R{n_rules}: {fis.rule_text(n_rules - 1)}" in rules
+    style = rec.static[RULES_PATH]
+    assert style["SeriesLines:names"] == [f"R{k + 1}" for k in range(n_rules)]
+    assert len(style["SeriesLines:colors"]) == n_rules
+
+
+def test_real_paper_rule_base_has_40_rules():
+    ctrl = make_fuzzy_controller()
+    if isinstance(ctrl.fis, TinyFis):
+        pytest.skip("controller.fuzzy is not importable yet")
+    assert len(ctrl.fis.rules) == 40
+
+
+def test_a_fuzzy_system_of_another_shape_is_noted_not_fatal(tmp_path):
+    class WrongShape(TinyFis):
+        def firing_strengths(self, X):
+            raise ValueError("X must have shape (N, 3)")
+
+    sim = build_simulation("s1", "p")
+    result = sim.run()
+    path = tmp_path / "odd.rrd"
+    record_run(result, path, controller=FuzzyController(WrongShape()))
+    rec = Recording(path)
+    assert RULES_PATH not in rec.entities
+    assert "not recorded (ValueError: X must have shape (N, 3))" in rec.text("/meta/run")
+
+
+# ---------------------------------------------------------------------------------------
+# LiveRecorder
+
+
+def test_live_recorder_equals_record_run(tmp_path, s2_p):
+    _, whole, whole_rec = s2_p
+    sim = build_simulation("s2", "p")
+    path = tmp_path / "live.rrd"
+    live = LiveRecorder(path, chunk_steps=37, min_interval_s=0.0)
+    sent = []
+    while not sim.done:
+        sim.step()
+        sent.append(live.update(sim))
+    live.close(sim)
+    assert live.closed and live.rows_sent == len(sim.log)
+    # Whole chunks (the last step logs two rows: the final state too), then the rest.
+    chunks = [n for n in sent if n]
+    assert sum(chunks) == len(sim.log) and all(37 <= n <= 38 for n in chunks[:-1])
+    rec = Recording(path)
+    log = sim.log
+    assert rec.entities == whole_rec.entities
+    for entity in series_paths(log.obstacle_ids, SENSORS):
+        t_live, v_live = rec.scalars(entity)
+        t_whole, v_whole = whole_rec.scalars(entity)
+        assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), entity
+    # Chunk boundaries do not show: one row for a static obstacle, a continuous path for
+    # the moving one, a continuous trail.
+    for col, oid in enumerate(log.obstacle_ids):
+        for entity in (f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/path",
+                       "/world/robot/trail", "/world/target"):
+            component = "Points2D:positions" if entity.endswith(("body", "target")) \
+                else "LineStrips2D:strips"
+            a = rec.rows(entity, component)
+            b = whole_rec.rows(entity, component)
+            assert np.array_equal(a[0], b[0]), entity
+            assert np.allclose(np.array(a[1], dtype=float), np.array(b[1], dtype=float)), entity
+    assert "outcome" in rec.text("/meta/metrics")
+    assert rec.blueprints
+
+
+def test_live_recorder_waits_for_a_chunk_and_refuses_a_reset(tmp_path):
+    sim = build_simulation("s1", "p")
+    live = LiveRecorder(tmp_path / "r.rrd", chunk_steps=10, min_interval_s=0.0)
+    for _ in range(9):
+        sim.step()
+        assert live.update(sim) == 0
+    sim.step()
+    assert live.update(sim) == 10
+    sim.reset()
+    sim.step()
+    with pytest.raises(ValueError, match="reset"):
+        live.update(sim)
+    live.close()
+    assert Recording(tmp_path / "r.rrd").scalars("/plots/voltage/left")[1].size == 10
+    with pytest.raises(ValueError):
+        LiveRecorder(tmp_path / "missing" / "r.rrd")
+    with pytest.raises(ValueError):
+        LiveRecorder(tmp_path / "x.rrd", chunk_steps=0)
+    with pytest.raises(ValueError):
+        LiveRecorder(tmp_path / "x.rrd", min_interval_s=-1.0)
+
+
+def test_live_recorder_sends_at_most_every_min_interval(tmp_path, monkeypatch):
+    clock = [100.0]
+    monkeypatch.setattr(recording.time, "monotonic", lambda: clock[0])
+    sim = build_simulation("s1", "p")
+    live = LiveRecorder(tmp_path / "paced.rrd", chunk_steps=5, min_interval_s=1.0)
+    sent = []
+    for _ in range(40):
+        sim.step()
+        sent.append(live.update(sim))
+        clock[0] += 0.125  # eight steps per second of wall time
+    assert [k for k, n in enumerate(sent) if n] == [4, 12, 20, 28, 36]
+    assert sum(sent) == 37
+    live.close(sim)
+    assert Recording(tmp_path / "paced.rrd").scalars("/plots/velocity/v")[1].size == 40
+
+
+def test_live_recorder_on_a_caller_stream(tmp_path):
+    stream = rr.RecordingStream("fuzzynav")
+    stream.save(str(tmp_path / "s.rrd"))
+    sim = build_simulation("s1", "p")
+    live = LiveRecorder(stream=stream, chunk_steps=50, min_interval_s=0.0)
+    for _ in range(120):
+        sim.step()
+        live.update(sim)
+    live.close(sim)
+    stream.disconnect()
+    assert Recording(tmp_path / "s.rrd").scalars("/plots/velocity/v")[1].size == 120
+
+
+# ---------------------------------------------------------------------------------------
+# Command line: --rrd, Ctrl-C, unwritable paths
+
+
+def test_cli_rrd_writes_a_readable_recording(tmp_path, capsys, monkeypatch):
+    path = tmp_path / "run.rrd"
+    argv = ["run", "s1", "--controller", "p", "--json", "--rrd", str(path)]
+    monkeypatch.setattr("sys.argv", ["fuzzynav"] + argv)  # the process's command line
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)  # stdout is still pure JSON
+    assert str(path) in captured.err
+    rec = Recording(path)
+    assert rec.scalars("/plots/voltage/left")[1].size == out["steps"] + 1
+    assert f"`fuzzynav run s1 --controller p --json --rrd {path}`" in rec.text("/meta/run")
+
+
+def test_interrupted_run_callback_leaves_a_readable_recording(tmp_path):
+    """The CLI calls the hook with interrupted=True and the partial result on Ctrl-C."""
+    import argparse
+
+    sim = build_simulation("s1", "p")
+    path = tmp_path / "partial.rrd"
+    hook = recording.run_hook(argparse.Namespace(rrd=path), sim)
+    for _ in range(100):
+        sim.step()
+    partial = sim.result()
+    assert partial.outcome == "running"
+    hook(partial, interrupted=True)
+    rec = Recording(path)
+    times, values = rec.scalars("/plots/velocity/v")
+    assert len(values) == 100 and same(values, partial.log.lg_state[:, 2])
+    assert times[-1] == nanos(partial.log.time_s[-1])
+    assert "interrupted" in rec.text("/meta/run")
+    assert "running" in rec.text("/meta/metrics")
+
+
+def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatch, capsys):
+    import app.runs
+    from controller.proportional import ProportionalController
+
+    class InterruptedAfter(ProportionalController):
+        calls = 0
+
+        def __call__(self, inputs):
+            InterruptedAfter.calls += 1
+            if InterruptedAfter.calls > 60:
+                raise KeyboardInterrupt
+            return super().__call__(inputs)
+
+    monkeypatch.setattr(app.runs, "make_controller", lambda name, fis_path=None: InterruptedAfter())
+    path = tmp_path / "ctrlc.rrd"
+    assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    rec = Recording(path)
+    assert rec.scalars("/plots/voltage/left")[1].size == 60
+    assert "Ctrl-C" in rec.text("/meta/run")
+
+
+def test_an_empty_log_still_makes_a_readable_recording(tmp_path):
+    from world.simulation import SimulationResult
+
+    sim = build_simulation("s1", "p")
+    empty = SimulationResult(scenario=sim.scenario, outcome="running", log=sim.log,
+                             collisions=[], wall_time_s=0.0, seed=0, perception="ideal",
+                             control_period_s=0.02, metrics={})
+    assert len(empty.log) == 0
+    path = tmp_path / "empty.rrd"
+    record(sim, empty, path, extra_metadata={"interrupted": "yes"})
+    rec = Recording(path)
+    assert "/meta/scenario" in rec.entities and "/plots/voltage/left" not in rec.entities
+
+
+@pytest.mark.parametrize("where", ["missing-dir/run.rrd", "a-directory"])
+def test_unwritable_rrd_path_fails_before_the_run(tmp_path, monkeypatch, capsys, where):
+    from world.simulation import Simulation
+
+    (tmp_path / "a-directory").mkdir()
+
+    def never(self, *a, **k):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(Simulation, "run", never)
+    path = tmp_path / where
+    assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "--rrd" in err and str(path) in err
+    assert not (tmp_path / "missing-dir").exists()
+
+
+def test_check_writable_file_leaves_nothing_behind(tmp_path):
+    path = tmp_path / "probe.rrd"
+    assert recording.check_writable_file(path) == path
+    assert not path.exists()
+    path.write_bytes(b"old")
+    recording.check_writable_file(path)
+    assert path.read_bytes() == b"old"
+
+
+def test_component_metadata_matches_the_sdk():
+    """The record batches carry the same descriptors rr.log would."""
+    scalars = rr.Scalars(scalars=[1.0]).as_component_batches()[0].component_descriptor()
+    d, arrow_type = recording._component_types()[("Scalars", "scalars")]
+    assert (d.archetype, d.component, d.component_type) == (
+        scalars.archetype, scalars.component, scalars.component_type)
+    assert arrow_type == pa.float64()
+    field, _ = recording._component_field("/x", "SeriesLines", "names")
+    assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
+    assert field.metadata[b"rerun:entity_path"] == b"/x"
