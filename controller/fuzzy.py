@@ -336,7 +336,7 @@ class FuzzySystem:
             self._agg_terms.append(terms)
         # single path layout: sampled terms as (term, output, grid point); the weights
         # of the two sums [g, 1] as (output, 2, grid point)
-        self._mfgK = np.ascontiguousarray(self._mfg.transpose(1, 0, 2))
+        self._mfgK4 = np.ascontiguousarray(self._mfg.transpose(1, 0, 2)[:, :, None, :])
         grid2 = np.ones((n_out, 2, G))
         grid2[:, 0, :] = self._grid
         self._grid2 = grid2
@@ -460,7 +460,7 @@ class FuzzySystem:
                     lines.append(f"    {f} = {mm} if {mm} < {f} else {f}")
             if self._weighted:
                 lines.append(f"    {f} = {f} * {r(rule.weight)}")
-        # slot levels, term-major (k * n_out + o): the layout of self._mfgK
+        # slot levels, term-major (k * n_out + o): the layout of self._mfgK4
         n_out, kmax = len(self.outputs), self._kmax
         used = dict(self._slot_rules)
         out = []
@@ -596,15 +596,18 @@ class FuzzySystem:
         return Y
 
     def _agg_one(self, x):
-        """Single-sample path: (aggregated (n_out, G), outputs list); operation for
+        """Single-sample path: (aggregated (n_out, 1, G), outputs list); operation for
         operation the batch's arithmetic (min/max are exact; the sums run in grid order:
         cumsum here, a reduce over axis 0 of >= 2 columns there)."""
         if type(x) is np.ndarray:
             x = x.tolist()  # Python floats: much faster than numpy scalars below
-        s = np.array(self._front(x)).reshape(self._kmax, len(self.outputs), 1)
-        agg = np.minimum(s, self._mfgK).max(axis=0)                      # (n_out, G)
-        sums = np.cumsum(agg[:, None, :] * self._grid2, axis=2)[:, :, -1].tolist()
-        return agg, [nu / de if de > 0.0 else mid for (nu, de), mid in zip(sums, self._mid)]
+        s = np.array(self._front(x)).reshape(self._kmax, len(self.outputs), 1, 1)
+        agg = np.minimum(s, self._mfgK4).max(axis=0)                     # (n_out, 1, G)
+        sums = np.cumsum(agg * self._grid2, axis=2)[:, :, -1].tolist()   # [[num, den], ...]
+        out = []
+        for (nu, de), mid in zip(sums, self._mid):
+            out.append(nu / de if de > 0.0 else mid)
+        return agg, out
 
     def evaluate_one(self, x: Sequence[float]) -> np.ndarray:
         """Crisp outputs for one input vector (n_inputs,) -> (n_outputs,), identical to
@@ -619,7 +622,7 @@ class FuzzySystem:
         """For one input vector: the output grids, the aggregated output membership on
         them (max over terms of min(level, MF)) and the centroids (= evaluate_one)."""
         agg, out = self._agg_one(x)
-        return Aggregation(self._grid.copy(), agg, np.array(out))
+        return Aggregation(self._grid.copy(), agg[:, 0, :], np.array(out))
 
     # ------------------------------------------------------------------ parameters
     def parameter_vector(self) -> np.ndarray:
