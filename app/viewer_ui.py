@@ -1,0 +1,876 @@
+"""The viser side of the viewer: the 3D scene, the control panel, the plots and the
+teaching panel (see :mod:`app.viewer` for what the page shows and why).
+
+:class:`ViewerServer` owns the viser server and one render thread. GUI callbacks only
+call :class:`app.viewer.ViewerApp` methods; the render thread alone writes the scene,
+from :meth:`ViewerApp.snapshot`, at up to ``FRAME_HZ`` while something changes and not
+at all while nothing does. The plots, the status line and the teaching panel are redrawn
+at ``PANEL_HZ``.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import threading
+import time
+from collections import deque
+
+import numpy as np
+import viser
+
+from app.viewer import (
+    NOISE_RANGE_M,
+    SAFE_DISTANCE_M,
+    SPEED_RANGE,
+    Snapshot,
+    ViewerApp,
+    ViewerError,
+)
+from world.perception import PERCEPTION_MODES
+
+FRAME_HZ = 30.0
+PANEL_HZ = 5.0
+PLOT_POINTS = 300
+
+# Colours (RGB 0-255).
+HUSKY_YELLOW = (250, 190, 20)
+HUSKY_DARK = (40, 40, 40)
+STATIC_COLOUR = (96, 112, 136)
+MOVING_COLOUR = (234, 88, 12)
+TARGET_RED = (220, 38, 38)
+TRAIL_BLUE = (37, 99, 235)
+RING_OK = (217, 119, 6)
+RING_ALERT = (220, 38, 38)
+NO_ECHO = (175, 175, 175)
+GROUND = (255, 255, 255)
+
+OBSTACLE_HEIGHT_M = 0.5
+# Paper Table 4, proposed method (S1, S2, S3): shown beside our numbers for the shipped
+# scenarios when their layout has not been edited.
+PAPER_TABLE4 = {
+    "s1": {"path_length_m": 11.8332, "mad_m": 0.3653, "rmse_m": 0.4825, "min_center_distance_m": 0.2557},
+    "s2": {"path_length_m": 11.8672, "mad_m": 0.5727, "rmse_m": 0.7449, "min_center_distance_m": 0.3834},
+    "s3": {"path_length_m": 11.8263, "mad_m": 0.6298, "rmse_m": 0.7474, "min_center_distance_m": 0.6398},
+}
+
+
+def yaw_wxyz(theta: float) -> tuple[float, float, float, float]:
+    return (math.cos(0.5 * theta), 0.0, 0.0, math.sin(0.5 * theta))
+
+
+def reading_colour(distance_m: float) -> tuple[int, int, int]:
+    """Red within the safe distance, through amber, to green at 3 m; grey = no echo."""
+    if not math.isfinite(distance_m):
+        return NO_ECHO
+    stops = [(0.0, (220, 38, 38)), (SAFE_DISTANCE_M, (220, 38, 38)), (1.0, (245, 158, 11)),
+             (3.0, (22, 163, 74))]
+    if distance_m >= stops[-1][0]:
+        return stops[-1][1]
+    for (d0, c0), (d1, c1) in zip(stops, stops[1:]):
+        if distance_m <= d1:
+            f = 0.0 if d1 == d0 else (distance_m - d0) / (d1 - d0)
+            return tuple(int(round(a + f * (b - a))) for a, b in zip(c0, c1))
+    return stops[-1][1]
+
+
+def rounded_rectangle(length: float, width: float, offset: float, n_arc: int = 8) -> np.ndarray:
+    """Closed outline (N, 2) of a rectangle grown by ``offset`` (round corners)."""
+    hx, hy = 0.5 * length, 0.5 * width
+    points = []
+    for cx, cy, a0 in ((hx, hy, 0.0), (-hx, hy, 0.5 * math.pi), (-hx, -hy, math.pi),
+                       (hx, -hy, 1.5 * math.pi)):
+        for k in range(n_arc + 1):
+            a = a0 + 0.5 * math.pi * k / n_arc
+            points.append((cx + offset * math.cos(a), cy + offset * math.sin(a)))
+    points.append(points[0])
+    return np.array(points)
+
+
+def polyline_segments(points_xy: np.ndarray, z: float) -> np.ndarray:
+    """(N, 2) polyline -> (N - 1, 2, 3) line segments at height z."""
+    p = np.asarray(points_xy, dtype=np.float32)
+    seg = np.zeros((max(len(p) - 1, 0), 2, 3), dtype=np.float32)
+    seg[:, 0, :2] = p[:-1]
+    seg[:, 1, :2] = p[1:]
+    seg[:, :, 2] = z
+    return seg
+
+
+def arena_bounds(snap: Snapshot, start) -> tuple[int, int, int, int]:
+    """Even-sized integer bounds holding start, target and obstacles, with a margin."""
+    xs = [start[0], snap.target[0], snap.pose[0]] + [o.xy[0] for o in snap.obstacles]
+    ys = [start[1], snap.target[1], snap.pose[1]] + [o.xy[1] for o in snap.obstacles]
+    x0, x1 = math.floor(min(xs) - 2.0), math.ceil(max(xs) + 2.0)
+    y0, y1 = math.floor(min(ys) - 2.0), math.ceil(max(ys) + 2.0)
+    size = max(x1 - x0, y1 - y0, 10)
+    size += size % 2
+    cx, cy = round(0.5 * (x0 + x1)), round(0.5 * (y0 + y1))
+    half = size // 2
+    return cx - half, cx + half, cy - half, cy + half
+
+
+def _fmt(value, unit: str = "", digits: int = 2) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "—"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, (int, float)):
+        return f"{value:.{digits}f}{(' ' + unit) if unit else ''}"
+    return str(value)
+
+
+class ViewerServer:
+    """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
+
+    _RESULT_PENDING = ("<div style='color:#64748b;font-size:0.85em'>The outcome and the "
+                       "paper's Table 4 metrics appear here when a run ends.</div>")
+
+    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080):
+        self.app = app
+        self.host = host
+        self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
+        self.port = self.server.get_port()
+        self._stop = threading.Event()
+        self._camera_fits: dict[int, float] = {}
+        self._dragging: set[str] = set()
+        self._frame_times: deque[float] = deque(maxlen=120)
+        self._messages: deque[tuple[str, str]] = deque(maxlen=20)
+        self._obstacle_nodes: dict[tuple[int, int], dict] = {}
+        self._trail_nodes: list = []
+        self._current_trail = None
+        self._trail_points = np.zeros((0, 2))
+        self._trail_index = 0
+        self._drawn_run = -1
+        self._bounds = None
+        self._last_target = None
+        self._last_ranges = None
+        self._ring_alert = None
+        self._last_panel_version = -1
+        self._last_metrics_run = -1
+        self._distance_top = None
+        self._start_xy = tuple(app.sim.scenario.start)
+
+        self.server.scene.set_up_direction("+z")
+        self._build_gui()
+        self._build_static_scene()
+        app.on_message(lambda text, level: self._messages.append((text, level)))
+        self.server.on_client_connect(self._on_connect)
+        app.start()
+        self._thread = threading.Thread(target=self._render_loop, name="fuzzynav-render",
+                                        daemon=True)
+        self._thread.start()
+
+    # -- lifecycle ---------------------------------------------------------------------
+
+    @property
+    def url(self) -> str:
+        host = "127.0.0.1" if self.host in ("", "0.0.0.0") else self.host
+        if ":" in host:
+            host = f"[{host}]"
+        return f"http://{host}:{self.port}"
+
+    def stop(self) -> None:
+        """Stop rendering, the simulation thread and the server; the port is freed."""
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+        self.app.stop()
+        self.server.stop()
+
+    def scene_hz(self) -> float:
+        """Scene updates per second over the last frames (0 when idle)."""
+        times = list(self._frame_times)
+        if len(times) < 2 or time.perf_counter() - times[-1] > 0.5:
+            return 0.0
+        return (len(times) - 1) / (times[-1] - times[0])
+
+    def _on_connect(self, client: viser.ClientHandle) -> None:
+        """Frame the arena for this tab, and again whenever its canvas changes shape in
+        its first seconds (it starts as wide as the window and narrows when the side
+        panels dock, which takes a while on a slow machine)."""
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and not self._stop.is_set():
+            if client.client_id not in self.server.get_clients():
+                return
+            self._fit_camera(client, force=False)
+            time.sleep(0.2)
+
+    def _fit_camera(self, client, force: bool) -> None:
+        """Point this tab's camera straight down at the arena, if its shape changed."""
+        bounds = self._bounds
+        if bounds is None:
+            return
+        try:
+            camera = client.camera
+            if camera.update_timestamp == 0.0:
+                return
+            aspect = float(camera.aspect or 1.0)
+            fitted = self._camera_fits.get(client.client_id)
+            if not force and fitted is not None and abs(aspect - fitted) <= 0.02 * fitted:
+                return
+            self._camera_fits[client.client_id] = aspect
+            self._point_camera(camera, bounds, aspect)
+        except Exception:  # the tab went away meanwhile
+            self._camera_fits.pop(client.client_id, None)
+
+    # -- static parts ------------------------------------------------------------------
+
+    def _build_static_scene(self) -> None:
+        scene = self.server.scene
+        # No HDRI environment map: viser fetches it from the internet and keeps the canvas
+        # dimmed until it arrives, which offline (a classroom) is never.
+        scene.configure_environment_map(hdri=None)
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
+        # ... so light the scene ourselves: soft all round, plus a sun from above.
+        scene.add_light_ambient("/lights/ambient", intensity=1.6)
+        scene.add_light_directional("/lights/sun", intensity=1.2, position=(2.0, -3.0, 10.0))
+        L, W = self.app.sim.arena.footprint_m
+        self.robot = scene.add_frame("/robot", show_axes=False)
+        scene.add_box("/robot/body", color=HUSKY_YELLOW, dimensions=(L, W * 0.78, 0.26),
+                      position=(0.0, 0.0, 0.25))
+        scene.add_box("/robot/deck", color=HUSKY_DARK, dimensions=(0.62 * L, 0.62 * W, 0.03),
+                      position=(-0.06 * L, 0.0, 0.39))
+        scene.add_box("/robot/bumper", color=HUSKY_DARK, dimensions=(0.06, W * 0.78, 0.12),
+                      position=(0.5 * L - 0.03, 0.0, 0.2))
+        wheel_q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)
+        for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
+            scene.add_cylinder(f"/robot/wheel{i}", radius=0.165, height=0.11, color=(25, 25, 25),
+                               wxyz=wheel_q, position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165))
+        # Heading arrow on the deck.
+        arrow = np.array([[[-0.25, 0, 0.43], [0.42, 0, 0.43]], [[0.42, 0, 0.43], [0.27, 0.12, 0.43]],
+                          [[0.42, 0, 0.43], [0.27, -0.12, 0.43]]], dtype=np.float32)
+        scene.add_line_segments("/robot/heading", arrow, (255, 255, 255), thickness=0.05)
+        ring = rounded_rectangle(L, W, SAFE_DISTANCE_M)
+        self.ring = scene.add_line_segments("/robot/safe_ring", polyline_segments(ring, 0.03),
+                                            RING_OK, thickness=0.035)
+        # Beams that echo: thick, coloured by the reading; beams that do not: thin grey.
+        self.beams = scene.add_line_segments("/robot/beams", np.zeros((1, 2, 3), np.float32),
+                                             NO_ECHO, thickness=0.07)
+        self.free_beams = scene.add_line_segments("/robot/free_beams",
+                                                  np.zeros((1, 2, 3), np.float32), NO_ECHO,
+                                                  thickness=0.025)
+        # Target: a bullseye with a handle that slides on the ground.
+        tx, ty = self.app.sim.arena.target
+        self.target = scene.add_transform_controls(
+            "/target", scale=1.0, line_width=2.5, active_axes=(True, True, False),
+            disable_rotations=True, depth_test=False, position=(tx, ty, 0.06))
+        for k, (radius, colour) in enumerate(((0.36, TARGET_RED), (0.25, (255, 255, 255)),
+                                              (0.13, TARGET_RED))):
+            scene.add_cylinder(f"/target/ring{k}", radius=radius, height=0.02, color=colour,
+                               position=(0.0, 0.0, -0.05 + 0.006 * k), cast_shadow=False)
+        scene.add_label("/target/label", "target", position=(0.45, 0.45, 0.0),
+                        anchor="bottom-left", font_screen_scale=0.9)
+        self.target.on_update(self._make_drag_callback("/target", None))
+        self.ideal = scene.add_line_segments("/ideal_line", np.zeros((1, 2, 3), np.float32),
+                                             (150, 150, 150), thickness=0.02)
+        self.start_marker = scene.add_line_segments(
+            "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04)
+
+    def _frame_arena(self, bounds) -> None:
+        """Ground grid, metre marks and the top-down camera for these bounds."""
+        scene = self.server.scene
+        x0, x1, y0, y1 = bounds
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        size = x1 - x0
+        scene.add_grid("/ground", width=size, height=size, plane="xy", cell_size=0.5,
+                       section_size=1.0, cell_color=(222, 222, 218), section_color=(165, 165, 160),
+                       cell_thickness=0.8, section_thickness=1.3, plane_opacity=0.0,
+                       shadow_opacity=0.0, position=(cx, cy, 0.0))
+        scene.add_box("/ground_slab", color=GROUND, dimensions=(size, size, 0.02),
+                      position=(cx, cy, -0.012), cast_shadow=False, receive_shadow=0.25)
+        scene.remove_by_name("/marks")
+        step = 1 if size <= 16 else 2
+        for x in range(x0, x1 + 1, step):
+            scene.add_label(f"/marks/x{x}", f"{x}" + (" m" if x == x1 else ""),
+                            position=(x, y0 - 0.25, 0.0), anchor="top-center",
+                            font_screen_scale=0.75)
+        for y in range(y0, y1 + 1, step):
+            scene.add_label(f"/marks/y{y}", f"{y}" + (" m" if y == y1 else ""),
+                            position=(x0 - 0.25, y, 0.0), anchor="center-right",
+                            font_screen_scale=0.75)
+        cam = self.server.initial_camera
+        # A new tab's canvas aspect is not known yet ("Reset view" also comes here):
+        # assume the canvas between the docked panels is a little taller than wide.
+        position, look_at = self._camera_pose(bounds, 0.8)
+        cam.fov = math.radians(45.0)
+        cam.position = position
+        cam.look_at = look_at
+        for client in self.server.get_clients().values():
+            self._fit_camera(client, force=True)
+
+    @staticmethod
+    def _camera_pose(bounds, aspect: float):
+        """Straight above the arena's centre, high enough for all of it at this aspect."""
+        x0, x1, y0, y1 = bounds
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        half = 0.5 * (x1 - x0) + 0.9  # room for the metre marks
+        tan = math.tan(0.5 * math.radians(45.0))
+        aspect = max(min(aspect, 4.0), 0.25)
+        height = max(half / tan, half / (tan * aspect))
+        # A hair south of straight above, so that +y is "up" on the screen.
+        return (cx, cy - 1e-3 * height, height), (cx, cy, 0.0)
+
+    def _point_camera(self, camera, bounds, aspect: float) -> None:
+        position, look_at = self._camera_pose(bounds, aspect)
+        camera.fov = math.radians(45.0)
+        # Position first: setting it also shifts look_at; look_at then turns the camera.
+        camera.position = position
+        camera.look_at = look_at
+
+    # -- GUI ---------------------------------------------------------------------------
+
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        app = self.app
+        gui.configure_theme(dark_mode=False, show_logo=False, show_share_button=False,
+                            brand_color=(37, 99, 235), control_width="large")
+        gui.set_panel_label("fuzzynav · fuzzy Husky navigator")
+
+        self.status = gui.add_html(self._status_html(app.snapshot()))
+        self.run_buttons = gui.add_button_group("Run", ("Play", "Pause", "Step", "Reset"))
+        self.run_buttons.on_click(self._guarded(self._on_run_button))
+        self.speed = gui.add_slider("Speed ×", SPEED_RANGE[0], SPEED_RANGE[1], 0.1, 1.0,
+                                    marks=((0.1, "0.1"), (1.0, "1"), (2.5, "2.5"), (5.0, "5"),
+                                           (10.0, "10")),
+                                    hint="Simulated seconds per real second")
+        self.speed.on_update(self._guarded(lambda e: app.set_speed(self.speed.value)))
+
+        with gui.add_folder("Scenario"):
+            self.scenario_dd = gui.add_dropdown("Scenario", app.scenario_options(),
+                                                initial_value=app.scenario_label)
+            self.scenario_dd.on_update(self._guarded(
+                lambda e: app.load_scenario(self.scenario_dd.value)))
+            self.obstacle_buttons = gui.add_button_group("Obstacle", ("Add", "Remove newest"))
+            self.obstacle_buttons.on_click(self._guarded(self._on_obstacle_button))
+            self.restore = gui.add_button("Restore scenario layout", icon=viser.Icon.RESTORE,
+                                          hint="Undo drags, additions and removals")
+            self.restore.on_click(self._guarded(lambda e: app.restore_layout()))
+            self.scenario_upload = gui.add_upload_button(
+                "Upload scenario (.toml)", icon=viser.Icon.UPLOAD, mime_type=".toml")
+            self.scenario_upload.on_upload(self._guarded(self._on_scenario_upload))
+
+        with gui.add_folder("Controller and sensing"):
+            self.controller_dd = gui.add_dropdown("Controller", app.controller_options(),
+                                                  initial_value=app.controller_label)
+            self.controller_dd.on_update(self._guarded(
+                lambda e: app.set_controller(self.controller_dd.value)))
+            self.fis_upload = gui.add_upload_button("Upload a .fis controller",
+                                                    icon=viser.Icon.UPLOAD, mime_type=".fis")
+            self.fis_upload.on_upload(self._guarded(self._on_fis_upload))
+            self.perception_dd = gui.add_dropdown("Perception", PERCEPTION_MODES,
+                                                  initial_value=app.sim.perception.mode,
+                                                  hint="ideal: exact nearest obstacle; "
+                                                       "ultrasonic: the three beams")
+            self.perception_dd.on_update(self._guarded(
+                lambda e: app.set_perception(self.perception_dd.value)))
+            self.disturbance_cb = gui.add_checkbox(
+                "Disturbance", app.disturbance_on,
+                hint="A sin(2t) added to every controller input (scenario 3: 25-35 s)")
+            self.disturbance_cb.on_update(self._guarded(
+                lambda e: app.set_disturbance(self.disturbance_cb.value)))
+            self.noise = gui.add_slider("Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01,
+                                        app.noise_std_m)
+            self.noise.on_update(self._guarded(lambda e: app.set_noise(self.noise.value)))
+
+        with gui.add_folder("Result"):
+            self.result = gui.add_html(self._RESULT_PENDING)
+        gui.add_markdown(
+            "<small>Drag the arrows or the square of a handle to move the **target** or an "
+            "**obstacle**; the robot reacts at once. Scroll to zoom, right-drag to pan.</small>")
+
+        panel = gui.add_panel()
+        self._signals_tab = panel.add_tab("Signals", viser.Icon.CHART_LINE)
+        self.plot_distance = None
+        self._make_distance_plot(self._distance_range())
+        with self._signals_tab:
+            axes_x = {"time": False, "auto": True}
+            self.plot_angle = gui.add_uplot(
+                data=(np.zeros(2), np.full(2, np.nan), np.full(2, np.nan)),
+                series=({"label": "t (s)"},
+                        {"label": "φ_t target", "stroke": "#2563eb", "width": 2},
+                        {"label": "φ_o obstacle", "stroke": "#dc2626", "width": 2}),
+                title="Bearings (rad, + = to the left)",
+                scales={"x": axes_x, "y": {"range": [-3.2, 3.2]}},
+                legend={"show": True, "live": False}, aspect=1.9, order=1.0)
+            self.plot_voltage = gui.add_uplot(
+                data=(np.zeros(2), np.full(2, np.nan), np.full(2, np.nan)),
+                series=({"label": "t (s)"},
+                        {"label": "left", "stroke": "#7c3aed", "width": 2},
+                        {"label": "right", "stroke": "#059669", "width": 2}),
+                title="Wheel voltages (V, after the 12 V limit)",
+                scales={"x": axes_x, "y": {"range": [-12.5, 12.5]}},
+                legend={"show": True, "live": False}, aspect=1.9, order=2.0)
+        self._rules_tab = panel.add_tab("Fuzzy rules", viser.Icon.BRAIN)
+        with self._rules_tab:
+            self.rules_html = gui.add_html("", order=0.0)
+            self.aggregate_plot = None
+            self._aggregate_range = None
+        panel.dock_left()
+        panel.set_width(370)
+        main = gui.main_panel
+        main.dock_right()
+        main.set_width(330)
+
+    def _distance_range(self) -> float:
+        """Top of the distance plot: the start-target distance, rounded up, at least 4 m."""
+        sc = self.app.sim.scenario
+        span = math.dist(sc.start, sc.target)
+        return float(max(4.0, math.ceil(span + 0.5)))
+
+    def _make_distance_plot(self, top: float) -> None:
+        """(Re)build the distance plot with a fixed y range.
+
+        The range is fixed because uPlot's auto range fails on NaN (no obstacle sensed),
+        and the plot is rebuilt rather than rescaled because viser's uPlot keeps the
+        x range it had when its scales change.
+        """
+        if self.plot_distance is not None:
+            self.plot_distance.remove()
+        with self._signals_tab:
+            self.plot_distance = self.server.gui.add_uplot(
+                data=(np.array([0.0, 0.02]), np.full(2, np.nan), np.full(2, np.nan),
+                      np.full(2, SAFE_DISTANCE_M)),
+                series=({"label": "t (s)"},
+                        {"label": "d_t target", "stroke": "#2563eb", "width": 2},
+                        {"label": "d_o obstacle", "stroke": "#dc2626", "width": 2},
+                        {"label": "safe 0.25", "stroke": "#f59e0b", "width": 1, "dash": [5, 4]}),
+                title="Distances (m)",
+                scales={"x": {"time": False, "auto": True}, "y": {"range": [0.0, top]}},
+                legend={"show": True, "live": False}, aspect=1.9, order=0.0)
+        self._distance_top = top
+
+    def _make_aggregate_plot(self, lo: float, hi: float) -> None:
+        """(Re)build the aggregated-output plot for an output range [lo, hi] (a fixed x
+        range: viser's uPlot keeps the x range of its first data)."""
+        if self.aggregate_plot is not None:
+            self.aggregate_plot.remove()
+        with self._rules_tab:
+            self.aggregate_plot = self.server.gui.add_uplot(
+                data=(np.array([lo, hi]), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2)),
+                series=({"label": "V"},
+                        {"label": "left", "stroke": "#7c3aed", "width": 2,
+                         "fill": "rgba(124,58,237,0.15)"},
+                        {"label": "right", "stroke": "#059669", "width": 2,
+                         "fill": "rgba(5,150,105,0.15)"},
+                        {"label": "centroid L", "stroke": "#7c3aed", "width": 2, "dash": [3, 3]},
+                        {"label": "centroid R", "stroke": "#059669", "width": 2, "dash": [3, 3]}),
+                title="Aggregated outputs and centroids",
+                scales={"x": {"time": False, "range": [lo, hi]}, "y": {"range": [0.0, 1.05]}},
+                legend={"show": True, "live": False}, aspect=1.5, order=1.0)
+        self._aggregate_range = (lo, hi)
+
+    def _guarded(self, func):
+        """Run a GUI callback; a refused action becomes a message in the page."""
+
+        def callback(event):
+            if event.client is None:  # a value the server itself set (sync), not a user
+                return
+            try:
+                func(event)
+            except ViewerError as exc:
+                self._tell(event.client, str(exc), "error")
+            except Exception as exc:  # never let a callback kill the viewer quietly
+                self._tell(event.client, f"unexpected error: {type(exc).__name__}: {exc}",
+                           "error")
+
+        return callback
+
+    def _tell(self, client, text: str, level: str) -> None:
+        self.app._notice(text, level)
+        if client is not None:
+            colour = {"error": "red", "warning": "yellow", "success": "green"}.get(level, "blue")
+            client.add_notification("Refused" if level == "error" else "fuzzynav", text,
+                                    color=colour, auto_close_seconds=8.0)
+
+    def _on_run_button(self, event) -> None:
+        choice = self.run_buttons.value
+        {"Play": self.app.play, "Pause": self.app.pause, "Step": self.app.step_once,
+         "Reset": self.app.reset}[choice]()
+
+    def _on_obstacle_button(self, event) -> None:
+        if self.obstacle_buttons.value == "Add":
+            self.app.add_obstacle()
+        else:
+            self.app.remove_obstacle()
+
+    def _on_fis_upload(self, event) -> None:
+        uploaded = self.fis_upload.value
+        label = self.app.upload_fis(uploaded.content, uploaded.name)
+        self.controller_dd.options = self.app.controller_options()
+        self.controller_dd.value = label
+        self._tell(event.client, f"Driving with {label}.", "success")
+
+    def _on_scenario_upload(self, event) -> None:
+        uploaded = self.scenario_upload.value
+        label = self.app.upload_scenario(uploaded.content, uploaded.name)
+        self.scenario_dd.options = self.app.scenario_options()
+        self.scenario_dd.value = label
+
+    def _make_drag_callback(self, name: str, obstacle_id: int | None):
+        app = self.app
+
+        async def on_update(event) -> None:
+            if event.client is None:
+                return
+            if event.phase == "start":
+                self._dragging.add(name)
+            x, y = (float(v) for v in event.target.position[:2])
+            try:
+                if obstacle_id is None:
+                    app.move_target((x, y))
+                else:
+                    app.move_obstacle(obstacle_id, (x, y))
+            except ViewerError as exc:
+                app._notice(str(exc), "warning")
+            if event.phase == "end":
+                self._dragging.discard(name)
+
+        return on_update
+
+    # -- the render loop ---------------------------------------------------------------
+
+    def _render_loop(self) -> None:
+        period = 1.0 / FRAME_HZ
+        drawn_version = -1
+        next_panels = 0.0
+        while not self._stop.is_set():
+            started = time.perf_counter()
+            snap = self.app.snapshot()
+            if snap.version != drawn_version:
+                try:
+                    with self.server.atomic():
+                        self._draw_scene(snap)
+                except Exception as exc:  # keep rendering whatever one frame did
+                    self.app._notice(f"scene update failed: {type(exc).__name__}: {exc}", "warning")
+                drawn_version = snap.version
+                self._frame_times.append(started)
+            if snap.version != self._last_panel_version and (
+                    started >= next_panels or not snap.playing):
+                try:
+                    self._draw_panels(snap)
+                except Exception as exc:
+                    self.app._notice(f"panel update failed: {type(exc).__name__}: {exc}", "warning")
+                self._last_panel_version = snap.version
+                next_panels = started + 1.0 / PANEL_HZ
+            if self._last_panel_version == drawn_version == snap.version and not snap.playing:
+                # All drawn and nothing runs: sleep until the app changes.
+                with self.app._changed:
+                    if self.app.version == snap.version and not self._stop.is_set():
+                        self.app._changed.wait(0.25)
+                continue
+            self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
+
+    def _draw_scene(self, snap: Snapshot) -> None:
+        scene = self.server.scene
+        if snap.run_id != self._drawn_run:
+            self._drawn_run = snap.run_id
+            for node in self._trail_nodes + [self._current_trail]:
+                if node is not None:
+                    node.remove()
+            self._trail_nodes = []
+            self._current_trail = None
+            self._trail_points = np.zeros((0, 2))
+            self._trail_index = 0
+            self._start_xy = tuple(self.app.sim.scenario.start)
+            bounds = arena_bounds(snap, self._start_xy)
+            if bounds != self._bounds:
+                self._bounds = bounds
+                self._frame_arena(bounds)
+            sx, sy = self._start_xy
+            cross = np.array([[[sx - 0.2, sy, 0.01], [sx + 0.2, sy, 0.01]],
+                              [[sx, sy - 0.2, 0.01], [sx, sy + 0.2, 0.01]]], dtype=np.float32)
+            self.start_marker.points = cross
+            self._last_target = None
+        self._draw_obstacles(snap)
+
+        x, y, heading = snap.pose
+        self.robot.position = (x, y, 0.0)
+        self.robot.wxyz = yaw_wxyz(heading)
+
+        ranges = tuple(np.round(snap.ranges_m, 3))
+        if ranges != self._last_ranges:
+            self._last_ranges = ranges
+            for handle, echo in ((self.beams, True), (self.free_beams, False)):
+                points, colours = self._beam_segments(snap, echo)
+                handle.points = points
+                handle.colors = colours
+        alert = snap.nearest_clearance_m < SAFE_DISTANCE_M
+        if alert != self._ring_alert:
+            self._ring_alert = alert
+            colour = RING_ALERT if alert else RING_OK
+            self.ring.colors = np.broadcast_to(np.array(colour, np.uint8),
+                                               self.ring.points.shape).copy()
+
+        if snap.target != self._last_target:
+            self._last_target = snap.target
+            if "/target" not in self._dragging:
+                self.target.position = (snap.target[0], snap.target[1], 0.06)
+            sx, sy = self._start_xy
+            self.ideal.points = np.array([[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]],
+                                         dtype=np.float32)
+        self._draw_trail()
+
+    def _beam_segments(self, snap: Snapshot, echo: bool):
+        """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
+        mounts = self.app.sim.sensors.config.mounts
+        half = 0.5 * snap.beam_width_rad
+        segments, colours = [], []
+        for mount, reading in zip(mounts, snap.ranges_m):
+            if math.isfinite(reading) != echo:
+                continue
+            reach = float(reading) if math.isfinite(reading) else snap.max_range_m
+            colour = reading_colour(float(reading))
+            ox, oy, a = mount.x_m, mount.y_m, mount.angle_rad
+            arc = [(ox + reach * math.cos(a + s), oy + reach * math.sin(a + s))
+                   for s in np.linspace(-half, half, 5)]
+            outline = [(ox, oy)] + arc + [(ox, oy)]
+            for p, q in zip(outline, outline[1:]):
+                segments.append([[p[0], p[1], 0.06], [q[0], q[1], 0.06]])
+                colours.append([colour, colour])
+        if not segments:  # nothing of this kind: a zero-length segment under the robot
+            return np.zeros((1, 2, 3), np.float32), np.full((1, 2, 3), 255, np.uint8)
+        return np.array(segments, dtype=np.float32), np.array(colours, dtype=np.uint8)
+
+    def _draw_obstacles(self, snap: Snapshot) -> None:
+        scene = self.server.scene
+        wanted = {(snap.run_id, o.id): o for o in snap.obstacles}
+        for key in [k for k in self._obstacle_nodes if k not in wanted]:
+            node = self._obstacle_nodes.pop(key)
+            node["handle"].remove()
+            self._dragging.discard(node["name"])
+        for key, ob in wanted.items():
+            node = self._obstacle_nodes.get(key)
+            if node is None or node["static"] != ob.is_static:
+                if node is not None:
+                    node["handle"].remove()
+                name = f"/obstacles/r{key[0]}_o{key[1]}"
+                handle = scene.add_transform_controls(
+                    name, scale=max(0.6, 2.2 * ob.radius_m), line_width=2.5,
+                    active_axes=(True, True, False), disable_rotations=True, depth_test=False,
+                    position=(ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01))
+                scene.add_cylinder(f"{name}/body", radius=ob.radius_m, height=OBSTACLE_HEIGHT_M,
+                                   color=STATIC_COLOUR if ob.is_static else MOVING_COLOUR,
+                                   position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01))
+                if not ob.is_static:
+                    scene.add_label(f"{name}/label", "moving", position=(ob.radius_m + 0.1, 0.0, 0.0),
+                                    anchor="center-left", font_screen_scale=0.8)
+                handle.on_update(self._make_drag_callback(name, ob.id))
+                node = {"handle": handle, "name": name, "static": ob.is_static, "xy": ob.xy}
+                self._obstacle_nodes[key] = node
+            elif node["xy"] != ob.xy and node["name"] not in self._dragging:
+                node["handle"].position = (ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01)
+                node["xy"] = ob.xy
+
+    def _draw_trail(self) -> None:
+        run_id, new = self.app.trail_since(self._trail_index)
+        if run_id != self._drawn_run or len(new) == 0:
+            return
+        self._trail_index += len(new)
+        scene = self.server.scene
+        points = np.concatenate([self._trail_points, new])
+        chunk = 150
+        while len(points) > chunk:
+            # A full chunk is frozen as a node of its own; the next starts at its end.
+            name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+            self._trail_nodes.append(scene.add_line_segments(
+                name, polyline_segments(points[:chunk], 0.015), TRAIL_BLUE, thickness=0.045))
+            self._current_trail = None
+            points = points[chunk - 1:]
+        if len(points) >= 2:
+            segs = polyline_segments(points, 0.015)
+            if self._current_trail is None:
+                name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+                self._current_trail = scene.add_line_segments(name, segs, TRAIL_BLUE,
+                                                              thickness=0.045)
+            else:
+                self._current_trail.points = segs
+        self._trail_points = points
+
+    # -- panels ------------------------------------------------------------------------
+
+    def _draw_panels(self, snap: Snapshot) -> None:
+        self.status.content = self._status_html(snap)
+        self._sync_controls(snap)
+        self._draw_plots()
+        self._draw_teaching()
+        if snap.metrics is not None and self._last_metrics_run != snap.run_id:
+            self._last_metrics_run = snap.run_id
+            self.result.content = self._metrics_html(snap)
+        elif snap.metrics is None and self._last_metrics_run != -snap.run_id - 1:
+            self._last_metrics_run = -snap.run_id - 1
+            self.result.content = self._RESULT_PENDING
+
+    def _sync_controls(self, snap: Snapshot) -> None:
+        """Show in every tab what the world is (another tab may have changed it)."""
+        app = self.app
+        options = tuple(app.scenario_options())
+        if tuple(self.scenario_dd.options) != options:
+            self.scenario_dd.options = options
+        if self.scenario_dd.value != snap.scenario_label:
+            self.scenario_dd.value = snap.scenario_label
+        options = tuple(app.controller_options())
+        if tuple(self.controller_dd.options) != options:
+            self.controller_dd.options = options
+        if self.controller_dd.value != snap.controller_label and snap.controller_label in options:
+            self.controller_dd.value = snap.controller_label
+        if self.perception_dd.value != snap.perception:
+            self.perception_dd.value = snap.perception
+        if self.disturbance_cb.value != snap.disturbance_on:
+            self.disturbance_cb.value = snap.disturbance_on
+        if abs(self.noise.value - snap.noise_std_m) > 1e-9:
+            self.noise.value = snap.noise_std_m
+        if abs(self.speed.value - snap.speed) > 1e-9:
+            self.speed.value = snap.speed
+
+    def _status_html(self, snap: Snapshot) -> str:
+        state = ("running" if snap.playing else
+                 {"reached": "reached the target", "collided": "collided",
+                  "timeout": "timed out"}.get(snap.outcome, "paused"))
+        colour = {"running": "#16a34a", "reached the target": "#16a34a", "collided": "#dc2626",
+                  "timed out": "#d97706"}.get(state, "#64748b")
+        d_t, d_o, phi_t, phi_o = snap.inputs
+        v_l, v_r = snap.voltages_v
+        level_colour = {"error": "#b91c1c", "warning": "#b45309", "success": "#15803d"}.get(
+            snap.message_level, "#334155")
+        message = (f"<div style='margin-top:6px;padding:4px 6px;border-radius:4px;"
+                   f"background:{level_colour}14;color:{level_colour};font-size:0.85em'>"
+                   f"{html.escape(snap.message)}</div>") if snap.message else ""
+        return (
+            "<div style='font-family:system-ui,sans-serif;line-height:1.35'>"
+            f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
+            f"<span style='font-size:1.6em;font-weight:600;font-variant-numeric:tabular-nums'>"
+            f"t = {snap.time_s:6.2f} s</span>"
+            f"<span style='font-weight:600;color:{colour}'>● {state}</span></div>"
+            f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
+            f"{html.escape(snap.controller_label)} · {snap.perception} · ×{snap.speed:g}"
+            f"{' · layout edited' if snap.layout_edited else ''}</div>"
+            "<table style='width:100%;font-size:0.85em;margin-top:4px;"
+            "font-variant-numeric:tabular-nums'><tr>"
+            f"<td>d<sub>t</sub> {_fmt(d_t, 'm')}</td><td>d<sub>o</sub> "
+            f"{_fmt(d_o, 'm') if math.isfinite(d_o) else 'none'}</td>"
+            f"<td>V<sub>L</sub> {_fmt(v_l, 'V', 1)}</td></tr><tr>"
+            f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
+            f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table>"
+            f"{message}</div>")
+
+    def _metrics_html(self, snap: Snapshot) -> str:
+        m = snap.metrics
+        paper = PAPER_TABLE4.get(snap.scenario_label) if not snap.layout_edited else None
+        colour = "#15803d" if m.get("outcome") == "reached" else "#b91c1c"
+        rows = [("Outcome", m.get("outcome"), None, ""),
+                ("Time to target", m.get("time_to_target_s"), None, "s"),
+                ("Path length", m.get("path_length_m"), "path_length_m", "m"),
+                ("MAD from the line", m.get("mad_m"), "mad_m", "m"),
+                ("RMSE from the line", m.get("rmse_m"), "rmse_m", "m"),
+                ("Min centre distance", m.get("min_center_distance_m"), "min_center_distance_m", "m"),
+                ("Min clearance (footprint)", m.get("min_clearance_m"), None, "m"),
+                ("Max |voltage|", m.get("max_abs_voltage_v"), None, "V")]
+        head = ("<tr><th style='text-align:left'>metric</th><th style='text-align:right'>this run</th>"
+                + ("<th style='text-align:right'>paper</th>" if paper else "") + "</tr>")
+        body = []
+        for label, value, key, unit in rows:
+            shown = (f"<b style='color:{colour}'>{html.escape(str(value))}</b>"
+                     if label == "Outcome" else _fmt(value, unit, 3))
+            paper_cell = (f"<td style='text-align:right;color:#64748b'>"
+                          f"{_fmt(paper.get(key), unit, 3) if key else ''}</td>") if paper else ""
+            body.append(f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{paper_cell}</tr>")
+        note = ("<div style='color:#64748b;font-size:0.8em'>Paper: Table 4, proposed method. "
+                "MAD and RMSE are distances from the straight start–target line.</div>")
+        return ("<table style='width:100%;font-size:0.85em;font-variant-numeric:tabular-nums'>"
+                + head + "".join(body) + "</table>" + note)
+
+    def _draw_plots(self) -> None:
+        rows = self.app.signals()
+        if len(rows) < 2:
+            rows = np.full((2, 7), np.nan)
+            rows[:, 0] = (0.0, 0.02)
+        step = max(1, len(rows) // PLOT_POINTS)
+        rows = rows[::step]
+        t = rows[:, 0]
+        top = self._distance_range()
+        if top != self._distance_top:
+            self._make_distance_plot(top)
+        self.plot_distance.data = (t, rows[:, 1], rows[:, 2], np.full(len(t), SAFE_DISTANCE_M))
+        self.plot_angle.data = (t, rows[:, 3], rows[:, 4])
+        self.plot_voltage.data = (t, rows[:, 5], rows[:, 6])
+
+    def _draw_teaching(self) -> None:
+        info = self.app.teaching()
+        if info is None:
+            fis = self.app.fuzzy_system()
+            if fis is None:
+                text = (f"The controller <b>{html.escape(self.app.controller_label)}</b> has no "
+                        "fuzzy rules to show. Choose a fuzzy controller (paper, baseline, "
+                        "fuzzynav) or upload a .fis file.")
+            else:
+                text = "Press <b>Play</b> or <b>Step</b>: the rules that fire appear here."
+            self.rules_html.content = f"<div style='font-size:0.9em;color:#475569'>{text}</div>"
+            if self.aggregate_plot is not None:
+                self.aggregate_plot.remove()
+                self.aggregate_plot, self._aggregate_range = None, None
+            return
+        self.rules_html.content = self._rules_html(info)
+        grid, membership, centroids = info["grid"], info["membership"], info["centroids"]
+        x = grid[0]
+        lo, hi = float(x.min()), float(x.max())
+        if self._aggregate_range != (lo, hi):
+            self._make_aggregate_plot(lo, hi)
+        extra = []
+        for c in centroids[:2]:
+            extra += [c - 1e-6, c, c + 1e-6]
+        xs = np.unique(np.concatenate([x, np.asarray(extra, dtype=float)]))
+        series = [np.interp(xs, grid[k], membership[k]) for k in range(min(2, len(grid)))]
+        while len(series) < 2:
+            series.append(np.zeros_like(xs))
+        spikes = []
+        for c in list(centroids[:2]) + [np.nan] * (2 - len(centroids[:2])):
+            spike = np.zeros_like(xs)
+            if math.isfinite(c):
+                spike[np.argmin(np.abs(xs - c))] = 1.0
+            spikes.append(spike)
+        self.aggregate_plot.data = (xs, *series, *spikes)
+        names = info["output_names"]
+        self.aggregate_plot.title = ("Aggregated outputs · centroids " + ", ".join(
+            f"{n} {c:.2f} V" for n, c in zip(names, centroids)))
+
+    @staticmethod
+    def _rules_html(info: dict) -> str:
+        fis = info["fis"]
+        strengths = info["strengths"]
+        x = info["inputs"]
+        units = {"d_t": "m", "d_o": "m", "phi_t": "rad", "phi_o": "rad"}
+        lines = []
+        memberships = fis.memberships(np.asarray([x]))
+        for name, value, var, mu in zip(info["input_names"], x, fis.inputs, memberships):
+            degrees = mu[0]
+            terms = " ".join(
+                f"<span style='opacity:{0.35 + 0.65 * d:.2f}'>{html.escape(t.name)}&nbsp;{d:.2f}</span>"
+                for t, d in zip(var.terms, degrees) if d > 0.005)
+            shown = f"{value:.2f} {units.get(name, '')}" if math.isfinite(value) else "none sensed"
+            lines.append(f"<tr><td style='white-space:nowrap'><b>{html.escape(name)}</b> = {shown}</td>"
+                         f"<td style='color:#334155'>{terms or '—'}</td></tr>")
+        cells = []
+        for i, s in enumerate(strengths):
+            text = html.escape(fis.rule_text(i))
+            cells.append(
+                f"<div title='rule {i + 1}: {text} — {s:.2f}' style='height:22px;border-radius:3px;"
+                f"background:rgba(37,99,235,{0.06 + 0.94 * s:.3f});color:{'#fff' if s > 0.5 else '#334155'};"
+                f"font-size:10px;text-align:center;line-height:22px'>{i + 1}</div>")
+        order = [i for i in np.argsort(-strengths, kind="stable") if strengths[i] > 1e-3][:6]
+        top = "".join(
+            f"<tr><td style='width:28px;text-align:right'>{i + 1}</td>"
+            f"<td style='width:70px'><div style='background:#e2e8f0;border-radius:2px'>"
+            f"<div style='width:{100 * strengths[i]:.0f}%;height:8px;background:#2563eb;"
+            f"border-radius:2px'></div></div><span style='font-size:10px'>{strengths[i]:.2f}</span></td>"
+            f"<td style='font-size:11px'>{html.escape(fis.rule_text(i))}</td></tr>" for i in order)
+        n_firing = int(np.sum(strengths > 1e-3))
+        return (
+            "<div style='font-family:system-ui,sans-serif;font-size:0.85em'>"
+            "<div style='font-weight:600;margin-bottom:2px'>Fuzzified inputs</div>"
+            f"<table style='width:100%'>{''.join(lines)}</table>"
+            f"<div style='font-weight:600;margin:6px 0 2px'>Rule firing strengths "
+            f"({n_firing} of {len(strengths)} fire)</div>"
+            f"<div style='display:grid;grid-template-columns:repeat(10,1fr);gap:2px'>{''.join(cells)}</div>"
+            "<div style='font-weight:600;margin:6px 0 2px'>Strongest rules now</div>"
+            f"<table style='width:100%;border-collapse:collapse'>{top or '<tr><td>none fire</td></tr>'}</table>"
+            "</div>")

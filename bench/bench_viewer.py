@@ -1,0 +1,212 @@
+"""The viewer: how long a drag takes to reach the controller, and what the server costs.
+
+1. Drag latency through the app (what a handle's callback calls): from
+   ``ViewerApp.move_target`` to the first controller call that sees the new target,
+   at 1x real time (a control step every 20 ms), median over many moves.
+2. Drag latency through a real browser (headless Chromium; skipped without it), split
+   in two: the server side, from the handle's update reaching the app (the drag
+   callback) to the first controller call that sees it; and end to end, from the
+   playwright mouse move on the target's handle to that controller call. The end-to-end
+   number includes headless Chromium's software WebGL handling the pointer event, which
+   dominates on a loaded machine.
+3. CPU of the server process (``psutil``, this process: server, simulation thread and
+   render thread): idle without a tab, idle with a tab, running at 1x and at 10x with a
+   tab; and the scene update rate while running.
+
+Run: ``.venv/bin/python bench/bench_viewer.py`` (about a minute). Numbers swing with
+the machine's load; the load average is printed with them.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import statistics
+import sys
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import psutil  # noqa: E402
+
+from app.viewer import ViewerApp  # noqa: E402
+from app.viewer_ui import ViewerServer  # noqa: E402
+
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+CPU_WINDOW_S = 5.0
+
+
+class ControllerClock:
+    """Wall-clock times of the controller's calls (the app's input watcher)."""
+
+    def __init__(self, app: ViewerApp):
+        self.times: list[float] = []
+        self._lock = threading.Lock()
+        app.add_input_watcher(self._seen)
+
+    def _seen(self, inputs, wall_s) -> None:
+        with self._lock:
+            self.times.append(wall_s)
+
+    def first_after(self, t: float, timeout: float = 2.0) -> float | None:
+        deadline = time.perf_counter() + timeout
+        while time.perf_counter() < deadline:
+            with self._lock:
+                later = [w for w in self.times[-50:] if w > t]
+            if later:
+                return later[0]
+            time.sleep(0.0005)
+        return None
+
+
+def api_latency(n: int = 60) -> list[float]:
+    app = ViewerApp("s1").start()
+    clock = ControllerClock(app)
+    try:
+        app.play()
+        app.wait_for(lambda a: a.sim.time_s > 0.5, timeout=10)
+        latencies = []
+        for k in range(n):
+            time.sleep(0.013 * (k % 7) + 0.005)  # land at varied points of the 20 ms period
+            started = time.perf_counter()
+            app.move_target((8.0, 8.0 - 0.01 * k))
+            # move_target holds the lock a step holds: every step that starts after it
+            # returns reads the new target.
+            done = time.perf_counter()
+            seen = clock.first_after(done)
+            if seen is not None:
+                latencies.append(seen - started)
+        return latencies
+    finally:
+        app.stop()
+
+
+JS_HANDLE = """
+() => {
+  const m = window.__viserMutable, cam = m.camera, handle = m.nodeRefFromName['/target'];
+  let plane = null;
+  handle.traverse((c) => { if (!plane && c.isMesh && c.geometry && c.geometry.type === 'PlaneGeometry') plane = c; });
+  const p = new cam.position.constructor(); plane.getWorldPosition(p);
+  const v = p.project(cam), r = m.canvas.getBoundingClientRect();
+  return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height];
+}
+"""
+
+
+def open_tab(pw, url, chromium):
+    browser = pw.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
+    page = browser.new_context(viewport={"width": 1280, "height": 800}).new_page()
+    page.goto(url)
+    page.wait_for_function("() => { const m = window.__viserMutable; return !!(m && m.camera &&"
+                           " m.nodeRefFromName['/target'] && m.nodeRefFromName['/ground']); }",
+                           timeout=60_000)
+    page.wait_for_timeout(3000)  # panels docked, camera refitted
+    return browser, page
+
+
+def cpu_percent(process: psutil.Process, seconds: float, during=None) -> float:
+    process.cpu_percent(None)
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if during is not None:
+            during()
+        time.sleep(0.1)
+    return process.cpu_percent(None)
+
+
+def browser_latency_and_cpu(chromium: str | None) -> dict:
+    out: dict = {}
+    process = psutil.Process()
+    app = ViewerApp("s1")
+    server = ViewerServer(app, port=0)
+    clock = ControllerClock(app)
+    received: list[float] = []
+    move_target = app.move_target
+
+    def timed_move_target(xy):
+        received.append(time.perf_counter())  # the drag callback has the update
+        move_target(xy)
+
+    app.move_target = timed_move_target  # the handle's callback looks it up at call time
+    try:
+        time.sleep(1.0)
+        out["cpu idle, no tab (%)"] = cpu_percent(process, CPU_WINDOW_S)
+        if chromium is None:
+            return out
+        from playwright.sync_api import sync_playwright
+
+        with sync_playwright() as pw:
+            browser, page = open_tab(pw, server.url, chromium)
+            out["cpu idle, one tab (%)"] = cpu_percent(process, CPU_WINDOW_S)
+
+            app.play()
+            app.wait_for(lambda a: a.sim.time_s > 0.5, timeout=10)
+            x, y = page.evaluate(JS_HANDLE)
+            page.mouse.move(x, y)
+            page.mouse.down()
+            server_side, end_to_end = [], []
+            for k in range(1, 41):
+                n_before = len(received)
+                started = time.perf_counter()
+                page.mouse.move(x + 4 * k, y + 2 * k)
+                deadline = time.perf_counter() + 2.0
+                while len(received) == n_before and time.perf_counter() < deadline:
+                    time.sleep(0.0005)
+                if len(received) == n_before:
+                    continue
+                arrived = received[n_before]
+                seen = clock.first_after(arrived)
+                if seen is not None:
+                    server_side.append(seen - arrived)
+                    end_to_end.append(seen - started)
+                time.sleep(0.06)
+            page.mouse.up()
+            out["browser drag updates measured"] = len(end_to_end)
+            if end_to_end:
+                out["drag update -> controller input, server side, median (ms)"] = (
+                    1e3 * statistics.median(server_side))
+                out["drag update -> controller input, server side, max (ms)"] = 1e3 * max(server_side)
+                out["mouse move -> controller input, end to end, median (ms)"] = (
+                    1e3 * statistics.median(end_to_end))
+
+            def keep_running():
+                if app.sim.done:
+                    app.play()  # starts again from the layout
+
+            app.restore_layout()
+            app.play()
+            out["cpu running 1x, one tab (%)"] = cpu_percent(process, CPU_WINDOW_S, keep_running)
+            out["scene updates running 1x (Hz)"] = server.scene_hz()
+            app.set_speed(10.0)
+            out["cpu running 10x, one tab (%)"] = cpu_percent(process, CPU_WINDOW_S, keep_running)
+            out["scene updates running 10x (Hz)"] = server.scene_hz()
+            app.pause()
+            browser.close()
+    finally:
+        server.stop()
+    return out
+
+
+def main() -> None:
+    load = os.getloadavg()
+    print(f"bench_viewer: load average {load[0]:.1f} on {os.cpu_count()} cores")
+    latencies = api_latency()
+    print(f"drag latency, app API -> controller input: median {1e3 * statistics.median(latencies):.1f} ms, "
+          f"max {1e3 * max(latencies):.1f} ms over {len(latencies)} moves at 1x "
+          f"(control period 20 ms)")
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        print("chromium not installed: browser latency and CPU with a tab skipped")
+    results = browser_latency_and_cpu(chromium)
+    for key, value in results.items():
+        print(f"{key}: {value:.1f}" if isinstance(value, float) else f"{key}: {value}")
+    load = os.getloadavg()
+    print(f"bench_viewer: load average at the end {load[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,83 @@
+"""Make the README's screenshot of the viewer: docs/img/viewer.png.
+
+Starts the viewer in this process on a free port, opens it in headless Chromium
+(Debian's ``chromium`` package; ``playwright install`` is not needed), presses Play,
+lets the robot drive for a few simulated seconds and saves the page.
+
+    .venv/bin/python scripts/screenshot.py [--scenario s1] [--seconds 14] [--speed 4]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scenario", default="s1")
+    parser.add_argument("--controller", default=None, help="default: paper if available")
+    parser.add_argument("--seconds", type=float, default=13.0, help="simulated seconds to play")
+    parser.add_argument("--tab", default="Fuzzy rules", help="left panel tab to show")
+    parser.add_argument("--speed", type=float, default=4.0, help="speed factor while playing")
+    parser.add_argument("--width", type=int, default=1600)
+    parser.add_argument("--height", type=int, default=900)
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "viewer.png")
+    args = parser.parse_args(argv)
+
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        print("screenshot: chromium is not installed (apt-get install chromium)", file=sys.stderr)
+        return 2
+    from playwright.sync_api import sync_playwright
+
+    from app.viewer import ViewerApp
+    from app.viewer_ui import ViewerServer
+
+    app = ViewerApp(args.scenario, args.controller)
+    server = ViewerServer(app, port=0)
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(executable_path=chromium, headless=True,
+                                         args=CHROMIUM_ARGS)
+            page = browser.new_page(viewport={"width": args.width, "height": args.height},
+                                    device_scale_factor=1)
+            page.goto(server.url)
+            page.wait_for_function(
+                "() => { const m = window.__viserMutable; return !!(m && m.camera &&"
+                " m.nodeRefFromName['/target'] && m.nodeRefFromName['/ground']); }",
+                timeout=60_000)
+            page.wait_for_timeout(3000)  # the panels dock and the camera refits
+            # Headless Chromium renders WebGL in software and viser says so: close that.
+            for button in page.locator(".mantine-Notification-closeButton").all():
+                button.click()
+            page.get_by_role("button", name="Play").click()
+            app.set_speed(args.speed)
+            app.wait_for(lambda a: a.sim.time_s >= args.seconds or a.sim.done,
+                         timeout=args.seconds / args.speed * 4 + 20)
+            app.set_speed(0.2)  # still running in the picture, barely moving
+            if args.tab:
+                page.get_by_role("tab", name=args.tab).click()
+            page.wait_for_timeout(1500)  # let the panels and the scene catch up
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(args.out))
+            app.pause()
+            browser.close()
+    finally:
+        server.stop()
+    print(f"screenshot: wrote {args.out} (t = {app.sim.time_s:.1f} s, "
+          f"controller {app.controller_label})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

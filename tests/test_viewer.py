@@ -1,0 +1,395 @@
+"""The viewer without a browser: the app's thread and actions, and the viser server.
+
+The browser itself is driven in tests/test_viewer_browser.py.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.viewer import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
+from controller.registry import controller_names
+
+ROOT = Path(__file__).resolve().parents[1]
+FUZZY = "paper" if "paper" in controller_names() else None
+
+
+def port_is_free(port: int) -> bool:
+    """Whether a server could listen on the port now (as servers do, with SO_REUSEADDR:
+    connections a closed server leaves in TIME_WAIT do not hold the port)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("127.0.0.1", port))
+            s.listen()
+        except OSError:
+            return False
+    return True
+
+
+@pytest.fixture
+def app():
+    a = ViewerApp("s1", "p").start()
+    yield a
+    a.stop()
+
+
+@pytest.fixture
+def served():
+    from app.viewer_ui import ViewerServer
+
+    a = ViewerApp("s1", "p")
+    server = ViewerServer(a, port=0)
+    yield server
+    server.stop()
+
+
+def world_state(a: ViewerApp) -> dict:
+    s = a.snapshot()
+    return {"time": s.time_s, "pose": s.pose, "target": s.target,
+            "obstacles": [(o.id, o.xy, o.radius_m) for o in s.obstacles],
+            "controller": s.controller_label, "run": s.run_id}
+
+
+# -- the server ------------------------------------------------------------------------
+
+
+def test_server_serves_the_page_on_localhost_and_play_advances_time(served):
+    a = served.app
+    assert served.url.startswith("http://127.0.0.1:")
+    with urllib.request.urlopen(served.url, timeout=10) as response:
+        assert response.status == 200
+        assert b"<html" in response.read().lower()
+    assert a.sim.time_s == 0.0 and not a.playing
+    a.play()
+    started = time.perf_counter()
+    assert a.wait_for(lambda x: x.sim.time_s >= 1.0, timeout=10), (a.sim.time_s, a.message)
+    wall = time.perf_counter() - started
+    # Real-time pace at 1x: one simulated second takes about one second.
+    assert 0.7 < wall < 3.0, wall
+    hz = served.scene_hz()
+    a.pause()
+    t = a.sim.time_s
+    time.sleep(0.2)
+    assert a.sim.time_s == t  # paused means paused
+    # Loose bound on a shared machine; bench/bench_viewer.py measures the rate.
+    assert hz > 10, hz
+
+
+def test_speed_factor_paces_the_simulation(app):
+    app.set_speed(5.0)
+    app.play()
+    started = time.perf_counter()
+    assert app.wait_for(lambda a: a.sim.time_s >= 2.5, timeout=10)
+    wall = time.perf_counter() - started
+    app.pause()
+    assert wall < 1.5, wall
+    with pytest.raises(ViewerError, match="between 0.1 and 10"):
+        app.set_speed(50)
+    with pytest.raises(ViewerError):
+        app.set_speed(float("nan"))
+    assert app.speed == 5.0
+
+
+def test_server_stop_frees_the_port():
+    from app.viewer_ui import ViewerServer
+
+    a = ViewerApp("s1", "p")
+    server = ViewerServer(a, port=0)
+    port = server.port
+    assert not port_is_free(port)
+    a.play()
+    assert a.wait_for(lambda x: x.sim.time_s > 0.1, timeout=10)
+    server.stop()
+    assert port_is_free(port)
+    assert a._thread is None  # the simulation thread is gone too
+
+
+def test_ctrl_c_stops_the_cli_server_and_frees_the_port(tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "s2", "--port", str(port)],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True, env=env)
+    try:
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            line = proc.stdout.readline()
+            lines.append(line)
+            if "fuzzynav viewer: http://127.0.0.1:" in line:
+                break
+            assert proc.poll() is None, "".join(lines)
+        else:
+            pytest.fail("the server did not print its URL:\n" + "".join(lines))
+        assert f":{port}" in line
+        assert not port_is_free(port)
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert "stopped, port released" in out
+    assert port_is_free(port)
+
+
+# -- dragging: the app API the handles call ------------------------------------------
+
+
+def test_moving_the_target_changes_where_the_robot_goes():
+    def drive(new_target=None, steps=300):
+        a = ViewerApp("s1", "p")
+        if new_target is not None:
+            a.move_target(new_target)
+        for _ in range(steps):
+            a.step_once()
+        return np.array(a.sim.arena.pose[:2]), a
+
+    reference, _ = drive()
+    moved, a = drive((8.0, -4.0))
+    # The target moved from up-right to down-right of the start: so did the robot.
+    assert reference[1] > 0.5 and moved[1] < -0.3, (reference, moved)
+    assert np.linalg.norm(moved - np.array([8.0, -4.0])) < np.linalg.norm(reference - np.array([8.0, -4.0]))
+    # A reset starts from the layout as edited, the restore button from the file.
+    a.reset()
+    assert a.sim.arena.target.tolist() == [8.0, -4.0] and a.layout_edited
+    a.restore_layout()
+    assert a.sim.arena.target.tolist() == [8.0, 8.0] and not a.layout_edited
+
+
+def test_a_drag_reaches_the_controller_on_its_next_step(app):
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
+    seen = []
+    app.add_input_watcher(lambda inputs, wall: seen.append((wall, inputs.copy())))
+    new = (-3.0, 5.0)
+    moved_at = time.perf_counter()
+    app.move_target(new)
+    assert app.wait_for(lambda a: len(seen) >= 2, timeout=5)
+    app.pause()
+    x, y, heading = app.sim.arena.pose
+    wall, inputs = seen[0]
+    # At most one control step in flight when the target moved; the next sees it.
+    first_new = next(w for w, i in seen if abs(i[0] - math.dist((x, y), new)) < 1.0)
+    assert first_new - moved_at < 0.2
+    assert app.snapshot().target == new
+
+
+def test_obstacles_can_be_added_moved_and_removed_while_running(app):
+    n0 = len(app.sim.arena.obstacles)
+    new_id = app.add_obstacle()
+    assert len(app.sim.arena.obstacles) == n0 + 1
+    x, y = app.sim.arena.obstacles[new_id].position_at(0.0)
+    # Suggested on the way from the robot to the target, clear of the others.
+    assert 1.0 < math.hypot(x, y) < 10.0
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 0.2, timeout=10)
+    app.move_obstacle(new_id, (2.0, -2.0))
+    assert app.snapshot().obstacles[-1].xy == (2.0, -2.0)
+    removed = app.remove_obstacle()
+    assert removed == new_id and len(app.sim.arena.obstacles) == n0
+    with pytest.raises(ViewerError, match="does not exist"):
+        app.move_obstacle(new_id, (1.0, 1.0))
+    with pytest.raises(ViewerError):
+        app.move_target((float("inf"), 0.0))
+    app.pause()
+    app.reset()
+    assert len(app.sim.arena.obstacles) == n0 and app.sim.time_s == 0.0
+
+
+def test_dragging_a_moving_obstacle_shifts_its_path():
+    a = ViewerApp("s2", "p")
+    moving = [o for o in a.sim.arena.obstacles.values() if not o.is_static][0]
+    for _ in range(100):
+        a.step_once()
+    t = a.sim.time_s
+    before = moving.position_at(t)
+    a.move_obstacle(moving.id, before + np.array([-1.0, 0.5]))
+    a.step_once()
+    assert not a.sim.arena.obstacles[moving.id].is_static  # still moving
+    a.reset()
+    again = [o for o in a.sim.arena.obstacles.values() if not o.is_static][0]
+    np.testing.assert_allclose(again.position_at(0.0), [7.0, 8.5])  # (8, 8) shifted
+
+
+# -- uploads and settings ----------------------------------------------------------------
+
+
+def test_a_bad_fis_upload_is_refused_and_the_world_is_kept(app):
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
+    app.pause()
+    before = world_state(app)
+    for content in (b"this is not a fis file", b"\xff\xfe\x00garbage", b""):
+        with pytest.raises(ViewerError) as info:
+            app.upload_fis(content, "../../etc/passwd.fis")
+        text = str(info.value)
+        assert "passwd.fis" in text and "/tmp" not in text and "fuzzynav-upload" not in text
+    assert world_state(app) == before
+    assert app.controller_label == "p" and app.uploaded_label is None
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > before["time"] + 0.2, timeout=10)
+
+
+def test_an_oversized_upload_is_refused(app):
+    with pytest.raises(ViewerError, match="too large"):
+        app.upload_fis(b"x" * (2 * 1024 * 1024), "big.fis")
+    with pytest.raises(ViewerError, match="too large"):
+        app.upload_scenario(b"x" * (2 * 1024 * 1024), "big.toml")
+
+
+@pytest.mark.skipif(FUZZY is None, reason="no fuzzy controller in this build")
+def test_a_good_fis_upload_drives_and_keeps_the_world(app, tmp_path):
+    from controller.registry import make_controller
+
+    path = tmp_path / "mine.fis"
+    make_controller("paper").fis.to_fis(path)
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
+    app.pause()
+    before = world_state(app)
+    label = app.upload_fis(path.read_bytes(), "/home/someone/mine.fis")
+    assert label == UPLOADED_PREFIX + "mine.fis"
+    after = world_state(app)
+    assert after.pop("controller") == label
+    before.pop("controller")
+    assert after == before
+    assert label in app.controller_options()
+    teaching = app.teaching()
+    assert teaching is not None  # the last inputs, seen through the new rule base
+    app.step_once()
+    assert app.teaching()["strengths"].shape == (len(app.fuzzy_system().rules),)
+
+
+def test_a_bad_scenario_upload_names_the_key_and_keeps_the_world(app):
+    before = world_state(app)
+    bad = b'name = "x"\nduration_s = 10.0\n[robot]\nstart = [0.0, 0.0]\n[target]\nposition = [5.0, "a"]\n'
+    with pytest.raises(ViewerError, match=r"target\.position\[1\]"):
+        app.upload_scenario(bad, "mine.toml")
+    with pytest.raises(ViewerError, match="not a valid TOML"):
+        app.upload_scenario(b"[[[", "x.toml")
+    assert world_state(app) == before
+    good = (b'name = "open field"\nduration_s = 30.0\n[robot]\nstart = [0.0, 0.0]\n'
+            b'[target]\nposition = [4.0, 1.0]\n')
+    label = app.upload_scenario(good, "C:\\Users\\me\\open.toml")
+    assert label == UPLOADED_PREFIX + "open.toml"
+    assert app.snapshot().target == (4.0, 1.0) and label in app.scenario_options()
+    app.load_scenario("s3")
+    assert app.disturbance_on and app.sim.disturbance is not None
+    with pytest.raises(ViewerError, match="unknown"):
+        app.load_scenario("../../etc/passwd")
+
+
+def test_settings_change_the_running_world_without_resetting_it(app):
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
+    app.pause()
+    run, t = app.run_id, app.sim.time_s
+    app.set_perception("ultrasonic")
+    app.set_noise(0.05)
+    app.set_disturbance(True)
+    assert app.sim.perception.mode == "ultrasonic"
+    assert app.sim.sensors.config.noise_std_m == 0.05
+    assert app.sim.perception.sensors is app.sim.sensors
+    assert app.sim.disturbance is not None  # s1 has none: the default sin(2t)
+    app.set_disturbance(False)
+    assert app.sim.disturbance is None
+    with pytest.raises(ViewerError):
+        app.set_perception("telepathy")
+    with pytest.raises(ViewerError):
+        app.set_noise(-1)
+    with pytest.raises(ViewerError):
+        app.set_controller("no-such-controller")
+    assert (app.run_id, app.sim.time_s) == (run, t)
+    app.step_once()
+    assert app.sim.time_s > t
+
+
+def test_teaching_panel_data(app):
+    assert app.teaching() is None  # p has no rules
+    if FUZZY is None:
+        pytest.skip("no fuzzy controller in this build")
+    app.set_controller(FUZZY)
+    app.step_once()
+    info = app.teaching()
+    fis = app.fuzzy_system()
+    assert info["strengths"].shape == (len(fis.rules),)
+    assert np.all((info["strengths"] >= 0) & (info["strengths"] <= 1))
+    assert info["strengths"].max() > 0  # something fires at the start
+    assert info["membership"].shape == info["grid"].shape
+    lo, hi = fis.outputs[0].range
+    assert np.all((lo <= info["centroids"]) & (info["centroids"] <= hi))
+
+
+def test_a_finished_run_reports_the_table4_metrics(app):
+    app.set_speed(10.0)
+    app.play()
+    assert app.wait_for(lambda a: a.sim.done, timeout=60)
+    snap = app.snapshot()
+    assert snap.outcome in ("reached", "collided", "timeout") and not snap.playing
+    for key in ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m"):
+        assert key in snap.metrics
+    assert "Run ended" in snap.message
+    # Play after the end starts again from the layout.
+    app.play()
+    assert app.wait_for(lambda a: a.run_id > snap.run_id and a.sim.time_s > 0, timeout=10)
+
+
+def test_display_names_never_become_paths():
+    assert safe_display_name("../../etc/passwd") == "passwd"
+    assert safe_display_name("C:\\x\\y.fis") == "y.fis"
+    assert safe_display_name("") == "upload"
+    assert "/" not in safe_display_name("a/<script>.fis")
+
+
+def test_cli_has_serve_and_demo():
+    from app.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["serve"])
+    assert (args.scenario, args.host, args.port, args.rrd) == ("s1", "127.0.0.1", 8080, None)
+    args = parser.parse_args(["serve", "s2", "--host", "0.0.0.0", "--port", "9000"])
+    assert (args.scenario, args.host, args.port) == ("s2", "0.0.0.0", 9000)
+    args = parser.parse_args(["demo"])
+    assert (args.scenario, args.host, args.port) == ("s1", "127.0.0.1", 8080)
+    assert args.func is parser.parse_args(["serve"]).func
+
+
+def test_cli_refuses_a_bad_scenario_and_an_unwritable_rrd(capsys, tmp_path):
+    from app.cli import main
+
+    assert main(["serve", "no-such-scenario", "--port", "0"]) == 2
+    assert "no such scenario file" in capsys.readouterr().err
+    assert main(["serve", "s1", "--port", "0", "--rrd", str(tmp_path / "missing" / "x.rrd")]) == 2
+    assert "--rrd" in capsys.readouterr().err
+
+
+def test_rrd_records_each_run_to_its_own_file(tmp_path):
+    pytest.importorskip("app.recording")
+    path = tmp_path / "session.rrd"
+    a = ViewerApp("s1", "p", rrd_path=path).start()
+    try:
+        a.set_speed(10.0)
+        a.play()
+        assert a.wait_for(lambda x: x.sim.time_s > 1.0, timeout=10)
+        a.reset()
+        a.play()
+        assert a.wait_for(lambda x: x.sim.time_s > 1.0, timeout=10)
+    finally:
+        a.stop()
+    assert a.recorded_files == [path, tmp_path / "session-run2.rrd"]
+    assert all(p.stat().st_size > 1000 for p in a.recorded_files)
