@@ -158,9 +158,7 @@ def reproduce_command(args) -> str:
         parts += ["--layouts", args.layouts, "--n", str(args.n), "--layout-seed", str(args.layout_seed)]
     parts += ["--perception", ",".join(args.perception), "--maxiter", str(args.maxiter),
               "--popsize", str(args.popsize), "--seed", str(args.seed), "--dt", str(args.dt)]
-    if args.out is not None:
-        parts += ["--out", str(args.out)]
-    return shlex.join(parts)
+    return shlex.join(parts)  # --out, --workers, --checkpoint do not change the result
 
 
 def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int, seed: int, workers: int = 1,
@@ -214,6 +212,8 @@ def add_commands(subparsers) -> None:
                         "step, runs are checked at 0.02 s afterwards)")
     p.add_argument("--out", type=Path, default=None,
                    help="where to write the rule base (default: the controller's shipped file)")
+    p.add_argument("--checkpoint", type=Path, default=None,
+                   help="write the best vector so far to this file after every generation")
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     p.set_defaults(func=cmd_tune)
 
@@ -246,6 +246,8 @@ def cmd_tune(args) -> int:
 
         def on_generation(gen, best, x):
             history.append(best)
+            if args.checkpoint is not None:  # best so far, in case the run must be cut short
+                args.checkpoint.write_text(" ".join(repr(float(v)) for v in x) + "\n")
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
                 console.print(f"generation {gen}/{args.maxiter}: best cost {best:.4f} "

@@ -45,17 +45,23 @@ def test_cost_prefers_reaching_over_timeout_over_collision():
         assert 10 <= cost < 20 + 20
 
 
-def test_tune_cli_writes_a_valid_rule_base(tmp_path, capsys):
+TINY = ('name = "tiny"\nduration_s = 5.0\n[robot]\nstart = [0.0, 0.0]\n'
+        '[target]\nposition = [2.5, 0.5]\n[[obstacles]]\nposition = [1.5, -1.2]\nradius_m = 0.2\n')
+
+
+def test_tune_cli_writes_a_valid_rule_base(tmp_path, write_toml, capsys):
     out = tmp_path / "tuned.toml"
-    assert main(["tune", "--scenarios", "s1", "--perception", "ideal", "--maxiter", "1",
+    tiny = write_toml(TINY)
+    assert main(["tune", "--scenarios", str(tiny), "--perception", "ideal", "--maxiter", "1",
                  "--popsize", "1", "--workers", "1", "--dt", "0.1", "--seed", "3",
-                 "--out", str(out), "--json"]) == 0
+                 "--out", str(out), "--checkpoint", str(tmp_path / "ck.txt"), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["written"] == [str(out)] and data["generations"] == 1
     assert "fuzzynav tune" in data["command"] and "--seed 3" in data["command"]
     fis = FuzzySystem.from_toml(out)
     assert fis.rules == FuzzySystem.from_toml(FIRST_DESIGN).rules
     assert data["command"] in out.read_text()
+    assert len((tmp_path / "ck.txt").read_text().split()) == len(tunable("paper").parameter_names())
 
 
 def test_tune_cli_bad_input(capsys):
