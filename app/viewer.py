@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import signal
 import tempfile
 import threading
 import time
@@ -874,14 +875,26 @@ def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
     server = ViewerServer(app, host=host, port=port)
     if open_message:
         print(f"fuzzynav viewer: {server.url}  (Ctrl-C stops it)", flush=True)
+        if host not in ("127.0.0.1", "localhost", "::1"):
+            print(f"fuzzynav viewer: bound to {host}: other machines on the network can "
+                  "open it and change the world", flush=True)
     if not block:
         return server
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        # `kill` (SIGTERM) stops the viewer as cleanly as Ctrl-C does.
+        def on_term(signum, frame):
+            raise KeyboardInterrupt
+
+        previous = signal.signal(signal.SIGTERM, on_term)
     try:
         while True:
             time.sleep(0.5)
     except KeyboardInterrupt:
         pass
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
         server.stop()
         files = ", ".join(str(p) for p in app.recorded_files)
         print("fuzzynav viewer: stopped, port released"

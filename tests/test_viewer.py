@@ -116,7 +116,8 @@ def test_server_stop_frees_the_port():
     assert a._thread is None  # the simulation thread is gone too
 
 
-def test_ctrl_c_stops_the_cli_server_and_frees_the_port(tmp_path):
+@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "kill"])
+def test_ctrl_c_stops_the_cli_server_and_frees_the_port(stop_signal):
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
@@ -137,7 +138,7 @@ def test_ctrl_c_stops_the_cli_server_and_frees_the_port(tmp_path):
             pytest.fail("the server did not print its URL:\n" + "".join(lines))
         assert f":{port}" in line
         assert not port_is_free(port)
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(stop_signal)
         out, _ = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
