@@ -135,7 +135,6 @@ class ViewerServer:
         self._camera_fits: dict[int, float] = {}
         self._dragging: set[str] = set()
         self._frame_times: deque[float] = deque(maxlen=120)
-        self._messages: deque[tuple[str, str]] = deque(maxlen=20)
         self._obstacle_nodes: dict[tuple[int, int], dict] = {}
         self._trail_nodes: list = []
         self._current_trail = None
@@ -154,7 +153,6 @@ class ViewerServer:
         self.server.scene.set_up_direction("+z")
         self._build_gui()
         self._build_static_scene()
-        app.on_message(lambda text, level: self._messages.append((text, level)))
         self.server.on_client_connect(self._on_connect)
         app.start()
         self._thread = threading.Thread(target=self._render_loop, name="fuzzynav-render",
