@@ -5,9 +5,11 @@
 viewer. Both send whole columns on the timeline ``sim_time`` (a duration, nanosecond
 resolution), never one call per step: the entities that have a row at every step go
 out together as one Arrow record batch (``RecordingStream.send_record_batch``: one
-chunk per entity, as ``send_columns`` would make, for one call instead of ~70 of
-them); the obstacles and the target, logged only where they change, with
-``send_columns``; styles (colours, names, radii) once, as static components.
+chunk per entity, as ``send_columns`` would make, for one call instead of ~20); the
+obstacles and the target, logged only where they change, with ``send_columns``;
+styles (colours, names, radii) once, as static components. Related series share one
+entity (a plot) as instances: each entity costs a chunk with its own row ids and times,
+which for one entity per series made most of a file and of the time to write it.
 
 Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
 
@@ -23,23 +25,23 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /start, /ideal_line                   static: the start, the straight start-target line
       /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
-    /plots                                  Scalars; one entity per series
-      /distance/target, /distance/obstacle_{id}      paper Fig. 13 (centre to centre)
-      /angles/phi_t, /angles/heading                 Fig. 14 (phi_t from the geometry)
-      /obstacle_angles/obstacle_{id}                 Fig. 15 (bearing of each obstacle)
-      /voltage/left, /voltage/right                  Fig. 16 (applied, after saturation)
-      /voltage/left_command, /voltage/right_command  before saturation
-      /voltage/limit_upper, /voltage/limit_lower     the +-12 V saturation
-      /inputs/d_t, /inputs/d_o, /inputs/phi_t, /inputs/phi_o   as the controller saw them
-      /clearance/obstacle_{id}, /clearance/safe      footprint to surface, and 0.25 m
-      /wheels/w_LW, /wheels/w_RW                     wheel speeds (rad/s)
-      /velocity/v, /velocity/w                       v_MH (m/s), w_JH (rad/s)
-      /current/i_L1, /current/i_L2                   motor currents (A)
-      /ranges/{sensor}                               sensor readings (m); NaN = no echo
-      /disturbance                                   value added to the inputs
-      /rules                                         fuzzy controllers only: the firing
-                                                     strength of every rule, one instance
-                                                     (series R1, R2, ...) per rule
+    /plots                                  Scalars: one entity per plot, one instance
+                                            per series (named in the legend; the order
+                                            is :func:`plot_layout`'s)
+      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre)
+      /angles/phi_t, /angles/heading                       Fig. 14 (phi_t from the geometry)
+      /obstacle_angles   obstacle {id}...                  Fig. 15 (bearing from the heading)
+      /voltage           left, right (applied), left and right command (before the
+                         saturation), +12 V and -12 V limits      Fig. 16
+      /inputs            d_t, d_o, phi_t, phi_o as the controller saw them
+      /clearance         obstacle {id}..., the 0.25 m safe distance (footprint to surface)
+      /wheels            w_LW, w_RW (rad/s)
+      /velocity          v_MH (m/s), w_JH (rad/s)
+      /current           i_L1, i_L2 (A)
+      /ranges            left, front, right sensor readings (m); NaN = no echo
+      /disturbance       the value added to the inputs
+      /rules             fuzzy controllers only: R1, R2, ... the firing strength of
+                         every rule
     /meta                                   static TextDocuments
       /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
 
@@ -231,23 +233,47 @@ def controller_label(controller) -> str:
 RULES_PATH = "/plots/rules"
 
 
-def series_paths(obstacle_ids, sensor_names) -> list[str]:
-    """Every single-series time-series entity of a recording (for tests and tools); a
-    fuzzy controller's rules are one more entity, :data:`RULES_PATH`, with one instance
-    per rule."""
-    paths = ["/plots/distance/target", "/plots/angles/phi_t", "/plots/angles/heading",
-             "/plots/voltage/left", "/plots/voltage/right", "/plots/voltage/left_command",
-             "/plots/voltage/right_command", "/plots/voltage/limit_upper",
-             "/plots/voltage/limit_lower", "/plots/inputs/d_t", "/plots/inputs/d_o",
-             "/plots/inputs/phi_t", "/plots/inputs/phi_o", "/plots/clearance/safe",
-             "/plots/wheels/w_LW", "/plots/wheels/w_RW", "/plots/velocity/v",
-             "/plots/velocity/w", "/plots/current/i_L1", "/plots/current/i_L2",
-             "/plots/disturbance"]
-    for i in obstacle_ids:
-        paths += [f"/plots/distance/obstacle_{i}", f"/plots/obstacle_angles/obstacle_{i}",
-                  f"/plots/clearance/obstacle_{i}"]
-    paths += [f"/plots/ranges/{name}" for name in sensor_names]
-    return paths
+def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> list[tuple]:
+    """(path, series names, colours, widths) of every plot but the rules."""
+    ids = list(obstacle_ids)
+    obstacles = [f"obstacle {i}" for i in ids]
+    obstacle_colors = [OBSTACLE_PALETTE[c % len(OBSTACLE_PALETTE)] for c in range(len(ids))]
+    grey = (120, 120, 120)
+    p = SERIES_PALETTE
+    limit = voltage_limit_v
+    k = len(ids)
+    return [
+        ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors,
+         [2.0] + [1.5] * k),
+        ("/plots/angles/phi_t", ["phi_t (rad)"], [p[0]], [1.5]),
+        ("/plots/angles/heading", ["heading (rad)"], [p[1]], [1.5]),
+        ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
+        ("/plots/voltage", ["left (V)", "right (V)", "left command (V)", "right command (V)",
+                            f"+{limit:g} V limit", f"-{limit:g} V limit"],
+         [p[0], p[1], (150, 190, 230), (240, 160, 160), grey, grey],
+         [2.0, 2.0, 1.0, 1.0, 1.0, 1.0]),
+        ("/plots/inputs", ["d_t", "d_o", "phi_t", "phi_o"], p[:4], [1.5] * 4),
+        ("/plots/clearance", obstacles + [f"safe {SAFE_DISTANCE_M} m"], obstacle_colors + [grey],
+         [1.5] * k + [1.0]),
+        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], p[:2], [1.5] * 2),
+        ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
+        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], p[:2], [1.5] * 2),
+        ("/plots/ranges", [f"{m} (m)" for m in sensor_names],
+         [SENSOR_COLORS.get(m, grey) for m in sensor_names], [1.5] * len(sensor_names)),
+        ("/plots/disturbance", ["disturbance"], [p[7]], [1.5]),
+    ]
+
+
+def plot_layout(obstacle_ids, sensor_names, n_rules: int = 0,
+                voltage_limit_v: float = 12.0) -> dict[str, list[str]]:
+    """Every plot entity of a recording and the names of its series, in instance order
+    (instance j of a row of ``path`` is series ``names[j]``); a plot without series (no
+    obstacles) is not logged."""
+    layout = {path: names for path, names, _, _ in
+              _plot_spec(obstacle_ids, sensor_names, voltage_limit_v) if names}
+    if n_rules:
+        layout[RULES_PATH] = [f"R{k + 1}" for k in range(n_rules)]
+    return layout
 
 
 # ---------------------------------------------------------------------------------------
@@ -351,6 +377,22 @@ class _StaticBatch:
             self.fields.append(field)
             self.arrays.append(pa.array([values], type=field.type))
 
+    def add_archetype(self, entity: str, archetype) -> None:
+        """Every component of an ``rr`` archetype, with the SDK's own descriptors."""
+        import pyarrow as pa
+
+        for batch in archetype.as_component_batches():
+            d = batch.component_descriptor()
+            array = batch.as_arrow_array()
+            self.fields.append(pa.field(
+                f"{entity}:{d.component}", pa.list_(array.type),
+                metadata={"rerun:entity_path": entity, "rerun:archetype": d.archetype or "",
+                          "rerun:component": d.component,
+                          "rerun:component_type": d.component_type or "",
+                          "rerun:kind": "data"}))
+            self.arrays.append(pa.ListArray.from_arrays(
+                pa.array([0, len(array)], type=pa.int32()), array))
+
     def send(self, rec) -> None:
         import pyarrow as pa
 
@@ -389,11 +431,15 @@ class _RowBatch:
         self.fields.append(field)
         self.arrays.append(pa.ListArray.from_arrays(offsets, instances))
 
-    def add_scalars(self, entity: str, values) -> None:
+    def add_series(self, entity: str, columns) -> None:
+        """Scalars: ``columns`` (n rows, k series) as k instances per row."""
         import pyarrow as pa
 
-        values = pa.array(np.ascontiguousarray(values, dtype=np.float64), type=pa.float64())
-        self.add(entity, "Scalars", "scalars", values)
+        columns = np.ascontiguousarray(columns, dtype=np.float64)
+        k = columns.shape[1]
+        values = pa.array(columns.reshape(-1), type=pa.float64())
+        self.add(entity, "Scalars", "scalars", values,
+                 lengths=None if k == 1 else np.full(self.n, k, dtype=np.int32))
 
     def send(self, rec) -> None:
         import pyarrow as pa
@@ -423,7 +469,8 @@ class _ColumnWriter:
         self.tolerance_m = float(tolerance_m)
         self.sent = 0
         self._styled: set[str] = set()
-        self._static = _StaticBatch()
+        self._plot_styles: dict[str, tuple] = {}
+        self._static = self.static = _StaticBatch()
         self._obstacles: dict[int, tuple[bool, tuple[float, float]]] = {}
         self._target: tuple[float, float] | None = None
         self.obstacle_ids: list[int] = []
@@ -440,13 +487,53 @@ class _ColumnWriter:
             self._styled.add(path)
             self._static.add(path, archetype, **components)
 
-    def _scalars(self, path: str, values, name: str, color, width: float = 1.5) -> None:
-        self._style(path, "SeriesLines", names=name, colors=color, widths=width)
-        self._rows.add_scalars(path, values)
+    def _plot(self, path: str, names, colors, widths, columns) -> None:
+        """One plot entity: ``columns`` (n, k) are k series, named ``names``."""
+        if not names:  # e.g. obstacle angles without obstacles
+            return
+        style = (tuple(names), tuple(colors), tuple(widths))
+        if self._plot_styles.get(path) != style:  # new, or obstacles were added
+            self._plot_styles[path] = style
+            self._static.add(path, "SeriesLines", names=list(names), colors=list(colors),
+                             widths=list(widths))
+        self._rows.add_series(path, columns)
+
+    def _series(self, log, start, end, pose, target, ranges, inputs):
+        """(path, names, colors, widths, columns) of every plot, in :func:`plot_layout`'s
+        order; ``columns`` is (rows, series)."""
+        n = end - start
+        ids = list(log.obstacle_ids)
+        d_t, phi_t = target_geometry(pose, target)
+        bearings = (obstacle_bearings(pose, log.obstacle_xy[start:end]) if ids
+                    else np.zeros((n, 0)))
+        limit = self.voltage_limit_v
+        constant = np.ones((n, 1))
+        lg = log.lg_state[start:end]
+        columns = {
+            "/plots/distance": np.column_stack([d_t, log.center_distance_m[start:end]]),
+            "/plots/angles/phi_t": phi_t[:, None],
+            "/plots/angles/heading": pose[:, 2:3],
+            "/plots/obstacle_angles": bearings,
+            "/plots/voltage": np.column_stack([log.voltages_v[start:end],
+                                               log.controller_output_v[start:end],
+                                               limit * constant, -limit * constant]),
+            "/plots/inputs": inputs,
+            "/plots/clearance": np.column_stack([log.clearance_m[start:end],
+                                                 SAFE_DISTANCE_M * constant]),
+            "/plots/wheels": lg[:, 0:2],
+            "/plots/velocity": lg[:, 2:4],
+            "/plots/current": lg[:, 4:6],
+            "/plots/ranges": np.where(np.isinf(ranges), np.nan, ranges),
+            "/plots/disturbance": log.disturbance[start:end, None],
+        }
+        return [(path, names, colors, widths, columns[path]) for path, names, colors, widths
+                in _plot_spec(ids, self.sensor_names, limit)]
 
     # -- one chunk ---------------------------------------------------------------------
 
-    def send(self, log, start: int, end: int) -> None:
+    def send(self, log, start: int, end: int, *, send_static: bool = True) -> None:
+        """Send rows [start, end); with ``send_static`` also the static components
+        collected so far (else the caller sends ``self.static``)."""
         if end <= start:
             return
         t = log.time_s[start:end]
@@ -511,54 +598,12 @@ class _ColumnWriter:
             self._style(f"/world/sensors/{name}/hit", "Points2D", colors=color, radii=0.06)
             rows.add(f"/world/sensors/{name}/hit", "Points2D", "positions",
                      _vec2_array("Points2D", "positions", hits), lengths=echo.astype(np.int32))
-            self._scalars(f"/plots/ranges/{name}", np.where(echo, r, np.nan),
-                          f"{name} range (m)", color)
 
-        # -- time series: the paper's figures
-        d_t, phi_t = target_geometry(pose, target)
-        self._scalars("/plots/distance/target", d_t, "target", TARGET, 2.0)
-        self._scalars("/plots/angles/phi_t", phi_t, "phi_t (rad)", SERIES_PALETTE[0])
-        self._scalars("/plots/angles/heading", pose[:, 2], "heading (rad)", SERIES_PALETTE[1])
-        if log.obstacle_ids:
-            bearings = obstacle_bearings(pose, log.obstacle_xy[start:end])
-        for col, oid in enumerate(log.obstacle_ids):
-            color = OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)]
-            self._scalars(f"/plots/distance/obstacle_{oid}",
-                          log.center_distance_m[start:end, col], f"obstacle {oid}", color)
-            self._scalars(f"/plots/obstacle_angles/obstacle_{oid}", bearings[:, col],
-                          f"obstacle {oid}", color)
-            self._scalars(f"/plots/clearance/obstacle_{oid}",
-                          log.clearance_m[start:end, col], f"obstacle {oid}", color)
-        constant = np.ones(len(t))
-        self._scalars("/plots/clearance/safe", SAFE_DISTANCE_M * constant,
-                      f"safe {SAFE_DISTANCE_M} m", (120, 120, 120), 1.0)
-        volts = log.voltages_v[start:end]
-        command = log.controller_output_v[start:end]
-        self._scalars("/plots/voltage/left", volts[:, 0], "left (V)", SERIES_PALETTE[0], 2.0)
-        self._scalars("/plots/voltage/right", volts[:, 1], "right (V)", SERIES_PALETTE[1], 2.0)
-        self._scalars("/plots/voltage/left_command", command[:, 0],
-                      "left command (V)", (150, 190, 230), 1.0)
-        self._scalars("/plots/voltage/right_command", command[:, 1],
-                      "right command (V)", (240, 160, 160), 1.0)
-        limit = self.voltage_limit_v
-        self._scalars("/plots/voltage/limit_upper", limit * constant,
-                      f"+{limit:g} V limit", (120, 120, 120), 1.0)
-        self._scalars("/plots/voltage/limit_lower", -limit * constant,
-                      f"-{limit:g} V limit", (120, 120, 120), 1.0)
-
-        # -- time series: beyond the paper
+        # -- time series: one entity per plot, one instance (series) per column
         inputs = log.inputs[start:end]
-        for j, name in enumerate(("d_t", "d_o", "phi_t", "phi_o")):
-            self._scalars(f"/plots/inputs/{name}", inputs[:, j], name, SERIES_PALETTE[j])
-        lg = log.lg_state[start:end]
-        self._scalars("/plots/wheels/w_LW", lg[:, 0], "w_LW (rad/s)", SERIES_PALETTE[0])
-        self._scalars("/plots/wheels/w_RW", lg[:, 1], "w_RW (rad/s)", SERIES_PALETTE[1])
-        self._scalars("/plots/velocity/v", lg[:, 2], "v_MH (m/s)", SERIES_PALETTE[2])
-        self._scalars("/plots/velocity/w", lg[:, 3], "w_JH (rad/s)", SERIES_PALETTE[3])
-        self._scalars("/plots/current/i_L1", lg[:, 4], "i_L1 left (A)", SERIES_PALETTE[0])
-        self._scalars("/plots/current/i_L2", lg[:, 5], "i_L2 right (A)", SERIES_PALETTE[1])
-        self._scalars("/plots/disturbance", log.disturbance[start:end], "disturbance",
-                      SERIES_PALETTE[7])
+        for path, names, colors, widths, columns in self._series(log, start, end, pose, target,
+                                                                 ranges, inputs):
+            self._plot(path, names, colors, widths, columns)
 
         # -- rule firing strengths
         if self.fis is not None and self.fis_error is None:
@@ -567,17 +612,12 @@ class _ColumnWriter:
             except Exception as exc:  # a fuzzy system of another shape: record why not
                 self.fis_error = f"{type(exc).__name__}: {exc}"
             else:
-                # One entity, one instance per rule: 40 entities would cost 40 chunks of
-                # row ids and times (a third of a long run's file) for the same plot.
                 self.n_rules = n = strengths.shape[1]
-                self._style(RULES_PATH, "SeriesLines", names=[f"R{k + 1}" for k in range(n)],
-                            colors=[SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
-                            widths=[1.0] * n)
-                import pyarrow as pa
-
-                values = pa.array(np.ascontiguousarray(strengths, dtype=np.float64).reshape(-1))
-                rows.add(RULES_PATH, "Scalars", "scalars", values, lengths=np.full(len(t), n))
-        self._static.send(self.rec)
+                self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
+                           [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
+                           [1.0] * n, strengths)
+        if send_static:
+            self._static.send(self.rec)
         rows.send(self.rec)
         self.sent = end
 
@@ -644,16 +684,16 @@ def _rgba(color) -> int:
 # Static parts: the world's frame, start and line, metadata, blueprint
 
 
-def _send_static_world(rec, scenario, obstacle_ids=()) -> None:
+def _static_world(static: _StaticBatch, scenario) -> None:
+    """The y-up mirror of /world, the start and the straight start-target line."""
     import rerun as rr
 
-    rec.log("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True, strict=True)
-    rec.log("/world/start", rr.Points2D(positions=[scenario.start], radii=0.08,
-                                        colors=[(60, 60, 60)], labels=["start"]),
-            static=True, strict=True)
-    rec.log("/world/ideal_line", rr.LineStrips2D(strips=[[scenario.start, scenario.target]],
-                                                 colors=[(170, 170, 170)], radii=0.01),
-            static=True, strict=True)
+    static.add_archetype("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]))
+    static.add_archetype("/world/start", rr.Points2D(positions=[scenario.start], radii=0.08,
+                                                     colors=[(60, 60, 60)], labels=["start"]))
+    static.add_archetype("/world/ideal_line",
+                         rr.LineStrips2D(strips=[[scenario.start, scenario.target]],
+                                         colors=[(170, 170, 170)], radii=0.01))
 
 
 def _markdown_table(rows: dict) -> str:
@@ -724,13 +764,15 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
             f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
 
 
-def _send_metadata(rec, *, scenario, controller, fis, parameters, sensor_config, seed,
-                   perception, control_period_s, voltage_limit_v, extra_metadata) -> None:
+def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, sensor_config,
+              seed, perception, control_period_s, voltage_limit_v, extra_metadata) -> None:
+    """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
+    /meta/robot (with the sensors)."""
     import rerun as rr
 
     def doc(path, text, markdown=True):
         media = rr.MediaType.MARKDOWN if markdown else rr.MediaType.TEXT
-        rec.log(path, rr.TextDocument(text, media_type=media), static=True, strict=True)
+        static.add_archetype(path, rr.TextDocument(text, media_type=media))
 
     doc("/meta/scenario", scenario.to_toml(), markdown=False)
     if fis is not None:
@@ -747,15 +789,14 @@ def _send_metadata(rec, *, scenario, controller, fis, parameters, sensor_config,
             if controller is not None and hasattr(controller, "__dict__") else {}
         doc("/meta/rules", f"controller {controller_label(controller)!r} is not fuzzy: no rule "
             f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n", markdown=False)
-    robot = "\n".join(f"{f.name} = {getattr(parameters, f.name)!r}"
-                      for f in dataclasses.fields(parameters))
-    doc("/meta/robot", robot + "\n", markdown=False)
-    sensor_lines = [f"{f.name} = {getattr(sensor_config, f.name)!r}"
-                    for f in dataclasses.fields(sensor_config) if f.name != "mounts"]
-    sensor_lines += [f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, "
-                     f"angle = {m.angle_rad!r} rad" for m in sensor_config.mounts]
-    doc("/meta/sensors", "\n".join(sensor_lines) + "\n", markdown=False)
-    doc("/meta/versions", _markdown_table(package_versions()))
+    robot = ["# robot (HuskyParameters)"]
+    robot += [f"{f.name} = {getattr(parameters, f.name)!r}" for f in dataclasses.fields(parameters)]
+    robot += ["", "# sensors (SensorConfig)"]
+    robot += [f"{f.name} = {getattr(sensor_config, f.name)!r}"
+              for f in dataclasses.fields(sensor_config) if f.name != "mounts"]
+    robot += [f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, angle = {m.angle_rad!r} rad"
+              for m in sensor_config.mounts]
+    doc("/meta/robot", "\n".join(robot) + "\n", markdown=False)
     run = {"scenario": scenario.name, "scenario file": getattr(scenario, "source", ""),
            "controller": controller_label(controller), "perception": perception,
            "seed": seed, "control period (s)": control_period_s,
@@ -765,17 +806,17 @@ def _send_metadata(rec, *, scenario, controller, fis, parameters, sensor_config,
            "command line": "`" + command_line() + "`"}
     for key, value in (extra_metadata or {}).items():
         run[str(key)] = value
-    doc("/meta/run", "# Run\n\n" + _markdown_table(run))
+    doc("/meta/run", "# Run\n\n" + _markdown_table(run) + "\n\n# Versions\n\n"
+        + _markdown_table(package_versions()))
 
 
-def _send_metrics(rec, metrics: dict, outcome: str, extra: dict | None = None) -> None:
+def _metrics(static: _StaticBatch, metrics: dict, outcome: str) -> None:
     import rerun as rr
 
-    rows = {"outcome": outcome, **metrics, **(extra or {})}
+    rows = {"outcome": outcome, **metrics}
     text = ("# Metrics\n\n" + _markdown_table(rows) + "\n\n```json\n"
             + json.dumps(_json_safe(rows), indent=2, default=repr) + "\n```\n")
-    rec.log("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN),
-            static=True, strict=True)
+    static.add_archetype("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
 
 def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
@@ -787,6 +828,11 @@ def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     if log is not None and len(log):
         xs += [float(np.nanmin(log.pose[:, 0])), float(np.nanmax(log.pose[:, 0]))]
         ys += [float(np.nanmin(log.pose[:, 1])), float(np.nanmax(log.pose[:, 1]))]
+        obstacles = log.obstacle_xy.reshape(-1, 2)
+        obstacles = obstacles[np.all(np.isfinite(obstacles), axis=1)]
+        if len(obstacles):  # moving obstacles may leave the scenario's box
+            xs += [float(obstacles[:, 0].min()), float(obstacles[:, 0].max())]
+            ys += [float(obstacles[:, 1].min()), float(obstacles[:, 1].max())]
     margin = 1.0
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
@@ -845,7 +891,7 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None):
         tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
     tabs.append(rrb.Tabs(*[rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
                            for name in ("run", "metrics", "scenario", "rules", "robot",
-                                        "sensors", "versions")], name="run information"))
+                                        )], name="run information"))
     right = rrb.Tabs(*tabs, active_tab=0)
     return rrb.Blueprint(rrb.Horizontal(world, right, column_shares=[1, 1]),
                          rrb.BlueprintPanel(state="collapsed"),
@@ -904,20 +950,22 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
         # The layout first: a viewer that opens the file while it loads uses it at once.
         n_rules = len(getattr(fis, "rules", ())) if fis is not None else 0
         rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log))
-        _send_static_world(rec, scenario)
         writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
                                                  parameters.footprint_width_m),
                                sensor_config=sensor_config, voltage_limit_v=voltage_limit_v,
                                fis=fis, tolerance_m=scenario.tolerance_m)
-        writer.send(log, 0, len(log))
+        writer.send(log, 0, len(log), send_static=False)
+        # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
         if writer.fis_error:
             extra["rule firing"] = f"not recorded ({writer.fis_error})"
-        _send_metadata(rec, scenario=scenario, controller=controller, fis=fis,
-                       parameters=parameters, sensor_config=sensor_config, seed=result.seed,
-                       perception=result.perception, control_period_s=result.control_period_s,
-                       voltage_limit_v=voltage_limit_v, extra_metadata=extra)
-        _send_metrics(rec, result.metrics, result.outcome)
+        _static_world(writer.static, scenario)
+        _metadata(writer.static, scenario=scenario, controller=controller, fis=fis,
+                  parameters=parameters, sensor_config=sensor_config, seed=result.seed,
+                  perception=result.perception, control_period_s=result.control_period_s,
+                  voltage_limit_v=voltage_limit_v, extra_metadata=extra)
+        _metrics(writer.static, result.metrics, result.outcome)
+        writer.static.send(rec)
     finally:
         rec.disconnect()  # flushes, writes the footer, closes the file
     return path
@@ -987,21 +1035,22 @@ class LiveRecorder:
             sensor_config=sim.sensors.config, voltage_limit_v=sim.voltage_limit_v,
             fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m)
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
-        _send_static_world(self._rec, sim.scenario)
-        self._send_metadata(sim)
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(controller_fis(sim.controller), "rules", ()))
         self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules))
+        # Sent with the first chunk's styles.
+        _static_world(self._writer.static, sim.scenario)
+        self._metadata(sim, self._writer.static)
 
-    def _send_metadata(self, sim) -> None:
+    def _metadata(self, sim, static) -> None:
         extra = dict(self.extra_metadata)
         if self._writer is not None and self._writer.fis_error:
             extra["rule firing"] = f"not recorded ({self._writer.fis_error})"
-        _send_metadata(self._rec, scenario=sim.scenario, controller=sim.controller,
-                       fis=controller_fis(sim.controller), parameters=sim.model.parameters,
-                       sensor_config=sim.sensors.config, seed=sim.seed,
-                       perception=sim.perception.mode, control_period_s=sim.control_period_s,
-                       voltage_limit_v=sim.voltage_limit_v, extra_metadata=extra)
+        _metadata(static, scenario=sim.scenario, controller=sim.controller,
+                  fis=controller_fis(sim.controller), parameters=sim.model.parameters,
+                  sensor_config=sim.sensors.config, seed=sim.seed,
+                  perception=sim.perception.mode, control_period_s=sim.control_period_s,
+                  voltage_limit_v=sim.voltage_limit_v, extra_metadata=extra)
 
     def update(self, sim, *, force: bool = False) -> int:
         """Send the rows logged since the last chunk if ``chunk_steps`` of them wait and
@@ -1042,12 +1091,16 @@ class LiveRecorder:
                 self.update(sim, force=True)
                 if extra_metadata:
                     self.extra_metadata.update(extra_metadata)
-                result = sim.result()
-                self._send_metadata(sim)
-                _send_metrics(self._rec, result.metrics, result.outcome)
+                static = self._writer.static
+                static.send(self._rec)  # what is pending (nothing sent yet if no rows)
+                self._metadata(sim, static)
+                result = sim.result() if _log_length(sim) else None  # no metrics of nothing
+                if result is not None:
+                    _metrics(static, result.metrics, result.outcome)
+                static.send(self._rec)
                 w = self._writer
                 self._rec.send_blueprint(blueprint(sim.scenario, w.obstacle_ids, w.n_rules,
-                                                   result.log))
+                                                   result.log if result is not None else None))
         finally:
             self.closed = True
             self._rec.flush()

@@ -17,12 +17,12 @@ from rerun.chunk import RrdReader  # noqa: E402
 
 from app import recording  # noqa: E402
 from app.cli import main  # noqa: E402
-from app.recording import (RULES_PATH, LiveRecorder, footprint_outlines, record_run,  # noqa: E402
-                           series_paths)
+from app.recording import (RULES_PATH, LiveRecorder, footprint_outlines, plot_layout,  # noqa: E402
+                           record_run)
 from app.runs import build_simulation  # noqa: E402
 
 SENSORS = ("left", "front", "right")
-META = ("run", "metrics", "scenario", "rules", "robot", "sensors", "versions")
+META = ("run", "metrics", "scenario", "rules", "robot")
 
 
 # ---------------------------------------------------------------------------------------
@@ -70,10 +70,18 @@ class Recording:
         return times[order], [values[i] for i in order]
 
     def scalars(self, entity: str):
-        """(times in ns, values) of a Scalars series with one value per row."""
+        """(times in ns, values (rows, series)) of a plot entity."""
         times, values = self.rows(entity, "Scalars:scalars")
-        assert all(len(v) == 1 for v in values), entity
-        return times, np.array([v[0] if v[0] is not None else np.nan for v in values])
+        widths = {len(v) for v in values}
+        assert len(widths) == 1, f"{entity}: rows of different lengths {widths}"
+        matrix = np.array([[np.nan if x is None else x for x in v] for v in values], dtype=float)
+        return times, matrix.reshape(len(values), widths.pop())
+
+    def series(self, entity: str, name: str):
+        """(times in ns, values) of the series called ``name`` in a plot's legend."""
+        names = self.static[entity]["SeriesLines:names"]
+        times, matrix = self.scalars(entity)
+        return times, matrix[:, names.index(name)]
 
     def text(self, entity: str) -> str:
         return self.static[entity]["TextDocument:text"][0]
@@ -196,9 +204,12 @@ def test_entity_paths(s1_p):
         world |= {f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/safe_ring"}
     for name in SENSORS:
         world |= {f"/world/sensors/{name}/beam", f"/world/sensors/{name}/hit"}
-    plots = set(series_paths(log.obstacle_ids, SENSORS))
+    layout = plot_layout(log.obstacle_ids, SENSORS)
+    plots = set(layout)
     meta = {f"/meta/{name}" for name in META}
     assert world | plots | meta <= rec.entities
+    for path, names in layout.items():  # the legend names every series, in order
+        assert rec.static[path]["SeriesLines:names"] == names, path
     assert RULES_PATH not in rec.entities  # P is not fuzzy
     # Static obstacles never move: no path entity for them.
     assert not any(e.endswith("/path") for e in rec.entities)
@@ -210,11 +221,11 @@ def test_entity_paths(s1_p):
 def test_time_span_and_row_count(s1_p):
     _, result, rec = s1_p
     log = result.log
-    for entity in series_paths(log.obstacle_ids, SENSORS):
+    for entity, names in plot_layout(log.obstacle_ids, SENSORS).items():
         times, values = rec.scalars(entity)
-        assert len(values) == len(log), entity
+        assert values.shape == (len(log), len(names)), entity
         assert np.array_equal(times, nanos(log.time_s)), entity
-    times, _ = rec.scalars("/plots/voltage/left")
+    times, _ = rec.scalars("/plots/voltage")
     assert times[0] == 0
     assert times[-1] == nanos(result.metrics["sim_time_s"])
     assert result.metrics["sim_time_s"] == pytest.approx(log.time_s[-1])
@@ -223,49 +234,40 @@ def test_time_span_and_row_count(s1_p):
 def test_series_equal_the_simulation_arrays(s1_p):
     _, result, rec = s1_p
     log = result.log
+    ranges = np.where(np.isinf(log.ranges_m), np.nan, log.ranges_m)  # no echo: NaN
+    n = len(log)
     expected = {
-        "/plots/voltage/left": log.voltages_v[:, 0],
-        "/plots/voltage/right": log.voltages_v[:, 1],
-        "/plots/voltage/left_command": log.controller_output_v[:, 0],
-        "/plots/voltage/right_command": log.controller_output_v[:, 1],
-        "/plots/wheels/w_LW": log.lg_state[:, 0],
-        "/plots/wheels/w_RW": log.lg_state[:, 1],
-        "/plots/velocity/v": log.lg_state[:, 2],
-        "/plots/velocity/w": log.lg_state[:, 3],
-        "/plots/current/i_L1": log.lg_state[:, 4],
-        "/plots/current/i_L2": log.lg_state[:, 5],
-        "/plots/inputs/d_t": log.inputs[:, 0],
-        "/plots/inputs/d_o": log.inputs[:, 1],
-        "/plots/inputs/phi_t": log.inputs[:, 2],
-        "/plots/inputs/phi_o": log.inputs[:, 3],
-        "/plots/angles/heading": log.pose[:, 2],
-        "/plots/disturbance": log.disturbance,
-        "/plots/voltage/limit_upper": np.full(len(log), 12.0),
-        "/plots/voltage/limit_lower": np.full(len(log), -12.0),
-        "/plots/clearance/safe": np.full(len(log), 0.25),
+        "/plots/voltage": np.column_stack([log.voltages_v, log.controller_output_v,
+                                           np.full(n, 12.0), np.full(n, -12.0)]),
+        "/plots/wheels": log.lg_state[:, 0:2],
+        "/plots/velocity": log.lg_state[:, 2:4],
+        "/plots/current": log.lg_state[:, 4:6],
+        "/plots/inputs": log.inputs,
+        "/plots/angles/heading": log.pose[:, 2:3],
+        "/plots/disturbance": log.disturbance[:, None],
+        "/plots/ranges": ranges,
+        "/plots/clearance": np.column_stack([log.clearance_m, np.full(n, 0.25)]),
     }
-    for k, name in enumerate(SENSORS):  # inf (no echo) is logged as NaN
-        expected[f"/plots/ranges/{name}"] = np.where(np.isinf(log.ranges_m[:, k]), np.nan,
-                                                      log.ranges_m[:, k])
-    for col, oid in enumerate(log.obstacle_ids):
-        expected[f"/plots/distance/obstacle_{oid}"] = log.center_distance_m[:, col]
-        expected[f"/plots/clearance/obstacle_{oid}"] = log.clearance_m[:, col]
     for entity, want in expected.items():
         assert same(rec.scalars(entity)[1], want), entity  # bit for bit (float64)
+    for col, oid in enumerate(log.obstacle_ids):
+        got = rec.series("/plots/distance", f"obstacle {oid}")[1]
+        assert same(got, log.center_distance_m[:, col]), oid
+    assert same(rec.series("/plots/voltage", "right (V)")[1], log.voltages_v[:, 1])
+    assert same(rec.series("/plots/ranges", "front (m)")[1], ranges[:, 1])
     # Computed from the pose: equal to the controller's inputs (s1 has no disturbance).
     assert not log.disturbance.any()
-    assert same(rec.scalars("/plots/distance/target")[1], log.inputs[:, 0], atol=1e-9)
-    assert same(rec.scalars("/plots/angles/phi_t")[1], log.inputs[:, 2], atol=1e-9)
+    assert same(rec.series("/plots/distance", "target")[1], log.inputs[:, 0], atol=1e-9)
+    assert same(rec.scalars("/plots/angles/phi_t")[1][:, 0], log.inputs[:, 2], atol=1e-9)
     # The nearest obstacle's bearing (the controller's phi_o, ideal perception) is one of
     # the per-obstacle bearings whenever an obstacle is sensed.
-    bearings = np.column_stack([rec.scalars(f"/plots/obstacle_angles/obstacle_{oid}")[1]
-                                for oid in log.obstacle_ids])
+    bearings = rec.scalars("/plots/obstacle_angles")[1]
     sensed = ~np.isnan(log.inputs[:, 3])
     assert sensed.any()
     gap = np.min(np.abs(bearings[sensed] - log.inputs[sensed, 3][:, None]), axis=1)
     assert np.all(gap < 1e-9)
     # The last row has no decision: NaN voltages, kept as NaN.
-    assert np.isnan(rec.scalars("/plots/voltage/left")[1][-1])
+    assert np.isnan(rec.series("/plots/voltage", "left (V)")[1][-1])
 
 
 def test_world_geometry_follows_the_pose(s1_p):
@@ -322,7 +324,7 @@ def test_the_moving_obstacle_moves(s2_p):
     segs = np.array([s[0] for s in segs])
     assert np.allclose(segs[:, 0], log.obstacle_xy[:-1, col], atol=1e-5)
     assert np.allclose(segs[:, 1], log.obstacle_xy[1:, col], atol=1e-5)
-    t, values = rec.scalars(f"/plots/distance/obstacle_{oid}")
+    t, values = rec.series("/plots/distance", f"obstacle {oid}")
     assert same(values, log.center_distance_m[:, col])
 
 
@@ -340,8 +342,8 @@ def test_metadata_documents(s1_p):
     robot = rec.text("/meta/robot")
     assert f"c_m = {sim.model.parameters.c_m!r}" in robot
     assert "footprint_length_m" in robot
-    assert "beam_width_rad" in rec.text("/meta/sensors")
-    versions = rec.text("/meta/versions")
+    assert "beam_width_rad" in robot  # the sensors' configuration
+    versions = rec.text("/meta/run")
     assert f"| rerun-sdk | {rr.__version__} |" in versions and "numpy" in versions
     assert "not fuzzy" in rec.text("/meta/rules")
     name = rec.static["/__properties"].get("RecordingInfo:name")
@@ -407,7 +409,7 @@ def test_live_recorder_equals_record_run(tmp_path, s2_p):
     rec = Recording(path)
     log = sim.log
     assert rec.entities == whole_rec.entities
-    for entity in series_paths(log.obstacle_ids, SENSORS):
+    for entity in plot_layout(log.obstacle_ids, SENSORS):
         t_live, v_live = rec.scalars(entity)
         t_whole, v_whole = whole_rec.scalars(entity)
         assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), entity
@@ -439,7 +441,7 @@ def test_live_recorder_waits_for_a_chunk_and_refuses_a_reset(tmp_path):
     with pytest.raises(ValueError, match="reset"):
         live.update(sim)
     live.close()
-    assert Recording(tmp_path / "r.rrd").scalars("/plots/voltage/left")[1].size == 10
+    assert Recording(tmp_path / "r.rrd").scalars("/plots/voltage")[1].shape[0] == 10
     with pytest.raises(ValueError):
         LiveRecorder(tmp_path / "missing" / "r.rrd")
     with pytest.raises(ValueError):
@@ -461,7 +463,7 @@ def test_live_recorder_sends_at_most_every_min_interval(tmp_path, monkeypatch):
     assert [k for k, n in enumerate(sent) if n] == [4, 12, 20, 28, 36]
     assert sum(sent) == 37
     live.close(sim)
-    assert Recording(tmp_path / "paced.rrd").scalars("/plots/velocity/v")[1].size == 40
+    assert Recording(tmp_path / "paced.rrd").scalars("/plots/velocity")[1].shape[0] == 40
 
 
 def test_live_recorder_on_a_caller_stream(tmp_path):
@@ -474,7 +476,7 @@ def test_live_recorder_on_a_caller_stream(tmp_path):
         live.update(sim)
     live.close(sim)
     stream.disconnect()
-    assert Recording(tmp_path / "s.rrd").scalars("/plots/velocity/v")[1].size == 120
+    assert Recording(tmp_path / "s.rrd").scalars("/plots/velocity")[1].shape[0] == 120
 
 
 # ---------------------------------------------------------------------------------------
@@ -490,7 +492,7 @@ def test_cli_rrd_writes_a_readable_recording(tmp_path, capsys, monkeypatch):
     out = json.loads(captured.out)  # stdout is still pure JSON
     assert str(path) in captured.err
     rec = Recording(path)
-    assert rec.scalars("/plots/voltage/left")[1].size == out["steps"] + 1
+    assert rec.scalars("/plots/voltage")[1].shape[0] == out["steps"] + 1
     assert f"`fuzzynav run s1 --controller p --json --rrd {path}`" in rec.text("/meta/run")
 
 
@@ -507,7 +509,7 @@ def test_interrupted_run_callback_leaves_a_readable_recording(tmp_path):
     assert partial.outcome == "running"
     hook(partial, interrupted=True)
     rec = Recording(path)
-    times, values = rec.scalars("/plots/velocity/v")
+    times, values = rec.series("/plots/velocity", "v_MH (m/s)")
     assert len(values) == 100 and same(values, partial.log.lg_state[:, 2])
     assert times[-1] == nanos(partial.log.time_s[-1])
     assert "interrupted" in rec.text("/meta/run")
@@ -532,7 +534,7 @@ def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatc
     assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 130
     assert "interrupted" in capsys.readouterr().err
     rec = Recording(path)
-    assert rec.scalars("/plots/voltage/left")[1].size == 60
+    assert rec.scalars("/plots/voltage")[1].shape[0] == 60
     assert "Ctrl-C" in rec.text("/meta/run")
 
 
@@ -547,7 +549,7 @@ def test_an_empty_log_still_makes_a_readable_recording(tmp_path):
     path = tmp_path / "empty.rrd"
     record(sim, empty, path, extra_metadata={"interrupted": "yes"})
     rec = Recording(path)
-    assert "/meta/scenario" in rec.entities and "/plots/voltage/left" not in rec.entities
+    assert "/meta/scenario" in rec.entities and "/plots/voltage" not in rec.entities
 
 
 @pytest.mark.parametrize("where", ["missing-dir/run.rrd", "a-directory"])
@@ -586,3 +588,13 @@ def test_component_metadata_matches_the_sdk():
     field, _ = recording._component_field("/x", "SeriesLines", "names")
     assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
     assert field.metadata[b"rerun:entity_path"] == b"/x"
+
+
+def test_live_recorder_closed_before_any_row(tmp_path):
+    sim = build_simulation("s1", "p")
+    live = LiveRecorder(tmp_path / "early.rrd")
+    live.update(sim)  # nothing logged yet
+    live.close(sim)
+    rec = Recording(tmp_path / "early.rrd")
+    assert "/meta/run" in rec.entities and "/meta/metrics" not in rec.entities
+    assert rec.blueprints and "/world/start" in rec.entities
