@@ -26,3 +26,13 @@ def test_mad_and_rmse_against_the_start_target_segment():
 def test_points_beyond_the_ends_measure_to_the_endpoint():
     mad, _ = deviation_from_line(np.array([[-3.0, -4.0]]), (0.0, 0.0), (8.0, 8.0))
     assert mad == pytest.approx(5.0)
+
+
+def test_metrics_of_a_run_interrupted_before_its_first_step():
+    from controller.proportional import ProportionalController
+    from world.scenario import load_scenario
+    from world.simulation import Simulation
+
+    result = Simulation(load_scenario("s1"), ProportionalController()).result()
+    assert result.metrics["steps"] == 0 and result.metrics["reached"] is False
+    assert result.metrics["mad_m"] is None

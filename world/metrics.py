@@ -45,6 +45,11 @@ def _finite_min(values: np.ndarray) -> float | None:
 def compute_metrics(result) -> dict:
     """The metrics of a :class:`world.simulation.SimulationResult` as a plain dict."""
     log = result.log
+    if len(log) == 0:  # interrupted before the first step: nothing to measure yet
+        return {"reached": False, "collided": False, "outcome": result.outcome,
+                "time_to_target_s": None, "path_length_m": 0.0, "mad_m": None, "rmse_m": None,
+                "min_center_distance_m": None, "min_clearance_m": None, "max_abs_voltage_v": 0.0,
+                "sim_time_s": 0.0, "steps": 0, "wall_time_s": float(result.wall_time_s)}
     xy = log.pose[:, :2]
     sc = result.scenario
     mad, rmse = deviation_from_line(xy, sc.start, sc.target)
