@@ -26,6 +26,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pymunk
@@ -37,6 +38,20 @@ try:  # pymunk's own cffi binding of Chipmunk: the calls its properties make, mi
     from pymunk._chipmunk import lib as _cp
 except ImportError:  # pragma: no cover - a pymunk without it takes the public-API path
     _ffi = _cp = None
+else:  # looking a function up on the cffi lib costs as much as a short call
+    _cpBodyGetAngle = _cp.cpBodyGetAngle
+    _cpBodyGetPosition = _cp.cpBodyGetPosition
+    _cpBodySetAngularVelocity = _cp.cpBodySetAngularVelocity
+    _cpBodySetPosition = _cp.cpBodySetPosition
+    _cpBodySetVelocity = _cp.cpBodySetVelocity
+    _cpSpaceSegmentQueryFirst = _cp.cpSpaceSegmentQueryFirst
+    _cpSpaceStep = _cp.cpSpaceStep
+
+# Space.step's own bookkeeping, which _step_space repeats around the bare Chipmunk step;
+# checked against the pymunk it was written for (7.x), else Space.step is called.
+_SPACE_STEP_STATE = ("_locked", "_removed_shapes", "_add_later", "_remove_later",
+                     "_post_step_callbacks", "_bodies_to_check", "threaded")
+_FAST_SPACE_STEP = _cp is not None and pymunk.version.split(".")[0] == "7"
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
@@ -45,6 +60,7 @@ ROBOT_CATEGORY = 0b1
 RAY_FILTER = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ ROBOT_CATEGORY)
 
 _cos, _sin, _hypot = math.cos, math.sin, math.hypot
+_new_tuple = tuple.__new__
 
 
 @dataclass(frozen=True)
@@ -97,18 +113,21 @@ class Obstacle:
                             tuple(self.velocity_at(time_s)), tuple(self.acceleration))
 
 
-class _Scene:
+class _Scene(NamedTuple):
     """The obstacles at one instant as plain floats (the arena's per-step cache).
 
     ``ids``, ``radii``: per obstacle in the arena's order (the same list objects until
     the obstacles are edited); ``xy``: ``(x, y)`` centres by the obstacles' laws;
-    ``clearances``: footprint-to-surface distances from the current pose.
+    ``clearances``: footprint-to-surface distances from the current pose; ``xy_flat``:
+    the centres as one flat list (for the log).
+    Built with ``tuple.__new__`` in the hot path (a NamedTuple's ``__new__`` is Python).
     """
 
-    __slots__ = ("ids", "radii", "xy", "clearances")
-
-    def __init__(self, ids, radii, xy, clearances):
-        self.ids, self.radii, self.xy, self.clearances = ids, radii, xy, clearances
+    ids: list
+    radii: list
+    xy: list
+    clearances: list
+    xy_flat: list
 
 
 class Arena:
@@ -137,6 +156,8 @@ class Arena:
         # Chipmunk pointers for the hot path, when this pymunk exposes them.
         self._robot_ptr = getattr(self.robot, "_body", None) if _cp is not None else None
         self._space_ptr = getattr(self.space, "_space", None) if _cp is not None else None
+        self._fast_space_step = (_FAST_SPACE_STEP and self._space_ptr is not None
+                                 and all(hasattr(self.space, a) for a in _SPACE_STEP_STATE))
         self._pose = (0.0, 0.0, 0.0)
         self.space.on_collision(ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE,
                                 begin=self._on_contact)
@@ -151,7 +172,7 @@ class Arena:
         self._scene_obstacles: list[Obstacle] = []
         self._scene_ids: list[int] = []
         self._scene_radii: list[float] = []
-        self._static_xy: list[float] | None = None
+        self._static_xy: tuple[list, list] | None = None
         self._moving: list[Obstacle] = []
         self._any_moving = False
 
@@ -221,8 +242,8 @@ class Arena:
         # Reading pymunk's Vec2d costs microseconds; the pose changes only in step/reset.
         ptr = self._robot_ptr
         if ptr is not None:
-            p = _cp.cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cp.cpBodyGetAngle(ptr))
+            p = _cpBodyGetPosition(ptr)
+            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
         else:
             p = self.robot.position
             self._pose = (p.x, p.y, self.robot.angle)
@@ -236,13 +257,15 @@ class Arena:
         """
         scene = self._scene_cache
         if scene is None:
-            xy = self._static_xy
-            if xy is None:
+            if self._static_xy is None:
                 time_s = self.time_s
                 xy = [obstacle._xy_at(time_s) for obstacle in self._scene_obstacles]
+                xy_flat = [v for point in xy for v in point]
                 if not self._any_moving:
                     # Static centres stay put until an edit (as the old array cache did).
-                    self._static_xy = xy
+                    self._static_xy = (xy, xy_flat)
+            else:
+                xy, xy_flat = self._static_xy
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
             ns = -s
@@ -257,8 +280,8 @@ class Arena:
                 inside = 0.0 if 0.0 < inside else inside  # min(inside, 0.0)
                 clearances.append(_hypot(0.0 if 0.0 > qx else qx, 0.0 if 0.0 > qy else qy)
                                   + inside - radius)
-            scene = self._scene_cache = _Scene(self._scene_ids, self._scene_radii, xy,
-                                               clearances)
+            scene = self._scene_cache = _new_tuple(
+                _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat))
         return scene
 
     def _ray_candidates(self, reach_m: float):
@@ -311,9 +334,9 @@ class Arena:
         speed = forward_speed_m_s * chord_scale
         ptr = self._robot_ptr
         if ptr is not None:
-            mid_heading = _cp.cpBodyGetAngle(ptr) + half_turn
-            _cp.cpBodySetVelocity(ptr, (speed * _cos(mid_heading), speed * _sin(mid_heading)))
-            _cp.cpBodySetAngularVelocity(ptr, yaw_rate_rad_s)
+            mid_heading = _cpBodyGetAngle(ptr) + half_turn
+            _cpBodySetVelocity(ptr, (speed * _cos(mid_heading), speed * _sin(mid_heading)))
+            _cpBodySetAngularVelocity(ptr, yaw_rate_rad_s)
         else:
             mid_heading = self.robot.angle + half_turn
             self.robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
@@ -330,11 +353,11 @@ class Arena:
             self._set_body_velocity(obstacle.body, ((x1 - x0) / dt_s, (y1 - y0) / dt_s))
             moved.append((obstacle.body, (x1, y1)))
         first_new = len(self.collisions)
-        self.space.step(dt_s)
+        self._step_space(dt_s)
         self.time_s = t_next
         if ptr is not None:
-            p = _cp.cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cp.cpBodyGetAngle(ptr))
+            p = _cpBodyGetPosition(ptr)
+            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
         else:
             self._read_pose()
         self._clearance_cache = None
@@ -345,17 +368,46 @@ class Arena:
                 self._set_body_position(body, position)
         return self.collisions[first_new:] if len(self.collisions) > first_new else []
 
+    def _step_space(self, dt_s: float) -> None:
+        """``self.space.step(dt_s)``: the same Chipmunk step (collision detection and the
+        contact callback included) with pymunk's bookkeeping around it, minus ~1.5 us
+        of Python per call. Anything unusual takes ``Space.step`` itself."""
+        space = self.space
+        if not self._fast_space_step or space._bodies_to_check or space.threaded:
+            space.step(dt_s)
+            return
+        space._locked = True  # adds and removes from callbacks wait, as in Space.step
+        try:
+            _cpSpaceStep(self._space_ptr, dt_s)
+            space._removed_shapes.clear()
+        finally:
+            space._locked = False
+        if space._add_later or space._remove_later or space._post_step_callbacks:
+            # Queued during the step: finish as Space.step does, with the public API.
+            added = list(space._add_later)
+            space._add_later.clear()
+            space.add(*added)
+            removed = set()
+            while space._remove_later:
+                obj, _ = space._remove_later.popitem()
+                if obj not in removed:
+                    removed.add(obj)
+                    space.remove(obj)
+            for key in list(space._post_step_callbacks):
+                space._post_step_callbacks[key](space)
+            space._post_step_callbacks.clear()
+
     def _set_body_velocity(self, body: pymunk.Body, velocity: tuple[float, float]) -> None:
         ptr = getattr(body, "_body", None) if _cp is not None else None
         if ptr is not None:
-            _cp.cpBodySetVelocity(ptr, velocity)
+            _cpBodySetVelocity(ptr, velocity)
         else:
             body.velocity = velocity
 
     def _set_body_position(self, body: pymunk.Body, position: tuple[float, float]) -> None:
         ptr = getattr(body, "_body", None) if _cp is not None else None
         if ptr is not None:
-            _cp.cpBodySetPosition(ptr, position)
+            _cpBodySetPosition(ptr, position)
         else:
             body.position = position
 

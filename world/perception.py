@@ -34,6 +34,9 @@ from world.arena import Arena
 from world.geometry import wrap_angle_scalar
 from world.sensors import RangeSensorArray
 
+_hypot, _atan2, _fmod = math.hypot, math.atan2, math.fmod
+_PI, _TWO_PI = math.pi, 2.0 * math.pi
+
 OBSTACLE_CUTOFF_M = 3.0
 PERCEPTION_MODES = ("ideal", "ultrasonic")
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
@@ -49,17 +52,22 @@ def ideal_obstacle_inputs(arena: Arena, cutoff_m: float = OBSTACLE_CUTOFF_M
                           ) -> tuple[float, float, int]:
     """(d_o, phi_o, obstacle id) of the nearest obstacle by exact geometry; NaN, NaN, -1
     when none is within ``cutoff_m``."""
+    return _ideal_obstacle_inputs(arena, arena.pose, cutoff_m)
+
+
+def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, float, int]:
     scene = arena._scene()
     clearances = scene.clearances
     if not clearances:
         return math.nan, math.nan, -1
     # list.index(min(...)) is np.argmin's first minimum, without the numpy call.
     k = clearances.index(min(clearances))
-    d_o = max(clearances[k], 0.0)
+    d_o = clearances[k]
+    d_o = 0.0 if 0.0 > d_o else d_o  # max(d_o, 0.0)
     if d_o > cutoff_m:
         return math.nan, math.nan, -1
     cx, cy = scene.xy[k]
-    x, y, heading = arena.pose
+    x, y, heading = pose
     phi_o = wrap_angle_scalar(math.atan2(cy - y, cx - x) - heading)
     return d_o, phi_o, scene.ids[k]
 
@@ -86,7 +94,7 @@ class Perception:
         self.mode = mode
         self.sensors = sensors
         self.cutoff_m = cutoff_m
-        self._mount_angles = [m.angle_rad for m in sensors.config.mounts]
+        self._mount_angles = [float(m.angle_rad) for m in sensors.config.mounts]
 
     def inputs(self, arena: Arena, time_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(inputs (4,), sensor ranges (3,)); the sensors are read in both modes so that
@@ -97,6 +105,9 @@ class Perception:
     def _sense(self, arena: Arena, time_s: float, target_xy=None):
         """The inputs as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges as a list)``.
 
+        :func:`target_inputs`, :func:`ideal_obstacle_inputs` and
+        :func:`ultrasonic_obstacle_inputs` inlined (with ``wrap_angle_scalar``): the
+        same operations in the same order, without five Python calls per step.
         ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
         """
         sensors = self.sensors
@@ -104,15 +115,36 @@ class Perception:
         ranges_list = getattr(sensors, "_ranges_list", None)
         if ranges_list is None or len(ranges_list) != len(ranges):
             ranges_list = np.asarray(ranges, dtype=float).tolist()
-        pose = arena.pose
+        x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target
-        # target_inputs inlined.
-        dx, dy = target_xy[0] - pose[0], target_xy[1] - pose[1]
-        d_t = math.hypot(dx, dy)
-        phi_t = wrap_angle_scalar(math.atan2(dy, dx) - pose[2])
+        dx, dy = target_xy[0] - x, target_xy[1] - y
+        d_t = _hypot(dx, dy)
+        phi_t = _fmod(_atan2(dy, dx) - heading + _PI, _TWO_PI)  # wrap_angle_scalar
+        if phi_t < 0.0:
+            phi_t += _TWO_PI
+        phi_t -= _PI
+        if phi_t == -_PI:
+            phi_t = _PI
+        d_o = phi_o = math.nan
         if self.mode == "ideal":
-            d_o, phi_o, _ = ideal_obstacle_inputs(arena, self.cutoff_m)
+            scene = arena._scene()
+            clearances = scene[3]
+            if clearances:
+                k = clearances.index(min(clearances))  # np.argmin's first minimum
+                nearest = clearances[k]
+                nearest = 0.0 if 0.0 > nearest else nearest  # max(clearance, 0.0)
+                if not nearest > self.cutoff_m:
+                    cx, cy = scene[2][k]
+                    d_o = nearest
+                    phi_o = _fmod(_atan2(cy - y, cx - x) - heading + _PI, _TWO_PI)
+                    if phi_o < 0.0:
+                        phi_o += _TWO_PI
+                    phi_o -= _PI
+                    if phi_o == -_PI:
+                        phi_o = _PI
         else:
-            d_o, phi_o = ultrasonic_obstacle_inputs(ranges_list, self._mount_angles, self.cutoff_m)
+            k = ranges_list.index(min(ranges_list))  # np.argmin's first minimum
+            if ranges_list[k] <= self.cutoff_m:
+                d_o, phi_o = ranges_list[k], self._mount_angles[k]
         return d_t, d_o, phi_t, phi_o, ranges, ranges_list

@@ -28,9 +28,14 @@ import pymunk
 
 from world.arena import RAY_FILTER, Arena, _cp, _ffi
 
-# Slack (m) on the prefilter's reach and boxes, far above the rounding of the centres.
+if _cp is not None:
+    from world.arena import _cpSpaceSegmentQueryFirst
+
+# Slack on the prefilter's distances and angles, far above the rounding of the centres
+# and directions it compares: it may let a ray through that misses, never the reverse.
 _PREFILTER_SLACK_M = 1e-6
-_cos, _sin = math.cos, math.sin
+_ANGLE_SLACK_RAD = 1e-9
+_cos, _sin, _hypot, _atan2, _asin = math.cos, math.sin, math.hypot, math.atan2, math.asin
 
 
 @dataclass(frozen=True)
@@ -97,6 +102,7 @@ class RangeSensorArray:
     def __init__(self, config: SensorConfig | None = None, seed: int | None = None):
         self.config = config or SensorConfig()
         self._offsets = [float(a) for a in self.config.ray_offsets_rad()]
+        self._spread = max(abs(a) for a in self._offsets)  # rays' largest angle off centre
         self._constants_for = None
         self._info = _ffi.new("cpSegmentQueryInfo *") if _ffi is not None else None
         self._filter = _ffi.new("cpShapeFilter *", RAY_FILTER)[0] if _ffi is not None else None
@@ -146,94 +152,128 @@ class RangeSensorArray:
     def _cast(self, arena: Arena) -> None:
         cfg = self.config
         mounts, reach = self._constants()
-        n = len(mounts)
         prefilter = getattr(arena, "_ray_candidates", None)
         candidates = prefilter(reach) if prefilter is not None else None
-        if candidates is not None and not candidates:
-            # Nothing within reach of any ray: every cast would miss.
-            self._ranges_list = [math.inf] * n
-            self._ranges = np.full(n, math.inf)
-            if not self._hits_nan:
-                self.hit_points[...] = np.nan
-                self._hits_nan = True
+        if candidates is None:
+            self._cast_all(arena)
             return
-        space = arena.space
+        n = len(mounts)
+        if not candidates:
+            # Nothing within reach of any ray: every cast would miss.
+            self._store([math.inf] * n, None)
+            return
         space_ptr = getattr(arena, "_space_ptr", None)
         info, shape_filter = self._info, self._filter
         fast = space_ptr is not None and info is not None
         max_range = cfg.max_range_m
         offsets = self._offsets
+        spread = self._spread
         slack = _PREFILTER_SLACK_M
         x, y, heading = arena.pose
         c, s = _cos(heading), _sin(heading)
-        ranges, hits, any_hit = [], [], False
-        for mx, my, angle in mounts:
+        ranges, hits = [], None
+        for k, (mx, my, angle) in enumerate(mounts):
             ox, oy = x + c * mx - s * my, y + s * mx + c * my
-            nearest, hit = math.inf, (math.nan, math.nan)
-            if candidates is None:
-                near = None
-            else:
-                # Only obstacles within a ray's length of this sensor can echo.
-                near = []
-                for candidate in candidates:
-                    cx, cy, radius = candidate
-                    limit = max_range + radius + slack
-                    if (cx - ox) * (cx - ox) + (cy - oy) * (cy - oy) <= limit * limit:
-                        near.append(candidate)
-                if not near:
-                    ranges.append(nearest)
-                    hits.append(hit)
-                    continue
+            nearest, hit = math.inf, None
             direction = heading + angle
-            ends = [(ox + max_range * _cos(direction + offset),
-                     oy + max_range * _sin(direction + offset))
-                    for offset in offsets]
-            # The rays are segments, so the box around their ends and the origin holds
-            # them all: when no shape touches it, no ray can hit and none is cast.
-            xs = [ox] + [e[0] for e in ends]
-            ys = [oy] + [e[1] for e in ends]
-            x_lo, y_lo, x_hi, y_hi = min(xs), min(ys), max(xs), max(ys)
-            if near is None:
-                touched = bool(space.bb_query(pymunk.BB(x_lo, y_lo, x_hi, y_hi), RAY_FILTER))
-            else:
-                x_lo -= slack
-                y_lo -= slack
-                x_hi += slack
-                y_hi += slack
-                touched = False
-                for cx, cy, radius in near:
-                    if (cx + radius >= x_lo and cx - radius <= x_hi
-                            and cy + radius >= y_lo and cy - radius <= y_hi):
-                        touched = True
-                        break
-            if touched:
-                origin = (ox, oy)
-                for end in ends:
+            cd, sd = _cos(direction), _sin(direction)
+            near = []
+            for cx, cy, radius in candidates:
+                dx, dy = cx - ox, cy - oy
+                margin = radius + slack
+                distance = _hypot(dx, dy)
+                if distance > max_range + margin:
+                    continue  # beyond the end of every ray
+                if distance > margin:
+                    # Seen from the sensor the disc spans its bearing +- asin(r / d);
+                    # a beam whose rays all point outside that misses it.
+                    bearing = _atan2(dy * cd - dx * sd, dx * cd + dy * sd)
+                    if abs(bearing) > spread + _asin(margin / distance) + _ANGLE_SLACK_RAD:
+                        continue
+                near.append((dx, dy, margin))
+            if near:
+                for offset in offsets:
+                    ux, uy = _cos(direction + offset), _sin(direction + offset)
+                    # Cast a ray only if it passes within a radius of an obstacle's
+                    # centre: a segment farther from every circle cannot hit one.
+                    for dx, dy, margin in near:
+                        along = dx * ux + dy * uy
+                        across = dx * uy - dy * ux
+                        if (-margin <= along <= max_range + margin
+                                and -margin <= across <= margin):
+                            break
+                    else:
+                        continue
+                    end = (ox + max_range * ux, oy + max_range * uy)
                     if fast:
-                        if _cp.cpSpaceSegmentQueryFirst(space_ptr, origin, end, 0.0,
-                                                        shape_filter, info):
+                        if _cpSpaceSegmentQueryFirst(space_ptr, (ox, oy), end, 0.0,
+                                                     shape_filter, info):
                             distance = info.alpha * max_range
                             if distance < nearest:
                                 point = info.point
                                 nearest, hit = distance, (point.x, point.y)
                     else:
-                        result = space.segment_query_first(origin, end, 0.0, RAY_FILTER)
+                        result = arena.space.segment_query_first((ox, oy), end, 0.0, RAY_FILTER)
                         if result is not None:
                             distance = result.alpha * max_range
                             if distance < nearest:
                                 nearest, hit = distance, (result.point.x, result.point.y)
-            if math.isfinite(nearest):
-                any_hit = True
-                if cfg.noise_std_m > 0.0:
-                    nearest += self._rng.normal(0.0, cfg.noise_std_m)
-                nearest = min(max(nearest, cfg.min_range_m), cfg.max_range_m)
+            if hit is not None:
+                nearest = self._reading(nearest)
+                if hits is None:
+                    hits = [(math.nan, math.nan)] * n
+                hits[k] = hit
             ranges.append(nearest)
-            hits.append(hit)
+        self._store(ranges, hits)
+
+    def _reading(self, distance: float) -> float:
+        """A finite echo distance as the sensor reports it: noise, then the limits."""
+        cfg = self.config
+        if cfg.noise_std_m > 0.0:
+            distance += self._rng.normal(0.0, cfg.noise_std_m)
+        # min(max(distance, min_range), max_range), as the comparisons min/max make
+        low, high = cfg.min_range_m, cfg.max_range_m
+        distance = low if low > distance else distance
+        return high if high < distance else distance
+
+    def _store(self, ranges: list[float], hits) -> None:
+        """Keep the readings (a fresh array per update) and the hit points (None: none)."""
         self._ranges_list = ranges
         self._ranges = np.array(ranges, dtype=float)
-        if any_hit:
+        if hits is not None:
             self.hit_points[...] = hits
             self._hits_nan = False
         elif not self._hits_nan:
             self.hit_points[...] = np.nan
             self._hits_nan = True
+
+    def _cast_all(self, arena: Arena) -> None:
+        """The casts with pymunk's public API and its bounding-box query as the
+        prefilter: for arenas whose space holds shapes the arena does not know."""
+        cfg = self.config
+        space = arena.space
+        max_range = cfg.max_range_m
+        ranges, hits = [], None
+        for k, (origin, direction) in enumerate(self.beam_geometry(arena.pose)):
+            ends = [(origin[0] + max_range * math.cos(direction + offset),
+                     origin[1] + max_range * math.sin(direction + offset))
+                    for offset in self._offsets]
+            nearest, hit = math.inf, None
+            # The rays are segments, so the box around their ends and the origin holds
+            # them all: when no shape touches it, no ray can hit and none is cast.
+            xs = [origin[0]] + [e[0] for e in ends]
+            ys = [origin[1]] + [e[1] for e in ends]
+            if space.bb_query(pymunk.BB(min(xs), min(ys), max(xs), max(ys)), RAY_FILTER):
+                for end in ends:
+                    info = space.segment_query_first(origin, end, 0.0, RAY_FILTER)
+                    if info is not None:
+                        distance = info.alpha * max_range
+                        if distance < nearest:
+                            nearest, hit = distance, (info.point.x, info.point.y)
+            if hit is not None:
+                nearest = self._reading(nearest)
+                if hits is None:
+                    hits = [(math.nan, math.nan)] * len(cfg.mounts)
+                hits[k] = hit
+            ranges.append(nearest)
+        self._store(ranges, hits)

@@ -24,6 +24,7 @@ NaN voltages because no decision follows it.
 from __future__ import annotations
 
 import math
+import struct
 import time
 from dataclasses import dataclass, field
 
@@ -38,6 +39,8 @@ from world.sensors import RangeSensorArray, SensorConfig
 
 OUTCOMES = ("reached", "collided", "timeout")
 _FLOAT64 = np.dtype(np.float64)
+_PACK_XU = struct.Struct(f"{N_STATES + 2}d").pack_into
+_pack_into = struct.pack_into
 
 
 @dataclass
@@ -89,9 +92,9 @@ class _LogBuffer:
 
     The per-step floats live in one wide matrix. Rows arrive as plain lists and are
     written into the matrices a block at a time (every ``_FLUSH_ROWS`` rows, and before
-    :meth:`freeze`): one numpy conversion per block instead of several numpy calls per
-    step, which is what the loop's time went to. The obstacles' centre distances are
-    computed per block from the logged pose and centres (``np.hypot``, as before).
+    :meth:`freeze`) by ``struct.pack_into``, instead of several numpy calls per step,
+    which is where the loop's time went. The obstacles' centre distances are computed
+    per block from the logged pose and centres (``np.hypot``, as before).
     """
 
     _FIELDS = {"time_s": 1, "pose": 3, "lg_state": 6, "inputs": 4, "disturbance": 1,
@@ -108,9 +111,10 @@ class _LogBuffer:
         # Per obstacle column: x, y, centre distance, clearance.
         self.obstacles = np.full((self.capacity, 0, 4), np.nan)
         self._written = 0          # rows already in the matrices
-        self._rows: list = []      # pending rows
-        self._xy: list = []        # pending centres, (x, y) per column
-        self._clearances: list = []  # pending clearances, one per column
+        self._pending = 0          # rows not yet written; their numbers, flattened:
+        self._rows: list = []      # `width` per row
+        self._xy: list = []        # x, y per obstacle column
+        self._clearances: list = []  # one per obstacle column
         self._ids_seen = None      # the ids list the pending obstacle data follows
         self._columns: list[int] = []
         self._direct = True        # those ids are exactly the columns, in order
@@ -133,47 +137,55 @@ class _LogBuffer:
         self._direct = list(ids) == self.obstacle_ids
         self._ids_seen = ids
 
-    def append(self, row: list[float], ids: list[int], radii, xy: list[tuple[float, float]],
+    def append(self, row: list[float], ids: list[int], radii, xy: list[float],
                clearances: list[float]) -> None:
         """Log one row: ``row`` in ``_FIELDS`` order; per obstacle present (``ids``),
-        its radius, its centre and its clearance. The lists are kept until the next
-        flush: callers must not modify them afterwards."""
+        its radius, its centre (in ``xy``, flat: x0, y0, x1, y1, ...) and clearance."""
         if ids is not self._ids_seen:
             self._set_columns(ids, radii)
-        self._rows.append(row)
+        self._rows += row
         if self._direct:
             if ids:
-                self._xy.append(xy)
-                self._clearances.append(clearances)
+                self._xy += xy
+                self._clearances += clearances
         else:
             n_columns = len(self.obstacle_ids)
-            padded_xy = [(math.nan, math.nan)] * n_columns
+            padded_xy = [math.nan] * (2 * n_columns)
             padded_clearances = [math.nan] * n_columns
             for j, column in enumerate(self._columns):
-                padded_xy[column] = xy[j]
+                padded_xy[2 * column] = xy[2 * j]
+                padded_xy[2 * column + 1] = xy[2 * j + 1]
                 padded_clearances[column] = clearances[j]
-            self._xy.append(padded_xy)
-            self._clearances.append(padded_clearances)
+            self._xy += padded_xy
+            self._clearances += padded_clearances
         self.n += 1
-        if len(self._rows) >= self._FLUSH_ROWS:
+        self._pending += 1
+        if self._pending >= self._FLUSH_ROWS:
             self._flush()
 
     def _flush(self) -> None:
-        m = len(self._rows)
+        m = self._pending
         if not m:
             return
         start, stop = self._written, self._written + m
         while stop > self.capacity:
             self._grow()
+        # struct packs the flat lists straight into the arrays' memory: a plain float
+        # loop, several times cheaper than numpy's conversion of nested lists.
+        _pack_into(f"{m * self.width}d", self.rows, start * self.width * 8, *self._rows)
         rows = self.rows[start:stop]
-        rows[:] = self._rows
         n_columns = len(self.obstacle_ids)
         if n_columns and self._xy:
+            xy = np.empty((m, n_columns, 2))
+            _pack_into(f"{m * n_columns * 2}d", xy, 0, *self._xy)
+            clearances = np.empty((m, n_columns))
+            _pack_into(f"{m * n_columns}d", clearances, 0, *self._clearances)
             block = self.obstacles[start:stop]
-            block[:, :, 0:2] = self._xy
-            block[:, :, 3] = self._clearances
+            block[:, :, 0:2] = xy
+            block[:, :, 3] = clearances
             block[:, :, 2] = np.hypot(block[:, :, 0] - rows[:, 1:2], block[:, :, 1] - rows[:, 2:3])
         self._written = stop
+        self._pending = 0
         self._rows, self._xy, self._clearances = [], [], []
 
     def freeze(self) -> SimulationLog:
@@ -256,14 +268,13 @@ class Simulation:
         self.sensors.reset(self.seed)
         self.controller.reset()
         self.x = np.zeros(6)
-        self._x_list = [0.0] * 6  # self.x as floats while self.x is self._x_seen
-        self._x_seen = self.x
         self.outcome: str | None = None
         self._wall_time_s = 0.0
         capacity = int(math.ceil(sc.duration_s / self.control_period_s)) + 2
         self._log = _LogBuffer(capacity)
         self._pending: dict | None = None
         self._plant = (None, None, None)  # (model, dt, step matrix or None)
+        self._z = np.empty(N_STATES + 2)  # [x; u] for the plant's step product
 
     @property
     def time_s(self) -> float:
@@ -331,21 +342,37 @@ class Simulation:
         arena = self.arena
         target = arena.target
         target_xy = target.tolist() if type(target) is np.ndarray else [float(v) for v in target]
-        d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
+        perception = self.perception
+        if hasattr(perception, "_sense"):  # self._sense inlined
+            d_t, d_o, phi_t, phi_o, ranges, ranges_list = perception._sense(
+                arena, arena.time_s, target_xy)
+            disturbance = self.disturbance.value(arena.time_s) if self.disturbance else 0.0
+            if disturbance:  # NaN (nothing detected) stays NaN
+                d_t += disturbance
+                d_o += disturbance
+                phi_t += disturbance
+                phi_o += disturbance
+        else:
+            d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
         inputs = np.array((d_t, d_o, phi_t, phi_o))
         left, right = self._decide(inputs, ranges)
+        # np.clip(raw, -limit, limit) on two finite floats: min(max(v, -limit), limit),
+        # written as the comparisons min and max make (2-argument min/max are slow).
         limit = self.voltage_limit_v
-        # np.clip on two finite floats, without the numpy call.
-        v_left = min(max(left, -limit), limit)
-        v_right = min(max(right, -limit), limit)
-        self._record(d_t, d_o, phi_t, phi_o, ranges_list, disturbance, left, right,
+        low = -limit
+        v_left = low if low > left else left
+        v_left = limit if limit < v_left else v_left
+        v_right = low if low > right else right
+        v_right = limit if limit < v_right else v_right
+        x_list = self._state_list()
+        self._record(x_list, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, left, right,
                      v_left, v_right, target_xy)
 
         dt = self.control_period_s
-        forward_speed, yaw_rate = self._advance_plant(v_left, v_right, dt)
+        forward_speed, yaw_rate = self._advance_plant(x_list, v_left, v_right, dt)
         new_contacts = arena.step(forward_speed, yaw_rate, dt)
 
-        x, y, _ = arena.pose
+        x, y, _ = arena._pose
         if math.hypot(target_xy[0] - x, target_xy[1] - y) <= self.scenario.tolerance_m:
             self.outcome = "reached"
         elif new_contacts and self.stop_on_collision:
@@ -355,14 +382,22 @@ class Simulation:
         if self.outcome is not None:
             d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
             nan = math.nan
-            self._record(d_t, d_o, phi_t, phi_o, ranges_list, disturbance, nan, nan, nan, nan,
-                         None)
+            self._record(self._state_list(), d_t, d_o, phi_t, phi_o, ranges_list, disturbance,
+                         nan, nan, nan, nan, None)
         self._wall_time_s += time.perf_counter() - started
         return self.outcome
 
-    def _advance_plant(self, v_left: float, v_right: float, dt: float) -> tuple[float, float]:
+    def _state_list(self) -> list[float]:
+        """``self.x`` as floats, read afresh (it may have been set or edited in place)."""
+        x = self.x
+        if type(x) is np.ndarray and x.dtype is _FLOAT64:
+            return x.tolist()
+        return np.asarray(x, dtype=float).reshape(-1).tolist()
+
+    def _advance_plant(self, x_list: list[float], v_left: float, v_right: float,
+                       dt: float) -> tuple[float, float]:
         """``HuskyModel.step`` on floats: sets ``self.x``, returns the step-mean forward
-        speed and yaw rate. Same (12 x 8) product with the same ``[x; u]`` as
+        speed and yaw rate. The same (12 x 8) product with the same ``[x; u]`` as
         ``HuskyModel.step``, so the same numbers, without its per-call overheads."""
         model = self.model
         cached_model, cached_dt, matrix = self._plant
@@ -370,34 +405,27 @@ class Simulation:
             matrix = (model.discrete(dt).step_matrix
                       if type(model).step is HuskyModel.step else None)
             self._plant = (model, dt, matrix)
-        x = self.x
-        if x is not self._x_seen:  # set from outside since the last step
-            self._x_list = np.asarray(x, dtype=float).reshape(-1).tolist()
         if matrix is None:
-            self.x, x_mean = model.step(x, np.array((v_left, v_right)), dt)
-            self._x_seen = self.x
-            self._x_list = np.asarray(self.x, dtype=float).tolist()
+            self.x, x_mean = model.step(self.x, np.array((v_left, v_right)), dt)
             return float(x_mean[2]), float(x_mean[3])
-        result = np.dot(matrix, np.array((*self._x_list, v_left, v_right)))
-        values = result.tolist()
-        self.x = self._x_seen = result[:N_STATES]
-        self._x_list = values[:N_STATES]
-        return values[N_STATES + 2], values[N_STATES + 3]
+        z = self._z
+        _PACK_XU(z, 0, *x_list, v_left, v_right)  # z = [x; u], without building an array
+        result = np.dot(matrix, z)
+        self.x = result[:N_STATES]
+        mean = result[N_STATES + 2:N_STATES + 4].tolist()
+        return mean[0], mean[1]
 
-    def _record(self, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, raw_left, raw_right,
-                v_left, v_right, target_xy) -> None:
+    def _record(self, x_list, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, raw_left,
+                raw_right, v_left, v_right, target_xy) -> None:
         arena = self.arena
-        x, y, heading = arena.pose
+        x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target.tolist()
-        if self.x is not self._x_seen:
-            self._x_list = np.asarray(self.x, dtype=float).reshape(-1).tolist()
-            self._x_seen = self.x
         # Same order as _LogBuffer._FIELDS.
-        row = [arena.time_s, x, y, heading, *self._x_list, d_t, d_o, phi_t, phi_o, disturbance,
+        row = [arena.time_s, x, y, heading, *x_list, d_t, d_o, phi_t, phi_o, disturbance,
                raw_left, raw_right, v_left, v_right, *ranges_list, *target_xy]
         scene = arena._scene()
-        self._log.append(row, scene.ids, scene.radii, scene.xy, scene.clearances)
+        self._log.append(row, scene.ids, scene.radii, scene.xy_flat, scene.clearances)
 
     # -- whole runs --------------------------------------------------------------------
 
@@ -405,7 +433,7 @@ class Simulation:
         """Run to the end; ``progress(time_s)`` is called now and then if given."""
         every = max(1, int(1.0 / self.control_period_s))
         steps = 0
-        while not self.done:
+        while self.outcome is None:  # not self.done
             self.step()
             steps += 1
             if progress is not None and steps % every == 0:
