@@ -145,7 +145,6 @@ class Arena:
     def __init__(self, footprint_m=(0.99, 0.67), mass_kg: float = 48.39,
                  inertia_kg_m2: float = 3.0556):
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
-        self._half_footprint = (0.5 * self.footprint_m[0], 0.5 * self.footprint_m[1])
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)
         self.robot_shape = pymunk.Poly.create_box(self.robot, self.footprint_m)
@@ -269,7 +268,8 @@ class Arena:
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
             ns = -s
-            hx, hy = self._half_footprint
+            length, width = self.footprint_m
+            hx, hy = 0.5 * length, 0.5 * width
             clearances = []
             for (cx, cy), radius in zip(xy, self._scene_radii):
                 dx = cx - x

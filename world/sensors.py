@@ -10,12 +10,17 @@ A reading is ``inf`` when nothing echoes within ``max_range_m``; a surface close
 noise comes from a seeded generator, and a reading is refreshed at ``update_rate_hz``
 (held in between), so a run is reproducible.
 
-Speed: a cast first asks the arena which obstacles could be within reach of any ray
-(a distance test on floats it has anyway); with none, nothing is cast and every reading
-is ``inf``, as the casts would have said. Otherwise each sensor whose beam's bounding box
-touches an obstacle's casts its rays with Chipmunk's segment query, called through
-pymunk's cffi binding (the call ``Space.segment_query_first`` makes, without building
-a ``SegmentQueryInfo``).
+Speed: the rays are cast only where they can hit, and the readings are exactly those
+of casting them all. A cast first asks the arena which obstacles are within reach of
+any ray (a distance test on the centres it keeps as floats); with none, every reading is
+``inf``. Otherwise, per sensor, an obstacle counts only if it is within a ray's length
+of the sensor and the disc's angular extent (its bearing +- asin(r / d)) overlaps the
+beam's, and a ray is cast only if it passes within a radius of such an obstacle's
+centre. Every test is conservative (1e-6 m and 1e-9 rad of slack), so a ray that could
+hit is always cast; the casts are Chipmunk's segment query through pymunk's cffi
+binding (the call ``Space.segment_query_first`` makes, minus building its result). A
+space holding shapes the arena does not know (added to ``arena.space`` directly) gets
+the general path: pymunk's bounding-box query per beam, then every ray of the beam.
 """
 
 from __future__ import annotations

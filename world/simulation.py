@@ -19,6 +19,14 @@ The world never imports a controller: it only calls what it is given.
 Row ``k`` of the log holds the state at ``time_s[k]``, the inputs sensed then and the
 voltages applied from then to ``time_s[k + 1]``; the last row is the final state, with
 NaN voltages because no decision follows it.
+
+Speed (issue 2): a step does a few dozen small operations, so their per-call overheads
+are the cost. The loop therefore works on plain floats: perception, saturation and the
+log row never build small numpy arrays (only the controller's ``inputs`` and the plant's
+``[x; u]`` are arrays), the plant step is ``HuskyModel``'s own precomputed (12 x 8) ZOH
+product, and log rows are written into the log's arrays in blocks. Every operation on
+the numbers is the one the straightforward code did, in the same order, so runs are the
+same to the bit.
 """
 
 from __future__ import annotations
@@ -342,18 +350,7 @@ class Simulation:
         arena = self.arena
         target = arena.target
         target_xy = target.tolist() if type(target) is np.ndarray else [float(v) for v in target]
-        perception = self.perception
-        if hasattr(perception, "_sense"):  # self._sense inlined
-            d_t, d_o, phi_t, phi_o, ranges, ranges_list = perception._sense(
-                arena, arena.time_s, target_xy)
-            disturbance = self.disturbance.value(arena.time_s) if self.disturbance else 0.0
-            if disturbance:  # NaN (nothing detected) stays NaN
-                d_t += disturbance
-                d_o += disturbance
-                phi_t += disturbance
-                phi_o += disturbance
-        else:
-            d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
+        d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
         inputs = np.array((d_t, d_o, phi_t, phi_o))
         left, right = self._decide(inputs, ranges)
         # np.clip(raw, -limit, limit) on two finite floats: min(max(v, -limit), limit),
