@@ -27,7 +27,10 @@ bench: $(VENV)/.installed-test
 	for b in bench/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 report: $(VENV)/.installed
-	$(VENV)/bin/fuzzynav report docs/report
+	$(VENV)/bin/fuzzynav report out/report --readme-images docs/img
+
+screenshot: $(VENV)/.installed-test
+	$(PY) scripts/screenshot.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis

@@ -149,23 +149,25 @@ def cmd_sweep(args) -> int:
 # --------------------------------------------------------------------------- compare
 
 
+def table4_row(controller: str, scenario: str, index: int, result) -> dict:
+    """One row of our Table 4: a run's metrics beside the paper's published numbers
+    (``index`` is the scenario's column in the paper's table)."""
+    m = result.metrics
+    published = PAPER_TABLE4.get(controller)
+    return {"controller": controller, "scenario": scenario,
+            **{k: m[k] for k in TABLE4_ROWS},
+            "min_clearance_m": m["min_clearance_m"], "time_to_target_s": m["time_to_target_s"],
+            "reached": m["reached"], "collided": m["collided"], "outcome": result.outcome,
+            "paper": {k: published[k][index] for k in TABLE4_ROWS} if published else None}
+
+
 def compare(controllers: list[str], perception: str = "ideal", sweep_n: int = 0, sweep_seed: int = 1,
             family: str = "standard", workers: int = 1, quiet: bool = True) -> dict:
     """Runs of each controller on s1-s3 (and optionally a sweep); the ``compare --json`` object."""
     from app.runs import run_scenario
 
-    rows = []
-    for name in controllers:
-        for i, scenario in enumerate(SCENARIOS):
-            result = run_scenario(scenario, name, perception=perception, seed=0)
-            m = result.metrics
-            row = {"controller": name, "scenario": scenario,
-                   **{k: m[k] for k in TABLE4_ROWS},
-                   "min_clearance_m": m["min_clearance_m"], "time_to_target_s": m["time_to_target_s"],
-                   "reached": m["reached"], "collided": m["collided"], "outcome": result.outcome}
-            published = PAPER_TABLE4.get(name)
-            row["paper"] = ({k: published[k][i] for k in TABLE4_ROWS} if published else None)
-            rows.append(row)
+    rows = [table4_row(name, scenario, i, run_scenario(scenario, name, perception=perception, seed=0))
+            for name in controllers for i, scenario in enumerate(SCENARIOS)]
     sweeps = []
     if sweep_n > 0:
         for name in controllers:

@@ -1,0 +1,26 @@
+"""`fuzzynav report`: recordings, figures and Table 4 for s1-s3 in one go."""
+
+import json
+
+from app.cli import main
+
+
+def test_report_writes_everything(tmp_path, capsys):
+    out = tmp_path / "report"
+    images = tmp_path / "img"
+    assert main(["report", str(out), "--controllers", "p", "--readme-images", str(images)]) == 0
+    table = json.loads((out / "table4.json").read_text())
+    assert [r["scenario"] for r in table["rows"]] == ["s1", "s2", "s3"]
+    assert all(r["controller"] == "p" and r["paper"] is None for r in table["rows"])
+    markdown = (out / "table4.md").read_text()
+    assert markdown.count("\n| s") == 3 and "path_length_m" in markdown
+    for scenario in ("s1", "s2", "s3"):
+        assert (out / "rrd" / f"{scenario}_p.rrd").stat().st_size > 10_000
+        assert (out / "figures" / f"{scenario}_p_trajectory.png").exists()
+        assert (images / f"{scenario}_p_trajectory.png").exists()
+    assert (out / "figures" / "comparison.png").stat().st_size > 10_000
+
+
+def test_report_refuses_an_unknown_controller(tmp_path, capsys):
+    assert main(["report", str(tmp_path / "r"), "--controllers", "nope"]) == 2
+    assert "nope" in capsys.readouterr().err
