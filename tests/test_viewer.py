@@ -20,22 +20,12 @@ import pytest
 
 from app.viewer import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
 from controller.registry import controller_names
+from net_helpers import port_is_free
 
 ROOT = Path(__file__).resolve().parents[1]
 FUZZY = "paper" if "paper" in controller_names() else None
 
 
-def port_is_free(port: int) -> bool:
-    """Whether a server could listen on the port now (as servers do, with SO_REUSEADDR:
-    connections a closed server leaves in TIME_WAIT do not hold the port)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind(("127.0.0.1", port))
-            s.listen()
-        except OSError:
-            return False
-    return True
 
 
 @pytest.fixture

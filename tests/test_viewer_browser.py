@@ -10,12 +10,12 @@ import io
 import math
 import os
 import shutil
-import socket
 
 import numpy as np
 import pytest
 
 from app.viewer import ViewerApp
+from net_helpers import port_is_free
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(120)]
 
@@ -57,17 +57,6 @@ JS_SCENE_READY = """
 """
 
 
-def port_is_free(port: int) -> bool:
-    """Whether a server could listen on the port now (as servers do, with SO_REUSEADDR:
-    connections a closed server leaves in TIME_WAIT do not hold the port)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind(("127.0.0.1", port))
-            s.listen()
-        except OSError:
-            return False
-    return True
 
 
 @pytest.fixture(scope="module")
