@@ -172,7 +172,10 @@ class Arena:
         self._scene_ids: list[int] = []
         self._scene_radii: list[float] = []
         self._static_xy: tuple[list, list] | None = None
-        self._moving: list[Obstacle] = []
+        # Moving obstacles: (index in the scene, obstacle, Chipmunk body or None), and
+        # (time, their centres then) from the last step, which the next one reuses.
+        self._moving: list[tuple[int, Obstacle, object]] = []
+        self._moving_xy: tuple[float, list] | None = None
         self._any_moving = False
 
     # -- set-up and edits (the viewer calls these while the simulation runs) ----------
@@ -204,7 +207,9 @@ class Arena:
         self._scene_obstacles = list(self.obstacles.values())
         self._scene_ids = [o.id for o in self._scene_obstacles]
         self._scene_radii = [o.radius_m for o in self._scene_obstacles]
-        self._moving = [o for o in self._scene_obstacles if not o.is_static]
+        self._moving = [(i, o, getattr(o.body, "_body", None) if _cp is not None else None)
+                        for i, o in enumerate(self._scene_obstacles) if not o.is_static]
+        self._moving_xy = None
         self._any_moving = bool(self._moving)
 
     def add_obstacle(self, spec: ObstacleSpec) -> int:
@@ -256,15 +261,23 @@ class Arena:
         """
         scene = self._scene_cache
         if scene is None:
+            time_s = self.time_s
             if self._static_xy is None:
-                time_s = self.time_s
+                # The static obstacles' centres never change (the law at any time is
+                # p0 + 0 + 0): computed once per edit, as the old array cache did.
                 xy = [obstacle._xy_at(time_s) for obstacle in self._scene_obstacles]
+                self._static_xy = (xy, [v for point in xy for v in point])
+            xy, xy_flat = self._static_xy
+            if self._any_moving:
+                cached = self._moving_xy
+                if cached is not None and cached[0] == time_s:
+                    moved = cached[1]
+                else:
+                    moved = [obstacle._xy_at(time_s) for _, obstacle, _ in self._moving]
+                xy = list(xy)
+                for (i, _, _), point in zip(self._moving, moved):
+                    xy[i] = point
                 xy_flat = [v for point in xy for v in point]
-                if not self._any_moving:
-                    # Static centres stay put until an edit (as the old array cache did).
-                    self._static_xy = (xy, xy_flat)
-            else:
-                xy, xy_flat = self._static_xy
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
             ns = -s
@@ -344,14 +357,22 @@ class Arena:
 
         t_now = self.time_s
         t_next = t_now + dt_s
-        moved = []
-        for obstacle in self._moving:
+        moving = self._moving
+        if moving:
             # Kinematic bodies move by their velocity; give them the chord of the step
             # so the position at t_next matches the law exactly.
-            x1, y1 = obstacle._xy_at(t_next)
-            x0, y0 = obstacle._xy_at(t_now)
-            self._set_body_velocity(obstacle.body, ((x1 - x0) / dt_s, (y1 - y0) / dt_s))
-            moved.append((obstacle.body, (x1, y1)))
+            cached = self._moving_xy
+            if cached is not None and cached[0] == t_now:
+                before = cached[1]
+            else:
+                before = [obstacle._xy_at(t_now) for _, obstacle, _ in moving]
+            after = [obstacle._xy_at(t_next) for _, obstacle, _ in moving]
+            for (_, obstacle, body_ptr), (x0, y0), (x1, y1) in zip(moving, before, after):
+                velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
+                if body_ptr is not None:
+                    _cpBodySetVelocity(body_ptr, velocity)
+                else:
+                    obstacle.body.velocity = velocity
         first_new = len(self.collisions)
         self._step_space(dt_s)
         self.time_s = t_next
@@ -362,10 +383,14 @@ class Arena:
             self._read_pose()
         self._clearance_cache = None
         self._scene_cache = None
-        if moved:
+        if moving:
             self._obstacle_cache = None
-            for body, position in moved:
-                self._set_body_position(body, position)
+            for (_, obstacle, body_ptr), position in zip(moving, after):
+                if body_ptr is not None:
+                    _cpBodySetPosition(body_ptr, position)
+                else:
+                    obstacle.body.position = position
+            self._moving_xy = (t_next, after)
         return self.collisions[first_new:] if len(self.collisions) > first_new else []
 
     def _step_space(self, dt_s: float) -> None:
@@ -396,20 +421,6 @@ class Arena:
             for key in list(space._post_step_callbacks):
                 space._post_step_callbacks[key](space)
             space._post_step_callbacks.clear()
-
-    def _set_body_velocity(self, body: pymunk.Body, velocity: tuple[float, float]) -> None:
-        ptr = getattr(body, "_body", None) if _cp is not None else None
-        if ptr is not None:
-            _cpBodySetVelocity(ptr, velocity)
-        else:
-            body.velocity = velocity
-
-    def _set_body_position(self, body: pymunk.Body, position: tuple[float, float]) -> None:
-        ptr = getattr(body, "_body", None) if _cp is not None else None
-        if ptr is not None:
-            _cpBodySetPosition(ptr, position)
-        else:
-            body.position = position
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         robot_shape, other = arbiter.shapes
