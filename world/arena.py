@@ -270,14 +270,12 @@ class Arena:
             xy, xy_flat = self._static_xy
             if self._any_moving:
                 cached = self._moving_xy
-                if cached is not None and cached[0] == time_s:
-                    moved = cached[1]
-                else:
-                    moved = [obstacle._xy_at(time_s) for _, obstacle, _ in self._moving]
-                xy = list(xy)
-                for (i, _, _), point in zip(self._moving, moved):
+                cached = cached[1] if cached is not None and cached[0] == time_s else None
+                xy, xy_flat = list(xy), list(xy_flat)
+                for j, (i, obstacle, _) in enumerate(self._moving):
+                    point = cached[j] if cached is not None else obstacle._xy_at(time_s)
                     xy[i] = point
-                xy_flat = [v for point in xy for v in point]
+                    xy_flat[2 * i], xy_flat[2 * i + 1] = point
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
             ns = -s
@@ -361,13 +359,14 @@ class Arena:
         if moving:
             # Kinematic bodies move by their velocity; give them the chord of the step
             # so the position at t_next matches the law exactly.
+            # (Plain loops: a comprehension costs a function call in Python 3.11.)
             cached = self._moving_xy
-            if cached is not None and cached[0] == t_now:
-                before = cached[1]
-            else:
-                before = [obstacle._xy_at(t_now) for _, obstacle, _ in moving]
-            after = [obstacle._xy_at(t_next) for _, obstacle, _ in moving]
-            for (_, obstacle, body_ptr), (x0, y0), (x1, y1) in zip(moving, before, after):
+            cached = cached[1] if cached is not None and cached[0] == t_now else None
+            after = []
+            for j, (_, obstacle, body_ptr) in enumerate(moving):
+                x0, y0 = cached[j] if cached is not None else obstacle._xy_at(t_now)
+                x1, y1 = obstacle._xy_at(t_next)
+                after.append((x1, y1))
                 velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
                 if body_ptr is not None:
                     _cpBodySetVelocity(body_ptr, velocity)
@@ -385,11 +384,11 @@ class Arena:
         self._scene_cache = None
         if moving:
             self._obstacle_cache = None
-            for (_, obstacle, body_ptr), position in zip(moving, after):
+            for j, (_, obstacle, body_ptr) in enumerate(moving):
                 if body_ptr is not None:
-                    _cpBodySetPosition(body_ptr, position)
+                    _cpBodySetPosition(body_ptr, after[j])
                 else:
-                    obstacle.body.position = position
+                    obstacle.body.position = after[j]
             self._moving_xy = (t_next, after)
         return self.collisions[first_new:] if len(self.collisions) > first_new else []
 
