@@ -13,6 +13,7 @@ from app.figures import (FORMATS, RUN_FIGURES, _orient, check_writable_dir,
                          membership_figure_names, write_comparison_figure,
                          write_membership_figures, write_run_figures)
 from app.runs import build_simulation
+from controller.fis_controller import FisController
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -43,19 +44,6 @@ def assert_figures(paths, out_dir, names) -> None:
         (assert_valid_png if path.suffix == ".png" else assert_valid_svg)(path)
 
 
-class FuzzyController:
-    name = "fuzzy-test"
-
-    def __init__(self, fis):
-        self.fis = fis
-
-    def reset(self):
-        pass
-
-    def __call__(self, inputs):
-        return self.fis.evaluate_one(inputs)
-
-
 @pytest.fixture(scope="module")
 def paper_fis():
     fuzzy = pytest.importorskip("controller.fuzzy")
@@ -84,7 +72,7 @@ def test_run_figures_with_a_prefix_and_a_fuzzy_controller(tmp_path, paper_fis):
     from world.scenario import load_scenario
 
     scenario = load_scenario("s3").replace(duration_s=6.0)
-    sim = build_simulation(scenario, controller_object=FuzzyController(paper_fis))
+    sim = build_simulation(scenario, controller_object=FisController(paper_fis))
     result = sim.run()
     paths = write_run_figures(result, tmp_path, controller=sim.controller, prefix="s3_fz_")
     names = [f"s3_fz_{n}" for n in RUN_FIGURES + tuple(membership_figure_names(paper_fis))]
