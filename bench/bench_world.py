@@ -10,8 +10,10 @@ its collision detection, and the log row.
     the sensors see them in about a sixth of the steps, and nothing is hit. The timing
     covers the steps and the final ``sim.log`` (the log is written in blocks, so its
     last block is part of the loop's cost), not building the simulation.
-(b) The real-time factor (simulated seconds per wall second) of a whole ``s1`` run with
-    the P controller, ``sim.run()`` including the result and its metrics.
+(b) The real-time factor (simulated seconds per second of CPU time, and of wall time) of
+    a whole ``s1`` run with the P controller, ``sim.run()`` including the result and its
+    metrics. The P controller is obstacle-blind: the run ends in a collision after
+    13.5 s (674 steps), so it is short and its timings swing more.
 
 Every number is the median over several repeats. The machine is shared, so each run is
 timed twice: by the process's CPU time (``time.process_time``: the time the loop had a
