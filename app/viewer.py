@@ -864,6 +864,15 @@ def _check_rrd(path):
     return check_writable_file(path)
 
 
+def _print_url(server, host: str, open_message: bool) -> None:
+    if not open_message:
+        return
+    print(f"fuzzynav viewer: {server.url}  (Ctrl-C stops it)", flush=True)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"fuzzynav viewer: bound to {host}: other machines on the network can "
+              "open it and change the world", flush=True)
+
+
 def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
           controller: str | None = None, open_message: bool = True, block: bool = True):
     """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
@@ -873,12 +882,8 @@ def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
     rrd = _check_rrd(rrd)
     app = ViewerApp(scenario, controller, rrd_path=rrd)
     server = ViewerServer(app, host=host, port=port)
-    if open_message:
-        print(f"fuzzynav viewer: {server.url}  (Ctrl-C stops it)", flush=True)
-        if host not in ("127.0.0.1", "localhost", "::1"):
-            print(f"fuzzynav viewer: bound to {host}: other machines on the network can "
-                  "open it and change the world", flush=True)
     if not block:
+        _print_url(server, host, open_message)
         return server
     previous = None
     if threading.current_thread() is threading.main_thread():
@@ -888,6 +893,9 @@ def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
 
         previous = signal.signal(signal.SIGTERM, on_term)
     try:
+        # The URL is printed inside the try: a Ctrl-C that arrives as soon as a user (or a
+        # test) sees it must still stop the server cleanly.
+        _print_url(server, host, open_message)
         while True:
             time.sleep(0.5)
     except KeyboardInterrupt:
