@@ -78,21 +78,20 @@ _W_PER_VOLT = 0.62 / 12.0
 _HX, _HY = 0.495, 0.335
 _MOUNTS = ((0.495, 0.75 * 0.335, math.radians(45.0)), (0.495, 0.0, 0.0),
            (0.495, -0.75 * 0.335, math.radians(-45.0)))
-_STORE_RANGE_M = 2.0   # echoes farther than this are not remembered
 
 # The crisp parameters, their defaults (used when the file lacks a key) and tuning bounds.
 CRISP_DEFAULTS: dict[str, float] = {
     "control_period_s": 0.02,     # the loop's period (the memory counts calls)
-    "alpha_front_lo_m": 0.5,      # alpha = 1 when the front is nearer than this
-    "alpha_front_hi_m": 2.2,      # alpha = 0 beyond this
-    "alpha_side_lo_m": 0.3,
-    "alpha_side_hi_m": 1.0,
+    "alpha_front_lo_m": 0.4,      # alpha = 1 when the front is nearer than this
+    "alpha_front_hi_m": 1.2,      # alpha = 0 beyond this
+    "alpha_side_lo_m": 0.25,
+    "alpha_side_hi_m": 0.7,
     "alpha_side_max": 1.0,        # the side sectors alone never take full control
     "memory_grow_mps": 0.35,      # how fast a remembered distance grows back
     "side_fold_deg": 30.0,        # ideal: an obstacle this far off-axis counts as beside
     "latch_front_m": 2.5,         # choose and latch the side when the front is nearer
     "release_front_m": 3.0,       # release the latch when the front is farther
-    "ttc_gain_s": 1.0,            # front distance shortened by closing speed x this
+    "ttc_gain_s": 3.0,            # front distance shortened by closing speed x this
     "stall_s": 15.0,               # no progress for this long -> boundary following
     "stall_progress_m": 0.3,
     "leave_margin_m": 0.5,
@@ -101,12 +100,22 @@ CRISP_DEFAULTS: dict[str, float] = {
     "follow_lost_m": 2.0,         # nothing remembered this near: stop following
     "guard_m": 0.8,               # no goal turn towards a passed obstacle nearer than this
     "guard_speed_v": 6.0,         # ... and drives on at this speed
-    "memory_s": 3.0,              # echoes are remembered this long
+    "memory_s": 6.0,              # echoes are remembered this long
     "store_s": 0.2,               # one echo point per beam per store_s
     "sector_s": 0.04,             # remembered sectors recomputed at the sensors' 25 Hz
     "odo_lag": 0.06,
     "arrive_m": 1.5,              # avoidance yields to the goal this near the target
-    "memory_creep_mps": 0.15,     # remembered echoes count as nearer by this x their age              # dead-reckoning lag factor per period (dt / 0.33 s)
+    "memory_creep_mps": 0.0,     # remembered echoes count as nearer by this x their age
+    "plan_margin_m": 0.35,        # the bearing planner passes remembered points this far off the flank
+    "plan_horizon_m": 4.5, 
+    "plan_nearest_m": 1.0,        # nearer points are left to the avoidance block       # ... looking this far ahead
+    "store_range_m": 4.0,         # echoes farther than this are not remembered
+    "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
+    "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
+    "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
+    "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
+    "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
+    "merge_m": 0.15,              # an echo this near a remembered one replaces it
 }
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
     "alpha_front_lo_m": (0.2, 0.9),
@@ -129,6 +138,56 @@ def _linz(x: float, lo: float, hi: float) -> float:
     if x >= hi:
         return 0.0
     return (hi - x) / (hi - lo)
+
+
+def blocked_cones(points_robot, radius_m: float, horizon_m: float, beyond_m: float,
+                  nearest_m: float = 0.0) -> list[tuple[float, float]]:
+    """Bearings (rad, > 0 left) the robot's centre line may not take, one interval per point.
+
+    A point at distance ``rho`` and bearing ``beta`` (robot frame) is passed at a lateral
+    distance of at least ``radius_m`` by every heading outside
+    ``beta -+ asin(radius_m / rho)``; a point nearer than ``radius_m`` blocks a half plane.
+    Points farther than ``horizon_m``, farther than ``beyond_m`` (the target: what lies
+    beyond it does not matter) or behind the robot are ignored.
+    """
+    cones = []
+    limit = min(horizon_m, beyond_m)
+    for bx, by in points_robot:
+        rho = math.hypot(bx, by)
+        if rho > limit or rho < nearest_m or bx < 0.0:
+            continue
+        beta = math.atan2(by, bx)
+        half = math.asin(radius_m / rho) if rho > radius_m else 0.5 * math.pi
+        cones.append((beta - half, beta + half))
+    return cones
+
+
+def free_bearing(cones: list[tuple[float, float]], phi_t: float, side: float
+                 ) -> tuple[float, float]:
+    """The bearing nearest the target's that no cone blocks, and the side it passes on.
+
+    Overlapping cones merge into one blocked interval. If ``phi_t`` is free it is
+    returned with side 0; otherwise the interval's edge on ``side`` (+1: pass with the
+    obstacles on the right, i.e. the left edge) is returned, or, with ``side`` 0, the
+    nearer edge (the shorter detour).
+    """
+    lo = hi = phi_t
+    blocked = False
+    grown = True
+    while grown:
+        grown = False
+        for a, b in cones:
+            if a <= hi and b >= lo and (a < lo or b > hi or not blocked):
+                if a < lo:
+                    lo = a
+                if b > hi:
+                    hi = b
+                blocked = grown = True
+    if not blocked:
+        return phi_t, 0.0
+    if side == 0.0:
+        side = 1.0 if hi - phi_t <= phi_t - lo else -1.0
+    return (hi if side > 0 else lo), side
 
 
 def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
@@ -199,6 +258,9 @@ class FuzzyNavController:
         self.mem = [math.inf, math.inf, math.inf]   # remembered left, front, right (m)
         self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
+        self.reverse_s = 0.0       # how long the robot has been backing off
+        self.closing_f = 0.0       # front closing speed beyond our own (m/s), per store_s
+        self.closing_o = 0.0       # nearest obstacle's closing speed beyond our own (m/s)
         self.prev_obstacle = (math.nan, math.nan)
         self.best_d_t = math.inf   # best target distance during the progress window
         self.best_t = 0.0
@@ -214,6 +276,20 @@ class FuzzyNavController:
         self.points: list[tuple[float, float, float]] = []   # (x, y, time stored)
         self.calls = -1
         self.mem_sectors = (math.inf, math.inf, math.inf)
+        self.plan_side = 0.0       # side the bearing planner passes on (+1 left), 0 = free
+        self.plan_offset = 0.0     # planned bearing minus the target's (rad)
+
+    def _remember(self, x: float, y: float) -> None:
+        """Store an echo point (odometry frame); one near a remembered point replaces it,
+        so a static obstacle costs a few points however long it is seen."""
+        merge2 = self.params["merge_m"] ** 2
+        points = self.points
+        for i in range(len(points) - 1, -1, -1):
+            px, py, _ = points[i]
+            if (px - x) ** 2 + (py - y) ** 2 < merge2:
+                del points[i]
+                break
+        points.append((x, y, self.t))
 
     def state(self) -> dict:
         return {"t": self.t, "mem": list(self.mem), "side": self.side,
@@ -251,30 +327,50 @@ class FuzzyNavController:
         x0, y0, th = pose
         c, s_ = math.cos(th), math.sin(th)
         fold = math.radians(p["side_fold_deg"])
+        store_range = p["store_range_m"]
         # At the sensors' rate (store_s): store the echoes (and, in ideal perception, the
         # nearest obstacle), forget points older than memory_s, and recompute the
         # remembered footprint distance per sector (held between updates).
         self.calls += 1
+        store_tick = self.calls % self.store_every == 0
         if self.calls % self.sector_every == 0:
             points = self.points
-            if self.calls % self.store_every == 0:
+            if store_tick:
+                # An ultrasonic echo may come from anywhere across the beam: it is
+                # remembered as an arc (the axis and both edges), or a point placed on
+                # the axis would follow the robot as it turns away.
+                spread = math.radians(p["echo_spread_deg"])
                 for (mx, my, ma), r in zip(_MOUNTS, ranges):
-                    if r < _STORE_RANGE_M:
-                        bx, by = mx + r * math.cos(ma), my + r * math.sin(ma)
-                        points.append((x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, self.t))
+                    if r < store_range:
+                        for a in (ma - spread, ma, ma + spread):
+                            bx, by = mx + r * math.cos(a), my + r * math.sin(a)
+                            self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
+                if d_o == d_o and phi_o == phi_o:
+                    # The nearest obstacle's surface point, from its bearing and the
+                    # footprint's extent that way (in ideal perception it covers the
+                    # beams' blind gaps).
+                    co, so = math.cos(phi_o), math.sin(phi_o)
+                    extent = min(_HX / abs(co) if co else math.inf,
+                                 _HY / abs(so) if so else math.inf)
+                    rr = d_o + extent
+                    bx, by = rr * co, rr * so
+                    self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
+                points = self.points
             oldest = self.t - p["memory_s"]
             if points and points[0][2] < oldest:
                 points = self.points = [q for q in points if q[2] >= oldest]
             m_l = m_f = m_r = math.inf
-            tan_f = math.tan(fold)
+            corridor = p["front_corridor_m"]
             creep = p["memory_creep_mps"]
             now = self.t
+            ahead = []
             for px, py, pt in points:
                 dx, dy = px - x0, py - y0
                 bx = c * dx + s_ * dy
                 by = c * dy - s_ * dx
                 if bx < -_HX:          # behind the robot: irrelevant going forward
                     continue
+                ahead.append((bx, by))
                 ex = bx - _HX if bx > _HX else 0.0
                 ey = abs(by) - _HY
                 if ey < 0.0:
@@ -282,7 +378,7 @@ class FuzzyNavController:
                 # A remembered echo may have moved since (a moving obstacle): it counts
                 # as nearer by memory_creep_mps x its age.
                 d = math.sqrt(ex * ex + ey * ey) - creep * (now - pt)
-                if bx > 0.0 and abs(by) < tan_f * bx:
+                if bx > 0.0 and abs(by) < _HY + corridor:
                     if d < m_f:
                         m_f = d
                 elif by > 0.0:
@@ -291,6 +387,28 @@ class FuzzyNavController:
                 elif d < m_r:
                     m_r = d
             self.mem_sectors = (m_l, m_f, m_r)
+            # Bearing planner: the free bearing nearest the target's, passing every
+            # remembered point at plan_margin_m off the flank; held between updates as
+            # an offset from the target's bearing.
+            cones = blocked_cones(ahead, _HY + p["plan_margin_m"], p["plan_horizon_m"],
+                                  d_t + 0.3, p["plan_nearest_m"])
+            # The side is latched while remembered points are near (plan_latch_m), even
+            # when the target's bearing is momentarily free, so that the planner and the
+            # avoidance block never dither between two sides. Farther away it changes
+            # side only for a detour shorter by plan_switch_rad.
+            near_block = any(bx * bx + by * by < p["plan_latch_m"] ** 2 for bx, by in ahead)
+            latched = self.plan_side
+            psi, side_now = free_bearing(cones, phi_t, latched)
+            if side_now != 0.0 and latched == 0.0:
+                latched = side_now
+            elif side_now != 0.0 and not near_block:
+                other, _ = free_bearing(cones, phi_t, -latched)
+                if abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t):
+                    psi, latched = other, -latched
+            elif side_now == 0.0 and not near_block:
+                latched = 0.0
+            self.plan_side = latched
+            self.plan_offset = psi - phi_t
         m_l, m_f, m_r = self.mem_sectors
         if m_l < left:
             left = m_l
@@ -306,12 +424,19 @@ class FuzzyNavController:
         else:
             # An obstacle closing faster than our own motion explains is moving towards
             # us: it counts as nearer by ttc_gain_s x that excess speed.
-            prev_d, prev_phi = self.prev_obstacle
-            if prev_d == prev_d and abs(phi_o - prev_phi) < 0.3:
-                excess = (prev_d - d_o) / dt - vel[0] * math.cos(phi_o)
-                if excess > 0.05:
-                    d_o = max(0.0, d_o - p["ttc_gain_s"] * min(excess, 0.5))
-            self.prev_obstacle = (d_o_raw, phi_o)
+            # The rate is measured over store_s and only while the robot hardly turns:
+            # a beam sweeping over a surface, or a footprint corner swinging round,
+            # changes the distance as fast as motion does.
+            if store_tick:
+                prev_d, prev_phi = self.prev_obstacle
+                self.closing_o = 0.0
+                if (prev_d == prev_d and abs(phi_o - prev_phi) < 0.3
+                        and abs(prev_d - d_o) < 0.3 and abs(vel[1]) < 0.2):
+                    self.closing_o = ((prev_d - d_o) / (dt * self.store_every)
+                                      - vel[0] * math.cos(phi_o))
+                self.prev_obstacle = (d_o_raw, phi_o)
+            if self.closing_o > 0.05:
+                d_o = max(0.0, d_o - p["ttc_gain_s"] * min(self.closing_o, 0.5))
             a = abs(phi_o)
             if a < fold:
                 front = min(front, d_o)
@@ -328,16 +453,26 @@ class FuzzyNavController:
         front_mem = mem[1] = min(front, mem[1] + grow)
         right = mem[2] = min(right, mem[2] + grow)
         # Time-to-contact: closing faster than the robot could drive -> treat as nearer.
+        # Measured on the front sensor's own reading: the remembered sector jumps when a
+        # point is stored or forgotten, which is not motion. A jump of more than
+        # 0.1 m in one period is a new echo, not motion either.
         front_eff = front_mem
-        if math.isfinite(front) and math.isfinite(self.prev_front):
-            closing = (self.prev_front - front) / dt
-            excess = closing - 0.65
-            if excess > 0.0:
-                front_eff = max(0.0, front_mem - p["ttc_gain_s"] * min(excess, 1.0))
-        self.prev_front = front
+        if store_tick:
+            raw_front = ranges[1]
+            self.closing_f = 0.0
+            if raw_front < 4.5 and self.prev_front < 4.5 and abs(vel[1]) < 0.2:
+                change = self.prev_front - raw_front
+                if abs(change) < 0.3:
+                    self.closing_f = change / (dt * self.store_every) - 0.65
+            self.prev_front = raw_front
+        if self.closing_f > 0.0:
+            front_eff = max(0.0, front_mem - p["ttc_gain_s"] * min(self.closing_f, 1.0))
 
-        # Side chooser with a latch.
-        if front_eff < p["latch_front_m"]:
+        # Side chooser with a latch: the planner's side when it has one (the avoidance
+        # block must turn the way the planner steers), else chosen from the readings.
+        if self.plan_side != 0.0 and not self.follow:
+            self.side = self.plan_side
+        elif front_eff < p["latch_front_m"]:
             if self.side == 0.0:
                 self.side = self._choose_side(phi_t, left, right, hint)
         elif front_eff > p["release_front_m"] and not self.follow:
@@ -359,7 +494,7 @@ class FuzzyNavController:
             self.follow_t = self.t
             if self.side == 0.0:
                 self.side = side
-        phi = phi_t
+        phi = phi_t + self.plan_offset
         if self.follow:
             # Keep the boundary on the side opposite to the latched turn: pull towards it.
             side = self.side
@@ -393,12 +528,22 @@ class FuzzyNavController:
         # obstacle being passed while it is still remembered within guard_m.
         # It drives on instead (the goal block alone would turn in place).
         # Not when the target is nearer than the obstacle being passed.
-        if not self.follow and d_t > min(left, right) + 0.5 and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
+        if not self.follow and self.plan_side == 0.0 and d_t > min(left, right) + 0.5 and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
                                 or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"])):
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
         speed = alpha * a_speed + (1.0 - alpha) * g_speed
         turn = alpha * a_turn + (1.0 - alpha) * g_turn
+        # The sensors look forward only: backing off is allowed for back_max_s at a
+        # time, then the robot turns on the spot until it may drive forward again.
+        if speed < 0.0:
+            self.reverse_s += dt
+            if self.reverse_s > p["back_max_s"]:
+                speed = 0.0
+                if abs(turn) < 4.0:
+                    turn = math.copysign(6.0, turn if turn else side)
+        else:
+            self.reverse_s = 0.0
         limit = VOLTAGE_LIMIT_V
         if abs(turn) > limit:
             turn = math.copysign(limit, turn)
