@@ -172,6 +172,9 @@ class Aggregation(NamedTuple):
 
 # --------------------------------------------------------------------------- engine
 
+# the single-sample path's numpy calls, looked up once
+_array, _minimum, _max_reduce, _accumulate = np.array, np.minimum, np.maximum.reduce, np.add.accumulate
+
 _BLOCK = 16384  # rows per block of memberships / firing strengths in evaluate()
 _CHUNK = 512    # rows per block of the grid aggregation (its buffers stay in cache)
 
@@ -337,6 +340,7 @@ class FuzzySystem:
         # single path layout: sampled terms as (term, output, grid point); the weights
         # of the two sums [g, 1] as (output, 2, grid point)
         self._mfgK4 = np.ascontiguousarray(self._mfg.transpose(1, 0, 2)[:, :, None, :])
+        self._s_shape = (kmax, n_out, 1, 1)
         grid2 = np.ones((n_out, 2, G))
         grid2[:, 0, :] = self._grid
         self._grid2 = grid2
@@ -356,9 +360,7 @@ class FuzzySystem:
         n_in = len(self.inputs)
         lines.append(f"    if len(x) != {n_in}:")
         lines.append("        raise ValueError(_msg % len(x))")
-        gauss = []  # (target name, exponent expression names)
         r = repr
-        mnames = {}
         for i, v in enumerate(self.inputs):
             xi = f"x{i}"
             lines.append(f"    {xi} = float(x[{i}])")
@@ -405,44 +407,27 @@ class FuzzySystem:
                         body.append(f"{m} = 1.0 if {xi} < {r(a)} else 0.0")
                 elif term.shape == "gaussmf":
                     s, c = p
-                    e = f"e{i}_{j}"
                     body.append(f"d = {xi} - {r(c)}")
-                    body.append(f"{e} = -(d * d) / {r(2.0 * s * s)}")
-                    gauss.append((i, m, [e]))
+                    body.append(f"{m} = _float(_exp(-(d * d) / {r(2.0 * s * s)}))")
                 elif term.shape == "gauss2mf":
                     s1, c1, s2, c2 = p
-                    e1, e2 = f"e{i}_{j}a", f"e{i}_{j}b"
+                    # a flat side is exactly 1.0, as the vectorised np.where gives
                     body.append(f"if {xi} < {r(c1)}:")
                     body.append(f"    d = {xi} - {r(c1)}")
-                    body.append(f"    {e1} = -(d * d) / {r(2.0 * s1 * s1)}")
-                    body.append(f"else: {e1} = 0.0")
+                    body.append(f"    y1 = _float(_exp(-(d * d) / {r(2.0 * s1 * s1)}))")
+                    body.append("else: y1 = 1.0")
                     body.append(f"if {xi} > {r(c2)}:")
                     body.append(f"    d = {xi} - {r(c2)}")
-                    body.append(f"    {e2} = -(d * d) / {r(2.0 * s2 * s2)}")
-                    body.append(f"else: {e2} = 0.0")
-                    gauss.append((i, m, [e1, e2]))
+                    body.append(f"    y2 = _float(_exp(-(d * d) / {r(2.0 * s2 * s2)}))")
+                    body.append("else: y2 = 1.0")
+                    body.append(f"{m} = y1 * y2")
                 else:  # pragma: no cover - check_params guards this
                     raise AssertionError(term.shape)
-            mnames[i] = names
-            # NaN: nothing sensed, every membership 0 (the Gaussian exponents are NaN,
-            # exp(NaN) = NaN, and are zeroed below)
+            # NaN: nothing sensed, every membership 0
             lines.append(f"    if {xi} != {xi}:")
             lines.append("        " + " = ".join(names + ["0.0"]))
-            for _, _, es in (gg for gg in gauss if gg[0] == i):
-                lines.append("        " + " = ".join(es + ["0.0"]))
             lines.append("    else:")
             lines += ["        " + b for b in body]
-        if gauss:
-            exps = [e for _, _, es in gauss for e in es]
-            lines.append(f"    _e = _exp([{', '.join(exps)}]).tolist()")
-            pos = 0
-            for i, m, es in gauss:
-                if len(es) == 1:
-                    val = f"_e[{pos}]"
-                else:
-                    val = f"_e[{pos}] * _e[{pos + 1}]"
-                pos += len(es)
-                lines.append(f"    {m} = 0.0 if x{i} != x{i} else {val}")
         # firing strengths
         row_name = {}
         for i, v in enumerate(self.inputs):
@@ -460,7 +445,9 @@ class FuzzySystem:
                     lines.append(f"    {f} = {mm} if {mm} < {f} else {f}")
             if self._weighted:
                 lines.append(f"    {f} = {f} * {r(rule.weight)}")
-        # slot levels, term-major (k * n_out + o): the layout of self._mfgK4
+        # slot levels, term-major (k * n_out + o): the layout of self._mfgK4. The max
+        # over a slot's rules is written as the comparisons max() makes (keep the first
+        # of equals), which costs a third of a call to max() with many arguments.
         n_out, kmax = len(self.outputs), self._kmax
         used = dict(self._slot_rules)
         out = []
@@ -472,10 +459,16 @@ class FuzzySystem:
                 elif len(rs) == 1:
                     out.append(f"f{rs[0]}")
                 else:
-                    out.append(f"_max({', '.join(f'f{q}' for q in rs)})")
+                    lvl = f"l{k}_{o}"
+                    lines.append(f"    {lvl} = f{rs[1]} if f{rs[1]} > f{rs[0]} else f{rs[0]}")
+                    for q in rs[2:]:
+                        lines.append(f"    {lvl} = f{q} if f{q} > {lvl} else {lvl}")
+                    out.append(lvl)
         lines.append(f"    return [{', '.join(out)}]")
         src = "\n".join(lines) + "\n"
-        ns = {"_exp": np.exp, "_max": max,
+        # numpy's exp, as the vectorised gaussmf uses (math.exp differs in the last bit
+        # for a few percent of arguments); on a float it runs the same loop
+        ns = {"_exp": np.exp, "_float": float,
               "_msg": f"expected {n_in} inputs {self.input_names}, got %d"}
         exec(compile(src, f"<fuzzy front {self.name}>", "exec"), ns)
         self._front_src = src
@@ -598,12 +591,13 @@ class FuzzySystem:
     def _agg_one(self, x):
         """Single-sample path: (aggregated (n_out, 1, G), outputs list); operation for
         operation the batch's arithmetic (min/max are exact; the sums run in grid order:
-        cumsum here, a reduce over axis 0 of >= 2 columns there)."""
+        an accumulate here, a reduce over axis 0 of >= 2 columns there). The ufuncs are
+        called directly: the ndarray methods and np.cumsum add a Python wrapper each."""
         if type(x) is np.ndarray:
             x = x.tolist()  # Python floats: much faster than numpy scalars below
-        s = np.array(self._front(x)).reshape(self._kmax, len(self.outputs), 1, 1)
-        agg = np.minimum(s, self._mfgK4).max(axis=0)                     # (n_out, 1, G)
-        sums = np.cumsum(agg * self._grid2, axis=2)[:, :, -1].tolist()   # [[num, den], ...]
+        s = _array(self._front(x)).reshape(self._s_shape)
+        agg = _max_reduce(_minimum(s, self._mfgK4), 0)                    # (n_out, 1, G)
+        sums = _accumulate(agg * self._grid2, 2)[:, :, -1].tolist()      # [[num, den], ...]
         out = []
         for (nu, de), mid in zip(sums, self._mid):
             out.append(nu / de if de > 0.0 else mid)
