@@ -18,10 +18,21 @@ shrinking for 15 s (an orbit, a dead end) is stopped early and counted as a time
 are capped at ``min(scenario duration, 20 s + straight / 0.25 m/s)`` of simulated
 time, so that an orbiting candidate does not cost 150 s of simulation.
 
-``scipy.optimize.differential_evolution`` runs with a fixed seed, ``updating="deferred"``,
-``polish=False`` and the first-design vector in its initial population; the cost of a
-generation is spread over ``--workers`` processes with a multiprocessing pool's map, which
-keeps the order, so the result does not depend on the number of workers.
+``--method de`` (the default): ``scipy.optimize.differential_evolution`` runs with a fixed
+seed, ``updating="deferred"``, ``polish=False`` and the starting vector in its initial
+population; the cost of a generation is spread over ``--workers`` processes with a
+multiprocessing pool's map, which keeps the order, so the result does not depend on the
+number of workers. ``--radius R`` narrows every bound to the starting value +- R times
+the bound's span (a local DE around a vector that already works).
+
+``--method nelder-mead`` or ``powell``: ``scipy.optimize.minimize`` from the starting
+vector, within the bounds, ``--maxiter`` iterations (deterministic, one process).
+
+The starting vector is the tunable's own (``initial_vector()``), or ``--x0 FILE``: a rule
+base whose header has a ``tuned vector:`` line, or a ``--checkpoint`` file. ``--free``
+restricts the search to the parameters whose names start with one of the given prefixes
+(the others stay at the starting vector). ``--clearance-weight`` sets the weight of the
+clearance hinge (default 20 per metre).
 """
 
 from __future__ import annotations
@@ -48,7 +59,10 @@ class Case:
     label: str
 
 
-def run_cost(result) -> float:
+CLEARANCE_WEIGHT = 20.0
+
+
+def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
     """The cost of one finished run (module docstring)."""
     sc = result.scenario
     start, target = np.asarray(sc.start, float), np.asarray(sc.target, float)
@@ -65,7 +79,7 @@ def run_cost(result) -> float:
             cost += 10.0
     clearance = m.get("min_clearance_m")
     if clearance is not None and math.isfinite(clearance):
-        cost += 20.0 * max(0.0, SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M - clearance)
+        cost += clearance_weight * max(0.0, SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M - clearance)
     return float(cost)
 
 
@@ -108,16 +122,29 @@ def capped(scenario):
 class Objective:
     """Picklable cost function: mean run cost of a vector over the cases."""
 
-    def __init__(self, tunable, cases: list[Case], control_period_s: float = 0.05):
+    def __init__(self, tunable, cases: list[Case], control_period_s: float = 0.05,
+                 clearance_weight: float = CLEARANCE_WEIGHT, base=None, free=None):
         self.tunable = tunable
         self.control_period_s = control_period_s
+        self.clearance_weight = clearance_weight
         self.cases = [Case(capped(c.scenario), c.perception, c.label) for c in cases]
+        # Search over a subset: vector = base with base[free] replaced by the argument.
+        self.base = None if base is None else np.asarray(base, float).copy()
+        self.free = None if free is None else np.asarray(free, int)
+
+    def full(self, vector) -> np.ndarray:
+        """The tunable's whole vector for an argument of this objective."""
+        if self.free is None:
+            return np.asarray(vector, float)
+        x = self.base.copy()
+        x[self.free] = np.asarray(vector, float)
+        return x
 
     def runs(self, vector) -> list:
         from world.simulation import Simulation
 
         results = []
-        controller = self.tunable.build(vector)
+        controller = self.tunable.build(self.full(vector))
         for case in self.cases:
             controller.reset()
             sim = Simulation(case.scenario, controller, perception=case.perception,
@@ -130,7 +157,7 @@ class Objective:
             results = self.runs(vector)
         except ValueError:  # an invalid shape (should not happen by construction)
             return 1e3
-        return float(np.mean([run_cost(r) for r in results]))
+        return float(np.mean([run_cost(r, self.clearance_weight) for r in results]))
 
 
 def build_cases(scenarios: list[str], perceptions: list[str], layouts: str | None = None,
@@ -156,35 +183,117 @@ def reproduce_command(args) -> str:
         parts += ["--scenarios", ",".join(args.scenarios)]
     if args.layouts and args.n:
         parts += ["--layouts", args.layouts, "--n", str(args.n), "--layout-seed", str(args.layout_seed)]
-    parts += ["--perception", ",".join(args.perception), "--maxiter", str(args.maxiter),
-              "--popsize", str(args.popsize), "--seed", str(args.seed), "--dt", str(args.dt)]
+    parts += ["--perception", ",".join(args.perception)]
+    method = getattr(args, "method", "de")
+    if method != "de":
+        parts += ["--method", method]
+    if getattr(args, "x0", None) is not None:
+        parts += ["--x0", str(args.x0)]
+    if getattr(args, "free", None):
+        parts += ["--free", ",".join(args.free)]
+    if getattr(args, "radius", None) is not None:
+        parts += ["--radius", str(args.radius)]
+    if getattr(args, "clearance_weight", CLEARANCE_WEIGHT) != CLEARANCE_WEIGHT:
+        parts += ["--clearance-weight", str(args.clearance_weight)]
+    parts += ["--maxiter", str(args.maxiter)]
+    if method == "de":
+        parts += ["--popsize", str(args.popsize), "--seed", str(args.seed)]
+    parts += ["--dt", str(args.dt)]
     return shlex.join(parts)  # --out, --workers, --checkpoint do not change the result
 
 
-def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int, seed: int, workers: int = 1,
-         on_generation=None, x0=None, control_period_s: float = 0.05):
-    """Run differential evolution; returns scipy's OptimizeResult (``.x``, ``.fun``, ``.nfev``)."""
-    from scipy.optimize import differential_evolution
+def read_vector(path: Path, names: list[str]) -> np.ndarray:
+    """A starting vector from a rule base's ``tuned vector:`` header line (by name) or
+    from a ``--checkpoint`` file (whitespace-separated numbers, in order)."""
+    text = Path(path).read_text(encoding="utf-8")
+    for line in text.splitlines():
+        if line.startswith("# tuned vector:"):
+            pairs = dict(item.strip().split("=") for item in line.split(":", 1)[1].split(","))
+            missing = [n for n in names if n not in pairs]
+            if missing:
+                raise ValueError(f"{path}: tuned vector lacks {', '.join(missing)}")
+            return np.array([float(pairs[n]) for n in names])
+    try:
+        values = [float(v) for v in text.split()]
+    except ValueError:
+        raise ValueError(f"{path}: neither a '# tuned vector:' header nor a list of numbers") from None
+    if len(values) != len(names):
+        raise ValueError(f"{path}: {len(values)} numbers, the tunable has {len(names)} parameters")
+    return np.array(values)
 
-    objective = Objective(tunable, cases, control_period_s)
-    bounds = tunable.bounds()
+
+def free_indices(names: list[str], prefixes) -> list[int] | None:
+    """Indices of the parameters whose names start with one of ``prefixes`` (None: all)."""
+    if not prefixes:
+        return None
+    idx = [i for i, n in enumerate(names) if any(n.startswith(p) for p in prefixes)]
+    unused = [p for p in prefixes if not any(n.startswith(p) for n in names)]
+    if unused:
+        raise ValueError(f"--free {','.join(unused)}: no parameter name starts with it")
+    return idx
+
+
+def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: int = 0,
+         workers: int = 1, on_generation=None, x0=None, control_period_s: float = 0.05,
+         method: str = "de", free=None, radius: float | None = None,
+         clearance_weight: float = CLEARANCE_WEIGHT, on_evaluation=None):
+    """Minimise the cost (module docstring); returns scipy's OptimizeResult with ``.x`` the
+    tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
+    ``.nit``. ``on_generation(step, best cost, best vector)`` is called after every DE
+    generation or local-search iteration; ``on_evaluation(count, best cost so far)`` after
+    every candidate of a local search (one process: Powell's iterations are long)."""
+    from scipy.optimize import Bounds, differential_evolution, minimize
+
+    all_bounds = np.asarray(tunable.bounds(), float)
     x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
-    x0 = np.clip(x0, [b[0] for b in bounds], [b[1] for b in bounds])
+    x0 = np.clip(x0, all_bounds[:, 0], all_bounds[:, 1])
+    objective = Objective(tunable, cases, control_period_s, clearance_weight,
+                          base=x0 if free is not None else None, free=free)
+    sel = np.arange(len(x0)) if free is None else np.asarray(free, int)
+    lo, hi = all_bounds[sel, 0], all_bounds[sel, 1]
+    if radius is not None:
+        span = radius * (hi - lo)
+        lo, hi = np.maximum(lo, x0[sel] - span), np.minimum(hi, x0[sel] + span)
+    start = x0[sel]
     generation = [0]
 
     def callback(intermediate_result):
         generation[0] += 1
         if on_generation is not None:
-            on_generation(generation[0], float(intermediate_result.fun), intermediate_result.x)
+            on_generation(generation[0], float(intermediate_result.fun),
+                          objective.full(intermediate_result.x))
 
-    kwargs = dict(bounds=bounds, x0=x0, seed=seed, maxiter=maxiter, popsize=popsize,
-                  updating="deferred", polish=False, tol=0.0, callback=callback)
-    if workers > 1:
-        import multiprocessing as mp
+    if method == "de":
+        kwargs = dict(bounds=list(zip(lo, hi)), x0=start, seed=seed, maxiter=maxiter,
+                      popsize=popsize, updating="deferred", polish=False, tol=0.0,
+                      callback=callback)
+        if workers > 1:
+            import multiprocessing as mp
 
-        with mp.get_context("fork").Pool(workers) as pool:
-            return differential_evolution(objective, workers=pool.map, **kwargs)
-    return differential_evolution(objective, **kwargs)
+            with mp.get_context("fork").Pool(workers) as pool:
+                result = differential_evolution(objective, workers=pool.map, **kwargs)
+        else:
+            result = differential_evolution(objective, **kwargs)
+    elif method in ("nelder-mead", "powell"):
+        options = {"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6} if method == "nelder-mead" \
+            else {"maxiter": maxiter, "xtol": 1e-4, "ftol": 1e-6}
+        seen = [0, math.inf]
+
+        def counted(vector):
+            cost = objective(vector)
+            seen[0], seen[1] = seen[0] + 1, min(seen[1], cost)
+            if on_evaluation is not None:
+                on_evaluation(seen[0], seen[1])
+            return cost
+
+        result = minimize(counted, start, method=method, bounds=Bounds(lo, hi),
+                          options=options, callback=callback)
+    else:
+        raise ValueError(f"method = {method!r}: must be de, nelder-mead or powell")
+    result.x = objective.full(result.x)
+    result.fun = float(result.fun)
+    result.nit = int(getattr(result, "nit", generation[0]))
+    return result
 
 
 def _csv(text: str) -> list[str]:
@@ -207,6 +316,19 @@ def add_commands(subparsers) -> None:
     p.add_argument("--popsize", type=int, default=4, help="population = popsize x parameters (default 4)")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     p.add_argument("--seed", type=int, default=0, help="seed of the optimiser (default 0)")
+    p.add_argument("--method", choices=("de", "nelder-mead", "powell"), default="de",
+                   help="differential evolution (default) or a local search from the start vector")
+    p.add_argument("--x0", type=Path, default=None, metavar="FILE",
+                   help="start from this vector: a rule base with a 'tuned vector:' header line, "
+                        "or a --checkpoint file (default: the tunable's own starting vector)")
+    p.add_argument("--free", type=_csv, default=None, metavar="PREFIXES",
+                   help="tune only the parameters whose names start with one of these "
+                        "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector")
+    p.add_argument("--radius", type=float, default=None, metavar="FRACTION",
+                   help="narrow every bound to start +- FRACTION x its span (default: full bounds)")
+    p.add_argument("--clearance-weight", type=float, default=CLEARANCE_WEIGHT,
+                   help=f"cost per metre of clearance below {SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M:g} m "
+                        f"(default {CLEARANCE_WEIGHT:g})")
     p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
                    help="control period while tuning (default 0.05 s; the plant is exact at any "
                         "step, runs are checked at 0.02 s afterwards)")
@@ -231,18 +353,36 @@ def cmd_tune(args) -> int:
             raise UsageError(f"--perception {mode!r}: must be among {', '.join(PERCEPTION_MODES)}")
     if args.maxiter < 1 or args.popsize < 1 or args.workers < 1:
         raise UsageError("--maxiter, --popsize and --workers must be >= 1")
+    if args.radius is not None and args.radius <= 0:
+        raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
+    names = t.parameter_names()
+    try:
+        x0 = read_vector(args.x0, names) if args.x0 is not None else None
+        free = free_indices(names, args.free)
+    except (OSError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
     cases = build_cases(args.scenarios, args.perception, args.layouts, args.n, args.layout_seed)
     console = Console(stderr=True)
     command = reproduce_command(args)
-    console.print(f"tuning {t.name}: {len(t.parameter_names())} parameters, {len(cases)} runs per "
-                  f"candidate, population {args.popsize * len(t.parameter_names())}")
+    n_free = len(names) if free is None else len(free)
+    console.print(f"tuning {t.name} ({args.method}): {n_free} of {len(names)} parameters, "
+                  f"{len(cases)} runs per candidate"
+                  + (f", population {args.popsize * n_free}" if args.method == "de" else ""))
     start = time.perf_counter()
     history = []
-    with Progress(TextColumn("generation {task.completed}/{task.total}"), BarColumn(),
-                  TextColumn("best cost {task.fields[best]}"), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=console, disable=args.json) as progress:
-        task = progress.add_task("tune", total=args.maxiter, best="-")
+    step = "generation" if args.method == "de" else "iteration"
+    with Progress(TextColumn(step + " {task.completed}/{task.total}"), BarColumn(),
+                  TextColumn("best cost {task.fields[best]}"), TextColumn("{task.fields[seen]}"),
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=console,
+                  disable=args.json) as progress:
+        task = progress.add_task("tune", total=args.maxiter, best="-", seen="")
+
+        def on_evaluation(count, best):
+            progress.update(task, best=f"{best:.4f}", seen=f"{count} candidates")
+            if count % 50 == 0 and not console.is_terminal and not args.json:
+                console.print(f"candidate {count}: best cost {best:.4f} "
+                              f"({time.perf_counter() - start:.0f} s)")
 
         def on_generation(gen, best, x):
             history.append(best)
@@ -250,14 +390,16 @@ def cmd_tune(args) -> int:
                 args.checkpoint.write_text(" ".join(repr(float(v)) for v in x) + "\n")
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
-                console.print(f"generation {gen}/{args.maxiter}: best cost {best:.4f} "
+                console.print(f"{step} {gen}/{args.maxiter}: best cost {best:.4f} "
                               f"({time.perf_counter() - start:.0f} s)")
 
         result = tune(t, cases, maxiter=args.maxiter, popsize=args.popsize, seed=args.seed,
-                      workers=args.workers, on_generation=on_generation, control_period_s=args.dt)
+                      workers=args.workers, on_generation=on_generation, control_period_s=args.dt,
+                      method=args.method, x0=x0, free=free, radius=args.radius,
+                      clearance_weight=args.clearance_weight, on_evaluation=on_evaluation)
     elapsed = time.perf_counter() - start
     header = (f"Reproduce with: {command}\n"
-              f"(best cost {result.fun:.6f} after {result.nit} generations, {result.nfev} candidates; "
+              f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
               f"cost: app/tuning.py)")
     if "header" in inspect.signature(t.save).parameters:
         paths = t.save(result.x, args.out, header=header)
@@ -275,7 +417,7 @@ def cmd_tune(args) -> int:
     if args.json:
         print_json(out)
     else:
-        Console().print(f"best cost {result.fun:.4f} after {result.nit} generations "
+        Console().print(f"best cost {result.fun:.4f} after {result.nit} {step}s "
                         f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
                         f"{', '.join(map(str, paths))}\nreproduce with:\n  {command}")
     return 0
