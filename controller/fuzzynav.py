@@ -106,13 +106,14 @@ CRISP_DEFAULTS: dict[str, float] = {
     "odo_lag": 0.06,
     "arrive_m": 1.5,              # avoidance yields to the goal this near the target
     "memory_creep_mps": 0.0,     # remembered echoes count as nearer by this x their age
-    "plan_margin_m": 0.35,        # the bearing planner passes remembered points this far off the flank
-    "plan_horizon_m": 4.5, 
-    "plan_nearest_m": 1.0,        # nearer points are left to the avoidance block       # ... looking this far ahead
+    "plan_margin_m": 0.3,         # the bearing planner passes remembered points this far off the flank
+    "plan_horizon_m": 4.5,        # ... looking this far ahead
+    "plan_nearest_m": 1.0,        # nearer points are left to the avoidance block
     "store_range_m": 4.0,         # echoes farther than this are not remembered
     "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
     "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
     "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
+    "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
     "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
     "merge_m": 0.15,              # an echo this near a remembered one replaces it
@@ -259,6 +260,8 @@ class FuzzyNavController:
         self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
         self.reverse_s = 0.0       # how long the robot has been backing off
+        self.creep_s = 0.0         # how long the command has been near zero
+        self.unstick_s = 0.0       # time left turning on the spot out of a deadlock
         self.closing_f = 0.0       # front closing speed beyond our own (m/s), per store_s
         self.closing_o = 0.0       # nearest obstacle's closing speed beyond our own (m/s)
         self.prev_obstacle = (math.nan, math.nan)
@@ -534,6 +537,19 @@ class FuzzyNavController:
             g_speed = max(g_speed, p["guard_speed_v"])
         speed = alpha * a_speed + (1.0 - alpha) * g_speed
         turn = alpha * a_turn + (1.0 - alpha) * g_turn
+        # Deadlock: blended rules that cancel (near on both sides, the goal pulling
+        # ahead) leave the robot creeping on the spot; after deadlock_s of that it turns
+        # on the spot towards its side for deadlock_s, which gives the planner a new view.
+        if self.unstick_s > 0.0:
+            self.unstick_s -= dt
+            speed, turn = 0.0, 7.0 * side
+        elif abs(speed) < 1.5 and abs(turn) < 1.5:
+            self.creep_s += dt
+            if self.creep_s > p["deadlock_s"]:
+                self.creep_s = 0.0
+                self.unstick_s = p["deadlock_s"]
+        else:
+            self.creep_s = 0.0
         # The sensors look forward only: backing off is allowed for back_max_s at a
         # time, then the robot turns on the spot until it may drive forward again.
         if speed < 0.0:
