@@ -192,6 +192,8 @@ def cmd_compare(args) -> int:
         if name not in offered:
             raise UsageError(f"--controllers: {name!r} is not available (have {', '.join(offered)})")
     _check_workers(args.workers)
+    if args.sweep_n < 0:
+        raise UsageError(f"--sweep-n {args.sweep_n}: must be >= 0")
     out = compare(wanted, args.perception, args.sweep_n, args.sweep_seed, args.family,
                   args.workers, quiet=args.json)
     if args.json:
@@ -264,9 +266,11 @@ def add_commands(subparsers) -> None:
     c.add_argument("--controllers", type=_csv, default=None,
                    help="comma-separated (default: paper,baseline,fuzzynav,p where available)")
     c.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES)
-    c.add_argument("--sweep-n", type=int, default=0, help="also sweep N layouts per controller")
-    c.add_argument("--sweep-seed", type=int, default=1, help="seed of that sweep (default 1)")
+    c.add_argument("--sweep-n", type=int, default=100,
+                   help="also sweep N random layouts per controller (default 100; 0: none)")
+    c.add_argument("--sweep-seed", type=int, default=5,
+                   help="seed of that sweep (default 5, a seed no controller was designed or tuned on)")
     c.add_argument("--family", default="standard", choices=FAMILIES, help="family of that sweep")
-    c.add_argument("--workers", type=int, default=1, help="worker processes for the sweep, 1 or 2")
+    c.add_argument("--workers", type=int, default=2, help="worker processes for the sweep, 1 or 2 (default 2)")
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.set_defaults(func=cmd_compare)

@@ -329,9 +329,10 @@ def add_commands(subparsers) -> None:
     p.add_argument("--clearance-weight", type=float, default=CLEARANCE_WEIGHT,
                    help=f"cost per metre of clearance below {SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M:g} m "
                         f"(default {CLEARANCE_WEIGHT:g})")
-    p.add_argument("--dt", type=float, default=0.05, metavar="SECONDS",
-                   help="control period while tuning (default 0.05 s; the plant is exact at any "
-                        "step, runs are checked at 0.02 s afterwards)")
+    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
+                   help="control period while tuning (default: the controller's own, 0.05 s for "
+                        "paper: the plant is exact at any step, runs are checked at 0.02 s "
+                        "afterwards; fuzzynav's memory counts control calls, so only 0.02 s)")
     p.add_argument("--out", type=Path, default=None,
                    help="where to write the rule base (default: the controller's shipped file)")
     p.add_argument("--checkpoint", type=Path, default=None,
@@ -356,6 +357,14 @@ def cmd_tune(args) -> int:
     if args.radius is not None and args.radius <= 0:
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
+    fixed = getattr(t, "control_period_s", None)  # a controller that counts its calls
+    if args.dt is None:
+        args.dt = fixed if fixed is not None else 0.05
+    elif fixed is not None and abs(args.dt - fixed) > 1e-12:
+        raise UsageError(f"--dt {args.dt:g}: {t.name} counts its control calls and runs only at "
+                         f"its control period, {fixed:g} s")
+    if not (math.isfinite(args.dt) and args.dt > 0):
+        raise UsageError(f"--dt {args.dt!r}: must be a positive number of seconds")
     names = t.parameter_names()
     try:
         x0 = read_vector(args.x0, names) if args.x0 is not None else None

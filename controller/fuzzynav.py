@@ -118,18 +118,18 @@ CRISP_DEFAULTS: dict[str, float] = {
     "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
     "merge_m": 0.15,              # an echo this near a remembered one replaces it
 }
+# What `fuzzynav tune --controller fuzzynav` searches (the rest stays at the hand design).
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
-    "alpha_front_lo_m": (0.2, 0.9),
-    "alpha_front_hi_m": (0.9, 2.5),
-    "alpha_side_lo_m": (0.1, 0.7),
-    "alpha_side_hi_m": (0.7, 1.6),
-    "alpha_side_max": (0.3, 1.0),
-    "memory_grow_mps": (0.1, 1.5),
-    "latch_front_m": (1.0, 3.0),
-    "ttc_gain_s": (0.0, 3.0),
-    "guard_m": (0.5, 2.0),
-    "side_fold_deg": (15.0, 45.0),
-    "memory_s": (1.0, 8.0),
+    "alpha_front_lo_m": (0.2, 0.8),
+    "alpha_front_hi_m": (0.9, 2.0),
+    "alpha_side_lo_m": (0.1, 0.5),
+    "alpha_side_hi_m": (0.5, 1.2),
+    "plan_margin_m": (0.15, 0.6),
+    "plan_nearest_m": (0.5, 1.5),
+    "echo_spread_deg": (0.0, 7.5),
+    "ttc_gain_s": (0.0, 4.0),
+    "arrive_m": (0.5, 2.5),
+    "memory_s": (2.0, 8.0),
 }
 
 
@@ -619,7 +619,10 @@ class FuzzyNavTunable:
                  tune_memberships: bool = False):
         self.goal = FuzzySystem.from_toml(goal_path)
         self.avoid = FuzzySystem.from_toml(avoid_path)
-        self.params = load_params(params_path)
+        # The search starts from the hand design in this file (CRISP_DEFAULTS), never
+        # from the shipped, tuned file, so that the tuning command is reproducible.
+        self.params = dict(CRISP_DEFAULTS)
+        self.control_period_s = self.params["control_period_s"]
         self.params_path = Path(params_path)
         self.goal_path, self.avoid_path = Path(goal_path), Path(avoid_path)
         self.tune_memberships = tune_memberships

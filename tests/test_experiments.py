@@ -84,7 +84,8 @@ def test_sweep_bad_input(capsys):
 
 
 def test_compare_json(capsys):
-    assert main(["compare", "--controllers", "paper,baseline", "--sweep-n", "1", "--json"]) == 0
+    assert main(["compare", "--controllers", "paper,baseline", "--sweep-n", "1", "--workers", "1",
+                 "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["controllers"] == ["paper", "baseline"]
     assert len(data["rows"]) == 6
@@ -99,9 +100,12 @@ def test_compare_json(capsys):
 
 
 def test_compare_table(capsys):
-    assert main(["compare", "--controllers", "baseline"]) == 0
+    assert main(["compare", "--controllers", "baseline", "--sweep-n", "2", "--workers", "1"]) == 0
     out = capsys.readouterr().out
     assert "stand-in" in out and "12.5" in out
+    # the sweep summary is part of the table by default (held-out seed 5)
+    assert "sweep: 2 standard layouts, seed 5" in out
+    assert main(["compare", "--controllers", "baseline", "--sweep-n", "-1"]) == 2
 
 
 def test_fis_export_round_trip(tmp_path, capsys):

@@ -148,3 +148,68 @@ def test_registry_builds_it():
     from controller.registry import make_controller
     c = make_controller("fuzzynav")
     assert isinstance(c, FuzzyNavController) and c.needs_ranges
+
+
+# -- the bearing planner's geometry, against hand-worked answers ----------------------
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from controller.fuzzynav import blocked_cones, free_bearing
+
+
+def test_blocked_cone_is_the_tangent_cone_of_the_inflated_point():
+    (cone,) = blocked_cones([(2.0, 0.0)], radius_m=0.5, horizon_m=4.0, beyond_m=10.0,
+                            nearest_m=0.0)
+    half = math.asin(0.5 / 2.0)
+    assert cone == pytest.approx((-half, half))
+    # a ray along the cone's edge passes the point at exactly the radius
+    assert 2.0 * math.sin(cone[1]) == pytest.approx(0.5)
+    (cone,) = blocked_cones([(1.0, 1.0)], 0.5, 4.0, 10.0, 0.0)
+    beta, half = math.pi / 4, math.asin(0.5 / math.sqrt(2.0))
+    assert cone == pytest.approx((beta - half, beta + half))
+
+
+def test_blocked_cones_ignore_points_behind_far_beyond_or_too_near():
+    pts = [(-0.5, 1.0),   # behind
+           (5.0, 0.0),    # beyond the horizon
+           (2.5, 0.0),    # beyond the target (beyond_m)
+           (0.5, 0.0)]    # nearer than nearest_m: left to the avoidance block
+    assert blocked_cones(pts, 0.5, 4.0, 2.0, 0.8) == []
+    # inside the inflation radius: a half plane
+    (cone,) = blocked_cones([(0.3, 0.0)], 0.5, 4.0, 10.0, 0.0)
+    assert cone == pytest.approx((-math.pi / 2, math.pi / 2))
+
+
+def test_free_bearing_hand_cases():
+    assert free_bearing([], 0.3, 1.0) == (0.3, 0.0)
+    assert free_bearing([(0.5, 0.9)], 0.3, 1.0) == (0.3, 0.0)       # target bearing free
+    assert free_bearing([(-0.2, 0.1)], 0.0, 1.0) == (0.1, 1.0)      # pass on the left
+    assert free_bearing([(-0.2, 0.1)], 0.0, -1.0) == (-0.2, -1.0)   # ... or the right
+    assert free_bearing([(-0.2, 0.1)], 0.0, 0.0) == (0.1, 1.0)      # nearer edge
+    assert free_bearing([(-0.1, 0.2)], 0.0, 0.0) == (-0.1, -1.0)
+    # overlapping cones merge; a separate cone beyond a free gap does not
+    assert free_bearing([(-0.2, 0.1), (0.05, 0.4)], 0.0, 1.0) == (0.4, 1.0)
+    assert free_bearing([(0.05, 0.4), (-0.2, 0.1)], 0.0, 1.0) == (0.4, 1.0)
+    assert free_bearing([(-0.2, 0.1), (0.3, 0.5)], 0.0, 1.0) == (0.1, 1.0)
+
+
+_cone = st.tuples(st.floats(-1.5, 1.5), st.floats(0.01, 0.8)).map(lambda c: (c[0] - c[1], c[0] + c[1]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_cone, max_size=6), st.floats(-1.0, 1.0), st.sampled_from([-1.0, 0.0, 1.0]))
+def test_free_bearing_is_the_nearest_free_bearing_on_its_side(cones, phi_t, side):
+    psi, passed = free_bearing(cones, phi_t, side)
+    inside = lambda a: any(lo < a < hi for lo, hi in cones)
+    assert not inside(psi)                      # the answer is free (an edge at most)
+    if passed == 0.0:
+        assert psi == phi_t
+        return
+    if side != 0.0:
+        assert passed == side
+    assert (psi - phi_t) * passed >= 0.0        # on the side it says (0: phi_t on an edge)
+    # every bearing between the target's and the answer is blocked
+    for k in range(1, 50):
+        a = phi_t + (psi - phi_t) * k / 50
+        assert any(lo <= a <= hi for lo, hi in cones), a
