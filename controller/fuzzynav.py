@@ -3,9 +3,9 @@
 Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
 
     ranges (left, front, right) --+--> echo memory ----> L, F, R --+--> AVOID block --+
-    d_o, phi_o (ideal only) ------+                                 |   (L, F, R, side)|
-                                                     side chooser --+                  |--> blend --> mix --> (left, right) V
-    d_t, phi_t --> [escape: virtual bearing] ------> GOAL block (phi, d_t) ------------+
+    d_o, phi_o (ideal only) ------+         |                       |   (L, F, R, side)|
+                                            v        side chooser --+                  |--> blend --> mix --> (left, right) V
+    d_t, phi_t --> bearing planner / escape: phi --> GOAL block (phi, d_t) ------------+
                                                     alpha = strength of "near" (L, F, R)
 
 1. **Sectors.** The three ultrasonic readings give the distance seen to the left (+45 deg),
@@ -15,24 +15,33 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    or right), which covers the gaps between the beams and the robot's flanks; in
    ``ultrasonic`` mode ``d_o``/``phi_o`` come from the beams anyway.
 2. **Echo memory** (state, cleared by :meth:`reset`). Every ``store_s`` the echoes nearer
-   than 2 m are stored as points in an odometry frame (dead reckoning from the voltages
-   this controller commanded, with the plant's gains and lag); they are forgotten after
-   ``memory_s``. At the sensors' 25 Hz the remembered footprint distance per sector is
-   recomputed, a remembered point counting as nearer by ``memory_creep_mps`` x its age (it
-   may have been a moving obstacle). So an obstacle that has left the beams while beside the
-   robot still holds it off. A remembered sector distance also grows back only at
-   ``memory_grow_mps``.
+   than ``store_range_m`` are stored as points in an odometry frame (dead reckoning from
+   the voltages this controller commanded, with the plant's gains and lag), each as a short
+   arc (the axis +- ``echo_spread_deg``: an echo may come from anywhere across the 15 deg
+   beam); in ideal perception the nearest obstacle's surface point is stored too. A new
+   point within ``merge_m`` of an old one replaces it; points are forgotten after
+   ``memory_s``. At the sensors' 25 Hz the remembered footprint distance per sector (ahead
+   = within the flanks + ``front_corridor_m``) is recomputed, so an obstacle that has left
+   the beams while beside the robot still holds it off; a remembered sector distance
+   grows back only at ``memory_grow_mps``.
+   **Bearing planner** (:func:`blocked_cones`, :func:`free_bearing`): each remembered point
+   between ``plan_nearest_m`` and ``plan_horizon_m`` ahead (and not beyond the target)
+   blocks the cone of bearings whose ray passes it nearer than the half-width +
+   ``plan_margin_m``; the goal block is fed the free bearing nearest the target's instead
+   of the target's own. Its side is latched while points are within ``plan_latch_m``, and
+   changes farther out only for a detour shorter by ``plan_switch_rad``.
 3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
    speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
    robot never orbits its target (the paper's trap: its outputs cannot go negative).
 4. **Avoidance block** (13 rules): left / front / right distance (near medium far) and the
    chosen side -> speed and turn. Close ahead it backs off and turns hard to the chosen
    side; close beside, it turns away; passing at a medium distance it holds its heading.
-5. **Side chooser** (crisp, with memory): when something appears ahead (``latch_front_m``)
-   the robot picks the side to pass on (away from the obstacle's bearing when known, else
-   the target's side unless that side is the more obstructed) and *latches* it until the
-   front is clear again, so it never dithers between two sides. While an obstacle is being
-   passed (within ``guard_m`` on the far side), the goal block may not turn back into it.
+5. **Side chooser** (crisp, with memory): the planner's side when it has one; otherwise,
+   when something appears ahead (``latch_front_m``), the robot picks the side to pass on
+   (away from the obstacle's bearing when known, else the target's side unless that side is
+   the more obstructed) and *latches* it until the front is clear again, so it never
+   dithers between two sides. While an obstacle is being passed (within ``guard_m`` on the
+   far side) and the planner is idle, the goal block may not turn back into it.
 6. **Arbitration**: ``alpha`` = the strength of "near" over the sectors (a linear-Z of
    the front distance, and one of the side distances); the command is
    ``alpha * avoid + (1 - alpha) * goal``: avoidance takes precedence as obstacles get near.
@@ -46,7 +55,10 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    goal block is fed a virtual bearing towards it) until it is ``leave_margin_m`` closer to
    the target than where it got stuck (the Bug-2 idea), or loses the boundary.
 9. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
-   reduced, never the turn (the loop's saturation would otherwise eat the turn).
+   reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
+   near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
+   towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
+   (nothing looks backwards), then it turns on the spot.
 
 Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
 (readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
