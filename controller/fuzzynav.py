@@ -543,8 +543,9 @@ class FuzzyNavController:
         # obstacle being passed while it is still remembered within guard_m.
         # It drives on instead (the goal block alone would turn in place).
         # Not when the target is nearer than the obstacle being passed.
-        if not self.follow and self.plan_side == 0.0 and d_t > min(left, right) + 0.5 and ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
-                                or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"])):
+        guarding = ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
+                    or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"]))
+        if guarding and not self.follow and self.plan_side == 0.0 and d_t > min(left, right) + 0.5:
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
         speed = alpha * a_speed + (1.0 - alpha) * g_speed
