@@ -86,10 +86,12 @@ def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
 STALL_S = 15.0
 
 
-def run_until_stalled(sim):
+def run_until_stalled(sim, stall_s: float = STALL_S):
     """Run ``sim`` to its end, or stop it early, as a timeout, once the distance to the
-    target has not reached a new minimum (by 5 cm) for :data:`STALL_S` simulated seconds
-    (an orbit or a dead end: the rest of a capped run would only cost time)."""
+    target has not reached a new minimum (by 5 cm) for ``stall_s`` simulated seconds
+    (an orbit or a dead end: the rest of a capped run would only cost time). A controller
+    with an escape of its own (fuzzynav) gives a longer ``stall_cutoff_s``, so that its
+    escape is tried rather than cut off."""
     import math as _m
 
     best, best_t = _m.inf, 0.0
@@ -102,7 +104,7 @@ def run_until_stalled(sim):
         t = sim.time_s
         if d < best - 0.05:
             best, best_t = d, t
-        elif t - best_t > STALL_S:
+        elif t - best_t > stall_s:
             sim.outcome = "timeout"
             break
     return sim.result()
@@ -149,7 +151,7 @@ class Objective:
             controller.reset()
             sim = Simulation(case.scenario, controller, perception=case.perception,
                              seed=0, control_period_s=self.control_period_s)
-            results.append(run_until_stalled(sim))
+            results.append(run_until_stalled(sim, getattr(self.tunable, "stall_cutoff_s", STALL_S)))
         return results
 
     def __call__(self, vector) -> float:

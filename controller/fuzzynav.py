@@ -636,6 +636,8 @@ class FuzzyNavTunable:
         # from the shipped, tuned file, so that the tuning command is reproducible.
         self.params = dict(CRISP_DEFAULTS)
         self.control_period_s = self.params["control_period_s"]
+        # tuning stops a run that makes no progress; not before the escape had its chance
+        self.stall_cutoff_s = self.params["stall_s"] + 20.0
         self.params_path = Path(params_path)
         self.goal_path, self.avoid_path = Path(goal_path), Path(avoid_path)
         self.tune_memberships = tune_memberships

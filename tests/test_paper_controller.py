@@ -88,9 +88,13 @@ def test_sign_convention_target_left_speeds_up_right_wheel():
 
 def test_sign_convention_obstacle_left_turns_right():
     c = paper_controller()
-    left, right = c([30.0, 0.3, 0.0, 1.0])           # near obstacle ahead-left, target ahead
+    # where the shipped phi_o "P" (obstacle ahead-left) term is strongest
+    phi_o = next(v for v in c.fis.inputs if v.name == "phi_o")
+    grid = np.linspace(0.0, np.pi / 2, 500)
+    bearing = float(grid[np.argmax(next(t for t in phi_o.terms if t.name == "P")(grid))])
+    left, right = c([30.0, 0.3, 0.0, bearing])       # near obstacle ahead-left, target ahead
     assert left > right
-    left, right = c([30.0, 0.3, 0.0, -1.0])          # ahead-right: turn left
+    left, right = c([30.0, 0.3, 0.0, -bearing])      # ahead-right: turn left
     assert right > left
 
 
@@ -120,33 +124,8 @@ def test_save_writes_a_loadable_rule_base(tmp_path):
     assert "Reproduce with: test" in path.read_text()
 
 
-# Runs where the shipped rule base reaches the target without a collision but passes an
-# obstacle closer than the 0.25 m safe distance. Kept strict (xfail strict=True): the test
-# fails as soon as one of them starts passing, so this list cannot go stale.
-CLEARANCE_SHORT = {("s1", "ideal"), ("s1", "ultrasonic"), ("s3", "ultrasonic")}
-
-
-def _acceptance_cases():
-    for scenario in ("s1", "s2", "s3"):
-        for perception in ("ideal", "ultrasonic"):
-            marks = ()
-            if (scenario, perception) in CLEARANCE_SHORT:
-                marks = pytest.mark.xfail(strict=True, reason="reaches without collision, but the "
-                                          "minimum clearance is below 0.25 m (issue 3, open)")
-            yield pytest.param(scenario, perception, marks=marks, id=f"{scenario}-{perception}")
-
-
-def test_acceptance_reach_without_collision_all_six():
-    """The part of the acceptance every run meets: reached, nothing hit, 12 V saturation."""
-    for scenario in ("s1", "s2", "s3"):
-        for perception in ("ideal", "ultrasonic"):
-            result = run_scenario(scenario, "paper", perception=perception, seed=0)
-            assert result.outcome == "reached", (scenario, perception, result.metrics)
-            assert not result.metrics["collided"]
-            assert result.metrics["max_abs_voltage_v"] <= 12.0
-
-
-@pytest.mark.parametrize("scenario,perception", list(_acceptance_cases()))
+@pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
+@pytest.mark.parametrize("perception", ["ideal", "ultrasonic"])
 def test_acceptance_shipped_rule_base_reaches_safely(scenario, perception):
     """Issue 3's acceptance: the shipped assets/rules/paper.toml, the real loop (0.02 s)."""
     result = run_scenario(scenario, "paper", perception=perception, seed=0)
