@@ -124,6 +124,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "store_range_m": 4.0,         # echoes farther than this are not remembered
     "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
     "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
+    "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
     "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
@@ -416,7 +417,9 @@ class FuzzyNavController:
             psi, side_now = free_bearing(cones, phi_t, latched)
             if side_now != 0.0 and latched == 0.0:
                 latched = side_now
-            elif side_now != 0.0 and not near_block:
+            elif side_now != 0.0 and (not near_block or abs(psi - phi_t) > p["plan_flip_rad"]):
+                # near points hold the side, unless its detour has grown past
+                # plan_flip_rad (the robot would turn back): then the shorter side wins
                 other, _ = free_bearing(cones, phi_t, -latched)
                 if abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t):
                     psi, latched = other, -latched
