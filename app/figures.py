@@ -363,6 +363,39 @@ def write_membership_figures(fis, out_dir, *, prefix: str = "", formats=FORMATS,
     return written
 
 
+def write_membership_overview(fis, path, title: str, *, points: int = 1001,
+                              d_t_shown_m: float = 20.0) -> Path:
+    """All of a system's variables on one page (two columns), like the paper's Figs. 6-11
+    side by side: the README's picture of a rule base. ``d_t`` is shown up to
+    ``d_t_shown_m`` (its far terms are flat beyond)."""
+    import matplotlib.pyplot as plt
+
+    variables = list(fis.inputs) + list(fis.outputs)
+    rows = (len(variables) + 1) // 2
+    fig, axes = plt.subplots(rows, 2, figsize=(10, 2.6 * rows), squeeze=False)
+    for a, var in zip(axes.ravel(), variables):
+        lo, hi = var.range
+        shown = min(hi, d_t_shown_m) if var.name == "d_t" else hi
+        x = np.linspace(lo, shown, points)
+        for term in var.terms:
+            a.plot(x, np.asarray(term(x), dtype=float), lw=1.6, label=f"{term.name} ({term.shape})")
+        unit = f" [{var.unit}]" if getattr(var, "unit", "") else ""
+        note = f" (shown to {shown:g} of {hi:g})" if shown < hi else ""
+        a.set_title(f"{var.name}{unit}{note}", fontsize=9)
+        a.set_ylim(-0.02, 1.1)
+        a.grid(True, lw=0.3, alpha=0.6)
+        a.legend(fontsize=7)
+    for a in axes.ravel()[len(variables):]:
+        a.axis("off")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
 # ---------------------------------------------------------------------------------------
 # Comparison (paper Fig. 27)
 

@@ -75,6 +75,13 @@ def write_report(out_dir: str | Path, controllers=DEFAULT_CONTROLLERS, perceptio
         for path in fig_dir.glob("*.png"):
             if path.name.startswith(("comparison",)) or "_trajectory" in path.name:
                 shutil.copy2(path, images / path.name)
+        if "paper" in controllers:
+            from app.figures import write_membership_overview
+            from controller.fuzzy import FuzzySystem
+            from controller.paper import PAPER_RULES
+
+            write_membership_overview(FuzzySystem.from_toml(PAPER_RULES), images / "paper_membership.png",
+                                      "Paper controller, tuned membership functions (assets/rules/paper.toml)")
     return table
 
 

@@ -213,3 +213,10 @@ def test_free_bearing_is_the_nearest_free_bearing_on_its_side(cones, phi_t, side
     for k in range(1, 50):
         a = phi_t + (psi - phi_t) * k / 50
         assert any(lo <= a <= hi for lo, hi in cones), a
+
+
+def test_shipped_params_file_is_the_hand_design():
+    """The README says the shipped parameters are the hand design (tuning did not validate):
+    the file and CRISP_DEFAULTS must not drift apart."""
+    from controller.fuzzynav import CRISP_DEFAULTS, load_params
+    assert load_params() == CRISP_DEFAULTS
