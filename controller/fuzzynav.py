@@ -125,7 +125,9 @@ CRISP_DEFAULTS: dict[str, float] = {
     "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
     "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
     "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
-    "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
+    "front_corridor_m": 0.3,
+    "side_from_x_m": -0.495,      # a remembered point counts beside only ahead of this (robot x)
+    "side_max_rad": 2.0,          # ideal: an obstacle up to this bearing counts beside      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
     "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
@@ -174,6 +176,30 @@ def blocked_cones(points_robot, radius_m: float, horizon_m: float, beyond_m: flo
         half = math.asin(radius_m / rho) if rho > radius_m else 0.5 * math.pi
         cones.append((beta - half, beta + half))
     return cones
+
+
+def range_at_clearance(bearing_rad: float, clearance_m: float) -> float:
+    """How far from the robot's centre, along ``bearing_rad``, a point is
+    ``clearance_m`` from the footprint (half-sizes _HX, _HY).
+
+    With ``u = (|cos|, |sin|)``, the point ``r u`` is ``sqrt(max(r ux - HX, 0)^2 +
+    max(r uy - HY, 0)^2)`` from the rectangle: off a side, ``r = (H + d) / u``; off a
+    corner, the larger root of ``r^2 - 2 r (ux HX + uy HY) + HX^2 + HY^2 - d^2 = 0``.
+    (Placing it at d_o beyond the footprint's extent along the bearing puts it too near
+    off a corner: the footprint's nearest point is the corner, not the ray's exit.)
+    """
+    ux, uy = abs(math.cos(bearing_rad)), abs(math.sin(bearing_rad))
+    d = clearance_m
+    if ux > 0.0:
+        r = (_HX + d) / ux
+        if r * uy <= _HY:
+            return r
+    if uy > 0.0:
+        r = (_HY + d) / uy
+        if r * ux <= _HX:
+            return r
+    b = ux * _HX + uy * _HY
+    return b + math.sqrt(b * b - (_HX * _HX + _HY * _HY - d * d))
 
 
 def free_bearing(cones: list[tuple[float, float]], phi_t: float, side: float
@@ -362,14 +388,11 @@ class FuzzyNavController:
                             bx, by = mx + r * math.cos(a), my + r * math.sin(a)
                             self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
                 if d_o == d_o and phi_o == phi_o:
-                    # The nearest obstacle's surface point, from its bearing and the
-                    # footprint's extent that way (in ideal perception it covers the
+                    # The nearest obstacle's surface, as the point on its bearing that
+                    # is d_o from the footprint (in ideal perception it covers the
                     # beams' blind gaps).
-                    co, so = math.cos(phi_o), math.sin(phi_o)
-                    extent = min(_HX / abs(co) if co else math.inf,
-                                 _HY / abs(so) if so else math.inf)
-                    rr = d_o + extent
-                    bx, by = rr * co, rr * so
+                    rr = range_at_clearance(phi_o, d_o)
+                    bx, by = rr * math.cos(phi_o), rr * math.sin(phi_o)
                     self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
                 points = self.points
             oldest = self.t - p["memory_s"]

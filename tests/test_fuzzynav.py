@@ -220,3 +220,22 @@ def test_shipped_params_file_is_the_hand_design():
     the file and CRISP_DEFAULTS must not drift apart."""
     from controller.fuzzynav import CRISP_DEFAULTS, load_params
     assert load_params() == CRISP_DEFAULTS
+
+
+def test_range_at_clearance_hand_cases():
+    from controller.fuzzynav import _HX, _HY, range_at_clearance
+    assert range_at_clearance(0.0, 0.5) == pytest.approx(_HX + 0.5)            # ahead
+    assert range_at_clearance(math.pi / 2, 0.5) == pytest.approx(_HY + 0.5)    # beside
+    assert range_at_clearance(math.pi, 0.2) == pytest.approx(_HX + 0.2)        # behind
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-math.pi, math.pi), st.floats(0.0, 3.0))
+def test_range_at_clearance_puts_the_point_at_that_clearance(bearing, clearance):
+    """The stored surface point is exactly d_o from the footprint (the sectors read d_o
+    back), also off a corner, where d_o beyond the footprint's extent would be too near."""
+    from controller.fuzzynav import _HX, _HY, range_at_clearance
+    r = range_at_clearance(bearing, clearance)
+    x, y = abs(r * math.cos(bearing)), abs(r * math.sin(bearing))
+    gap = math.hypot(max(x - _HX, 0.0), max(y - _HY, 0.0))
+    assert gap == pytest.approx(clearance, abs=1e-9)
