@@ -3,7 +3,8 @@
 For each scenario and controller it writes a rerun recording (``rrd/``) and the paper's
 figure set (``figures/``); then the paper's Fig. 27 (all controllers side by side per
 scenario) and the comparison table as ``table4.md`` and ``table4.json``. With
-``--readme-images DIR`` the s1-s3 figures the README shows are also copied there.
+``--readme-images DIR`` the s1-s3 figures the README shows are also copied there, with
+the paper controller's membership overview, and ``table4.md`` beside DIR.
 """
 
 from __future__ import annotations
@@ -75,6 +76,8 @@ def write_report(out_dir: str | Path, controllers=DEFAULT_CONTROLLERS, perceptio
         for path in fig_dir.glob("*.png"):
             if path.name.startswith(("comparison",)) or "_trajectory" in path.name:
                 shutil.copy2(path, images / path.name)
+        # the README's table lives beside its images' folder (docs/table4.md)
+        shutil.copy2(out / "table4.md", images.parent / "table4.md")
         if "paper" in controllers:
             from app.figures import write_membership_overview
             from controller.fuzzy import FuzzySystem

@@ -2,6 +2,8 @@
 
 import json
 
+import numpy as np
+
 from app.cli import main
 
 
@@ -19,6 +21,20 @@ def test_report_writes_everything(tmp_path, capsys):
         assert (out / "figures" / f"{scenario}_p_trajectory.png").exists()
         assert (images / f"{scenario}_p_trajectory.png").exists()
     assert (out / "figures" / "comparison.png").stat().st_size > 10_000
+    assert (tmp_path / "table4.md").read_text() == markdown   # the README's copy, beside img/
+    assert not (images / "paper_membership.png").exists()     # only when paper is reported
+
+
+def test_report_draws_the_paper_membership_overview(tmp_path, capsys):
+    from PIL import Image
+
+    images = tmp_path / "img"
+    assert main(["report", str(tmp_path / "r"), "--controllers", "paper",
+                 "--readme-images", str(images)]) == 0
+    with Image.open(images / "paper_membership.png") as im:
+        im.load()
+        assert im.size[0] > 500 and im.size[1] > 500
+        assert len(np.unique(np.asarray(im.convert("L")))) > 10   # not blank
 
 
 def test_report_refuses_an_unknown_controller(tmp_path, capsys):
