@@ -125,9 +125,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
     "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
     "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
-    "front_corridor_m": 0.3,
-    "side_from_x_m": -0.495,      # a remembered point counts beside only ahead of this (robot x)
-    "side_max_rad": 2.0,          # ideal: an obstacle up to this bearing counts beside      # a remembered point ahead within the flanks + this is "front"
+    "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
     "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
