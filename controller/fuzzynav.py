@@ -657,7 +657,8 @@ class FuzzyNavTunable:
         self.goal = FuzzySystem.from_toml(goal_path)
         self.avoid = FuzzySystem.from_toml(avoid_path)
         # The search starts from the hand design in this file (CRISP_DEFAULTS), never
-        # from the shipped, tuned file, so that the tuning command is reproducible.
+        # from the shipped file (which a tuning run overwrites), so that the tuning
+        # command is reproducible.
         self.params = dict(CRISP_DEFAULTS)
         self.control_period_s = self.params["control_period_s"]
         # tuning stops a run that makes no progress; not before the escape had its chance
