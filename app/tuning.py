@@ -92,15 +92,13 @@ def run_until_stalled(sim, stall_s: float = STALL_S):
     (an orbit or a dead end: the rest of a capped run would only cost time). A controller
     with an escape of its own (fuzzynav) gives a longer ``stall_cutoff_s``, so that its
     escape is tried rather than cut off."""
-    import math as _m
-
-    best, best_t = _m.inf, 0.0
+    best, best_t = math.inf, 0.0
     arena = sim.arena
     while not sim.done:
         sim.step()
         x, y = arena.pose[0], arena.pose[1]
         tx, ty = sim.scenario.target
-        d = _m.hypot(tx - x, ty - y)
+        d = math.hypot(tx - x, ty - y)
         t = sim.time_s
         if d < best - 0.05:
             best, best_t = d, t
