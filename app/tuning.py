@@ -11,9 +11,11 @@ times perception modes) of a per-run cost (:func:`run_cost`):
 * plus ``20 * max(0, 0.30 m - min clearance)``: clearance below the paper's 0.25 m safe
   distance (with a 5 cm margin) is penalised even when the target is reached.
 
-Tuning runs use a 0.05 s control period by default (``--dt``): the plant's ZOH step is
-exact at any period and s1's trajectory moves by millimetres against 0.02 s, at half the
-cost; the shipped result is checked at the loop's 0.02 s. A run whose distance to the target stops
+Tuning runs of the paper controller use a 0.05 s control period by default (``--dt``):
+the plant's ZOH step is exact at any period and s1's trajectory moves by millimetres
+against 0.02 s, at half the cost; the shipped result is checked at the loop's 0.02 s.
+fuzzynav counts its control calls (memory, timers), so it is tuned at its own 0.02 s
+only, and a run of it is cut for lack of progress only after its own escape had time. A run whose distance to the target stops
 shrinking for 15 s (an orbit, a dead end) is stopped early and counted as a timeout. Runs
 are capped at ``min(scenario duration, 20 s + straight / 0.25 m/s)`` of simulated
 time, so that an orbiting candidate does not cost 150 s of simulation.
