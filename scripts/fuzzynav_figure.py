@@ -70,7 +70,7 @@ def planner_sketch(ax, p):
     pts = [tuple(centre + r_obs * np.array([np.cos(a), np.sin(a)])) for a in angles]
     phi_t = np.arctan2(0.6, 5.0)
     cones = blocked_cones(pts, radius, p["plan_horizon_m"], 5.0, p["plan_nearest_m"])
-    psi, side = free_bearing(cones, phi_t, 0.0)
+    psi, _ = free_bearing(cones, phi_t, 0.0)
     ax.add_patch(plt.Circle(centre, r_obs, color="#d62728", alpha=0.6))
     for x, y in pts:
         ax.add_patch(plt.Circle((x, y), radius, fill=False, ec="#999", lw=0.5))
