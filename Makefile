@@ -29,6 +29,7 @@ bench: $(VENV)/.installed-test
 report: $(VENV)/.installed
 	$(VENV)/bin/fuzzynav report out/report --readme-images docs/img
 	$(PY) scripts/fuzzynav_figure.py
+	$(PY) scripts/crossing_figure.py
 
 screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py
