@@ -822,26 +822,40 @@ class ViewerApp:
             return self._signals.ordered()
 
     def fuzzy_system(self):
-        """The controller's FuzzySystem, or None when it has none (``p``)."""
-        return getattr(self.controller.inner, "fis", None)
+        """The controller's FuzzySystem, or None when it has none (``p``); for fuzzynav,
+        its two blocks as one system."""
+        inner = self.controller.inner
+        fis = getattr(inner, "fis", None)
+        if fis is None and hasattr(inner, "teaching_view"):
+            fis = getattr(inner, "_merged", None)
+        return fis
 
     def teaching(self) -> dict | None:
         """The rule base at the last controller inputs: firing strengths and aggregation.
 
         None when the controller has no fuzzy system or has not been called yet.
         """
-        fis = self.fuzzy_system()
+        view = getattr(self.controller.inner, "teaching_view", None)
+        state = None
         with self.lock:
             inputs = self.controller.last_inputs.copy()
-        if fis is None or not np.isfinite(inputs[0]):
-            return None
-        x = inputs[:len(fis.input_names)]
+            if view is not None:
+                # a controller whose blocks see more than the four inputs (fuzzynav)
+                seen = view()
+                if seen is None:
+                    return None
+                fis, x, state = seen
+        if view is None:
+            fis = self.fuzzy_system()
+            if fis is None or not np.isfinite(inputs[0]):
+                return None
+            x = inputs[:len(fis.input_names)]
         strengths = np.asarray(fis.firing_strengths(np.asarray([x])))[0]
         grid, membership, centroids = fis.aggregated(x)
         return {"inputs": x, "input_names": list(fis.input_names),
                 "output_names": list(fis.output_names), "strengths": strengths,
                 "grid": np.asarray(grid), "membership": np.asarray(membership),
-                "centroids": np.asarray(centroids), "fis": fis}
+                "centroids": np.asarray(centroids), "fis": fis, "state": state}
 
 
 # ---------------------------------------------------------------------------------------

@@ -836,7 +836,8 @@ class ViewerServer:
         fis = info["fis"]
         strengths = info["strengths"]
         x = info["inputs"]
-        units = {"d_t": "m", "d_o": "m", "phi_t": "rad", "phi_o": "rad"}
+        units = {"d_t": "m", "d_o": "m", "phi_t": "rad", "phi_o": "rad",
+                 "left": "m", "front": "m", "right": "m"}
         lines = []
         memberships = fis.memberships(np.asarray([x]))
         for name, value, var, mu in zip(info["input_names"], x, fis.inputs, memberships):
@@ -862,8 +863,15 @@ class ViewerServer:
             f"border-radius:2px'></div></div><span style='font-size:10px'>{strengths[i]:.2f}</span></td>"
             f"<td style='font-size:11px'>{html.escape(fis.rule_text(i))}</td></tr>" for i in order)
         n_firing = int(np.sum(strengths > 1e-3))
+        state = info.get("state") or {}
+        crisp = "".join(f"<tr><td style='white-space:nowrap'><b>{html.escape(k)}</b></td>"
+                        f"<td style='color:#334155'>{html.escape(v)}</td></tr>"
+                        for k, v in state.items())
+        crisp = (("<div style='font-weight:600;margin-bottom:2px'>Crisp parts</div>"
+                  f"<table style='width:100%'>{crisp}</table>") if crisp else "")
         return (
             "<div style='font-family:system-ui,sans-serif;font-size:0.85em'>"
+            f"{crisp}"
             "<div style='font-weight:600;margin-bottom:2px'>Fuzzified inputs</div>"
             f"<table style='width:100%'>{''.join(lines)}</table>"
             f"<div style='font-weight:600;margin:6px 0 2px'>Rule firing strengths "

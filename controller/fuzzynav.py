@@ -662,13 +662,17 @@ class FuzzyNavController:
             self.creep_s = 0.0
         # A moving obstacle on a collision course: stop, or go on at full speed, when
         # that keeps its predicted closest approach farther (yield or pass first).
+        dodge = ""
         if p["dodge_horizon_s"] > 0.0 and self.obs_sightings >= p["dodge_sightings"]:
             vx, vy = self.obs_vel
             if vx * vx + vy * vy > p["dodge_min_speed_mps"] ** 2:
                 tp = self.track_pose
                 rel = (self.obs_centre[0] - tp[0], self.obs_centre[1] - tp[1])
+                commanded = speed
                 speed = dodge_speed(speed, rel, (vx, vy), tp[2], p["dodge_horizon_s"],
                                     p["dodge_safe_m"])
+                if speed != commanded:
+                    dodge = "yield" if speed == 0.0 else "pass first"
         # The sensors look forward only: backing off is allowed for back_max_s at a
         # time, then the robot turns on the spot until it may drive forward again.
         if speed < 0.0:
@@ -687,7 +691,9 @@ class FuzzyNavController:
             speed = math.copysign(room, speed)
         self.last = {"sectors": (left, front_eff, right), "side": side, "alpha": alpha,
                      "follow": self.follow, "goal": (g_speed, g_turn),
-                     "avoid": (a_speed, a_turn)}
+                     "avoid": (a_speed, a_turn), "block_inputs": (phi, d_t) + avoid_in,
+                     "plan_offset": self.plan_offset, "dodge": dodge,
+                     "command": (speed, turn)}
         self.cmd = (speed - turn, speed + turn)
         return np.array(self.cmd)
 
@@ -717,6 +723,29 @@ class FuzzyNavController:
             self.obs_vel = (0.0, 0.0)
             self.obs_sightings = 0
         self.obs_centre = (cx, cy)
+
+    def teaching_view(self):
+        """For a teaching display: ``(system, inputs, state)`` of the last call, or None
+        before the first. ``system`` is both blocks as one (:func:`merge_blocks`: inputs
+        phi, d_t, left, front, right, side; outputs goal and avoid speed and turn),
+        ``inputs`` what the blocks were fed, ``state`` the crisp parts in words."""
+        last = self.last
+        if not last:
+            return None
+        if last["follow"]:
+            mode = "following an edge (no progress: Bug-2 escape)"
+        elif last["dodge"]:
+            mode = f"moving obstacle: {last['dodge']}"
+        elif last["plan_offset"]:
+            mode = f"planner steers {math.degrees(last['plan_offset']):+.0f} deg off the target"
+        else:
+            mode = "heading for the target"
+        state = {"avoidance weight alpha": f"{last['alpha']:.2f}",
+                 "side": "left" if last["side"] > 0 else "right",
+                 "mode": mode,
+                 "command": "speed {:.1f} V, turn {:.1f} V (left = speed - turn, "
+                            "right = speed + turn)".format(*last["command"])}
+        return self._merged, np.array(last["block_inputs"], dtype=float), state
 
     @staticmethod
     def _choose_side(phi_t: float, left: float, right: float, hint: float = 0.0) -> float:

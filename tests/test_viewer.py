@@ -326,6 +326,29 @@ def test_teaching_panel_data(app):
     assert np.all((lo <= info["centroids"]) & (info["centroids"] <= hi))
 
 
+def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
+    """fuzzynav's blocks see the sectors and the planned bearing, not the four paper
+    inputs: the panel shows both blocks' rules at what they were fed, and the crisp
+    parts (arbitration weight, side, mode) in words."""
+    if "fuzzynav" not in controller_names():
+        pytest.skip("no fuzzynav in this build")
+    from app.viewer_ui import ViewerServer
+
+    app.set_controller("fuzzynav")
+    assert app.teaching() is None            # not called yet
+    for _ in range(5):
+        app.step_once()
+    info = app.teaching()
+    fis = app.fuzzy_system()
+    assert info["input_names"] == ["phi_t", "d_t", "left", "front", "right", "side"]
+    assert info["strengths"].shape == (len(fis.rules),) == (21,)
+    assert info["strengths"].max() > 0
+    assert info["inputs"][1] == pytest.approx(app.controller.last_inputs[0])   # d_t
+    assert set(info["state"]) >= {"avoidance weight alpha", "side", "mode"}
+    html_text = ViewerServer._rules_html(info)
+    assert "Crisp parts" in html_text and "front" in html_text
+
+
 def test_a_finished_run_reports_the_table4_metrics(app):
     app.set_speed(10.0)
     app.play()
