@@ -29,7 +29,11 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    blocks the cone of bearings whose ray passes it nearer than the half-width +
    ``plan_margin_m``; the goal block is fed the free bearing nearest the target's instead
    of the target's own. Its side is latched while points are within ``plan_latch_m``, and
-   changes farther out only for a detour shorter by ``plan_switch_rad``.
+   changes farther out only for a detour shorter by ``plan_switch_rad`` (near, only when
+   the latched detour exceeds ``plan_flip_rad``). Once the robot has made no progress for
+   ``plan_stuck_s``, a side it changed to is kept for ``plan_flip_hold_s``: at the mouth
+   of a U both detours are near 90 degrees and the side would otherwise flip every few
+   seconds, the robot turning on the spot until it times out.
 3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
    speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
    robot never orbits its target (the paper's trap: its outputs cannot go negative).
@@ -143,6 +147,8 @@ CRISP_DEFAULTS: dict[str, float] = {
     "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
     "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
     "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
+    "plan_stuck_s": 6.0,          # no progress for this long: the robot is stuck, and then
+    "plan_flip_hold_s": 15.0,     # ... keeps a new side at least this long (no dithering)
     "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
@@ -374,6 +380,7 @@ class FuzzyNavController:
         self.mem_sectors = (math.inf, math.inf, math.inf)
         self.plan_side = 0.0       # side the bearing planner passes on (+1 left), 0 = free
         self.plan_offset = 0.0     # planned bearing minus the target's (rad)
+        self.plan_flip_t = -math.inf
         # Tracker of the nearest obstacle (ideal perception), in its own dead-reckoned
         # frame whose heading uses the turn's real lag (see the module docstring, 7).
         self.track_pose = [0.0, 0.0, 0.0]
@@ -511,8 +518,11 @@ class FuzzyNavController:
                 # near points hold the side, unless its detour has grown past
                 # plan_flip_rad (the robot would turn back): then the shorter side wins
                 other, _ = free_bearing(cones, phi_t, -latched)
-                if abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t):
+                if (abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t)
+                        and (not near_block or self.t - self.best_t < p["plan_stuck_s"]
+                             or self.t - self.plan_flip_t > p["plan_flip_hold_s"])):
                     psi, latched = other, -latched
+                    self.plan_flip_t = self.t
             elif side_now == 0.0 and not near_block:
                 latched = 0.0
             self.plan_side = latched

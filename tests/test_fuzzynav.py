@@ -334,3 +334,16 @@ def test_crossing_obstacle_is_let_through_in_ideal_perception():
     assert with_dodge.metrics["min_clearance_m"] >= SAFE_M
     without, _ = _tracked(scenario, "ideal", dodge_horizon_s=0.0)
     assert without.outcome == "collided"
+
+
+def test_a_stuck_robot_keeps_its_new_side_out_of_a_u_trap():
+    """u_trap layout 5 of seed 1: at the U's mouth both planner detours are near 90 deg;
+    without the hold the side flips back and forth and the robot times out turning on the
+    spot; with it the robot gets round the U, in both perception modes."""
+    from world.layouts import generate_layout
+    scenario = generate_layout("u_trap", 1, 5)
+    for mode in ("ideal", "ultrasonic"):
+        held, _ = _tracked(scenario, mode)
+        assert held.outcome == "reached", (mode, held.metrics)
+        dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0)
+        assert dithering.outcome == "timeout", mode
