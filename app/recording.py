@@ -67,6 +67,7 @@ this module for its options on every call.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import json
@@ -219,6 +220,22 @@ def controller_fis(controller):
     if fis is None or not hasattr(fis, "firing_strengths"):
         return None
     return fis
+
+
+def controller_replica(controller):
+    """A fresh copy of a controller that explains itself (``teaching_view``, fuzzynav),
+    through which the logged inputs are replayed to record its inner state; else None."""
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    if controller is None or not hasattr(inner, "teaching_view"):
+        return None
+    replica = copy.deepcopy(inner)
+    replica.reset()
+    return replica
+
+
+INTERNALS_PATH = "/plots/internals"
+INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
+             "yield (1) / pass first (-1)", "following an edge (1)")
 
 
 def controller_label(controller) -> str:
@@ -458,8 +475,10 @@ class _ColumnWriter:
     that the next chunk continues it (trail segments, obstacle changes, styles)."""
 
     def __init__(self, rec, *, footprint_m, sensor_config, voltage_limit_v: float,
-                 fis=None, tolerance_m: float = 0.15):
+                 fis=None, tolerance_m: float = 0.15, replica=None):
         self.rec = rec
+        self.replica = replica
+        self.replica_error: str | None = None
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.sensor_config = sensor_config
         self.sensor_names = [m.name for m in sensor_config.mounts]
@@ -616,10 +635,35 @@ class _ColumnWriter:
                 self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
                            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
                            [1.0] * n, strengths)
+        if self.replica is not None and self.replica_error is None:
+            self._internals(log, start, end)
         if send_static:
             self._static.send(self.rec)
         rows.send(self.rec)
         self.sent = end
+
+    def _internals(self, log, start: int, end: int) -> None:
+        """Replay rows [start, end) through the replica and plot its inner state. The
+        replica must decide exactly as the controller did; if not (the controller was
+        changed mid-run, say), nothing more is plotted and the metadata says why."""
+        out = np.full((end - start, len(INTERNALS)), np.nan)
+        replica = self.replica
+        dodge_code = {"yield": 1.0, "pass first": -1.0}
+        for j, k in enumerate(range(start, end)):
+            decided = log.controller_output_v[k]
+            if not np.all(np.isfinite(decided)):
+                continue  # no decision on this row (the last one)
+            voltages = replica(log.inputs[k], ranges_m=log.ranges_m[k])
+            if not np.allclose(voltages, decided, rtol=0.0, atol=1e-9):
+                self.replica_error = (f"its replay differs from the run at t = "
+                                      f"{log.time_s[k]:.2f} s")
+                return
+            last = replica.last
+            out[j] = (last["alpha"], last["plan_offset"], dodge_code.get(last["dodge"], 0.0),
+                      float(last["follow"]))
+        self._plot(INTERNALS_PATH, list(INTERNALS),
+                   [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
+                   [1.5] * len(INTERNALS), out)
 
     def _send_obstacle(self, log, col: int, oid: int, start: int, end: int, t) -> None:
         xy = log.obstacle_xy[start:end, col]
@@ -837,7 +881,7 @@ def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
 
-def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None):
+def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: bool = False):
     """The default layout: the world on the left, the paper's plots stacked on the right
     (further tabs: plant, sensors, rule firing, run information)."""
     import rerun.blueprint as rrb
@@ -889,6 +933,8 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None):
     tabs = [paper, plant, sensing]
     if n_rules:
         tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
+    if internals:
+        tabs.append(plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape"))
     tabs.append(rrb.Tabs(*[rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
                            for name in ("run", "metrics", "scenario", "rules", "robot",
                                         )], name="run information"))
@@ -943,22 +989,26 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
     sensor_config = _sensor_config(sensors)
     parameters = _parameters(parameters)
     fis = controller_fis(controller)
+    replica = controller_replica(controller)
     scenario = result.scenario
     log = result.log
     rec = _open_stream(path, recording_name=f"{scenario.name} · {controller_label(controller)}")
     try:
         # The layout first: a viewer that opens the file while it loads uses it at once.
         n_rules = len(getattr(fis, "rules", ())) if fis is not None else 0
-        rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log))
+        rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log,
+                                     internals=replica is not None))
         writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
                                                  parameters.footprint_width_m),
                                sensor_config=sensor_config, voltage_limit_v=voltage_limit_v,
-                               fis=fis, tolerance_m=scenario.tolerance_m)
+                               fis=fis, tolerance_m=scenario.tolerance_m, replica=replica)
         writer.send(log, 0, len(log), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
         if writer.fis_error:
             extra["rule firing"] = f"not recorded ({writer.fis_error})"
+        if writer.replica_error:
+            extra["controller internals"] = f"not recorded ({writer.replica_error})"
         _static_world(writer.static, scenario)
         _metadata(writer.static, scenario=scenario, controller=controller, fis=fis,
                   parameters=parameters, sensor_config=sensor_config, seed=result.seed,
@@ -1033,11 +1083,13 @@ class LiveRecorder:
         self._writer = _ColumnWriter(
             self._rec, footprint_m=(params.footprint_length_m, params.footprint_width_m),
             sensor_config=sim.sensors.config, voltage_limit_v=sim.voltage_limit_v,
-            fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m)
+            fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m,
+            replica=controller_replica(sim.controller))
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(controller_fis(sim.controller), "rules", ()))
-        self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules))
+        self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules,
+                                           internals=self._writer.replica is not None))
         # Sent with the first chunk's styles.
         _static_world(self._writer.static, sim.scenario)
         self._metadata(sim, self._writer.static)
@@ -1046,6 +1098,8 @@ class LiveRecorder:
         extra = dict(self.extra_metadata)
         if self._writer is not None and self._writer.fis_error:
             extra["rule firing"] = f"not recorded ({self._writer.fis_error})"
+        if self._writer is not None and self._writer.replica_error:
+            extra["controller internals"] = f"not recorded ({self._writer.replica_error})"
         _metadata(static, scenario=sim.scenario, controller=sim.controller,
                   fis=controller_fis(sim.controller), parameters=sim.model.parameters,
                   sensor_config=sim.sensors.config, seed=sim.seed,

@@ -598,3 +598,67 @@ def test_live_recorder_closed_before_any_row(tmp_path):
     rec = Recording(tmp_path / "early.rrd")
     assert "/meta/run" in rec.entities and "/meta/metrics" not in rec.entities
     assert rec.blueprints and "/world/start" in rec.entities
+
+
+# ---------------------------------------------------------------------------------------
+# fuzzynav's inner state, replayed
+
+
+def _fuzzynav_crossing():
+    from controller.fuzzynav import fuzzynav_controller
+
+    controller = fuzzynav_controller()
+    sim = build_simulation("crossing", "fuzzynav", controller_object=controller)
+    return sim, sim.run(), controller
+
+
+def test_fuzzynav_internals_are_recorded(tmp_path):
+    """The crossing run yields to the moving obstacle: the recording's internals plot
+    shows it (yield = 1 on some rows), alpha stays in [0, 1], one row per log row."""
+    from app.recording import INTERNALS, INTERNALS_PATH
+
+    sim, result, controller = _fuzzynav_crossing()
+    path = record_run(result, tmp_path / "fn.rrd", controller=controller)
+    rec = Recording(path)
+    times, values = rec.scalars(INTERNALS_PATH)
+    assert np.array_equal(times, nanos(result.log.time_s))
+    assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNALS)
+    decided = values[:-1]                       # the last row has no decision
+    assert np.all(np.isnan(values[-1]))
+    alpha, offset, dodge, follow = decided.T
+    assert np.all((alpha >= 0) & (alpha <= 1))
+    assert np.any(dodge == 1.0), "the robot never yielded on crossing"
+    assert set(np.unique(follow)) <= {0.0, 1.0}
+    assert "controller internals" not in rec.text("/meta/run")
+
+
+def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
+    """Recorded with a controller other than the one that drove (other parameters): the
+    replay differs at once, the plot stops there and the metadata says so."""
+    from app.recording import INTERNALS_PATH
+    from controller.fuzzynav import fuzzynav_controller
+
+    _, result, _ = _fuzzynav_crossing()
+    other = fuzzynav_controller()
+    other.params["dodge_horizon_s"] = 0.0
+    path = record_run(result, tmp_path / "odd.rrd", controller=other)
+    rec = Recording(path)
+    assert INTERNALS_PATH not in rec.entities or len(rec.scalars(INTERNALS_PATH)[0]) < len(result.log)
+    assert "not recorded (its replay differs from the run at t = " in rec.text("/meta/run")
+
+
+def test_fuzzynav_internals_live_equal_whole(tmp_path):
+    from app.recording import INTERNALS_PATH
+    from controller.fuzzynav import fuzzynav_controller
+
+    sim, whole, controller = _fuzzynav_crossing()
+    whole_rec = Recording(record_run(whole, tmp_path / "whole.rrd", controller=controller))
+    sim = build_simulation("crossing", "fuzzynav", controller_object=fuzzynav_controller())
+    live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=53, min_interval_s=0.0)
+    while not sim.done:
+        sim.step()
+        live.update(sim)
+    live.close(sim)
+    t_live, v_live = Recording(tmp_path / "live.rrd").scalars(INTERNALS_PATH)
+    t_whole, v_whole = whole_rec.scalars(INTERNALS_PATH)
+    assert np.array_equal(t_live, t_whole) and same(v_live, v_whole)
