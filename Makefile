@@ -33,6 +33,7 @@ report: $(VENV)/.installed
 
 screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py
+	$(PY) scripts/screenshot.py --scenario crossing --controller fuzzynav --seconds 9 --out docs/img/viewer_fuzzynav.png
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis

@@ -178,6 +178,10 @@ class Snapshot:
     message_level: str
     layout_edited: bool = False
     metrics: dict | None = None
+    # A controller that shows its memory (fuzzynav): remembered echoes (world frame, as
+    # the robot places them) and the bearing it steers to (world frame, rad).
+    memory_xy: np.ndarray | None = None
+    steer_heading_rad: float = math.nan
     extra: dict = field(default_factory=dict)
 
 
@@ -790,6 +794,7 @@ class ViewerApp:
                                       o.is_static, tuple(float(v) for v in o.velocity_at(t)))
                          for o in arena.obstacles.values()]
             clearances = arena.clearances()
+            memory_xy, steer = self._memory_view(arena.pose)
             return Snapshot(
                 version=self.version, run_id=self.run_id, layout_id=self.layout_id,
                 time_s=t, playing=self.playing, speed=self.speed, outcome=sim.outcome,
@@ -809,7 +814,8 @@ class ViewerApp:
                 disturbance_on=self.disturbance_on, noise_std_m=self.noise_std_m,
                 message=self.message, message_level=self.message_level,
                 layout_edited=self.layout_edited,
-                metrics=dict(self.metrics) if self.metrics else None)
+                metrics=dict(self.metrics) if self.metrics else None,
+                memory_xy=memory_xy, steer_heading_rad=steer)
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:
         """(run id, trail points from index ``start`` on)."""
@@ -820,6 +826,20 @@ class ViewerApp:
         """The last ``PLOT_WINDOW_S`` of (t, d_t, d_o, phi_t, phi_o, v_left, v_right)."""
         with self.lock:
             return self._signals.ordered()
+
+    def _memory_view(self, pose):
+        """(points (n, 2) in the world, steering heading) of a controller that shows its
+        memory (``teaching_points``), placed from its own frame by the true pose; else
+        (None, nan). Called under the lock."""
+        view = getattr(self.controller.inner, "teaching_points", None)
+        if view is None:
+            return None, math.nan
+        points, bearing = view()
+        x, y, heading = pose
+        c, s = math.cos(heading), math.sin(heading)
+        world = np.column_stack([x + c * points[:, 0] - s * points[:, 1],
+                                 y + s * points[:, 0] + c * points[:, 1]])
+        return world, heading + bearing
 
     def fuzzy_system(self):
         """The controller's FuzzySystem, or None when it has none (``p``); for fuzzynav,

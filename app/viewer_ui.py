@@ -43,6 +43,8 @@ TRAIL_BLUE = (37, 99, 235)
 RING_OK = (217, 119, 6)
 RING_ALERT = (220, 38, 38)
 NO_ECHO = (175, 175, 175)
+MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
+STEER_GREEN = (22, 163, 74)     # the bearing its planner steers to
 GROUND = (255, 255, 255)
 
 OBSTACLE_HEIGHT_M = 0.5
@@ -263,6 +265,12 @@ class ViewerServer:
                                              (150, 150, 150), thickness=0.02)
         self.start_marker = scene.add_line_segments(
             "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04)
+        # fuzzynav's memory: the echoes it remembers, and the bearing its planner steers to.
+        self.memory = scene.add_point_cloud("/memory/echoes", np.zeros((1, 3), np.float32),
+                                            MEMORY_PURPLE, point_size=0.07,
+                                            point_shape="circle", visible=False)
+        self.steer = scene.add_line_segments("/memory/steer", np.zeros((1, 2, 3), np.float32),
+                                             STEER_GREEN, thickness=0.06, visible=False)
 
     def _frame_arena(self, bounds) -> None:
         """Ground grid, metre marks and the top-down camera for these bounds."""
@@ -606,7 +614,32 @@ class ViewerServer:
             sx, sy = self._start_xy
             self.ideal.points = np.array([[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]],
                                          dtype=np.float32)
+        self._draw_memory(snap)
         self._draw_trail()
+
+    def _draw_memory(self, snap: Snapshot) -> None:
+        """fuzzynav's remembered echoes (where the robot believes they are) and the
+        bearing it steers to; hidden for controllers without a memory."""
+        shown = snap.memory_xy is not None
+        if self.memory.visible != shown:
+            self.memory.visible = self.steer.visible = shown
+        if not shown:
+            return
+        pts = snap.memory_xy
+        if len(pts):
+            cloud = np.column_stack([pts, np.full(len(pts), 0.08)]).astype(np.float32)
+        else:
+            cloud = np.zeros((1, 3), np.float32)  # one point under the ground
+            cloud[0, 2] = -1.0
+        self.memory.points = cloud
+        self.memory.colors = np.broadcast_to(np.array(MEMORY_PURPLE, np.uint8),
+                                             cloud.shape).copy()
+        x, y, _ = snap.pose
+        a = snap.steer_heading_rad
+        if math.isfinite(a):
+            self.steer.points = np.array([[[x, y, 0.5], [x + 1.6 * math.cos(a),
+                                                         y + 1.6 * math.sin(a), 0.5]]],
+                                         dtype=np.float32)
 
     def _beam_segments(self, snap: Snapshot, echo: bool):
         """The cone outlines (robot frame) of the beams that echo, or of those that do not."""

@@ -757,6 +757,17 @@ class FuzzyNavController:
                             "right = speed + turn)".format(*last["command"])}
         return self._merged, np.array(last["block_inputs"], dtype=float), state
 
+    def teaching_points(self):
+        """For a teaching display: ``(points, bearing_rad)``, the remembered echo points
+        in the robot's frame (x ahead, y left; (n, 2) m, as dead reckoning places them)
+        and the bearing the goal block was last fed (the planner's, rad, > 0 left)."""
+        x0, y0, th = self.pose
+        c, s = math.cos(th), math.sin(th)
+        pts = np.array([(c * (px - x0) + s * (py - y0), c * (py - y0) - s * (px - x0))
+                        for px, py, _ in self.points], dtype=float).reshape(-1, 2)
+        bearing = self.last["block_inputs"][0] if self.last else math.nan
+        return pts, bearing
+
     @staticmethod
     def _choose_side(phi_t: float, left: float, right: float, hint: float = 0.0) -> float:
         """Pass on the side away from the obstacle when its bearing is known (ideal

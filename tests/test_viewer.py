@@ -349,6 +349,33 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     assert "Crisp parts" in html_text and "front" in html_text
 
 
+def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):
+    """The remembered echoes are drawn in the world from the robot's own frame: after a
+    few seconds of s1 they lie near the obstacles' surfaces; the steering line starts
+    at the robot. Controllers without a memory draw none."""
+    assert app.snapshot().memory_xy is None          # p
+    if "fuzzynav" not in controller_names():
+        pytest.skip("no fuzzynav in this build")
+    # Turned away from the world's axes, so that the robot's own frame (which starts at
+    # its start pose) differs from the world's.
+    app.upload_scenario(b'name = "turned"\nduration_s = 60.0\n[robot]\nstart = [1.0, -1.0]\n'
+                        b'heading_rad = 2.0\n[target]\nposition = [-6.0, 6.0]\n'
+                        b'[[obstacles]]\nposition = [-2.2, 2.6]\nradius_m = 0.3\n'
+                        b'[[obstacles]]\nposition = [-3.6, 3.9]\nradius_m = 0.25\n', "turned.toml")
+    app.set_controller("fuzzynav")
+    while app.sim.time_s < 9.0:
+        app.step_once()
+    snap = app.snapshot()
+    points = snap.memory_xy
+    assert points.ndim == 2 and points.shape[1] == 2 and len(points) >= 3
+    gaps = [min(math.hypot(px - o.xy[0], py - o.xy[1]) - o.radius_m for o in snap.obstacles)
+            for px, py in points]
+    # Most lie on a surface; echoes stored while turning are smeared by up to about
+    # 10 degrees of dead-reckoned heading (controller/fuzzynav.py, item 7), at 2-4 m.
+    assert np.median(gaps) < 0.2 and max(gaps) < 1.0, gaps
+    assert math.isfinite(snap.steer_heading_rad)
+
+
 def test_a_finished_run_reports_the_table4_metrics(app):
     app.set_speed(10.0)
     app.play()
