@@ -55,7 +55,11 @@ def diagram(ax, p):
     arrow(ax, 6.8, 3.1, 7.3, 2.2)
     arrow(ax, 6.8, 0.85, 7.3, 1.7)
     arrow(ax, 8.6, 1.95, 8.9, 1.95)
-    ax.text(6.9, 2.55, "alpha = near(L, F, R)", fontsize=7, style="italic")
+    box(ax, 7.15, 2.85, 1.75, 1.0, f"moving obstacle (ideal):\ntrack d_o, phi_o; closest\n"
+        f"approach < {p['dodge_safe_m']:.1f} m in {p['dodge_horizon_s']:.0f} s:\nstop or full speed",
+        "#f6d5f7")
+    arrow(ax, 8.75, 2.85, 8.75, 2.0)
+    ax.text(6.85, 2.55, "alpha = near(L, F, R)", fontsize=7, style="italic")
     ax.set_title("fuzzynav: goal seeking (on a planned bearing) and avoidance, arbitrated by the "
                  "strength of 'near'", fontsize=10)
 
