@@ -40,3 +40,25 @@ def test_report_draws_the_paper_membership_overview(tmp_path, capsys):
 def test_report_refuses_an_unknown_controller(tmp_path, capsys):
     assert main(["report", str(tmp_path / "r"), "--controllers", "nope"]) == 2
     assert "nope" in capsys.readouterr().err
+
+
+def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
+    """`make report` also runs the two fuzzynav figure scripts: they write their PNGs."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    for name, argv in (("fuzzynav_figure", [str(tmp_path / "design.png")]),
+                       ("crossing_figure", None)):
+        spec = importlib.util.spec_from_file_location(name, root / "scripts" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        if argv is not None:
+            monkeypatch.setattr(sys, "argv", ["x"] + argv)
+            module.main()
+        else:
+            module.main(tmp_path / "crossing.png")
+    for png in ("design.png", "crossing.png"):
+        data = (tmp_path / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
