@@ -13,7 +13,7 @@
    render thread): idle without a tab, idle with a tab, running at 1x and at 10x with a
    tab; and the scene update rate while running.
 
-Run: ``.venv/bin/python bench/bench_viewer.py`` (about a minute). Numbers swing with
+Run: ``.venv/bin/python bench/bench_viewer.py [--controller fuzzynav]`` (about a minute). Numbers swing with
 the machine's load; the load average is printed with them.
 """
 
@@ -63,8 +63,8 @@ class ControllerClock:
         return None
 
 
-def api_latency(n: int = 60) -> list[float]:
-    app = ViewerApp("s1").start()
+def api_latency(n: int = 60, controller: str | None = None) -> list[float]:
+    app = ViewerApp("s1", controller).start()
     clock = ControllerClock(app)
     try:
         app.play()
@@ -118,10 +118,10 @@ def cpu_percent(process: psutil.Process, seconds: float, during=None) -> float:
     return process.cpu_percent(None)
 
 
-def browser_latency_and_cpu(chromium: str | None) -> dict:
+def browser_latency_and_cpu(chromium: str | None, controller: str | None = None) -> dict:
     out: dict = {}
     process = psutil.Process()
-    app = ViewerApp("s1")
+    app = ViewerApp("s1", controller)
     server = ViewerServer(app, port=0)
     clock = ControllerClock(app)
     received: list[float] = []
@@ -191,17 +191,24 @@ def browser_latency_and_cpu(chromium: str | None) -> dict:
     return out
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--controller", default=None,
+                        help="controller in the viewer (default: the viewer's, paper)")
+    args = parser.parse_args(argv)
     load = os.getloadavg()
-    print(f"bench_viewer: load average {load[0]:.1f} on {os.cpu_count()} cores")
-    latencies = api_latency()
+    print(f"bench_viewer: load average {load[0]:.1f} on {os.cpu_count()} cores, "
+          f"controller {args.controller or 'default'}")
+    latencies = api_latency(controller=args.controller)
     print(f"drag latency, app API -> controller input: median {1e3 * statistics.median(latencies):.1f} ms, "
           f"max {1e3 * max(latencies):.1f} ms over {len(latencies)} moves at 1x "
           f"(control period 20 ms)")
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         print("chromium not installed: browser latency and CPU with a tab skipped")
-    results = browser_latency_and_cpu(chromium)
+    results = browser_latency_and_cpu(chromium, args.controller)
     for key, value in results.items():
         print(f"{key}: {value:.1f}" if isinstance(value, float) else f"{key}: {value}")
     load = os.getloadavg()
