@@ -847,7 +847,7 @@ class ViewerApp:
         inner = self.controller.inner
         fis = getattr(inner, "fis", None)
         if fis is None and hasattr(inner, "teaching_view"):
-            fis = getattr(inner, "_merged", None)
+            fis = getattr(inner, "merged", None)
         return fis
 
     def teaching(self) -> dict | None:

@@ -734,6 +734,11 @@ class FuzzyNavController:
             self.obs_sightings = 0
         self.obs_centre = (cx, cy)
 
+    @property
+    def merged(self) -> FuzzySystem:
+        """Both blocks as one system (:func:`merge_blocks`), as the loop evaluates them."""
+        return self._merged
+
     def teaching_view(self):
         """For a teaching display: ``(system, inputs, state)`` of the last call, or None
         before the first. ``system`` is both blocks as one (:func:`merge_blocks`: inputs
