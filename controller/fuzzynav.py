@@ -387,7 +387,6 @@ class FuzzyNavController:
         self.track_w = 0.0
         self.obs_centre = None     # (x, y): estimated centre of the nearest obstacle
         self.obs_vel = (0.0, 0.0)  # its estimated velocity (m/s)
-        self.obs_rel = None        # its centre relative to the robot (tracker axes)
         self.obs_sightings = 0     # consecutive consistent sightings
 
     def _remember(self, x: float, y: float) -> None:
@@ -539,7 +538,7 @@ class FuzzyNavController:
         hint = 0.0
         if not (d_o == d_o and phi_o == phi_o):
             self.prev_obstacle = (math.nan, math.nan)
-            self.obs_centre = self.obs_rel = None
+            self.obs_centre = None
             self.obs_vel = (0.0, 0.0)
             self.obs_sightings = 0
         else:
