@@ -347,3 +347,67 @@ def test_a_stuck_robot_keeps_its_new_side_out_of_a_u_trap():
         assert held.outcome == "reached", (mode, held.metrics)
         dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0)
         assert dithering.outcome == "timeout", mode
+
+
+class _HoldSpy(_Spy):
+    """Records, after every call, whether fuzzynav waits and what it commands."""
+
+    def __call__(self, inputs, ranges_m=None):
+        out = self.c(inputs, ranges_m=ranges_m)
+        last = self.c.last
+        self.rows.append((last["holding"], last["command"][0], self.c.teaching_view()[2]["mode"]))
+        return out
+
+
+def _held(scenario, perception, **params):
+    c = fuzzynav_controller()
+    c.params.update(params)
+    spy = _HoldSpy(c)
+    result = Simulation(scenario, spy, perception=perception, seed=0).run()
+    return result, spy.rows
+
+
+@pytest.mark.parametrize("mode", ["ideal", "ultrasonic"])
+def test_occupied_target_is_waited_for_and_shortens_s2(mode):
+    """s2: the moving obstacle starts on the target. fuzzynav waits 2 m off (no forward
+    speed, the teaching view says so) and arrives by a shorter path than by pushing on."""
+    scenario = load_scenario("s2")
+    waited, rows = _held(scenario, mode)
+    holding = [(speed, m) for h, speed, m in rows if h]
+    assert len(holding) * 0.02 > 5.0, "it never waited for the occupied target"
+    assert all(speed <= 0.0 for speed, _ in holding)
+    assert all(m.startswith("target occupied") for _, m in holding)
+    pushed, rows_off = _held(scenario, mode, occupied_m=0.0)
+    assert not any(h for h, _, _ in rows_off)
+    assert waited.outcome == pushed.outcome == "reached"
+    assert waited.metrics["min_clearance_m"] >= SAFE_M
+    assert waited.metrics["path_length_m"] < pushed.metrics["path_length_m"] - 0.3
+
+
+def test_a_static_obstacle_by_the_target_is_waited_for_at_most_hold_max_s():
+    """An obstacle that never leaves the target's side: the robot waits hold_max_s, then
+    goes and arrives (waiting is not mistaken for being stuck)."""
+    from world.scenario import scenario_from_dict
+    scenario = scenario_from_dict({
+        "name": "occupied by a post", "duration_s": 120.0,
+        "robot": {"start": [0.0, 0.0], "heading_rad": 0.0},
+        "target": {"position": [6.0, 0.0], "tolerance_m": 0.15},
+        "obstacles": [{"position": [6.0, 1.0], "radius_m": 0.3}]})
+    for hold_max_s in (30.0, 5.0):
+        result, rows = _held(scenario, "ideal", hold_max_s=hold_max_s)
+        waited_s = sum(h for h, _, _ in rows) * 0.02
+        assert waited_s == pytest.approx(hold_max_s, abs=0.05)
+        assert result.outcome == "reached", result.metrics
+        # about 13 s without waiting; mistaking the wait for being stuck cost a minute
+        assert hold_max_s < result.metrics["time_to_target_s"] < hold_max_s + 25.0
+
+
+def test_a_moved_target_may_be_waited_for_again():
+    c = fuzzynav_controller()
+    far = np.array([5.0, math.nan, 0.0, math.nan])
+    c(far, ranges_m=np.full(3, math.inf))
+    c.hold_left_s = 0.0          # its waiting for this target is used up
+    c(far - [0.01, 0, 0, 0], ranges_m=np.full(3, math.inf))
+    assert c.hold_left_s == 0.0
+    c(far + [3.0, 0, 0, 0], ranges_m=np.full(3, math.inf))   # the target was dragged
+    assert c.hold_left_s == c.params["hold_max_s"]
