@@ -74,8 +74,7 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    be driven into; pushing on only meets it there (the paper's scenario 2: the moving
    obstacle starts on the target). Once the target is nearer than ``hold_m`` the robot
    waits (no forward speed; turning and backing off stay allowed, the other rules still
-   act, except passing a moving obstacle first) until the target has been free for
-   ``hold_release_s``; at most ``hold_max_s`` in
+   act) until the target has been free for ``hold_release_s``; at most ``hold_max_s`` in
    all for one target (a static obstacle by the target would otherwise hold it for ever;
    a target that jumps by more than 1 m, dragged in the viewer, is a new one).
 9. **Escape from local minima** (memory): if the target distance has not improved for
@@ -711,10 +710,8 @@ class FuzzyNavController:
             speed = 0.0
         # A moving obstacle on a collision course: stop, or go on at full speed, when
         # that keeps its predicted closest approach farther (yield or pass first).
-        # Not while waiting at an occupied target: passing first would drive at it.
         dodge = ""
-        if (p["dodge_horizon_s"] > 0.0 and self.obs_sightings >= p["dodge_sightings"]
-                and not self.holding):
+        if p["dodge_horizon_s"] > 0.0 and self.obs_sightings >= p["dodge_sightings"]:
             vx, vy = self.obs_vel
             if vx * vx + vy * vy > p["dodge_min_speed_mps"] ** 2:
                 tp = self.track_pose
