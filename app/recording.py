@@ -235,8 +235,7 @@ def controller_replica(controller):
 
 INTERNALS_PATH = "/plots/internals"
 INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
-             "yield (1) / pass first (-1)", "following an edge (1)",
-             "waiting at an occupied target (1)")
+             "yield (1) / pass first (-1)", "following an edge (1)")
 
 
 def controller_label(controller) -> str:
@@ -661,7 +660,7 @@ class _ColumnWriter:
                 return
             last = replica.last
             out[j] = (last["alpha"], last["plan_offset"], dodge_code.get(last["dodge"], 0.0),
-                      float(last["follow"]), float(last["holding"]))
+                      float(last["follow"]))
         self._plot(INTERNALS_PATH, list(INTERNALS),
                    [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
                    [1.5] * len(INTERNALS), out)

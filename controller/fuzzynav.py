@@ -69,19 +69,11 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    design seeds, so it is kept and stated here). An ultrasonic sighting's bearing is the
    sensor's axis, which says nothing of motion across the beam: the tracker ignores it,
    so in ultrasonic perception only the time-to-contact rule acts.
-8. **Occupied target** (memory): an obstacle standing on the target (a remembered echo
-   within ``occupied_m`` of it, nearer than the robot's half-length plus a margin) cannot
-   be driven into; pushing on only meets it there (the paper's scenario 2: the moving
-   obstacle starts on the target). Once the target is nearer than ``hold_m`` the robot
-   waits (no forward speed; turning and backing off stay allowed, the other rules still
-   act) until the target has been free for ``hold_release_s``; at most ``hold_max_s`` in
-   all for one target (a static obstacle by the target would otherwise hold it for ever;
-   a target that jumps by more than 1 m, dragged in the viewer, is a new one).
-9. **Escape from local minima** (memory): if the target distance has not improved for
+8. **Escape from local minima** (memory): if the target distance has not improved for
    ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side (the
    goal block is fed a virtual bearing towards it) until it is ``leave_margin_m`` closer to
    the target than where it got stuck (the Bug-2 idea), or loses the boundary.
-10. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
+9. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
    reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
    near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
    towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
@@ -167,10 +159,6 @@ CRISP_DEFAULTS: dict[str, float] = {
     "dodge_radius_m": 0.25,       # the radius assumed to place an obstacle's centre
     "dodge_min_speed_mps": 0.08,  # slower obstacles are left to the avoidance block
     "dodge_sightings": 3,         # consistent sightings (store_s apart) before a speed is trusted
-    "occupied_m": 0.8,            # a remembered echo this near the target occupies it (0 = off)
-    "hold_m": 2.0,                # ... and the robot waits this far from it (no forward speed)
-    "hold_release_s": 1.5,        # ... until the target has been free this long
-    "hold_max_s": 30.0,           # ... waiting at most this long in all for one target
 }
 # What `fuzzynav tune --controller fuzzynav` searches (the rest stays at the hand design).
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
@@ -400,12 +388,6 @@ class FuzzyNavController:
         self.obs_centre = None     # (x, y): estimated centre of the nearest obstacle
         self.obs_vel = (0.0, 0.0)  # its estimated velocity (m/s)
         self.obs_sightings = 0     # consecutive consistent sightings
-        # Occupied target: an echo near the target (see the module docstring, 8).
-        self.occupied = False
-        self.holding = False
-        self.free_s = 0.0          # how long the target has been free
-        self.hold_left_s = self.params["hold_max_s"]   # waiting still allowed for this target
-        self.prev_d_t = math.nan
 
     def _remember(self, x: float, y: float) -> None:
         """Store an echo point (odometry frame); one near a remembered point replaces it,
@@ -517,11 +499,6 @@ class FuzzyNavController:
                 elif d < m_r:
                     m_r = d
             self.mem_sectors = (m_l, m_f, m_r)
-            occ = p["occupied_m"]
-            if occ > 0.0:
-                tx, ty = d_t * math.cos(phi_t), d_t * math.sin(phi_t)
-                self.occupied = any((bx - tx) ** 2 + (by - ty) ** 2 < occ * occ
-                                    for bx, by in ahead)
             # Bearing planner: the free bearing nearest the target's, passing every
             # remembered point at plan_margin_m off the flank; held between updates as
             # an offset from the target's bearing.
@@ -623,9 +600,8 @@ class FuzzyNavController:
             self.side = 0.0
         side = self.side if self.side != 0.0 else (1.0 if phi_t >= 0 else -1.0)
 
-        # Progress watch -> boundary following (waiting at an occupied target is not
-        # being stuck).
-        if d_t < self.best_d_t - p["stall_progress_m"] or self.holding:
+        # Progress watch -> boundary following.
+        if d_t < self.best_d_t - p["stall_progress_m"]:
             self.best_d_t, self.best_t = d_t, self.t
         if self.follow:
             if (d_t < self.follow_d_t - p["leave_margin_m"]
@@ -693,21 +669,6 @@ class FuzzyNavController:
                 self.unstick_s = p["deadlock_s"]
         else:
             self.creep_s = 0.0
-        # Occupied target: wait hold_m off (turning and backing off stay allowed) until
-        # it has been free for hold_release_s; pushing on only meets the obstacle there.
-        # A target that jumps (moved in the viewer) is a new target: it may be waited for.
-        if abs(d_t - self.prev_d_t) > 1.0:
-            self.hold_left_s = p["hold_max_s"]
-        self.prev_d_t = d_t
-        self.free_s = 0.0 if self.occupied else self.free_s + dt
-        if self.holding:
-            self.hold_left_s -= dt
-            if self.free_s > p["hold_release_s"] or self.hold_left_s <= 0.0:
-                self.holding = False
-        elif self.occupied and d_t < p["hold_m"] and self.hold_left_s > 0.0:
-            self.holding = True
-        if self.holding and speed > 0.0:
-            speed = 0.0
         # A moving obstacle on a collision course: stop, or go on at full speed, when
         # that keeps its predicted closest approach farther (yield or pass first).
         dodge = ""
@@ -741,7 +702,6 @@ class FuzzyNavController:
                      "follow": self.follow, "goal": (g_speed, g_turn),
                      "avoid": (a_speed, a_turn), "block_inputs": (phi, d_t) + avoid_in,
                      "plan_offset": self.plan_offset, "dodge": dodge,
-                     "holding": self.holding,
                      "command": (speed, turn)}
         self.cmd = (speed - turn, speed + turn)
         return np.array(self.cmd)
@@ -788,8 +748,6 @@ class FuzzyNavController:
             return None
         if last["follow"]:
             mode = "following an edge (no progress: Bug-2 escape)"
-        elif last["holding"]:
-            mode = "target occupied: waiting for it to clear"
         elif last["dodge"]:
             mode = f"moving obstacle: {last['dodge']}"
         elif last["plan_offset"]:

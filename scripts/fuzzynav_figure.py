@@ -59,10 +59,6 @@ def diagram(ax, p):
         f"approach < {p['dodge_safe_m']:.1f} m in {p['dodge_horizon_s']:.0f} s:\nstop or full speed",
         "#f6d5f7")
     arrow(ax, 8.75, 2.85, 8.75, 2.0)
-    box(ax, 7.15, 0.05, 1.75, 1.0, f"occupied target: an echo\n< {p['occupied_m']:.1f} m from it, d_t < "
-        f"{p['hold_m']:.0f} m:\nwait (no forward speed,\n<= {p['hold_max_s']:.0f} s per target)",
-        "#f6d5f7")
-    arrow(ax, 8.75, 1.05, 8.75, 1.3)
     ax.text(6.85, 2.55, "alpha = near(L, F, R)", fontsize=7, style="italic")
     ax.set_title("fuzzynav: goal seeking (on a planned bearing) and avoidance, arbitrated by the "
                  "strength of 'near'", fontsize=10)

@@ -625,11 +625,10 @@ def test_fuzzynav_internals_are_recorded(tmp_path):
     assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNALS)
     decided = values[:-1]                       # the last row has no decision
     assert np.all(np.isnan(values[-1]))
-    alpha, offset, dodge, follow, holding = decided.T
+    alpha, offset, dodge, follow = decided.T
     assert np.all((alpha >= 0) & (alpha <= 1))
     assert np.any(dodge == 1.0), "the robot never yielded on crossing"
     assert set(np.unique(follow)) <= {0.0, 1.0}
-    assert set(np.unique(holding)) <= {0.0, 1.0}
     assert "controller internals" not in rec.text("/meta/run")
 
 
