@@ -18,7 +18,10 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    than ``store_range_m`` are stored as points in an odometry frame (dead reckoning from
    the voltages this controller commanded, with the plant's gains and lag), each as a short
    arc (the axis +- ``echo_spread_deg``: an echo may come from anywhere across the 15 deg
-   beam); in ideal perception the nearest obstacle's surface point is stored too. A new
+   beam), and the nearest echo as the point on its axis d_o from the footprint. Only
+   sonar sightings are remembered (in ideal perception too): the all-around nearest
+   obstacle of ideal perception is used in the moment only, because a disturbed sample
+   (s3's disturbance) remembered for ``memory_s`` was a phantom obstacle. A new
    point within ``merge_m`` of an old one replaces it; points are forgotten after
    ``memory_s``. At the sensors' 25 Hz the remembered footprint distance per sector (ahead
    = within the flanks + ``front_corridor_m``) is recomputed, so an obstacle that has left
@@ -460,10 +463,12 @@ class FuzzyNavController:
                         for a in (ma - spread, ma, ma + spread):
                             bx, by = mx + r * math.cos(a), my + r * math.sin(a)
                             self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)
-                if d_o == d_o and phi_o == phi_o:
-                    # The nearest obstacle's surface, as the point on its bearing that
-                    # is d_o from the footprint (in ideal perception it covers the
-                    # beams' blind gaps).
+                if d_o == d_o and phi_o in _AXES:
+                    # A sonar's nearest echo also as the point on its axis that is d_o
+                    # from the footprint. Only sonar sightings (bearing on a beam axis)
+                    # are remembered: the all-around nearest obstacle of ideal
+                    # perception acts in the moment only, because one disturbed sample
+                    # (s3) would otherwise stay as a phantom obstacle for memory_s.
                     rr = range_at_clearance(phi_o, d_o)
                     bx, by = rr * math.cos(phi_o), rr * math.sin(phi_o)
                     self._remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by)

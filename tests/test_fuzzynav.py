@@ -327,13 +327,14 @@ def test_tracker_ignores_ultrasonic_bearings():
 
 def test_crossing_obstacle_is_let_through_in_ideal_perception():
     """The crossing scenario: with the dodge the robot lets the obstacle pass and arrives
-    with room to spare; without it (horizon 0) it drives into the obstacle's path."""
+    with room to spare; without it (horizon 0) it drives into the obstacle's path and
+    only just gets out of the way (6 cm), or is hit."""
     scenario = load_scenario("crossing")
     with_dodge, _ = _tracked(scenario, "ideal")
     assert with_dodge.outcome == "reached", with_dodge.metrics
     assert with_dodge.metrics["min_clearance_m"] >= SAFE_M
     without, _ = _tracked(scenario, "ideal", dodge_horizon_s=0.0)
-    assert without.outcome == "collided"
+    assert without.collided or without.metrics["min_clearance_m"] < SAFE_M / 2
 
 
 def test_a_stuck_robot_keeps_its_new_side_out_of_a_u_trap():
@@ -347,3 +348,30 @@ def test_a_stuck_robot_keeps_its_new_side_out_of_a_u_trap():
         assert held.outcome == "reached", (mode, held.metrics)
         dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0)
         assert dithering.outcome == "timeout", mode
+
+
+def test_only_sonar_sightings_are_remembered():
+    """The all-around nearest obstacle of ideal perception is used in the moment but not
+    remembered (a disturbed sample would stay as a phantom obstacle); a sonar's sighting
+    (bearing on a beam axis) is remembered."""
+    nothing = np.full(3, math.inf)
+    c = fuzzynav_controller()
+    c(np.array([5.0, 0.3, 0.0, 0.8]), ranges_m=nothing)       # ideal: off every axis
+    assert c.points == []
+    assert c.last["sectors"][0] <= 0.3                        # ... but acted on (left)
+    for bearing, remembered in ((0.0, True), (0.001, False)):   # on / off the front axis
+        c = fuzzynav_controller()
+        c(np.array([5.0, 1.0, 0.0, bearing]), ranges_m=nothing)
+        assert (len(c.points) == 1) is remembered, bearing
+
+
+@pytest.mark.parametrize("index", [2, 5, 35, 44])
+def test_s3_jittered_is_survived_in_ideal_perception(index):
+    """s3 jittered by a few cm (paper_jitter seed 1): these collided with the moving
+    obstacle when disturbed nearest-obstacle samples were remembered."""
+    from world.layouts import generate_layout
+    scenario = generate_layout("paper_jitter", 1, index)
+    assert "s3" in scenario.name
+    result = _run(scenario, "ideal")
+    assert result.outcome == "reached", result.metrics
+    assert result.metrics["min_clearance_m"] >= SAFE_M

@@ -47,3 +47,25 @@ def test_u_trap_blocks_the_straight_line():
 def test_unknown_family():
     with pytest.raises(ValueError, match="family"):
         generate_layout("maze", 0, 0)
+
+
+def test_paper_jitter_stays_within_what_the_figures_can_be_read_to():
+    from world.layouts import JITTER_HEADING_RAD, JITTER_MOTION_SCALE, JITTER_POSITION_M
+    from world.scenario import load_scenario
+    layouts = generate_layouts("paper_jitter", 12, seed=3)
+    for i, sc in enumerate(layouts):
+        base = load_scenario(f"s{i % 3 + 1}")
+        assert f"s{i % 3 + 1} jittered" in sc.name
+        assert sc.target == base.target and sc.start == base.start
+        assert sc.disturbance == base.disturbance
+        assert 0 < abs(sc.heading_rad - base.heading_rad) <= JITTER_HEADING_RAD
+        assert len(sc.obstacles) == len(base.obstacles)
+        for o, b in zip(sc.obstacles, base.obstacles):
+            assert o.radius_m == b.radius_m and o.is_static == b.is_static
+            if b.is_static:
+                assert np.max(np.abs(np.subtract(o.position, b.position))) <= JITTER_POSITION_M
+                assert o.position != b.position
+            else:
+                assert o.position == b.position
+                ratio = np.divide(o.acceleration, b.acceleration)
+                assert np.all(np.abs(ratio - 1) <= JITTER_MOTION_SCALE)

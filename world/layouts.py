@@ -14,6 +14,12 @@ Families
     driving straight at the target ends in a dead end (a local minimum).
 ``two_moving``
     1-2 static obstacles and two moving ones crossing the line.
+``paper_jitter``
+    The paper's scenarios s1, s2, s3 in turn (layout ``i`` is s``i % 3 + 1``), each
+    jittered by less than the paper's figures can be read: every static obstacle moved
+    by up to +-5 cm in x and y, every moving obstacle's acceleration (and velocity)
+    scaled by 0.95-1.05 per axis, the start heading turned by up to +-0.03 rad; the
+    disturbance of s3 kept. A result on s1-s3 that does not survive this is luck.
 
 Layout ``i`` of a sweep with seed ``s`` comes from ``numpy.random.default_rng([s, i])``,
 so the first ``n`` layouts of a seed are the same whatever the sweep's size. Every
@@ -22,13 +28,17 @@ layout is checked by :func:`world.scenario.check_layout`, like a scenario file.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from world.scenario import ObstacleSpec, Scenario, ScenarioError, check_layout
 
-FAMILIES = ("standard", "clutter", "u_trap", "two_moving")
+FAMILIES = ("standard", "clutter", "u_trap", "two_moving", "paper_jitter")
+JITTER_POSITION_M = 0.05
+JITTER_MOTION_SCALE = 0.05
+JITTER_HEADING_RAD = 0.03
 
 ROBOT_WIDTH_M = 0.67
 SAFE_DISTANCE_M = 0.25
@@ -127,7 +137,33 @@ def generate_layout(family: str, seed: int, index: int) -> Scenario:
     raise RuntimeError(f"no valid {family} layout for seed {seed}, index {index} in 50 draws")
 
 
+def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
+    from world.scenario import load_scenario
+    name = f"s{index % 3 + 1}"
+    base = load_scenario(name)
+    obstacles = []
+    for o in base.obstacles:
+        if o.is_static:
+            shift = rng.uniform(-JITTER_POSITION_M, JITTER_POSITION_M, 2)
+            obstacles.append(dataclasses.replace(
+                o, position=(o.position[0] + float(shift[0]), o.position[1] + float(shift[1]))))
+        else:
+            scale = rng.uniform(1 - JITTER_MOTION_SCALE, 1 + JITTER_MOTION_SCALE, 2)
+            obstacles.append(dataclasses.replace(
+                o, velocity=(o.velocity[0] * float(scale[0]), o.velocity[1] * float(scale[1])),
+                acceleration=(o.acceleration[0] * float(scale[0]),
+                              o.acceleration[1] * float(scale[1]))))
+    scenario = base.replace(
+        name=f"paper_jitter #{index}: {name} jittered (seed {seed})",
+        heading_rad=base.heading_rad + float(rng.uniform(-JITTER_HEADING_RAD, JITTER_HEADING_RAD)),
+        obstacles=tuple(obstacles), source=f"<layout paper_jitter seed={seed} index={index}>")
+    check_layout(scenario)
+    return scenario
+
+
 def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scenario:
+    if family == "paper_jitter":
+        return _jitter(rng, seed, index)
     start, target, along, across, distance = _frame(rng)
     moving: list[ObstacleSpec] = []
     if family == "standard":
