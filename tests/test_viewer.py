@@ -370,9 +370,12 @@ def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):
     assert points.ndim == 2 and points.shape[1] == 2 and len(points) >= 3
     gaps = [min(math.hypot(px - o.xy[0], py - o.xy[1]) - o.radius_m for o in snap.obstacles)
             for px, py in points]
-    # Most lie on a surface; echoes stored while turning are smeared by up to about
-    # 10 degrees of dead-reckoned heading (controller/fuzzynav.py, item 7), at 2-4 m.
-    assert np.median(gaps) < 0.2 and max(gaps) < 1.0, gaps
+    # A wrong transform puts them 6-8 m off. Right, they lie near a surface, but only
+    # sonar echoes are remembered now (no exact surface points of ideal perception):
+    # an echo is placed on its beam's axis though it may come from anywhere in the 15 deg
+    # cone (0.26-0.52 m off at 2-4 m), and echoes stored while turning are smeared by up
+    # to about 10 degrees of dead-reckoned heading (controller/fuzzynav.py, item 7).
+    assert np.median(gaps) < 0.4 and max(gaps) < 1.0, gaps
     assert math.isfinite(snap.steer_heading_rad)
 
 
