@@ -130,18 +130,30 @@ def cmd_sweep(args) -> int:
     from app.cli import print_json
 
     _check_workers(args.workers)
+    beside = args.beside
+    if beside == "auto":
+        beside = "paper" if args.controller != "paper" else "none"
     out = _sweep_with_bar(args.controller, args.n, args.seed, args.family, args.perception,
                           args.workers, args.json)
+    other = None
+    if beside not in ("none", args.controller):
+        # the same layouts, so that the two rates are comparable run for run
+        other = _sweep_with_bar(beside, args.n, args.seed, args.family, args.perception,
+                                args.workers, args.json)
     if args.json:
+        if other is not None:
+            out["beside"] = {k: v for k, v in other.items() if k != "runs"}
         print_json(out)
         return 0
-    table = Table(title=f"sweep: {args.controller}, {args.family} layouts, seed {args.seed}, "
+    table = Table(title=f"sweep: {args.family} layouts, seed {args.seed}, "
                         f"{args.perception} perception")
     table.add_column("metric")
-    table.add_column("value", justify="right")
+    table.add_column(args.controller, justify="right")
+    if other is not None:
+        table.add_column(beside, justify="right")
     for key, value in out.items():
-        if key != "runs":
-            table.add_row(key, _fmt(value))
+        if key not in ("runs", "controller"):
+            table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
     Console().print(table)
     return 0
 
@@ -259,6 +271,9 @@ def add_commands(subparsers) -> None:
     p.add_argument("--controller", default="paper", choices=controller_names())
     p.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES)
     p.add_argument("--workers", type=int, default=1, help="worker processes, 1 or 2 (default 1)")
+    p.add_argument("--beside", default="auto", choices=("auto", "none", *controller_names()),
+                   help="also sweep this controller on the same layouts and print it beside "
+                        "(default: paper, unless --controller is paper; none: skip)")
     p.add_argument("--json", action="store_true", help="print one JSON object (with every run)")
     p.set_defaults(func=cmd_sweep)
 

@@ -128,3 +128,20 @@ def test_fis_export_round_trip(tmp_path, capsys):
 def test_fis_export_bad_path(tmp_path, capsys):
     assert main(["fis", "export", str(tmp_path / "x.txt")]) == 2
     assert main(["fis", "export", str(tmp_path / "missing" / "x.fis")]) == 2
+
+
+def test_sweep_prints_the_paper_controller_beside(capsys):
+    """Issue 6: a sweep of another controller prints the paper controller's rate beside
+    it, on the same layouts; --beside none skips it; a bad name is refused."""
+    assert main(["sweep", "--n", "2", "--seed", "5", "--controller", "p", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["controller"] == "p" and data["beside"]["controller"] == "paper"
+    assert data["beside"]["n"] == 2 and data["beside"]["seed"] == 5 and "runs" not in data["beside"]
+    assert main(["sweep", "--n", "2", "--seed", "5", "--controller", "p"]) == 0
+    header = capsys.readouterr().out
+    assert "paper" in header and " p " in header
+    assert main(["sweep", "--n", "1", "--controller", "p", "--beside", "none", "--json"]) == 0
+    assert "beside" not in json.loads(capsys.readouterr().out)
+    with pytest.raises(SystemExit) as exc:
+        main(["sweep", "--n", "1", "--beside", "nobody"])
+    assert exc.value.code == 2
