@@ -30,6 +30,7 @@ report: $(VENV)/.installed
 	$(VENV)/bin/fuzzynav report out/report --readme-images docs/img
 	$(PY) scripts/fuzzynav_figure.py
 	$(PY) scripts/crossing_figure.py
+	$(PY) scripts/jitter_figure.py
 
 screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py

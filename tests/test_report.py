@@ -43,7 +43,7 @@ def test_report_refuses_an_unknown_controller(tmp_path, capsys):
 
 
 def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
-    """`make report` also runs the two fuzzynav figure scripts: they write their PNGs."""
+    """`make report` also runs the fuzzynav figure scripts: they write their PNGs."""
     import importlib.util
     import sys
     from pathlib import Path
@@ -59,6 +59,10 @@ def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
             module.main()
         else:
             module.main(tmp_path / "crossing.png")
-    for png in ("design.png", "crossing.png"):
+    spec = importlib.util.spec_from_file_location("jitter_figure", root / "scripts" / "jitter_figure.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(tmp_path / "jitter.png", n_per_scenario=1)
+    for png in ("design.png", "crossing.png", "jitter.png"):
         data = (tmp_path / png).read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
