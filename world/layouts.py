@@ -29,11 +29,12 @@ layout is checked by :func:`world.scenario.check_layout`, like a scenario file.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
 
-from world.scenario import ObstacleSpec, Scenario, ScenarioError, check_layout
+from world.scenario import ObstacleSpec, Scenario, ScenarioError, check_layout, load_scenario
 
 FAMILIES = ("standard", "clutter", "u_trap", "two_moving", "paper_jitter")
 JITTER_POSITION_M = 0.05
@@ -137,10 +138,14 @@ def generate_layout(family: str, seed: int, index: int) -> Scenario:
     raise RuntimeError(f"no valid {family} layout for seed {seed}, index {index} in 50 draws")
 
 
+@functools.lru_cache(maxsize=None)
+def _paper_scenario(name: str) -> Scenario:
+    return load_scenario(name)   # frozen: safe to share between layouts
+
+
 def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
-    from world.scenario import load_scenario
     name = f"s{index % 3 + 1}"
-    base = load_scenario(name)
+    base = _paper_scenario(name)
     obstacles = []
     for o in base.obstacles:
         if o.is_static:
