@@ -33,10 +33,13 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    ``plan_margin_m``; the goal block is fed the free bearing nearest the target's instead
    of the target's own. Its side is latched while points are within ``plan_latch_m``, and
    changes farther out only for a detour shorter by ``plan_switch_rad`` (near, only when
-   the latched detour exceeds ``plan_flip_rad``). Once the robot has made no progress for
-   ``plan_stuck_s``, a side it changed to is kept for ``plan_flip_hold_s``: at the mouth
-   of a U both detours are near 90 degrees and the side would otherwise flip every few
-   seconds, the robot turning on the spot until it times out.
+   the latched detour exceeds ``plan_flip_rad``, and then only to a detour under
+   ``plan_flip_rad``, at most once per ``plan_flip_min_s``, while the robot makes
+   progress). Once the robot has made no progress for ``plan_stuck_s``, a side it changed
+   to is kept for ``plan_flip_hold_s``: at the mouth of a U both detours are near 90
+   degrees and the side would otherwise flip every second or so, the robot turning on
+   the spot until it times out. Points beside the robot (back to its rear edge) block
+   bearings too, so that a detour past 90 degrees sees the trap's arm it would turn into.
 3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
    speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
    robot never orbits its target (the paper's trap: its outputs cannot go negative).
@@ -152,6 +155,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
     "plan_stuck_s": 6.0,          # no progress for this long: the robot is stuck, and then
     "plan_flip_hold_s": 15.0,     # ... keeps a new side at least this long (no dithering)
+    "plan_flip_min_s": 2.0,       # near points: a side is kept at least this long
     "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
@@ -187,20 +191,23 @@ def _linz(x: float, lo: float, hi: float) -> float:
 
 
 def blocked_cones(points_robot, radius_m: float, horizon_m: float, beyond_m: float,
-                  nearest_m: float = 0.0) -> list[tuple[float, float]]:
+                  nearest_m: float = 0.0, rearmost_m: float = 0.0
+                  ) -> list[tuple[float, float]]:
     """Bearings (rad, > 0 left) the robot's centre line may not take, one interval per point.
 
     A point at distance ``rho`` and bearing ``beta`` (robot frame) is passed at a lateral
     distance of at least ``radius_m`` by every heading outside
     ``beta -+ asin(radius_m / rho)``; a point nearer than ``radius_m`` blocks a half plane.
     Points farther than ``horizon_m``, farther than ``beyond_m`` (the target: what lies
-    beyond it does not matter) or behind the robot are ignored.
+    beyond it does not matter), nearer than ``nearest_m`` or behind ``x = rearmost_m``
+    (robot frame, x ahead) are ignored. With ``rearmost_m < 0`` points beside the robot
+    block bearings beyond 90 degrees, which a detour round a trap has to take.
     """
     cones = []
     limit = min(horizon_m, beyond_m)
     for bx, by in points_robot:
         rho = math.hypot(bx, by)
-        if rho > limit or rho < nearest_m or bx < 0.0:
+        if rho > limit or rho < nearest_m or bx < rearmost_m:
             continue
         beta = math.atan2(by, bx)
         half = math.asin(radius_m / rho) if rho > radius_m else 0.5 * math.pi
@@ -507,8 +514,11 @@ class FuzzyNavController:
             # Bearing planner: the free bearing nearest the target's, passing every
             # remembered point at plan_margin_m off the flank; held between updates as
             # an offset from the target's bearing.
+            # Points beside the robot (back to its rear edge) count as well: they bound
+            # the detours of more than 90 degrees that lead out of a trap; without them
+            # the side turned away from looked free and the robot turned back and forth.
             cones = blocked_cones(ahead, _HY + p["plan_margin_m"], p["plan_horizon_m"],
-                                  d_t + 0.3, p["plan_nearest_m"])
+                                  d_t + 0.3, p["plan_nearest_m"], -_HX)
             # The side is latched while remembered points are near (plan_latch_m), even
             # when the target's bearing is momentarily free, so that the planner and the
             # avoidance block never dither between two sides. Farther away it changes
@@ -520,11 +530,17 @@ class FuzzyNavController:
                 latched = side_now
             elif side_now != 0.0 and (not near_block or abs(psi - phi_t) > p["plan_flip_rad"]):
                 # near points hold the side, unless its detour has grown past
-                # plan_flip_rad (the robot would turn back): then the shorter side wins
+                # plan_flip_rad (the robot would turn back): then the other side, if it
+                # is a real shortcut (a detour under plan_flip_rad) and the robot is
+                # making progress, at most once per plan_flip_min_s; in any case once
+                # the side has been held plan_flip_hold_s
                 other, _ = free_bearing(cones, phi_t, -latched)
+                held_s = self.t - self.plan_flip_t
                 if (abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t)
-                        and (not near_block or self.t - self.best_t < p["plan_stuck_s"]
-                             or self.t - self.plan_flip_t > p["plan_flip_hold_s"])):
+                        and (not near_block or held_s > p["plan_flip_hold_s"]
+                             or (held_s > p["plan_flip_min_s"]
+                                 and abs(other - phi_t) < p["plan_flip_rad"]
+                                 and self.t - self.best_t < p["plan_stuck_s"]))):
                     psi, latched = other, -latched
                     self.plan_flip_t = self.t
             elif side_now == 0.0 and not near_block:

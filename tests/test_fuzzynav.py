@@ -181,6 +181,18 @@ def test_blocked_cones_ignore_points_behind_far_beyond_or_too_near():
     assert cone == pytest.approx((-math.pi / 2, math.pi / 2))
 
 
+def test_blocked_cones_count_points_beside_the_robot_down_to_rearmost():
+    """A point beside the robot (x between the rear edge and the centre) blocks
+    bearings past 90 deg, which a detour out of a trap has to take."""
+    beside = [(-0.3, 1.5)]
+    assert blocked_cones(beside, 0.5, 4.0, 10.0, 0.8) == []
+    (cone,) = blocked_cones(beside, 0.5, 4.0, 10.0, 0.8, rearmost_m=-0.495)
+    beta, half = math.atan2(1.5, -0.3), math.asin(0.5 / math.hypot(0.3, 1.5))
+    assert cone == pytest.approx((beta - half, beta + half))
+    assert cone[0] > math.pi / 2 - half and cone[1] > math.pi / 2
+    assert blocked_cones([(-0.6, 1.5)], 0.5, 4.0, 10.0, 0.8, rearmost_m=-0.495) == []
+
+
 def test_free_bearing_hand_cases():
     assert free_bearing([], 0.3, 1.0) == (0.3, 0.0)
     assert free_bearing([(0.5, 0.9)], 0.3, 1.0) == (0.3, 0.0)       # target bearing free
@@ -337,16 +349,17 @@ def test_crossing_obstacle_is_let_through_in_ideal_perception():
     assert without.collided or without.metrics["min_clearance_m"] < SAFE_M / 2
 
 
-def test_a_stuck_robot_keeps_its_new_side_out_of_a_u_trap():
-    """u_trap layout 5 of seed 1: at the U's mouth both planner detours are near 90 deg;
-    without the hold the side flips back and forth and the robot times out turning on the
-    spot; with it the robot gets round the U, in both perception modes."""
+def test_a_robot_in_a_u_trap_keeps_its_side_and_gets_out():
+    """u_trap layout 14 of seed 1: at the U's mouth both planner detours are near 90 deg;
+    without the holds (plan_flip_min_s, plan_flip_hold_s) the side flips back and forth
+    and the robot times out turning on the spot; with them it gets round the U, in both
+    perception modes, without collision."""
     from world.layouts import generate_layout
-    scenario = generate_layout("u_trap", 1, 5)
+    scenario = generate_layout("u_trap", 1, 14)
     for mode in ("ideal", "ultrasonic"):
         held, _ = _tracked(scenario, mode)
-        assert held.outcome == "reached", (mode, held.metrics)
-        dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0)
+        assert held.outcome == "reached" and not held.collided, (mode, held.metrics)
+        dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0, plan_flip_min_s=0.0)
         assert dithering.outcome == "timeout", mode
 
 
