@@ -77,8 +77,12 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    so in ultrasonic perception only the time-to-contact rule acts.
 8. **Escape from local minima** (memory): if the target distance has not improved for
    ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side (the
-   goal block is fed a virtual bearing towards it) until it is ``leave_margin_m`` closer to
-   the target than where it got stuck (the Bug-2 idea), or loses the boundary.
+   goal block is fed a virtual bearing ``follow_bias_rad`` towards it) until it is
+   ``leave_margin_m`` closer to the target than where it got stuck (the Bug-2 idea), or
+   loses the boundary. The virtual bearing sits at the goal block's PS peak, so that block
+   drives on at speed on an arc towards the boundary while the avoidance block holds the
+   distance; at 0.6 rad (fully PB) it turned on the spot towards the boundary, the
+   avoidance block turned it back, and the robot crept along the edge at about 0.13 m/s.
 9. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
    reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
    near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
@@ -134,7 +138,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "stall_s": 15.0,               # no progress for this long -> boundary following
     "stall_progress_m": 0.3,
     "leave_margin_m": 0.5,
-    "follow_bias_rad": 0.6,       # virtual bearing pulls this far towards the boundary
+    "follow_bias_rad": 0.25,      # virtual bearing pulls this far towards the boundary
     "follow_max_s": 60.0,
     "follow_lost_m": 2.0,         # nothing remembered this near: stop following
     "guard_m": 0.8,               # no goal turn towards a passed obstacle nearer than this

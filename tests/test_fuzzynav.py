@@ -398,3 +398,25 @@ def test_jittered_paper_scenarios_are_reached_without_collision_in_ideal_percept
     for sc in layouts:
         r = _run(sc, "ideal")
         assert r.outcome == "reached" and not r.collided, (sc.name, r.metrics)
+
+
+def test_edge_following_drives_on_along_the_edge():
+    """The escape feeds the goal block a virtual bearing follow_bias_rad towards the
+    boundary: at the shipped 0.25 rad (the PS peak) the goal block drives on at speed on
+    an arc; at 0.6 rad (fully PB) it would turn on the spot, and against the avoidance
+    block the robot crept along the edge. u_trap layout 8 of seed 1 needs the escape:
+    reached without collision in both perception modes at 0.25 rad, timed out at 0.6."""
+    from world.layouts import generate_layout
+    c = fuzzynav_controller()
+    bias = c.params["follow_bias_rad"]
+    for side in (1.0, -1.0):
+        speed, turn = c.goal.evaluate_one(np.array([-side * bias, 10.0]))
+        assert speed > 8.0 and -side * turn > 1.0, (side, speed, turn)
+        speed, _ = c.goal.evaluate_one(np.array([-side * 0.6, 10.0]))
+        assert abs(speed) < 1.0, speed
+    scenario = generate_layout("u_trap", 1, 8)
+    for mode in ("ideal", "ultrasonic"):
+        drives, _ = _tracked(scenario, mode)
+        assert drives.outcome == "reached" and not drives.collided, (mode, drives.metrics)
+        creeps, _ = _tracked(scenario, mode, follow_bias_rad=0.6)
+        assert creeps.outcome == "timeout", mode
