@@ -54,7 +54,8 @@ def draw(ax, title, result, scenario):
     ax.set_title(f"{title}\n{result.outcome}, path {m['path_length_m']:.2f} m, "
                  f"clearance {max(m['min_clearance_m'], 0.0):.2f} m", fontsize=8)
     ax.set_xlim(-0.8, 10.8)
-    ax.set_ylim(-4.0, 3.0)
+    # Room for the whole path: without the yield rule the robot may flee up the lane.
+    ax.set_ylim(-4.0, max(3.0, float(np.nanmax(log.pose[:, 1])) + 0.8))
     ax.set_aspect("equal")
     ax.grid(alpha=0.3)
 
