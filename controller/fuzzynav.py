@@ -87,7 +87,10 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
    near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
    towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
-   (nothing looks backwards), then it turns on the spot.
+   (nothing looks backwards), then it turns on the spot; except in ideal perception while
+   the nearest obstacle all around is ahead and closing by itself (a moving obstacle
+   coming at the robot): nothing is nearer behind, and turning on the spot in its way
+   was how a robot that had yielded got hit.
 
 Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
 (readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
@@ -709,9 +712,13 @@ class FuzzyNavController:
                     dodge = "yield" if speed == 0.0 else "pass first"
         # The sensors look forward only: backing off is allowed for back_max_s at a
         # time, then the robot turns on the spot until it may drive forward again.
+        # Except in ideal perception when the nearest obstacle all around is ahead and
+        # coming at the robot by itself: nothing is nearer behind, so it backs away on.
         if speed < 0.0:
             self.reverse_s += dt
-            if self.reverse_s > p["back_max_s"]:
+            backing_away = (d_o_raw == d_o_raw and phi_o == phi_o and phi_o not in _AXES
+                            and abs(phi_o) < 0.5 * math.pi and self.closing_o > 0.05)
+            if self.reverse_s > p["back_max_s"] and not backing_away:
                 speed = 0.0
                 if abs(turn) < 4.0:
                     turn = math.copysign(6.0, turn if turn else side)

@@ -420,3 +420,32 @@ def test_edge_following_drives_on_along_the_edge():
         assert drives.outcome == "reached" and not drives.collided, (mode, drives.metrics)
         creeps, _ = _tracked(scenario, mode, follow_bias_rad=0.6)
         assert creeps.outcome == "timeout", mode
+
+
+class _ReverseSpy(_Spy):
+    """Records how long the robot has been reversing after every call."""
+
+    def __call__(self, inputs, ranges_m=None):
+        out = self.c(inputs, ranges_m)
+        self.rows.append(self.c.reverse_s if self.c.last["command"][0] < 0.0 else 0.0)
+        return out
+
+
+@pytest.mark.parametrize("index", [15, 62])
+def test_backs_away_from_an_obstacle_coming_at_it_in_ideal_perception(index):
+    """two_moving layouts 15 and 62 of seed 1: a moving obstacle comes at the robot after it
+    has yielded. Reversing used to stop after back_max_s and the robot, turning on the
+    spot in the obstacle's way, was hit. In ideal perception the nearest obstacle all
+    around is ahead and closing, so nothing is nearer behind and the robot backs away on;
+    in ultrasonic perception (the sonars see nothing behind) the limit holds."""
+    from world.layouts import generate_layout
+    scenario = generate_layout("two_moving", 1, index)
+    c = fuzzynav_controller()
+    spy = _ReverseSpy(c)
+    result = Simulation(scenario, spy, perception="ideal", seed=0).run()
+    assert not result.collided, result.metrics
+    assert max(spy.rows) > c.params["back_max_s"] + 0.1
+    c = fuzzynav_controller()
+    spy = _ReverseSpy(c)
+    Simulation(scenario, spy, perception="ultrasonic", seed=0).run()
+    assert max(spy.rows) <= c.params["back_max_s"] + c.params["control_period_s"] + 1e-9
