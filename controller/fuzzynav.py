@@ -124,6 +124,9 @@ _MOUNTS = ((0.495, 0.75 * 0.335, math.radians(45.0)), (0.495, 0.0, 0.0),
            (0.495, -0.75 * 0.335, math.radians(-45.0)))
 
 _AXES = frozenset(m[2] for m in _MOUNTS)
+# The nearest obstacle counts as coming at the robot when it closes faster than this,
+# beyond what the robot's own motion explains (below it: measurement noise).
+_CLOSING_MPS = 0.05
 
 # The crisp parameters, their defaults (used when the file lacks a key) and tuning bounds.
 CRISP_DEFAULTS: dict[str, float] = {
@@ -584,7 +587,7 @@ class FuzzyNavController:
                                       - vel[0] * math.cos(phi_o))
                 self.prev_obstacle = (d_o_raw, phi_o)
                 self._track(d_o_raw, phi_o)
-            if self.closing_o > 0.05:
+            if self.closing_o > _CLOSING_MPS:
                 d_o = max(0.0, d_o - p["ttc_gain_s"] * min(self.closing_o, 0.5))
             a = abs(phi_o)
             if a < fold:
@@ -717,7 +720,7 @@ class FuzzyNavController:
         if speed < 0.0:
             self.reverse_s += dt
             backing_away = (d_o_raw == d_o_raw and phi_o == phi_o and phi_o not in _AXES
-                            and abs(phi_o) < 0.5 * math.pi and self.closing_o > 0.05)
+                            and abs(phi_o) < 0.5 * math.pi and self.closing_o > _CLOSING_MPS)
             if self.reverse_s > p["back_max_s"] and not backing_away:
                 speed = 0.0
                 if abs(turn) < 4.0:
