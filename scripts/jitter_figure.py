@@ -22,11 +22,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from app.runs import run_scenario  # noqa: E402
-from world.layouts import generate_layout  # noqa: E402
+from world.layouts import SAFE_DISTANCE_M as SAFE_M, generate_layout  # noqa: E402
 from world.scenario import load_scenario  # noqa: E402
 
 SEED = 5
-SAFE_M = 0.25
 CONTROLLERS = ("paper", "fuzzynav")
 
 
@@ -52,10 +51,9 @@ def draw(ax, name: str, runs) -> None:
         else:
             unsafe += 1
             ax.plot(xy[:, 0], xy[:, 1], color="#d62728", lw=0.9, alpha=0.9)
-            # the robot's closest approach to any obstacle
-            obstacles = result.log.obstacle_xy
-            gaps = np.hypot(*(obstacles - xy[:, None, :]).transpose(2, 0, 1))
-            k = np.unravel_index(np.nanargmin(gaps), gaps.shape)[0]
+            # where the footprint came closest to any obstacle (the logged clearance)
+            k = np.unravel_index(np.nanargmin(result.log.clearance_m),
+                                 result.log.clearance_m.shape)[0]
             ax.plot(*xy[k], "x", color="#d62728", ms=6)
     for o in base.obstacles:
         ax.add_patch(plt.Circle(o.position, o.radius_m, color="0.3", alpha=0.6))
