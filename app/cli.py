@@ -32,6 +32,27 @@ class UsageError(Exception):
     """Bad input from the user: printed on stderr, exit status 2."""
 
 
+def integer_in(low: int, high: int | None = None):
+    """An argparse ``type``: an integer in ``[low, high]``; anything else is refused
+    with the value named (``argument --seed: '-3': must be an integer >= 0``)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < low or (high is not None and value > high):
+            bound = f">= {low}" if high is None else f"from {low} to {high}"
+            raise argparse.ArgumentTypeError(f"{text!r}: must be an integer {bound}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+seed_type = integer_in(0)
+
+
 def _json_default(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -56,7 +77,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
                         help="drive with a MATLAB .fis file of your own instead (4 inputs, 2 outputs)")
     parser.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES,
                         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors")
-    parser.add_argument("--seed", type=int, default=0, help="seeds the sensor noise (default 0)")
+    parser.add_argument("--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)")
     parser.add_argument("--noise", type=float, default=0.0, metavar="STD_M",
                         help="sensor noise standard deviation in metres (default 0)")
     parser.add_argument("--dt", type=float, default=0.02, metavar="SECONDS",

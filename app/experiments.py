@@ -257,6 +257,8 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
+    from app.cli import integer_in, seed_type
+
     from app import tuning
     from controller.registry import controller_names
     from world.layouts import FAMILIES
@@ -265,8 +267,8 @@ def add_commands(subparsers) -> None:
     tuning.add_commands(subparsers)
 
     p = subparsers.add_parser("sweep", help="run a controller on seeded random layouts; success rate")
-    p.add_argument("--n", type=int, default=200, help="number of layouts (default 200)")
-    p.add_argument("--seed", type=int, default=1, help="layout seed (default 1)")
+    p.add_argument("--n", type=integer_in(1), default=200, help="number of layouts (default 200)")
+    p.add_argument("--seed", type=seed_type, default=1, help="layout seed (default 1)")
     p.add_argument("--family", default="standard", choices=FAMILIES, help="layout family (default standard)")
     p.add_argument("--controller", default="paper", choices=controller_names())
     p.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES)
@@ -283,7 +285,7 @@ def add_commands(subparsers) -> None:
     c.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES)
     c.add_argument("--sweep-n", type=int, default=100,
                    help="also sweep N random layouts per controller (default 100; 0: none)")
-    c.add_argument("--sweep-seed", type=int, default=5,
+    c.add_argument("--sweep-seed", type=seed_type, default=5,
                    help="seed of that sweep (default 5, a seed no controller was designed or tuned on)")
     c.add_argument("--family", default="standard", choices=FAMILIES, help="family of that sweep")
     c.add_argument("--workers", type=int, default=2, help="worker processes for the sweep, 1 or 2 (default 2)")

@@ -303,6 +303,8 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
+    from app.cli import integer_in, seed_type
+
     from world.perception import PERCEPTION_MODES
 
     p = subparsers.add_parser("tune", help="tune a controller's membership functions (differential evolution)")
@@ -310,14 +312,14 @@ def add_commands(subparsers) -> None:
     p.add_argument("--scenarios", type=_csv, default=["s1", "s2", "s3"],
                    help="comma-separated scenarios (default s1,s2,s3; '' for none)")
     p.add_argument("--layouts", default=None, help="also tune on seeded layouts of this family")
-    p.add_argument("--n", type=int, default=0, help="number of layouts (with --layouts)")
-    p.add_argument("--layout-seed", type=int, default=0, help="seed of the layouts (default 0)")
+    p.add_argument("--n", type=integer_in(0), default=0, help="number of layouts (with --layouts)")
+    p.add_argument("--layout-seed", type=seed_type, default=0, help="seed of the layouts (default 0)")
     p.add_argument("--perception", type=_csv, default=["ideal", "ultrasonic"],
                    help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)")
     p.add_argument("--maxiter", type=int, default=10, help="generations (default 10)")
     p.add_argument("--popsize", type=int, default=4, help="population = popsize x parameters (default 4)")
     p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the optimiser (default 0)")
+    p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument("--method", choices=("de", "nelder-mead", "powell"), default="de",
                    help="differential evolution (default) or a local search from the start vector")
     p.add_argument("--x0", type=Path, default=None, metavar="FILE",

@@ -34,6 +34,7 @@ import math
 import os
 import re
 import signal
+import socket
 import tempfile
 import threading
 import time
@@ -898,6 +899,25 @@ def _check_rrd(path):
     return check_writable_file(path)
 
 
+def check_host(host: str) -> None:
+    """Refuse a host this machine cannot listen on, before the server starts.
+
+    (viser 1.1 retries an address it cannot bind on the next thousand ports and then
+    waits forever for a server that never started; a port already in use is fine: it
+    takes the next free one, and the printed address says which.)
+    """
+    try:
+        family, _, _, _, address = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as exc:
+        raise ViewerError(f"--host {host!r}: unknown host ({exc})") from None
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((address[0], 0))
+        except OSError as exc:
+            raise ViewerError(f"--host {host!r}: this machine cannot listen on that "
+                              f"address ({exc.strerror or exc})") from None
+
+
 def _print_url(server, host: str, open_message: bool) -> None:
     if not open_message:
         return
@@ -914,6 +934,7 @@ def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
     from app.viewer_ui import ViewerServer
 
     rrd = _check_rrd(rrd)
+    check_host(host)
     app = ViewerApp(scenario, controller, rrd_path=rrd)
     server = ViewerServer(app, host=host, port=port)
     if not block:
@@ -951,6 +972,8 @@ def cmd_serve(args) -> int:
 
 
 def add_commands(subparsers) -> None:
+    from app.cli import integer_in
+
     for name, help_text in (("serve", "start the interactive browser viewer"),
                             ("demo", "the viewer on scenario s1 with default settings")):
         parser = subparsers.add_parser(name, help=help_text)
@@ -959,7 +982,7 @@ def add_commands(subparsers) -> None:
                                 help="s1, s2, s3 (assets/scenarios) or a path to a TOML file")
             parser.add_argument("--host", default="127.0.0.1",
                                 help="address to bind (default 127.0.0.1: this machine only)")
-            parser.add_argument("--port", type=int, default=8080,
+            parser.add_argument("--port", type=integer_in(0, 65535), default=8080,
                                 help="port (default 8080; the next free one if taken)")
             parser.add_argument("--rrd", type=Path, default=None, metavar="PATH",
                                 help="also record the session to rerun files: the first run "

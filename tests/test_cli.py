@@ -48,6 +48,23 @@ def test_bad_input_exits_2_with_message(capsys, argv, needle):
     assert needle in err and "error" in err
 
 
+@pytest.mark.parametrize("argv, needle", [
+    (["run", "s1", "--seed", "-3"], "argument --seed: '-3': must be an integer >= 0"),
+    (["sweep", "--n", "0"], "argument --n: '0': must be an integer >= 1"),
+    (["sweep", "--seed", "x"], "argument --seed: 'x': must be an integer >= 0"),
+    (["compare", "--sweep-seed", "-1"], "argument --sweep-seed: '-1'"),
+    (["serve", "--port", "99999"], "argument --port: '99999': must be an integer from 0 to 65535"),
+])
+def test_bad_integer_options_are_refused_before_anything_runs(capsys, argv, needle):
+    # argparse exits with status 2 and names the option and the value
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    captured = capsys.readouterr()
+    assert needle in captured.err
+    assert "sweep" not in captured.out  # no progress bar was started
+
+
 def test_bad_scenario_file_names_file_key_value(write_toml, capsys):
     path = write_toml('name = "x"\nduration_s = 10.0\nwobble = 3\n[robot]\nstart = [0.0, 0.0]\n'
                       '[target]\nposition = [5.0, 5.0]\n')

@@ -422,6 +422,18 @@ def test_cli_refuses_a_bad_scenario_and_an_unwritable_rrd(capsys, tmp_path):
     assert "--rrd" in capsys.readouterr().err
 
 
+def test_cli_refuses_a_host_it_cannot_listen_on(capsys):
+    # 192.0.2.1 is TEST-NET-1 (RFC 5737): no machine has it. viser alone would retry a
+    # thousand ports and then wait forever; the check refuses it at once.
+    from app.cli import main
+
+    started = time.perf_counter()
+    assert main(["serve", "s1", "--host", "192.0.2.1", "--port", "0"]) == 2
+    assert time.perf_counter() - started < 10.0
+    err = capsys.readouterr().err
+    assert "--host '192.0.2.1'" in err and "cannot listen" in err
+
+
 def test_rrd_records_each_run_to_its_own_file(tmp_path):
     pytest.importorskip("app.recording")
     path = tmp_path / "session.rrd"
