@@ -53,6 +53,7 @@ from world.scenario import (
     load_scenario,
     scenario_from_dict,
     scenario_names,
+    target_blocker,
 )
 from world.perception import PERCEPTION_MODES, Perception
 from world.sensors import RangeSensorArray, SensorConfig
@@ -488,8 +489,10 @@ class ViewerApp:
             try:
                 check_layout(layout)
             except ScenarioError as exc:
-                self._notice(f"Note: {exc.reason} ({exc.key}); the run will collide at once.",
-                             "warning")
+                consequence = ("the robot cannot reach it" if exc.key == "target.position"
+                               else "the run will collide at once" if "footprint" in exc.reason
+                               else "the run goes ahead")
+                self._notice(f"Note: {exc.key} {exc.reason}; {consequence}.", "warning")
             self._reset_locked(layout)
 
     def set_speed(self, factor) -> None:
@@ -513,6 +516,7 @@ class ViewerApp:
         self._layout = [(obstacle_id, spec) for obstacle_id, spec
                         in zip(self.sim.arena.obstacles, scenario.obstacles)]
         self._target = tuple(scenario.target)
+        self._target_warning = None
         self._trail = [tuple(self.sim.arena.pose[:2])]
         capacity = int(PLOT_WINDOW_S / self.sim.control_period_s) + 1
         self._signals = _Ring(capacity, 7)
@@ -603,6 +607,23 @@ class ViewerApp:
             raise ViewerError(f"position {xy!r}: must be finite and within 1 km")
         return x, y
 
+    def check_target(self) -> str | None:
+        """After an edit (a drag ended, an obstacle added): tell the user when the target
+        can no longer be reached, and when it can again. Returns the warning, if any."""
+        with self.lock:
+            layout = self._layout_scenario()
+            blocked = target_blocker(layout.target, layout.tolerance_m, layout.obstacles,
+                                     0.5 * self.sim.arena.footprint_m[1])
+            if blocked is not None:
+                text = f"The target {blocked[1]}: the robot cannot get there."
+                self._target_warning = text
+                self._notice(text, "warning")
+                return text
+            if self._target_warning is not None:
+                self._target_warning = None
+                self._notice("The target can be reached again.", "info")
+            return None
+
     def move_target(self, xy) -> None:
         x, y = self._check_xy(xy)
         with self.lock:
@@ -659,6 +680,7 @@ class ViewerApp:
             self._layout.append((obstacle_id, spec))
             self.layout_id += 1
             self._bump()
+        self.check_target()
         return obstacle_id
 
     def remove_obstacle(self, obstacle_id: int | None = None) -> int:
@@ -675,6 +697,7 @@ class ViewerApp:
             self._layout = [(i, s) for i, s in self._layout if i != obstacle_id]
             self.layout_id += 1
             self._bump()
+        self.check_target()
         return obstacle_id
 
     # -- controller, perception, disturbance, noise ------------------------------------

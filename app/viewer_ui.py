@@ -530,6 +530,7 @@ class ViewerServer:
                 app._notice(str(exc), "warning")
             if event.phase == "end":
                 self._dragging.discard(name)
+                app.check_target()
 
         return on_update
 

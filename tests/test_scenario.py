@@ -96,6 +96,17 @@ def test_target_inside_a_static_obstacle(write_toml):
         load_scenario(path)
 
 
+def test_target_too_near_a_static_obstacle_to_reach(write_toml):
+    # The robot's centre stays >= its half-width (0.335 m) from any surface and must come
+    # within the tolerance (0.15 m) of the target: a target 0.1 m off a surface is out of
+    # reach, one 0.25 m off is not.
+    near = write_toml(VALID.replace("position = [4.0, 4.0]", "position = [8.3, 8.0]"))
+    with pytest.raises(ScenarioError, match=r"target\.position = \[8\.0, 8\.0\]: cannot be "
+                                            r"reached: it is 0\.100 m from static obstacle"):
+        load_scenario(near)
+    load_scenario(write_toml(VALID.replace("position = [4.0, 4.0]", "position = [8.45, 8.0]")))
+
+
 def test_target_inside_a_moving_obstacle_is_allowed():
     # Scenario 2 of the paper starts its moving obstacle on the target.
     assert load_scenario("s2").obstacles[1].position == load_scenario("s2").target

@@ -422,6 +422,25 @@ def test_cli_refuses_a_bad_scenario_and_an_unwritable_rrd(capsys, tmp_path):
     assert "--rrd" in capsys.readouterr().err
 
 
+def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
+    # s1's first obstacle: (4.0, 4.0), radius 0.2 m
+    assert app.check_target() is None
+    app.move_target((4.1, 4.0))
+    warning = app.check_target()
+    assert warning is not None and "inside static obstacle obstacles[0]" in warning
+    assert app.snapshot().message == warning and app.snapshot().message_level == "warning"
+    app.move_target((4.0, 4.3))  # 0.1 m off its surface: outside, still out of reach
+    assert "cannot be reached" in app.check_target()
+    app.move_target((8.0, 8.0))
+    assert app.check_target() is None
+    assert app.snapshot().message == "The target can be reached again."
+    # an obstacle added onto the target says so at once; removing it clears it
+    app.add_obstacle((8.1, 8.0), 0.3)
+    assert "inside static obstacle" in app.snapshot().message
+    app.remove_obstacle()
+    assert app.snapshot().message == "The target can be reached again."
+
+
 def test_cli_refuses_a_host_it_cannot_listen_on(capsys):
     # 192.0.2.1 is TEST-NET-1 (RFC 5737): no machine has it. viser alone would retry a
     # thousand ports and then wait forever; the check refuses it at once.

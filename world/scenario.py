@@ -224,7 +224,8 @@ def scenario_from_dict(
     ScenarioError
         For an unknown or missing key, a value of the wrong type, NaN or inf, a
         non-positive radius, tolerance or duration, a start pose whose footprint overlaps
-        an obstacle, a target inside a static obstacle, or overlapping static obstacles.
+        an obstacle, a target inside a static obstacle or too near one to reach
+        (:func:`target_blocker`), or overlapping static obstacles.
     """
     r = _Reader(source)
     r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "target"})
@@ -274,8 +275,35 @@ def scenario_from_dict(
     return scenario
 
 
+def target_blocker(target, tolerance_m: float, obstacles, half_width_m: float
+                   ) -> tuple[int, str] | None:
+    """The first static obstacle that keeps the robot from the target, as
+    ``(index, reason)``, or None.
+
+    The robot arrives when its centre is within ``tolerance_m`` of the target, and its
+    centre never comes nearer an obstacle's surface than its half-width (side-on). So a
+    target less than ``half_width_m - tolerance_m`` from a static obstacle's surface (or
+    inside it) cannot be reached. Moving obstacles pass: scenario 2 starts one on the
+    target.
+    """
+    for i, o in enumerate(obstacles):
+        if not o.is_static:
+            continue
+        gap_m = math.dist(o.position, target) - o.radius_m
+        if gap_m < 0.0:
+            return i, (f"lies inside static obstacle obstacles[{i}] at {list(o.position)} "
+                       f"(radius {o.radius_m} m)")
+        if gap_m + tolerance_m < half_width_m:
+            return i, (f"cannot be reached: it is {gap_m:.3f} m from static obstacle "
+                       f"obstacles[{i}] at {list(o.position)} (radius {o.radius_m} m), and "
+                       f"the robot's centre, which must come within {tolerance_m} m of it, "
+                       f"stays at least its half-width {half_width_m} m from any obstacle")
+    return None
+
+
 def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M):
-    """Reject layouts no run could start from (raises :class:`ScenarioError`)."""
+    """Reject layouts no run could start from, or whose target no run could reach
+    (raises :class:`ScenarioError`)."""
     r = _Reader(scenario.source)
     length, width = footprint_m
     for i, o in enumerate(scenario.obstacles):
@@ -284,10 +312,10 @@ def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_
         if clearance <= 0.0:
             r.fail(f"obstacles[{i}].position", list(o.position),
                    f"overlaps the robot's footprint at its start {list(scenario.start)}")
-        if o.is_static and math.dist(o.position, scenario.target) < o.radius_m:
-            r.fail("target.position", list(scenario.target),
-                   f"lies inside static obstacle obstacles[{i}] at {list(o.position)} "
-                   f"(radius {o.radius_m} m)")
+    blocked = target_blocker(scenario.target, scenario.tolerance_m, scenario.obstacles,
+                             0.5 * width)
+    if blocked is not None:
+        r.fail("target.position", list(scenario.target), blocked[1])
     statics = [(i, o) for i, o in enumerate(scenario.obstacles) if o.is_static]
     for n, (i, a) in enumerate(statics):
         for j, b in statics[n + 1:]:
