@@ -193,6 +193,24 @@ def test_dragging_the_target_handle_changes_where_the_robot_goes(served, page):
     assert heading_error(app.sim.arena.pose) < heading_error(reference.sim.arena.pose) - 0.1
 
 
+def test_a_target_dropped_on_an_obstacle_is_flagged_in_the_page(served, page):
+    # s1's third obstacle is at (7.5, 6.4): drag the target (8, 8) onto it.
+    app = served.app
+    points = page.evaluate(JS_TARGET_HANDLE, {"dx": -0.5, "dy": -1.6})
+    assert points is not None, "no plane handle found on the target's gizmo"
+    (x0, y0), (x1, y1) = points["from"], points["to"]
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(x0 + (x1 - x0) * k / 10, y0 + (y1 - y0) * k / 10)
+        page.wait_for_timeout(15)
+    page.mouse.up()
+    assert app.wait_for(lambda a: "cannot get there" in a.message, timeout=10), (
+        app.sim.arena.target, app.message)
+    page.wait_for_function("() => document.body.innerText.includes('cannot get there')",
+                           timeout=10_000)
+
+
 def test_two_clients_share_one_world_and_closing_one_does_not_stop_it(browser, served, page):
     app = served.app
     first, second = open_page(browser, served.url), page
