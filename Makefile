@@ -31,6 +31,7 @@ report: $(VENV)/.installed
 	$(PY) scripts/fuzzynav_figure.py
 	$(PY) scripts/crossing_figure.py
 	$(PY) scripts/jitter_figure.py
+	$(PY) scripts/doubt_figure.py
 
 screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py

@@ -859,6 +859,9 @@ class FuzzyNavController:
         state = {"avoidance weight alpha": f"{last['alpha']:.2f}",
                  "side": "left" if last["side"] > 0 else "right",
                  "mode": mode,
+                 "target reading": ("doubted (it moves the target: a disturbance?); "
+                                    "steering by the tracked target" if self.target_doubted
+                                    else "taken as it is"),
                  "command": "speed {:.1f} V, turn {:.1f} V (left = speed - turn, "
                             "right = speed + turn)".format(*last["command"])}
         return self._merged, np.array(last["block_inputs"], dtype=float), state

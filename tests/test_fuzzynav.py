@@ -491,6 +491,8 @@ def test_a_disturbed_target_reading_is_doubted_and_the_tracked_target_steered_by
         c(np.array([d_true + 1.0, 0.2, phi_true + 1.0, 0.1]), ranges_m=nothing)
         assert c.target_doubted is (gate > 0.0)
         assert c.last["sectors"][1] == front
+        said = c.teaching_view()[2]["target reading"]  # what the viewer's panel says
+        assert said.startswith("doubted") is (gate > 0.0), said
     # Off: the disturbance reaches the goal block as it is.
     c = fuzzynav_controller()
     c.params["target_gate_m"] = 0.0
