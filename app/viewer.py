@@ -629,6 +629,11 @@ class ViewerApp:
         with self.lock:
             self.sim.arena.move_target((x, y))
             self._target = (x, y)
+            # A controller that doubts target readings which move the target (fuzzynav,
+            # against disturbed inputs) is told that this move is meant.
+            new_target = getattr(self.controller.inner, "new_target", None)
+            if new_target is not None:
+                new_target()
             self._bump()
 
     def move_obstacle(self, obstacle_id: int, xy) -> None:

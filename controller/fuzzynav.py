@@ -98,8 +98,9 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    inputs arrive together; the sonar ranges, read apart, still guard it). s3's
    disturbance, ``sin(2 t)`` on every input for 10 s, swings the target by up to a metre
    and a radian; it cost fuzzynav 0.6 m of path in ideal perception and is now ignored.
-   A doubted reading that keeps still for ``target_settle_s`` is the target moved (a
-   drag in the viewer) and is taken: a disturbance does not keep still.
+   A doubted reading that keeps still for ``target_settle_s`` is the target moved, and
+   is taken: a disturbance does not keep still. A move that is meant (the viewer's
+   drag) is announced with :meth:`FuzzyNavController.new_target`.
 
 Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
 (readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
@@ -188,7 +189,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "target_gate_m": 0.3,         # a target reading this far from the tracked target is doubted (0: off)
     "target_filter": 0.05,        # ... the tracked target follows agreeing readings by this per period
     "target_still_m": 0.05,       # ... a doubted reading that stays this near where it was first
-    "target_settle_s": 0.5,       # ... for this long is the target, moved (a drag in the viewer)
+    "target_settle_s": 0.5,       # ... for this long is the target, moved
 }
 # What `fuzzynav tune --controller fuzzynav` searches (the rest stays at the hand design).
 CRISP_BOUNDS: dict[str, tuple[float, float]] = {
@@ -767,6 +768,13 @@ class FuzzyNavController:
         self.cmd = (speed - turn, speed + turn)
         return np.array(self.cmd)
 
+    def new_target(self) -> None:
+        """The target was moved on purpose (a user dragged it in the viewer): take the
+        next reading as it is instead of doubting it until it settles."""
+        self.target_est = None
+        self.target_candidate = None
+        self.target_doubted = False
+
     def _check_target(self, d_t: float, phi_t: float) -> tuple[float, float]:
         """The target's distance and bearing to steer by: the reading, unless it is
         provably disturbed, else where the target was tracked.
@@ -777,7 +785,8 @@ class FuzzyNavController:
         ``sin(2 t)`` to every input for 10 s: the target would seem to swing by a metre
         and a radian). A doubted reading that stays put for ``target_settle_s`` (within
         ``target_still_m`` of where it was first) is the target moved, and is taken: a
-        disturbance does not keep still, a target dragged in the viewer does.
+        disturbance does not keep still, a target that was moved does (one moved on
+        purpose, as the viewer's drag, is announced with :meth:`new_target`).
         """
         p = self.params
         tp = self.track_pose

@@ -422,6 +422,26 @@ def test_cli_refuses_a_bad_scenario_and_an_unwritable_rrd(capsys, tmp_path):
     assert "--rrd" in capsys.readouterr().err
 
 
+def test_fuzzynav_heads_for_a_dragged_target_at_once():
+    # fuzzynav doubts a target reading that moves the target (a disturbance), until it
+    # keeps still for 0.5 s; a drag in the viewer is meant, and the viewer says so.
+    app = ViewerApp("s1", "fuzzynav")
+    for _ in range(100):
+        app.step_once()
+    controller = app.controller.inner
+    for _ in range(3):  # a drag: a few moves in a row
+        x, y = app.sim.arena.target
+        app.move_target((x, y - 2.0))
+        app.step_once()
+        assert not controller.target_doubted
+    steered = controller.last["block_inputs"][0] - controller.plan_offset
+    assert steered == pytest.approx(app.controller.last_inputs[2])
+    # Without the hint the same move is doubted at first.
+    app.sim.arena.move_target((8.0, 8.0))
+    app.step_once()
+    assert controller.target_doubted
+
+
 def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
     # s1's first obstacle: (4.0, 4.0), radius 0.2 m
     assert app.check_target() is None
