@@ -447,7 +447,10 @@ class FuzzyNavController:
                 "best_d_t": self.best_d_t,
                 "best_t": self.best_t, "follow": self.follow, "follow_d_t": self.follow_d_t,
                 "follow_t": self.follow_t, "pose": list(self.pose), "vel": list(self.vel),
-                "cmd": self.cmd, "points": list(self.points)}
+                "cmd": self.cmd, "points": list(self.points), "target_est": self.target_est,
+                "target_candidate": self.target_candidate,
+                "target_candidate_s": self.target_candidate_s,
+                "target_doubted": self.target_doubted}
 
     # -- decision ----------------------------------------------------------------------
     def __call__(self, inputs, ranges_m=None):
