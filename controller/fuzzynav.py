@@ -393,6 +393,7 @@ class FuzzyNavController:
         self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
         self.reverse_s = 0.0       # how long the robot has been backing off
+        self.spin_dir = 0.0        # the way it turns on the spot once reversing is used up
         self.creep_s = 0.0         # how long the command has been near zero
         self.unstick_s = 0.0       # time left turning on the spot out of a deadlock
         self.closing_f = 0.0       # front closing speed beyond our own (m/s), per store_s
@@ -753,10 +754,18 @@ class FuzzyNavController:
                             and abs(phi_o) < 0.5 * math.pi and self.closing_o > _CLOSING_MPS)
             if self.reverse_s > p["back_max_s"] and not backing_away:
                 speed = 0.0
+                # The way to turn is chosen once and kept: a blend whose turn is
+                # near zero changes sign from one period to the next, and the robot
+                # would stand still, turning left and right in turn, until it timed out.
+                if self.spin_dir == 0.0:
+                    self.spin_dir = (math.copysign(1.0, turn) if abs(turn) > 1.0
+                                     else 1.0 if left > right else -1.0 if right > left
+                                     else side)
                 if abs(turn) < 4.0:
-                    turn = math.copysign(6.0, turn if turn else side)
+                    turn = 6.0 * self.spin_dir
         else:
             self.reverse_s = 0.0
+            self.spin_dir = 0.0
         limit = VOLTAGE_LIMIT_V
         if abs(turn) > limit:
             turn = math.copysign(limit, turn)
