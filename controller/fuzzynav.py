@@ -87,7 +87,9 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
    near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
    towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
-   (nothing looks backwards), then it turns on the spot; except in ideal perception while
+   (nothing looks backwards), then it turns on the spot (one way, chosen once: the
+   blend's way if it turns clearly, else towards the more open side); except in ideal
+   perception while
    the nearest obstacle all around is ahead and closing by itself (a moving obstacle
    coming at the robot): nothing is nearer behind, and turning on the spot in its way
    was how a robot that had yielded got hit.
