@@ -87,9 +87,7 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
    near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
    towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
-   (nothing looks backwards), then it turns on the spot (one way, chosen once: the
-   blend's way if it turns clearly, else towards the more open side); except in ideal
-   perception while
+   (nothing looks backwards), then it turns on the spot; except in ideal perception while
    the nearest obstacle all around is ahead and closing by itself (a moving obstacle
    coming at the robot): nothing is nearer behind, and turning on the spot in its way
    was how a robot that had yielded got hit.
@@ -395,7 +393,6 @@ class FuzzyNavController:
         self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
         self.reverse_s = 0.0       # how long the robot has been backing off
-        self.spin_dir = 0.0        # the way it turns on the spot once reversing is used up
         self.creep_s = 0.0         # how long the command has been near zero
         self.unstick_s = 0.0       # time left turning on the spot out of a deadlock
         self.closing_f = 0.0       # front closing speed beyond our own (m/s), per store_s
@@ -756,18 +753,10 @@ class FuzzyNavController:
                             and abs(phi_o) < 0.5 * math.pi and self.closing_o > _CLOSING_MPS)
             if self.reverse_s > p["back_max_s"] and not backing_away:
                 speed = 0.0
-                # The way to turn is chosen once and kept: a blend whose turn is
-                # near zero changes sign from one period to the next, and the robot
-                # would stand still, turning left and right in turn, until it timed out.
-                if self.spin_dir == 0.0:
-                    self.spin_dir = (math.copysign(1.0, turn) if abs(turn) > 1.0
-                                     else 1.0 if left > right else -1.0 if right > left
-                                     else side)
                 if abs(turn) < 4.0:
-                    turn = 6.0 * self.spin_dir
+                    turn = math.copysign(6.0, turn if turn else side)
         else:
             self.reverse_s = 0.0
-            self.spin_dir = 0.0
         limit = VOLTAGE_LIMIT_V
         if abs(turn) > limit:
             turn = math.copysign(limit, turn)
