@@ -530,3 +530,18 @@ def test_s3s_disturbance_costs_next_to_nothing(scenario_runs, mode):
     off.params["target_gate_m"] = 0.0
     without = Simulation(load_scenario("s3"), off, perception=mode, seed=0).run()
     assert without.metrics["path_length_m"] > s3.metrics["path_length_m"] + 0.05
+
+
+@pytest.mark.parametrize("mode", ["ideal", "ultrasonic"])
+def test_undisturbed_target_readings_are_never_doubted(mode):
+    """Without a disturbance the check must never act: the dead-reckoned target stays
+    within the gate of every reading, through turns, reversing and escapes (8 standard
+    and clutter layouts of design seed 1)."""
+    from world.layouts import generate_layout
+    for family in ("standard", "clutter"):
+        for index in range(4):
+            c = fuzzynav_controller()
+            sim = Simulation(generate_layout(family, 1, index), c, perception=mode, seed=0)
+            while not sim.done:
+                sim.step()
+                assert not c.target_doubted, (family, index, c.t)
