@@ -235,7 +235,8 @@ def controller_replica(controller):
 
 INTERNALS_PATH = "/plots/internals"
 INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
-             "yield (1) / pass first (-1)", "following an edge (1)")
+             "yield (1) / pass first (-1)", "following an edge (1)",
+             "target reading doubted (1)")
 
 
 def controller_label(controller) -> str:
@@ -660,7 +661,7 @@ class _ColumnWriter:
                 return
             last = replica.last
             out[j] = (last["alpha"], last["plan_offset"], dodge_code.get(last["dodge"], 0.0),
-                      float(last["follow"]))
+                      float(last["follow"]), float(getattr(replica, "target_doubted", False)))
         self._plot(INTERNALS_PATH, list(INTERNALS),
                    [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
                    [1.5] * len(INTERNALS), out)
@@ -934,7 +935,7 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
     if n_rules:
         tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
     if internals:
-        tabs.append(plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape"))
+        tabs.append(plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target"))
     tabs.append(rrb.Tabs(*[rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
                            for name in ("run", "metrics", "scenario", "rules", "robot",
                                         )], name="run information"))

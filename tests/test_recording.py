@@ -625,11 +625,29 @@ def test_fuzzynav_internals_are_recorded(tmp_path):
     assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNALS)
     decided = values[:-1]                       # the last row has no decision
     assert np.all(np.isnan(values[-1]))
-    alpha, offset, dodge, follow = decided.T
+    alpha, offset, dodge, follow, doubted = decided.T
     assert np.all((alpha >= 0) & (alpha <= 1))
     assert np.any(dodge == 1.0), "the robot never yielded on crossing"
     assert set(np.unique(follow)) <= {0.0, 1.0}
+    assert not np.any(doubted)  # crossing has no disturbance
     assert "controller internals" not in rec.text("/meta/run")
+
+
+def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
+    """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
+    fuzzynav doubted, all inside that window and most of it."""
+    from app.recording import INTERNALS_PATH
+    from controller.fuzzynav import fuzzynav_controller
+
+    controller = fuzzynav_controller()
+    sim = build_simulation("s3", "fuzzynav", controller_object=controller)
+    result = sim.run()
+    rec = Recording(record_run(result, tmp_path / "s3.rrd", controller=controller))
+    times, values = rec.scalars(INTERNALS_PATH)
+    doubted = values[:-1, 4] == 1.0
+    t = result.log.time_s[:-1]
+    assert not np.any(doubted & ((t < 25.0) | (t > 35.0)))
+    assert doubted[(t >= 25.0) & (t <= 35.0)].mean() > 0.7
 
 
 def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
