@@ -129,6 +129,20 @@ def canvas_pixels(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=float)
 
 
+def drag_target(page, dx_m: float, dy_m: float, steps: int) -> None:
+    """Drag the target's plane handle by (dx_m, dy_m) in the world, as a user would: the
+    mouse pressed on the handle, moved in ``steps`` steps, released."""
+    points = page.evaluate(JS_TARGET_HANDLE, {"dx": dx_m, "dy": dy_m})
+    assert points is not None, "no plane handle found on the target's gizmo"
+    (x0, y0), (x1, y1) = points["from"], points["to"]
+    page.mouse.move(x0, y0)
+    page.mouse.down()
+    for k in range(1, steps + 1):
+        page.mouse.move(x0 + (x1 - x0) * k / steps, y0 + (y1 - y0) * k / steps)
+        page.wait_for_timeout(15)
+    page.mouse.up()
+
+
 def test_page_connects_and_draws_the_arena(served, page):
     assert len(served.server.get_clients()) == 1
     pixels = canvas_pixels(page)
@@ -157,15 +171,7 @@ def test_pressing_play_advances_simulation_time(served, page):
 
 def test_dragging_the_target_handle_changes_where_the_robot_goes(served, page):
     app = served.app
-    points = page.evaluate(JS_TARGET_HANDLE, {"dx": 0.0, "dy": -6.0})
-    assert points is not None, "no plane handle found on the target's gizmo"
-    (x0, y0), (x1, y1) = points["from"], points["to"]
-    page.mouse.move(x0, y0)
-    page.mouse.down()
-    for k in range(1, 21):
-        page.mouse.move(x0 + (x1 - x0) * k / 20, y0 + (y1 - y0) * k / 20)
-        page.wait_for_timeout(15)
-    page.mouse.up()
+    drag_target(page, 0.0, -6.0, steps=20)
     assert app.wait_for(lambda a: a.sim.arena.target[1] < 4.0, timeout=10), app.sim.arena.target
     tx, ty = app.sim.arena.target
     # Moved straight down by about 6 m, in the ground plane.
@@ -196,15 +202,7 @@ def test_dragging_the_target_handle_changes_where_the_robot_goes(served, page):
 def test_a_target_dropped_on_an_obstacle_is_flagged_in_the_page(served, page):
     # s1's third obstacle is at (7.5, 6.4): drag the target (8, 8) onto it.
     app = served.app
-    points = page.evaluate(JS_TARGET_HANDLE, {"dx": -0.5, "dy": -1.6})
-    assert points is not None, "no plane handle found on the target's gizmo"
-    (x0, y0), (x1, y1) = points["from"], points["to"]
-    page.mouse.move(x0, y0)
-    page.mouse.down()
-    for k in range(1, 11):
-        page.mouse.move(x0 + (x1 - x0) * k / 10, y0 + (y1 - y0) * k / 10)
-        page.wait_for_timeout(15)
-    page.mouse.up()
+    drag_target(page, -0.5, -1.6, steps=10)
     assert app.wait_for(lambda a: "cannot get there" in a.message, timeout=10), (
         app.sim.arena.target, app.message)
     page.wait_for_function("() => document.body.innerText.includes('cannot get there')",
