@@ -222,12 +222,20 @@ def controller_fis(controller):
     return fis
 
 
-def controller_replica(controller):
-    """A fresh copy of a controller that explains itself (``teaching_view``, fuzzynav),
-    through which the logged inputs are replayed to record its inner state; else None."""
+def has_internals(controller) -> bool:
+    """Whether the controller logs its inner state (fuzzynav's ``decisions``: per call,
+    the two voltages and the :data:`INTERNALS`); that state is then recorded, from the
+    log of the controller that drove or, failing that, replayed through a copy."""
     inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
-    if controller is None or not hasattr(inner, "teaching_view"):
+    return controller is not None and isinstance(getattr(inner, "decisions", None), list)
+
+
+def controller_replica(controller):
+    """A fresh copy of a controller that explains itself, through which the logged inputs
+    are replayed to record its inner state when it did not log its decisions; else None."""
+    if not has_internals(controller):
         return None
+    inner = getattr(controller, "inner", controller)
     replica = copy.deepcopy(inner)
     replica.reset()
     return replica
@@ -237,6 +245,7 @@ INTERNALS_PATH = "/plots/internals"
 INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
              "yield (1) / pass first (-1)", "following an edge (1)",
              "target reading doubted (1)")
+_DECISION_WIDTH = 2 + len(INTERNALS)  # the voltages, then the internals
 
 
 def controller_label(controller) -> str:
@@ -476,9 +485,12 @@ class _ColumnWriter:
     that the next chunk continues it (trail segments, obstacle changes, styles)."""
 
     def __init__(self, rec, *, footprint_m, sensor_config, voltage_limit_v: float,
-                 fis=None, tolerance_m: float = 0.15, replica=None):
+                 fis=None, tolerance_m: float = 0.15, controller=None):
         self.rec = rec
-        self.replica = replica
+        self.controller = controller
+        self.internals = has_internals(controller)
+        self.internals_source: str | None = None  # "decisions" or "replay", from chunk 1
+        self.replica = None
         self.replica_error: str | None = None
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.sensor_config = sensor_config
@@ -636,7 +648,7 @@ class _ColumnWriter:
                 self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
                            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
                            [1.0] * n, strengths)
-        if self.replica is not None and self.replica_error is None:
+        if self.internals and self.replica_error is None:
             self._internals(log, start, end)
         if send_static:
             self._static.send(self.rec)
@@ -644,27 +656,65 @@ class _ColumnWriter:
         self.sent = end
 
     def _internals(self, log, start: int, end: int) -> None:
-        """Replay rows [start, end) through the replica and plot its inner state. The
-        replica must decide exactly as the controller did; if not (the controller was
-        changed mid-run, say), nothing more is plotted and the metadata says why."""
+        """Plot the controller's inner state on rows [start, end): from the decisions it
+        logged while it drove (``decisions``), when they line up with the run (the same
+        voltages, row for row), else by replaying the rows through the replica. Either
+        way the state must come with exactly the voltages the run logged; if not (the
+        controller was changed mid-run, say), nothing more is plotted and the metadata
+        says why."""
+        decided_v = log.controller_output_v[start:end]
+        decided = np.all(np.isfinite(decided_v), axis=1)  # the last row has no decision
         out = np.full((end - start, len(INTERNALS)), np.nan)
-        replica = self.replica
-        dodge_code = {"yield": 1.0, "pass first": -1.0}
-        for j, k in enumerate(range(start, end)):
-            decided = log.controller_output_v[k]
-            if not np.all(np.isfinite(decided)):
-                continue  # no decision on this row (the last one)
-            voltages = replica(log.inputs[k], ranges_m=log.ranges_m[k])
-            if not np.allclose(voltages, decided, rtol=0.0, atol=1e-9):
-                self.replica_error = (f"its replay differs from the run at t = "
-                                      f"{log.time_s[k]:.2f} s")
-                return
-            last = replica.last
-            out[j] = (last["alpha"], last["plan_offset"], dodge_code.get(last["dodge"], 0.0),
-                      float(last["follow"]), float(getattr(replica, "target_doubted", False)))
+        logged = self._logged_decisions(start, end, decided)
+        if logged is not None:
+            voltages, state = logged[:, :2], logged[:, 2:]
+        else:
+            voltages, state = self._replay(log, start, end, decided)
+        # NaN (no decision to compare) counts as differing.
+        differs = np.flatnonzero(~np.all(np.abs(voltages - decided_v[decided]) <= 1e-9, axis=1))
+        if len(differs):
+            k = start + np.flatnonzero(decided)[differs[0]]
+            how = "logged decisions differ" if logged is not None else "replay differs"
+            self.replica_error = f"its {how} from the run at t = {log.time_s[k]:.2f} s"
+            return
+        out[decided] = state
         self._plot(INTERNALS_PATH, list(INTERNALS),
                    [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
                    [1.5] * len(INTERNALS), out)
+
+    def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
+        """The driving controller's own decisions for the decided rows of [start, end)
+        as an array (voltages, then the state); None to replay the rows instead (the
+        first chunk chooses: a controller that did not log its decisions from the run's
+        start is replayed throughout)."""
+        inner = getattr(self.controller, "inner", self.controller)  # the viewer's wrapper
+        decisions = getattr(inner, "decisions", None)
+        rows = np.flatnonzero(decided) + start
+        covered = isinstance(decisions, list) and (not len(rows) or rows[-1] < len(decisions))
+        if self.internals_source is None:
+            self.internals_source = "decisions" if covered and start == 0 else "replay"
+        if self.internals_source == "replay":
+            return None
+        if not covered:  # swapped for another controller mid-run: nothing to line up
+            return np.full((len(rows), _DECISION_WIDTH), np.nan)
+        return np.array([decisions[k] for k in rows], dtype=float).reshape(
+            len(rows), _DECISION_WIDTH)
+
+    def _replay(self, log, start: int, end: int, decided: np.ndarray):
+        """(voltages, state) of the decided rows of [start, end), replayed through a copy
+        of the controller (made at the first chunk); a replay that departs from the run
+        stops there (its later rows are NaN)."""
+        if self.replica is None:
+            self.replica = controller_replica(self.controller)
+        replica = self.replica
+        rows = np.flatnonzero(decided) + start
+        result = np.full((len(rows), _DECISION_WIDTH), np.nan)
+        for j, k in enumerate(rows):
+            replica(log.inputs[k], ranges_m=log.ranges_m[k])
+            result[j] = replica.decisions[-1]
+            if np.any(np.abs(result[j, :2] - log.controller_output_v[k]) > 1e-9):
+                break
+        return result[:, :2], result[:, 2:]
 
     def _send_obstacle(self, log, col: int, oid: int, start: int, end: int, t) -> None:
         xy = log.obstacle_xy[start:end, col]
@@ -809,6 +859,18 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
             f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
 
 
+def _rules_text(fis) -> str:
+    """A rule base as its numbered rules, then its TOML file."""
+    try:
+        from controller.rulebase import dumps_toml
+
+        rules = dumps_toml(fis)
+    except Exception:  # a system the TOML writer refuses: list the rules instead
+        rules = "\n".join(f"R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
+    numbered = "\n".join(f"# R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
+    return numbered + "\n\n" + rules
+
+
 def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, sensor_config,
               seed, perception, control_period_s, voltage_limit_v, extra_metadata) -> None:
     """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
@@ -820,15 +882,17 @@ def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, se
         static.add_archetype(path, rr.TextDocument(text, media_type=media))
 
     doc("/meta/scenario", scenario.to_toml(), markdown=False)
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    blocks = getattr(inner, "rule_blocks", None)
     if fis is not None:
-        try:
-            from controller.rulebase import dumps_toml
-
-            rules = dumps_toml(fis)
-        except Exception:  # a system the TOML writer refuses: list the rules instead
-            rules = "\n".join(f"R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
-        numbered = "\n".join(f"# R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
-        doc("/meta/rules", numbered + "\n\n" + rules, markdown=False)
+        doc("/meta/rules", _rules_text(fis), markdown=False)
+    elif callable(blocks):  # fuzzynav: its blocks and its crisp parameters
+        parts = [f"# ===== block {name!r} =====\n{_rules_text(block)}"
+                 for name, block in blocks().items()]
+        params = getattr(inner, "params_toml", None)
+        if callable(params):
+            parts.append("# ===== crisp parameters =====\n" + params())
+        doc("/meta/rules", "\n".join(parts), markdown=False)
     else:
         attrs = {k: v for k, v in vars(controller).items() if not k.startswith("_")} \
             if controller is not None and hasattr(controller, "__dict__") else {}
@@ -990,7 +1054,6 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
     sensor_config = _sensor_config(sensors)
     parameters = _parameters(parameters)
     fis = controller_fis(controller)
-    replica = controller_replica(controller)
     scenario = result.scenario
     log = result.log
     rec = _open_stream(path, recording_name=f"{scenario.name} · {controller_label(controller)}")
@@ -998,11 +1061,11 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
         # The layout first: a viewer that opens the file while it loads uses it at once.
         n_rules = len(getattr(fis, "rules", ())) if fis is not None else 0
         rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log,
-                                     internals=replica is not None))
+                                     internals=has_internals(controller)))
         writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
                                                  parameters.footprint_width_m),
                                sensor_config=sensor_config, voltage_limit_v=voltage_limit_v,
-                               fis=fis, tolerance_m=scenario.tolerance_m, replica=replica)
+                               fis=fis, tolerance_m=scenario.tolerance_m, controller=controller)
         writer.send(log, 0, len(log), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
@@ -1085,12 +1148,12 @@ class LiveRecorder:
             self._rec, footprint_m=(params.footprint_length_m, params.footprint_width_m),
             sensor_config=sim.sensors.config, voltage_limit_v=sim.voltage_limit_v,
             fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m,
-            replica=controller_replica(sim.controller))
+            controller=sim.controller)
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(controller_fis(sim.controller), "rules", ()))
         self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules,
-                                           internals=self._writer.replica is not None))
+                                           internals=self._writer.internals))
         # Sent with the first chunk's styles.
         _static_world(self._writer.static, sim.scenario)
         self._metadata(sim, self._writer.static)

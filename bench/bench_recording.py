@@ -10,9 +10,10 @@ rerun, reading package versions and the git revision) are paid before the timing
 reported apart.
 
 Controllers: ``p`` (obstacle-blind, it collides after 13.5 s of simulated time, so its
-run is short and the recording's fixed costs weigh most) and the fuzzy one: the
+run is short and the recording's fixed costs weigh most), the fuzzy one: the
 ``paper`` controller if it is installed, otherwise the paper's rule base
-(assets/rules/paper.toml) driven directly by the fuzzy engine.
+(assets/rules/paper.toml) driven directly by the fuzzy engine, and ``fuzzynav``, whose
+recording also plots its inner state (from the decisions it logged as it drove).
 
 Run: ``.venv/bin/python bench/bench_recording.py [--repeats N] [--check]``
 (``--check``: exit status 1 when an overhead exceeds 50 %).
@@ -133,6 +134,11 @@ def main(argv=None) -> int:
         fuzzy = fuzzy_controller_factory()
         if fuzzy is not None:
             rows.append(time_controller(*fuzzy, max(3, args.repeats // 2), out_dir))
+        from controller.registry import controller_names, make_controller
+
+        if "fuzzynav" in controller_names():
+            rows.append(time_controller("fuzzynav", lambda: make_controller("fuzzynav"),
+                                        max(3, args.repeats // 2), out_dir))
 
     print(f"import rerun: {imported * 1000:.0f} ms; first record_run in a process "
           f"(incl. a run, versions, git): {first * 1000:.0f} ms")

@@ -355,11 +355,20 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
     return params
 
 
+#: What each of :attr:`FuzzyNavController.decisions` holds, in order.
+DECISION_FIELDS = ("left_v", "right_v", "alpha", "plan_offset_rad", "dodge", "follow",
+                   "target_doubted")
+_DODGE_CODE = {"yield": 1.0, "pass first": -1.0}
+
+
 class FuzzyNavController:
     """The navigator; state (memory) is cleared by :meth:`reset`.
 
     Attributes for teaching and recording: ``goal``, ``avoid`` (the two blocks),
-    ``last`` (a dict: sectors, side, alpha, mode and both blocks' outputs of the last call).
+    ``last`` (a dict: sectors, side, alpha, mode and both blocks' outputs of the last call),
+    ``decisions`` (one tuple per call since :meth:`reset`, :data:`DECISION_FIELDS`: the
+    voltages returned and the inner state behind them, so that a recording plots that state
+    without deciding the run a second time).
     """
 
     needs_ranges = True
@@ -404,6 +413,7 @@ class FuzzyNavController:
         self.follow_d_t = math.inf
         self.follow_t = 0.0
         self.last: dict = {}
+        self.decisions: list[tuple] = []
         # Short memory of echoes: points in an odometry frame (dead reckoning from the
         # voltages this controller commanded), forgotten after memory_s seconds.
         self.pose = [0.0, 0.0, 0.0]
@@ -769,6 +779,10 @@ class FuzzyNavController:
                      "plan_offset": self.plan_offset, "dodge": dodge,
                      "command": (speed, turn)}
         self.cmd = (speed - turn, speed + turn)
+        # A few floats per call beside the simulation's own log row, so it grows as that does.
+        self.decisions.append((speed - turn, speed + turn, alpha, self.plan_offset,
+                               _DODGE_CODE.get(dodge, 0.0), float(self.follow),
+                               float(self.target_doubted)))
         return np.array(self.cmd)
 
     def new_target(self) -> None:
@@ -846,6 +860,14 @@ class FuzzyNavController:
             self.obs_vel = (0.0, 0.0)
             self.obs_sightings = 0
         self.obs_centre = (cx, cy)
+
+    def rule_blocks(self) -> dict[str, FuzzySystem]:
+        """The fuzzy blocks by name, for a recording's rule base."""
+        return {"goal": self.goal, "avoid": self.avoid}
+
+    def params_toml(self) -> str:
+        """The crisp parameters in use, as ``fuzzynav_params.toml`` holds them."""
+        return params_toml(self.params)
 
     @property
     def merged(self) -> FuzzySystem:
@@ -1000,13 +1022,18 @@ class FuzzyNavTunable:
         return written
 
 
-def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:
-    path = Path(path)
+def params_toml(params: dict) -> str:
+    """The crisp parameters as the ``[crisp]`` table of ``fuzzynav_params.toml``."""
     lines = ["# fuzzynav's crisp parameters (arbitration, memory, escape); see",
              "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.", "", "[crisp]"]
     for key in CRISP_DEFAULTS:
         lines.append(f"{key} = {float(params[key])!r}")
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return "\n".join(lines) + "\n"
+
+
+def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:
+    path = Path(path)
+    path.write_text(params_toml(params), encoding="utf-8")
     return path
 
 

@@ -633,6 +633,63 @@ def test_fuzzynav_internals_are_recorded(tmp_path):
     assert "controller internals" not in rec.text("/meta/run")
 
 
+def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, monkeypatch):
+    """The controller that drove logged its decisions: the recording plots them and
+    decides nothing again. A copy that did not drive is replayed instead; both give
+    the same plot."""
+    import app.recording as recording
+    from app.recording import INTERNALS_PATH
+    from controller.fuzzynav import fuzzynav_controller
+
+    sim, result, controller = _fuzzynav_crossing()
+    assert len(controller.decisions) == len(result.log) - 1  # one per decided row
+    replays = []
+    real = recording.controller_replica
+    monkeypatch.setattr(recording, "controller_replica",
+                        lambda c: replays.append(c) or real(c))
+    logged = Recording(record_run(result, tmp_path / "logged.rrd", controller=controller))
+    assert replays == []
+    replayed = Recording(record_run(result, tmp_path / "replayed.rrd",
+                                    controller=fuzzynav_controller()))
+    assert len(replays) == 1
+    t_logged, v_logged = logged.scalars(INTERNALS_PATH)
+    t_replayed, v_replayed = replayed.scalars(INTERNALS_PATH)
+    assert np.array_equal(t_logged, t_replayed) and same(v_logged, v_replayed)
+    assert "controller internals" not in logged.text("/meta/run")
+
+
+def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
+    """Decisions that do not line up with the run (tampered with here, as a controller
+    swapped mid-run would leave them) are not plotted past the first difference."""
+    from app.recording import INTERNALS_PATH
+
+    _, result, controller = _fuzzynav_crossing()
+    k = 300
+    left, right, *state = controller.decisions[k]
+    controller.decisions[k] = (left + 1.0, right, *state)
+    rec = Recording(record_run(result, tmp_path / "odd.rrd", controller=controller))
+    assert INTERNALS_PATH not in rec.entities
+    t = result.log.time_s[k]
+    assert f"not recorded (its logged decisions differ from the run at t = {t:.2f} s)" \
+        in rec.text("/meta/run")
+
+
+def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
+    """A reviewer can rebuild fuzzynav from the recording: both rule blocks as TOML and
+    the crisp parameters, not the controller's running state."""
+    from controller.fuzzynav import params_toml
+    from controller.rulebase import dumps_toml
+
+    _, result, controller = _fuzzynav_crossing()
+    rules = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller)).text(
+        "/meta/rules")
+    assert dumps_toml(controller.goal) in rules and dumps_toml(controller.avoid) in rules
+    assert params_toml(controller.params) in rules
+    crisp = tomllib.loads(rules[rules.index("[crisp]"):])["crisp"]
+    assert crisp == pytest.approx(controller.params)
+    assert "not fuzzy" not in rules and "decisions" not in rules
+
+
 def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
