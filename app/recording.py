@@ -230,6 +230,18 @@ def has_internals(controller) -> bool:
     return controller is not None and isinstance(getattr(inner, "decisions", None), list)
 
 
+def rule_system(controller):
+    """The fuzzy system whose rules' firing a recording plots: the controller's ``fis``
+    (fed the four logged inputs), else for a controller that logs its decisions its
+    ``merged`` blocks (fed the blocks' inputs it logged); None if neither."""
+    fis = controller_fis(controller)
+    if fis is not None:
+        return fis
+    inner = getattr(controller, "inner", controller)
+    merged = getattr(inner, "merged", None) if has_internals(controller) else None
+    return merged if hasattr(merged, "firing_strengths") else None
+
+
 def controller_replica(controller):
     """A fresh copy of a controller that explains itself, through which the logged inputs
     are replayed to record its inner state when it did not log its decisions; else None."""
@@ -245,7 +257,6 @@ INTERNALS_PATH = "/plots/internals"
 INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
              "yield (1) / pass first (-1)", "following an edge (1)",
              "target reading doubted (1)")
-_DECISION_WIDTH = 2 + len(INTERNALS)  # the voltages, then the internals
 
 
 def controller_label(controller) -> str:
@@ -489,6 +500,10 @@ class _ColumnWriter:
         self.rec = rec
         self.controller = controller
         self.internals = has_internals(controller)
+        # A decision: the voltages, the internals, then the inputs of the blocks' rules.
+        blocks = rule_system(controller) if self.internals and fis is None else None
+        self.blocks = blocks
+        self.decision_width = 2 + len(INTERNALS) + (len(blocks.inputs) if blocks else 0)
         self.internals_source: str | None = None  # "decisions" or "replay", from chunk 1
         self.replica = None
         self.replica_error: str | None = None
@@ -644,16 +659,19 @@ class _ColumnWriter:
             except Exception as exc:  # a fuzzy system of another shape: record why not
                 self.fis_error = f"{type(exc).__name__}: {exc}"
             else:
-                self.n_rules = n = strengths.shape[1]
-                self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
-                           [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
-                           [1.0] * n, strengths)
+                self._plot_rules(strengths)
         if self.internals and self.replica_error is None:
             self._internals(log, start, end)
         if send_static:
             self._static.send(self.rec)
         rows.send(self.rec)
         self.sent = end
+
+    def _plot_rules(self, strengths: np.ndarray) -> None:
+        self.n_rules = n = strengths.shape[1]
+        self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
+                   [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
+                   [1.0] * n, strengths)
 
     def _internals(self, log, start: int, end: int) -> None:
         """Plot the controller's inner state on rows [start, end): from the decisions it
@@ -665,11 +683,13 @@ class _ColumnWriter:
         decided_v = log.controller_output_v[start:end]
         decided = np.all(np.isfinite(decided_v), axis=1)  # the last row has no decision
         out = np.full((end - start, len(INTERNALS)), np.nan)
-        logged = self._logged_decisions(start, end, decided)
-        if logged is not None:
-            voltages, state = logged[:, :2], logged[:, 2:]
-        else:
-            voltages, state = self._replay(log, start, end, decided)
+        try:
+            logged = self._logged_decisions(start, end, decided)
+            decisions = logged if logged is not None else self._replay(log, start, end, decided)
+        except ValueError as exc:  # decisions of another shape than this writer expects
+            self.replica_error = f"its decisions do not fit ({exc})"
+            return
+        voltages, state = decisions[:, :2], decisions[:, 2:2 + len(INTERNALS)]
         # NaN (no decision to compare) counts as differing.
         differs = np.flatnonzero(~np.all(np.abs(voltages - decided_v[decided]) <= 1e-9, axis=1))
         if len(differs):
@@ -681,6 +701,12 @@ class _ColumnWriter:
         self._plot(INTERNALS_PATH, list(INTERNALS),
                    [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
                    [1.5] * len(INTERNALS), out)
+        if self.blocks is not None:
+            strengths = np.full((end - start, len(self.blocks.rules)), np.nan)
+            if decided.any():
+                strengths[decided] = self.blocks.firing_strengths(
+                    decisions[:, 2 + len(INTERNALS):])
+            self._plot_rules(strengths)
 
     def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)
@@ -696,25 +722,25 @@ class _ColumnWriter:
         if self.internals_source == "replay":
             return None
         if not covered:  # swapped for another controller mid-run: nothing to line up
-            return np.full((len(rows), _DECISION_WIDTH), np.nan)
+            return np.full((len(rows), self.decision_width), np.nan)
         return np.array([decisions[k] for k in rows], dtype=float).reshape(
-            len(rows), _DECISION_WIDTH)
+            len(rows), self.decision_width)
 
     def _replay(self, log, start: int, end: int, decided: np.ndarray):
-        """(voltages, state) of the decided rows of [start, end), replayed through a copy
+        """The decisions of the decided rows of [start, end), replayed through a copy
         of the controller (made at the first chunk); a replay that departs from the run
         stops there (its later rows are NaN)."""
         if self.replica is None:
             self.replica = controller_replica(self.controller)
         replica = self.replica
         rows = np.flatnonzero(decided) + start
-        result = np.full((len(rows), _DECISION_WIDTH), np.nan)
+        result = np.full((len(rows), self.decision_width), np.nan)
         for j, k in enumerate(rows):
             replica(log.inputs[k], ranges_m=log.ranges_m[k])
             result[j] = replica.decisions[-1]
             if np.any(np.abs(result[j, :2] - log.controller_output_v[k]) > 1e-9):
                 break
-        return result[:, :2], result[:, 2:]
+        return result
 
     def _send_obstacle(self, log, col: int, oid: int, start: int, end: int, t) -> None:
         xy = log.obstacle_xy[start:end, col]
@@ -859,15 +885,15 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
             f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
 
 
-def _rules_text(fis) -> str:
-    """A rule base as its numbered rules, then its TOML file."""
+def _rules_text(fis, first: int = 1) -> str:
+    """A rule base as its rules numbered from ``first``, then its TOML file."""
     try:
         from controller.rulebase import dumps_toml
 
         rules = dumps_toml(fis)
     except Exception:  # a system the TOML writer refuses: list the rules instead
         rules = "\n".join(f"R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
-    numbered = "\n".join(f"# R{k + 1}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
+    numbered = "\n".join(f"# R{first + k}: {fis.rule_text(k)}" for k in range(len(fis.rules)))
     return numbered + "\n\n" + rules
 
 
@@ -887,8 +913,11 @@ def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, se
     if fis is not None:
         doc("/meta/rules", _rules_text(fis), markdown=False)
     elif callable(blocks):  # fuzzynav: its blocks and its crisp parameters
-        parts = [f"# ===== block {name!r} =====\n{_rules_text(block)}"
-                 for name, block in blocks().items()]
+        # Numbered on through the blocks, as the recording's rule plot numbers them.
+        parts, first = [], 1
+        for name, block in blocks().items():
+            parts.append(f"# ===== block {name!r} =====\n{_rules_text(block, first)}")
+            first += len(block.rules)
         params = getattr(inner, "params_toml", None)
         if callable(params):
             parts.append("# ===== crisp parameters =====\n" + params())
@@ -1059,7 +1088,7 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
     rec = _open_stream(path, recording_name=f"{scenario.name} · {controller_label(controller)}")
     try:
         # The layout first: a viewer that opens the file while it loads uses it at once.
-        n_rules = len(getattr(fis, "rules", ())) if fis is not None else 0
+        n_rules = len(getattr(rule_system(controller), "rules", ()))
         rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log,
                                      internals=has_internals(controller)))
         writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
@@ -1151,7 +1180,7 @@ class LiveRecorder:
             controller=sim.controller)
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
-        n_rules = len(getattr(controller_fis(sim.controller), "rules", ()))
+        n_rules = len(getattr(rule_system(sim.controller), "rules", ()))
         self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules,
                                            internals=self._writer.internals))
         # Sent with the first chunk's styles.

@@ -355,9 +355,13 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
     return params
 
 
-#: What each of :attr:`FuzzyNavController.decisions` holds, in order.
+#: What each of :attr:`FuzzyNavController.decisions` holds, in order: the voltages, the
+#: inner state (dodge: 1 yield, -1 pass first, 0 neither), then the inputs of
+#: :attr:`FuzzyNavController.merged` (both blocks' inputs: the bearing steered by, the
+#: target distance, the sector distances and the side), from which a recording computes
+#: every rule's firing strength.
 DECISION_FIELDS = ("left_v", "right_v", "alpha", "plan_offset_rad", "dodge", "follow",
-                   "target_doubted")
+                   "target_doubted", "phi_t", "d_t", "left", "front", "right", "side")
 _DODGE_CODE = {"yield": 1.0, "pass first": -1.0}
 
 
@@ -367,8 +371,8 @@ class FuzzyNavController:
     Attributes for teaching and recording: ``goal``, ``avoid`` (the two blocks),
     ``last`` (a dict: sectors, side, alpha, mode and both blocks' outputs of the last call),
     ``decisions`` (one tuple per call since :meth:`reset`, :data:`DECISION_FIELDS`: the
-    voltages returned and the inner state behind them, so that a recording plots that state
-    without deciding the run a second time).
+    voltages returned, the inner state and the blocks' inputs behind them, so that a
+    recording plots that state and the rules' firing without deciding the run again).
     """
 
     needs_ranges = True
@@ -782,7 +786,7 @@ class FuzzyNavController:
         # A few floats per call beside the simulation's own log row, so it grows as that does.
         self.decisions.append((speed - turn, speed + turn, alpha, self.plan_offset,
                                _DODGE_CODE.get(dodge, 0.0), float(self.follow),
-                               float(self.target_doubted)))
+                               float(self.target_doubted), phi, d_t, *avoid_in))
         return np.array(self.cmd)
 
     def new_target(self) -> None:

@@ -658,6 +658,40 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     assert "controller internals" not in logged.text("/meta/run")
 
 
+def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path, monkeypatch):
+    """fuzzynav has no single ``fis``: the recording plots the firing of the 21 rules of
+    both blocks (goal R1-R8, avoidance R9-R21, numbered so in /meta/rules), row for row
+    what the viewer's teaching panel computes from the controller after each decision;
+    where avoidance dominates (alpha > 0.5) an avoidance rule fires."""
+    from app.recording import INTERNALS_PATH
+    from controller.fuzzynav import fuzzynav_controller
+
+    sim, result, controller = _fuzzynav_crossing()
+    layouts = []
+    real = recording.blueprint
+    monkeypatch.setattr(recording, "blueprint",
+                        lambda *a, **kw: layouts.append(a[2]) or real(*a, **kw))
+    rec = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller))
+    n_rules = len(controller.goal.rules) + len(controller.avoid.rules)
+    assert layouts == [n_rules]  # the layout has a tab for the rules' firing
+    times, firing = rec.scalars(RULES_PATH)
+    assert np.array_equal(times, nanos(result.log.time_s))
+    assert rec.static[RULES_PATH]["SeriesLines:names"] == [f"R{k + 1}" for k in range(n_rules)]
+    assert np.all(np.isnan(firing[-1]))  # the last row has no decision
+    log = result.log
+    fresh = fuzzynav_controller()
+    for k in range(len(log) - 1):
+        fresh(log.inputs[k], ranges_m=log.ranges_m[k])
+        system, inputs, _ = fresh.teaching_view()
+        assert same(firing[k], system.firing_strengths(inputs[None, :])[0]), k
+    _, internals = rec.scalars(INTERNALS_PATH)
+    avoiding = internals[:-1, 0] > 0.5
+    assert avoiding.any() and np.all(firing[:-1][avoiding, len(controller.goal.rules):]
+                                     .max(axis=1) > 0.3)
+    rules = rec.text("/meta/rules")
+    assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
+
+
 def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
     """Decisions that do not line up with the run (tampered with here, as a controller
     swapped mid-run would leave them) are not plotted past the first difference."""
@@ -734,6 +768,8 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path):
         sim.step()
         live.update(sim)
     live.close(sim)
-    t_live, v_live = Recording(tmp_path / "live.rrd").scalars(INTERNALS_PATH)
-    t_whole, v_whole = whole_rec.scalars(INTERNALS_PATH)
-    assert np.array_equal(t_live, t_whole) and same(v_live, v_whole)
+    live_rec = Recording(tmp_path / "live.rrd")
+    for path in (INTERNALS_PATH, RULES_PATH):
+        t_live, v_live = live_rec.scalars(path)
+        t_whole, v_whole = whole_rec.scalars(path)
+        assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), path
