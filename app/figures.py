@@ -14,8 +14,10 @@ scenario 1; scenarios 2 and 3 repeat the set as Figs. 17-21 and 22-26):
 ``voltages``        Fig. 16: left and right wheel voltages with the +-12 V limit
 ==================  =======================================================================
 
-and, when the controller is fuzzy (it has a ``fis``), the membership functions of every
-input and output (the paper's Figs. 6-11): ``membership_<variable>``.
+and, when the controller is fuzzy (it has a ``fis``, or fuzzynav's blocks), the membership
+functions of every input and output (the paper's Figs. 6-11): ``membership_<variable>``
+(fuzzynav: ``phi_t``, ``d_t``, ``left``, ``front``, ``right``, ``side``, and
+``goal_speed``, ``goal_turn``, ``avoid_speed``, ``avoid_turn``).
 
 ``write_comparison_figure`` draws the paper's Fig. 27: the trajectories of several
 controllers side by side, one row per scenario.
@@ -313,7 +315,14 @@ def _default_footprint() -> tuple[float, float]:
 
 
 def _fis(controller):
-    fis = getattr(controller, "fis", None) if controller is not None else None
+    """The controller's fuzzy system: its ``fis``, else (fuzzynav) its blocks merged into
+    one (``merged``: every block's inputs and outputs, under names unique across them)."""
+    if controller is None:
+        return None
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    fis = getattr(inner, "fis", None)
+    if fis is None and callable(getattr(inner, "rule_blocks", None)):
+        fis = getattr(inner, "merged", None)
     return fis if fis is not None and hasattr(fis, "inputs") and hasattr(fis, "outputs") else None
 
 

@@ -80,6 +80,25 @@ def test_run_figures_with_a_prefix_and_a_fuzzy_controller(tmp_path, paper_fis):
     assert len(membership_figure_names(paper_fis)) == 6  # 4 inputs, 2 outputs
 
 
+def test_run_figures_of_fuzzynav_show_both_blocks_membership(tmp_path):
+    """fuzzynav has no single ``fis``: its figures carry the membership functions of
+    both blocks' inputs and outputs (goal: phi_t, d_t; avoidance: left, front, right,
+    side), outputs named by block."""
+    from controller.fuzzynav import fuzzynav_controller
+    from world.scenario import load_scenario
+
+    scenario = load_scenario("s1").replace(duration_s=4.0)
+    sim = build_simulation(scenario, controller_object=fuzzynav_controller())
+    paths = write_run_figures(sim.run(), tmp_path, controller=sim.controller,
+                              formats=("png",))
+    variables = ("phi_t", "d_t", "left", "front", "right", "side", "goal_speed",
+                 "goal_turn", "avoid_speed", "avoid_turn")
+    names = list(RUN_FIGURES) + [f"membership_{v}" for v in variables]
+    assert sorted(paths) == sorted(tmp_path / f"{n}.png" for n in names)
+    for path in paths:
+        assert_valid_png(path)
+
+
 def test_membership_figures(tmp_path, paper_fis):
     paths = write_membership_figures(paper_fis, tmp_path, formats=("png",))
     names = [f"membership_{v}" for v in ("d_t", "d_o", "phi_t", "phi_o", "left", "right")]
