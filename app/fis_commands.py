@@ -1,43 +1,76 @@
-"""``fuzzynav fis export PATH``: the paper controller as a MATLAB ``.fis`` file.
+"""``fuzzynav fis export PATH``: a controller's fuzzy rule base as MATLAB ``.fis`` files.
 
-Inputs in the order d_t, d_o, phi_t, phi_o; outputs left then right; the paper's labels
-(VS S M L VL; near medium far; VN N Z P VP). ``fuzzynav run s1 --fis PATH`` drives the
-robot with such a file (or one of your own).
+The paper controller is one fuzzy system: one file, inputs in the order d_t, d_o, phi_t,
+phi_o, outputs left then right, the paper's labels (VS S M L VL; near medium far; VN N Z
+P VP). ``fuzzynav run s1 --fis PATH`` drives the robot with such a file (or one of your
+own). fuzzynav and the baseline are two blocks each (goal seeking and avoidance) joined by
+crisp code: PATH is then a directory, given one ``<controller>_<block>.fis`` per block
+(fuzzynav's crisp parameters, which no ``.fis`` holds, are in
+``assets/rules/fuzzynav_params.toml``).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-FIS_CONTROLLERS = ("paper",)
+FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
 
 
-def export_fis(path: str | Path, controller: str = "paper") -> Path:
-    """Write ``controller``'s fuzzy system to ``path`` (a MATLAB .fis file)."""
+def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
+    """Write ``controller``'s fuzzy systems under ``path`` (MATLAB .fis); returns the files.
+
+    One system (``paper``): ``path`` is the file, ending in ``.fis``. Several blocks
+    (``fuzzynav``, ``baseline``): ``path`` is a directory, made if its parent exists.
+    """
     from controller.registry import make_controller
 
     if controller not in FIS_CONTROLLERS:
-        raise ValueError(f"controller = {controller!r}: only {', '.join(FIS_CONTROLLERS)} is a single "
-                         f"fuzzy system that a .fis file can hold")
+        raise ValueError(f"controller = {controller!r}: choose one of {', '.join(FIS_CONTROLLERS)}")
     path = Path(path)
-    if path.suffix.lower() != ".fis":
-        raise ValueError(f"{path}: the file name must end in .fis")
+    ctrl = make_controller(controller)
+    blocks = getattr(ctrl, "rule_blocks", None)
+    if blocks is None:
+        if path.suffix.lower() != ".fis":
+            raise ValueError(f"{path}: the file name must end in .fis")
+        if not path.parent.exists():
+            raise ValueError(f"{path}: directory {path.parent} does not exist")
+        ctrl.fis.to_fis(path)
+        return [path]
+    systems = blocks()
+    if path.suffix.lower() == ".fis":
+        raise ValueError(f"{path}: {controller} is {len(systems)} fuzzy blocks "
+                         f"({', '.join(systems)}), one .fis each: give a directory")
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{path}: not a directory")
     if not path.parent.exists():
         raise ValueError(f"{path}: directory {path.parent} does not exist")
-    make_controller(controller).fis.to_fis(path)
-    return path
+    path.mkdir(exist_ok=True)
+    written = []
+    for name, system in systems.items():
+        written.append(path / f"{controller}_{name}.fis")
+        system.to_fis(written[-1])
+    return written
+
+
+def _signature(system) -> str:
+    names = lambda variables: ", ".join(v.name for v in variables)  # noqa: E731
+    return f"inputs {names(system.inputs)}; outputs {names(system.outputs)}"
 
 
 def cmd_fis_export(args) -> int:
-    path = export_fis(args.path, args.controller)
-    print(f"wrote {path} ({args.controller} controller: inputs d_t, d_o, phi_t, phi_o; outputs left, right)")
+    from controller.fuzzy import FuzzySystem
+
+    for path in export_fis(args.path, args.controller):
+        print(f"wrote {path} ({_signature(FuzzySystem.from_fis(path))})")
     return 0
 
 
 def add_commands(subparsers) -> None:
     fis = subparsers.add_parser("fis", help="MATLAB .fis files")
     sub = fis.add_subparsers(dest="fis_command", required=True)
-    export = sub.add_parser("export", help="write the paper controller as a MATLAB .fis file")
-    export.add_argument("path", type=Path, help="output file (.fis)")
+    export = sub.add_parser("export", help="write a controller's rule base as MATLAB .fis "
+                                           "(paper: one file; fuzzynav, baseline: one per block)")
+    export.add_argument("path", type=Path,
+                        help="output file (.fis) for paper; a directory for fuzzynav and baseline")
     export.add_argument("--controller", default="paper", choices=FIS_CONTROLLERS)
     export.set_defaults(func=cmd_fis_export)

@@ -47,6 +47,18 @@ class BaselineController:
     def reset(self) -> None:
         """Stateless."""
 
+    def rule_blocks(self) -> dict[str, FuzzySystem]:
+        """The fuzzy blocks by name (for recordings and ``fuzzynav fis export``)."""
+        return {"goal": self.goal, "avoid": self.avoid}
+
+    @property
+    def merged(self) -> FuzzySystem:
+        """Both blocks as one system (for the membership figures; outputs prefixed
+        ``goal_`` / ``avoid_``)."""
+        from controller.fuzzynav import merge_blocks
+
+        return merge_blocks(self.goal, self.avoid)
+
     @staticmethod
     def sectors(d_o: float, phi_o: float) -> tuple[float, float, float]:
         """(left, front, right) distances: d_o in the nearest obstacle's sector, NaN elsewhere."""

@@ -130,6 +130,33 @@ def test_fis_export_bad_path(tmp_path, capsys):
     assert main(["fis", "export", str(tmp_path / "missing" / "x.fis")]) == 2
 
 
+@pytest.mark.parametrize("controller", ["fuzzynav", "baseline"])
+def test_fis_export_of_a_two_block_controller(tmp_path, capsys, controller):
+    """fuzzynav and the baseline are two fuzzy blocks: one .fis per block in a directory,
+    each read back equal to the block the controller drives with."""
+    out = tmp_path / "blocks"
+    assert main(["fis", "export", str(out), "--controller", controller]) == 0
+    printed = capsys.readouterr().out
+    blocks = make_controller(controller).rule_blocks()
+    for name, system in blocks.items():
+        path = out / f"{controller}_{name}.fis"
+        assert str(path) in printed
+        assert FuzzySystem.from_fis(path) == system
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{controller}_{n}.fis" for n in blocks)
+
+
+def test_fis_export_of_blocks_refuses_a_file_name(tmp_path, capsys):
+    assert main(["fis", "export", str(tmp_path / "x.fis"), "--controller", "fuzzynav"]) == 2
+    assert "fuzzynav is 2 fuzzy blocks (goal, avoid), one .fis each: give a directory" \
+        in capsys.readouterr().err
+    (tmp_path / "plain").write_text("not a directory")
+    assert main(["fis", "export", str(tmp_path / "plain"), "--controller", "baseline"]) == 2
+    assert "not a directory" in capsys.readouterr().err
+    assert (tmp_path / "plain").read_text() == "not a directory"  # nothing lost
+    assert main(["fis", "export", str(tmp_path / "a" / "b"), "--controller", "fuzzynav"]) == 2
+    assert not (tmp_path / "a").exists()
+
+
 def test_sweep_prints_the_paper_controller_beside(capsys):
     """Issue 6: a sweep of another controller prints the paper controller's rate beside
     it, on the same layouts; --beside none skips it; a bad name is refused."""

@@ -367,6 +367,22 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     assert len(style["SeriesLines:colors"]) == n_rules
 
 
+def test_baseline_recording_holds_both_blocks(tmp_path):
+    """The baseline blends two fuzzy blocks: /meta/rules holds both, numbered on."""
+    from controller.baseline import BaselineController
+    from controller.rulebase import dumps_toml
+    from world.scenario import load_scenario
+
+    controller = BaselineController()
+    scenario = load_scenario("s1").replace(duration_s=2.0)
+    sim = build_simulation(scenario, controller_object=controller)
+    rules = Recording(record_run(sim.run(), tmp_path / "b.rrd", controller=controller)).text(
+        "/meta/rules")
+    assert dumps_toml(controller.goal) in rules and dumps_toml(controller.avoid) in rules
+    assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
+    assert "not fuzzy" not in rules
+
+
 def test_real_paper_rule_base_has_40_rules():
     ctrl = make_fuzzy_controller()
     if isinstance(ctrl.fis, TinyFis):
