@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import statistics
 import time
+from pathlib import Path
 
 SAFE_CLEARANCE_M = 0.25
 
@@ -102,6 +103,58 @@ def sweep(controller: str, n: int, seed: int, family: str = "standard",
     }
 
 
+def failed_runs(out: dict) -> list[dict]:
+    """The runs of a sweep that did not reach their target without a collision."""
+    return [r for r in out["runs"] if not (r["reached"] and not r["collided"])]
+
+
+def write_failures(out: dict, directory, progress=None) -> list[dict]:
+    """For every failed run of the sweep ``out``: its layout as a scenario file and a
+    rerun recording of the run, in ``directory`` (which must exist).
+
+    The scenario file runs again with ``fuzzynav run FILE --controller C --perception P
+    --seed S`` (the command is in its header and in the recording); the run is driven
+    again here to record it, and must end as it did in the sweep. Returns one dict per
+    failure: index, outcome, ``scenario_file``, ``recording``.
+    """
+    from pathlib import Path
+
+    from app.recording import record_run
+    from app.runs import build_simulation
+    from world.layouts import generate_layout
+    from world.scenario import load_scenario
+
+    directory = Path(directory)
+    family, seed = out["family"], out["seed"]
+    controller, perception = out["controller"], out["perception"]
+    written = []
+    for done, run in enumerate(failed_runs(out), start=1):
+        stem = f"{family}_seed{seed}_{run['index']:03d}"
+        scenario_file = directory / f"{stem}.toml"
+        command = (f"fuzzynav run {scenario_file} --controller {controller} "
+                   f"--perception {perception} --seed {seed}")
+        scenario_file.write_text(
+            f"# {family} layout #{run['index']} of seed {seed}, written by `fuzzynav sweep "
+            f"--failures`: {controller} ({perception} perception) ended '{run['outcome']}'.\n"
+            f"# Again: {command}\n\n" + generate_layout(family, seed, run["index"]).to_toml(),
+            encoding="utf-8")
+        sim = build_simulation(load_scenario(scenario_file), controller, perception=perception,
+                               seed=seed)
+        result = sim.run()
+        if (result.outcome, result.metrics["collided"]) != (run["outcome"], run["collided"]):
+            raise RuntimeError(f"{scenario_file}: the run ended '{result.outcome}' when driven "
+                               f"again, '{run['outcome']}' in the sweep")
+        recording = directory / f"{stem}_{controller}_{perception}.rrd"
+        record_run(result, recording, controller=sim.controller, sensors=sim.sensors,
+                   parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v,
+                   extra_metadata={"sweep": f"{family} layout #{run['index']} of seed {seed}"})
+        written.append({"index": run["index"], "outcome": run["outcome"],
+                        "scenario_file": str(scenario_file), "recording": str(recording)})
+        if progress:
+            progress(done)
+    return written
+
+
 def _sweep_with_bar(controller, n, seed, family, perception, workers, quiet, label=""):
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -130,6 +183,10 @@ def cmd_sweep(args) -> int:
     from app.cli import print_json
 
     _check_workers(args.workers)
+    if args.failures is not None:
+        from app.figures import check_writable_dir
+
+        check_writable_dir(args.failures, "--failures")  # before the sweep, not after
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
@@ -140,9 +197,13 @@ def cmd_sweep(args) -> int:
         # the same layouts, so that the two rates are comparable run for run
         other = _sweep_with_bar(beside, args.n, args.seed, args.family, args.perception,
                                 args.workers, args.json)
+    failures = _write_failures_with_bar(out, args.failures, args.json) \
+        if args.failures is not None else None
     if args.json:
         if other is not None:
             out["beside"] = {k: v for k, v in other.items() if k != "runs"}
+        if failures is not None:
+            out["failures"] = failures
         print_json(out)
         return 0
     table = Table(title=f"sweep: {args.family} layouts, seed {args.seed}, "
@@ -155,7 +216,31 @@ def cmd_sweep(args) -> int:
         if key not in ("runs", "controller"):
             table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
     Console().print(table)
+    if failures:
+        listing = Table(title=f"{len(failures)} failed run(s) of {args.controller}: "
+                              f"layouts and recordings in {args.failures}")
+        for column in ("layout", "outcome", "scenario file", "recording"):
+            listing.add_column(column, overflow="fold")
+        for f in failures:
+            listing.add_row(f"#{f['index']}", f["outcome"], Path(f["scenario_file"]).name,
+                            Path(f["recording"]).name)
+        Console().print(listing)
+        print(f"open one with: rerun {failures[0]['recording']}")
+    elif failures is not None:
+        print(f"no failed runs: nothing written to {args.failures}")
     return 0
+
+
+def _write_failures_with_bar(out, directory, quiet):
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    n = len(failed_runs(out))
+    with Progress(TextColumn("recording failed runs"), BarColumn(), MofNCompleteColumn(),
+                  console=Console(stderr=True), disable=quiet or n == 0) as bar:
+        task = bar.add_task("failures", total=n)
+        return write_failures(out, directory,
+                              progress=lambda done: bar.update(task, completed=done))
 
 
 # --------------------------------------------------------------------------- compare
@@ -277,6 +362,9 @@ def add_commands(subparsers) -> None:
                    help="also sweep this controller on the same layouts and print it beside "
                         "(default: paper, unless --controller is paper; none: skip)")
     p.add_argument("--json", action="store_true", help="print one JSON object (with every run)")
+    p.add_argument("--failures", type=Path, default=None, metavar="DIR",
+                   help="write every failed run of --controller to DIR: its layout as a "
+                        "scenario file (to run again) and a rerun recording")
     p.set_defaults(func=cmd_sweep)
 
     c = subparsers.add_parser("compare", help="the paper's Table 4: controllers on s1-s3 beside the paper")

@@ -1,6 +1,7 @@
 """tune, sweep, compare and fis export through the command line (tiny budgets)."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -155,6 +156,44 @@ def test_fis_export_of_blocks_refuses_a_file_name(tmp_path, capsys):
     assert (tmp_path / "plain").read_text() == "not a directory"  # nothing lost
     assert main(["fis", "export", str(tmp_path / "a" / "b"), "--controller", "fuzzynav"]) == 2
     assert not (tmp_path / "a").exists()
+
+
+def test_sweep_writes_each_failed_run_to_run_again_and_to_open(tmp_path, capsys):
+    """--failures DIR: every failed run's layout as a scenario file that runs again to
+    the same end, and a recording of it that names the sweep and that file."""
+    from tests.test_recording import Recording
+
+    out_dir = tmp_path / "failed"
+    assert main(["sweep", "--n", "4", "--seed", "1", "--controller", "p", "--beside", "none",
+                 "--failures", str(out_dir), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    failed = [r for r in data["runs"] if not (r["reached"] and not r["collided"])]
+    assert failed, "the obstacle-blind P controller should fail somewhere"
+    assert [f["index"] for f in data["failures"]] == [r["index"] for r in failed]
+    for f, run in zip(data["failures"], failed):
+        scenario_file = out_dir / f"standard_seed1_{run['index']:03d}.toml"
+        assert f["scenario_file"] == str(scenario_file) and f["outcome"] == run["outcome"]
+        assert main(["run", str(scenario_file), "--controller", "p", "--seed", "1",
+                     "--json"]) == 0
+        again = json.loads(capsys.readouterr().out)
+        assert again["outcome"] == run["outcome"]
+        assert again["path_length_m"] == pytest.approx(run["path_length_m"], abs=1e-12)
+        meta = Recording(f["recording"]).text("/meta/run")
+        assert f"standard layout #{run['index']} of seed 1" in meta
+        assert f"fuzzynav run {scenario_file} --controller p" in meta
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(
+        name for f in data["failures"]
+        for name in (Path(f["scenario_file"]).name, Path(f["recording"]).name))
+
+
+def test_sweep_failures_dir_is_checked_before_the_sweep(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("keep me")
+    assert main(["sweep", "--n", "2", "--controller", "p", "--beside", "none",
+                 "--failures", str(blocker)]) == 2
+    captured = capsys.readouterr()
+    assert f"--failures {blocker}: exists and is not a directory" in captured.err
+    assert "sweep" not in captured.out and blocker.read_text() == "keep me"
 
 
 def test_sweep_prints_the_paper_controller_beside(capsys):
