@@ -59,6 +59,8 @@ def test_valid_file_loads(write_toml):
     ("duration_s = 60.0", 'duration_s = "long"', "duration_s", "long"),
     ("duration_s = 60.0", "duration_s = nan", "duration_s", "nan"),
     ("duration_s = 60.0", "duration_s = -1.0", "duration_s", "-1.0"),
+    ("duration_s = 60.0", "duration_s = 1e9", "duration_s", "1000000000.0"),
+    ("duration_s = 60.0", "duration_s = 3600.5", "duration_s", "3600.5"),
     ("start = [0.0, 0.0]", "start = [0.0, inf]", "robot.start[1]", "inf"),
     ("start = [0.0, 0.0]", "start = [0.0]", "robot.start", "[0.0]"),
     ("radius_m = 0.2", "radius_m = 0.0", "obstacles[0].radius_m", "0.0"),
@@ -131,3 +133,20 @@ def test_disturbance_stop_before_start():
             "disturbance": {"amplitude": 1, "angular_frequency_rad_s": 2, "start_s": 5, "stop_s": 1}}
     with pytest.raises(ScenarioError, match="disturbance.stop_s"):
         scenario_from_dict(data)
+
+
+def test_an_hour_is_the_longest_run_a_file_may_ask_for(write_toml):
+    assert load_scenario(write_toml(VALID.replace("duration_s = 60.0",
+                                                  "duration_s = 3600.0"))).duration_s == 3600.0
+
+
+def test_a_huge_duration_built_in_code_runs_without_a_huge_log():
+    """Before, the log was allocated for the whole duration at once: 1e9 s asked numpy for
+    8.7 TiB and crashed. Now it starts at an hour's worth and grows."""
+    from app.runs import build_simulation
+
+    scenario = load_scenario("s1").replace(duration_s=1e9)
+    sim = build_simulation(scenario, "p")
+    for _ in range(10):
+        sim.step()
+    assert len(sim.log) == 10 and not sim.done

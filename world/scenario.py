@@ -159,6 +159,9 @@ def _toml_list(values) -> str:
 # Parsing and validation
 
 
+#: The longest run a scenario file may ask for: a run's log grows with its length (an
+#: hour at the default 20 ms period is 180,000 rows, about 35 MB).
+MAX_DURATION_S = 3600.0
 _TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
 _ROBOT_KEYS = {"start", "heading_rad"}
 _TARGET_KEYS = {"position", "tolerance_m"}
@@ -223,7 +226,7 @@ def scenario_from_dict(
     ------
     ScenarioError
         For an unknown or missing key, a value of the wrong type, NaN or inf, a
-        non-positive radius, tolerance or duration, a start pose whose footprint overlaps
+        non-positive radius, tolerance or duration, a duration over :data:`MAX_DURATION_S`, a start pose whose footprint overlaps
         an obstacle, a target inside a static obstacle or too near one to reach
         (:func:`target_blocker`), or overlapping static obstacles.
     """
@@ -232,6 +235,9 @@ def scenario_from_dict(
     name = r.string(data["name"], "name")
     description = r.string(data.get("description", ""), "description")
     duration_s = r.number(data["duration_s"], "duration_s", positive=True)
+    if duration_s > MAX_DURATION_S:
+        r.fail("duration_s", duration_s, f"must be at most {MAX_DURATION_S:g} s (an hour of "
+                                         f"simulated time)")
 
     robot = r.table(data["robot"], "robot", _ROBOT_KEYS, {"start"})
     start = r.point(robot["start"], "robot.start")

@@ -278,7 +278,9 @@ class Simulation:
         self.x = np.zeros(6)
         self.outcome: str | None = None
         self._wall_time_s = 0.0
-        capacity = int(math.ceil(sc.duration_s / self.control_period_s)) + 2
+        # The log grows by doubling; sized for the whole run only up to an hour's worth,
+        # so that a scenario built in code with a huge duration does not ask for terabytes.
+        capacity = int(math.ceil(min(sc.duration_s, 3600.0) / self.control_period_s)) + 2
         self._log = _LogBuffer(capacity)
         self._pending: dict | None = None
         self._plant = (None, None, None)  # (model, dt, step matrix or None)
