@@ -61,6 +61,15 @@ def test_valid_file_loads(write_toml):
     ("duration_s = 60.0", "duration_s = -1.0", "duration_s", "-1.0"),
     ("duration_s = 60.0", "duration_s = 1e9", "duration_s", "1000000000.0"),
     ("duration_s = 60.0", "duration_s = 3600.5", "duration_s", "3600.5"),
+    # Beyond any arena, and beyond what the controllers compute without overflow.
+    ("position = [8.0, 8.0]", "position = [1e300, 8.0]", "target.position[0]", "1e+300"),
+    ("start = [0.0, 0.0]", "start = [0.0, -2e4]", "robot.start[1]", "-20000.0"),
+    ("radius_m = 0.2", "radius_m = 1e300", "obstacles[0].radius_m", "1e+300"),
+    ("radius_m = 0.2", "radius_m = 0.2\nvelocity = [0.0, 1e3]", "obstacles[0].velocity[1]",
+     "1000.0"),
+    ("radius_m = 0.2", "radius_m = 0.2\nacceleration = [1e308, 0.0]",
+     "obstacles[0].acceleration[0]", "1e+308"),
+    ("tolerance_m = 0.15", "tolerance_m = 1e9", "target.tolerance_m", "1000000000.0"),
     ("start = [0.0, 0.0]", "start = [0.0, inf]", "robot.start[1]", "inf"),
     ("start = [0.0, 0.0]", "start = [0.0]", "robot.start", "[0.0]"),
     ("radius_m = 0.2", "radius_m = 0.0", "obstacles[0].radius_m", "0.0"),
@@ -150,3 +159,12 @@ def test_a_huge_duration_built_in_code_runs_without_a_huge_log():
     for _ in range(10):
         sim.step()
     assert len(sim.log) == 10 and not sim.done
+
+
+def test_a_disturbance_beyond_reason_is_named(write_toml):
+    table = ("\n[disturbance]\namplitude = {a}\nangular_frequency_rad_s = 2.0\n"
+             "start_s = 1.0\nstop_s = 2.0\n")
+    assert load_scenario(write_toml(VALID + table.format(a=1.0))).disturbance.amplitude == 1.0
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(write_toml(VALID + table.format(a=1e300)))
+    assert info.value.key == "disturbance.amplitude" and "1e+300" in str(info.value)

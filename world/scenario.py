@@ -159,6 +159,15 @@ def _toml_list(values) -> str:
 # Parsing and validation
 
 
+#: Bounds on what a scenario file may hold, far beyond any sensible arena, but inside
+#: what the physics and the controllers compute without overflow (a target 1e300 m away
+#: overflowed in the controller; an obstacle of radius 1e300 m "collided" at a clearance
+#: of 4e299 m).
+MAX_COORDINATE_M = 10_000.0
+MAX_RADIUS_M = 1_000.0
+MAX_SPEED_MPS = 100.0
+MAX_ACCELERATION_MPS2 = 100.0
+MAX_DISTURBANCE = 1_000.0
 #: The longest run a scenario file may ask for: a run's log grows with its length (an
 #: hour at the default 20 ms period is 180,000 rows, about 35 MB).
 MAX_DURATION_S = 3600.0
@@ -192,7 +201,9 @@ class _Reader:
         return data
 
     def number(self, value: Any, key: str, *, positive: bool = False,
-               non_negative: bool = False) -> float:
+               non_negative: bool = False, limit: float | None = None,
+               unit: str = "") -> float:
+        """A finite number; with ``limit``, at most that in magnitude."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, value, "must be a number")
         value = float(value)
@@ -202,12 +213,16 @@ class _Reader:
             self.fail(key, value, "must be positive")
         if non_negative and value < 0:
             self.fail(key, value, "must not be negative")
+        if limit is not None and abs(value) > limit:
+            self.fail(key, value, f"must be within +-{limit:g}{unit}")
         return value
 
-    def point(self, value: Any, key: str) -> tuple[float, float]:
+    def point(self, value: Any, key: str, limit: float = MAX_COORDINATE_M,
+              unit: str = " m") -> tuple[float, float]:
         if not isinstance(value, list) or len(value) != 2:
             self.fail(key, value, "must be a list of two numbers [x, y]")
-        return (self.number(value[0], f"{key}[0]"), self.number(value[1], f"{key}[1]"))
+        return (self.number(value[0], f"{key}[0]", limit=limit, unit=unit),
+                self.number(value[1], f"{key}[1]", limit=limit, unit=unit))
 
     def string(self, value: Any, key: str) -> str:
         if not isinstance(value, str):
@@ -241,11 +256,13 @@ def scenario_from_dict(
 
     robot = r.table(data["robot"], "robot", _ROBOT_KEYS, {"start"})
     start = r.point(robot["start"], "robot.start")
-    heading = r.number(robot.get("heading_rad", 0.0), "robot.heading_rad")
+    heading = r.number(robot.get("heading_rad", 0.0), "robot.heading_rad", limit=1000.0,
+                       unit=" rad")
 
     target_t = r.table(data["target"], "target", _TARGET_KEYS, {"position"})
     target = r.point(target_t["position"], "target.position")
-    tolerance = r.number(target_t.get("tolerance_m", 0.15), "target.tolerance_m", positive=True)
+    tolerance = r.number(target_t.get("tolerance_m", 0.15), "target.tolerance_m", positive=True,
+                         limit=MAX_RADIUS_M, unit=" m")
 
     raw_obstacles = data.get("obstacles", [])
     if not isinstance(raw_obstacles, list):
@@ -256,20 +273,27 @@ def scenario_from_dict(
         o = r.table(raw, key, _OBSTACLE_KEYS, {"position", "radius_m"})
         obstacles.append(ObstacleSpec(
             position=r.point(o["position"], f"{key}.position"),
-            radius_m=r.number(o["radius_m"], f"{key}.radius_m", positive=True),
-            velocity=r.point(o.get("velocity", [0.0, 0.0]), f"{key}.velocity"),
-            acceleration=r.point(o.get("acceleration", [0.0, 0.0]), f"{key}.acceleration"),
+            radius_m=r.number(o["radius_m"], f"{key}.radius_m", positive=True,
+                              limit=MAX_RADIUS_M, unit=" m"),
+            velocity=r.point(o.get("velocity", [0.0, 0.0]), f"{key}.velocity",
+                             MAX_SPEED_MPS, " m/s"),
+            acceleration=r.point(o.get("acceleration", [0.0, 0.0]), f"{key}.acceleration",
+                                 MAX_ACCELERATION_MPS2, " m/s^2"),
         ))
 
     disturbance = None
     if "disturbance" in data:
         d = r.table(data["disturbance"], "disturbance", _DISTURBANCE_KEYS, _DISTURBANCE_KEYS)
         disturbance = Disturbance(
-            amplitude=r.number(d["amplitude"], "disturbance.amplitude"),
+            amplitude=r.number(d["amplitude"], "disturbance.amplitude",
+                               limit=MAX_DISTURBANCE),
             angular_frequency_rad_s=r.number(d["angular_frequency_rad_s"],
-                                             "disturbance.angular_frequency_rad_s"),
-            start_s=r.number(d["start_s"], "disturbance.start_s", non_negative=True),
-            stop_s=r.number(d["stop_s"], "disturbance.stop_s", non_negative=True),
+                                             "disturbance.angular_frequency_rad_s",
+                                             limit=1e4, unit=" rad/s"),
+            start_s=r.number(d["start_s"], "disturbance.start_s", non_negative=True,
+                             limit=MAX_DURATION_S, unit=" s"),
+            stop_s=r.number(d["stop_s"], "disturbance.stop_s", non_negative=True,
+                            limit=MAX_DURATION_S, unit=" s"),
         )
         if disturbance.stop_s < disturbance.start_s:
             r.fail("disturbance.stop_s", disturbance.stop_s, "must not be before start_s")
