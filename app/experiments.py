@@ -364,7 +364,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object (with every run)")
     p.add_argument("--failures", type=Path, default=None, metavar="DIR",
                    help="write every failed run of --controller to DIR: its layout as a "
-                        "scenario file (to run again) and a rerun recording")
+                        "scenario file (to run again) and a rerun recording (1-4 MB "
+                        "each)")
     p.set_defaults(func=cmd_sweep)
 
     c = subparsers.add_parser("compare", help="the paper's Table 4: controllers on s1-s3 beside the paper")
