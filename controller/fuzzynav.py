@@ -40,6 +40,10 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    degrees and the side would otherwise flip every second or so, the robot turning on
    the spot until it times out. Points beside the robot (back to its rear edge) block
    bearings too, so that a detour past 90 degrees sees the trap's arm it would turn into.
+   With points near and all-around sensing (ideal perception), a change of side also
+   charges each detour the turn to its bearing from the heading (``plan_turn_weight`` x
+   that bearing): a robot turning on the spot towards one side no longer sees the other
+   side come out shorter at each new echo and turn back.
 3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
    speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
    robot never orbits its target (the paper's trap: its outputs cannot go negative).
@@ -176,6 +180,7 @@ CRISP_DEFAULTS: dict[str, float] = {
     "plan_stuck_s": 6.0,          # no progress for this long: the robot is stuck, and then
     "plan_flip_hold_s": 15.0,     # ... keeps a new side at least this long (no dithering)
     "plan_flip_min_s": 2.0,       # near points: a side is kept at least this long
+    "plan_turn_weight": 1.0,      # near points, all-around sensing: a new side also pays this x its bearing off the heading
     "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
     "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
     "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
@@ -590,7 +595,17 @@ class FuzzyNavController:
                 # the side has been held plan_flip_hold_s
                 other, _ = free_bearing(cones, phi_t, -latched)
                 held_s = self.t - self.plan_flip_t
-                if (abs(other - phi_t) + p["plan_switch_rad"] < abs(psi - phi_t)
+                # With points near, a detour is also charged the turn to its bearing
+                # from the heading (both are bearings relative to it), so that a robot
+                # turning on the spot towards one side does not see the other come out
+                # shorter at each new echo and turn back (clutter, U-traps). Only with
+                # all-around sensing (a nearest obstacle off the beam axes, ideal
+                # perception): with the beams alone the flank of the side kept is
+                # unseen, and runs came nearer obstacles (docs/fuzzynav-log.md).
+                turn_w = (p["plan_turn_weight"] if near_block and phi_o == phi_o
+                          and phi_o not in _AXES else 0.0)
+                if (abs(other - phi_t) + turn_w * abs(other) + p["plan_switch_rad"]
+                        < abs(psi - phi_t) + turn_w * abs(psi)
                         and (not near_block or held_s > p["plan_flip_hold_s"]
                              or (held_s > p["plan_flip_min_s"]
                                  and abs(other - phi_t) < p["plan_flip_rad"]

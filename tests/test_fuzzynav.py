@@ -353,14 +353,63 @@ def test_a_robot_in_a_u_trap_keeps_its_side_and_gets_out():
     """u_trap layout 14 of seed 1: at the U's mouth both planner detours are near 90 deg;
     without the holds (plan_flip_min_s, plan_flip_hold_s) the side flips back and forth
     and the robot times out turning on the spot; with them it gets round the U, in both
-    perception modes, without collision."""
+    perception modes, without collision. In ideal perception charging a change of side
+    its turn (plan_turn_weight) gets it out as well: without both, it times out."""
     from world.layouts import generate_layout
     scenario = generate_layout("u_trap", 1, 14)
+    no_holds = {"plan_flip_hold_s": 0.0, "plan_flip_min_s": 0.0}
     for mode in ("ideal", "ultrasonic"):
-        held, _ = _tracked(scenario, mode)
-        assert held.outcome == "reached" and not held.collided, (mode, held.metrics)
-        dithering, _ = _tracked(scenario, mode, plan_flip_hold_s=0.0, plan_flip_min_s=0.0)
+        for params in ({}, {"plan_turn_weight": 0.0}):
+            held, _ = _tracked(scenario, mode, **params)
+            assert held.outcome == "reached" and not held.collided, (mode, held.metrics)
+        dithering, _ = _tracked(scenario, mode, plan_turn_weight=0.0, **no_holds)
         assert dithering.outcome == "timeout", mode
+    turn_charged, _ = _tracked(scenario, "ideal", **no_holds)
+    assert turn_charged.outcome == "reached" and not turn_charged.collided
+    beams_alone, _ = _tracked(scenario, "ultrasonic", **no_holds)  # the charge is off there
+    assert beams_alone.outcome == "timeout"
+
+
+def _run_with(scenario, perception, **params):
+    c = fuzzynav_controller()
+    c.params.update(params)
+    return Simulation(scenario, c, perception=perception, seed=0).run()
+
+
+def _side_changes(scenario, perception, **params):
+    c = fuzzynav_controller()
+    c.params.update(params)
+    sim = Simulation(scenario, c, perception=perception, seed=0)
+    changes, side = 0, 0.0
+    while not sim.done:
+        sim.step()
+        changes += c.plan_side != side
+        side = c.plan_side
+    return sim.result(), changes
+
+
+def test_a_new_side_pays_for_its_turn_in_clutter():
+    """clutter layout 68 of seed 1, ideal perception: turning on the spot towards one
+    side, the robot saw the other side come out shorter at each new echo and turned back,
+    30 times, until it timed out. Charging a change of side the turn to its bearing
+    (plan_turn_weight) keeps it turning one way: it gets through, with under a third of
+    the side changes."""
+    from world.layouts import generate_layout
+    scenario = generate_layout("clutter", 1, 68)
+    shipped, changes = _side_changes(scenario, "ideal")
+    assert shipped.outcome == "reached" and not shipped.collided, shipped.metrics
+    dithering, changes_without = _side_changes(scenario, "ideal", plan_turn_weight=0.0)
+    assert dithering.outcome == "timeout"
+    assert 3 * changes < changes_without, (changes, changes_without)
+
+
+def test_the_turn_charge_needs_all_around_sensing():
+    """With the beams alone (ultrasonic perception, every nearest-obstacle bearing on a
+    beam axis) the charge does not act: the run is the same with it off."""
+    from world.layouts import generate_layout
+    scenario = generate_layout("clutter", 1, 68)
+    on, off = (_run_with(scenario, "ultrasonic", plan_turn_weight=w) for w in (1.0, 0.0))
+    assert np.array_equal(on.log.voltages_v, off.log.voltages_v, equal_nan=True)
 
 
 def test_only_sonar_sightings_are_remembered():

@@ -678,7 +678,8 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     """fuzzynav has no single ``fis``: the recording plots the firing of the 21 rules of
     both blocks (goal R1-R8, avoidance R9-R21, numbered so in /meta/rules), row for row
     what the viewer's teaching panel computes from the controller after each decision;
-    where avoidance dominates (alpha > 0.5) an avoidance rule fires."""
+    where avoidance takes a good part of the command (alpha > 0.3) an avoidance rule
+    fires."""
     from app.recording import INTERNALS_PATH
     from controller.fuzzynav import fuzzynav_controller
 
@@ -701,8 +702,8 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
         system, inputs, _ = fresh.teaching_view()
         assert same(firing[k], system.firing_strengths(inputs[None, :])[0]), k
     _, internals = rec.scalars(INTERNALS_PATH)
-    avoiding = internals[:-1, 0] > 0.5
-    assert avoiding.any() and np.all(firing[:-1][avoiding, len(controller.goal.rules):]
+    avoiding = internals[:-1, 0] > 0.3
+    assert avoiding.sum() >= 20 and np.all(firing[:-1][avoiding, len(controller.goal.rules):]
                                      .max(axis=1) > 0.3)
     rules = rec.text("/meta/rules")
     assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
