@@ -117,8 +117,6 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
-    from pathlib import Path
-
     from app.recording import record_run
     from app.runs import build_simulation
     from world.layouts import generate_layout

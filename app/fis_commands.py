@@ -61,6 +61,7 @@ def cmd_fis_export(args) -> int:
     from controller.fuzzy import FuzzySystem
 
     for path in export_fis(args.path, args.controller):
+        # Read back: what is printed is what the file holds.
         print(f"wrote {path} ({_signature(FuzzySystem.from_fis(path))})")
     return 0
 
