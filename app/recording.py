@@ -1247,7 +1247,8 @@ class LiveRecorder:
                 static.send(self._rec)
                 w = self._writer
                 self._rec.send_blueprint(blueprint(sim.scenario, w.obstacle_ids, w.n_rules,
-                                                   result.log if result is not None else None))
+                                                   result.log if result is not None else None,
+                                                   internals=w.internals))
         finally:
             self.closed = True
             self._rec.flush()

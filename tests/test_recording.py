@@ -773,18 +773,32 @@ def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
     assert "not recorded (its replay differs from the run at t = " in rec.text("/meta/run")
 
 
-def test_fuzzynav_internals_live_equal_whole(tmp_path):
+def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
+    """A live recording ends with the same data and the same layout (with its internals
+    tab) as one written after the run."""
     from app.recording import INTERNALS_PATH
     from controller.fuzzynav import fuzzynav_controller
 
+    layouts = []
+    real = recording.blueprint
+
+    def spy(scenario, obstacle_ids=(), n_rules=0, log=None, internals=False):
+        layouts.append((list(obstacle_ids), n_rules, None if log is None else len(log),
+                        internals))
+        return real(scenario, obstacle_ids, n_rules, log, internals=internals)
+
+    monkeypatch.setattr(recording, "blueprint", spy)
     sim, whole, controller = _fuzzynav_crossing()
     whole_rec = Recording(record_run(whole, tmp_path / "whole.rrd", controller=controller))
+    (whole_layout,) = layouts
+    assert whole_layout[3], "fuzzynav's layout has its internals tab"
     sim = build_simulation("crossing", "fuzzynav", controller_object=fuzzynav_controller())
     live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=53, min_interval_s=0.0)
     while not sim.done:
         sim.step()
         live.update(sim)
     live.close(sim)
+    assert layouts[-1] == whole_layout  # the layout the live file is left with
     live_rec = Recording(tmp_path / "live.rrd")
     for path in (INTERNALS_PATH, RULES_PATH):
         t_live, v_live = live_rec.scalars(path)
