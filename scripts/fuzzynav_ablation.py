@@ -1,0 +1,196 @@
+"""What each part of fuzzynav buys: the shipped controller, then each part switched off in
+turn (``assets/experiments/fuzzynav_ablation.toml``), on the same seeded random layouts of
+every family, in both perception modes. Prints a table of success rates (reached without
+collision) and draws ``docs/img/fuzzynav_ablation.png``: one row per ablation, one column
+per family and perception mode, each cell the success rate and its change from shipped.
+
+    .venv/bin/python scripts/fuzzynav_ablation.py [--seed 59] [--n 200] [--n-hard 100]
+        [--n-jitter 48] [--workers 2] [--out docs/img/fuzzynav_ablation.png] [--json OUT]
+
+An ablation describes; it chooses nothing. Seed 59 was fresh when this was first run.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from controller.fuzzynav import CRISP_DEFAULTS, fuzzynav_controller  # noqa: E402
+from world.layouts import FAMILIES, SAFE_DISTANCE_M, generate_layout  # noqa: E402
+from world.simulation import Simulation  # noqa: E402
+
+ABLATIONS_PATH = ROOT / "assets" / "experiments" / "fuzzynav_ablation.toml"
+MODES = ("ideal", "ultrasonic")
+_KEYS = {"name", "what", "item", "overrides"}
+
+
+def load_ablations(path: str | Path = ABLATIONS_PATH) -> list[dict]:
+    """The ablations of ``path``, checked: every key known, every override a crisp
+    parameter of fuzzynav with a finite number, names unique, the first one "shipped"
+    with no overrides (the reference the others are compared to)."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    unknown = set(data) - {"ablation"}
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {sorted(unknown)} (allowed: ablation)")
+    entries = data.get("ablation")
+    if not isinstance(entries, list) or not entries:
+        raise ValueError(f"{path}: needs at least one [[ablation]] table")
+    seen = set()
+    for k, entry in enumerate(entries):
+        where = f"{path}: ablation[{k}]"
+        extra = set(entry) - _KEYS
+        if extra:
+            raise ValueError(f"{where}: unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(_KEYS))})")
+        missing = _KEYS - set(entry)
+        if missing:
+            raise ValueError(f"{where}: missing key(s) {sorted(missing)}")
+        name = entry["name"]
+        if not isinstance(name, str) or not name or name in seen:
+            raise ValueError(f"{where}.name = {name!r}: must be a new, non-empty string")
+        seen.add(name)
+        if not isinstance(entry["overrides"], dict):
+            raise ValueError(f"{where}.overrides = {entry['overrides']!r}: must be a table")
+        for key, value in entry["overrides"].items():
+            if key not in CRISP_DEFAULTS:
+                raise ValueError(f"{where}.overrides.{key} = {value!r}: not a crisp parameter of fuzzynav")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"{where}.overrides.{key} = {value!r}: must be a finite number")
+    if entries[0]["name"] != "shipped" or entries[0]["overrides"]:
+        raise ValueError(f"{path}: the first ablation must be \"shipped\" with no overrides")
+    return entries
+
+
+def run_one(job):
+    """One run: (ablation index, family, layout index, mode) -> outcome flags."""
+    k, overrides, family, seed, index, mode = job
+    controller = fuzzynav_controller()
+    controller.params.update(overrides)
+    controller.reset()
+    result = Simulation(generate_layout(family, seed, index), controller,
+                        perception=mode, seed=seed).run()
+    clearance = result.metrics["min_clearance_m"]
+    ok = result.reached and not result.collided
+    return (k, family, mode, ok, ok and (clearance is None or clearance >= SAFE_DISTANCE_M),
+            result.collided, result.outcome == "timeout")
+
+
+def tally(rows, n_ablations: int, sizes: dict[str, int]) -> dict:
+    """Counts per (ablation, family, mode): n, ok, safe, collided, timeout."""
+    out = {(k, f, m): {"n": 0, "ok": 0, "safe": 0, "collided": 0, "timeout": 0}
+           for k in range(n_ablations) for f in sizes for m in MODES}
+    for k, family, mode, ok, safe, collided, timeout in rows:
+        cell = out[(k, family, mode)]
+        cell["n"] += 1
+        cell["ok"] += ok
+        cell["safe"] += safe
+        cell["collided"] += collided
+        cell["timeout"] += timeout
+    return out
+
+
+def draw(ablations, counts, sizes, out: Path, seed: int) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    columns = [(f, m) for f in sizes for m in MODES]
+    rate = np.array([[100.0 * counts[(k, f, m)]["ok"] / counts[(k, f, m)]["n"] for f, m in columns]
+                     for k in range(len(ablations))])
+    delta = rate - rate[0]
+    fig, ax = plt.subplots(figsize=(1.05 * len(columns) + 3.2, 0.42 * len(ablations) + 1.6))
+    limit = max(10.0, float(np.abs(delta).max()))
+    ax.imshow(delta, cmap="RdBu", vmin=-limit, vmax=limit, aspect="auto")
+    for i in range(len(ablations)):
+        for j in range(len(columns)):
+            text = f"{rate[i, j]:.0f}" if i == 0 else f"{rate[i, j]:.0f}\n({delta[i, j]:+.0f})"
+            ax.text(j, i, text, ha="center", va="center", fontsize=7,
+                    color="white" if abs(delta[i, j]) > 0.6 * limit else "black")
+    ax.set_xticks(range(len(columns)),
+                  [f"{f}\n{m} (n={sizes[f]})" for f, m in columns], fontsize=7)
+    ax.set_yticks(range(len(ablations)), [a["name"] for a in ablations], fontsize=8)
+    ax.set_title(f"fuzzynav with one part switched off: reached without collision, % "
+                 f"(change from shipped), seed {seed}", fontsize=9)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=59)
+    parser.add_argument("--n", type=int, default=200, help="standard layouts")
+    parser.add_argument("--n-hard", type=int, default=100, help="clutter, u_trap, two_moving layouts each")
+    parser.add_argument("--n-jitter", type=int, default=48, help="paper_jitter copies (a third per scenario)")
+    parser.add_argument("--workers", type=int, default=2, choices=(1, 2))
+    parser.add_argument("--ablations", type=Path, default=ABLATIONS_PATH)
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "fuzzynav_ablation.png")
+    parser.add_argument("--json", type=Path, default=None, help="also write the counts as JSON")
+    args = parser.parse_args(argv)
+    ablations = load_ablations(args.ablations)
+    sizes = {f: (args.n if f == "standard" else args.n_jitter if f == "paper_jitter" else args.n_hard)
+             for f in FAMILIES}
+    sizes = {f: n for f, n in sizes.items() if n > 0}
+    jobs = [(k, a["overrides"], f, args.seed, i, m) for k, a in enumerate(ablations)
+            for f, n in sizes.items() for m in MODES for i in range(n)]
+
+    from rich.console import Console
+    from rich.progress import Progress
+    from rich.table import Table
+
+    rows = []
+    with Progress(transient=True) as progress:
+        task = progress.add_task(f"{len(ablations)} versions x {len(jobs) // len(ablations)} runs",
+                                 total=len(jobs))
+        if args.workers > 1:
+            import multiprocessing as mp
+            with mp.get_context("fork").Pool(args.workers) as pool:
+                for row in pool.imap_unordered(run_one, jobs, chunksize=8):
+                    rows.append(row)
+                    progress.advance(task)
+        else:
+            for job in jobs:
+                rows.append(run_one(job))
+                progress.advance(task)
+    counts = tally(rows, len(ablations), sizes)
+
+    table = Table(title=f"fuzzynav ablations, seed {args.seed}: reached without collision "
+                        f"(ideal / ultrasonic), change from shipped")
+    table.add_column("switched off")
+    for f in sizes:
+        table.add_column(f"{f} (n={sizes[f]})", justify="right")
+    for k, a in enumerate(ablations):
+        cells = []
+        for f in sizes:
+            parts = []
+            for m in MODES:
+                ok = counts[(k, f, m)]["ok"]
+                parts.append(f"{ok}" if k == 0 else f"{ok} ({ok - counts[(0, f, m)]['ok']:+d})")
+            cells.append(" / ".join(parts))
+        table.add_row(a["name"], *cells)
+    Console().print(table)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({
+            "seed": args.seed, "sizes": sizes,
+            "ablations": [{"name": a["name"], "what": a["what"], "overrides": a["overrides"],
+                           "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES}}
+                          for k, a in enumerate(ablations)]}, indent=1))
+    draw(ablations, counts, sizes, args.out, args.seed)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
