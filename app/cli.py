@@ -82,6 +82,9 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
                         help="sensor noise standard deviation in metres (default 0)")
     parser.add_argument("--dt", type=float, default=0.02, metavar="SECONDS",
                         help="control period (default 0.02 s)")
+    parser.add_argument("--off", default="", metavar="PART[,PART...]",
+                        help="fuzzynav only: switch these parts off, e.g. 'edge following' "
+                             "(the parts: assets/rules/fuzzynav_parts.toml)")
 
 
 def cmd_run(args) -> int:
@@ -93,6 +96,14 @@ def cmd_run(args) -> int:
     sim = build_simulation(args.scenario, args.controller, perception=args.perception,
                            seed=args.seed, fis_path=args.fis, control_period_s=args.dt,
                            sensor_noise_std_m=args.noise)
+    label = args.fis.name if args.fis else args.controller
+    parts_off = [name.strip() for name in args.off.split(",") if name.strip()]
+    if parts_off:
+        if args.fis or not hasattr(sim.controller, "set_parts_off"):
+            raise UsageError(f"--off {args.off!r}: only fuzzynav has parts to switch off "
+                             f"(this run: {label})")
+        sim.controller.set_parts_off(parts_off)
+        label = f"{label} without {', '.join(sim.controller.parts_off)}"
     hooks = [m.run_hook(args, sim) for m in _extensions() if hasattr(m, "run_hook")]
     try:
         result = sim.run()
@@ -105,7 +116,6 @@ def cmd_run(args) -> int:
     for hook in hooks:
         if hook is not None:
             hook(result, interrupted=False)
-    label = args.fis.name if args.fis else args.controller
     row = summary(result, label, scenario_label(args.scenario))
     if args.json:
         print_json(row)

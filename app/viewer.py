@@ -184,6 +184,10 @@ class Snapshot:
     # the robot places them) and the bearing it steers to (world frame, rad).
     memory_xy: np.ndarray | None = None
     steer_heading_rad: float = math.nan
+    # fuzzynav's parts switched off (assets/rules/fuzzynav_parts.toml), and whether the
+    # controller driving has such parts at all.
+    parts_off: tuple[str, ...] = ()
+    has_parts: bool = False
     extra: dict = field(default_factory=dict)
 
 
@@ -229,6 +233,7 @@ class ViewerApp:
         self.uploaded_controller = None
         self.uploaded_label: str | None = None
         self.uploaded_scenarios: dict[str, Scenario] = {}
+        self.parts_off: tuple[str, ...] = ()
 
         scenario_obj, label = self._resolve_scenario(scenario)
         names = controller_names()
@@ -735,6 +740,8 @@ class ViewerApp:
     def _install_controller(self, inner, label: str) -> None:
         with self.lock:
             inner.reset()
+            if hasattr(inner, "set_parts_off"):
+                inner.set_parts_off(self.parts_off)
             self.controller.inner = inner
             self.controller.name = label
             self.controller_label = label
@@ -774,6 +781,30 @@ class ViewerApp:
         self.uploaded_label = label
         self._install_controller(controller, label)
         return label
+
+    @staticmethod
+    def part_options():
+        """fuzzynav's parts that can be switched off (name, what switching it off does)."""
+        from controller.fuzzynav_parts import load_parts
+
+        return load_parts()
+
+    def set_part(self, name: str, on: bool) -> None:
+        """Switch one of fuzzynav's parts on or off; the robot drives on without a reset.
+        The choice is kept for fuzzynav when another controller drives meanwhile."""
+        known = [p.name for p in self.part_options()]
+        if name not in known:
+            raise ViewerError(f"fuzzynav has no part {name!r} (parts: {', '.join(known)})")
+        with self.lock:
+            off = set(self.parts_off) - {name} if on else set(self.parts_off) | {name}
+            self.parts_off = tuple(n for n in known if n in off)
+            inner = self.controller.inner
+            if hasattr(inner, "set_parts_off"):
+                inner.set_parts_off(self.parts_off)
+                self._notice(f"fuzzynav: {name} {'on' if on else 'off'}.", "info")
+            else:
+                self._notice(f"fuzzynav's {name} will be {'on' if on else 'off'} when "
+                             f"fuzzynav drives.", "info")
 
     def set_perception(self, mode: str) -> None:
         if mode not in PERCEPTION_MODES:
@@ -844,7 +875,8 @@ class ViewerApp:
                 message=self.message, message_level=self.message_level,
                 layout_edited=self.layout_edited,
                 metrics=dict(self.metrics) if self.metrics else None,
-                memory_xy=memory_xy, steer_heading_rad=steer)
+                memory_xy=memory_xy, steer_heading_rad=steer, parts_off=self.parts_off,
+                has_parts=hasattr(self.controller.inner, "set_parts_off"))
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:
         """(run id, trail points from index ``start`` on)."""

@@ -377,6 +377,19 @@ class ViewerServer:
             self.noise = gui.add_slider("Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01,
                                         app.noise_std_m)
             self.noise.on_update(self._guarded(lambda e: app.set_noise(self.noise.value)))
+            # What each part of fuzzynav does, shown by switching it off while it drives
+            # (shown while fuzzynav drives; assets/rules/fuzzynav_parts.toml).
+            self.parts_folder = gui.add_folder("fuzzynav's parts (untick: off)",
+                                               expand_by_default=False,
+                                               visible=app.snapshot().has_parts)
+            self.part_boxes = {}
+            with self.parts_folder:
+                for part in app.part_options():
+                    box = gui.add_checkbox(part.name, part.name not in app.parts_off,
+                                           hint=f"Off: {part.what}")
+                    box.on_update(self._guarded(
+                        lambda e, name=part.name: app.set_part(name, e.target.value)))
+                    self.part_boxes[part.name] = box
 
         with gui.add_folder("Result"):
             self.result = gui.add_html(self._RESULT_PENDING)
@@ -751,6 +764,11 @@ class ViewerServer:
             self.disturbance_cb.value = snap.disturbance_on
         if abs(self.noise.value - snap.noise_std_m) > 1e-9:
             self.noise.value = snap.noise_std_m
+        if self.parts_folder.visible != snap.has_parts:
+            self.parts_folder.visible = snap.has_parts
+        for name, box in self.part_boxes.items():
+            if box.value != (name not in snap.parts_off):
+                box.value = name not in snap.parts_off
         if abs(self.speed.value - snap.speed) > 1e-9:
             self.speed.value = snap.speed
 
@@ -774,7 +792,7 @@ class ViewerServer:
             f"t = {snap.time_s:6.2f} s</span>"
             f"<span style='font-weight:600;color:{colour}'>● {state}</span></div>"
             f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
-            f"{html.escape(snap.controller_label)} · {snap.perception} · ×{snap.speed:g}"
+            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception} · ×{snap.speed:g}"
             f"{' · layout edited' if snap.layout_edited else ''}</div>"
             "<table style='width:100%;font-size:0.85em;margin-top:4px;"
             "font-variant-numeric:tabular-nums'><tr>"
@@ -784,6 +802,14 @@ class ViewerServer:
             f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
             f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table>"
             f"{message}</div>")
+
+    @staticmethod
+    def _parts_note(snap: Snapshot) -> str:
+        if not (snap.has_parts and snap.parts_off):
+            return ""
+        off = snap.parts_off
+        return html.escape(f" (without {' and '.join(off)})" if len(off) <= 2
+                           else f" ({len(off)} parts off)")
 
     def _metrics_html(self, snap: Snapshot) -> str:
         m = snap.metrics

@@ -106,6 +106,11 @@ Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
    is taken: a disturbance does not keep still. A move that is meant (the viewer's
    drag) is announced with :meth:`FuzzyNavController.new_target`.
 
+Each part above can be switched off by its crisp parameters
+(``assets/rules/fuzzynav_parts.toml``, :meth:`FuzzyNavController.set_parts_off`): the
+viewer's "fuzzynav's parts" checkboxes, ``fuzzynav run --off PART`` and the ablation study
+``scripts/fuzzynav_ablation.py`` (what each part buys) use it.
+
 Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
 (readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
 parameters are in ``assets/rules/fuzzynav_params.toml``. For speed the two blocks are
@@ -402,7 +407,32 @@ class FuzzyNavController:
         dt = self.params["control_period_s"]
         self.store_every = max(1, round(self.params["store_s"] / dt))
         self.sector_every = max(1, round(self.params["sector_s"] / dt))
+        self.parts_off: tuple[str, ...] = ()
+        self._params_on: dict[str, float] = {}  # values a switched-off part had
         self.reset()
+
+    def set_parts_off(self, names=()) -> None:
+        """Switch the named parts off and every other part on again
+        (``assets/rules/fuzzynav_parts.toml``: a part is off while its crisp parameters
+        hold the file's values; switched on, they get back the values they had). Takes
+        effect at the next call, without :meth:`reset`. An unknown name raises
+        ``ValueError`` and changes nothing."""
+        from controller.fuzzynav_parts import load_parts
+
+        parts = load_parts()
+        known = [p.name for p in parts]
+        names = set(names)
+        unknown = sorted(names - set(known))
+        if unknown:
+            raise ValueError(f"unknown fuzzynav part(s) {unknown}: choose from {', '.join(known)}")
+        for part in parts:
+            for key, value in part.off.items():
+                if part.name in names:
+                    self._params_on.setdefault(key, self.params[key])
+                    self.params[key] = value
+                elif key in self._params_on:
+                    self.params[key] = self._params_on.pop(key)
+        self.parts_off = tuple(name for name in known if name in names)
 
     # -- state -------------------------------------------------------------------------
     def reset(self) -> None:

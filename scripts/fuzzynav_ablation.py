@@ -1,5 +1,5 @@
 """What each part of fuzzynav buys: the shipped controller, then each part switched off in
-turn (``assets/experiments/fuzzynav_ablation.toml``), on the same seeded random layouts of
+turn (``assets/rules/fuzzynav_parts.toml``), on the same seeded random layouts of
 every family, in both perception modes. Prints a table of success rates (reached without
 collision) and draws ``docs/img/fuzzynav_ablation.png``: one row per ablation, one column
 per family and perception mode, each cell the success rate and its change from shipped.
@@ -13,70 +13,31 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
-import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from controller.fuzzynav import CRISP_DEFAULTS, fuzzynav_controller  # noqa: E402
+from controller.fuzzynav import fuzzynav_controller  # noqa: E402
+from controller.fuzzynav_parts import load_parts  # noqa: E402
 from world.layouts import FAMILIES, SAFE_DISTANCE_M, generate_layout  # noqa: E402
 from world.simulation import Simulation  # noqa: E402
 
-ABLATIONS_PATH = ROOT / "assets" / "experiments" / "fuzzynav_ablation.toml"
 MODES = ("ideal", "ultrasonic")
-_KEYS = {"name", "what", "item", "overrides"}
 
 
-def load_ablations(path: str | Path = ABLATIONS_PATH) -> list[dict]:
-    """The ablations of ``path``, checked: every key known, every override a crisp
-    parameter of fuzzynav with a finite number, names unique, the first one "shipped"
-    with no overrides (the reference the others are compared to)."""
-    path = Path(path)
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from None
-    unknown = set(data) - {"ablation"}
-    if unknown:
-        raise ValueError(f"{path}: unknown key(s) {sorted(unknown)} (allowed: ablation)")
-    entries = data.get("ablation")
-    if not isinstance(entries, list) or not entries:
-        raise ValueError(f"{path}: needs at least one [[ablation]] table")
-    seen = set()
-    for k, entry in enumerate(entries):
-        where = f"{path}: ablation[{k}]"
-        extra = set(entry) - _KEYS
-        if extra:
-            raise ValueError(f"{where}: unknown key(s) {sorted(extra)} (allowed: {', '.join(sorted(_KEYS))})")
-        missing = _KEYS - set(entry)
-        if missing:
-            raise ValueError(f"{where}: missing key(s) {sorted(missing)}")
-        name = entry["name"]
-        if not isinstance(name, str) or not name or name in seen:
-            raise ValueError(f"{where}.name = {name!r}: must be a new, non-empty string")
-        seen.add(name)
-        if not isinstance(entry["overrides"], dict):
-            raise ValueError(f"{where}.overrides = {entry['overrides']!r}: must be a table")
-        for key, value in entry["overrides"].items():
-            if key not in CRISP_DEFAULTS:
-                raise ValueError(f"{where}.overrides.{key} = {value!r}: not a crisp parameter of fuzzynav")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ValueError(f"{where}.overrides.{key} = {value!r}: must be a finite number")
-    if entries[0]["name"] != "shipped" or entries[0]["overrides"]:
-        raise ValueError(f"{path}: the first ablation must be \"shipped\" with no overrides")
-    return entries
+def versions(parts) -> list[dict]:
+    """The shipped controller, then one version per part with that part switched off."""
+    return [{"name": "shipped", "off": None, "what": "the shipped controller"}] + [
+        {"name": f"no {p.name}", "off": p.name, "what": p.what} for p in parts]
 
 
 def run_one(job):
-    """One run: (ablation index, family, layout index, mode) -> outcome flags."""
-    k, overrides, family, seed, index, mode = job
+    """One run: (version index, part off, family, seed, layout index, mode) -> outcome flags."""
+    k, part_off, family, seed, index, mode = job
     controller = fuzzynav_controller()
-    controller.params.update(overrides)
-    controller.reset()
+    controller.set_parts_off([part_off] if part_off else [])
     result = Simulation(generate_layout(family, seed, index), controller,
                         perception=mode, seed=seed).run()
     clearance = result.metrics["min_clearance_m"]
@@ -134,15 +95,14 @@ def main(argv=None) -> int:
     parser.add_argument("--n-hard", type=int, default=100, help="clutter, u_trap, two_moving layouts each")
     parser.add_argument("--n-jitter", type=int, default=48, help="paper_jitter copies (a third per scenario)")
     parser.add_argument("--workers", type=int, default=2, choices=(1, 2))
-    parser.add_argument("--ablations", type=Path, default=ABLATIONS_PATH)
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "fuzzynav_ablation.png")
     parser.add_argument("--json", type=Path, default=None, help="also write the counts as JSON")
     args = parser.parse_args(argv)
-    ablations = load_ablations(args.ablations)
+    ablations = versions(load_parts())
     sizes = {f: (args.n if f == "standard" else args.n_jitter if f == "paper_jitter" else args.n_hard)
              for f in FAMILIES}
     sizes = {f: n for f, n in sizes.items() if n > 0}
-    jobs = [(k, a["overrides"], f, args.seed, i, m) for k, a in enumerate(ablations)
+    jobs = [(k, a["off"], f, args.seed, i, m) for k, a in enumerate(ablations)
             for f, n in sizes.items() for m in MODES for i in range(n)]
 
     from rich.console import Console
@@ -184,7 +144,7 @@ def main(argv=None) -> int:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({
             "seed": args.seed, "sizes": sizes,
-            "ablations": [{"name": a["name"], "what": a["what"], "overrides": a["overrides"],
+            "ablations": [{"name": a["name"], "what": a["what"], "part_off": a["off"],
                            "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES}}
                           for k, a in enumerate(ablations)]}, indent=1))
     draw(ablations, counts, sizes, args.out, args.seed)

@@ -76,3 +76,19 @@ def test_console_script_entry_point():
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout)["scenario"] == "s1"
+
+
+def test_run_off_switches_fuzzynav_parts_off(capsys):
+    """`run --controller fuzzynav --off PART`: the part is off for the run (another path),
+    and the result says so; an unknown part or a controller without parts is refused."""
+    assert main(["run", "s1", "--controller", "fuzzynav", "--json"]) == 0
+    shipped = json.loads(capsys.readouterr().out)
+    assert main(["run", "s1", "--controller", "fuzzynav", "--off", "bearing planner",
+                 "--json"]) == 0
+    off = json.loads(capsys.readouterr().out)
+    assert off["controller"] == "fuzzynav without bearing planner"
+    assert off["path_length_m"] != shipped["path_length_m"]
+    assert main(["run", "s1", "--controller", "fuzzynav", "--off", "sonar"]) == 2
+    assert "unknown fuzzynav part(s) ['sonar']" in capsys.readouterr().err
+    assert main(["run", "s1", "--controller", "paper", "--off", "echo memory"]) == 2
+    assert "only fuzzynav has parts" in capsys.readouterr().err

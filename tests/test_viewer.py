@@ -503,3 +503,61 @@ def test_every_offered_controller_drives_in_the_viewer(app, name):
     info = app.teaching()
     if info is not None:  # (all zero is possible: the paper rule base's bearing dead zone)
         assert info["strengths"].shape == (len(app.fuzzy_system().rules),)
+
+
+def test_fuzzynav_parts_switch_off_and_on_while_it_drives(app):
+    """The viewer's "fuzzynav's parts": a part switched off changes the running
+    controller at once (no reset); the choice is kept across a change of controller and
+    applied to a new fuzzynav; an unknown part is refused."""
+    if "fuzzynav" not in controller_names():
+        pytest.skip("no fuzzynav in this build")
+    assert not app.snapshot().has_parts  # p has no parts
+    app.set_controller("fuzzynav")
+    for _ in range(3):
+        app.step_once()
+    run, t, controller = app.run_id, app.sim.time_s, app.controller.inner
+    shipped_stall_s = controller.params["stall_s"]
+    app.set_part("edge following", False)
+    assert controller.params["stall_s"] == 1e9 and controller.parts_off == ("edge following",)
+    snap = app.snapshot()
+    assert snap.has_parts and snap.parts_off == ("edge following",)
+    assert (app.run_id, app.sim.time_s) == (run, t)
+    assert "edge following off" in app.message
+    app.set_controller("p")
+    assert app.snapshot().parts_off == ("edge following",) and not app.snapshot().has_parts
+    app.set_part("echo memory", False)  # noted for when fuzzynav drives
+    app.set_controller("fuzzynav")
+    fresh = app.controller.inner
+    assert fresh is not controller
+    assert fresh.parts_off == ("echo memory", "edge following")
+    app.set_part("edge following", True)
+    assert fresh.params["stall_s"] == shipped_stall_s and fresh.parts_off == ("echo memory",)
+    with pytest.raises(ViewerError, match="no part 'sonar'"):
+        app.set_part("sonar", False)
+    assert fresh.parts_off == ("echo memory",)
+
+
+def test_the_parts_panel_follows_the_controller_and_the_switches(app):
+    """The panel's checkboxes show what is on, in every tab; the folder is shown only
+    while fuzzynav drives; the status line says which parts are off."""
+    if "fuzzynav" not in controller_names():
+        pytest.skip("no fuzzynav in this build")
+    from app.viewer_ui import ViewerServer
+
+    server = ViewerServer(app, port=0)
+    try:
+        assert not server.parts_folder.visible
+        assert set(server.part_boxes) == {p.name for p in app.part_options()}
+        app.set_controller("fuzzynav")
+        app.set_part("bearing planner", False)
+        server._draw_panels(app.snapshot())
+        assert server.parts_folder.visible
+        assert not server.part_boxes["bearing planner"].value
+        assert all(box.value for name, box in server.part_boxes.items() if name != "bearing planner")
+        assert "fuzzynav (without bearing planner)" in server.status.content
+        for name in ("echo memory", "edge following"):
+            app.set_part(name, False)
+        server._draw_panels(app.snapshot())
+        assert "fuzzynav (3 parts off)" in server.status.content
+    finally:
+        server.stop()

@@ -257,3 +257,27 @@ def test_the_server_stops_and_frees_its_port(browser):
     finally:
         again.stop()
     page.context.close()
+
+
+def test_unticking_a_fuzzynav_part_in_the_page_switches_it_off(served, page):
+    """A teacher switches fuzzynav's edge following off in the panel: the running
+    controller has it off at once, and ticking it again switches it back on."""
+    app = served.app
+    app.set_controller("fuzzynav")
+    try:
+        folder = page.get_by_text("fuzzynav's parts (untick: off)")
+        folder.wait_for(timeout=15_000)
+        folder.click()
+        box = page.get_by_role("checkbox", name="edge following")
+        box.wait_for(timeout=15_000)
+        assert box.is_checked()
+        box.click()
+        assert app.wait_for(lambda a: a.parts_off == ("edge following",), timeout=10)
+        assert app.controller.inner.parts_off == ("edge following",)
+        page.wait_for_function("() => document.body.innerText.includes("
+                               "'fuzzynav (without edge following)')", timeout=15_000)
+        box.click()
+        assert app.wait_for(lambda a: a.parts_off == (), timeout=10)
+    finally:
+        app.set_part("edge following", True)
+        app.set_controller("p")
