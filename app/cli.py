@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from world.perception import PERCEPTION_MODES
 from world.scenario import ScenarioError, resolve_scenario_path
 
 EXIT_BAD_INPUT = 2
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
 
 
 class UsageError(Exception):
@@ -176,6 +178,11 @@ def main(argv=None) -> int:
     except (ScenarioError, UsageError, ValueError, FileNotFoundError) as exc:
         print(f"fuzzynav: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:
+        # The reader left early (`fuzzynav run s1 --json | head -3`): not an error of
+        # ours. Python's advice: point stdout at devnull so the exit's flush stays quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except KeyboardInterrupt:
         print("fuzzynav: interrupted", file=sys.stderr)
         return 130

@@ -92,3 +92,14 @@ def test_run_off_switches_fuzzynav_parts_off(capsys):
     assert "unknown fuzzynav part(s) ['sonar']" in capsys.readouterr().err
     assert main(["run", "s1", "--controller", "paper", "--off", "echo memory"]) == 2
     assert "only fuzzynav has parts" in capsys.readouterr().err
+
+
+def test_a_reader_that_leaves_early_gets_no_traceback():
+    """`fuzzynav run s1 --json | head -1`: the pipe closes before the JSON is written;
+    the command ends quietly with 141 (128 + SIGPIPE), as a shell reports such a process."""
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "run", "s1", "--controller", "p",
+                             "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before anything is written
+    stderr = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141, stderr
+    assert "Traceback" not in stderr and "BrokenPipe" not in stderr, stderr
