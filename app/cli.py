@@ -84,9 +84,25 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
                         help="sensor noise standard deviation in metres (default 0)")
     parser.add_argument("--dt", type=float, default=0.02, metavar="SECONDS",
                         help="control period (default 0.02 s)")
+    add_off_option(parser)
+
+
+def add_off_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--off", default="", metavar="PART[,PART...]",
                         help="fuzzynav only: switch these parts off, e.g. 'edge following' "
                              "(the parts: assets/rules/fuzzynav_parts.toml)")
+
+
+def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
+    """Apply ``--off PART[,PART...]`` to a controller that has parts (fuzzynav); returns
+    the parts now off. Any other controller, or an unknown part, is refused."""
+    names = [name.strip() for name in off.split(",") if name.strip()]
+    if not names:
+        return ()
+    if not hasattr(controller, "set_parts_off"):
+        raise UsageError(f"--off {off!r}: only fuzzynav has parts to switch off (here: {label})")
+    controller.set_parts_off(names)
+    return controller.parts_off
 
 
 def cmd_run(args) -> int:
@@ -99,13 +115,9 @@ def cmd_run(args) -> int:
                            seed=args.seed, fis_path=args.fis, control_period_s=args.dt,
                            sensor_noise_std_m=args.noise)
     label = args.fis.name if args.fis else args.controller
-    parts_off = [name.strip() for name in args.off.split(",") if name.strip()]
+    parts_off = switch_parts_off(sim.controller, args.off, label)
     if parts_off:
-        if args.fis or not hasattr(sim.controller, "set_parts_off"):
-            raise UsageError(f"--off {args.off!r}: only fuzzynav has parts to switch off "
-                             f"(this run: {label})")
-        sim.controller.set_parts_off(parts_off)
-        label = f"{label} without {', '.join(sim.controller.parts_off)}"
+        label = f"{label} without {', '.join(parts_off)}"
     hooks = [m.run_hook(args, sim) for m in _extensions() if hasattr(m, "run_hook")]
     try:
         result = sim.run()

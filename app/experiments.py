@@ -11,6 +11,7 @@ A sweep run "succeeds" when the target is reached without a collision; the stric
 from __future__ import annotations
 
 import math
+import shlex
 import statistics
 import time
 from pathlib import Path
@@ -41,12 +42,15 @@ SCENARIOS = ("s1", "s2", "s3")
 
 def _sweep_one(job):
     """One layout run (top level: picklable for a worker pool)."""
-    family, seed, index, controller, perception = job
+    family, seed, index, controller, perception, parts_off = job
     from app.runs import build_simulation
     from world.layouts import generate_layout
 
     scenario = generate_layout(family, seed, index)
-    result = build_simulation(scenario, controller, perception=perception, seed=seed).run()
+    sim = build_simulation(scenario, controller, perception=perception, seed=seed)
+    if parts_off:
+        sim.controller.set_parts_off(parts_off)
+    result = sim.run()
     m = result.metrics
     straight = math.dist(scenario.start, scenario.target)
     return {"index": index, "outcome": result.outcome, "reached": bool(m["reached"]),
@@ -61,9 +65,11 @@ def _median(values):
 
 
 def sweep(controller: str, n: int, seed: int, family: str = "standard",
-          perception: str = "ideal", workers: int = 1, progress=None) -> dict:
-    """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows)."""
-    from controller.registry import controller_names
+          perception: str = "ideal", workers: int = 1, progress=None,
+          parts_off: tuple[str, ...] = ()) -> dict:
+    """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows).
+    ``parts_off``: fuzzynav's parts to switch off (``assets/rules/fuzzynav_parts.toml``)."""
+    from controller.registry import controller_names, make_controller
     from world.layouts import FAMILIES
 
     if n < 1:
@@ -72,7 +78,14 @@ def sweep(controller: str, n: int, seed: int, family: str = "standard",
         raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
     if controller not in controller_names():
         raise ValueError(f"controller = {controller!r}: choose from {', '.join(controller_names())}")
-    jobs = [(family, seed, i, controller, perception) for i in range(n)]
+    parts_off = tuple(parts_off)
+    if parts_off:
+        probe = make_controller(controller)
+        if not hasattr(probe, "set_parts_off"):
+            raise ValueError(f"parts_off = {list(parts_off)}: {controller} has no parts to switch off")
+        probe.set_parts_off(parts_off)  # an unknown part is refused before any run
+        parts_off = probe.parts_off
+    jobs = [(family, seed, i, controller, perception, parts_off) for i in range(n)]
     start = time.perf_counter()
     runs = []
     if workers > 1:
@@ -91,7 +104,8 @@ def sweep(controller: str, n: int, seed: int, family: str = "standard",
     ok = [r for r in runs if r["reached"] and not r["collided"]]
     safe = [r for r in ok if r["min_clearance_m"] is None or r["min_clearance_m"] >= SAFE_CLEARANCE_M]
     return {
-        "controller": controller, "family": family, "perception": perception, "n": n, "seed": seed,
+        "controller": controller, "parts_off": list(parts_off), "family": family,
+        "perception": perception, "n": n, "seed": seed,
         "success_rate": len(ok) / n, "safe_success_rate": len(safe) / n,
         "reached": sum(r["reached"] for r in runs), "collisions": sum(r["collided"] for r in runs),
         "timeouts": sum(r["outcome"] == "timeout" for r in runs),
@@ -125,11 +139,13 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     directory = Path(directory)
     family, seed = out["family"], out["seed"]
     controller, perception = out["controller"], out["perception"]
+    parts_off = out.get("parts_off") or []
+    off = f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
     written = []
     for done, run in enumerate(failed_runs(out), start=1):
         stem = f"{family}_seed{seed}_{run['index']:03d}"
         scenario_file = directory / f"{stem}.toml"
-        command = (f"fuzzynav run {scenario_file} --controller {controller} "
+        command = (f"fuzzynav run {scenario_file} --controller {controller}{off} "
                    f"--perception {perception} --seed {seed}")
         scenario_file.write_text(
             f"# {family} layout #{run['index']} of seed {seed}, written by `fuzzynav sweep "
@@ -138,6 +154,8 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
             encoding="utf-8")
         sim = build_simulation(load_scenario(scenario_file), controller, perception=perception,
                                seed=seed)
+        if parts_off:
+            sim.controller.set_parts_off(parts_off)
         result = sim.run()
         if (result.outcome, result.metrics["collided"]) != (run["outcome"], run["collided"]):
             raise RuntimeError(f"{scenario_file}: the run ended '{result.outcome}' when driven "
@@ -153,7 +171,8 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     return written
 
 
-def _sweep_with_bar(controller, n, seed, family, perception, workers, quiet, label=""):
+def _sweep_with_bar(controller, n, seed, family, perception, workers, quiet, label="",
+                    parts_off=()):
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
@@ -161,7 +180,7 @@ def _sweep_with_bar(controller, n, seed, family, perception, workers, quiet, lab
                   TimeRemainingColumn(), console=Console(stderr=True), disable=quiet) as bar:
         task = bar.add_task("sweep", total=n)
         return sweep(controller, n, seed, family, perception, workers,
-                     progress=lambda done: bar.update(task, completed=done))
+                     progress=lambda done: bar.update(task, completed=done), parts_off=parts_off)
 
 
 def _fmt(value, digits=3):
@@ -188,8 +207,10 @@ def cmd_sweep(args) -> int:
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
+    parts_off = [name.strip() for name in args.off.split(",") if name.strip()]
+    label = args.controller + (f" without {', '.join(parts_off)}" if parts_off else "")
     out = _sweep_with_bar(args.controller, args.n, args.seed, args.family, args.perception,
-                          args.workers, args.json)
+                          args.workers, args.json, label=label, parts_off=parts_off)
     other = None
     if beside not in ("none", args.controller):
         # the same layouts, so that the two rates are comparable run for run
@@ -207,7 +228,7 @@ def cmd_sweep(args) -> int:
     table = Table(title=f"sweep: {args.family} layouts, seed {args.seed}, "
                         f"{args.perception} perception")
     table.add_column("metric")
-    table.add_column(args.controller, justify="right")
+    table.add_column(label, justify="right")
     if other is not None:
         table.add_column(beside, justify="right")
     for key, value in out.items():
@@ -340,7 +361,7 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
-    from app.cli import integer_in, seed_type
+    from app.cli import add_off_option, integer_in, seed_type
 
     from app import tuning
     from controller.registry import controller_names
@@ -359,6 +380,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--beside", default="auto", choices=("auto", "none", *controller_names()),
                    help="also sweep this controller on the same layouts and print it beside "
                         "(default: paper, unless --controller is paper; none: skip)")
+    add_off_option(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (with every run)")
     p.add_argument("--failures", type=Path, default=None, metavar="DIR",
                    help="write every failed run of --controller to DIR: its layout as a "

@@ -210,3 +210,38 @@ def test_sweep_prints_the_paper_controller_beside(capsys):
     assert "beside" not in json.loads(capsys.readouterr().out)
     assert main(["sweep", "--n", "1", "--beside", "nobody"]) == 2
     assert "invalid choice: 'nobody'" in capsys.readouterr().err
+
+
+def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_path, capsys):
+    """`sweep --off "echo memory"`: without its memory fuzzynav times out on layout #3 of
+    seed 1 (it reaches it with the memory); the failure's file and recording carry the
+    --off that runs it again to the same end."""
+    from tests.test_recording import Recording
+
+    out_dir = tmp_path / "failed"
+    assert main(["sweep", "--n", "4", "--seed", "1", "--controller", "fuzzynav",
+                 "--off", "echo memory", "--beside", "none", "--failures", str(out_dir),
+                 "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["parts_off"] == ["echo memory"]
+    assert [(f["index"], f["outcome"]) for f in data["failures"]] == [(3, "timeout")]
+    scenario_file = data["failures"][0]["scenario_file"]
+    command = f"fuzzynav run {scenario_file} --controller fuzzynav --off 'echo memory'"
+    assert command in Path(scenario_file).read_text()
+    meta = Recording(data["failures"][0]["recording"]).text("/meta/run")
+    assert command in meta  # the "reproduce" line
+    assert main(["run", scenario_file, "--controller", "fuzzynav", "--off", "echo memory",
+                 "--seed", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["outcome"] == "timeout"
+    assert main(["run", scenario_file, "--controller", "fuzzynav", "--seed", "1", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["outcome"] == "reached"
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--controller", "p", "--off", "echo memory"], "p has no parts to switch off"),
+    (["--controller", "fuzzynav", "--off", "sonar"], "unknown fuzzynav part(s) ['sonar']"),
+])
+def test_sweep_off_is_refused_before_the_sweep(capsys, argv, needle):
+    assert main(["sweep", "--n", "2", "--beside", "none", *argv]) == 2
+    captured = capsys.readouterr()
+    assert needle in captured.err and "success_rate" not in captured.out
