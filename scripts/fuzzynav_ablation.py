@@ -6,6 +6,10 @@ per family and perception mode, each cell the success rate and its change from s
 
     .venv/bin/python scripts/fuzzynav_ablation.py [--seed 59] [--n 200] [--n-hard 100]
         [--n-jitter 48] [--workers 2] [--out docs/img/fuzzynav_ablation.png] [--json OUT]
+    .venv/bin/python scripts/fuzzynav_ablation.py --from-json docs/data/fuzzynav_ablation_seed59.json
+
+The first form runs (about 30 minutes on 2 cores for the defaults); the second redraws the
+figure and the table from counts written before.
 
 An ablation describes; it chooses nothing. Seed 59 was fresh when this was first run.
 """
@@ -97,7 +101,16 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", type=int, default=2, choices=(1, 2))
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "fuzzynav_ablation.png")
     parser.add_argument("--json", type=Path, default=None, help="also write the counts as JSON")
+    parser.add_argument("--from-json", type=Path, default=None, metavar="JSON",
+                        help="draw the figure and print the table from counts written before "
+                             "(docs/data/fuzzynav_ablation_seed59.json), without running")
     args = parser.parse_args(argv)
+    if args.from_json is not None:
+        ablations, counts, sizes, seed = read_counts(args.from_json)
+        print_table(ablations, counts, sizes, seed)
+        draw(ablations, counts, sizes, args.out, seed)
+        print(f"wrote {args.out}")
+        return 0
     ablations = versions(load_parts())
     sizes = {f: (args.n if f == "standard" else args.n_jitter if f == "paper_jitter" else args.n_hard)
              for f in FAMILIES}
@@ -105,9 +118,7 @@ def main(argv=None) -> int:
     jobs = [(k, a["off"], f, args.seed, i, m) for k, a in enumerate(ablations)
             for f, n in sizes.items() for m in MODES for i in range(n)]
 
-    from rich.console import Console
     from rich.progress import Progress
-    from rich.table import Table
 
     rows = []
     with Progress(transient=True) as progress:
@@ -124,8 +135,37 @@ def main(argv=None) -> int:
                 rows.append(run_one(job))
                 progress.advance(task)
     counts = tally(rows, len(ablations), sizes)
+    print_table(ablations, counts, sizes, args.seed)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({
+            "seed": args.seed, "sizes": sizes,
+            "ablations": [{"name": a["name"], "what": a["what"], "part_off": a["off"],
+                           "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES}}
+                          for k, a in enumerate(ablations)]}, indent=1))
+    draw(ablations, counts, sizes, args.out, args.seed)
+    print(f"wrote {args.out}")
+    return 0
 
-    table = Table(title=f"fuzzynav ablations, seed {args.seed}: reached without collision "
+
+def read_counts(path: Path):
+    """(versions, counts, sizes, seed) from a file written by ``--json``."""
+    data = json.loads(Path(path).read_text())
+    ablations = [{"name": a["name"], "off": a["part_off"], "what": a["what"]}
+                 for a in data["ablations"]]
+    counts = {}
+    for k, a in enumerate(data["ablations"]):
+        for key, cell in a["counts"].items():
+            family, mode = key.split("/")
+            counts[(k, family, mode)] = cell
+    return ablations, counts, dict(data["sizes"]), data["seed"]
+
+
+def print_table(ablations, counts, sizes, seed) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"fuzzynav ablations, seed {seed}: reached without collision "
                         f"(ideal / ultrasonic), change from shipped")
     table.add_column("switched off")
     for f in sizes:
@@ -140,16 +180,6 @@ def main(argv=None) -> int:
             cells.append(" / ".join(parts))
         table.add_row(a["name"], *cells)
     Console().print(table)
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({
-            "seed": args.seed, "sizes": sizes,
-            "ablations": [{"name": a["name"], "what": a["what"], "part_off": a["off"],
-                           "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES}}
-                          for k, a in enumerate(ablations)]}, indent=1))
-    draw(ablations, counts, sizes, args.out, args.seed)
-    print(f"wrote {args.out}")
-    return 0
 
 
 if __name__ == "__main__":

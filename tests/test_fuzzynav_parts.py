@@ -143,3 +143,19 @@ def test_the_tally_counts_each_cell():
     assert counts[(1, "standard", "ultrasonic")]["timeout"] == 1
     assert counts[(1, "standard", "ideal")]["n"] == 0
     assert math.isclose(sum(c["n"] for c in counts.values()), 3)
+
+
+def test_the_ablation_figure_redraws_from_its_data(tmp_path):
+    """docs/img/fuzzynav_ablation.png is drawn from docs/data/fuzzynav_ablation_seed59.json
+    (`--from-json`: no 30-minute run); every part in that data is still a part, and each
+    cell counts the runs of its family."""
+    data = ROOT / "docs" / "data" / "fuzzynav_ablation_seed59.json"
+    versions, counts, sizes, seed = ABLATION.read_counts(data)
+    assert seed == 59 and versions[0]["off"] is None
+    assert {v["off"] for v in versions[1:]} <= {p.name for p in PARTS}
+    for (k, family, mode), cell in counts.items():
+        assert cell["n"] == sizes[family]
+        assert cell["safe"] <= cell["ok"] <= cell["n"] - cell["collided"]
+    out = tmp_path / "ablation.png"
+    assert ABLATION.main(["--from-json", str(data), "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
