@@ -159,3 +159,23 @@ def test_the_ablation_figure_redraws_from_its_data(tmp_path):
     out = tmp_path / "ablation.png"
     assert ABLATION.main(["--from-json", str(data), "--out", str(out)]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("mode, parts_off, outcome", [
+    ("ideal", (), "reached"),
+    ("ideal", ("echo memory",), "timeout"),
+    ("ideal", ("bearing planner",), "timeout"),
+    ("ultrasonic", (), "reached"),
+    ("ultrasonic", ("echo memory",), "timeout"),
+    ("ultrasonic", ("bearing planner",), "timeout"),
+    ("ultrasonic", ("edge following",), "timeout"),
+    ("ultrasonic", ("side kept in a trap",), "timeout"),
+])
+def test_the_trap_scenario_shows_what_the_parts_buy(mode, parts_off, outcome):
+    """assets/scenarios/trap.toml, for a class: fuzzynav gets out of the U, and stays in
+    it with one of the parts its description names switched off."""
+    controller = fuzzynav_controller()
+    controller.set_parts_off(parts_off)
+    result = Simulation(load_scenario("trap"), controller, perception=mode, seed=0).run()
+    assert result.outcome == outcome
+    assert not result.collided

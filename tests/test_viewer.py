@@ -544,20 +544,29 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
         pytest.skip("no fuzzynav in this build")
     from app.viewer_ui import ViewerServer
 
+    def shown(predicate, timeout=10.0):
+        # the server redraws from its own thread: wait for it
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if predicate():
+                return True
+            time.sleep(0.02)
+        return False
+
     server = ViewerServer(app, port=0)
     try:
         assert not server.parts_folder.visible
         assert set(server.part_boxes) == {p.name for p in app.part_options()}
         app.set_controller("fuzzynav")
         app.set_part("bearing planner", False)
-        server._draw_panels(app.snapshot())
-        assert server.parts_folder.visible
-        assert not server.part_boxes["bearing planner"].value
+        assert shown(lambda: "fuzzynav (without bearing planner)" in server.status.content)
+        assert shown(lambda: server.parts_folder.visible
+                     and not server.part_boxes["bearing planner"].value)
         assert all(box.value for name, box in server.part_boxes.items() if name != "bearing planner")
-        assert "fuzzynav (without bearing planner)" in server.status.content
         for name in ("echo memory", "edge following"):
             app.set_part(name, False)
-        server._draw_panels(app.snapshot())
-        assert "fuzzynav (3 parts off)" in server.status.content
+        assert shown(lambda: "fuzzynav (3 parts off)" in server.status.content)
+        app.set_controller("p")
+        assert shown(lambda: not server.parts_folder.visible)
     finally:
         server.stop()
