@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 
-.PHONY: demo test bench report screenshot clean
+.PHONY: demo test bench report ablation screenshot clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -32,6 +32,11 @@ report: $(VENV)/.installed
 	$(PY) scripts/crossing_figure.py
 	$(PY) scripts/jitter_figure.py
 	$(PY) scripts/doubt_figure.py
+	$(PY) scripts/fuzzynav_ablation.py --from-json docs/data/fuzzynav_ablation_seed59.json
+
+# What each part of fuzzynav buys, run again (about 30 minutes on 2 cores).
+ablation: $(VENV)/.installed
+	$(PY) scripts/fuzzynav_ablation.py --seed 59 --json docs/data/fuzzynav_ablation_seed59.json
 
 screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py
