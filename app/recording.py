@@ -944,6 +944,10 @@ def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, se
            "reproduce": "`" + reproduce_command(scenario, controller, perception, seed,
                                                 control_period_s) + "`",
            "command line": "`" + command_line() + "`"}
+    parts_off = tuple(getattr(inner, "parts_off", None) or ())
+    if parts_off:  # fuzzynav with parts switched off (assets/rules/fuzzynav_parts.toml)
+        run = {**dict(list(run.items())[:3]), "parts off": ", ".join(parts_off),
+               **dict(list(run.items())[3:])}
     for key, value in (extra_metadata or {}).items():
         run[str(key)] = value
     doc("/meta/run", "# Run\n\n" + _markdown_table(run) + "\n\n# Versions\n\n"

@@ -804,3 +804,19 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
         t_live, v_live = live_rec.scalars(path)
         t_whole, v_whole = whole_rec.scalars(path)
         assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), path
+
+
+def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):
+    """A recording of fuzzynav with parts switched off names them, and its "reproduce"
+    line switches them off again; its crisp parameters are the switched ones."""
+    from controller.fuzzynav import fuzzynav_controller
+
+    controller = fuzzynav_controller()
+    controller.set_parts_off(["edge following", "echo memory"])
+    sim = build_simulation("s1", "fuzzynav", controller_object=controller)
+    result = sim.run()
+    rec = Recording(record_run(result, tmp_path / "off.rrd", controller=controller))
+    meta = rec.text("/meta/run")
+    assert "| parts off | echo memory, edge following |" in meta
+    assert "--controller fuzzynav --off 'echo memory,edge following' " in meta
+    assert "memory_s = 0.0" in rec.text("/meta/rules")
