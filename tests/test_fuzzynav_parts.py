@@ -179,3 +179,7 @@ def test_the_trap_scenario_shows_what_the_parts_buy(mode, parts_off, outcome):
     result = Simulation(load_scenario("trap"), controller, perception=mode, seed=0).run()
     assert result.outcome == outcome
     assert not result.collided
+    if parts_off == ("echo memory",):  # it never leaves the U (posts at x -2.9..-1.5)
+        x, y = result.log.pose[:, 0], result.log.pose[:, 1]
+        late = result.log.time_s > 10.0
+        assert np.all((x[late] > -3.0) & (x[late] < -1.0) & (np.abs(y[late]) < 1.5))
