@@ -105,6 +105,27 @@ def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
     return controller.parts_off
 
 
+def cmd_parts(args) -> int:
+    """List fuzzynav's parts (assets/rules/fuzzynav_parts.toml): the names ``--off`` takes."""
+    from controller.fuzzynav_parts import PARTS_PATH, load_parts
+
+    parts = load_parts()
+    if args.json:
+        print_json([{"name": p.name, "what_off_does": p.what, "item": p.item, "off": p.off}
+                    for p in parts])
+        return 0
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"fuzzynav's parts ({PARTS_PATH.name}): --off NAME[,NAME...]")
+    for column in ("name", "switched off", "by"):
+        table.add_column(column, overflow="fold")
+    for p in parts:
+        table.add_row(p.name, p.what, ", ".join(f"{k} = {v:g}" for k, v in p.off.items()))
+    Console().print(table)
+    return 0
+
+
 def cmd_run(args) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -171,6 +192,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_run_options(run)
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.set_defaults(func=cmd_run)
+    parts = sub.add_parser("parts", help="fuzzynav's parts, which --off switches off")
+    parts.add_argument("--json", action="store_true", help="print one JSON list")
+    parts.set_defaults(func=cmd_parts)
     for module in _extensions():
         if hasattr(module, "add_run_options"):
             module.add_run_options(run)

@@ -103,3 +103,17 @@ def test_a_reader_that_leaves_early_gets_no_traceback():
     stderr = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 141, stderr
     assert "Traceback" not in stderr and "BrokenPipe" not in stderr, stderr
+
+
+def test_parts_lists_what_off_takes(capsys):
+    """`fuzzynav parts`: every name it lists is one `run --off` takes."""
+    from controller.fuzzynav_parts import load_parts
+
+    assert main(["parts", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert [p["name"] for p in listed] == [p.name for p in load_parts()]
+    assert main(["run", "s1", "--controller", "fuzzynav", "--json",
+                 "--off", ",".join(p["name"] for p in listed)]) == 0
+    assert json.loads(capsys.readouterr().out)["controller"].startswith("fuzzynav without ")
+    assert main(["parts"]) == 0
+    assert "echo memory" in capsys.readouterr().out
