@@ -79,7 +79,3 @@ def load_parts(path: str | Path = PARTS_PATH) -> tuple[Part, ...]:
         parts.append(Part(name, entry["what"], entry["item"],
                           {key: float(value) for key, value in off.items()}))
     return tuple(parts)
-
-
-def part_names(path: str | Path = PARTS_PATH) -> list[str]:
-    return [p.name for p in load_parts(path)]
