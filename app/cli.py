@@ -20,6 +20,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -93,10 +94,20 @@ def add_off_option(parser: argparse.ArgumentParser) -> None:
                              "(the parts: assets/rules/fuzzynav_parts.toml)")
 
 
+def parse_off(off: str) -> list[str]:
+    """``--off "echo memory, edge following"`` -> the part names."""
+    return [name.strip() for name in off.split(",") if name.strip()]
+
+
+def off_flag(parts_off) -> str:
+    """The ``--off`` that switches these parts off again in a command line ("" for none)."""
+    return f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
+
+
 def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
     """Apply ``--off PART[,PART...]`` to a controller that has parts (fuzzynav); returns
     the parts now off. Any other controller, or an unknown part, is refused."""
-    names = [name.strip() for name in off.split(",") if name.strip()]
+    names = parse_off(off)
     if not names:
         return ()
     if not hasattr(controller, "set_parts_off"):

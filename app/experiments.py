@@ -11,7 +11,6 @@ A sweep run "succeeds" when the target is reached without a collision; the stric
 from __future__ import annotations
 
 import math
-import shlex
 import statistics
 import time
 from pathlib import Path
@@ -131,6 +130,7 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
+    from app.cli import off_flag
     from app.recording import record_run
     from app.runs import build_simulation
     from world.layouts import generate_layout
@@ -140,7 +140,7 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     family, seed = out["family"], out["seed"]
     controller, perception = out["controller"], out["perception"]
     parts_off = out.get("parts_off") or []
-    off = f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
+    off = off_flag(parts_off)
     written = []
     for done, run in enumerate(failed_runs(out), start=1):
         stem = f"{family}_seed{seed}_{run['index']:03d}"
@@ -197,7 +197,7 @@ def cmd_sweep(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from app.cli import print_json
+    from app.cli import parse_off, print_json
 
     _check_workers(args.workers)
     if args.failures is not None:
@@ -207,7 +207,7 @@ def cmd_sweep(args) -> int:
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
-    parts_off = [name.strip() for name in args.off.split(",") if name.strip()]
+    parts_off = parse_off(args.off)
     label = args.controller + (f" without {', '.join(parts_off)}" if parts_off else "")
     out = _sweep_with_bar(args.controller, args.n, args.seed, args.family, args.perception,
                           args.workers, args.json, label=label, parts_off=parts_off)

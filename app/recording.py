@@ -881,8 +881,9 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
     stem = Path(where).stem
     if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
         where = stem
-    parts_off = tuple(getattr(controller, "parts_off", None) or ())
-    off = f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
+    from app.cli import off_flag
+
+    off = off_flag(tuple(getattr(controller, "parts_off", None) or ()))
     return (f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)}{off} "
             f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
 
