@@ -23,10 +23,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from controller.fuzzynav import fuzzynav_controller  # noqa: E402
+from app.experiments import SAFE_CLEARANCE_M, _sweep_one as sweep_one  # noqa: E402
 from controller.fuzzynav_parts import load_parts  # noqa: E402
-from world.layouts import FAMILIES, SAFE_DISTANCE_M, generate_layout  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
+from world.layouts import FAMILIES  # noqa: E402
 
 MODES = ("ideal", "ultrasonic")
 
@@ -38,16 +37,14 @@ def versions(parts) -> list[dict]:
 
 
 def run_one(job):
-    """One run: (version index, part off, family, seed, layout index, mode) -> outcome flags."""
+    """One run: (version index, part off, family, seed, layout index, mode) -> outcome flags,
+    run and judged as `fuzzynav sweep --off` runs and judges it."""
     k, part_off, family, seed, index, mode = job
-    controller = fuzzynav_controller()
-    controller.set_parts_off([part_off] if part_off else [])
-    result = Simulation(generate_layout(family, seed, index), controller,
-                        perception=mode, seed=seed).run()
-    clearance = result.metrics["min_clearance_m"]
-    ok = result.reached and not result.collided
-    return (k, family, mode, ok, ok and (clearance is None or clearance >= SAFE_DISTANCE_M),
-            result.collided, result.outcome == "timeout")
+    row = sweep_one((family, seed, index, "fuzzynav", mode, (part_off,) if part_off else ()))
+    ok = row["reached"] and not row["collided"]
+    clearance = row["min_clearance_m"]
+    return (k, family, mode, ok, ok and (clearance is None or clearance >= SAFE_CLEARANCE_M),
+            row["collided"], row["outcome"] == "timeout")
 
 
 def tally(rows, n_ablations: int, sizes: dict[str, int]) -> dict:
