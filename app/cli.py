@@ -1,4 +1,4 @@
-"""The ``fuzzynav`` command line.
+"""fuzzynav: a Mamdani fuzzy navigator driving a skid-steer Husky past obstacles.
 
 ``fuzzynav run SCENARIO``      one headless run; a table, or ``--json``
 
@@ -22,10 +22,11 @@ import math
 import os
 import shlex
 import sys
+import textwrap
 from pathlib import Path
 
-from world.perception import PERCEPTION_MODES
-from world.scenario import ScenarioError, resolve_scenario_path
+from fuzzynav.world.perception import PERCEPTION_MODES
+from fuzzynav.world.scenario import ScenarioError, resolve_scenario_path, scenario_names
 
 EXIT_BAD_INPUT = 2
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
@@ -72,26 +73,50 @@ def scenario_label(name_or_path: str) -> str:
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
-    from controller.registry import controller_names
+    from fuzzynav.controller.registry import controller_names
 
-    parser.add_argument("--controller", default="paper", choices=controller_names(),
-                        help="which controller drives (default: paper)")
-    parser.add_argument("--fis", type=Path, default=None,
-                        help="drive with a MATLAB .fis file of your own instead (4 inputs, 2 outputs)")
-    parser.add_argument("--perception", default="ideal", choices=PERCEPTION_MODES,
-                        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors")
-    parser.add_argument("--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)")
-    parser.add_argument("--noise", type=float, default=0.0, metavar="STD_M",
-                        help="sensor noise standard deviation in metres (default 0)")
-    parser.add_argument("--dt", type=float, default=0.02, metavar="SECONDS",
-                        help="control period (default 0.02 s)")
+    parser.add_argument(
+        "--controller",
+        default="paper",
+        choices=controller_names(),
+        help="which controller drives (default: paper)",
+    )
+    parser.add_argument(
+        "--fis",
+        type=Path,
+        default=None,
+        help="drive with a MATLAB .fis file of your own instead (4 inputs, 2 outputs)",
+    )
+    parser.add_argument(
+        "--perception",
+        default="ideal",
+        choices=PERCEPTION_MODES,
+        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors",
+    )
+    parser.add_argument(
+        "--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)"
+    )
+    parser.add_argument(
+        "--noise",
+        type=float,
+        default=0.0,
+        metavar="STD_M",
+        help="sensor noise standard deviation in metres (default 0)",
+    )
+    parser.add_argument(
+        "--dt", type=float, default=0.02, metavar="SECONDS", help="control period (default 0.02 s)"
+    )
     add_off_option(parser)
 
 
 def add_off_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--off", default="", metavar="PART[,PART...]",
-                        help="fuzzynav only: switch these parts off, e.g. 'edge following' "
-                             "(the parts: assets/rules/fuzzynav_parts.toml)")
+    parser.add_argument(
+        "--off",
+        default="",
+        metavar="PART[,PART...]",
+        help="fuzzynav only: switch these parts off, e.g. 'edge following' "
+        "(the names: fuzzynav parts)",
+    )
 
 
 def parse_off(off: str) -> list[str]:
@@ -118,12 +143,13 @@ def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
 
 def cmd_parts(args) -> int:
     """List fuzzynav's parts (assets/rules/fuzzynav_parts.toml): the names ``--off`` takes."""
-    from controller.fuzzynav_parts import PARTS_PATH, load_parts
+    from fuzzynav.controller.fuzzynav_parts import PARTS_PATH, load_parts
 
     parts = load_parts()
     if args.json:
-        print_json([{"name": p.name, "what_off_does": p.what, "item": p.item, "off": p.off}
-                    for p in parts])
+        print_json(
+            [{"name": p.name, "what_off_does": p.what, "item": p.item, "off": p.off} for p in parts]
+        )
         return 0
     from rich.console import Console
     from rich.table import Table
@@ -141,11 +167,17 @@ def cmd_run(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from app.runs import build_simulation, summary
+    from fuzzynav.app.runs import build_simulation, summary
 
-    sim = build_simulation(args.scenario, args.controller, perception=args.perception,
-                           seed=args.seed, fis_path=args.fis, control_period_s=args.dt,
-                           sensor_noise_std_m=args.noise)
+    sim = build_simulation(
+        args.scenario,
+        args.controller,
+        perception=args.perception,
+        seed=args.seed,
+        fis_path=args.fis,
+        control_period_s=args.dt,
+        sensor_noise_std_m=args.noise,
+    )
     label = args.fis.name if args.fis else args.controller
     parts_off = switch_parts_off(sim.controller, args.off, label)
     if parts_off:
@@ -177,8 +209,14 @@ def cmd_run(args) -> int:
     return 0
 
 
-EXTENSION_MODULES = ("app.fis_commands", "app.experiments", "app.recording", "app.figures",
-                     "app.report", "app.viewer")
+EXTENSION_MODULES = (
+    "fuzzynav.app.fis_commands",
+    "fuzzynav.app.experiments",
+    "fuzzynav.app.recording",
+    "fuzzynav.app.figures",
+    "fuzzynav.app.report",
+    "fuzzynav.app.serve",
+)
 
 
 def _extensions() -> list:
@@ -195,11 +233,107 @@ def _extensions() -> list:
     return found
 
 
+def scenario_help() -> str:
+    """The help of a SCENARIO argument: the shipped names, or a path."""
+    return f"a shipped scenario ({', '.join(scenario_names())}) or the path of a scenario TOML file"
+
+
+#: What each sub-command is for, at more length than its one-line help, and examples
+#: that run as written (tests/test_package.py runs every parser over them).
+COMMAND_DOCS = {
+    "run": (
+        "Run one scenario headless, to its end (target reached, collision or time out), "
+        "and print its metrics: path length, deviation from the start-target line (MAD, "
+        "RMSE), minimum distance to an obstacle.",
+        [
+            "fuzzynav run s1",
+            "fuzzynav run s2 --controller fuzzynav --perception ultrasonic --json",
+            "fuzzynav run s3 --rrd s3.rrd --figures figures/",
+        ],
+    ),
+    "parts": (
+        "List fuzzynav's parts (echo memory, bearing planner, ...): the names that "
+        "'run --off' and 'sweep --off' switch off.",
+        ["fuzzynav parts", "fuzzynav parts --json"],
+    ),
+    "fis": (
+        "Work with MATLAB Fuzzy Logic Toolbox .fis files (GNU Octave's fuzzy-logic-toolkit "
+        "reads them as the same system).",
+        [
+            "fuzzynav fis export paper.fis",
+            "fuzzynav fis export fuzzynav_fis/ --controller fuzzynav",
+        ],
+    ),
+    "fis export": (
+        "Write a controller's rule base as MATLAB .fis: one file for paper, one per block "
+        "(goal, avoid) for fuzzynav and baseline.",
+        ["fuzzynav fis export paper.fis", "fuzzynav fis export blocks/ --controller baseline"],
+    ),
+    "tune": (
+        "Tune a controller's membership functions by differential evolution (or a local "
+        "search) on s1-s3 and, optionally, seeded random layouts. Writes the tuned file "
+        "where --out says, with the command that reproduces it in its header.",
+        [
+            "fuzzynav tune --maxiter 5 --out my_paper.toml",
+            "fuzzynav tune --controller paper --layouts standard --n 20 --out tuned.toml",
+        ],
+    ),
+    "sweep": (
+        "Run a controller on seeded random layouts of one family and report how often "
+        "it reaches the target without collision, beside another controller on the same "
+        "layouts.",
+        ["fuzzynav sweep --n 50", "fuzzynav sweep --controller fuzzynav --family clutter --json"],
+    ),
+    "compare": (
+        "The paper's Table 4: every controller on s1-s3 beside the paper's numbers, and a "
+        "held-out sweep of random layouts.",
+        ["fuzzynav compare", "fuzzynav compare --controllers paper,fuzzynav --sweep-n 0"],
+    ),
+    "report": (
+        "Recordings (.rrd), the paper's figures and Table 4 for s1-s3 and every "
+        "controller, written into one folder.",
+        ["fuzzynav report out/report"],
+    ),
+    "serve": (
+        "Start the browser viewer: drag obstacles and the target while the robot drives, "
+        "and watch the fuzzy inference. Binds 127.0.0.1 unless --host says otherwise.",
+        ["fuzzynav serve", "fuzzynav serve s2 --controller fuzzynav --port 8081"],
+    ),
+    "demo": (
+        "The browser viewer on scenario s1 with default settings (what 'make demo' runs).",
+        ["fuzzynav demo"],
+    ),
+}
+
+
+def _finish_help(sub, prefix: str = "") -> None:
+    """Give every sub-command a description and examples (from :data:`COMMAND_DOCS`)."""
+    helps = {action.dest: action.help for action in sub._choices_actions}
+    for name, parser in sub.choices.items():
+        key = f"{prefix}{name}"
+        description, examples = COMMAND_DOCS.get(key, (helps.get(name) or "", []))
+        parser.description = textwrap.fill(description, width=78)
+        parser.formatter_class = argparse.RawDescriptionHelpFormatter
+        if examples:
+            parser.epilog = "examples:\n" + "\n".join(f"  {e}" for e in examples)
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                _finish_help(action, prefix=f"{key} ")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="fuzzynav", description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    from fuzzynav import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="fuzzynav",
+        description=__doc__.split("\n\n")[0],
+        epilog="examples:\n  fuzzynav demo\n  fuzzynav run s1\n  fuzzynav COMMAND --help",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"fuzzynav {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     run = sub.add_parser("run", help="run one scenario headless and print its metrics")
-    run.add_argument("scenario", help="s1, s2, s3 (assets/scenarios) or a path to a TOML file")
+    run.add_argument("scenario", help=scenario_help())
     add_run_options(run)
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.set_defaults(func=cmd_run)
@@ -211,6 +345,7 @@ def build_parser() -> argparse.ArgumentParser:
             module.add_run_options(run)
         if hasattr(module, "add_commands"):
             module.add_commands(sub)
+    _finish_help(sub)
     return parser
 
 

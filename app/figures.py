@@ -47,8 +47,16 @@ TARGET = "#2ca02c"
 OBSTACLE = "#d62728"
 SAFE = "#555555"
 MOVING = "#9467bd"
-OBSTACLE_COLORS = ["#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#bcbd22",
-                   "#17becf", "#7f7f7f"]
+OBSTACLE_COLORS = [
+    "#d62728",
+    "#ff7f0e",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#bcbd22",
+    "#17becf",
+    "#7f7f7f",
+]
 
 
 # ---------------------------------------------------------------------------------------
@@ -127,12 +135,23 @@ def _footprint(pose, length_m: float, width_m: float) -> np.ndarray:
     hl, hw = 0.5 * length_m, 0.5 * width_m
     corners = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw), (hl, hw)])
     c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.column_stack([pose[0] + c * corners[:, 0] - s * corners[:, 1],
-                            pose[1] + s * corners[:, 0] + c * corners[:, 1]])
+    return np.column_stack(
+        [
+            pose[0] + c * corners[:, 0] - s * corners[:, 1],
+            pose[1] + s * corners[:, 0] + c * corners[:, 1],
+        ]
+    )
 
 
-def draw_trajectory(ax, result, *, footprint_m=(0.99, 0.67), footprints: bool = True,
-                    legend: bool = True, title: str | None = None) -> None:
+def draw_trajectory(
+    ax,
+    result,
+    *,
+    footprint_m=(0.99, 0.67),
+    footprints: bool = True,
+    legend: bool = True,
+    title: str | None = None,
+) -> None:
     """The paper's trajectory figure on ``ax`` (also used for the comparison grid)."""
     from matplotlib.patches import Circle
 
@@ -140,8 +159,15 @@ def draw_trajectory(ax, result, *, footprint_m=(0.99, 0.67), footprints: bool = 
     scenario = result.scenario
     xy = log.pose[:, :2]
     start, target = scenario.start, (log.target_xy[-1] if len(log) else scenario.target)
-    ax.plot([start[0], target[0]], [start[1], target[1]], color="0.6", lw=0.8, ls="--",
-            label="straight line", zorder=1)
+    ax.plot(
+        [start[0], target[0]],
+        [start[1], target[1]],
+        color="0.6",
+        lw=0.8,
+        ls="--",
+        label="straight line",
+        zorder=1,
+    )
     moving = set(_moving_columns(log)) if len(log) else set()
     for col in range(len(log.obstacle_ids)):
         radius = float(log.obstacle_radii_m[col])
@@ -152,16 +178,39 @@ def draw_trajectory(ax, result, *, footprint_m=(0.99, 0.67), footprints: bool = 
         color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
         first, last = pts[present][0], pts[present][-1]
         if col in moving:
-            ax.plot(pts[present, 0], pts[present, 1], color=MOVING, lw=1.2, ls=":",
-                    label="moving obstacle's path" if col == min(moving) else None, zorder=2)
-            ax.add_patch(Circle(first, radius, facecolor="none", edgecolor=color, lw=0.8,
-                                ls="--", zorder=2))
+            ax.plot(
+                pts[present, 0],
+                pts[present, 1],
+                color=MOVING,
+                lw=1.2,
+                ls=":",
+                label="moving obstacle's path" if col == min(moving) else None,
+                zorder=2,
+            )
+            ax.add_patch(
+                Circle(first, radius, facecolor="none", edgecolor=color, lw=0.8, ls="--", zorder=2)
+            )
         ax.add_patch(Circle(last, radius, facecolor=color, edgecolor=color, alpha=0.75, zorder=3))
-        ax.add_patch(Circle(last, radius + SAFE_DISTANCE_M, facecolor="none", edgecolor=SAFE,
-                            lw=0.9, ls="--", zorder=3,
-                            label=f"{SAFE_DISTANCE_M} m safe distance" if col == 0 else None))
-        ax.annotate(_obstacle_label(log, col), last, xytext=(6, 6), textcoords="offset points",
-                    fontsize=7, color=color)
+        ax.add_patch(
+            Circle(
+                last,
+                radius + SAFE_DISTANCE_M,
+                facecolor="none",
+                edgecolor=SAFE,
+                lw=0.9,
+                ls="--",
+                zorder=3,
+                label=f"{SAFE_DISTANCE_M} m safe distance" if col == 0 else None,
+            )
+        )
+        ax.annotate(
+            _obstacle_label(log, col),
+            last,
+            xytext=(6, 6),
+            textcoords="offset points",
+            fontsize=7,
+            color=color,
+        )
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
         for k in list(range(0, len(log), period)) + [len(log) - 1]:
@@ -172,8 +221,16 @@ def draw_trajectory(ax, result, *, footprint_m=(0.99, 0.67), footprints: bool = 
     ax.add_patch(Circle(target, scenario.tolerance_m, facecolor=TARGET, alpha=0.3, zorder=5))
     ax.plot(*target, marker="*", color=TARGET, ms=12, ls="none", label="target", zorder=6)
     for c in result.collisions:
-        ax.plot(*c.robot_xy, marker="x", color="k", ms=8, mew=2, ls="none", zorder=7,
-                label="collision" if c is result.collisions[0] else None)
+        ax.plot(
+            *c.robot_xy,
+            marker="x",
+            color="k",
+            ms=8,
+            mew=2,
+            ls="none",
+            zorder=7,
+            label="collision" if c is result.collisions[0] else None,
+        )
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -201,9 +258,16 @@ def _bearings(log) -> np.ndarray:
     return np.mod(np.arctan2(dy, dx) - log.pose[:, 2:3] + math.pi, 2 * math.pi) - math.pi
 
 
-def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
-                      formats=FORMATS, footprint_m=None,
-                      voltage_limit_v: float = 12.0) -> list[Path]:
+def write_run_figures(
+    result,
+    out_dir,
+    controller=None,
+    *,
+    prefix: str = "",
+    formats=FORMATS,
+    footprint_m=None,
+    voltage_limit_v: float = 12.0,
+) -> list[Path]:
     """Write the paper's figure set for one run (see the module docstring).
 
     Parameters
@@ -238,12 +302,19 @@ def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
     ax[0, 0].plot(t, d_t, color=TARGET, lw=1.6, label="to the target")
     for col in range(len(log.obstacle_ids)):
         color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
-        ax[0, 0].plot(t, log.center_distance_m[:, col], color=color, lw=1.2,
-                      label=f"to {_obstacle_label(log, col)}")
-        ax[1, 0].plot(t, log.clearance_m[:, col], color=color, lw=1.2,
-                      label=_obstacle_label(log, col))
-    ax[1, 0].axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9,
-                     label=f"{SAFE_DISTANCE_M} m safe distance")
+        ax[0, 0].plot(
+            t,
+            log.center_distance_m[:, col],
+            color=color,
+            lw=1.2,
+            label=f"to {_obstacle_label(log, col)}",
+        )
+        ax[1, 0].plot(
+            t, log.clearance_m[:, col], color=color, lw=1.2, label=_obstacle_label(log, col)
+        )
+    ax[1, 0].axhline(
+        SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=f"{SAFE_DISTANCE_M} m safe distance"
+    )
     ax[1, 0].axhline(0.0, color="k", lw=0.6)
     _time_axes(ax[0, 0], "distance, centre to centre (m)")
     _time_axes(ax[1, 0], "footprint clearance (m)")
@@ -254,9 +325,15 @@ def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
 
     # Fig. 14: target angle and heading
     fig, ax = _new_figure(7.0, 5.6, 2, 1, sharex=True)
-    phi_t = np.mod(np.arctan2(log.target_xy[:, 1] - log.pose[:, 1],
-                              log.target_xy[:, 0] - log.pose[:, 0]) - log.pose[:, 2] + math.pi,
-                   2 * math.pi) - math.pi
+    phi_t = (
+        np.mod(
+            np.arctan2(log.target_xy[:, 1] - log.pose[:, 1], log.target_xy[:, 0] - log.pose[:, 0])
+            - log.pose[:, 2]
+            + math.pi,
+            2 * math.pi,
+        )
+        - math.pi
+    )
     ax[0, 0].plot(t, phi_t, color="#1f77b4", lw=1.4)
     ax[1, 0].plot(t, log.pose[:, 2], color="#d62728", lw=1.4)
     _time_axes(ax[0, 0], "target angle phi_t (rad)")
@@ -270,8 +347,13 @@ def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
     if len(log.obstacle_ids) and len(log):
         bearings = _bearings(log)
         for col in range(len(log.obstacle_ids)):
-            a.plot(t, bearings[:, col], color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
-                   lw=1.2, label=_obstacle_label(log, col))
+            a.plot(
+                t,
+                bearings[:, col],
+                color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
+                lw=1.2,
+                label=_obstacle_label(log, col),
+            )
         a.legend(fontsize=7, loc="best")
     else:
         a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
@@ -284,15 +366,32 @@ def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
     fig, ax = _new_figure(7.0, 3.6)
     a = ax[0, 0]
     limit = float(voltage_limit_v)
-    a.plot(t, log.controller_output_v[:, 0], color="#1f77b4", lw=0.8, alpha=0.35,
-           label="left, before saturation")
-    a.plot(t, log.controller_output_v[:, 1], color="#d62728", lw=0.8, alpha=0.35,
-           label="right, before saturation")
+    a.plot(
+        t,
+        log.controller_output_v[:, 0],
+        color="#1f77b4",
+        lw=0.8,
+        alpha=0.35,
+        label="left, before saturation",
+    )
+    a.plot(
+        t,
+        log.controller_output_v[:, 1],
+        color="#d62728",
+        lw=0.8,
+        alpha=0.35,
+        label="right, before saturation",
+    )
     a.plot(t, log.voltages_v[:, 0], color="#1f77b4", lw=1.4, label="left (v_s1)")
     a.plot(t, log.voltages_v[:, 1], color="#d62728", lw=1.4, label="right (v_s2)")
     for sign in (1, -1):
-        a.axhline(sign * limit, color="0.3", ls="--", lw=0.9,
-                  label=f"±{limit:g} V limit" if sign > 0 else None)
+        a.axhline(
+            sign * limit,
+            color="0.3",
+            ls="--",
+            lw=0.9,
+            label=f"±{limit:g} V limit" if sign > 0 else None,
+        )
     _time_axes(a, "voltage (V)")
     a.set_title(f"Wheel voltages — {title}", fontsize=9)
     a.legend(fontsize=7, loc="best", ncols=2)
@@ -306,7 +405,7 @@ def write_run_figures(result, out_dir, controller=None, *, prefix: str = "",
 
 def _default_footprint() -> tuple[float, float]:
     try:
-        from world.husky import HuskyModel
+        from fuzzynav.world.husky import HuskyModel
 
         p = HuskyModel.default().parameters
         return (p.footprint_length_m, p.footprint_width_m)
@@ -341,8 +440,9 @@ def membership_figure_names(fis) -> list[str]:
     return [f"membership_{v.name}" for v in tuple(fis.inputs) + tuple(fis.outputs)]
 
 
-def write_membership_figures(fis, out_dir, *, prefix: str = "", formats=FORMATS,
-                             points: int = 1001) -> list[Path]:
+def write_membership_figures(
+    fis, out_dir, *, prefix: str = "", formats=FORMATS, points: int = 1001
+) -> list[Path]:
     """One figure per input and output variable of a ``FuzzySystem``: every term's
     membership over the variable's range, named ``membership_<variable>``."""
     out_dir = check_writable_dir(out_dir, option="out_dir")
@@ -353,12 +453,19 @@ def write_membership_figures(fis, out_dir, *, prefix: str = "", formats=FORMATS,
         x = np.linspace(lo, hi, points)
         fig, ax = _new_figure(6.4, 3.0)
         a = ax[0, 0]
-        for k, term in enumerate(var.terms):
+        for _k, term in enumerate(var.terms):
             y = np.asarray(term(x), dtype=float)
-            line, = a.plot(x, y, lw=1.6, label=f"{term.name} ({term.shape})")
+            (line,) = a.plot(x, y, lw=1.6, label=f"{term.name} ({term.shape})")
             peak = int(np.argmax(y))
-            a.annotate(term.name, (x[peak], y[peak]), xytext=(0, 4), textcoords="offset points",
-                       ha="center", fontsize=8, color=line.get_color())
+            a.annotate(
+                term.name,
+                (x[peak], y[peak]),
+                xytext=(0, 4),
+                textcoords="offset points",
+                ha="center",
+                fontsize=8,
+                color=line.get_color(),
+            )
         unit = f" ({var.unit})" if getattr(var, "unit", "") else ""
         a.set_xlim(lo, hi)
         a.set_ylim(-0.02, 1.12)
@@ -372,8 +479,9 @@ def write_membership_figures(fis, out_dir, *, prefix: str = "", formats=FORMATS,
     return written
 
 
-def write_membership_overview(fis, path, title: str, *, points: int = 1001,
-                              d_t_shown_m: float = 20.0) -> Path:
+def write_membership_overview(
+    fis, path, title: str, *, points: int = 1001, d_t_shown_m: float = 20.0
+) -> Path:
     """All of a system's variables on one page (two columns), like the paper's Figs. 6-11
     side by side: the README's picture of a rule base. ``d_t`` is shown up to
     ``d_t_shown_m`` (its far terms are flat beyond)."""
@@ -394,7 +502,7 @@ def write_membership_overview(fis, path, title: str, *, points: int = 1001,
         a.set_ylim(-0.02, 1.1)
         a.grid(True, lw=0.3, alpha=0.6)
         a.legend(fontsize=7)
-    for a in axes.ravel()[len(variables):]:
+    for a in axes.ravel()[len(variables) :]:
         a.axis("off")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
@@ -413,6 +521,7 @@ def _orient(results: dict) -> dict:
     """``{scenario: {controller: result}}``; a mapping given the other way round
     (``{controller: {scenario: result}}``) is recognised by its results' scenarios and
     transposed."""
+
     def names(inner):
         return {getattr(r.scenario, "name", None) for r in inner.values() if r is not None}
 
@@ -428,9 +537,14 @@ def _orient(results: dict) -> dict:
     return results
 
 
-def write_comparison_figure(results_by_controller_by_scenario: dict, out_dir, *,
-                            name: str = "comparison", formats=FORMATS,
-                            footprint_m=None) -> list[Path]:
+def write_comparison_figure(
+    results_by_controller_by_scenario: dict,
+    out_dir,
+    *,
+    name: str = "comparison",
+    formats=FORMATS,
+    footprint_m=None,
+) -> list[Path]:
     """The paper's Fig. 27: one row per scenario, one column per controller, each panel
     the trajectory of that controller in that scenario (same axes along a row).
 
@@ -467,9 +581,14 @@ def write_comparison_figure(results_by_controller_by_scenario: dict, out_dir, *,
             m = result.metrics or {}
             length = m.get("path_length_m")
             extra = f", {length:.2f} m" if isinstance(length, (int, float)) else ""
-            draw_trajectory(ax, result, footprint_m=footprint_m, footprints=False,
-                            legend=(i == 0 and j == 0),
-                            title=f"{tag} {controller}, {scenario}: {result.outcome}{extra}")
+            draw_trajectory(
+                ax,
+                result,
+                footprint_m=footprint_m,
+                footprints=False,
+                legend=(i == 0 and j == 0),
+                title=f"{tag} {controller}, {scenario}: {result.outcome}{extra}",
+            )
         _share_limits([axes[i, j] for j in range(cols) if row_results[j] is not None])
     fig.suptitle("Trajectories while reaching the target (paper Fig. 27)", fontsize=10)
     return _save(fig, out_dir, name, formats)
@@ -494,8 +613,13 @@ def _share_limits(axes) -> None:
 
 
 def add_run_options(parser) -> None:
-    parser.add_argument("--figures", type=Path, default=None, metavar="DIR",
-                        help="write the paper's figures of the run (PNG and SVG) into DIR")
+    parser.add_argument(
+        "--figures",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write the paper's figures of the run (PNG and SVG) into DIR",
+    )
 
 
 def run_hook(args, sim):
@@ -506,12 +630,17 @@ def run_hook(args, sim):
 
     def write(result, interrupted: bool) -> None:
         params = sim.model.parameters
-        paths = write_run_figures(result, out_dir, controller=sim.controller,
-                                  footprint_m=(params.footprint_length_m,
-                                               params.footprint_width_m),
-                                  voltage_limit_v=sim.voltage_limit_v)
+        paths = write_run_figures(
+            result,
+            out_dir,
+            controller=sim.controller,
+            footprint_m=(params.footprint_length_m, params.footprint_width_m),
+            voltage_limit_v=sim.voltage_limit_v,
+        )
         what = "partial run, " if interrupted else ""
-        print(f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to {out_dir}",
-              file=sys.stderr)
+        print(
+            f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to {out_dir}",
+            file=sys.stderr,
+        )
 
     return write

@@ -5,13 +5,16 @@ phi_o, outputs left then right, the paper's labels (VS S M L VL; near medium far
 P VP). ``fuzzynav run s1 --fis PATH`` drives the robot with such a file (or one of your
 own). fuzzynav and the baseline are two blocks each (goal seeking and avoidance) joined by
 crisp code: PATH is then a directory, given one ``<controller>_<block>.fis`` per block
-(fuzzynav's crisp parameters, which no ``.fis`` holds, are in
-``assets/rules/fuzzynav_params.toml``).
+(fuzzynav's crisp parameters, which no ``.fis`` holds, are in its shipped
+``fuzzynav_params.toml``). Without PATH: ``paper.fis``, or ``<controller>_fis/``, in the
+current folder.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+from fuzzynav.controller.fis import read_fis, write_fis
 
 FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
 
@@ -22,7 +25,7 @@ def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
     One system (``paper``): ``path`` is the file, ending in ``.fis``. Several blocks
     (``fuzzynav``, ``baseline``): ``path`` is a directory, made if its parent exists.
     """
-    from controller.registry import make_controller
+    from fuzzynav.controller.registry import make_controller
 
     if controller not in FIS_CONTROLLERS:
         raise ValueError(f"controller = {controller!r}: choose one of {', '.join(FIS_CONTROLLERS)}")
@@ -34,12 +37,14 @@ def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
             raise ValueError(f"{path}: the file name must end in .fis")
         if not path.parent.exists():
             raise ValueError(f"{path}: directory {path.parent} does not exist")
-        ctrl.fis.to_fis(path)
+        write_fis(ctrl.fis, path)
         return [path]
     systems = blocks()
     if path.suffix.lower() == ".fis":
-        raise ValueError(f"{path}: {controller} is {len(systems)} fuzzy blocks "
-                         f"({', '.join(systems)}), one .fis each: give a directory")
+        raise ValueError(
+            f"{path}: {controller} is {len(systems)} fuzzy blocks "
+            f"({', '.join(systems)}), one .fis each: give a directory"
+        )
     if path.exists() and not path.is_dir():
         raise ValueError(f"{path}: not a directory")
     if not path.parent.exists():
@@ -48,7 +53,7 @@ def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
     written = []
     for name, system in systems.items():
         written.append(path / f"{controller}_{name}.fis")
-        system.to_fis(written[-1])
+        write_fis(system, written[-1])
     return written
 
 
@@ -57,21 +62,39 @@ def _signature(system) -> str:
     return f"inputs {names(system.inputs)}; outputs {names(system.outputs)}"
 
 
-def cmd_fis_export(args) -> int:
-    from controller.fuzzy import FuzzySystem
+def default_export_path(controller: str) -> Path:
+    """Where ``fis export`` writes without a PATH: the current folder."""
+    return Path(f"{controller}.fis") if controller == "paper" else Path(f"{controller}_fis")
 
-    for path in export_fis(args.path, args.controller):
+
+def cmd_fis_export(args) -> int:
+    target = args.path if args.path is not None else default_export_path(args.controller)
+    for path in export_fis(target, args.controller):
         # Read back: what is printed is what the file holds.
-        print(f"wrote {path} ({_signature(FuzzySystem.from_fis(path))})")
+        print(f"wrote {path} ({_signature(read_fis(path))})")
     return 0
 
 
 def add_commands(subparsers) -> None:
     fis = subparsers.add_parser("fis", help="MATLAB .fis files")
     sub = fis.add_subparsers(dest="fis_command", required=True)
-    export = sub.add_parser("export", help="write a controller's rule base as MATLAB .fis "
-                                           "(paper: one file; fuzzynav, baseline: one per block)")
-    export.add_argument("path", type=Path,
-                        help="output file (.fis) for paper; a directory for fuzzynav and baseline")
-    export.add_argument("--controller", default="paper", choices=FIS_CONTROLLERS)
+    export = sub.add_parser(
+        "export",
+        help="write a controller's rule base as MATLAB .fis "
+        "(paper: one file; fuzzynav, baseline: one per block)",
+    )
+    export.add_argument(
+        "path",
+        type=Path,
+        nargs="?",
+        default=None,
+        help="output file (.fis) for paper; a directory for fuzzynav and baseline "
+        "(default: paper.fis or CONTROLLER_fis/ in the current folder)",
+    )
+    export.add_argument(
+        "--controller",
+        default="paper",
+        choices=FIS_CONTROLLERS,
+        help="whose rule base (default paper; fuzzynav and baseline have two blocks each)",
+    )
     export.set_defaults(func=cmd_fis_export)

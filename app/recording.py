@@ -95,12 +95,29 @@ OBSTACLE = (200, 60, 50)
 SAFE_RING = (240, 150, 40)
 OBSTACLE_PATH = (150, 60, 160)
 SENSOR_COLORS = {"left": (0, 170, 200), "front": (120, 120, 120), "right": (200, 0, 170)}
-SERIES_PALETTE = [(31, 119, 180), (214, 39, 40), (44, 160, 44), (255, 127, 14),
-                  (148, 103, 189), (140, 86, 75), (227, 119, 194), (127, 127, 127),
-                  (188, 189, 34), (23, 190, 207)]
+SERIES_PALETTE = [
+    (31, 119, 180),
+    (214, 39, 40),
+    (44, 160, 44),
+    (255, 127, 14),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+]
 # Obstacle series: no green (the target's) and no blue (the robot's).
-OBSTACLE_PALETTE = [(214, 39, 40), (255, 127, 14), (148, 103, 189), (140, 86, 75),
-                    (227, 119, 194), (188, 189, 34), (23, 190, 207), (127, 127, 127)]
+OBSTACLE_PALETTE = [
+    (214, 39, 40),
+    (255, 127, 14),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (188, 189, 34),
+    (23, 190, 207),
+    (127, 127, 127),
+]
 
 
 # ---------------------------------------------------------------------------------------
@@ -199,7 +216,7 @@ def target_geometry(pose: np.ndarray, target_xy: np.ndarray) -> tuple[np.ndarray
 
 
 def _sensor_config(sensors):
-    from world.sensors import SensorConfig
+    from fuzzynav.world.sensors import SensorConfig
 
     if sensors is None:
         return SensorConfig()
@@ -209,7 +226,7 @@ def _sensor_config(sensors):
 def _parameters(parameters):
     if parameters is not None:
         return parameters
-    from world.husky import HuskyModel
+    from fuzzynav.world.husky import HuskyModel
 
     return HuskyModel.default().parameters
 
@@ -254,9 +271,13 @@ def controller_replica(controller):
 
 
 INTERNALS_PATH = "/plots/internals"
-INTERNALS = ("avoidance weight alpha", "planner offset (rad)",
-             "yield (1) / pass first (-1)", "following an edge (1)",
-             "target reading doubted (1)")
+INTERNALS = (
+    "avoidance weight alpha",
+    "planner offset (rad)",
+    "yield (1) / pass first (-1)",
+    "following an edge (1)",
+    "target reading doubted (1)",
+)
 
 
 def controller_label(controller) -> str:
@@ -281,34 +302,54 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
     limit = voltage_limit_v
     k = len(ids)
     return [
-        ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors,
-         [2.0] + [1.5] * k),
+        ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
         ("/plots/angles/phi_t", ["phi_t (rad)"], [p[0]], [1.5]),
         ("/plots/angles/heading", ["heading (rad)"], [p[1]], [1.5]),
         ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
-        ("/plots/voltage", ["left (V)", "right (V)", "left command (V)", "right command (V)",
-                            f"+{limit:g} V limit", f"-{limit:g} V limit"],
-         [p[0], p[1], (150, 190, 230), (240, 160, 160), grey, grey],
-         [2.0, 2.0, 1.0, 1.0, 1.0, 1.0]),
+        (
+            "/plots/voltage",
+            [
+                "left (V)",
+                "right (V)",
+                "left command (V)",
+                "right command (V)",
+                f"+{limit:g} V limit",
+                f"-{limit:g} V limit",
+            ],
+            [p[0], p[1], (150, 190, 230), (240, 160, 160), grey, grey],
+            [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
+        ),
         ("/plots/inputs", ["d_t", "d_o", "phi_t", "phi_o"], p[:4], [1.5] * 4),
-        ("/plots/clearance", obstacles + [f"safe {SAFE_DISTANCE_M} m"], obstacle_colors + [grey],
-         [1.5] * k + [1.0]),
+        (
+            "/plots/clearance",
+            obstacles + [f"safe {SAFE_DISTANCE_M} m"],
+            obstacle_colors + [grey],
+            [1.5] * k + [1.0],
+        ),
         ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], p[:2], [1.5] * 2),
         ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
         ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], p[:2], [1.5] * 2),
-        ("/plots/ranges", [f"{m} (m)" for m in sensor_names],
-         [SENSOR_COLORS.get(m, grey) for m in sensor_names], [1.5] * len(sensor_names)),
+        (
+            "/plots/ranges",
+            [f"{m} (m)" for m in sensor_names],
+            [SENSOR_COLORS.get(m, grey) for m in sensor_names],
+            [1.5] * len(sensor_names),
+        ),
         ("/plots/disturbance", ["disturbance"], [p[7]], [1.5]),
     ]
 
 
-def plot_layout(obstacle_ids, sensor_names, n_rules: int = 0,
-                voltage_limit_v: float = 12.0) -> dict[str, list[str]]:
+def plot_layout(
+    obstacle_ids, sensor_names, n_rules: int = 0, voltage_limit_v: float = 12.0
+) -> dict[str, list[str]]:
     """Every plot entity of a recording and the names of its series, in instance order
     (instance j of a row of ``path`` is series ``names[j]``); a plot without series (no
     obstacles) is not logged."""
-    layout = {path: names for path, names, _, _ in
-              _plot_spec(obstacle_ids, sensor_names, voltage_limit_v) if names}
+    layout = {
+        path: names
+        for path, names, _, _ in _plot_spec(obstacle_ids, sensor_names, voltage_limit_v)
+        if names
+    }
     if n_rules:
         layout[RULES_PATH] = [f"R{k + 1}" for k in range(n_rules)]
     return layout
@@ -324,12 +365,13 @@ def _component_types() -> dict:
     that the record batches below carry exactly the metadata ``rr.log`` would."""
     import rerun as rr
 
-    samples = (rr.SeriesLines(names="x", colors=[(0, 0, 0)], widths=1.0),
-               rr.Scalars(scalars=[0.0]),
-               rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x"),
-               rr.LineStrips2D(strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)],
-                               labels="x"),
-               rr.Arrows2D(vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)]))
+    samples = (
+        rr.SeriesLines(names="x", colors=[(0, 0, 0)], widths=1.0),
+        rr.Scalars(scalars=[0.0]),
+        rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x"),
+        rr.LineStrips2D(strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)], labels="x"),
+        rr.Arrows2D(vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)]),
+    )
     out = {}
     for sample in samples:
         for batch in sample.as_component_batches():
@@ -388,12 +430,17 @@ def _component_field(entity: str, archetype: str, name: str):
     import pyarrow as pa
 
     descriptor, arrow_type = _component_types()[(archetype, name)]
-    field = pa.field(f"{entity}:{descriptor.component}", pa.list_(arrow_type),
-                     metadata={"rerun:entity_path": entity,
-                               "rerun:archetype": descriptor.archetype,
-                               "rerun:component": descriptor.component,
-                               "rerun:component_type": descriptor.component_type,
-                               "rerun:kind": "data"})
+    field = pa.field(
+        f"{entity}:{descriptor.component}",
+        pa.list_(arrow_type),
+        metadata={
+            "rerun:entity_path": entity,
+            "rerun:archetype": descriptor.archetype,
+            "rerun:component": descriptor.component,
+            "rerun:component_type": descriptor.component_type,
+            "rerun:kind": "data",
+        },
+    )
     return field, arrow_type
 
 
@@ -408,7 +455,7 @@ class _StaticBatch:
         import pyarrow as pa
 
         for name, value in components.items():
-            values = value if isinstance(value, list) else [value]   # a list: instances
+            values = value if isinstance(value, list) else [value]  # a list: instances
             if name == "colors":
                 values = [_rgba(v) for v in values]
             field, arrow_type = _component_field(entity, archetype, name)
@@ -422,14 +469,22 @@ class _StaticBatch:
         for batch in archetype.as_component_batches():
             d = batch.component_descriptor()
             array = batch.as_arrow_array()
-            self.fields.append(pa.field(
-                f"{entity}:{d.component}", pa.list_(array.type),
-                metadata={"rerun:entity_path": entity, "rerun:archetype": d.archetype or "",
-                          "rerun:component": d.component,
-                          "rerun:component_type": d.component_type or "",
-                          "rerun:kind": "data"}))
-            self.arrays.append(pa.ListArray.from_arrays(
-                pa.array([0, len(array)], type=pa.int32()), array))
+            self.fields.append(
+                pa.field(
+                    f"{entity}:{d.component}",
+                    pa.list_(array.type),
+                    metadata={
+                        "rerun:entity_path": entity,
+                        "rerun:archetype": d.archetype or "",
+                        "rerun:component": d.component,
+                        "rerun:component_type": d.component_type or "",
+                        "rerun:kind": "data",
+                    },
+                )
+            )
+            self.arrays.append(
+                pa.ListArray.from_arrays(pa.array([0, len(array)], type=pa.int32()), array)
+            )
 
     def send(self, rec) -> None:
         import pyarrow as pa
@@ -476,8 +531,13 @@ class _RowBatch:
         columns = np.ascontiguousarray(columns, dtype=np.float64)
         k = columns.shape[1]
         values = pa.array(columns.reshape(-1), type=pa.float64())
-        self.add(entity, "Scalars", "scalars", values,
-                 lengths=None if k == 1 else np.full(self.n, k, dtype=np.int32))
+        self.add(
+            entity,
+            "Scalars",
+            "scalars",
+            values,
+            lengths=None if k == 1 else np.full(self.n, k, dtype=np.int32),
+        )
 
     def send(self, rec) -> None:
         import pyarrow as pa
@@ -495,8 +555,17 @@ class _ColumnWriter:
     """Sends rows [start, end) of a SimulationLog as columns; remembers what it sent so
     that the next chunk continues it (trail segments, obstacle changes, styles)."""
 
-    def __init__(self, rec, *, footprint_m, sensor_config, voltage_limit_v: float,
-                 fis=None, tolerance_m: float = 0.15, controller=None):
+    def __init__(
+        self,
+        rec,
+        *,
+        footprint_m,
+        sensor_config,
+        voltage_limit_v: float,
+        fis=None,
+        tolerance_m: float = 0.15,
+        controller=None,
+    ):
         self.rec = rec
         self.controller = controller
         self.internals = has_internals(controller)
@@ -541,8 +610,9 @@ class _ColumnWriter:
         style = (tuple(names), tuple(colors), tuple(widths))
         if self._plot_styles.get(path) != style:  # new, or obstacles were added
             self._plot_styles[path] = style
-            self._static.add(path, "SeriesLines", names=list(names), colors=list(colors),
-                             widths=list(widths))
+            self._static.add(
+                path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
+            )
         self._rows.add_series(path, columns)
 
     def _series(self, log, start, end, pose, target, ranges, inputs):
@@ -551,8 +621,7 @@ class _ColumnWriter:
         n = end - start
         ids = list(log.obstacle_ids)
         d_t, phi_t = target_geometry(pose, target)
-        bearings = (obstacle_bearings(pose, log.obstacle_xy[start:end]) if ids
-                    else np.zeros((n, 0)))
+        bearings = obstacle_bearings(pose, log.obstacle_xy[start:end]) if ids else np.zeros((n, 0))
         limit = self.voltage_limit_v
         constant = np.ones((n, 1))
         lg = log.lg_state[start:end]
@@ -561,20 +630,28 @@ class _ColumnWriter:
             "/plots/angles/phi_t": phi_t[:, None],
             "/plots/angles/heading": pose[:, 2:3],
             "/plots/obstacle_angles": bearings,
-            "/plots/voltage": np.column_stack([log.voltages_v[start:end],
-                                               log.controller_output_v[start:end],
-                                               limit * constant, -limit * constant]),
+            "/plots/voltage": np.column_stack(
+                [
+                    log.voltages_v[start:end],
+                    log.controller_output_v[start:end],
+                    limit * constant,
+                    -limit * constant,
+                ]
+            ),
             "/plots/inputs": inputs,
-            "/plots/clearance": np.column_stack([log.clearance_m[start:end],
-                                                 SAFE_DISTANCE_M * constant]),
+            "/plots/clearance": np.column_stack(
+                [log.clearance_m[start:end], SAFE_DISTANCE_M * constant]
+            ),
             "/plots/wheels": lg[:, 0:2],
             "/plots/velocity": lg[:, 2:4],
             "/plots/current": lg[:, 4:6],
             "/plots/ranges": np.where(np.isinf(ranges), np.nan, ranges),
             "/plots/disturbance": log.disturbance[start:end, None],
         }
-        return [(path, names, colors, widths, columns[path]) for path, names, colors, widths
-                in _plot_spec(ids, self.sensor_names, limit)]
+        return [
+            (path, names, colors, widths, columns[path])
+            for path, names, colors, widths in _plot_spec(ids, self.sensor_names, limit)
+        ]
 
     # -- one chunk ---------------------------------------------------------------------
 
@@ -589,19 +666,35 @@ class _ColumnWriter:
 
         # -- the robot
         self._style("/world/robot/footprint", "LineStrips2D", colors=ROBOT, radii=0.015)
-        rows.add("/world/robot/footprint", "LineStrips2D", "strips",
-                 _strips_array(footprint_outlines(pose, *self.footprint_m)))
+        rows.add(
+            "/world/robot/footprint",
+            "LineStrips2D",
+            "strips",
+            _strips_array(footprint_outlines(pose, *self.footprint_m)),
+        )
         self._style("/world/robot/heading", "Arrows2D", colors=ROBOT, radii=0.02)
         heading = np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], axis=-1) * HEADING_ARROW_M
-        rows.add("/world/robot/heading", "Arrows2D", "origins",
-                 _vec2_array("Arrows2D", "origins", pose[:, :2]))
-        rows.add("/world/robot/heading", "Arrows2D", "vectors",
-                 _vec2_array("Arrows2D", "vectors", heading))
+        rows.add(
+            "/world/robot/heading",
+            "Arrows2D",
+            "origins",
+            _vec2_array("Arrows2D", "origins", pose[:, :2]),
+        )
+        rows.add(
+            "/world/robot/heading",
+            "Arrows2D",
+            "vectors",
+            _vec2_array("Arrows2D", "vectors", heading),
+        )
         previous = log.pose[start - 1, :2] if start > 0 else pose[0, :2]
         starts = np.vstack([previous[None, :], pose[:-1, :2]])
         self._style("/world/robot/trail", "LineStrips2D", colors=TRAIL, radii=0.02)
-        rows.add("/world/robot/trail", "LineStrips2D", "strips",
-                 _strips_array(np.stack([starts, pose[:, :2]], axis=1)))
+        rows.add(
+            "/world/robot/trail",
+            "LineStrips2D",
+            "strips",
+            _strips_array(np.stack([starts, pose[:, :2]], axis=1)),
+        )
 
         # -- the target (only the rows where it moved: latest-at keeps it in between)
         target = log.target_xy[start:end]
@@ -611,11 +704,14 @@ class _ColumnWriter:
             keep[0] = bool(np.any(target[0] != np.asarray(self._target)))
         if keep.any():
             k = np.flatnonzero(keep)
-            self._style("/world/target", "Points2D", colors=TARGET,
-                        radii=self.tolerance_m, labels="target")
-            self._send("/world/target", _time_column(t[k]),
-                       [_column("Points2D", "positions",
-                                _vec2_array("Points2D", "positions", target[k]))])
+            self._style(
+                "/world/target", "Points2D", colors=TARGET, radii=self.tolerance_m, labels="target"
+            )
+            self._send(
+                "/world/target",
+                _time_column(t[k]),
+                [_column("Points2D", "positions", _vec2_array("Points2D", "positions", target[k]))],
+            )
         self._target = (float(target[-1, 0]), float(target[-1, 1]))
 
         # -- the obstacles
@@ -637,19 +733,30 @@ class _ColumnWriter:
             d = directions[:, k][:, None]
             left = o + length * np.hstack([np.cos(d + half), np.sin(d + half)])
             right = o + length * np.hstack([np.cos(d - half), np.sin(d - half)])
-            self._style(f"/world/sensors/{name}/beam", "LineStrips2D",
-                        colors=(*color, 160), radii=0.008)
-            rows.add(f"/world/sensors/{name}/beam", "LineStrips2D", "strips",
-                     _strips_array(np.stack([o, left, right, o], axis=1)))
+            self._style(
+                f"/world/sensors/{name}/beam", "LineStrips2D", colors=(*color, 160), radii=0.008
+            )
+            rows.add(
+                f"/world/sensors/{name}/beam",
+                "LineStrips2D",
+                "strips",
+                _strips_array(np.stack([o, left, right, o], axis=1)),
+            )
             hits = (o + np.where(echo, r, 0.0)[:, None] * np.hstack([np.cos(d), np.sin(d)]))[echo]
             self._style(f"/world/sensors/{name}/hit", "Points2D", colors=color, radii=0.06)
-            rows.add(f"/world/sensors/{name}/hit", "Points2D", "positions",
-                     _vec2_array("Points2D", "positions", hits), lengths=echo.astype(np.int32))
+            rows.add(
+                f"/world/sensors/{name}/hit",
+                "Points2D",
+                "positions",
+                _vec2_array("Points2D", "positions", hits),
+                lengths=echo.astype(np.int32),
+            )
 
         # -- time series: one entity per plot, one instance (series) per column
         inputs = log.inputs[start:end]
-        for path, names, colors, widths, columns in self._series(log, start, end, pose, target,
-                                                                 ranges, inputs):
+        for path, names, colors, widths, columns in self._series(
+            log, start, end, pose, target, ranges, inputs
+        ):
             self._plot(path, names, colors, widths, columns)
 
         # -- rule firing strengths
@@ -669,9 +776,13 @@ class _ColumnWriter:
 
     def _plot_rules(self, strengths: np.ndarray) -> None:
         self.n_rules = n = strengths.shape[1]
-        self._plot(RULES_PATH, [f"R{k + 1}" for k in range(n)],
-                   [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
-                   [1.0] * n, strengths)
+        self._plot(
+            RULES_PATH,
+            [f"R{k + 1}" for k in range(n)],
+            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
+            [1.0] * n,
+            strengths,
+        )
 
     def _internals(self, log, start: int, end: int) -> None:
         """Plot the controller's inner state on rows [start, end): from the decisions it
@@ -689,7 +800,7 @@ class _ColumnWriter:
         except ValueError as exc:  # decisions of another shape than this writer expects
             self.replica_error = f"its decisions do not fit ({exc})"
             return
-        voltages, state = decisions[:, :2], decisions[:, 2:2 + len(INTERNALS)]
+        voltages, state = decisions[:, :2], decisions[:, 2 : 2 + len(INTERNALS)]
         # NaN (no decision to compare) counts as differing.
         differs = np.flatnonzero(~np.all(np.abs(voltages - decided_v[decided]) <= 1e-9, axis=1))
         if len(differs):
@@ -698,14 +809,19 @@ class _ColumnWriter:
             self.replica_error = f"its {how} from the run at t = {log.time_s[k]:.2f} s"
             return
         out[decided] = state
-        self._plot(INTERNALS_PATH, list(INTERNALS),
-                   [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
-                   [1.5] * len(INTERNALS), out)
+        self._plot(
+            INTERNALS_PATH,
+            list(INTERNALS),
+            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
+            [1.5] * len(INTERNALS),
+            out,
+        )
         if self.blocks is not None:
             strengths = np.full((end - start, len(self.blocks.rules)), np.nan)
             if decided.any():
                 strengths[decided] = self.blocks.firing_strengths(
-                    decisions[:, 2 + len(INTERNALS):])
+                    decisions[:, 2 + len(INTERNALS) :]
+                )
             self._plot_rules(strengths)
 
     def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
@@ -724,7 +840,8 @@ class _ColumnWriter:
         if not covered:  # swapped for another controller mid-run: nothing to line up
             return np.full((len(rows), self.decision_width), np.nan)
         return np.array([decisions[k] for k in rows], dtype=float).reshape(
-            len(rows), self.decision_width)
+            len(rows), self.decision_width
+        )
 
     def _replay(self, log, start: int, end: int, decided: np.ndarray):
         """The decisions of the decided rows of [start, end), replayed through a copy
@@ -754,23 +871,34 @@ class _ColumnWriter:
         changed[1:] = ~(same_presence & same_place)
         if prev is not None:
             was_present, was_xy = prev
-            changed[0] = not (present[0] == was_present
-                              and (not present[0] or tuple(xy[0]) == was_xy))
+            changed[0] = not (
+                present[0] == was_present and (not present[0] or tuple(xy[0]) == was_xy)
+            )
         rows = np.flatnonzero(changed)
         base = f"/world/obstacles/{oid}"
         if len(rows):
             tc = _time_column(t[rows])
             lengths = present[rows].astype(np.int32)
             pos = xy[rows][present[rows]]
-            self._style(f"{base}/body", "Points2D", colors=OBSTACLE, radii=radius,
-                        labels=f"obstacle {oid}")
-            self._send(f"{base}/body", tc,
-                       [_column("Points2D", "positions",
-                                _vec2_array("Points2D", "positions", pos), lengths)])
+            self._style(
+                f"{base}/body", "Points2D", colors=OBSTACLE, radii=radius, labels=f"obstacle {oid}"
+            )
+            self._send(
+                f"{base}/body",
+                tc,
+                [
+                    _column(
+                        "Points2D", "positions", _vec2_array("Points2D", "positions", pos), lengths
+                    )
+                ],
+            )
             ring = pos[:, None, :] + _circle(radius + SAFE_DISTANCE_M)[None, :, :]
             self._style(f"{base}/safe_ring", "LineStrips2D", colors=SAFE_RING, radii=0.01)
-            self._send(f"{base}/safe_ring", tc,
-                       [_column("LineStrips2D", "strips", _strips_array(ring), lengths)])
+            self._send(
+                f"{base}/safe_ring",
+                tc,
+                [_column("LineStrips2D", "strips", _strips_array(ring), lengths)],
+            )
             # The path: a segment for every move between two present rows.
             present_rows = rows[present[rows]]
             if len(present_rows):
@@ -785,14 +913,17 @@ class _ColumnWriter:
                 moved = ~gap & np.any(before != points, axis=1)
                 if moved.any():
                     segs = np.stack([before[moved], points[moved]], axis=1)
-                    self._style(f"{base}/path", "LineStrips2D", colors=OBSTACLE_PATH,
-                                radii=0.015)
-                    self._send(f"{base}/path", _time_column(t[present_rows[moved]]),
-                               [_column("LineStrips2D", "strips", _strips_array(segs))])
+                    self._style(f"{base}/path", "LineStrips2D", colors=OBSTACLE_PATH, radii=0.015)
+                    self._send(
+                        f"{base}/path",
+                        _time_column(t[present_rows[moved]]),
+                        [_column("LineStrips2D", "strips", _strips_array(segs))],
+                    )
         last = len(xy) - 1
-        self._obstacles[oid] = (bool(present[last]),
-                                (float(xy[last, 0]), float(xy[last, 1])) if present[last]
-                                else (math.nan, math.nan))
+        self._obstacles[oid] = (
+            bool(present[last]),
+            (float(xy[last, 0]), float(xy[last, 1])) if present[last] else (math.nan, math.nan),
+        )
 
 
 def _rgba(color) -> int:
@@ -810,11 +941,18 @@ def _static_world(static: _StaticBatch, scenario) -> None:
     import rerun as rr
 
     static.add_archetype("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]))
-    static.add_archetype("/world/start", rr.Points2D(positions=[scenario.start], radii=0.08,
-                                                     colors=[(60, 60, 60)], labels=["start"]))
-    static.add_archetype("/world/ideal_line",
-                         rr.LineStrips2D(strips=[[scenario.start, scenario.target]],
-                                         colors=[(170, 170, 170)], radii=0.01))
+    static.add_archetype(
+        "/world/start",
+        rr.Points2D(
+            positions=[scenario.start], radii=0.08, colors=[(60, 60, 60)], labels=["start"]
+        ),
+    )
+    static.add_archetype(
+        "/world/ideal_line",
+        rr.LineStrips2D(
+            strips=[[scenario.start, scenario.target]], colors=[(170, 170, 170)], radii=0.01
+        ),
+    )
 
 
 def _markdown_table(rows: dict) -> str:
@@ -838,8 +976,15 @@ def _json_safe(value):
     return value
 
 
-_VERSIONED = {"fuzzynav": None, "rerun-sdk": "rerun", "numpy": "numpy", "scipy": "scipy",
-              "pymunk": "pymunk", "matplotlib": "matplotlib", "viser": "viser"}
+_VERSIONED = {
+    "fuzzynav": None,
+    "rerun-sdk": "rerun",
+    "numpy": "numpy",
+    "scipy": "scipy",
+    "pymunk": "pymunk",
+    "matplotlib": "matplotlib",
+    "viser": "viser",
+}
 
 
 @functools.cache
@@ -857,18 +1002,34 @@ def package_versions() -> dict:
             except metadata.PackageNotFoundError:
                 version = "not installed"
         out[name] = version
-    out["git"] = _git_revision()
+    revision = _git_revision()
+    if revision:  # only from a checkout of this project
+        out["git"] = revision
     return out
 
 
-def _git_revision() -> str:
+def _git_revision() -> str | None:
+    """The checkout's revision when fuzzynav runs from a git checkout of this project
+    (an editable install); None for an installed wheel, which says its version instead
+    of the revision of whatever repository it happens to sit in."""
     root = Path(__file__).resolve().parents[1]
+    if not (
+        (root / ".git").exists()
+        and (root / "fuzzynav" / "__init__.py").is_file()
+        and (root / "pyproject.toml").is_file()
+    ):
+        return None
     try:
-        done = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=12"],
-                              cwd=root, capture_output=True, text=True, timeout=5)
+        done = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--abbrev=12"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
     except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return done.stdout.strip() if done.returncode == 0 and done.stdout.strip() else "unknown"
+        return None
+    return done.stdout.strip() if done.returncode == 0 and done.stdout.strip() else None
 
 
 def command_line() -> str:
@@ -881,17 +1042,19 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
     stem = Path(where).stem
     if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
         where = stem
-    from app.cli import off_flag
+    from fuzzynav.app.cli import off_flag
 
     off = off_flag(tuple(getattr(controller, "parts_off", None) or ()))
-    return (f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)}{off} "
-            f"--perception {perception} --seed {seed} --dt {control_period_s:g}")
+    return (
+        f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)}{off} "
+        f"--perception {perception} --seed {seed} --dt {control_period_s:g}"
+    )
 
 
 def _rules_text(fis, first: int = 1) -> str:
     """A rule base as its rules numbered from ``first``, then its TOML file."""
     try:
-        from controller.rulebase import dumps_toml
+        from fuzzynav.controller.rulebase import dumps_toml
 
         rules = dumps_toml(fis)
     except Exception:  # a system the TOML writer refuses: list the rules instead
@@ -900,8 +1063,20 @@ def _rules_text(fis, first: int = 1) -> str:
     return numbered + "\n\n" + rules
 
 
-def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, sensor_config,
-              seed, perception, control_period_s, voltage_limit_v, extra_metadata) -> None:
+def _metadata(
+    static: _StaticBatch,
+    *,
+    scenario,
+    controller,
+    fis,
+    parameters,
+    sensor_config,
+    seed,
+    perception,
+    control_period_s,
+    voltage_limit_v,
+    extra_metadata,
+) -> None:
     """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
     /meta/robot (with the sensors)."""
     import rerun as rr
@@ -926,41 +1101,72 @@ def _metadata(static: _StaticBatch, *, scenario, controller, fis, parameters, se
             parts.append("# ===== crisp parameters =====\n" + params())
         doc("/meta/rules", "\n".join(parts), markdown=False)
     else:
-        attrs = {k: v for k, v in vars(controller).items() if not k.startswith("_")} \
-            if controller is not None and hasattr(controller, "__dict__") else {}
-        doc("/meta/rules", f"controller {controller_label(controller)!r} is not fuzzy: no rule "
-            f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n", markdown=False)
+        attrs = (
+            {k: v for k, v in vars(controller).items() if not k.startswith("_")}
+            if controller is not None and hasattr(controller, "__dict__")
+            else {}
+        )
+        doc(
+            "/meta/rules",
+            f"controller {controller_label(controller)!r} is not fuzzy: no rule "
+            f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n",
+            markdown=False,
+        )
     robot = ["# robot (HuskyParameters)"]
     robot += [f"{f.name} = {getattr(parameters, f.name)!r}" for f in dataclasses.fields(parameters)]
     robot += ["", "# sensors (SensorConfig)"]
-    robot += [f"{f.name} = {getattr(sensor_config, f.name)!r}"
-              for f in dataclasses.fields(sensor_config) if f.name != "mounts"]
-    robot += [f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, angle = {m.angle_rad!r} rad"
-              for m in sensor_config.mounts]
+    robot += [
+        f"{f.name} = {getattr(sensor_config, f.name)!r}"
+        for f in dataclasses.fields(sensor_config)
+        if f.name != "mounts"
+    ]
+    robot += [
+        f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, angle = {m.angle_rad!r} rad"
+        for m in sensor_config.mounts
+    ]
     doc("/meta/robot", "\n".join(robot) + "\n", markdown=False)
-    run = {"scenario": scenario.name, "scenario file": getattr(scenario, "source", ""),
-           "controller": controller_label(controller), "perception": perception,
-           "seed": seed, "control period (s)": control_period_s,
-           "voltage limit (V)": voltage_limit_v,
-           "reproduce": "`" + reproduce_command(scenario, controller, perception, seed,
-                                                control_period_s) + "`",
-           "command line": "`" + command_line() + "`"}
+    run = {
+        "scenario": scenario.name,
+        "scenario file": getattr(scenario, "source", ""),
+        "controller": controller_label(controller),
+        "perception": perception,
+        "seed": seed,
+        "control period (s)": control_period_s,
+        "voltage limit (V)": voltage_limit_v,
+        "reproduce": "`"
+        + reproduce_command(scenario, controller, perception, seed, control_period_s)
+        + "`",
+        "command line": "`" + command_line() + "`",
+    }
     parts_off = tuple(getattr(inner, "parts_off", None) or ())
     if parts_off:  # fuzzynav with parts switched off (assets/rules/fuzzynav_parts.toml)
-        run = {**dict(list(run.items())[:3]), "parts off": ", ".join(parts_off),
-               **dict(list(run.items())[3:])}
+        run = {
+            **dict(list(run.items())[:3]),
+            "parts off": ", ".join(parts_off),
+            **dict(list(run.items())[3:]),
+        }
     for key, value in (extra_metadata or {}).items():
         run[str(key)] = value
-    doc("/meta/run", "# Run\n\n" + _markdown_table(run) + "\n\n# Versions\n\n"
-        + _markdown_table(package_versions()))
+    doc(
+        "/meta/run",
+        "# Run\n\n"
+        + _markdown_table(run)
+        + "\n\n# Versions\n\n"
+        + _markdown_table(package_versions()),
+    )
 
 
 def _metrics(static: _StaticBatch, metrics: dict, outcome: str) -> None:
     import rerun as rr
 
     rows = {"outcome": outcome, **metrics}
-    text = ("# Metrics\n\n" + _markdown_table(rows) + "\n\n```json\n"
-            + json.dumps(_json_safe(rows), indent=2, default=repr) + "\n```\n")
+    text = (
+        "# Metrics\n\n"
+        + _markdown_table(rows)
+        + "\n\n```json\n"
+        + json.dumps(_json_safe(rows), indent=2, default=repr)
+        + "\n```\n"
+    )
     static.add_archetype("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
 
@@ -990,23 +1196,33 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
     x_range, y_range = _world_bounds(scenario, log)
     # The view's origin is "/", where /world's mirror applies: scene y = -world y.
     bounds = rrb.VisualBounds2D(x_range=x_range, y_range=[-y_range[1], -y_range[0]])
-    everything = rrb.VisibleTimeRanges(timeline=TIMELINE, start=rrb.TimeRangeBoundary.infinite(),
-                                       end=rrb.TimeRangeBoundary.cursor_relative())
+    everything = rrb.VisibleTimeRanges(
+        timeline=TIMELINE,
+        start=rrb.TimeRangeBoundary.infinite(),
+        end=rrb.TimeRangeBoundary.cursor_relative(),
+    )
     overrides = {"/world/robot/trail": everything}
     for oid in obstacle_ids:
         overrides[f"/world/obstacles/{oid}/path"] = everything
-    world = rrb.Spatial2DView(origin="/", contents=["/world/**"], name="world (y up)",
-                              visual_bounds=bounds, overrides=overrides)
+    world = rrb.Spatial2DView(
+        origin="/",
+        contents=["/world/**"],
+        name="world (y up)",
+        visual_bounds=bounds,
+        overrides=overrides,
+    )
 
     # Every plot shows the whole run, like the paper's figures (the viewer would
     # otherwise show a window around the time cursor).
     if log is not None and len(log):
         whole_run = rrb.TimeRange(
             start=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[0])),
-            end=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[-1])))
+            end=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[-1])),
+        )
     else:
-        whole_run = rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
-                                  end=rrb.TimeRangeBoundary.infinite())
+        whole_run = rrb.TimeRange(
+            start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
+        )
 
     def plot(origin, name, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
@@ -1019,33 +1235,51 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
         plot("/plots/angles/heading", "heading, rad (Fig. 14)"),
         plot("/plots/obstacle_angles", "obstacle angles, rad (Fig. 15)"),
         plot("/plots/voltage", "wheel voltages, V, with the limit (Fig. 16)"),
-        name="paper figures")
+        name="paper figures",
+    )
     plant = rrb.Vertical(
         plot("/plots/wheels", "wheel speeds, rad/s"),
         plot("/plots/velocity", "v (m/s) and w (rad/s)"),
         plot("/plots/current", "motor currents, A"),
         plot("/plots/inputs", "controller inputs (with disturbance)"),
-        name="plant and inputs")
+        name="plant and inputs",
+    )
     sensing = rrb.Vertical(
         plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
         plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
         plot("/plots/disturbance", "disturbance on the inputs"),
-        name="sensors and safety")
+        name="sensors and safety",
+    )
     tabs = [paper, plant, sensing]
     if n_rules:
         tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
     if internals:
-        tabs.append(plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target"))
-    tabs.append(rrb.Tabs(*[rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
-                           for name in ("run", "metrics", "scenario", "rules", "robot",
-                                        )], name="run information"))
+        tabs.append(
+            plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target")
+        )
+    tabs.append(
+        rrb.Tabs(
+            *[
+                rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
+                for name in (
+                    "run",
+                    "metrics",
+                    "scenario",
+                    "rules",
+                    "robot",
+                )
+            ],
+            name="run information",
+        )
+    )
     right = rrb.Tabs(*tabs, active_tab=0)
-    return rrb.Blueprint(rrb.Horizontal(world, right, column_shares=[1, 1]),
-                         rrb.BlueprintPanel(state="collapsed"),
-                         rrb.SelectionPanel(state="collapsed"),
-                         rrb.TimePanel(timeline=TIMELINE, state="collapsed",
-                                       play_state="following"),
-                         auto_views=False)
+    return rrb.Blueprint(
+        rrb.Horizontal(world, right, column_shares=[1, 1]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline=TIMELINE, state="collapsed", play_state="following"),
+        auto_views=False,
+    )
 
 
 def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
@@ -1062,8 +1296,16 @@ def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str
 # Public API
 
 
-def record_run(result, path, *, controller=None, sensors=None, extra_metadata=None,
-               parameters=None, voltage_limit_v: float = 12.0) -> Path:
+def record_run(
+    result,
+    path,
+    *,
+    controller=None,
+    sensors=None,
+    extra_metadata=None,
+    parameters=None,
+    voltage_limit_v: float = 12.0,
+) -> Path:
     """Write a run (a ``SimulationResult``, finished or partial) to a rerun recording.
 
     Parameters
@@ -1096,12 +1338,20 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
     try:
         # The layout first: a viewer that opens the file while it loads uses it at once.
         n_rules = len(getattr(rule_system(controller), "rules", ()))
-        rec.send_blueprint(blueprint(scenario, list(log.obstacle_ids), n_rules, log,
-                                     internals=has_internals(controller)))
-        writer = _ColumnWriter(rec, footprint_m=(parameters.footprint_length_m,
-                                                 parameters.footprint_width_m),
-                               sensor_config=sensor_config, voltage_limit_v=voltage_limit_v,
-                               fis=fis, tolerance_m=scenario.tolerance_m, controller=controller)
+        rec.send_blueprint(
+            blueprint(
+                scenario, list(log.obstacle_ids), n_rules, log, internals=has_internals(controller)
+            )
+        )
+        writer = _ColumnWriter(
+            rec,
+            footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
+            sensor_config=sensor_config,
+            voltage_limit_v=voltage_limit_v,
+            fis=fis,
+            tolerance_m=scenario.tolerance_m,
+            controller=controller,
+        )
         writer.send(log, 0, len(log), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
@@ -1110,10 +1360,19 @@ def record_run(result, path, *, controller=None, sensors=None, extra_metadata=No
         if writer.replica_error:
             extra["controller internals"] = f"not recorded ({writer.replica_error})"
         _static_world(writer.static, scenario)
-        _metadata(writer.static, scenario=scenario, controller=controller, fis=fis,
-                  parameters=parameters, sensor_config=sensor_config, seed=result.seed,
-                  perception=result.perception, control_period_s=result.control_period_s,
-                  voltage_limit_v=voltage_limit_v, extra_metadata=extra)
+        _metadata(
+            writer.static,
+            scenario=scenario,
+            controller=controller,
+            fis=fis,
+            parameters=parameters,
+            sensor_config=sensor_config,
+            seed=result.seed,
+            perception=result.perception,
+            control_period_s=result.control_period_s,
+            voltage_limit_v=voltage_limit_v,
+            extra_metadata=extra,
+        )
         _metrics(writer.static, result.metrics, result.outcome)
         writer.static.send(rec)
     finally:
@@ -1153,8 +1412,15 @@ class LiveRecorder:
         Wall time between two sends at least (default 0.5 s; 0 for none).
     """
 
-    def __init__(self, path=None, *, stream=None, chunk_steps: int = 50,
-                 min_interval_s: float = 0.5, extra_metadata: dict | None = None):
+    def __init__(
+        self,
+        path=None,
+        *,
+        stream=None,
+        chunk_steps: int = 50,
+        min_interval_s: float = 0.5,
+        extra_metadata: dict | None = None,
+    ):
         if (path is None) == (stream is None):
             raise ValueError("LiveRecorder needs exactly one of path and stream")
         if int(chunk_steps) < 1:
@@ -1181,15 +1447,20 @@ class LiveRecorder:
     def _start(self, sim) -> None:
         params = sim.model.parameters
         self._writer = _ColumnWriter(
-            self._rec, footprint_m=(params.footprint_length_m, params.footprint_width_m),
-            sensor_config=sim.sensors.config, voltage_limit_v=sim.voltage_limit_v,
-            fis=controller_fis(sim.controller), tolerance_m=sim.scenario.tolerance_m,
-            controller=sim.controller)
+            self._rec,
+            footprint_m=(params.footprint_length_m, params.footprint_width_m),
+            sensor_config=sim.sensors.config,
+            voltage_limit_v=sim.voltage_limit_v,
+            fis=controller_fis(sim.controller),
+            tolerance_m=sim.scenario.tolerance_m,
+            controller=sim.controller,
+        )
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(rule_system(sim.controller), "rules", ()))
-        self._rec.send_blueprint(blueprint(sim.scenario, ids, n_rules,
-                                           internals=self._writer.internals))
+        self._rec.send_blueprint(
+            blueprint(sim.scenario, ids, n_rules, internals=self._writer.internals)
+        )
         # Sent with the first chunk's styles.
         _static_world(self._writer.static, sim.scenario)
         self._metadata(sim, self._writer.static)
@@ -1200,11 +1471,19 @@ class LiveRecorder:
             extra["rule firing"] = f"not recorded ({self._writer.fis_error})"
         if self._writer is not None and self._writer.replica_error:
             extra["controller internals"] = f"not recorded ({self._writer.replica_error})"
-        _metadata(static, scenario=sim.scenario, controller=sim.controller,
-                  fis=controller_fis(sim.controller), parameters=sim.model.parameters,
-                  sensor_config=sim.sensors.config, seed=sim.seed,
-                  perception=sim.perception.mode, control_period_s=sim.control_period_s,
-                  voltage_limit_v=sim.voltage_limit_v, extra_metadata=extra)
+        _metadata(
+            static,
+            scenario=sim.scenario,
+            controller=sim.controller,
+            fis=controller_fis(sim.controller),
+            parameters=sim.model.parameters,
+            sensor_config=sim.sensors.config,
+            seed=sim.seed,
+            perception=sim.perception.mode,
+            control_period_s=sim.control_period_s,
+            voltage_limit_v=sim.voltage_limit_v,
+            extra_metadata=extra,
+        )
 
     def update(self, sim, *, force: bool = False) -> int:
         """Send the rows logged since the last chunk if ``chunk_steps`` of them wait and
@@ -1220,8 +1499,10 @@ class LiveRecorder:
         n = _log_length(sim)
         sent = self._writer.sent
         if n < sent:
-            raise ValueError(f"the simulation's log shrank from {sent} to {n} rows (reset?): "
-                             f"close this recorder and open a new one")
+            raise ValueError(
+                f"the simulation's log shrank from {sent} to {n} rows (reset?): "
+                f"close this recorder and open a new one"
+            )
         if n == sent:
             return 0
         if not (force or sim.done):
@@ -1253,9 +1534,15 @@ class LiveRecorder:
                     _metrics(static, result.metrics, result.outcome)
                 static.send(self._rec)
                 w = self._writer
-                self._rec.send_blueprint(blueprint(sim.scenario, w.obstacle_ids, w.n_rules,
-                                                   result.log if result is not None else None,
-                                                   internals=w.internals))
+                self._rec.send_blueprint(
+                    blueprint(
+                        sim.scenario,
+                        w.obstacle_ids,
+                        w.n_rules,
+                        result.log if result is not None else None,
+                        internals=w.internals,
+                    )
+                )
         finally:
             self.closed = True
             self._rec.flush()
@@ -1282,8 +1569,13 @@ def _log_length(sim) -> int:
 
 
 def add_run_options(parser) -> None:
-    parser.add_argument("--rrd", type=Path, default=None, metavar="PATH",
-                        help="write a rerun recording of the run (open it with: rerun PATH)")
+    parser.add_argument(
+        "--rrd",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="write a rerun recording of the run (open it with: rerun PATH)",
+    )
 
 
 def run_hook(args, sim):
@@ -1296,12 +1588,22 @@ def run_hook(args, sim):
     def write(result, interrupted: bool) -> None:
         extra = {"command line": "`" + argv + "`"}
         if interrupted:
-            extra["interrupted"] = f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)" \
-                if len(result.log) else "yes (before the first step)"
-        record_run(result, path, controller=sim.controller, sensors=sim.sensors,
-                   parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v,
-                   extra_metadata=extra)
-        print(f"fuzzynav: recording written to {path} (open it with: rerun {path})",
-              file=sys.stderr)
+            extra["interrupted"] = (
+                f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)"
+                if len(result.log)
+                else "yes (before the first step)"
+            )
+        record_run(
+            result,
+            path,
+            controller=sim.controller,
+            sensors=sim.sensors,
+            parameters=sim.model.parameters,
+            voltage_limit_v=sim.voltage_limit_v,
+            extra_metadata=extra,
+        )
+        print(
+            f"fuzzynav: recording written to {path} (open it with: rerun {path})", file=sys.stderr
+        )
 
     return write

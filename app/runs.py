@@ -4,28 +4,59 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from controller.registry import make_controller
-from world.scenario import Scenario, load_scenario
-from world.sensors import SensorConfig
-from world.simulation import Simulation, SimulationResult
+from fuzzynav.controller.registry import make_controller
+from fuzzynav.world.scenario import Scenario, load_scenario
+from fuzzynav.world.sensors import SensorConfig
+from fuzzynav.world.simulation import Simulation, SimulationResult
 
-SUMMARY_KEYS = ("scenario", "controller", "perception", "outcome", "reached", "collided",
-                "time_to_target_s", "path_length_m", "mad_m", "rmse_m",
-                "min_center_distance_m", "min_clearance_m", "max_abs_voltage_v",
-                "sim_time_s", "steps", "wall_time_s")
+SUMMARY_KEYS = (
+    "scenario",
+    "controller",
+    "perception",
+    "outcome",
+    "reached",
+    "collided",
+    "time_to_target_s",
+    "path_length_m",
+    "mad_m",
+    "rmse_m",
+    "min_center_distance_m",
+    "min_clearance_m",
+    "max_abs_voltage_v",
+    "sim_time_s",
+    "steps",
+    "wall_time_s",
+)
 
 
-def build_simulation(scenario: Scenario | str | Path, controller: str = "paper", *,
-                     perception: str = "ideal", seed: int | None = 0,
-                     fis_path: str | Path | None = None, control_period_s: float = 0.02,
-                     sensor_noise_std_m: float = 0.0, controller_object=None,
-                     stop_on_collision: bool = True) -> Simulation:
+def build_simulation(
+    scenario: Scenario | str | Path,
+    controller: str = "paper",
+    *,
+    perception: str = "ideal",
+    seed: int | None = 0,
+    fis_path: str | Path | None = None,
+    control_period_s: float = 0.02,
+    sensor_noise_std_m: float = 0.0,
+    controller_object=None,
+    stop_on_collision: bool = True,
+) -> Simulation:
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
-    ctrl = controller_object if controller_object is not None else make_controller(controller, fis_path)
-    return Simulation(scenario, ctrl, perception=perception, control_period_s=control_period_s,
-                      seed=seed, sensor_config=SensorConfig(noise_std_m=sensor_noise_std_m),
-                      stop_on_collision=stop_on_collision)
+    ctrl = (
+        controller_object
+        if controller_object is not None
+        else make_controller(controller, fis_path)
+    )
+    return Simulation(
+        scenario,
+        ctrl,
+        perception=perception,
+        control_period_s=control_period_s,
+        seed=seed,
+        sensor_config=SensorConfig(noise_std_m=sensor_noise_std_m),
+        stop_on_collision=stop_on_collision,
+    )
 
 
 def run_scenario(scenario, controller: str = "paper", **options) -> SimulationResult:
@@ -33,9 +64,14 @@ def run_scenario(scenario, controller: str = "paper", **options) -> SimulationRe
     return build_simulation(scenario, controller, **options).run()
 
 
-def summary(result: SimulationResult, controller_label: str, scenario_label: str | None = None) -> dict:
+def summary(
+    result: SimulationResult, controller_label: str, scenario_label: str | None = None
+) -> dict:
     """The run as the flat JSON object ``fuzzynav run --json`` prints."""
-    out = {"scenario": scenario_label or result.scenario.name, "controller": controller_label,
-           "perception": result.perception}
+    out = {
+        "scenario": scenario_label or result.scenario.name,
+        "controller": controller_label,
+        "perception": result.perception,
+    }
     out.update(result.metrics)
     return {k: out[k] for k in SUMMARY_KEYS}

@@ -112,7 +112,7 @@ def run_until_stalled(sim, stall_s: float = STALL_S):
 
 def capped(scenario):
     """The scenario with its duration capped for tuning (module docstring)."""
-    from world.scenario import load_scenario
+    from fuzzynav.world.scenario import load_scenario
 
     if not hasattr(scenario, "duration_s"):
         scenario = load_scenario(scenario)
@@ -124,8 +124,15 @@ def capped(scenario):
 class Objective:
     """Picklable cost function: mean run cost of a vector over the cases."""
 
-    def __init__(self, tunable, cases: list[Case], control_period_s: float = 0.05,
-                 clearance_weight: float = CLEARANCE_WEIGHT, base=None, free=None):
+    def __init__(
+        self,
+        tunable,
+        cases: list[Case],
+        control_period_s: float = 0.05,
+        clearance_weight: float = CLEARANCE_WEIGHT,
+        base=None,
+        free=None,
+    ):
         self.tunable = tunable
         self.control_period_s = control_period_s
         self.clearance_weight = clearance_weight
@@ -143,14 +150,19 @@ class Objective:
         return x
 
     def runs(self, vector) -> list:
-        from world.simulation import Simulation
+        from fuzzynav.world.simulation import Simulation
 
         results = []
         controller = self.tunable.build(self.full(vector))
         for case in self.cases:
             controller.reset()
-            sim = Simulation(case.scenario, controller, perception=case.perception,
-                             seed=0, control_period_s=self.control_period_s)
+            sim = Simulation(
+                case.scenario,
+                controller,
+                perception=case.perception,
+                seed=0,
+                control_period_s=self.control_period_s,
+            )
             results.append(run_until_stalled(sim, getattr(self.tunable, "stall_cutoff_s", STALL_S)))
         return results
 
@@ -162,10 +174,15 @@ class Objective:
         return float(np.mean([run_cost(r, self.clearance_weight) for r in results]))
 
 
-def build_cases(scenarios: list[str], perceptions: list[str], layouts: str | None = None,
-                n: int = 0, seed: int = 0) -> list[Case]:
-    from world.layouts import generate_layouts
-    from world.scenario import load_scenario
+def build_cases(
+    scenarios: list[str],
+    perceptions: list[str],
+    layouts: str | None = None,
+    n: int = 0,
+    seed: int = 0,
+) -> list[Case]:
+    from fuzzynav.world.layouts import generate_layouts
+    from fuzzynav.world.scenario import load_scenario
 
     cases = []
     for name in scenarios:
@@ -184,7 +201,14 @@ def reproduce_command(args) -> str:
     if args.scenarios:
         parts += ["--scenarios", ",".join(args.scenarios)]
     if args.layouts and args.n:
-        parts += ["--layouts", args.layouts, "--n", str(args.n), "--layout-seed", str(args.layout_seed)]
+        parts += [
+            "--layouts",
+            args.layouts,
+            "--n",
+            str(args.n),
+            "--layout-seed",
+            str(args.layout_seed),
+        ]
     parts += ["--perception", ",".join(args.perception)]
     method = getattr(args, "method", "de")
     if method != "de":
@@ -218,7 +242,9 @@ def read_vector(path: Path, names: list[str]) -> np.ndarray:
     try:
         values = [float(v) for v in text.split()]
     except ValueError:
-        raise ValueError(f"{path}: neither a '# tuned vector:' header nor a list of numbers") from None
+        raise ValueError(
+            f"{path}: neither a '# tuned vector:' header nor a list of numbers"
+        ) from None
     if len(values) != len(names):
         raise ValueError(f"{path}: {len(values)} numbers, the tunable has {len(names)} parameters")
     return np.array(values)
@@ -235,10 +261,23 @@ def free_indices(names: list[str], prefixes) -> list[int] | None:
     return idx
 
 
-def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: int = 0,
-         workers: int = 1, on_generation=None, x0=None, control_period_s: float = 0.05,
-         method: str = "de", free=None, radius: float | None = None,
-         clearance_weight: float = CLEARANCE_WEIGHT, on_evaluation=None):
+def tune(
+    tunable,
+    cases: list[Case],
+    *,
+    maxiter: int,
+    popsize: int = 1,
+    seed: int = 0,
+    workers: int = 1,
+    on_generation=None,
+    x0=None,
+    control_period_s: float = 0.05,
+    method: str = "de",
+    free=None,
+    radius: float | None = None,
+    clearance_weight: float = CLEARANCE_WEIGHT,
+    on_evaluation=None,
+):
     """Minimise the cost (module docstring); returns scipy's OptimizeResult with ``.x`` the
     tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
     ``.nit``. ``on_generation(step, best cost, best vector)`` is called after every DE
@@ -249,8 +288,14 @@ def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: in
     all_bounds = np.asarray(tunable.bounds(), float)
     x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
     x0 = np.clip(x0, all_bounds[:, 0], all_bounds[:, 1])
-    objective = Objective(tunable, cases, control_period_s, clearance_weight,
-                          base=x0 if free is not None else None, free=free)
+    objective = Objective(
+        tunable,
+        cases,
+        control_period_s,
+        clearance_weight,
+        base=x0 if free is not None else None,
+        free=free,
+    )
     sel = np.arange(len(x0)) if free is None else np.asarray(free, int)
     lo, hi = all_bounds[sel, 0], all_bounds[sel, 1]
     if radius is not None:
@@ -262,13 +307,22 @@ def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: in
     def callback(intermediate_result):
         generation[0] += 1
         if on_generation is not None:
-            on_generation(generation[0], float(intermediate_result.fun),
-                          objective.full(intermediate_result.x))
+            on_generation(
+                generation[0], float(intermediate_result.fun), objective.full(intermediate_result.x)
+            )
 
     if method == "de":
-        kwargs = dict(bounds=list(zip(lo, hi)), x0=start, seed=seed, maxiter=maxiter,
-                      popsize=popsize, updating="deferred", polish=False, tol=0.0,
-                      callback=callback)
+        kwargs = dict(
+            bounds=list(zip(lo, hi)),
+            x0=start,
+            seed=seed,
+            maxiter=maxiter,
+            popsize=popsize,
+            updating="deferred",
+            polish=False,
+            tol=0.0,
+            callback=callback,
+        )
         if workers > 1:
             import multiprocessing as mp
 
@@ -277,8 +331,11 @@ def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: in
         else:
             result = differential_evolution(objective, **kwargs)
     elif method in ("nelder-mead", "powell"):
-        options = {"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6} if method == "nelder-mead" \
+        options = (
+            {"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6}
+            if method == "nelder-mead"
             else {"maxiter": maxiter, "xtol": 1e-4, "ftol": 1e-6}
+        )
         seen = [0, math.inf]
 
         def counted(vector):
@@ -288,8 +345,9 @@ def tune(tunable, cases: list[Case], *, maxiter: int, popsize: int = 1, seed: in
                 on_evaluation(seen[0], seen[1])
             return cost
 
-        result = minimize(counted, start, method=method, bounds=Bounds(lo, hi),
-                          options=options, callback=callback)
+        result = minimize(
+            counted, start, method=method, bounds=Bounds(lo, hi), options=options, callback=callback
+        )
     else:
         raise ValueError(f"method = {method!r}: must be de, nelder-mead or powell")
     result.x = objective.full(result.x)
@@ -303,55 +361,134 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
-    from app.cli import integer_in, seed_type
+    from fuzzynav.app.cli import integer_in, seed_type
+    from fuzzynav.world.perception import PERCEPTION_MODES
 
-    from world.perception import PERCEPTION_MODES
+    p = subparsers.add_parser(
+        "tune", help="tune a controller's membership functions (differential evolution)"
+    )
+    from fuzzynav.controller.tuning import TUNABLE_NAMES
+    from fuzzynav.world.layouts import FAMILIES
 
-    p = subparsers.add_parser("tune", help="tune a controller's membership functions (differential evolution)")
-    p.add_argument("--controller", default="paper", help="paper or fuzzynav (default paper)")
-    p.add_argument("--scenarios", type=_csv, default=["s1", "s2", "s3"],
-                   help="comma-separated scenarios (default s1,s2,s3; '' for none)")
-    p.add_argument("--layouts", default=None, help="also tune on seeded layouts of this family")
+    p.add_argument(
+        "--controller",
+        default="paper",
+        choices=TUNABLE_NAMES,
+        help="the controller whose parameters are tuned (default paper)",
+    )
+    p.add_argument(
+        "--scenarios",
+        type=_csv,
+        default=["s1", "s2", "s3"],
+        help="comma-separated scenarios (default s1,s2,s3; '' for none)",
+    )
+    p.add_argument(
+        "--layouts",
+        default=None,
+        choices=FAMILIES,
+        metavar="FAMILY",
+        help=f"also tune on seeded random layouts of this family ({', '.join(FAMILIES)})",
+    )
     p.add_argument("--n", type=integer_in(0), default=0, help="number of layouts (with --layouts)")
-    p.add_argument("--layout-seed", type=seed_type, default=0, help="seed of the layouts (default 0)")
-    p.add_argument("--perception", type=_csv, default=["ideal", "ultrasonic"],
-                   help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)")
-    p.add_argument("--maxiter", type=int, default=10, help="generations (default 10)")
-    p.add_argument("--popsize", type=int, default=4, help="population = popsize x parameters (default 4)")
-    p.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument(
+        "--layout-seed", type=seed_type, default=0, help="seed of the layouts (default 0)"
+    )
+    p.add_argument(
+        "--perception",
+        type=_csv,
+        default=["ideal", "ultrasonic"],
+        help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
+    )
+    p.add_argument("--maxiter", type=int, default=10, metavar="N", help="generations (default 10)")
+    p.add_argument(
+        "--popsize",
+        type=int,
+        default=4,
+        metavar="K",
+        help="population = popsize x parameters (default 4)",
+    )
+    p.add_argument(
+        "--workers", type=int, default=2, metavar="N", help="worker processes (default 2)"
+    )
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
-    p.add_argument("--method", choices=("de", "nelder-mead", "powell"), default="de",
-                   help="differential evolution (default) or a local search from the start vector")
-    p.add_argument("--x0", type=Path, default=None, metavar="FILE",
-                   help="start from this vector: a rule base with a 'tuned vector:' header line, "
-                        "or a --checkpoint file (default: the tunable's own starting vector)")
-    p.add_argument("--free", type=_csv, default=None, metavar="PREFIXES",
-                   help="tune only the parameters whose names start with one of these "
-                        "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector")
-    p.add_argument("--radius", type=float, default=None, metavar="FRACTION",
-                   help="narrow every bound to start +- FRACTION x its span (default: full bounds)")
-    p.add_argument("--clearance-weight", type=float, default=CLEARANCE_WEIGHT,
-                   help=f"cost per metre of clearance below {SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M:g} m "
-                        f"(default {CLEARANCE_WEIGHT:g})")
-    p.add_argument("--dt", type=float, default=None, metavar="SECONDS",
-                   help="control period while tuning (default: the controller's own, 0.05 s for "
-                        "paper: the plant is exact at any step, runs are checked at 0.02 s "
-                        "afterwards; fuzzynav's memory counts control calls, so only 0.02 s)")
-    p.add_argument("--out", type=Path, default=None,
-                   help="where to write the rule base (default: the controller's shipped file)")
-    p.add_argument("--checkpoint", type=Path, default=None,
-                   help="write the best vector so far to this file after every generation")
+    p.add_argument(
+        "--method",
+        choices=("de", "nelder-mead", "powell"),
+        default="de",
+        help="differential evolution (default) or a local search from the start vector",
+    )
+    p.add_argument(
+        "--x0",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="start from this vector: a rule base with a 'tuned vector:' header line, "
+        "or a --checkpoint file (default: the tunable's own starting vector)",
+    )
+    p.add_argument(
+        "--free",
+        type=_csv,
+        default=None,
+        metavar="PREFIXES",
+        help="tune only the parameters whose names start with one of these "
+        "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector",
+    )
+    p.add_argument(
+        "--radius",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="narrow every bound to start +- FRACTION x its span (default: full bounds)",
+    )
+    p.add_argument(
+        "--clearance-weight",
+        type=float,
+        default=CLEARANCE_WEIGHT,
+        metavar="COST_PER_M",
+        help=f"cost per metre of clearance below {SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M:g} m "
+        f"(default {CLEARANCE_WEIGHT:g})",
+    )
+    p.add_argument(
+        "--dt",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="control period while tuning (default: the controller's own, 0.05 s for "
+        "paper: the plant is exact at any step, runs are checked at 0.02 s "
+        "afterwards; fuzzynav's memory counts control calls, so only 0.02 s)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="where to write the tuned file (default: ./CONTROLLER_tuned.toml in the "
+        "current folder; the shipped files are never overwritten)",
+    )
+    p.add_argument(
+        "--checkpoint",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="write the best vector so far to this file after every generation",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     p.set_defaults(func=cmd_tune)
 
 
 def cmd_tune(args) -> int:
     from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
-    from app.cli import UsageError, print_json
-    from controller.tuning import tunable as get_tunable
-    from world.perception import PERCEPTION_MODES
+    from fuzzynav.app.cli import UsageError, print_json
+    from fuzzynav.controller.tuning import tunable as get_tunable
+    from fuzzynav.world.perception import PERCEPTION_MODES
 
     for mode in args.perception:
         if mode not in PERCEPTION_MODES:
@@ -361,12 +498,16 @@ def cmd_tune(args) -> int:
     if args.radius is not None and args.radius <= 0:
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
+    if args.out is None:  # never the shipped file: that lives inside the installation
+        args.out = Path.cwd() / f"{args.controller}_tuned.toml"
     fixed = getattr(t, "control_period_s", None)  # a controller that counts its calls
     if args.dt is None:
         args.dt = fixed if fixed is not None else 0.05
     elif fixed is not None and abs(args.dt - fixed) > 1e-12:
-        raise UsageError(f"--dt {args.dt:g}: {t.name} counts its control calls and runs only at "
-                         f"its control period, {fixed:g} s")
+        raise UsageError(
+            f"--dt {args.dt:g}: {t.name} counts its control calls and runs only at "
+            f"its control period, {fixed:g} s"
+        )
     if not (math.isfinite(args.dt) and args.dt > 0):
         raise UsageError(f"--dt {args.dt!r}: must be a positive number of seconds")
     names = t.parameter_names()
@@ -379,23 +520,32 @@ def cmd_tune(args) -> int:
     console = Console(stderr=True)
     command = reproduce_command(args)
     n_free = len(names) if free is None else len(free)
-    console.print(f"tuning {t.name} ({args.method}): {n_free} of {len(names)} parameters, "
-                  f"{len(cases)} runs per candidate"
-                  + (f", population {args.popsize * n_free}" if args.method == "de" else ""))
+    console.print(
+        f"tuning {t.name} ({args.method}): {n_free} of {len(names)} parameters, "
+        f"{len(cases)} runs per candidate"
+        + (f", population {args.popsize * n_free}" if args.method == "de" else "")
+    )
     start = time.perf_counter()
     history = []
     step = "generation" if args.method == "de" else "iteration"
-    with Progress(TextColumn(step + " {task.completed}/{task.total}"), BarColumn(),
-                  TextColumn("best cost {task.fields[best]}"), TextColumn("{task.fields[seen]}"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=console,
-                  disable=args.json) as progress:
+    with Progress(
+        TextColumn(step + " {task.completed}/{task.total}"),
+        BarColumn(),
+        TextColumn("best cost {task.fields[best]}"),
+        TextColumn("{task.fields[seen]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        disable=args.json,
+    ) as progress:
         task = progress.add_task("tune", total=args.maxiter, best="-", seen="")
 
         def on_evaluation(count, best):
             progress.update(task, best=f"{best:.4f}", seen=f"{count} candidates")
             if count % 50 == 0 and not console.is_terminal and not args.json:
-                console.print(f"candidate {count}: best cost {best:.4f} "
-                              f"({time.perf_counter() - start:.0f} s)")
+                console.print(
+                    f"candidate {count}: best cost {best:.4f} ({time.perf_counter() - start:.0f} s)"
+                )
 
         def on_generation(gen, best, x):
             history.append(best)
@@ -403,17 +553,33 @@ def cmd_tune(args) -> int:
                 args.checkpoint.write_text(" ".join(repr(float(v)) for v in x) + "\n")
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
-                console.print(f"{step} {gen}/{args.maxiter}: best cost {best:.4f} "
-                              f"({time.perf_counter() - start:.0f} s)")
+                console.print(
+                    f"{step} {gen}/{args.maxiter}: best cost {best:.4f} "
+                    f"({time.perf_counter() - start:.0f} s)"
+                )
 
-        result = tune(t, cases, maxiter=args.maxiter, popsize=args.popsize, seed=args.seed,
-                      workers=args.workers, on_generation=on_generation, control_period_s=args.dt,
-                      method=args.method, x0=x0, free=free, radius=args.radius,
-                      clearance_weight=args.clearance_weight, on_evaluation=on_evaluation)
+        result = tune(
+            t,
+            cases,
+            maxiter=args.maxiter,
+            popsize=args.popsize,
+            seed=args.seed,
+            workers=args.workers,
+            on_generation=on_generation,
+            control_period_s=args.dt,
+            method=args.method,
+            x0=x0,
+            free=free,
+            radius=args.radius,
+            clearance_weight=args.clearance_weight,
+            on_evaluation=on_evaluation,
+        )
     elapsed = time.perf_counter() - start
-    header = (f"Reproduce with: {command}\n"
-              f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
-              f"cost: app/tuning.py)")
+    header = (
+        f"Reproduce with: {command}\n"
+        f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
+        f"cost: app/tuning.py)"
+    )
     if "header" in inspect.signature(t.save).parameters:
         paths = t.save(result.x, args.out, header=header)
     else:
@@ -423,14 +589,23 @@ def cmd_tune(args) -> int:
                 text = path.read_text(encoding="utf-8")
                 note = "".join(f"# {line}\n" for line in header.splitlines())
                 path.write_text(note + text, encoding="utf-8")
-    out = {"controller": t.name, "cost": float(result.fun), "generations": int(result.nit),
-           "evaluations": int(result.nfev), "wall_time_s": elapsed, "history": history,
-           "vector": dict(zip(t.parameter_names(), map(float, result.x))),
-           "written": [str(p) for p in paths], "command": command}
+    out = {
+        "controller": t.name,
+        "cost": float(result.fun),
+        "generations": int(result.nit),
+        "evaluations": int(result.nfev),
+        "wall_time_s": elapsed,
+        "history": history,
+        "vector": dict(zip(t.parameter_names(), map(float, result.x))),
+        "written": [str(p) for p in paths],
+        "command": command,
+    }
     if args.json:
         print_json(out)
     else:
-        Console().print(f"best cost {result.fun:.4f} after {result.nit} {step}s "
-                        f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
-                        f"{', '.join(map(str, paths))}\nreproduce with:\n  {command}")
+        Console().print(
+            f"best cost {result.fun:.4f} after {result.nit} {step}s "
+            f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
+            f"{', '.join(map(str, paths))}\nreproduce with:\n  {command}"
+        )
     return 0

@@ -33,8 +33,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import signal
-import socket
 import tempfile
 import threading
 import time
@@ -44,7 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-from world.scenario import (
+from fuzzynav.world.perception import PERCEPTION_MODES, Perception
+from fuzzynav.world.scenario import (
     Disturbance,
     ObstacleSpec,
     Scenario,
@@ -55,9 +54,8 @@ from world.scenario import (
     scenario_names,
     target_blocker,
 )
-from world.perception import PERCEPTION_MODES, Perception
-from world.sensors import RangeSensorArray, SensorConfig
-from world.simulation import Simulation
+from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
+from fuzzynav.world.simulation import Simulation
 
 SPEED_RANGE = (0.1, 10.0)
 NOISE_RANGE_M = (0.0, 0.3)
@@ -66,8 +64,9 @@ PLOT_WINDOW_S = 30.0
 SAFE_DISTANCE_M = 0.25
 # A scenario without a disturbance of its own gets the paper's sin(2t) (amplitude 1)
 # for as long as the disturbance switch is on.
-DEFAULT_DISTURBANCE = Disturbance(amplitude=1.0, angular_frequency_rad_s=2.0,
-                                  start_s=0.0, stop_s=math.inf)
+DEFAULT_DISTURBANCE = Disturbance(
+    amplitude=1.0, angular_frequency_rad_s=2.0, start_s=0.0, stop_s=math.inf
+)
 NEW_OBSTACLE_RADIUS_M = 0.25
 UPLOADED_PREFIX = "uploaded: "
 
@@ -133,7 +132,7 @@ class _Ring:
 
     def ordered(self) -> np.ndarray:
         if self.n <= self.capacity:
-            return self.data[:self.n].copy()
+            return self.data[: self.n].copy()
         k = self.n % self.capacity
         return np.concatenate([self.data[k:], self.data[:k]])
 
@@ -212,10 +211,18 @@ class ViewerApp:
         completed when its run ends or is reset, and when the viewer stops.
     """
 
-    def __init__(self, scenario="s1", controller: str | None = None, *,
-                 perception: str = "ideal", noise_std_m: float = 0.0, seed: int | None = 0,
-                 control_period_s: float = 0.02, rrd_path=None):
-        from controller.registry import controller_names
+    def __init__(
+        self,
+        scenario="s1",
+        controller: str | None = None,
+        *,
+        perception: str = "ideal",
+        noise_std_m: float = 0.0,
+        seed: int | None = 0,
+        control_period_s: float = 0.02,
+        rrd_path=None,
+    ):
+        from fuzzynav.controller.registry import controller_names
 
         self.lock = threading.RLock()
         self.seed = seed
@@ -245,9 +252,14 @@ class ViewerApp:
         if perception not in PERCEPTION_MODES:
             raise ViewerError(f"perception = {perception!r}: choose one of {PERCEPTION_MODES}")
         self.controller = _ObservedController(inner, self._on_controller_call, controller)
-        self.sim = Simulation(scenario_obj, self.controller, perception=perception,
-                              control_period_s=control_period_s, seed=seed,
-                              sensor_config=SensorConfig(noise_std_m=self.noise_std_m))
+        self.sim = Simulation(
+            scenario_obj,
+            self.controller,
+            perception=perception,
+            control_period_s=control_period_s,
+            seed=seed,
+            sensor_config=SensorConfig(noise_std_m=self.noise_std_m),
+        )
         self.scenario_label = label
         self.base_scenario = scenario_obj
         self.disturbance_on = scenario_obj.disturbance is not None
@@ -272,11 +284,12 @@ class ViewerApp:
 
     @staticmethod
     def _make_named_controller(name: str):
-        from controller.registry import controller_names, make_controller
+        from fuzzynav.controller.registry import controller_names, make_controller
 
         if name not in controller_names():
-            raise ViewerError(f"controller {name!r} is not available "
-                              f"(available: {', '.join(controller_names())})")
+            raise ViewerError(
+                f"controller {name!r} is not available (available: {', '.join(controller_names())})"
+            )
         return make_controller(name)
 
     @staticmethod
@@ -286,13 +299,15 @@ class ViewerApp:
         except (TypeError, ValueError):
             raise ViewerError(f"sensor noise = {std!r}: must be a number of metres") from None
         if not (math.isfinite(std) and NOISE_RANGE_M[0] <= std <= NOISE_RANGE_M[1]):
-            raise ViewerError(f"sensor noise = {std!r} m: must be between "
-                              f"{NOISE_RANGE_M[0]} and {NOISE_RANGE_M[1]} m")
+            raise ViewerError(
+                f"sensor noise = {std!r} m: must be between "
+                f"{NOISE_RANGE_M[0]} and {NOISE_RANGE_M[1]} m"
+            )
         return std
 
     # -- the simulation thread ---------------------------------------------------------
 
-    def start(self) -> "ViewerApp":
+    def start(self) -> ViewerApp:
         """Start the simulation thread (it idles until :meth:`play`)."""
         if self._thread is None:
             self._stop.clear()
@@ -317,11 +332,16 @@ class ViewerApp:
             return
         try:
             if self._recorder is None:
-                from app.recording import LiveRecorder
+                from fuzzynav.app.recording import LiveRecorder
 
                 k = len(self.recorded_files) + 1
-                path = self.rrd_path if k == 1 else self.rrd_path.with_name(
-                    f"{self.rrd_path.stem}-run{k}{self.rrd_path.suffix or '.rrd'}")
+                path = (
+                    self.rrd_path
+                    if k == 1
+                    else self.rrd_path.with_name(
+                        f"{self.rrd_path.stem}-run{k}{self.rrd_path.suffix or '.rrd'}"
+                    )
+                )
                 self._recorder = LiveRecorder(path)
                 self.recorded_files.append(path)
             self._recorder.update(self.sim)
@@ -349,7 +369,9 @@ class ViewerApp:
             with self.lock:
                 active = self.playing and not self.sim.done
                 if active:
-                    target = self._anchor_sim + (time.perf_counter() - self._anchor_wall) * self.speed
+                    target = (
+                        self._anchor_sim + (time.perf_counter() - self._anchor_wall) * self.speed
+                    )
                     if target - self.sim.time_s > 0.25 * max(self.speed, 1.0):
                         # Fell behind (slow machine, debugger): drop the backlog, not the pace.
                         self._anchor()
@@ -388,7 +410,7 @@ class ViewerApp:
         self._record_locked()
         x, y, _ = sim.arena.pose
         last = self._trail[-1]
-        if (x - last[0]) ** 2 + (y - last[1]) ** 2 > 0.02 ** 2:
+        if (x - last[0]) ** 2 + (y - last[1]) ** 2 > 0.02**2:
             self._trail.append((x, y))
         c = self.controller
         limit = sim.voltage_limit_v
@@ -408,8 +430,11 @@ class ViewerApp:
             return
         self.metrics = dict(result.metrics)
         self.metrics["collisions"] = len(result.collisions)
-        text = {"reached": "reached the target", "collided": "collided with an obstacle",
-                "timeout": "ran out of time"}.get(result.outcome, result.outcome)
+        text = {
+            "reached": "reached the target",
+            "collided": "collided with an obstacle",
+            "timeout": "ran out of time",
+        }.get(result.outcome, result.outcome)
         level = "success" if result.outcome == "reached" else "warning"
         self._notice(f"Run ended at t = {self.sim.time_s:.2f} s: the robot {text}.", level)
 
@@ -494,9 +519,13 @@ class ViewerApp:
             try:
                 check_layout(layout)
             except ScenarioError as exc:
-                consequence = ("the robot cannot reach it" if exc.key == "target.position"
-                               else "the run will collide at once" if "footprint" in exc.reason
-                               else "the run goes ahead")
+                consequence = (
+                    "the robot cannot reach it"
+                    if exc.key == "target.position"
+                    else "the run will collide at once"
+                    if "footprint" in exc.reason
+                    else "the run goes ahead"
+                )
                 self._notice(f"Note: {exc.key} {exc.reason}; {consequence}.", "warning")
             self._reset_locked(layout)
 
@@ -506,8 +535,10 @@ class ViewerApp:
         except (TypeError, ValueError):
             raise ViewerError(f"speed = {factor!r}: must be a number") from None
         if not (math.isfinite(factor) and SPEED_RANGE[0] - 1e-9 <= factor <= SPEED_RANGE[1] + 1e-9):
-            raise ViewerError(f"speed = {factor!r}: must be between {SPEED_RANGE[0]} and "
-                              f"{SPEED_RANGE[1]} times real time")
+            raise ViewerError(
+                f"speed = {factor!r}: must be between {SPEED_RANGE[0]} and "
+                f"{SPEED_RANGE[1]} times real time"
+            )
         with self.lock:
             self.speed = factor
             self._anchor()
@@ -518,8 +549,10 @@ class ViewerApp:
         self._close_recorder_locked()
         self.sim.reset(seed=self.seed, scenario=scenario)
         self._apply_disturbance_locked()
-        self._layout = [(obstacle_id, spec) for obstacle_id, spec
-                        in zip(self.sim.arena.obstacles, scenario.obstacles)]
+        self._layout = [
+            (obstacle_id, spec)
+            for obstacle_id, spec in zip(self.sim.arena.obstacles, scenario.obstacles)
+        ]
         self._target = tuple(scenario.target)
         self._target_warning = None
         self._trail = [tuple(self.sim.arena.pose[:2])]
@@ -556,8 +589,9 @@ class ViewerApp:
             except ScenarioError as exc:
                 raise ViewerError(str(exc)) from None
         else:
-            raise ViewerError(f"scenario {name!r}: unknown (choose from "
-                              f"{', '.join(self.scenario_options())})")
+            raise ViewerError(
+                f"scenario {name!r}: unknown (choose from {', '.join(self.scenario_options())})"
+            )
         with self.lock:
             self.playing = False
             self.base_scenario = scenario
@@ -580,7 +614,9 @@ class ViewerApp:
         except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
             raise ViewerError(f"{label}: not a valid TOML scenario ({exc})") from None
         try:
-            scenario = scenario_from_dict(data, source=label, footprint_m=self.sim.arena.footprint_m)
+            scenario = scenario_from_dict(
+                data, source=label, footprint_m=self.sim.arena.footprint_m
+            )
         except ScenarioError as exc:
             raise ViewerError(str(exc)) from None
         self.uploaded_scenarios[label] = scenario
@@ -597,7 +633,8 @@ class ViewerApp:
     def _layout_scenario(self) -> Scenario:
         """The scenario as edited: obstacles and target where the user put them."""
         return self.base_scenario.replace(
-            target=tuple(self._target), obstacles=tuple(spec for _, spec in self._layout))
+            target=tuple(self._target), obstacles=tuple(spec for _, spec in self._layout)
+        )
 
     @property
     def layout_edited(self) -> bool:
@@ -617,8 +654,12 @@ class ViewerApp:
         can no longer be reached, and when it can again. Returns the warning, if any."""
         with self.lock:
             layout = self._layout_scenario()
-            blocked = target_blocker(layout.target, layout.tolerance_m, layout.obstacles,
-                                     0.5 * self.sim.arena.footprint_m[1])
+            blocked = target_blocker(
+                layout.target,
+                layout.tolerance_m,
+                layout.obstacles,
+                0.5 * self.sim.arena.footprint_m[1],
+            )
             if blocked is not None:
                 text = f"The target {blocked[1]}: the robot cannot get there."
                 self._target_warning = text
@@ -655,8 +696,10 @@ class ViewerApp:
             for k, (i, spec) in enumerate(self._layout):
                 if i == obstacle_id:
                     moved = tuple(float(v) for v in np.asarray(spec.position) + delta)
-                    self._layout[k] = (i, ObstacleSpec(moved, spec.radius_m, spec.velocity,
-                                                       spec.acceleration))
+                    self._layout[k] = (
+                        i,
+                        ObstacleSpec(moved, spec.radius_m, spec.velocity, spec.acceleration),
+                    )
             self._bump()
 
     def suggest_obstacle_position(self) -> tuple[float, float]:
@@ -669,12 +712,16 @@ class ViewerApp:
             px, py = x + frac * (tx - x), y + frac * (ty - y)
             if math.hypot(px - x, py - y) < 1.2 or math.hypot(px - tx, py - ty) < 0.8:
                 continue
-            if all(math.hypot(px - c[0], py - c[1]) > r + NEW_OBSTACLE_RADIUS_M + 0.3
-                   for c, r in zip(centres.tolist(), radii.tolist())):
+            if all(
+                math.hypot(px - c[0], py - c[1]) > r + NEW_OBSTACLE_RADIUS_M + 0.3
+                for c, r in zip(centres.tolist(), radii.tolist())
+            ):
                 return (round(px, 2), round(py, 2))
         # No free spot on the way: 2.5 m ahead of the robot, a little to its left.
-        return (round(x + 2.5 * math.cos(heading + 0.3), 2),
-                round(y + 2.5 * math.sin(heading + 0.3), 2))
+        return (
+            round(x + 2.5 * math.cos(heading + 0.3), 2),
+            round(y + 2.5 * math.sin(heading + 0.3), 2),
+        )
 
     def add_obstacle(self, xy=None, radius_m: float = NEW_OBSTACLE_RADIUS_M) -> int:
         """Add a static obstacle (at a useful spot unless ``xy`` is given); returns its id."""
@@ -713,7 +760,7 @@ class ViewerApp:
     # -- controller, perception, disturbance, noise ------------------------------------
 
     def controller_options(self) -> list[str]:
-        from controller.registry import controller_names
+        from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
         if self.uploaded_label:
@@ -754,7 +801,7 @@ class ViewerApp:
         shown, never opened). A file that cannot be used raises :class:`ViewerError`
         and the running controller and world are kept.
         """
-        from controller.registry import make_controller
+        from fuzzynav.controller.registry import make_controller
 
         display = safe_display_name(filename, "controller.fis")
         if len(content) > MAX_UPLOAD_BYTES:
@@ -766,8 +813,9 @@ class ViewerApp:
             try:
                 controller = make_controller(fis_path=tmp)
             except ModuleNotFoundError as exc:
-                raise ViewerError(f"{display}: .fis files cannot be loaded in this build "
-                                  f"({exc.name} is missing)") from None
+                raise ViewerError(
+                    f"{display}: .fis files cannot be loaded in this build ({exc.name} is missing)"
+                ) from None
             except Exception as exc:
                 text = str(exc).replace(tmp, display).replace(Path(tmp).name, display)
                 raise ViewerError(f"{display} was refused: {text}") from None
@@ -785,7 +833,7 @@ class ViewerApp:
     @staticmethod
     def part_options():
         """fuzzynav's parts that can be switched off (name, what switching it off does)."""
-        from controller.fuzzynav_parts import load_parts
+        from fuzzynav.controller.fuzzynav_parts import load_parts
 
         return load_parts()
 
@@ -803,8 +851,10 @@ class ViewerApp:
                 inner.set_parts_off(self.parts_off)
                 self._notice(f"fuzzynav: {name} {'on' if on else 'off'}.", "info")
             else:
-                self._notice(f"fuzzynav's {name} will be {'on' if on else 'off'} when "
-                             f"fuzzynav drives.", "info")
+                self._notice(
+                    f"fuzzynav's {name} will be {'on' if on else 'off'} when fuzzynav drives.",
+                    "info",
+                )
 
     def set_perception(self, mode: str) -> None:
         if mode not in PERCEPTION_MODES:
@@ -830,13 +880,15 @@ class ViewerApp:
         std_m = self._check_noise(std_m)
         with self.lock:
             sim = self.sim
-            config = SensorConfig(mounts=sim.sensors.config.mounts,
-                                  beam_width_rad=sim.sensors.config.beam_width_rad,
-                                  rays_per_beam=sim.sensors.config.rays_per_beam,
-                                  min_range_m=sim.sensors.config.min_range_m,
-                                  max_range_m=sim.sensors.config.max_range_m,
-                                  noise_std_m=std_m,
-                                  update_rate_hz=sim.sensors.config.update_rate_hz)
+            config = SensorConfig(
+                mounts=sim.sensors.config.mounts,
+                beam_width_rad=sim.sensors.config.beam_width_rad,
+                rays_per_beam=sim.sensors.config.rays_per_beam,
+                min_range_m=sim.sensors.config.min_range_m,
+                max_range_m=sim.sensors.config.max_range_m,
+                noise_std_m=std_m,
+                update_rate_hz=sim.sensors.config.update_rate_hz,
+            )
             sensors = RangeSensorArray(config, seed=self.seed)
             sim.sensors = sensors
             sim.perception = Perception(sim.perception.mode, sensors)
@@ -850,33 +902,55 @@ class ViewerApp:
             sim = self.sim
             arena = sim.arena
             t = arena.time_s
-            obstacles = [ObstacleView(o.id, tuple(float(v) for v in o.position_at(t)), o.radius_m,
-                                      o.is_static, tuple(float(v) for v in o.velocity_at(t)))
-                         for o in arena.obstacles.values()]
+            obstacles = [
+                ObstacleView(
+                    o.id,
+                    tuple(float(v) for v in o.position_at(t)),
+                    o.radius_m,
+                    o.is_static,
+                    tuple(float(v) for v in o.velocity_at(t)),
+                )
+                for o in arena.obstacles.values()
+            ]
             clearances = arena.clearances()
             memory_xy, steer = self._memory_view(arena.pose)
             return Snapshot(
-                version=self.version, run_id=self.run_id, layout_id=self.layout_id,
-                time_s=t, playing=self.playing, speed=self.speed, outcome=sim.outcome,
-                pose=tuple(arena.pose), footprint_m=arena.footprint_m,
+                version=self.version,
+                run_id=self.run_id,
+                layout_id=self.layout_id,
+                time_s=t,
+                playing=self.playing,
+                speed=self.speed,
+                outcome=sim.outcome,
+                pose=tuple(arena.pose),
+                footprint_m=arena.footprint_m,
                 target=tuple(float(v) for v in arena.target),
-                tolerance_m=sim.scenario.tolerance_m, obstacles=obstacles,
+                tolerance_m=sim.scenario.tolerance_m,
+                obstacles=obstacles,
                 beams=sim.sensors.beam_geometry(arena.pose),
                 ranges_m=np.array(sim.sensors.ranges_m, dtype=float),
                 beam_width_rad=sim.sensors.config.beam_width_rad,
                 max_range_m=sim.sensors.config.max_range_m,
                 inputs=self.controller.last_inputs.copy(),
-                voltages_v=np.clip(self.controller.last_output, -sim.voltage_limit_v,
-                                   sim.voltage_limit_v),
+                voltages_v=np.clip(
+                    self.controller.last_output, -sim.voltage_limit_v, sim.voltage_limit_v
+                ),
                 nearest_clearance_m=float(clearances.min()) if len(clearances) else math.inf,
-                trail_length=len(self._trail), scenario_label=self.scenario_label,
-                controller_label=self.controller_label, perception=sim.perception.mode,
-                disturbance_on=self.disturbance_on, noise_std_m=self.noise_std_m,
-                message=self.message, message_level=self.message_level,
+                trail_length=len(self._trail),
+                scenario_label=self.scenario_label,
+                controller_label=self.controller_label,
+                perception=sim.perception.mode,
+                disturbance_on=self.disturbance_on,
+                noise_std_m=self.noise_std_m,
+                message=self.message,
+                message_level=self.message_level,
                 layout_edited=self.layout_edited,
                 metrics=dict(self.metrics) if self.metrics else None,
-                memory_xy=memory_xy, steer_heading_rad=steer, parts_off=self.parts_off,
-                has_parts=hasattr(self.controller.inner, "set_parts_off"))
+                memory_xy=memory_xy,
+                steer_heading_rad=steer,
+                parts_off=self.parts_off,
+                has_parts=hasattr(self.controller.inner, "set_parts_off"),
+            )
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:
         """(run id, trail points from index ``start`` on)."""
@@ -898,8 +972,9 @@ class ViewerApp:
         points, bearing = view()
         x, y, heading = pose
         c, s = math.cos(heading), math.sin(heading)
-        world = np.column_stack([x + c * points[:, 0] - s * points[:, 1],
-                                 y + s * points[:, 0] + c * points[:, 1]])
+        world = np.column_stack(
+            [x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]]
+        )
         return world, heading + bearing
 
     def fuzzy_system(self):
@@ -930,140 +1005,17 @@ class ViewerApp:
             fis = self.fuzzy_system()
             if fis is None or not np.isfinite(inputs[0]):
                 return None
-            x = inputs[:len(fis.input_names)]
+            x = inputs[: len(fis.input_names)]
         strengths = np.asarray(fis.firing_strengths(np.asarray([x])))[0]
         grid, membership, centroids = fis.aggregated(x)
-        return {"inputs": x, "input_names": list(fis.input_names),
-                "output_names": list(fis.output_names), "strengths": strengths,
-                "grid": np.asarray(grid), "membership": np.asarray(membership),
-                "centroids": np.asarray(centroids), "fis": fis, "state": state}
-
-
-# ---------------------------------------------------------------------------------------
-# Command line
-
-
-def _check_rrd(path):
-    """Refuse an --rrd path that cannot be written, before the server starts."""
-    if path is None:
-        return None
-    try:
-        from app.recording import check_writable_file
-    except ModuleNotFoundError as exc:
-        if exc.name not in ("app.recording", "rerun"):
-            raise
-        from app.cli import UsageError
-
-        raise UsageError("--rrd: live recording needs app/recording.py and rerun-sdk, "
-                         "which are not available in this installation") from None
-    return check_writable_file(path)
-
-
-def check_host(host: str) -> None:
-    """Refuse a host this machine cannot listen on, before the server starts.
-
-    (viser 1.1 retries an address it cannot bind on the next thousand ports and then
-    waits forever for a server that never started; a port already in use is fine: it
-    takes the next free one, and the printed address says which.)
-    """
-    try:
-        family, _, _, _, address = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0]
-    except (socket.gaierror, UnicodeError) as exc:
-        raise ViewerError(f"--host {host!r}: unknown host ({exc})") from None
-    with socket.socket(family, socket.SOCK_STREAM) as probe:
-        try:
-            probe.bind((address[0], 0))
-        except OSError as exc:
-            raise ViewerError(f"--host {host!r}: this machine cannot listen on that "
-                              f"address ({exc.strerror or exc})") from None
-
-
-def _print_url(server, host: str, open_message: bool) -> None:
-    if not open_message:
-        return
-    print(f"fuzzynav viewer: {server.url}  (Ctrl-C stops it)", flush=True)
-    if host not in ("127.0.0.1", "localhost", "::1"):
-        print(f"fuzzynav viewer: bound to {host}: other machines on the network can "
-              "open it and change the world", flush=True)
-
-
-def serve(scenario="s1", *, host: str = "127.0.0.1", port: int = 8080, rrd=None,
-          controller: str | None = None, open_message: bool = True, block: bool = True):
-    """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
-    otherwise it returns the running :class:`app.viewer_ui.ViewerServer`."""
-    from app.viewer_ui import ViewerServer
-
-    rrd = _check_rrd(rrd)
-    check_host(host)
-    app = ViewerApp(scenario, controller, rrd_path=rrd)
-    server = ViewerServer(app, host=host, port=port)
-    if not block:
-        _print_url(server, host, open_message)
-        return server
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        # `kill` (SIGTERM) stops the viewer as cleanly as Ctrl-C does.
-        def on_term(signum, frame):
-            raise KeyboardInterrupt
-
-        previous = signal.signal(signal.SIGTERM, on_term)
-    try:
-        # The URL is printed inside the try: a Ctrl-C that arrives as soon as a user (or a
-        # test) sees it must still stop the server cleanly.
-        _print_url(server, host, open_message)
-        while True:
-            time.sleep(0.5)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-        server.stop()
-        files = ", ".join(str(p) for p in app.recorded_files)
-        print("fuzzynav viewer: stopped, port released"
-              + (f"; recorded {files}" if files else ""), flush=True)
-    return None
-
-
-def cmd_serve(args) -> int:
-    serve(args.scenario, host=args.host, port=args.port, rrd=args.rrd,
-          controller=getattr(args, "controller", None))
-    return 0
-
-
-def add_commands(subparsers) -> None:
-    from app.cli import integer_in
-
-    for name, help_text in (("serve", "start the interactive browser viewer"),
-                            ("demo", "the viewer on scenario s1 with default settings")):
-        parser = subparsers.add_parser(name, help=help_text)
-        if name == "serve":
-            parser.add_argument("scenario", nargs="?", default="s1",
-                                help="s1, s2, s3 (assets/scenarios) or a path to a TOML file")
-            parser.add_argument("--host", default="127.0.0.1",
-                                help="address to bind (default 127.0.0.1: this machine only)")
-            parser.add_argument("--port", type=integer_in(0, 65535), default=8080,
-                                help="port (default 8080; the next free one if taken)")
-            parser.add_argument("--rrd", type=Path, default=None, metavar="PATH",
-                                help="also record the session to rerun files: the first run "
-                                     "to PATH, later runs to <stem>-run2.rrd, ...")
-            parser.add_argument("--controller", default=None,
-                                help="controller to start with (default: paper if available)")
-        else:
-            parser.set_defaults(scenario="s1", host="127.0.0.1", port=8080, rrd=None,
-                                controller=None)
-        parser.set_defaults(func=cmd_serve)
-
-
-def main(argv=None) -> int:
-    """``python -m app.viewer [SCENARIO] [--host H] [--port P] [--rrd PATH]``: the same
-    as ``fuzzynav serve``."""
-    import sys
-
-    from app.cli import main as cli_main
-
-    return cli_main(["serve", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+        return {
+            "inputs": x,
+            "input_names": list(fis.input_names),
+            "output_names": list(fis.output_names),
+            "strengths": strengths,
+            "grid": np.asarray(grid),
+            "membership": np.asarray(membership),
+            "centroids": np.asarray(centroids),
+            "fis": fis,
+            "state": state,
+        }

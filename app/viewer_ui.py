@@ -19,7 +19,7 @@ from collections import deque
 import numpy as np
 import viser
 
-from app.viewer import (
+from fuzzynav.app.viewer import (
     NOISE_RANGE_M,
     SAFE_DISTANCE_M,
     SPEED_RANGE,
@@ -27,7 +27,7 @@ from app.viewer import (
     ViewerApp,
     ViewerError,
 )
-from world.perception import PERCEPTION_MODES
+from fuzzynav.world.perception import PERCEPTION_MODES
 
 FRAME_HZ = 30.0
 PANEL_HZ = 5.0
@@ -44,16 +44,31 @@ RING_OK = (217, 119, 6)
 RING_ALERT = (220, 38, 38)
 NO_ECHO = (175, 175, 175)
 MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
-STEER_GREEN = (22, 163, 74)     # the bearing its planner steers to
+STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
 
 OBSTACLE_HEIGHT_M = 0.5
 # Paper Table 4, proposed method (S1, S2, S3): shown beside our numbers for the shipped
 # scenarios when their layout has not been edited.
 PAPER_TABLE4 = {
-    "s1": {"path_length_m": 11.8332, "mad_m": 0.3653, "rmse_m": 0.4825, "min_center_distance_m": 0.2557},
-    "s2": {"path_length_m": 11.8672, "mad_m": 0.5727, "rmse_m": 0.7449, "min_center_distance_m": 0.3834},
-    "s3": {"path_length_m": 11.8263, "mad_m": 0.6298, "rmse_m": 0.7474, "min_center_distance_m": 0.6398},
+    "s1": {
+        "path_length_m": 11.8332,
+        "mad_m": 0.3653,
+        "rmse_m": 0.4825,
+        "min_center_distance_m": 0.2557,
+    },
+    "s2": {
+        "path_length_m": 11.8672,
+        "mad_m": 0.5727,
+        "rmse_m": 0.7449,
+        "min_center_distance_m": 0.3834,
+    },
+    "s3": {
+        "path_length_m": 11.8263,
+        "mad_m": 0.6298,
+        "rmse_m": 0.7474,
+        "min_center_distance_m": 0.6398,
+    },
 }
 
 
@@ -65,8 +80,12 @@ def reading_colour(distance_m: float) -> tuple[int, int, int]:
     """Red within the safe distance, through amber, to green at 3 m; grey = no echo."""
     if not math.isfinite(distance_m):
         return NO_ECHO
-    stops = [(0.0, (220, 38, 38)), (SAFE_DISTANCE_M, (220, 38, 38)), (1.0, (245, 158, 11)),
-             (3.0, (22, 163, 74))]
+    stops = [
+        (0.0, (220, 38, 38)),
+        (SAFE_DISTANCE_M, (220, 38, 38)),
+        (1.0, (245, 158, 11)),
+        (3.0, (22, 163, 74)),
+    ]
     if distance_m >= stops[-1][0]:
         return stops[-1][1]
     for (d0, c0), (d1, c1) in zip(stops, stops[1:]):
@@ -80,8 +99,12 @@ def rounded_rectangle(length: float, width: float, offset: float, n_arc: int = 8
     """Closed outline (N, 2) of a rectangle grown by ``offset`` (round corners)."""
     hx, hy = 0.5 * length, 0.5 * width
     points = []
-    for cx, cy, a0 in ((hx, hy, 0.0), (-hx, hy, 0.5 * math.pi), (-hx, -hy, math.pi),
-                       (hx, -hy, 1.5 * math.pi)):
+    for cx, cy, a0 in (
+        (hx, hy, 0.0),
+        (-hx, hy, 0.5 * math.pi),
+        (-hx, -hy, math.pi),
+        (hx, -hy, 1.5 * math.pi),
+    ):
         for k in range(n_arc + 1):
             a = a0 + 0.5 * math.pi * k / n_arc
             points.append((cx + offset * math.cos(a), cy + offset * math.sin(a)))
@@ -125,8 +148,10 @@ def _fmt(value, unit: str = "", digits: int = 2) -> str:
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
-    _RESULT_PENDING = ("<div style='color:#64748b;font-size:0.85em'>The outcome and the "
-                       "paper's Table 4 metrics appear here when a run ends.</div>")
+    _RESULT_PENDING = (
+        "<div style='color:#64748b;font-size:0.85em'>The outcome and the "
+        "paper's Table 4 metrics appear here when a run ends.</div>"
+    )
 
     def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080):
         self.app = app
@@ -157,8 +182,9 @@ class ViewerServer:
         self._build_static_scene()
         self.server.on_client_connect(self._on_connect)
         app.start()
-        self._thread = threading.Thread(target=self._render_loop, name="fuzzynav-render",
-                                        daemon=True)
+        self._thread = threading.Thread(
+            target=self._render_loop, name="fuzzynav-render", daemon=True
+        )
         self._thread.start()
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -226,51 +252,107 @@ class ViewerServer:
         scene.add_light_directional("/lights/sun", intensity=1.2, position=(2.0, -3.0, 10.0))
         L, W = self.app.sim.arena.footprint_m
         self.robot = scene.add_frame("/robot", show_axes=False)
-        scene.add_box("/robot/body", color=HUSKY_YELLOW, dimensions=(L, W * 0.78, 0.26),
-                      position=(0.0, 0.0, 0.25))
-        scene.add_box("/robot/deck", color=HUSKY_DARK, dimensions=(0.62 * L, 0.62 * W, 0.03),
-                      position=(-0.06 * L, 0.0, 0.39))
-        scene.add_box("/robot/bumper", color=HUSKY_DARK, dimensions=(0.06, W * 0.78, 0.12),
-                      position=(0.5 * L - 0.03, 0.0, 0.2))
+        scene.add_box(
+            "/robot/body",
+            color=HUSKY_YELLOW,
+            dimensions=(L, W * 0.78, 0.26),
+            position=(0.0, 0.0, 0.25),
+        )
+        scene.add_box(
+            "/robot/deck",
+            color=HUSKY_DARK,
+            dimensions=(0.62 * L, 0.62 * W, 0.03),
+            position=(-0.06 * L, 0.0, 0.39),
+        )
+        scene.add_box(
+            "/robot/bumper",
+            color=HUSKY_DARK,
+            dimensions=(0.06, W * 0.78, 0.12),
+            position=(0.5 * L - 0.03, 0.0, 0.2),
+        )
         wheel_q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)
         for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
-            scene.add_cylinder(f"/robot/wheel{i}", radius=0.165, height=0.11, color=(25, 25, 25),
-                               wxyz=wheel_q, position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165))
+            scene.add_cylinder(
+                f"/robot/wheel{i}",
+                radius=0.165,
+                height=0.11,
+                color=(25, 25, 25),
+                wxyz=wheel_q,
+                position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165),
+            )
         # Heading arrow on the deck.
-        arrow = np.array([[[-0.25, 0, 0.43], [0.42, 0, 0.43]], [[0.42, 0, 0.43], [0.27, 0.12, 0.43]],
-                          [[0.42, 0, 0.43], [0.27, -0.12, 0.43]]], dtype=np.float32)
+        arrow = np.array(
+            [
+                [[-0.25, 0, 0.43], [0.42, 0, 0.43]],
+                [[0.42, 0, 0.43], [0.27, 0.12, 0.43]],
+                [[0.42, 0, 0.43], [0.27, -0.12, 0.43]],
+            ],
+            dtype=np.float32,
+        )
         scene.add_line_segments("/robot/heading", arrow, (255, 255, 255), thickness=0.05)
         ring = rounded_rectangle(L, W, SAFE_DISTANCE_M)
-        self.ring = scene.add_line_segments("/robot/safe_ring", polyline_segments(ring, 0.03),
-                                            RING_OK, thickness=0.035)
+        self.ring = scene.add_line_segments(
+            "/robot/safe_ring", polyline_segments(ring, 0.03), RING_OK, thickness=0.035
+        )
         # Beams that echo: thick, coloured by the reading; beams that do not: thin grey.
-        self.beams = scene.add_line_segments("/robot/beams", np.zeros((1, 2, 3), np.float32),
-                                             NO_ECHO, thickness=0.07)
-        self.free_beams = scene.add_line_segments("/robot/free_beams",
-                                                  np.zeros((1, 2, 3), np.float32), NO_ECHO,
-                                                  thickness=0.025)
+        self.beams = scene.add_line_segments(
+            "/robot/beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.07
+        )
+        self.free_beams = scene.add_line_segments(
+            "/robot/free_beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.025
+        )
         # Target: a bullseye with a handle that slides on the ground.
         tx, ty = self.app.sim.arena.target
         self.target = scene.add_transform_controls(
-            "/target", scale=1.0, line_width=2.5, active_axes=(True, True, False),
-            disable_rotations=True, depth_test=False, position=(tx, ty, 0.06))
-        for k, (radius, colour) in enumerate(((0.36, TARGET_RED), (0.25, (255, 255, 255)),
-                                              (0.13, TARGET_RED))):
-            scene.add_cylinder(f"/target/ring{k}", radius=radius, height=0.02, color=colour,
-                               position=(0.0, 0.0, -0.05 + 0.006 * k), cast_shadow=False)
-        scene.add_label("/target/label", "target", position=(0.45, 0.45, 0.0),
-                        anchor="bottom-left", font_screen_scale=0.9)
+            "/target",
+            scale=1.0,
+            line_width=2.5,
+            active_axes=(True, True, False),
+            disable_rotations=True,
+            depth_test=False,
+            position=(tx, ty, 0.06),
+        )
+        for k, (radius, colour) in enumerate(
+            ((0.36, TARGET_RED), (0.25, (255, 255, 255)), (0.13, TARGET_RED))
+        ):
+            scene.add_cylinder(
+                f"/target/ring{k}",
+                radius=radius,
+                height=0.02,
+                color=colour,
+                position=(0.0, 0.0, -0.05 + 0.006 * k),
+                cast_shadow=False,
+            )
+        scene.add_label(
+            "/target/label",
+            "target",
+            position=(0.45, 0.45, 0.0),
+            anchor="bottom-left",
+            font_screen_scale=0.9,
+        )
         self.target.on_update(self._make_drag_callback("/target", None))
-        self.ideal = scene.add_line_segments("/ideal_line", np.zeros((1, 2, 3), np.float32),
-                                             (150, 150, 150), thickness=0.02)
+        self.ideal = scene.add_line_segments(
+            "/ideal_line", np.zeros((1, 2, 3), np.float32), (150, 150, 150), thickness=0.02
+        )
         self.start_marker = scene.add_line_segments(
-            "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04)
+            "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04
+        )
         # fuzzynav's memory: the echoes it remembers, and the bearing its planner steers to.
-        self.memory = scene.add_point_cloud("/memory/echoes", np.zeros((1, 3), np.float32),
-                                            MEMORY_PURPLE, point_size=0.07,
-                                            point_shape="circle", visible=False)
-        self.steer = scene.add_line_segments("/memory/steer", np.zeros((1, 2, 3), np.float32),
-                                             STEER_GREEN, thickness=0.06, visible=False)
+        self.memory = scene.add_point_cloud(
+            "/memory/echoes",
+            np.zeros((1, 3), np.float32),
+            MEMORY_PURPLE,
+            point_size=0.07,
+            point_shape="circle",
+            visible=False,
+        )
+        self.steer = scene.add_line_segments(
+            "/memory/steer",
+            np.zeros((1, 2, 3), np.float32),
+            STEER_GREEN,
+            thickness=0.06,
+            visible=False,
+        )
 
     def _frame_arena(self, bounds) -> None:
         """Ground grid, metre marks and the top-down camera for these bounds."""
@@ -278,22 +360,47 @@ class ViewerServer:
         x0, x1, y0, y1 = bounds
         cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
         size = x1 - x0
-        scene.add_grid("/ground", width=size, height=size, plane="xy", cell_size=0.5,
-                       section_size=1.0, cell_color=(222, 222, 218), section_color=(165, 165, 160),
-                       cell_thickness=0.8, section_thickness=1.3, plane_opacity=0.0,
-                       shadow_opacity=0.0, position=(cx, cy, 0.0))
-        scene.add_box("/ground_slab", color=GROUND, dimensions=(size, size, 0.02),
-                      position=(cx, cy, -0.012), cast_shadow=False, receive_shadow=0.25)
+        scene.add_grid(
+            "/ground",
+            width=size,
+            height=size,
+            plane="xy",
+            cell_size=0.5,
+            section_size=1.0,
+            cell_color=(222, 222, 218),
+            section_color=(165, 165, 160),
+            cell_thickness=0.8,
+            section_thickness=1.3,
+            plane_opacity=0.0,
+            shadow_opacity=0.0,
+            position=(cx, cy, 0.0),
+        )
+        scene.add_box(
+            "/ground_slab",
+            color=GROUND,
+            dimensions=(size, size, 0.02),
+            position=(cx, cy, -0.012),
+            cast_shadow=False,
+            receive_shadow=0.25,
+        )
         scene.remove_by_name("/marks")
         step = 1 if size <= 16 else 2
         for x in range(x0, x1 + 1, step):
-            scene.add_label(f"/marks/x{x}", f"{x}" + (" m" if x == x1 else ""),
-                            position=(x, y0 - 0.25, 0.0), anchor="top-center",
-                            font_screen_scale=0.75)
+            scene.add_label(
+                f"/marks/x{x}",
+                f"{x}" + (" m" if x == x1 else ""),
+                position=(x, y0 - 0.25, 0.0),
+                anchor="top-center",
+                font_screen_scale=0.75,
+            )
         for y in range(y0, y1 + 1, step):
-            scene.add_label(f"/marks/y{y}", f"{y}" + (" m" if y == y1 else ""),
-                            position=(x0 - 0.25, y, 0.0), anchor="center-right",
-                            font_screen_scale=0.75)
+            scene.add_label(
+                f"/marks/y{y}",
+                f"{y}" + (" m" if y == y1 else ""),
+                position=(x0 - 0.25, y, 0.0),
+                anchor="center-right",
+                font_screen_scale=0.75,
+            )
         cam = self.server.initial_camera
         # A new tab's canvas aspect is not known yet ("Reset view" also comes here):
         # assume the canvas between the docked panels is a little taller than wide.
@@ -328,74 +435,105 @@ class ViewerServer:
     def _build_gui(self) -> None:
         gui = self.server.gui
         app = self.app
-        gui.configure_theme(dark_mode=False, show_logo=False, show_share_button=False,
-                            brand_color=(37, 99, 235), control_width="large")
+        gui.configure_theme(
+            dark_mode=False,
+            show_logo=False,
+            show_share_button=False,
+            brand_color=(37, 99, 235),
+            control_width="large",
+        )
         gui.set_panel_label("fuzzynav · fuzzy Husky navigator")
 
         self.status = gui.add_html(self._status_html(app.snapshot()))
         self.run_buttons = gui.add_button_group("Run", ("Play", "Pause", "Step", "Reset"))
         self.run_buttons.on_click(self._guarded(self._on_run_button))
-        self.speed = gui.add_slider("Speed ×", SPEED_RANGE[0], SPEED_RANGE[1], 0.1, 1.0,
-                                    marks=((0.1, "0.1"), (1.0, "1"), (2.5, "2.5"), (5.0, "5"),
-                                           (10.0, "10")),
-                                    hint="Simulated seconds per real second")
+        self.speed = gui.add_slider(
+            "Speed ×",
+            SPEED_RANGE[0],
+            SPEED_RANGE[1],
+            0.1,
+            1.0,
+            marks=((0.1, "0.1"), (1.0, "1"), (2.5, "2.5"), (5.0, "5"), (10.0, "10")),
+            hint="Simulated seconds per real second",
+        )
         self.speed.on_update(self._guarded(lambda e: app.set_speed(self.speed.value)))
 
         with gui.add_folder("Scenario"):
-            self.scenario_dd = gui.add_dropdown("Scenario", app.scenario_options(),
-                                                initial_value=app.scenario_label)
-            self.scenario_dd.on_update(self._guarded(
-                lambda e: app.load_scenario(self.scenario_dd.value)))
+            self.scenario_dd = gui.add_dropdown(
+                "Scenario", app.scenario_options(), initial_value=app.scenario_label
+            )
+            self.scenario_dd.on_update(
+                self._guarded(lambda e: app.load_scenario(self.scenario_dd.value))
+            )
             self.obstacle_buttons = gui.add_button_group("Obstacle", ("Add", "Remove newest"))
             self.obstacle_buttons.on_click(self._guarded(self._on_obstacle_button))
-            self.restore = gui.add_button("Restore scenario layout", icon=viser.Icon.RESTORE,
-                                          hint="Undo drags, additions and removals")
+            self.restore = gui.add_button(
+                "Restore scenario layout",
+                icon=viser.Icon.RESTORE,
+                hint="Undo drags, additions and removals",
+            )
             self.restore.on_click(self._guarded(lambda e: app.restore_layout()))
             self.scenario_upload = gui.add_upload_button(
-                "Upload scenario (.toml)", icon=viser.Icon.UPLOAD, mime_type=".toml")
+                "Upload scenario (.toml)", icon=viser.Icon.UPLOAD, mime_type=".toml"
+            )
             self.scenario_upload.on_upload(self._guarded(self._on_scenario_upload))
 
         with gui.add_folder("Controller and sensing"):
-            self.controller_dd = gui.add_dropdown("Controller", app.controller_options(),
-                                                  initial_value=app.controller_label)
-            self.controller_dd.on_update(self._guarded(
-                lambda e: app.set_controller(self.controller_dd.value)))
-            self.fis_upload = gui.add_upload_button("Upload a .fis controller",
-                                                    icon=viser.Icon.UPLOAD, mime_type=".fis")
+            self.controller_dd = gui.add_dropdown(
+                "Controller", app.controller_options(), initial_value=app.controller_label
+            )
+            self.controller_dd.on_update(
+                self._guarded(lambda e: app.set_controller(self.controller_dd.value))
+            )
+            self.fis_upload = gui.add_upload_button(
+                "Upload a .fis controller", icon=viser.Icon.UPLOAD, mime_type=".fis"
+            )
             self.fis_upload.on_upload(self._guarded(self._on_fis_upload))
-            self.perception_dd = gui.add_dropdown("Perception", PERCEPTION_MODES,
-                                                  initial_value=app.sim.perception.mode,
-                                                  hint="ideal: exact nearest obstacle; "
-                                                       "ultrasonic: the three beams")
-            self.perception_dd.on_update(self._guarded(
-                lambda e: app.set_perception(self.perception_dd.value)))
+            self.perception_dd = gui.add_dropdown(
+                "Perception",
+                PERCEPTION_MODES,
+                initial_value=app.sim.perception.mode,
+                hint="ideal: exact nearest obstacle; ultrasonic: the three beams",
+            )
+            self.perception_dd.on_update(
+                self._guarded(lambda e: app.set_perception(self.perception_dd.value))
+            )
             self.disturbance_cb = gui.add_checkbox(
-                "Disturbance", app.disturbance_on,
-                hint="A sin(2t) added to every controller input (scenario 3: 25-35 s)")
-            self.disturbance_cb.on_update(self._guarded(
-                lambda e: app.set_disturbance(self.disturbance_cb.value)))
-            self.noise = gui.add_slider("Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01,
-                                        app.noise_std_m)
+                "Disturbance",
+                app.disturbance_on,
+                hint="A sin(2t) added to every controller input (scenario 3: 25-35 s)",
+            )
+            self.disturbance_cb.on_update(
+                self._guarded(lambda e: app.set_disturbance(self.disturbance_cb.value))
+            )
+            self.noise = gui.add_slider(
+                "Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01, app.noise_std_m
+            )
             self.noise.on_update(self._guarded(lambda e: app.set_noise(self.noise.value)))
             # What each part of fuzzynav does, shown by switching it off while it drives
             # (shown while fuzzynav drives; assets/rules/fuzzynav_parts.toml).
-            self.parts_folder = gui.add_folder("fuzzynav's parts (untick: off)",
-                                               expand_by_default=False,
-                                               visible=app.snapshot().has_parts)
+            self.parts_folder = gui.add_folder(
+                "fuzzynav's parts (untick: off)",
+                expand_by_default=False,
+                visible=app.snapshot().has_parts,
+            )
             self.part_boxes = {}
             with self.parts_folder:
                 for part in app.part_options():
-                    box = gui.add_checkbox(part.name, part.name not in app.parts_off,
-                                           hint=f"Off: {part.what}")
-                    box.on_update(self._guarded(
-                        lambda e, name=part.name: app.set_part(name, e.target.value)))
+                    box = gui.add_checkbox(
+                        part.name, part.name not in app.parts_off, hint=f"Off: {part.what}"
+                    )
+                    box.on_update(
+                        self._guarded(lambda e, name=part.name: app.set_part(name, e.target.value))
+                    )
                     self.part_boxes[part.name] = box
 
         with gui.add_folder("Result"):
             self.result = gui.add_html(self._RESULT_PENDING)
         gui.add_markdown(
             "<small>Drag the arrows or the square of a handle to move the **target** or an "
-            "**obstacle**; the robot reacts at once. Scroll to zoom, right-drag to pan.</small>")
+            "**obstacle**; the robot reacts at once. Scroll to zoom, right-drag to pan.</small>"
+        )
 
         panel = gui.add_panel()
         self._signals_tab = panel.add_tab("Signals", viser.Icon.CHART_LINE)
@@ -405,20 +543,30 @@ class ViewerServer:
             axes_x = {"time": False, "auto": True}
             self.plot_angle = gui.add_uplot(
                 data=(np.zeros(2), np.full(2, np.nan), np.full(2, np.nan)),
-                series=({"label": "t (s)"},
-                        {"label": "φ_t target", "stroke": "#2563eb", "width": 2},
-                        {"label": "φ_o obstacle", "stroke": "#dc2626", "width": 2}),
+                series=(
+                    {"label": "t (s)"},
+                    {"label": "φ_t target", "stroke": "#2563eb", "width": 2},
+                    {"label": "φ_o obstacle", "stroke": "#dc2626", "width": 2},
+                ),
                 title="Bearings (rad, + = to the left)",
                 scales={"x": axes_x, "y": {"range": [-3.2, 3.2]}},
-                legend={"show": True, "live": False}, aspect=1.9, order=1.0)
+                legend={"show": True, "live": False},
+                aspect=1.9,
+                order=1.0,
+            )
             self.plot_voltage = gui.add_uplot(
                 data=(np.zeros(2), np.full(2, np.nan), np.full(2, np.nan)),
-                series=({"label": "t (s)"},
-                        {"label": "left", "stroke": "#7c3aed", "width": 2},
-                        {"label": "right", "stroke": "#059669", "width": 2}),
+                series=(
+                    {"label": "t (s)"},
+                    {"label": "left", "stroke": "#7c3aed", "width": 2},
+                    {"label": "right", "stroke": "#059669", "width": 2},
+                ),
                 title="Wheel voltages (V, after the 12 V limit)",
                 scales={"x": axes_x, "y": {"range": [-12.5, 12.5]}},
-                legend={"show": True, "live": False}, aspect=1.9, order=2.0)
+                legend={"show": True, "live": False},
+                aspect=1.9,
+                order=2.0,
+            )
         self._rules_tab = panel.add_tab("Fuzzy rules", viser.Icon.BRAIN)
         with self._rules_tab:
             self.rules_html = gui.add_html("", order=0.0)
@@ -447,15 +595,24 @@ class ViewerServer:
             self.plot_distance.remove()
         with self._signals_tab:
             self.plot_distance = self.server.gui.add_uplot(
-                data=(np.array([0.0, 0.02]), np.full(2, np.nan), np.full(2, np.nan),
-                      np.full(2, SAFE_DISTANCE_M)),
-                series=({"label": "t (s)"},
-                        {"label": "d_t target", "stroke": "#2563eb", "width": 2},
-                        {"label": "d_o obstacle", "stroke": "#dc2626", "width": 2},
-                        {"label": "safe 0.25", "stroke": "#f59e0b", "width": 1, "dash": [5, 4]}),
+                data=(
+                    np.array([0.0, 0.02]),
+                    np.full(2, np.nan),
+                    np.full(2, np.nan),
+                    np.full(2, SAFE_DISTANCE_M),
+                ),
+                series=(
+                    {"label": "t (s)"},
+                    {"label": "d_t target", "stroke": "#2563eb", "width": 2},
+                    {"label": "d_o obstacle", "stroke": "#dc2626", "width": 2},
+                    {"label": "safe 0.25", "stroke": "#f59e0b", "width": 1, "dash": [5, 4]},
+                ),
                 title="Distances (m)",
                 scales={"x": {"time": False, "auto": True}, "y": {"range": [0.0, top]}},
-                legend={"show": True, "live": False}, aspect=1.9, order=0.0)
+                legend={"show": True, "live": False},
+                aspect=1.9,
+                order=0.0,
+            )
         self._distance_top = top
 
     def _make_aggregate_plot(self, lo: float, hi: float) -> None:
@@ -466,16 +623,29 @@ class ViewerServer:
         with self._rules_tab:
             self.aggregate_plot = self.server.gui.add_uplot(
                 data=(np.array([lo, hi]), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2)),
-                series=({"label": "V"},
-                        {"label": "left", "stroke": "#7c3aed", "width": 2,
-                         "fill": "rgba(124,58,237,0.15)"},
-                        {"label": "right", "stroke": "#059669", "width": 2,
-                         "fill": "rgba(5,150,105,0.15)"},
-                        {"label": "centroid L", "stroke": "#7c3aed", "width": 2, "dash": [3, 3]},
-                        {"label": "centroid R", "stroke": "#059669", "width": 2, "dash": [3, 3]}),
+                series=(
+                    {"label": "V"},
+                    {
+                        "label": "left",
+                        "stroke": "#7c3aed",
+                        "width": 2,
+                        "fill": "rgba(124,58,237,0.15)",
+                    },
+                    {
+                        "label": "right",
+                        "stroke": "#059669",
+                        "width": 2,
+                        "fill": "rgba(5,150,105,0.15)",
+                    },
+                    {"label": "centroid L", "stroke": "#7c3aed", "width": 2, "dash": [3, 3]},
+                    {"label": "centroid R", "stroke": "#059669", "width": 2, "dash": [3, 3]},
+                ),
                 title="Aggregated outputs and centroids",
                 scales={"x": {"time": False, "range": [lo, hi]}, "y": {"range": [0.0, 1.05]}},
-                legend={"show": True, "live": False}, aspect=1.5, order=1.0)
+                legend={"show": True, "live": False},
+                aspect=1.5,
+                order=1.0,
+            )
         self._aggregate_range = (lo, hi)
 
     def _guarded(self, func):
@@ -489,8 +659,7 @@ class ViewerServer:
             except ViewerError as exc:
                 self._tell(event.client, str(exc), "error")
             except Exception as exc:  # never let a callback kill the viewer quietly
-                self._tell(event.client, f"unexpected error: {type(exc).__name__}: {exc}",
-                           "error")
+                self._tell(event.client, f"unexpected error: {type(exc).__name__}: {exc}", "error")
 
         return callback
 
@@ -498,13 +667,21 @@ class ViewerServer:
         self.app._notice(text, level)
         if client is not None:
             colour = {"error": "red", "warning": "yellow", "success": "green"}.get(level, "blue")
-            client.add_notification("Refused" if level == "error" else "fuzzynav", text,
-                                    color=colour, auto_close_seconds=8.0)
+            client.add_notification(
+                "Refused" if level == "error" else "fuzzynav",
+                text,
+                color=colour,
+                auto_close_seconds=8.0,
+            )
 
     def _on_run_button(self, event) -> None:
         choice = self.run_buttons.value
-        {"Play": self.app.play, "Pause": self.app.pause, "Step": self.app.step_once,
-         "Reset": self.app.reset}[choice]()
+        {
+            "Play": self.app.play,
+            "Pause": self.app.pause,
+            "Step": self.app.step_once,
+            "Reset": self.app.reset,
+        }[choice]()
 
     def _on_obstacle_button(self, event) -> None:
         if self.obstacle_buttons.value == "Add":
@@ -565,7 +742,8 @@ class ViewerServer:
                 drawn_version = snap.version
                 self._frame_times.append(started)
             if snap.version != self._last_panel_version and (
-                    started >= next_panels or not snap.playing):
+                started >= next_panels or not snap.playing
+            ):
                 try:
                     self._draw_panels(snap)
                 except Exception as exc:
@@ -581,7 +759,6 @@ class ViewerServer:
             self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
 
     def _draw_scene(self, snap: Snapshot) -> None:
-        scene = self.server.scene
         if snap.run_id != self._drawn_run:
             self._drawn_run = snap.run_id
             for node in self._trail_nodes + [self._current_trail]:
@@ -597,8 +774,13 @@ class ViewerServer:
                 self._bounds = bounds
                 self._frame_arena(bounds)
             sx, sy = self._start_xy
-            cross = np.array([[[sx - 0.2, sy, 0.01], [sx + 0.2, sy, 0.01]],
-                              [[sx, sy - 0.2, 0.01], [sx, sy + 0.2, 0.01]]], dtype=np.float32)
+            cross = np.array(
+                [
+                    [[sx - 0.2, sy, 0.01], [sx + 0.2, sy, 0.01]],
+                    [[sx, sy - 0.2, 0.01], [sx, sy + 0.2, 0.01]],
+                ],
+                dtype=np.float32,
+            )
             self.start_marker.points = cross
             self._last_target = None
         self._draw_obstacles(snap)
@@ -618,16 +800,18 @@ class ViewerServer:
         if alert != self._ring_alert:
             self._ring_alert = alert
             colour = RING_ALERT if alert else RING_OK
-            self.ring.colors = np.broadcast_to(np.array(colour, np.uint8),
-                                               self.ring.points.shape).copy()
+            self.ring.colors = np.broadcast_to(
+                np.array(colour, np.uint8), self.ring.points.shape
+            ).copy()
 
         if snap.target != self._last_target:
             self._last_target = snap.target
             if "/target" not in self._dragging:
                 self.target.position = (snap.target[0], snap.target[1], 0.06)
             sx, sy = self._start_xy
-            self.ideal.points = np.array([[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]],
-                                         dtype=np.float32)
+            self.ideal.points = np.array(
+                [[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]], dtype=np.float32
+            )
         self._draw_memory(snap)
         self._draw_trail()
 
@@ -646,14 +830,14 @@ class ViewerServer:
             cloud = np.zeros((1, 3), np.float32)  # one point under the ground
             cloud[0, 2] = -1.0
         self.memory.points = cloud
-        self.memory.colors = np.broadcast_to(np.array(MEMORY_PURPLE, np.uint8),
-                                             cloud.shape).copy()
+        self.memory.colors = np.broadcast_to(np.array(MEMORY_PURPLE, np.uint8), cloud.shape).copy()
         x, y, _ = snap.pose
         a = snap.steer_heading_rad
         if math.isfinite(a):
-            self.steer.points = np.array([[[x, y, 0.5], [x + 1.6 * math.cos(a),
-                                                         y + 1.6 * math.sin(a), 0.5]]],
-                                         dtype=np.float32)
+            self.steer.points = np.array(
+                [[[x, y, 0.5], [x + 1.6 * math.cos(a), y + 1.6 * math.sin(a), 0.5]]],
+                dtype=np.float32,
+            )
 
     def _beam_segments(self, snap: Snapshot, echo: bool):
         """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
@@ -666,8 +850,10 @@ class ViewerServer:
             reach = float(reading) if math.isfinite(reading) else snap.max_range_m
             colour = reading_colour(float(reading))
             ox, oy, a = mount.x_m, mount.y_m, mount.angle_rad
-            arc = [(ox + reach * math.cos(a + s), oy + reach * math.sin(a + s))
-                   for s in np.linspace(-half, half, 5)]
+            arc = [
+                (ox + reach * math.cos(a + s), oy + reach * math.sin(a + s))
+                for s in np.linspace(-half, half, 5)
+            ]
             outline = [(ox, oy)] + arc + [(ox, oy)]
             for p, q in zip(outline, outline[1:]):
                 segments.append([[p[0], p[1], 0.06], [q[0], q[1], 0.06]])
@@ -690,15 +876,29 @@ class ViewerServer:
                     node["handle"].remove()
                 name = f"/obstacles/r{key[0]}_o{key[1]}"
                 handle = scene.add_transform_controls(
-                    name, scale=max(0.6, 2.2 * ob.radius_m), line_width=2.5,
-                    active_axes=(True, True, False), disable_rotations=True, depth_test=False,
-                    position=(ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01))
-                scene.add_cylinder(f"{name}/body", radius=ob.radius_m, height=OBSTACLE_HEIGHT_M,
-                                   color=STATIC_COLOUR if ob.is_static else MOVING_COLOUR,
-                                   position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01))
+                    name,
+                    scale=max(0.6, 2.2 * ob.radius_m),
+                    line_width=2.5,
+                    active_axes=(True, True, False),
+                    disable_rotations=True,
+                    depth_test=False,
+                    position=(ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01),
+                )
+                scene.add_cylinder(
+                    f"{name}/body",
+                    radius=ob.radius_m,
+                    height=OBSTACLE_HEIGHT_M,
+                    color=STATIC_COLOUR if ob.is_static else MOVING_COLOUR,
+                    position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01),
+                )
                 if not ob.is_static:
-                    scene.add_label(f"{name}/label", "moving", position=(ob.radius_m + 0.1, 0.0, 0.0),
-                                    anchor="center-left", font_screen_scale=0.8)
+                    scene.add_label(
+                        f"{name}/label",
+                        "moving",
+                        position=(ob.radius_m + 0.1, 0.0, 0.0),
+                        anchor="center-left",
+                        font_screen_scale=0.8,
+                    )
                 handle.on_update(self._make_drag_callback(name, ob.id))
                 node = {"handle": handle, "name": name, "static": ob.is_static, "xy": ob.xy}
                 self._obstacle_nodes[key] = node
@@ -717,16 +917,20 @@ class ViewerServer:
         while len(points) > chunk:
             # A full chunk is frozen as a node of its own; the next starts at its end.
             name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
-            self._trail_nodes.append(scene.add_line_segments(
-                name, polyline_segments(points[:chunk], 0.015), TRAIL_BLUE, thickness=0.045))
+            self._trail_nodes.append(
+                scene.add_line_segments(
+                    name, polyline_segments(points[:chunk], 0.015), TRAIL_BLUE, thickness=0.045
+                )
+            )
             self._current_trail = None
-            points = points[chunk - 1:]
+            points = points[chunk - 1 :]
         if len(points) >= 2:
             segs = polyline_segments(points, 0.015)
             if self._current_trail is None:
                 name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
-                self._current_trail = scene.add_line_segments(name, segs, TRAIL_BLUE,
-                                                              thickness=0.045)
+                self._current_trail = scene.add_line_segments(
+                    name, segs, TRAIL_BLUE, thickness=0.045
+                )
             else:
                 self._current_trail.points = segs
         self._trail_points = points
@@ -773,18 +977,35 @@ class ViewerServer:
             self.speed.value = snap.speed
 
     def _status_html(self, snap: Snapshot) -> str:
-        state = ("running" if snap.playing else
-                 {"reached": "reached the target", "collided": "collided",
-                  "timeout": "timed out"}.get(snap.outcome, "paused"))
-        colour = {"running": "#16a34a", "reached the target": "#16a34a", "collided": "#dc2626",
-                  "timed out": "#d97706"}.get(state, "#64748b")
+        state = (
+            "running"
+            if snap.playing
+            else {
+                "reached": "reached the target",
+                "collided": "collided",
+                "timeout": "timed out",
+            }.get(snap.outcome, "paused")
+        )
+        colour = {
+            "running": "#16a34a",
+            "reached the target": "#16a34a",
+            "collided": "#dc2626",
+            "timed out": "#d97706",
+        }.get(state, "#64748b")
         d_t, d_o, phi_t, phi_o = snap.inputs
         v_l, v_r = snap.voltages_v
         level_colour = {"error": "#b91c1c", "warning": "#b45309", "success": "#15803d"}.get(
-            snap.message_level, "#334155")
-        message = (f"<div style='margin-top:6px;padding:4px 6px;border-radius:4px;"
-                   f"background:{level_colour}14;color:{level_colour};font-size:0.85em'>"
-                   f"{html.escape(snap.message)}</div>") if snap.message else ""
+            snap.message_level, "#334155"
+        )
+        message = (
+            (
+                f"<div style='margin-top:6px;padding:4px 6px;border-radius:4px;"
+                f"background:{level_colour}14;color:{level_colour};font-size:0.85em'>"
+                f"{html.escape(snap.message)}</div>"
+            )
+            if snap.message
+            else ""
+        )
         return (
             "<div style='font-family:system-ui,sans-serif;line-height:1.35'>"
             f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
@@ -801,41 +1022,66 @@ class ViewerServer:
             f"<td>V<sub>L</sub> {_fmt(v_l, 'V', 1)}</td></tr><tr>"
             f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
             f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table>"
-            f"{message}</div>")
+            f"{message}</div>"
+        )
 
     @staticmethod
     def _parts_note(snap: Snapshot) -> str:
         if not (snap.has_parts and snap.parts_off):
             return ""
         off = snap.parts_off
-        return html.escape(f" (without {' and '.join(off)})" if len(off) <= 2
-                           else f" ({len(off)} parts off)")
+        return html.escape(
+            f" (without {' and '.join(off)})" if len(off) <= 2 else f" ({len(off)} parts off)"
+        )
 
     def _metrics_html(self, snap: Snapshot) -> str:
         m = snap.metrics
         paper = PAPER_TABLE4.get(snap.scenario_label) if not snap.layout_edited else None
         colour = "#15803d" if m.get("outcome") == "reached" else "#b91c1c"
-        rows = [("Outcome", m.get("outcome"), None, ""),
-                ("Time to target", m.get("time_to_target_s"), None, "s"),
-                ("Path length", m.get("path_length_m"), "path_length_m", "m"),
-                ("MAD from the line", m.get("mad_m"), "mad_m", "m"),
-                ("RMSE from the line", m.get("rmse_m"), "rmse_m", "m"),
-                ("Min centre distance", m.get("min_center_distance_m"), "min_center_distance_m", "m"),
-                ("Min clearance (footprint)", m.get("min_clearance_m"), None, "m"),
-                ("Max |voltage|", m.get("max_abs_voltage_v"), None, "V")]
-        head = ("<tr><th style='text-align:left'>metric</th><th style='text-align:right'>this run</th>"
-                + ("<th style='text-align:right'>paper</th>" if paper else "") + "</tr>")
+        rows = [
+            ("Outcome", m.get("outcome"), None, ""),
+            ("Time to target", m.get("time_to_target_s"), None, "s"),
+            ("Path length", m.get("path_length_m"), "path_length_m", "m"),
+            ("MAD from the line", m.get("mad_m"), "mad_m", "m"),
+            ("RMSE from the line", m.get("rmse_m"), "rmse_m", "m"),
+            ("Min centre distance", m.get("min_center_distance_m"), "min_center_distance_m", "m"),
+            ("Min clearance (footprint)", m.get("min_clearance_m"), None, "m"),
+            ("Max |voltage|", m.get("max_abs_voltage_v"), None, "V"),
+        ]
+        head = (
+            "<tr><th style='text-align:left'>metric</th><th style='text-align:right'>this run</th>"
+            + ("<th style='text-align:right'>paper</th>" if paper else "")
+            + "</tr>"
+        )
         body = []
         for label, value, key, unit in rows:
-            shown = (f"<b style='color:{colour}'>{html.escape(str(value))}</b>"
-                     if label == "Outcome" else _fmt(value, unit, 3))
-            paper_cell = (f"<td style='text-align:right;color:#64748b'>"
-                          f"{_fmt(paper.get(key), unit, 3) if key else ''}</td>") if paper else ""
-            body.append(f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{paper_cell}</tr>")
-        note = ("<div style='color:#64748b;font-size:0.8em'>Paper: Table 4, proposed method. "
-                "MAD and RMSE are distances from the straight start–target line.</div>")
-        return ("<table style='width:100%;font-size:0.85em;font-variant-numeric:tabular-nums'>"
-                + head + "".join(body) + "</table>" + note)
+            shown = (
+                f"<b style='color:{colour}'>{html.escape(str(value))}</b>"
+                if label == "Outcome"
+                else _fmt(value, unit, 3)
+            )
+            paper_cell = (
+                (
+                    f"<td style='text-align:right;color:#64748b'>"
+                    f"{_fmt(paper.get(key), unit, 3) if key else ''}</td>"
+                )
+                if paper
+                else ""
+            )
+            body.append(
+                f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{paper_cell}</tr>"
+            )
+        note = (
+            "<div style='color:#64748b;font-size:0.8em'>Paper: Table 4, proposed method. "
+            "MAD and RMSE are distances from the straight start–target line.</div>"
+        )
+        return (
+            "<table style='width:100%;font-size:0.85em;font-variant-numeric:tabular-nums'>"
+            + head
+            + "".join(body)
+            + "</table>"
+            + note
+        )
 
     def _draw_plots(self) -> None:
         rows = self.app.signals()
@@ -857,9 +1103,11 @@ class ViewerServer:
         if info is None:
             fis = self.app.fuzzy_system()
             if fis is None:
-                text = (f"The controller <b>{html.escape(self.app.controller_label)}</b> has no "
-                        "fuzzy rules to show. Choose a fuzzy controller (paper, baseline, "
-                        "fuzzynav) or upload a .fis file.")
+                text = (
+                    f"The controller <b>{html.escape(self.app.controller_label)}</b> has no "
+                    "fuzzy rules to show. Choose a fuzzy controller (paper, baseline, "
+                    "fuzzynav) or upload a .fis file."
+                )
             else:
                 text = "Press <b>Play</b> or <b>Step</b>: the rules that fire appear here."
             self.rules_html.content = f"<div style='font-size:0.9em;color:#475569'>{text}</div>"
@@ -888,47 +1136,70 @@ class ViewerServer:
             spikes.append(spike)
         self.aggregate_plot.data = (xs, *series, *spikes)
         names = info["output_names"]
-        self.aggregate_plot.title = ("Aggregated outputs · centroids " + ", ".join(
-            f"{n} {c:.2f} V" for n, c in zip(names, centroids)))
+        self.aggregate_plot.title = "Aggregated outputs · centroids " + ", ".join(
+            f"{n} {c:.2f} V" for n, c in zip(names, centroids)
+        )
 
     @staticmethod
     def _rules_html(info: dict) -> str:
         fis = info["fis"]
         strengths = info["strengths"]
         x = info["inputs"]
-        units = {"d_t": "m", "d_o": "m", "phi_t": "rad", "phi_o": "rad",
-                 "left": "m", "front": "m", "right": "m"}
+        units = {
+            "d_t": "m",
+            "d_o": "m",
+            "phi_t": "rad",
+            "phi_o": "rad",
+            "left": "m",
+            "front": "m",
+            "right": "m",
+        }
         lines = []
         memberships = fis.memberships(np.asarray([x]))
         for name, value, var, mu in zip(info["input_names"], x, fis.inputs, memberships):
             degrees = mu[0]
             terms = " ".join(
                 f"<span style='opacity:{0.35 + 0.65 * d:.2f}'>{html.escape(t.name)}&nbsp;{d:.2f}</span>"
-                for t, d in zip(var.terms, degrees) if d > 0.005)
+                for t, d in zip(var.terms, degrees)
+                if d > 0.005
+            )
             shown = f"{value:.2f} {units.get(name, '')}" if math.isfinite(value) else "none sensed"
-            lines.append(f"<tr><td style='white-space:nowrap'><b>{html.escape(name)}</b> = {shown}</td>"
-                         f"<td style='color:#334155'>{terms or '—'}</td></tr>")
+            lines.append(
+                f"<tr><td style='white-space:nowrap'><b>{html.escape(name)}</b> = {shown}</td>"
+                f"<td style='color:#334155'>{terms or '—'}</td></tr>"
+            )
         cells = []
         for i, s in enumerate(strengths):
             text = html.escape(fis.rule_text(i))
             cells.append(
                 f"<div title='rule {i + 1}: {text} — {s:.2f}' style='height:22px;border-radius:3px;"
                 f"background:rgba(37,99,235,{0.06 + 0.94 * s:.3f});color:{'#fff' if s > 0.5 else '#334155'};"
-                f"font-size:10px;text-align:center;line-height:22px'>{i + 1}</div>")
+                f"font-size:10px;text-align:center;line-height:22px'>{i + 1}</div>"
+            )
         order = [i for i in np.argsort(-strengths, kind="stable") if strengths[i] > 1e-3][:6]
         top = "".join(
             f"<tr><td style='width:28px;text-align:right'>{i + 1}</td>"
             f"<td style='width:70px'><div style='background:#e2e8f0;border-radius:2px'>"
             f"<div style='width:{100 * strengths[i]:.0f}%;height:8px;background:#2563eb;"
             f"border-radius:2px'></div></div><span style='font-size:10px'>{strengths[i]:.2f}</span></td>"
-            f"<td style='font-size:11px'>{html.escape(fis.rule_text(i))}</td></tr>" for i in order)
+            f"<td style='font-size:11px'>{html.escape(fis.rule_text(i))}</td></tr>"
+            for i in order
+        )
         n_firing = int(np.sum(strengths > 1e-3))
         state = info.get("state") or {}
-        crisp = "".join(f"<tr><td style='white-space:nowrap'><b>{html.escape(k)}</b></td>"
-                        f"<td style='color:#334155'>{html.escape(v)}</td></tr>"
-                        for k, v in state.items())
-        crisp = (("<div style='font-weight:600;margin-bottom:2px'>Crisp parts</div>"
-                  f"<table style='width:100%'>{crisp}</table>") if crisp else "")
+        crisp = "".join(
+            f"<tr><td style='white-space:nowrap'><b>{html.escape(k)}</b></td>"
+            f"<td style='color:#334155'>{html.escape(v)}</td></tr>"
+            for k, v in state.items()
+        )
+        crisp = (
+            (
+                "<div style='font-weight:600;margin-bottom:2px'>Crisp parts</div>"
+                f"<table style='width:100%'>{crisp}</table>"
+            )
+            if crisp
+            else ""
+        )
         return (
             "<div style='font-family:system-ui,sans-serif;font-size:0.85em'>"
             f"{crisp}"
@@ -939,4 +1210,5 @@ class ViewerServer:
             f"<div style='display:grid;grid-template-columns:repeat(10,1fr);gap:2px'>{''.join(cells)}</div>"
             "<div style='font-weight:600;margin:6px 0 2px'>Strongest rules now</div>"
             f"<table style='width:100%;border-collapse:collapse'>{top or '<tr><td>none fire</td></tr>'}</table>"
-            "</div>")
+            "</div>"
+        )

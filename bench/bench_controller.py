@@ -13,15 +13,12 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from fuzzynav.app.runs import build_simulation
 
-from app.runs import build_simulation  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 TARGET_FACTOR = 200.0
 
@@ -37,10 +34,16 @@ def realtime_factor(controller: str, perception: str, repeats: int) -> dict:
         cpu_factors.append(result.metrics["sim_time_s"] / cpu)
         sims.append(result)
     r = sims[-1]
-    return {"controller": controller, "perception": perception, "outcome": r.outcome,
-            "sim_time_s": r.metrics["sim_time_s"], "steps": r.metrics["steps"],
-            "median_realtime_factor": statistics.median(factors),
-            "median_cpu_realtime_factor": statistics.median(cpu_factors), "all": factors}
+    return {
+        "controller": controller,
+        "perception": perception,
+        "outcome": r.outcome,
+        "sim_time_s": r.metrics["sim_time_s"],
+        "steps": r.metrics["steps"],
+        "median_realtime_factor": statistics.median(factors),
+        "median_cpu_realtime_factor": statistics.median(cpu_factors),
+        "all": factors,
+    }
 
 
 def controller_call_us(controller: str, repeats: int = 20000) -> float:
@@ -62,15 +65,19 @@ def main(argv=None) -> int:
     rows = [realtime_factor(args.controller, p, args.repeats) for p in ("ideal", "ultrasonic")]
     call = controller_call_us(args.controller)
     if args.json:
-        print(json.dumps({"runs": rows, "controller_call_us": call, "target_factor": TARGET_FACTOR}))
+        print(
+            json.dumps({"runs": rows, "controller_call_us": call, "target_factor": TARGET_FACTOR})
+        )
         return 0
     for row in rows:
         verdict = "meets" if row["median_realtime_factor"] >= TARGET_FACTOR else "BELOW"
-        print(f"s1, {row['controller']}, {row['perception']:10s}: {row['outcome']} after "
-              f"{row['sim_time_s']:.1f} s simulated; median real-time factor "
-              f"{row['median_realtime_factor']:.0f}x by the wall clock, "
-              f"{row['median_cpu_realtime_factor']:.0f}x by CPU time, over {args.repeats} runs "
-              f"(wall clock {verdict} the {TARGET_FACTOR:.0f}x aim)")
+        print(
+            f"s1, {row['controller']}, {row['perception']:10s}: {row['outcome']} after "
+            f"{row['sim_time_s']:.1f} s simulated; median real-time factor "
+            f"{row['median_realtime_factor']:.0f}x by the wall clock, "
+            f"{row['median_cpu_realtime_factor']:.0f}x by CPU time, over {args.repeats} runs "
+            f"(wall clock {verdict} the {TARGET_FACTOR:.0f}x aim)"
+        )
     print(f"one {args.controller} controller call: {call:.1f} us")
     return 0
 

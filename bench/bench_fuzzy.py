@@ -20,18 +20,17 @@ import contextlib
 import io
 import math
 import statistics
-import sys
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from fuzzynav.controller import membership as mf
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.rulebase import read_toml
 
-from controller import membership as mf  # noqa: E402
-from controller.fuzzy import FuzzySystem  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 TARGET_ONE_US = 30.0
 TARGET_ROW_US = 2.0
@@ -39,8 +38,14 @@ TARGET_ROW_US = 2.0
 
 def _inputs(n: int, seed: int = 0) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    X = np.column_stack([rng.uniform(-1.13, 30, n), rng.uniform(0, 3, n),
-                         rng.uniform(-2 * math.pi, 2 * math.pi, n), rng.uniform(-math.pi, math.pi, n)])
+    X = np.column_stack(
+        [
+            rng.uniform(-1.13, 30, n),
+            rng.uniform(0, 3, n),
+            rng.uniform(-2 * math.pi, 2 * math.pi, n),
+            rng.uniform(-math.pi, math.pi, n),
+        ]
+    )
     X[rng.random(n) < 0.3, 1] = np.nan  # no obstacle sensed
     return X
 
@@ -82,21 +87,32 @@ def _simpful(system: FuzzySystem):
 
     def mfun(t):
         p = t.params
-        f = {"trimf": lambda: sf.Triangular_MF(*p), "trapmf": lambda: sf.Trapezoidal_MF(*p),
-             "linsmf": lambda: sf.Trapezoidal_MF(p[0], p[1], p[1], p[1]),
-             "linzmf": lambda: sf.Trapezoidal_MF(p[0], p[0], p[0], p[1]),
-             "gaussmf": lambda: sf.Gaussian_MF(mu=p[1], sigma=p[0])}[t.shape]()
+        f = {
+            "trimf": lambda: sf.Triangular_MF(*p),
+            "trapmf": lambda: sf.Trapezoidal_MF(*p),
+            "linsmf": lambda: sf.Trapezoidal_MF(p[0], p[1], p[1], p[1]),
+            "linzmf": lambda: sf.Trapezoidal_MF(p[0], p[0], p[0], p[1]),
+            "gaussmf": lambda: sf.Gaussian_MF(mu=p[1], sigma=p[0]),
+        }[t.shape]()
         return lambda x: 0.0 if x != x else f(x)  # NaN = nothing sensed
 
     with contextlib.redirect_stdout(io.StringIO()):
         S = sf.FuzzySystem(show_banner=False, verbose=False)
         for v in system.inputs + system.outputs:
-            S.add_linguistic_variable(v.name, sf.LinguisticVariable(
-                [sf.FuzzySet(function=mfun(t), term=t.name) for t in v.terms],
-                universe_of_discourse=list(v.range)))
+            S.add_linguistic_variable(
+                v.name,
+                sf.LinguisticVariable(
+                    [sf.FuzzySet(function=mfun(t), term=t.name) for t in v.terms],
+                    universe_of_discourse=list(v.range),
+                ),
+            )
         texts = []
         for r in system.rules:
-            cl = [f"({v.name} IS {v.terms[i].name})" for v, i in zip(system.inputs, r.antecedent) if i is not None]
+            cl = [
+                f"({v.name} IS {v.terms[i].name})"
+                for v, i in zip(system.inputs, r.antecedent)
+                if i is not None
+            ]
             ant = cl[0] if len(cl) == 1 else f"{cl[0]} AND {cl[1]}"
             for c in cl[2:]:
                 ant = f"({ant}) AND {c}"
@@ -112,6 +128,7 @@ def _simpful(system: FuzzySystem):
                 S.set_variable(v.name, float(xi))
             res = S.Mamdani_inference(subdivisions=system.n_points, ignore_warnings=True)
         return np.array([float(res[v.name]) for v in system.outputs])
+
     return run
 
 
@@ -119,9 +136,13 @@ def _skfuzzy(system: FuzzySystem):
     import skfuzzy as fuzz
     from skfuzzy import control as ctrl
 
-    shapes = {"trimf": lambda u, p: fuzz.trimf(u, list(p)), "trapmf": lambda u, p: fuzz.trapmf(u, list(p)),
-              "gaussmf": lambda u, p: fuzz.gaussmf(u, p[1], p[0]),
-              "linsmf": lambda u, p: mf.linsmf(u, p), "linzmf": lambda u, p: mf.linzmf(u, p)}
+    shapes = {
+        "trimf": lambda u, p: fuzz.trimf(u, list(p)),
+        "trapmf": lambda u, p: fuzz.trapmf(u, list(p)),
+        "gaussmf": lambda u, p: fuzz.gaussmf(u, p[1], p[0]),
+        "linsmf": lambda u, p: mf.linsmf(u, p),
+        "linzmf": lambda u, p: mf.linzmf(u, p),
+    }
     ants, cons = [], []
     for v in system.inputs:
         a = ctrl.Antecedent(np.linspace(*v.range, 1001), v.name)
@@ -129,18 +150,32 @@ def _skfuzzy(system: FuzzySystem):
             a[t.name] = shapes[t.shape](a.universe, t.params)
         ants.append(a)
     for v in system.outputs:
-        c = ctrl.Consequent(np.linspace(*v.range, system.n_points), v.name, defuzzify_method="centroid")
+        c = ctrl.Consequent(
+            np.linspace(*v.range, system.n_points), v.name, defuzzify_method="centroid"
+        )
         for t in v.terms:
             c[t.name] = shapes[t.shape](c.universe, t.params)
         cons.append(c)
     rules = []
     for r in system.rules:
-        terms = [a[v.terms[i].name] for a, v, i in zip(ants, system.inputs, r.antecedent) if i is not None]
+        terms = [
+            a[v.terms[i].name]
+            for a, v, i in zip(ants, system.inputs, r.antecedent)
+            if i is not None
+        ]
         ant = terms[0]
         for t in terms[1:]:
             ant = ant & t
-        rules.append(ctrl.Rule(ant, tuple(c[v.terms[k].name] for c, v, k in
-                                          zip(cons, system.outputs, r.consequent) if k is not None)))
+        rules.append(
+            ctrl.Rule(
+                ant,
+                tuple(
+                    c[v.terms[k].name]
+                    for c, v, k in zip(cons, system.outputs, r.consequent)
+                    if k is not None
+                ),
+            )
+        )
     # cache=False: scikit-fuzzy otherwise memoises the outputs of inputs it has seen,
     # and the repeats below reuse the same inputs
     sim = ctrl.ControlSystemSimulation(ctrl.ControlSystem(rules), cache=False)
@@ -150,12 +185,14 @@ def _skfuzzy(system: FuzzySystem):
             sim.input[v.name] = xi
         sim.compute()
         return np.array([sim.output[v.name] for v in system.outputs])
+
     return run
 
 
 def _verdict(target: float, wall: float, cpu: float) -> str:
     def mark(v):
         return "[green]met[/]" if v <= target else "[red]missed[/]"
+
     return f"<= {target:g} us: wall {mark(wall)}, CPU {mark(cpu)}"
 
 
@@ -168,7 +205,7 @@ def main(argv=None) -> int:
     from rich.table import Table
 
     console = Console(width=130)
-    system = FuzzySystem.from_toml(args.rules)
+    system = read_toml(args.rules)
     n_batch = 10_000
     X = _inputs(n_batch)
     xs = [list(map(float, x)) for x in X[:2000]]
@@ -180,9 +217,12 @@ def main(argv=None) -> int:
         system.evaluate_one(x)
 
     one_s = statistics.median(_median_single(system.evaluate_one, xs) for _ in range(reps))
-    one_cpu = statistics.median(_median_single(system.evaluate_one, xs, time.thread_time)
-                                for _ in range(reps))
-    one_arr_s = statistics.median(_median_single(system.evaluate_one, list(X[:2000])) for _ in range(reps))
+    one_cpu = statistics.median(
+        _median_single(system.evaluate_one, xs, time.thread_time) for _ in range(reps)
+    )
+    one_arr_s = statistics.median(
+        _median_single(system.evaluate_one, list(X[:2000])) for _ in range(reps)
+    )
     batch_times, batch_cpu = [], []
     for _ in range(reps * 2):
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -203,32 +243,61 @@ def main(argv=None) -> int:
         skf_s = _median_per_call(skf, list(Xs[:20]), 3 if args.quick else 5)
         d_simp = max(np.abs(simp(x) - system.evaluate_one(x)).max() for x in Xs[:40])
         d_skf = max(np.abs(skf(x) - system.evaluate_one(x)).max() for x in Xs[:40])
-    ident = np.array_equal(np.array([system.evaluate_one(x) for x in X[:3000]]), system.evaluate(X)[:3000])
+    ident = np.array_equal(
+        np.array([system.evaluate_one(x) for x in X[:3000]]), system.evaluate(X)[:3000]
+    )
 
     us = 1e6
-    t = Table(title=f"Fuzzy engine on {Path(args.rules).name}: {len(system.inputs)} inputs, "
-                    f"{len(system.outputs)} outputs, {len(system.rules)} rules, {system.n_points}-point grid "
-                    f"(medians of {reps} repeats)")
+    t = Table(
+        title=f"Fuzzy engine on {Path(args.rules).name}: {len(system.inputs)} inputs, "
+        f"{len(system.outputs)} outputs, {len(system.rules)} rules, {system.n_points}-point grid "
+        f"(medians of {reps} repeats)"
+    )
     t.add_column("what")
     t.add_column("median time", justify="right")
     t.add_column("CPU time", justify="right")
     t.add_column("vs our evaluate_one", justify="right")
     t.add_column("target", justify="right")
-    t.add_row("ours: evaluate_one (list input)", f"{one_s * us:.1f} us", f"{one_cpu * us:.1f} us", "1",
-              _verdict(TARGET_ONE_US, one_s * us, one_cpu * us))
-    t.add_row("ours: evaluate_one (ndarray input)", f"{one_arr_s * us:.1f} us", "", f"{one_arr_s / one_s:.2f}", "")
-    t.add_row(f"ours: evaluate, per row (N={n_batch:,})", f"{row_s * us:.2f} us", f"{row_cpu * us:.2f} us",
-              f"1/{one_s / row_s:.1f}",
-              _verdict(TARGET_ROW_US, row_s * us, row_cpu * us))
+    t.add_row(
+        "ours: evaluate_one (list input)",
+        f"{one_s * us:.1f} us",
+        f"{one_cpu * us:.1f} us",
+        "1",
+        _verdict(TARGET_ONE_US, one_s * us, one_cpu * us),
+    )
+    t.add_row(
+        "ours: evaluate_one (ndarray input)",
+        f"{one_arr_s * us:.1f} us",
+        "",
+        f"{one_arr_s / one_s:.2f}",
+        "",
+    )
+    t.add_row(
+        f"ours: evaluate, per row (N={n_batch:,})",
+        f"{row_s * us:.2f} us",
+        f"{row_cpu * us:.2f} us",
+        f"1/{one_s / row_s:.1f}",
+        _verdict(TARGET_ROW_US, row_s * us, row_cpu * us),
+    )
     t.add_row("simpful 2.12, per call", f"{simp_s * 1e3:.1f} ms", "", f"x{simp_s / one_s:,.0f}", "")
-    t.add_row("scikit-fuzzy 0.5, per call", f"{skf_s * 1e3:.1f} ms", "", f"x{skf_s / one_s:,.0f}", "")
+    t.add_row(
+        "scikit-fuzzy 0.5, per call", f"{skf_s * 1e3:.1f} ms", "", f"x{skf_s / one_s:,.0f}", ""
+    )
     console.print(t)
-    console.print(f"batch row vs simpful call: x{simp_s / row_s:,.0f}; vs scikit-fuzzy: x{skf_s / row_s:,.0f}")
-    console.print(f"largest |ours - simpful| on 40 inputs: {d_simp:.2e} V (same grid; exact oracle)")
-    console.print(f"largest |ours - scikit-fuzzy| on 40 inputs: {d_skf:.2e} V (area centroid, see tests)")
+    console.print(
+        f"batch row vs simpful call: x{simp_s / row_s:,.0f}; vs scikit-fuzzy: x{skf_s / row_s:,.0f}"
+    )
+    console.print(
+        f"largest |ours - simpful| on 40 inputs: {d_simp:.2e} V (same grid; exact oracle)"
+    )
+    console.print(
+        f"largest |ours - scikit-fuzzy| on 40 inputs: {d_skf:.2e} V (area centroid, see tests)"
+    )
     console.print(f"evaluate_one == evaluate bit for bit on 3000 rows: {ident}")
-    console.print(f"machine calibration: a 1e6-iteration Python float loop takes {_calibration_ms():.0f} ms "
-                  "(a typical desktop: ~40-60 ms)")
+    console.print(
+        f"machine calibration: a 1e6-iteration Python float loop takes {_calibration_ms():.0f} ms "
+        "(a typical desktop: ~40-60 ms)"
+    )
     return 0
 
 

@@ -5,6 +5,7 @@
 The inputs and ranges of s1 and s2 runs (both perception modes) are recorded, then replayed
 through a fresh controller, timing every call with perf_counter_ns. Budget: 50 us median.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -14,14 +15,13 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
+from fuzzynav.controller.fuzzynav import fuzzynav_controller
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-import numpy as np  # noqa: E402
-
-from controller.fuzzynav import fuzzynav_controller  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
 
 BUDGET_US = 50.0
 
@@ -30,8 +30,11 @@ def recorded_inputs():
     rows = []
     for name in ("s1", "s2"):
         for mode in ("ideal", "ultrasonic"):
-            log = Simulation(load_scenario(name), fuzzynav_controller(), perception=mode,
-                             seed=0).run().log
+            log = (
+                Simulation(load_scenario(name), fuzzynav_controller(), perception=mode, seed=0)
+                .run()
+                .log
+            )
             ok = np.isfinite(log.voltages_v[:, 0])
             rows.append((log.inputs[ok], log.ranges_m[ok]))
     return rows
@@ -58,15 +61,21 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     rows = recorded_inputs()
     times = time_calls(rows, args.repeat)
-    result = {"calls": len(times), "median_us": statistics.median(times),
-              "p90_us": float(np.percentile(times, 90)), "budget_us": BUDGET_US}
+    result = {
+        "calls": len(times),
+        "median_us": statistics.median(times),
+        "p90_us": float(np.percentile(times, 90)),
+        "budget_us": BUDGET_US,
+    }
     result["within_budget"] = result["median_us"] <= BUDGET_US
     if args.json:
         print(json.dumps(result))
     else:
-        print(f"fuzzynav decision: median {result['median_us']:.1f} us, p90 "
-              f"{result['p90_us']:.1f} us over {result['calls']} calls "
-              f"(budget {BUDGET_US:.0f} us: {'OK' if result['within_budget'] else 'OVER'})")
+        print(
+            f"fuzzynav decision: median {result['median_us']:.1f} us, p90 "
+            f"{result['p90_us']:.1f} us over {result['calls']} calls "
+            f"(budget {BUDGET_US:.0f} us: {'OK' if result['within_budget'] else 'OVER'})"
+        )
     return 0
 
 

@@ -12,7 +12,7 @@ import timeit
 
 import numpy as np
 
-from world.husky import HuskyModel
+from fuzzynav.world.husky import HuskyModel
 
 STEP_S = 0.02
 CALLS_PER_REPEAT = 100_000

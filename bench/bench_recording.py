@@ -31,8 +31,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 BUDGET = 0.50
 
@@ -45,16 +43,16 @@ def import_time_s() -> float:
 
 def fuzzy_controller_factory():
     """(label, factory) of the fuzzy controller to time, or None."""
-    from controller.registry import controller_names, make_controller
+    from fuzzynav.controller.registry import controller_names, make_controller
 
     if "paper" in controller_names():
         return "paper", lambda: make_controller("paper")
     try:
-        from controller.fuzzy import FuzzySystem
-        from world.scenario import ASSETS_DIR
+        from fuzzynav.controller.rulebase import read_toml
+        from fuzzynav.world.scenario import ASSETS_DIR
     except ImportError:
         return None
-    fis = FuzzySystem.from_toml(ASSETS_DIR / "rules" / "paper.toml")
+    fis = read_toml(ASSETS_DIR / "rules" / "paper.toml")
 
     class PaperRuleBase:
         name = "paper.toml (engine only)"
@@ -72,8 +70,8 @@ def fuzzy_controller_factory():
 
 
 def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
-    from app.recording import LiveRecorder, record_run
-    from app.runs import build_simulation
+    from fuzzynav.app.recording import LiveRecorder, record_run
+    from fuzzynav.app.runs import build_simulation
 
     runs, records, lives, rows = [], [], [], 0
     clocks = (time.perf_counter, time.process_time)  # wall; CPU of all threads
@@ -85,8 +83,14 @@ def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
         rows = len(result.log)
 
         started = [c() for c in clocks]
-        record_run(result, out_dir / f"{k}.rrd", controller=sim.controller, sensors=sim.sensors,
-                   parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v)
+        record_run(
+            result,
+            out_dir / f"{k}.rrd",
+            controller=sim.controller,
+            sensors=sim.sensors,
+            parameters=sim.model.parameters,
+            voltage_limit_v=sim.voltage_limit_v,
+        )
         records.append([c() - s for c, s in zip(clocks, started)])
 
         started = [c() for c in clocks]
@@ -104,22 +108,28 @@ def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
     out = {"label": label, "rows": rows, "outcome": result.outcome}
     for i, clock in enumerate(("wall", "cpu")):
         run, rec, live = median(runs, i), median(records, i), median(lives, i)
-        out[clock] = {"run": run, "record": rec, "live": live, "overhead": rec / run,
-                      "live_overhead": live / run - 1.0}
+        out[clock] = {
+            "run": run,
+            "record": rec,
+            "live": live,
+            "overhead": rec / run,
+            "live_overhead": live / run - 1.0,
+        }
     return out
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--check", action="store_true",
-                        help="exit 1 when an overhead exceeds the 50 %% budget")
+    parser.add_argument(
+        "--check", action="store_true", help="exit 1 when an overhead exceeds the 50 %% budget"
+    )
     args = parser.parse_args(argv)
 
     imported = import_time_s()
-    from app.recording import package_versions, record_run
-    from app.runs import build_simulation
-    from controller.proportional import ProportionalController
+    from fuzzynav.app.recording import package_versions, record_run
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.controller.proportional import ProportionalController
 
     with tempfile.TemporaryDirectory() as tmp:
         out_dir = Path(tmp)
@@ -134,31 +144,43 @@ def main(argv=None) -> int:
         fuzzy = fuzzy_controller_factory()
         if fuzzy is not None:
             rows.append(time_controller(*fuzzy, max(3, args.repeats // 2), out_dir))
-        from controller.registry import controller_names, make_controller
+        from fuzzynav.controller.registry import controller_names, make_controller
 
         if "fuzzynav" in controller_names():
-            rows.append(time_controller("fuzzynav", lambda: make_controller("fuzzynav"),
-                                        max(3, args.repeats // 2), out_dir))
+            rows.append(
+                time_controller(
+                    "fuzzynav",
+                    lambda: make_controller("fuzzynav"),
+                    max(3, args.repeats // 2),
+                    out_dir,
+                )
+            )
 
-    print(f"import rerun: {imported * 1000:.0f} ms; first record_run in a process "
-          f"(incl. a run, versions, git): {first * 1000:.0f} ms")
+    print(
+        f"import rerun: {imported * 1000:.0f} ms; first record_run in a process "
+        f"(incl. a run, versions, git): {first * 1000:.0f} ms"
+    )
     over = False
     for r in rows:
         w, c = r["wall"], r["cpu"]
         verdict = "within" if w["overhead"] <= BUDGET else "OVER"
         over |= w["overhead"] > BUDGET
-        print(f"s1, {r['label']}: {r['rows']} rows ({r['outcome']})\n"
-              f"  wall: median run {w['run'] * 1000:.0f} ms, record_run "
-              f"{w['record'] * 1000:.0f} ms -> +{w['overhead'] * 100:.0f} % ({verdict} the "
-              f"+{BUDGET * 100:.0f} % budget); run with LiveRecorder "
-              f"{w['live'] * 1000:.0f} ms (+{w['live_overhead'] * 100:.0f} %)\n"
-              f"  CPU (all threads): run {c['run'] * 1000:.0f} ms, record_run "
-              f"{c['record'] * 1000:.0f} ms -> +{c['overhead'] * 100:.0f} %; with LiveRecorder "
-              f"+{c['live_overhead'] * 100:.0f} %")
+        print(
+            f"s1, {r['label']}: {r['rows']} rows ({r['outcome']})\n"
+            f"  wall: median run {w['run'] * 1000:.0f} ms, record_run "
+            f"{w['record'] * 1000:.0f} ms -> +{w['overhead'] * 100:.0f} % ({verdict} the "
+            f"+{BUDGET * 100:.0f} % budget); run with LiveRecorder "
+            f"{w['live'] * 1000:.0f} ms (+{w['live_overhead'] * 100:.0f} %)\n"
+            f"  CPU (all threads): run {c['run'] * 1000:.0f} ms, record_run "
+            f"{c['record'] * 1000:.0f} ms -> +{c['overhead'] * 100:.0f} %; with LiveRecorder "
+            f"+{c['live_overhead'] * 100:.0f} %"
+        )
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    print(f"(load average {load:.1f} on {os.cpu_count()} CPUs: timings swing with the "
-          f"machine's load; rerun writes from background threads, which a busy machine "
-          f"slows most)")
+    print(
+        f"(load average {load:.1f} on {os.cpu_count()} CPUs: timings swing with the "
+        f"machine's load; rerun writes from background threads, which a busy machine "
+        f"slows most)"
+    )
     return 1 if (args.check and over) else 0
 
 

@@ -22,21 +22,25 @@ from __future__ import annotations
 import os
 import shutil
 import statistics
-import sys
 import threading
 import time
 from pathlib import Path
 
+import psutil
+
+from fuzzynav.app.viewer import ViewerApp
+from fuzzynav.app.viewer_ui import ViewerServer
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-import psutil  # noqa: E402
-
-from app.viewer import ViewerApp  # noqa: E402
-from app.viewer_ui import ViewerServer  # noqa: E402
-
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 CPU_WINDOW_S = 5.0
 
 
@@ -101,9 +105,11 @@ def open_tab(pw, url, chromium):
     browser = pw.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
     page = browser.new_context(viewport={"width": 1280, "height": 800}).new_page()
     page.goto(url)
-    page.wait_for_function("() => { const m = window.__viserMutable; return !!(m && m.camera &&"
-                           " m.nodeRefFromName['/target'] && m.nodeRefFromName['/ground']); }",
-                           timeout=60_000)
+    page.wait_for_function(
+        "() => { const m = window.__viserMutable; return !!(m && m.camera &&"
+        " m.nodeRefFromName['/target'] && m.nodeRefFromName['/ground']); }",
+        timeout=60_000,
+    )
     page.wait_for_timeout(3000)  # panels docked, camera refitted
     return browser, page
 
@@ -168,10 +174,14 @@ def browser_latency_and_cpu(chromium: str | None, controller: str | None = None)
             out["browser drag updates measured"] = len(end_to_end)
             if end_to_end:
                 out["drag update -> controller input, server side, median (ms)"] = (
-                    1e3 * statistics.median(server_side))
-                out["drag update -> controller input, server side, max (ms)"] = 1e3 * max(server_side)
+                    1e3 * statistics.median(server_side)
+                )
+                out["drag update -> controller input, server side, max (ms)"] = 1e3 * max(
+                    server_side
+                )
                 out["mouse move -> controller input, end to end, median (ms)"] = (
-                    1e3 * statistics.median(end_to_end))
+                    1e3 * statistics.median(end_to_end)
+                )
 
             def keep_running():
                 if app.sim.done:
@@ -195,16 +205,21 @@ def main(argv=None) -> None:
     import argparse
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--controller", default=None,
-                        help="controller in the viewer (default: the viewer's, paper)")
+    parser.add_argument(
+        "--controller", default=None, help="controller in the viewer (default: the viewer's, paper)"
+    )
     args = parser.parse_args(argv)
     load = os.getloadavg()
-    print(f"bench_viewer: load average {load[0]:.1f} on {os.cpu_count()} cores, "
-          f"controller {args.controller or 'default'}")
+    print(
+        f"bench_viewer: load average {load[0]:.1f} on {os.cpu_count()} cores, "
+        f"controller {args.controller or 'default'}"
+    )
     latencies = api_latency(controller=args.controller)
-    print(f"drag latency, app API -> controller input: median {1e3 * statistics.median(latencies):.1f} ms, "
-          f"max {1e3 * max(latencies):.1f} ms over {len(latencies)} moves at 1x "
-          f"(control period 20 ms)")
+    print(
+        f"drag latency, app API -> controller input: median {1e3 * statistics.median(latencies):.1f} ms, "
+        f"max {1e3 * max(latencies):.1f} ms over {len(latencies)} moves at 1x "
+        f"(control period 20 ms)"
+    )
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         print("chromium not installed: browser latency and CPU with a tab skipped")

@@ -35,9 +35,9 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from controller.proportional import ProportionalController
-from world.scenario import load_scenario
-from world.simulation import Simulation
+from fuzzynav.controller.proportional import ProportionalController
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
 
 TARGET_STEPS_PER_S = 20_000
 CONSTANT_V = (10.0, 12.0)
@@ -64,7 +64,7 @@ def time_loop(sim: Simulation) -> tuple[int, float, float]:
     while not sim.done:
         sim.step()
         steps += 1
-    sim.log  # the last block of the log is written here
+    _ = sim.log  # the last block of the log is written here
     return steps, time.process_time() - cpu, time.perf_counter() - wall
 
 
@@ -94,47 +94,86 @@ def main(argv=None) -> None:
 
     yardstick_x = np.ones(6)
     yardstick_us = statistics.median(
-        t / 100_000 * 1e6 for t in timeit.repeat(lambda: yardstick_x + yardstick_x,
-                                                  number=100_000, repeat=5))
+        t / 100_000 * 1e6
+        for t in timeit.repeat(lambda: yardstick_x + yardstick_x, number=100_000, repeat=5)
+    )
 
-    loop = Table(title=f"(a) plant + world + sensors, constant {CONSTANT_V[0]:g} V / "
-                       f"{CONSTANT_V[1]:g} V: median of {repeats} runs")
-    for name in ("scenario", "perception", "steps/run", "steps/s (CPU)", "us/step (CPU)",
-                 "spread (CPU)", "steps/s (wall)", f">= {TARGET_STEPS_PER_S:,}"):
+    loop = Table(
+        title=f"(a) plant + world + sensors, constant {CONSTANT_V[0]:g} V / "
+        f"{CONSTANT_V[1]:g} V: median of {repeats} runs"
+    )
+    for name in (
+        "scenario",
+        "perception",
+        "steps/run",
+        "steps/s (CPU)",
+        "us/step (CPU)",
+        "spread (CPU)",
+        "steps/s (wall)",
+        f">= {TARGET_STEPS_PER_S:,}",
+    ):
         loop.add_column(name, justify="left" if name in ("scenario", "perception") else "right")
     for scenario_name in ("s1", "s2"):
         for perception in ("ideal", "ultrasonic"):
-            sim = Simulation(load_scenario(scenario_name), ConstantVoltage(*CONSTANT_V),
-                             perception=perception, seed=0)
+            sim = Simulation(
+                load_scenario(scenario_name),
+                ConstantVoltage(*CONSTANT_V),
+                perception=perception,
+                seed=0,
+            )
             time_loop(sim)  # warm-up: ZOH matrices, caches, allocator
             runs = [time_loop(sim) for _ in range(repeats)]
             cpu_rates = [steps / cpu for steps, cpu, _ in runs]
             rate = median(cpu_rates)
-            loop.add_row(scenario_name, perception, f"{runs[0][0]:,}", f"{rate:,.0f}",
-                         f"{1e6 / rate:.1f}", spread(cpu_rates),
-                         f"{median(steps / wall for steps, _, wall in runs):,.0f}",
-                         "[green]yes[/]" if rate >= TARGET_STEPS_PER_S else "[red]no[/]")
+            loop.add_row(
+                scenario_name,
+                perception,
+                f"{runs[0][0]:,}",
+                f"{rate:,.0f}",
+                f"{1e6 / rate:.1f}",
+                spread(cpu_rates),
+                f"{median(steps / wall for steps, _, wall in runs):,.0f}",
+                "[green]yes[/]" if rate >= TARGET_STEPS_PER_S else "[red]no[/]",
+            )
 
-    rtf = Table(title=f"(b) real-time factor of an s1 run with the P controller: "
-                      f"median of {repeats} runs")
-    for name in ("perception", "outcome", "steps", "sim s", "RTF (CPU)", "spread (CPU)",
-                 "RTF (wall)", "steps/s (CPU)"):
+    rtf = Table(
+        title=f"(b) real-time factor of an s1 run with the P controller: median of {repeats} runs"
+    )
+    for name in (
+        "perception",
+        "outcome",
+        "steps",
+        "sim s",
+        "RTF (CPU)",
+        "spread (CPU)",
+        "RTF (wall)",
+        "steps/s (CPU)",
+    ):
         rtf.add_column(name, justify="left" if name in ("perception", "outcome") else "right")
     for perception in ("ideal", "ultrasonic"):
-        sim = Simulation(load_scenario("s1"), ProportionalController(), perception=perception,
-                         seed=0)
+        sim = Simulation(
+            load_scenario("s1"), ProportionalController(), perception=perception, seed=0
+        )
         outcome = sim.run().outcome  # warm-up
         runs = [time_run(sim) for _ in range(repeats)]
         factors = [sim_s / cpu for _, sim_s, cpu, _ in runs]
-        rtf.add_row(perception, outcome, f"{runs[0][0]:,}", f"{runs[0][1]:.2f}",
-                    f"{median(factors):,.0f}x", spread(factors),
-                    f"{median(sim_s / wall for _, sim_s, _, wall in runs):,.0f}x",
-                    f"{median(steps / cpu for steps, _, cpu, _ in runs):,.0f}")
+        rtf.add_row(
+            perception,
+            outcome,
+            f"{runs[0][0]:,}",
+            f"{runs[0][1]:.2f}",
+            f"{median(factors):,.0f}x",
+            spread(factors),
+            f"{median(sim_s / wall for _, sim_s, _, wall in runs):,.0f}x",
+            f"{median(steps / cpu for steps, _, cpu, _ in runs):,.0f}",
+        )
 
     console.print(loop)
     console.print(rtf)
-    console.print(f"yardstick: a 6-vector numpy add takes {yardstick_us:.2f} us now "
-                  f"(the machine is shared; compare runs by it).")
+    console.print(
+        f"yardstick: a 6-vector numpy add takes {yardstick_us:.2f} us now "
+        f"(the machine is shared; compare runs by it)."
+    )
 
 
 if __name__ == "__main__":

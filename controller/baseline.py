@@ -20,13 +20,14 @@ Its numbers are NOT the paper's ref. [19] numbers; ``fuzzynav compare`` prints b
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
-from controller.fuzzy import FuzzySystem
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.resources import asset_path
 
-ASSETS = Path(__file__).resolve().parents[1] / "assets" / "rules"
+ASSETS = asset_path("rules")
 GOAL_RULES = ASSETS / "baseline_goal.toml"
 AVOID_RULES = ASSETS / "baseline_avoid.toml"
 FRONT_HALF_WIDTH_RAD = 0.35
@@ -41,8 +42,8 @@ class BaselineController:
     description = "stand-in for the paper's ref. [19] (goal-seeking + avoidance fuzzy blocks)"
 
     def __init__(self, goal: FuzzySystem | None = None, avoid: FuzzySystem | None = None):
-        self.goal = goal or FuzzySystem.from_toml(GOAL_RULES)
-        self.avoid = avoid or FuzzySystem.from_toml(AVOID_RULES)
+        self.goal = goal or read_toml(GOAL_RULES)
+        self.avoid = avoid or read_toml(AVOID_RULES)
 
     def reset(self) -> None:
         """Stateless."""
@@ -55,7 +56,7 @@ class BaselineController:
     def merged(self) -> FuzzySystem:
         """Both blocks as one system (for the membership figures; outputs prefixed
         ``goal_`` / ``avoid_``)."""
-        from controller.fuzzynav import merge_blocks
+        from fuzzynav.controller.fuzzynav import merge_blocks
 
         return merge_blocks(self.goal, self.avoid)
 

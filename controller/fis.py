@@ -175,8 +175,12 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         got = rd.string(lineno, val, key)
         if got.lower() != want:
             if key == "Type":
-                raise rd.err(lineno, f"unsupported system type {got!r}: only Mamdani systems "
-                                     f"are supported (no Sugeno)", val)
+                raise rd.err(
+                    lineno,
+                    f"unsupported system type {got!r}: only Mamdani systems "
+                    f"are supported (no Sugeno)",
+                    val,
+                )
             raise rd.err(lineno, f"unsupported {key} {got!r}: only {want!r} is supported", val)
     if "Version" in sysd:
         lineno, val = sysd["Version"]
@@ -190,11 +194,13 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         secs = [s for s in sections if s[0] == kind]
         idxs = [s[1] for s in secs]
         if idxs != list(range(1, count + 1)):
-            raise rd.err(secs[0][2] if secs else sys_sec[2],
-                         f"expected sections [{kind}1]..[{kind}{count}] in order "
-                         f"(Num{kind}s={count}), found {[f'{kind}{i}' for i in idxs]}")
+            raise rd.err(
+                secs[0][2] if secs else sys_sec[2],
+                f"expected sections [{kind}1]..[{kind}{count}] in order "
+                f"(Num{kind}s={count}), found {[f'{kind}{i}' for i in idxs]}",
+            )
         out = []
-        for kind_, idx, start, lines in secs:
+        for _kind, idx, start, lines in secs:
             kv: dict[str, tuple[int, str]] = {}
             mfs: dict[int, tuple[int, str]] = {}
             for lineno, line in lines:
@@ -223,8 +229,11 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                 raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
             nmf = rd.int_(*kv["NumMFs"], "NumMFs")
             if sorted(mfs) != list(range(1, nmf + 1)):
-                raise rd.err(kv["NumMFs"][0], f"expected MF1..MF{nmf} (NumMFs={nmf}), "
-                                              f"found {['MF%d' % k for k in sorted(mfs)]}")
+                raise rd.err(
+                    kv["NumMFs"][0],
+                    f"expected MF1..MF{nmf} (NumMFs={nmf}), "
+                    f"found {[f'MF{k}' for k in sorted(mfs)]}",
+                )
             terms = []
             for k in range(1, nmf + 1):
                 lineno, val = mfs[k]
@@ -233,10 +242,16 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                     raise rd.err(lineno, f"MF{k}: expected 'name':'type',[params]", val)
                 tname, shape = m.group(1), m.group(2)
                 if shape not in mf.SHAPES:
-                    raise rd.err(lineno, f"MF{k}: unsupported membership function type "
-                                         f"{shape!r} (supported: {', '.join(mf.SHAPES)})", val)
-                params = [rd.num(lineno, t, f"MF{k} parameter")
-                          for t in m.group(3).replace(",", " ").split()]
+                    raise rd.err(
+                        lineno,
+                        f"MF{k}: unsupported membership function type "
+                        f"{shape!r} (supported: {', '.join(mf.SHAPES)})",
+                        val,
+                    )
+                params = [
+                    rd.num(lineno, t, f"MF{k} parameter")
+                    for t in m.group(3).replace(",", " ").split()
+                ]
                 try:
                     terms.append(Term(tname, shape, tuple(params)))
                 except ValueError as e:
@@ -260,11 +275,17 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         ant = [rd.int_(lineno, t, "antecedent index") for t in ant_t.split()]
         con = [rd.int_(lineno, t, "consequent index") for t in con_t.split()]
         if len(ant) != n_in:
-            raise rd.err(lineno, f"the rule has {len(ant)} antecedent indices, "
-                                 f"the system has {n_in} inputs", line)
+            raise rd.err(
+                lineno,
+                f"the rule has {len(ant)} antecedent indices, the system has {n_in} inputs",
+                line,
+            )
         if len(con) != n_out:
-            raise rd.err(lineno, f"the rule has {len(con)} consequent indices, "
-                                 f"the system has {n_out} outputs", line)
+            raise rd.err(
+                lineno,
+                f"the rule has {len(con)} consequent indices, the system has {n_out} outputs",
+                line,
+            )
         w = rd.num(lineno, w_t, "rule weight")
         if not 0.0 <= w <= 1.0:
             raise rd.err(lineno, "rule weight must be in [0, 1]", w_t.strip())
@@ -275,23 +296,40 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
             raise rd.err(lineno, "OR rules are not supported (only AND)", line)
         for v, a in zip(inputs, ant):
             if a < 0:
-                raise rd.err(lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line)
+                raise rd.err(
+                    lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line
+                )
             if a > len(v.terms):
-                raise rd.err(lineno, f"term index {a} out of range for input {v.name!r} "
-                                     f"({len(v.terms)} MFs)", line)
+                raise rd.err(
+                    lineno,
+                    f"term index {a} out of range for input {v.name!r} ({len(v.terms)} MFs)",
+                    line,
+                )
         for v, c in zip(outputs, con):
             if c < 0:
-                raise rd.err(lineno, f"negated consequents are not supported (output {v.name!r})", line)
+                raise rd.err(
+                    lineno, f"negated consequents are not supported (output {v.name!r})", line
+                )
             if c > len(v.terms):
-                raise rd.err(lineno, f"term index {c} out of range for output {v.name!r} "
-                                     f"({len(v.terms)} MFs)", line)
+                raise rd.err(
+                    lineno,
+                    f"term index {c} out of range for output {v.name!r} ({len(v.terms)} MFs)",
+                    line,
+                )
         try:
-            rules.append(Rule(tuple(a - 1 if a else None for a in ant),
-                              tuple(c - 1 if c else None for c in con), w))
+            rules.append(
+                Rule(
+                    tuple(a - 1 if a else None for a in ant),
+                    tuple(c - 1 if c else None for c in con),
+                    w,
+                )
+            )
         except ValueError as e:
             raise rd.err(lineno, str(e), line) from None
     if len(rules) != n_rules:
-        raise rd.err(rules_sec[2], f"NumRules={n_rules} but the [Rules] section has {len(rules)} rules")
+        raise rd.err(
+            rules_sec[2], f"NumRules={n_rules} but the [Rules] section has {len(rules)} rules"
+        )
     try:
         return FuzzySystem(inputs, outputs, rules, name=name, n_points=DEFAULT_POINTS)
     except ValueError as e:
@@ -325,17 +363,34 @@ def _quoted(s: str, what: str) -> str:
 
 def dumps_fis(system: FuzzySystem) -> str:
     """The system as .fis text (numbers written so that they read back exactly)."""
-    L = ["[System]", f"Name={_quoted(system.name, 'system name')}", "Type='mamdani'",
-         "Version=2.0", f"NumInputs={len(system.inputs)}", f"NumOutputs={len(system.outputs)}",
-         f"NumRules={len(system.rules)}", "AndMethod='min'", "OrMethod='max'",
-         "ImpMethod='min'", "AggMethod='max'", "DefuzzMethod='centroid'"]
+    L = [
+        "[System]",
+        f"Name={_quoted(system.name, 'system name')}",
+        "Type='mamdani'",
+        "Version=2.0",
+        f"NumInputs={len(system.inputs)}",
+        f"NumOutputs={len(system.outputs)}",
+        f"NumRules={len(system.rules)}",
+        "AndMethod='min'",
+        "OrMethod='max'",
+        "ImpMethod='min'",
+        "AggMethod='max'",
+        "DefuzzMethod='centroid'",
+    ]
     for kind, vs in (("Input", system.inputs), ("Output", system.outputs)):
         for i, v in enumerate(vs, start=1):
-            L += ["", f"[{kind}{i}]", f"Name={_quoted(v.name, 'variable name')}",
-                  f"Range=[{_num(v.range[0])} {_num(v.range[1])}]", f"NumMFs={len(v.terms)}"]
+            L += [
+                "",
+                f"[{kind}{i}]",
+                f"Name={_quoted(v.name, 'variable name')}",
+                f"Range=[{_num(v.range[0])} {_num(v.range[1])}]",
+                f"NumMFs={len(v.terms)}",
+            ]
             for k, t in enumerate(v.terms, start=1):
-                L.append(f"MF{k}={_quoted(t.name, 'term name')}:'{t.shape}',"
-                         f"[{' '.join(_num(p) for p in t.params)}]")
+                L.append(
+                    f"MF{k}={_quoted(t.name, 'term name')}:'{t.shape}',"
+                    f"[{' '.join(_num(p) for p in t.params)}]"
+                )
     L += ["", "[Rules]"]
     for r in system.rules:
         ant = " ".join(str(0 if a is None else a + 1) for a in r.antecedent)

@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.fuzzy import FuzzySystem
+from fuzzynav.controller.fis import read_fis
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.rulebase import read_toml
 
 N_INPUTS, N_OUTPUTS = 4, 2
 
@@ -33,18 +35,19 @@ class FisController:
             raise ValueError(
                 f"{source}: fuzzy system {fis.name!r} has {fis.n_inputs} inputs and "
                 f"{fis.n_outputs} outputs; the robot needs {N_INPUTS} inputs "
-                f"(d_t, d_o, phi_t, phi_o) and {N_OUTPUTS} outputs (left, right voltage)")
+                f"(d_t, d_o, phi_t, phi_o) and {N_OUTPUTS} outputs (left, right voltage)"
+            )
         self.fis = fis
         self.name = name or fis.name
         self.source = source
 
     @classmethod
-    def from_fis(cls, path: str | Path) -> "FisController":
-        return cls(FuzzySystem.from_fis(path), source=str(path))
+    def from_fis(cls, path: str | Path) -> FisController:
+        return cls(read_fis(path), source=str(path))
 
     @classmethod
-    def from_toml(cls, path: str | Path, name: str | None = None) -> "FisController":
-        return cls(FuzzySystem.from_toml(path), name=name, source=str(path))
+    def from_toml(cls, path: str | Path, name: str | None = None) -> FisController:
+        return cls(read_toml(path), name=name, source=str(path))
 
     def reset(self) -> None:
         """Stateless: nothing to reset."""

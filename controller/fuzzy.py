@@ -45,8 +45,9 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -55,7 +56,6 @@ from . import membership as mf
 __all__ = ["Term", "Variable", "Rule", "FuzzySystem", "Aggregation", "DEFAULT_POINTS"]
 
 DEFAULT_POINTS = 101
-
 
 
 # --------------------------------------------------------------------------- data
@@ -91,8 +91,8 @@ class Variable:
     name: str
     range: tuple[float, float]
     terms: tuple[Term, ...]
-    unit: str = field(default="", compare=False)          # documentation only
-    description: str = field(default="", compare=False)   # documentation only
+    unit: str = field(default="", compare=False)  # documentation only
+    description: str = field(default="", compare=False)  # documentation only
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -100,9 +100,13 @@ class Variable:
         try:
             lo, hi = (float(v) for v in self.range)
         except (TypeError, ValueError):
-            raise ValueError(f"variable {self.name!r}: range must be [lo, hi], got {self.range!r}") from None
+            raise ValueError(
+                f"variable {self.name!r}: range must be [lo, hi], got {self.range!r}"
+            ) from None
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ValueError(f"variable {self.name!r}: range needs finite lo < hi, got {[lo, hi]!r}")
+            raise ValueError(
+                f"variable {self.name!r}: range needs finite lo < hi, got {[lo, hi]!r}"
+            )
         object.__setattr__(self, "range", (lo, hi))
         terms = tuple(self.terms)
         if not terms:
@@ -147,7 +151,9 @@ class Rule:
                 elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0:
                     out.append(int(v))
                 else:
-                    raise ValueError(f"rule {what} entries must be term indices >= 0 or None, got {v!r}")
+                    raise ValueError(
+                        f"rule {what} entries must be term indices >= 0 or None, got {v!r}"
+                    )
             return tuple(out)
 
         object.__setattr__(self, "antecedent", norm(self.antecedent, "antecedent"))
@@ -165,18 +171,23 @@ class Rule:
 class Aggregation(NamedTuple):
     """What :meth:`FuzzySystem.aggregated` returns (one input vector)."""
 
-    grid: np.ndarray        # (n_outputs, n_points): the output grids
+    grid: np.ndarray  # (n_outputs, n_points): the output grids
     membership: np.ndarray  # (n_outputs, n_points): the aggregated output membership
-    output: np.ndarray      # (n_outputs,): the centroids (= evaluate_one)
+    output: np.ndarray  # (n_outputs,): the centroids (= evaluate_one)
 
 
 # --------------------------------------------------------------------------- engine
 
 # the single-sample path's numpy calls, looked up once
-_array, _minimum, _max_reduce, _accumulate = np.array, np.minimum, np.maximum.reduce, np.add.accumulate
+_array, _minimum, _max_reduce, _accumulate = (
+    np.array,
+    np.minimum,
+    np.maximum.reduce,
+    np.add.accumulate,
+)
 
 _BLOCK = 16384  # rows per block of memberships / firing strengths in evaluate()
-_CHUNK = 512    # rows per block of the grid aggregation (its buffers stay in cache)
+_CHUNK = 512  # rows per block of the grid aggregation (its buffers stay in cache)
 
 
 class _Workspace:
@@ -197,6 +208,21 @@ class _Workspace:
             self.one = np.ones(n)
 
 
+def rule_sentence(inputs: Sequence[Variable], outputs: Sequence[Variable], rule: Rule) -> str:
+    """A rule in words: 'IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS'
+    (with ' WEIGHT w' if w != 1); the rule-base reader parses the same sentence back."""
+
+    def clause(variables, indices):
+        return " AND ".join(
+            f"{v.name} IS {v.terms[k].name}" for v, k in zip(variables, indices) if k is not None
+        )
+
+    text = f"IF {clause(inputs, rule.antecedent)} THEN {clause(outputs, rule.consequent)}"
+    if rule.weight != 1.0:
+        text += f" WEIGHT {float(rule.weight)!r}"
+    return text
+
+
 class FuzzySystem:
     """A Mamdani FIS. Immutable: the ``with_*`` methods return new systems.
 
@@ -211,15 +237,26 @@ class FuzzySystem:
     fine (each thread gets its own work buffers).
     """
 
-    def __init__(self, inputs: Sequence[Variable], outputs: Sequence[Variable],
-                 rules: Sequence[Rule], *, name: str = "fuzzy", description: str = "",
-                 n_points: int = DEFAULT_POINTS):
+    def __init__(
+        self,
+        inputs: Sequence[Variable],
+        outputs: Sequence[Variable],
+        rules: Sequence[Rule],
+        *,
+        name: str = "fuzzy",
+        description: str = "",
+        n_points: int = DEFAULT_POINTS,
+    ):
         self.name = str(name)
         self.description = str(description)
         self.inputs: tuple[Variable, ...] = tuple(inputs)
         self.outputs: tuple[Variable, ...] = tuple(outputs)
         self.rules: tuple[Rule, ...] = tuple(rules)
-        if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 2:
+        if (
+            isinstance(n_points, bool)
+            or not isinstance(n_points, (int, np.integer))
+            or n_points < 2
+        ):
             raise ValueError(f"n_points must be an integer >= 2, got {n_points!r}")
         self.n_points = int(n_points)
         self._validate()
@@ -227,8 +264,14 @@ class FuzzySystem:
 
     # pickling (e.g. for a multiprocessing optimiser): rebuild the compiled parts
     def __getstate__(self):
-        return dict(inputs=self.inputs, outputs=self.outputs, rules=self.rules,
-                    name=self.name, description=self.description, n_points=self.n_points)
+        return dict(
+            inputs=self.inputs,
+            outputs=self.outputs,
+            rules=self.rules,
+            name=self.name,
+            description=self.description,
+            n_points=self.n_points,
+        )
 
     def __setstate__(self, state):
         self.__init__(state.pop("inputs"), state.pop("outputs"), state.pop("rules"), **state)
@@ -252,15 +295,21 @@ class FuzzySystem:
             if not isinstance(r, Rule):
                 raise ValueError(f"rule {r_i + 1}: not a Rule object: {r!r}")
             if len(r.antecedent) != len(self.inputs):
-                raise ValueError(f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
-                                 f"the system has {len(self.inputs)} inputs")
+                raise ValueError(
+                    f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
+                    f"the system has {len(self.inputs)} inputs"
+                )
             if len(r.consequent) != len(self.outputs):
-                raise ValueError(f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
-                                 f"the system has {len(self.outputs)} outputs")
+                raise ValueError(
+                    f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
+                    f"the system has {len(self.outputs)} outputs"
+                )
             for var, idx in zip(self.inputs + self.outputs, r.antecedent + r.consequent):
                 if idx is not None and idx >= len(var.terms):
-                    raise ValueError(f"rule {r_i + 1}: term index {idx} out of range for "
-                                     f"{var.name!r} ({len(var.terms)} terms)")
+                    raise ValueError(
+                        f"rule {r_i + 1}: term index {idx} out of range for "
+                        f"{var.name!r} ({len(var.terms)} terms)"
+                    )
 
     @property
     def input_names(self) -> list[str]:
@@ -281,16 +330,17 @@ class FuzzySystem:
     def rule_text(self, i: int) -> str:
         """Rule i (0-based) in words, e.g. 'IF d_t IS VL AND phi_t IS VN THEN left IS L
         AND right IS VS' (with ' WEIGHT w' if w != 1)."""
-        from .rulebase import format_rule
-        return format_rule(self, self.rules[i])
+        return rule_sentence(self.inputs, self.outputs, self.rules[i])
 
     def __repr__(self):
-        return (f"FuzzySystem({self.name!r}, inputs={self.input_names}, "
-                f"outputs={self.output_names}, rules={len(self.rules)}, n_points={self.n_points})")
+        return (
+            f"FuzzySystem({self.name!r}, inputs={self.input_names}, "
+            f"outputs={self.output_names}, rules={len(self.rules)}, n_points={self.n_points})"
+        )
 
     # ------------------------------------------------------------------ compile
     def _compile(self):
-        n_in, n_out, R = len(self.inputs), len(self.outputs), len(self.rules)
+        _n_in, n_out, _R = len(self.inputs), len(self.outputs), len(self.rules)
         # membership rows: input terms (input-major), then ONE (for NONE), then ZERO
         col = []
         t = 0
@@ -299,11 +349,16 @@ class FuzzySystem:
             t += len(v.terms)
         self._n_cols = t + 2
         self._ONE, self._ZERO = t, t + 1
-        self._batch_terms = [(col[i][j], i, mf.fast_kernel(term.shape, term.params))
-                             for i, v in enumerate(self.inputs) for j, term in enumerate(v.terms)]
+        self._batch_terms = [
+            (col[i][j], i, mf.fast_kernel(term.shape, term.params))
+            for i, v in enumerate(self.inputs)
+            for j, term in enumerate(v.terms)
+        ]
         # per rule: the membership rows it takes the min of
-        self._rule_rows = [[col[i][idx] for i, idx in enumerate(r.antecedent) if idx is not None]
-                           for r in self.rules]
+        self._rule_rows = [
+            [col[i][idx] for i, idx in enumerate(r.antecedent) if idx is not None]
+            for r in self.rules
+        ]
         self._W = np.array([r.weight for r in self.rules], dtype=float)
         self._weighted = not bool(np.all(self._W == 1.0))
         # consequent slots: slot o * kmax + k = (output o, term k) -> rules concluding it
@@ -331,8 +386,9 @@ class FuzzySystem:
                 nz = np.flatnonzero(self._mfg[o, k])
                 if nz.size and slots[o * kmax + k]:
                     g0, g1 = int(nz[0]), int(nz[-1]) + 1
-                    terms.append((o * kmax + k, g0, g1,
-                                  np.ascontiguousarray(self._mfg[o, k, g0:g1, None])))
+                    terms.append(
+                        (o * kmax + k, g0, g1, np.ascontiguousarray(self._mfg[o, k, g0:g1, None]))
+                    )
             # widest support first: if it covers the whole grid it initialises the
             # aggregate directly (no zero fill, no max)
             terms.sort(key=lambda q: q[1] - q[2])
@@ -374,9 +430,13 @@ class FuzzySystem:
                     a, b, c = p
                     body.append(f"if {xi} == {r(b)}: {m} = 1.0")
                     if a < b:
-                        body.append(f"elif {r(a)} < {xi} < {r(b)}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
+                        body.append(
+                            f"elif {r(a)} < {xi} < {r(b)}: {m} = ({xi} - {r(a)}) / {r(b - a)}"
+                        )
                     if b < c:
-                        body.append(f"elif {r(b)} < {xi} < {r(c)}: {m} = ({r(c)} - {xi}) / {r(c - b)}")
+                        body.append(
+                            f"elif {r(b)} < {xi} < {r(c)}: {m} = ({r(c)} - {xi}) / {r(c - b)}"
+                        )
                     body.append(f"else: {m} = 0.0")
                 elif term.shape == "trapmf":
                     a, b, c, d = p
@@ -468,8 +528,11 @@ class FuzzySystem:
         src = "\n".join(lines) + "\n"
         # numpy's exp, as the vectorised gaussmf uses (math.exp differs in the last bit
         # for a few percent of arguments); on a float it runs the same loop
-        ns = {"_exp": np.exp, "_float": float,
-              "_msg": f"expected {n_in} inputs {self.input_names}, got %d"}
+        ns = {
+            "_exp": np.exp,
+            "_float": float,
+            "_msg": f"expected {n_in} inputs {self.input_names}, got %d",
+        }
         exec(compile(src, f"<fuzzy front {self.name}>", "exec"), ns)
         self._front_src = src
         return ns["front"]
@@ -489,8 +552,10 @@ class FuzzySystem:
     def _check_X(self, X) -> np.ndarray:
         X = np.asarray(X, dtype=float)
         if X.ndim != 2 or X.shape[1] != len(self.inputs):
-            raise ValueError(f"X must have shape (N, {len(self.inputs)}) with columns "
-                             f"{self.input_names}, got shape {X.shape}")
+            raise ValueError(
+                f"X must have shape (N, {len(self.inputs)}) with columns "
+                f"{self.input_names}, got shape {X.shape}"
+            )
         return X
 
     def _block_levels(self, Xb: np.ndarray) -> _Workspace:
@@ -527,9 +592,9 @@ class FuzzySystem:
         X = self._check_X(X)
         out = np.empty((X.shape[0], len(self.rules)))
         for b0 in range(0, X.shape[0], _BLOCK):
-            Xb = X[b0:b0 + _BLOCK]
+            Xb = X[b0 : b0 + _BLOCK]
             ws = self._block_levels(Xb)
-            out[b0:b0 + len(Xb)] = ws.F[:, :len(Xb)].T
+            out[b0 : b0 + len(Xb)] = ws.F[:, : len(Xb)].T
         return out
 
     def memberships(self, X) -> list[np.ndarray]:
@@ -537,8 +602,11 @@ class FuzzySystem:
         X = self._check_X(X)
         out = []
         for i, v in enumerate(self.inputs):
-            out.append(np.stack([t(X[:, i]) for t in v.terms], axis=1)
-                       if X.shape[0] else np.empty((0, len(v.terms))))
+            out.append(
+                np.stack([t(X[:, i]) for t in v.terms], axis=1)
+                if X.shape[0]
+                else np.empty((0, len(v.terms)))
+            )
         return out
 
     # ------------------------------------------------------------------ inference
@@ -549,18 +617,18 @@ class FuzzySystem:
         Y = np.empty((N, len(self.outputs)))
         G = self.n_points
         for b0 in range(0, N, _BLOCK):
-            Xb = X[b0:b0 + _BLOCK]
+            Xb = X[b0 : b0 + _BLOCK]
             nb = Xb.shape[0]
             ws = self._block_levels(Xb)
             S = ws.S
             for c0 in range(0, nb, _CHUNK):
                 n = min(_CHUNK, nb - c0)
-                a = ws.a[:, :n]          # aggregated membership: (grid point, sample)
+                a = ws.a[:, :n]  # aggregated membership: (grid point, sample)
                 t = ws.t[:, :n]
                 for o, terms in enumerate(self._agg_terms):
                     filled = False
                     for sl, g0, g1, mcol in terms:
-                        s = S[sl, c0:c0 + n]
+                        s = S[sl, c0 : c0 + n]
                         if not filled:
                             if g0 == 0 and g1 == G:
                                 np.minimum(mcol, s, out=a)
@@ -583,7 +651,7 @@ class FuzzySystem:
                     else:
                         num = np.cumsum(t[:, 0])[-1:]
                         den = np.cumsum(a[:, 0])[-1:]
-                    y = Y[b0 + c0:b0 + c0 + n, o]
+                    y = Y[b0 + c0 : b0 + c0 + n, o]
                     y[:] = self._mid[o]
                     np.divide(num, den, out=y, where=den > 0.0)
         return Y
@@ -596,8 +664,8 @@ class FuzzySystem:
         if type(x) is np.ndarray:
             x = x.tolist()  # Python floats: much faster than numpy scalars below
         s = _array(self._front(x)).reshape(self._s_shape)
-        agg = _max_reduce(_minimum(s, self._mfgK4), 0)                    # (n_out, 1, G)
-        sums = _accumulate(agg * self._grid2, 2)[:, :, -1].tolist()      # [[num, den], ...]
+        agg = _max_reduce(_minimum(s, self._mfgK4), 0)  # (n_out, 1, G)
+        sums = _accumulate(agg * self._grid2, 2)[:, :, -1].tolist()  # [[num, den], ...]
         out = []
         for (nu, de), mid in zip(sums, self._mid):
             out.append(nu / de if de > 0.0 else mid)
@@ -626,10 +694,14 @@ class FuzzySystem:
 
     def parameter_names(self) -> list[str]:
         """Names for :meth:`parameter_vector`, e.g. 'd_t.VS.a', 'phi_t.Z.sigma'."""
-        return [f"{v.name}.{t.name}.{pn}" for v in self.inputs + self.outputs for t in v.terms
-                for pn in mf.SHAPES[t.shape].param_names]
+        return [
+            f"{v.name}.{t.name}.{pn}"
+            for v in self.inputs + self.outputs
+            for t in v.terms
+            for pn in mf.SHAPES[t.shape].param_names
+        ]
 
-    def with_parameter_vector(self, vec) -> "FuzzySystem":
+    def with_parameter_vector(self, vec) -> FuzzySystem:
         """A copy with the membership parameters replaced by ``vec`` (same layout as
         :meth:`parameter_vector`). Raises ValueError for a wrong length or an invalid
         shape (e.g. a trimf with a > b, a gaussmf with sigma <= 0)."""
@@ -653,8 +725,9 @@ class FuzzySystem:
         outs = [rebuild(v) for v in self.outputs]
         return self._replace(inputs=ins, outputs=outs)
 
-    def with_term_params(self, variable: str, term: str, params: Sequence[float],
-                         shape: str | None = None) -> "FuzzySystem":
+    def with_term_params(
+        self, variable: str, term: str, params: Sequence[float], shape: str | None = None
+    ) -> FuzzySystem:
         """A copy with one term's parameters (and optionally its shape) replaced."""
         found = False
 
@@ -672,55 +745,44 @@ class FuzzySystem:
         ins = [rebuild(v) for v in self.inputs]
         outs = [rebuild(v) for v in self.outputs]
         if not found:
-            raise KeyError(f"no variable {variable!r} (have {self.input_names + self.output_names})")
+            raise KeyError(
+                f"no variable {variable!r} (have {self.input_names + self.output_names})"
+            )
         return self._replace(inputs=ins, outputs=outs)
 
-    def replace(self, **kw) -> "FuzzySystem":
+    def replace(self, **kw) -> FuzzySystem:
         """A copy with some constructor arguments replaced (inputs, outputs, rules, name,
         description, n_points)."""
         return self._replace(**kw)
 
-    def _replace(self, **kw) -> "FuzzySystem":
-        args = dict(inputs=self.inputs, outputs=self.outputs, rules=self.rules,
-                    name=self.name, description=self.description, n_points=self.n_points)
+    def _replace(self, **kw) -> FuzzySystem:
+        args = dict(
+            inputs=self.inputs,
+            outputs=self.outputs,
+            rules=self.rules,
+            name=self.name,
+            description=self.description,
+            n_points=self.n_points,
+        )
         args.update(kw)
         return FuzzySystem(args.pop("inputs"), args.pop("outputs"), args.pop("rules"), **args)
 
-    def with_rules(self, rules: Sequence[Rule]) -> "FuzzySystem":
+    def with_rules(self, rules: Sequence[Rule]) -> FuzzySystem:
         return self._replace(rules=rules)
 
-    def with_n_points(self, n_points: int) -> "FuzzySystem":
+    def with_n_points(self, n_points: int) -> FuzzySystem:
         return self._replace(n_points=n_points)
-
-    # ------------------------------------------------------------------ files
-    @classmethod
-    def from_fis(cls, path) -> "FuzzySystem":
-        """Read a MATLAB .fis file (Mamdani, min/max, centroid)."""
-        from .fis import read_fis
-        return read_fis(path)
-
-    def to_fis(self, path) -> None:
-        """Write a MATLAB .fis file."""
-        from .fis import write_fis
-        write_fis(self, path)
-
-    @classmethod
-    def from_toml(cls, path) -> "FuzzySystem":
-        """Read a TOML rule base (see controller/rulebase.py)."""
-        from .rulebase import read_toml
-        return read_toml(path)
-
-    def to_toml(self, path) -> None:
-        """Write a TOML rule base."""
-        from .rulebase import write_toml
-        write_toml(self, path)
 
     def __eq__(self, other):
         """Same variables (names, ranges, terms), rules and grid: the same function.
         The system name, description and the variables' units/descriptions are ignored."""
         if not isinstance(other, FuzzySystem):
             return NotImplemented
-        return (self.inputs, self.outputs, self.rules, self.n_points) == \
-               (other.inputs, other.outputs, other.rules, other.n_points)
+        return (self.inputs, self.outputs, self.rules, self.n_points) == (
+            other.inputs,
+            other.outputs,
+            other.rules,
+            other.n_points,
+        )
 
     __hash__ = None  # type: ignore[assignment]

@@ -121,17 +121,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from controller.fuzzy import FuzzySystem, Rule
-
-RULES_DIR = Path(__file__).resolve().parents[1] / "assets" / "rules"
-GOAL_PATH = RULES_DIR / "fuzzynav_goal.toml"
-AVOID_PATH = RULES_DIR / "fuzzynav_avoid.toml"
-PARAMS_PATH = RULES_DIR / "fuzzynav_params.toml"
+from fuzzynav.controller.fis import write_fis
+from fuzzynav.controller.fuzzy import FuzzySystem, Rule
+from fuzzynav.controller.fuzzynav_params import (
+    AVOID_PATH,
+    CRISP_BOUNDS,
+    CRISP_DEFAULTS,
+    GOAL_PATH,
+    PARAMS_PATH,
+    load_params,
+)
+from fuzzynav.controller.fuzzynav_parts import load_parts
+from fuzzynav.controller.rulebase import read_toml, write_toml
 
 VOLTAGE_LIMIT_V = 12.0
 # Plant constants for dead reckoning (notes section 1): 12 V both -> 0.617 m/s,
@@ -139,81 +144,16 @@ VOLTAGE_LIMIT_V = 12.0
 _V_PER_VOLT = 0.617 / 12.0
 _W_PER_VOLT = 0.62 / 12.0
 _HX, _HY = 0.495, 0.335
-_MOUNTS = ((0.495, 0.75 * 0.335, math.radians(45.0)), (0.495, 0.0, 0.0),
-           (0.495, -0.75 * 0.335, math.radians(-45.0)))
+_MOUNTS = (
+    (0.495, 0.75 * 0.335, math.radians(45.0)),
+    (0.495, 0.0, 0.0),
+    (0.495, -0.75 * 0.335, math.radians(-45.0)),
+)
 
 _AXES = frozenset(m[2] for m in _MOUNTS)
 # The nearest obstacle counts as coming at the robot when it closes faster than this,
 # beyond what the robot's own motion explains (below it: measurement noise).
 _CLOSING_MPS = 0.05
-
-# The crisp parameters, their defaults (used when the file lacks a key) and tuning bounds.
-CRISP_DEFAULTS: dict[str, float] = {
-    "control_period_s": 0.02,     # the loop's period (the memory counts calls)
-    "alpha_front_lo_m": 0.4,      # alpha = 1 when the front is nearer than this
-    "alpha_front_hi_m": 1.2,      # alpha = 0 beyond this
-    "alpha_side_lo_m": 0.25,
-    "alpha_side_hi_m": 0.7,
-    "alpha_side_max": 1.0,        # the side sectors alone never take full control
-    "memory_grow_mps": 0.35,      # how fast a remembered distance grows back
-    "side_fold_deg": 30.0,        # ideal: an obstacle this far off-axis counts as beside
-    "latch_front_m": 2.5,         # choose and latch the side when the front is nearer
-    "release_front_m": 3.0,       # release the latch when the front is farther
-    "ttc_gain_s": 3.0,            # front distance shortened by closing speed x this
-    "stall_s": 15.0,               # no progress for this long -> boundary following
-    "stall_progress_m": 0.3,
-    "leave_margin_m": 0.5,
-    "follow_bias_rad": 0.25,      # virtual bearing pulls this far towards the boundary
-    "follow_max_s": 60.0,
-    "follow_lost_m": 2.0,         # nothing remembered this near: stop following
-    "guard_m": 0.8,               # no goal turn towards a passed obstacle nearer than this
-    "guard_speed_v": 6.0,         # ... and drives on at this speed
-    "memory_s": 6.0,              # echoes are remembered this long
-    "store_s": 0.2,               # one echo point per beam per store_s
-    "sector_s": 0.04,             # remembered sectors recomputed at the sensors' 25 Hz
-    "odo_lag": 0.06,
-    "turn_lag": 0.5,              # the tracker's turn-rate lag per period (the plant's turn is fast)
-    "arrive_m": 1.5,              # avoidance yields to the goal this near the target
-    "memory_creep_mps": 0.0,     # remembered echoes count as nearer by this x their age
-    "plan_margin_m": 0.3,         # the bearing planner passes remembered points this far off the flank
-    "plan_horizon_m": 4.5,        # ... looking this far ahead
-    "plan_nearest_m": 1.0,        # nearer points are left to the avoidance block
-    "store_range_m": 4.0,         # echoes farther than this are not remembered
-    "plan_switch_rad": 0.15,      # ... and before that changes side only for a detour this much shorter
-    "plan_latch_m": 2.0,          # the planner's side is latched once points are this near
-    "plan_flip_rad": 1.3,         # ... or, with points near, for a detour larger than this
-    "plan_stuck_s": 6.0,          # no progress for this long: the robot is stuck, and then
-    "plan_flip_hold_s": 15.0,     # ... keeps a new side at least this long (no dithering)
-    "plan_flip_min_s": 2.0,       # near points: a side is kept at least this long
-    "plan_turn_weight": 1.0,      # near points, all-around sensing: a new side also pays this x its bearing off the heading
-    "front_corridor_m": 0.3,      # a remembered point ahead within the flanks + this is "front"
-    "deadlock_s": 1.0,            # near-zero command this long -> turn on the spot this long
-    "back_max_s": 1.5,            # longest continuous reversing (nothing looks backwards)
-    "echo_spread_deg": 4.0,       # half the ultrasonic beam: an echo is remembered as an arc
-    "merge_m": 0.15,              # an echo this near a remembered one replaces it
-    "dodge_horizon_s": 3.0,       # a moving obstacle's closest approach is predicted this far (0 = off)
-    "dodge_safe_m": 1.1,          # ... and kept at least this far (centre to centre)
-    "dodge_radius_m": 0.25,       # the radius assumed to place an obstacle's centre
-    "dodge_min_speed_mps": 0.08,  # slower obstacles are left to the avoidance block
-    "dodge_sightings": 3,         # consistent sightings (store_s apart) before a speed is trusted
-    "target_gate_m": 0.3,         # a target reading this far from the tracked target is doubted (0: off)
-    "target_filter": 0.05,        # ... the tracked target follows agreeing readings by this per period
-    "target_still_m": 0.05,       # ... a doubted reading that stays this near where it was first
-    "target_settle_s": 0.5,       # ... for this long is the target, moved
-}
-# What `fuzzynav tune --controller fuzzynav` searches (the rest stays at the hand design).
-CRISP_BOUNDS: dict[str, tuple[float, float]] = {
-    "alpha_front_lo_m": (0.2, 0.8),
-    "alpha_front_hi_m": (0.9, 2.0),
-    "alpha_side_lo_m": (0.1, 0.5),
-    "alpha_side_hi_m": (0.5, 1.2),
-    "plan_margin_m": (0.15, 0.6),
-    "plan_nearest_m": (0.5, 1.5),
-    "echo_spread_deg": (0.0, 7.5),
-    "ttc_gain_s": (0.0, 4.0),
-    "arrive_m": (0.5, 2.5),
-    "memory_s": (2.0, 8.0),
-}
 
 
 def _linz(x: float, lo: float, hi: float) -> float:
@@ -224,9 +164,14 @@ def _linz(x: float, lo: float, hi: float) -> float:
     return (hi - x) / (hi - lo)
 
 
-def blocked_cones(points_robot, radius_m: float, horizon_m: float, beyond_m: float,
-                  nearest_m: float = 0.0, rearmost_m: float = 0.0
-                  ) -> list[tuple[float, float]]:
+def blocked_cones(
+    points_robot,
+    radius_m: float,
+    horizon_m: float,
+    beyond_m: float,
+    nearest_m: float = 0.0,
+    rearmost_m: float = 0.0,
+) -> list[tuple[float, float]]:
     """Bearings (rad, > 0 left) the robot's centre line may not take, one interval per point.
 
     A point at distance ``rho`` and bearing ``beta`` (robot frame) is passed at a lateral
@@ -273,8 +218,9 @@ def range_at_clearance(bearing_rad: float, clearance_m: float) -> float:
     return b + math.sqrt(b * b - (_HX * _HX + _HY * _HY - d * d))
 
 
-def free_bearing(cones: list[tuple[float, float]], phi_t: float, side: float
-                 ) -> tuple[float, float]:
+def free_bearing(
+    cones: list[tuple[float, float]], phi_t: float, side: float
+) -> tuple[float, float]:
     """The bearing nearest the target's that no cone blocks, and the side it passes on.
 
     Overlapping cones merge into one blocked interval. If ``phi_t`` is free it is
@@ -312,8 +258,9 @@ def closest_approach_m(rel, obstacle_vel, robot_vel, horizon_s: float) -> float:
     return math.hypot(rel[0] + rx * t, rel[1] + ry * t)
 
 
-def dodge_speed(speed_v: float, rel, obstacle_vel, heading_rad: float, horizon_s: float,
-                safe_m: float) -> float:
+def dodge_speed(
+    speed_v: float, rel, obstacle_vel, heading_rad: float, horizon_s: float, safe_m: float
+) -> float:
     """The speed command (V) against a moving obstacle: ``speed_v`` if the predicted
     closest approach along the heading stays at least ``safe_m``, else whichever of
     stopping or full speed keeps the obstacle farther (by more than 5 cm), else
@@ -341,28 +288,19 @@ def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
     gi, go = len(goal.inputs), len(goal.outputs)
     ai, ao = len(avoid.inputs), len(avoid.outputs)
     inputs = list(goal.inputs) + list(avoid.inputs)
-    outputs = ([dataclasses.replace(v, name=f"goal_{v.name}") for v in goal.outputs]
-               + [dataclasses.replace(v, name=f"avoid_{v.name}") for v in avoid.outputs])
-    rules = [Rule(r.antecedent + (None,) * ai, r.consequent + (None,) * ao, r.weight)
-             for r in goal.rules]
-    rules += [Rule((None,) * gi + r.antecedent, (None,) * go + r.consequent, r.weight)
-              for r in avoid.rules]
-    return FuzzySystem(inputs, outputs, rules, name="fuzzynav-merged",
-                       n_points=max(goal.n_points, avoid.n_points))
-
-
-def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
-    params = dict(CRISP_DEFAULTS)
-    path = Path(path)
-    if path.exists():
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-        crisp = data.get("crisp", {})
-        unknown = set(crisp) - set(CRISP_DEFAULTS)
-        if unknown:
-            raise ValueError(f"{path}: unknown crisp parameter(s) {sorted(unknown)}")
-        params.update({k: float(v) for k, v in crisp.items()})
-    return params
+    outputs = [dataclasses.replace(v, name=f"goal_{v.name}") for v in goal.outputs] + [
+        dataclasses.replace(v, name=f"avoid_{v.name}") for v in avoid.outputs
+    ]
+    rules = [
+        Rule(r.antecedent + (None,) * ai, r.consequent + (None,) * ao, r.weight) for r in goal.rules
+    ]
+    rules += [
+        Rule((None,) * gi + r.antecedent, (None,) * go + r.consequent, r.weight)
+        for r in avoid.rules
+    ]
+    return FuzzySystem(
+        inputs, outputs, rules, name="fuzzynav-merged", n_points=max(goal.n_points, avoid.n_points)
+    )
 
 
 #: What each of :attr:`FuzzyNavController.decisions` holds, in order: the voltages, the
@@ -370,8 +308,21 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
 #: :attr:`FuzzyNavController.merged` (both blocks' inputs: the bearing steered by, the
 #: target distance, the sector distances and the side), from which a recording computes
 #: every rule's firing strength.
-DECISION_FIELDS = ("left_v", "right_v", "alpha", "plan_offset_rad", "dodge", "follow",
-                   "target_doubted", "phi_t", "d_t", "left", "front", "right", "side")
+DECISION_FIELDS = (
+    "left_v",
+    "right_v",
+    "alpha",
+    "plan_offset_rad",
+    "dodge",
+    "follow",
+    "target_doubted",
+    "phi_t",
+    "d_t",
+    "left",
+    "front",
+    "right",
+    "side",
+)
 _DODGE_CODE = {"yield": 1.0, "pass first": -1.0}
 
 
@@ -390,12 +341,18 @@ class FuzzyNavController:
 
     def __init__(self, goal: FuzzySystem, avoid: FuzzySystem, params: dict | None = None):
         if goal.input_names != ["phi_t", "d_t"] or goal.output_names != ["speed", "turn"]:
-            raise ValueError(f"goal block must map (phi_t, d_t) -> (speed, turn), got "
-                             f"{goal.input_names} -> {goal.output_names}")
-        if avoid.input_names != ["left", "front", "right", "side"] or \
-                avoid.output_names != ["speed", "turn"]:
-            raise ValueError(f"avoid block must map (left, front, right, side) -> (speed, turn),"
-                             f" got {avoid.input_names} -> {avoid.output_names}")
+            raise ValueError(
+                f"goal block must map (phi_t, d_t) -> (speed, turn), got "
+                f"{goal.input_names} -> {goal.output_names}"
+            )
+        if avoid.input_names != ["left", "front", "right", "side"] or avoid.output_names != [
+            "speed",
+            "turn",
+        ]:
+            raise ValueError(
+                f"avoid block must map (left, front, right, side) -> (speed, turn),"
+                f" got {avoid.input_names} -> {avoid.output_names}"
+            )
         self.goal = goal
         self.avoid = avoid
         self.params = dict(CRISP_DEFAULTS)
@@ -417,8 +374,6 @@ class FuzzyNavController:
         hold the file's values; switched on, they get back the values they had). Takes
         effect at the next call, without :meth:`reset`. An unknown name raises
         ``ValueError`` and changes nothing."""
-        from controller.fuzzynav_parts import load_parts
-
         parts = load_parts()
         known = [p.name for p in parts]
         names = set(names)
@@ -437,18 +392,18 @@ class FuzzyNavController:
     # -- state -------------------------------------------------------------------------
     def reset(self) -> None:
         self.t = 0.0
-        self.mem = [math.inf, math.inf, math.inf]   # remembered left, front, right (m)
-        self.side = 0.0            # latched side (+1 left, -1 right), 0 = none
+        self.mem = [math.inf, math.inf, math.inf]  # remembered left, front, right (m)
+        self.side = 0.0  # latched side (+1 left, -1 right), 0 = none
         self.prev_front = math.inf
-        self.reverse_s = 0.0       # how long the robot has been backing off
-        self.creep_s = 0.0         # how long the command has been near zero
-        self.unstick_s = 0.0       # time left turning on the spot out of a deadlock
-        self.closing_f = 0.0       # front closing speed beyond our own (m/s), per store_s
-        self.closing_o = 0.0       # nearest obstacle's closing speed beyond our own (m/s)
+        self.reverse_s = 0.0  # how long the robot has been backing off
+        self.creep_s = 0.0  # how long the command has been near zero
+        self.unstick_s = 0.0  # time left turning on the spot out of a deadlock
+        self.closing_f = 0.0  # front closing speed beyond our own (m/s), per store_s
+        self.closing_o = 0.0  # nearest obstacle's closing speed beyond our own (m/s)
         self.prev_obstacle = (math.nan, math.nan)
-        self.best_d_t = math.inf   # best target distance during the progress window
+        self.best_d_t = math.inf  # best target distance during the progress window
         self.best_t = 0.0
-        self.follow = False        # boundary following (escape) active
+        self.follow = False  # boundary following (escape) active
         self.follow_d_t = math.inf
         self.follow_t = 0.0
         self.last: dict = {}
@@ -458,19 +413,19 @@ class FuzzyNavController:
         self.pose = [0.0, 0.0, 0.0]
         self.vel = [0.0, 0.0]
         self.cmd = (0.0, 0.0)
-        self.points: list[tuple[float, float, float]] = []   # (x, y, time stored)
+        self.points: list[tuple[float, float, float]] = []  # (x, y, time stored)
         self.calls = -1
         self.mem_sectors = (math.inf, math.inf, math.inf)
-        self.plan_side = 0.0       # side the bearing planner passes on (+1 left), 0 = free
-        self.plan_offset = 0.0     # planned bearing minus the target's (rad)
+        self.plan_side = 0.0  # side the bearing planner passes on (+1 left), 0 = free
+        self.plan_offset = 0.0  # planned bearing minus the target's (rad)
         self.plan_flip_t = -math.inf
         # Tracker of the nearest obstacle (ideal perception), in its own dead-reckoned
         # frame whose heading uses the turn's real lag (see the module docstring, 7).
         self.track_pose = [0.0, 0.0, 0.0]
         self.track_w = 0.0
-        self.obs_centre = None     # (x, y): estimated centre of the nearest obstacle
+        self.obs_centre = None  # (x, y): estimated centre of the nearest obstacle
         self.obs_vel = (0.0, 0.0)  # its estimated velocity (m/s)
-        self.obs_sightings = 0     # consecutive consistent sightings
+        self.obs_sightings = 0  # consecutive consistent sightings
         # The target as placed by its readings (tracker frame), and a doubted reading
         # that keeps still (the target moved?) and for how long.
         self.target_est = None
@@ -491,22 +446,34 @@ class FuzzyNavController:
         points.append((x, y, self.t))
 
     def state(self) -> dict:
-        return {"t": self.t, "mem": list(self.mem), "side": self.side,
-                "prev_front": self.prev_front, "prev_obstacle": self.prev_obstacle,
-                "best_d_t": self.best_d_t,
-                "best_t": self.best_t, "follow": self.follow, "follow_d_t": self.follow_d_t,
-                "follow_t": self.follow_t, "pose": list(self.pose), "vel": list(self.vel),
-                "cmd": self.cmd, "points": list(self.points), "target_est": self.target_est,
-                "target_candidate": self.target_candidate,
-                "target_candidate_s": self.target_candidate_s,
-                "target_doubted": self.target_doubted}
+        return {
+            "t": self.t,
+            "mem": list(self.mem),
+            "side": self.side,
+            "prev_front": self.prev_front,
+            "prev_obstacle": self.prev_obstacle,
+            "best_d_t": self.best_d_t,
+            "best_t": self.best_t,
+            "follow": self.follow,
+            "follow_d_t": self.follow_d_t,
+            "follow_t": self.follow_t,
+            "pose": list(self.pose),
+            "vel": list(self.vel),
+            "cmd": self.cmd,
+            "points": list(self.points),
+            "target_est": self.target_est,
+            "target_candidate": self.target_candidate,
+            "target_candidate_s": self.target_candidate_s,
+            "target_doubted": self.target_doubted,
+        }
 
     # -- decision ----------------------------------------------------------------------
     def __call__(self, inputs, ranges_m=None):
         p = self.params
         dt = p["control_period_s"]
-        d_t, d_o, phi_t, phi_o = (inputs.tolist() if type(inputs) is np.ndarray
-                                  else [float(v) for v in inputs])
+        d_t, d_o, phi_t, phi_o = (
+            inputs.tolist() if type(inputs) is np.ndarray else [float(v) for v in inputs]
+        )
         d_o_raw = d_o
         if ranges_m is None:
             ranges = [math.inf, math.inf, math.inf]
@@ -581,7 +548,7 @@ class FuzzyNavController:
                 dx, dy = px - x0, py - y0
                 bx = c * dx + s_ * dy
                 by = c * dy - s_ * dx
-                if bx < -_HX:          # behind the robot: irrelevant going forward
+                if bx < -_HX:  # behind the robot: irrelevant going forward
                     continue
                 ahead.append((bx, by))
                 ex = bx - _HX if bx > _HX else 0.0
@@ -606,8 +573,14 @@ class FuzzyNavController:
             # Points beside the robot (back to its rear edge) count as well: they bound
             # the detours of more than 90 degrees that lead out of a trap; without them
             # the side turned away from looked free and the robot turned back and forth.
-            cones = blocked_cones(ahead, _HY + p["plan_margin_m"], p["plan_horizon_m"],
-                                  d_t + 0.3, p["plan_nearest_m"], -_HX)
+            cones = blocked_cones(
+                ahead,
+                _HY + p["plan_margin_m"],
+                p["plan_horizon_m"],
+                d_t + 0.3,
+                p["plan_nearest_m"],
+                -_HX,
+            )
             # The side is latched while remembered points are near (plan_latch_m), even
             # when the target's bearing is momentarily free, so that the planner and the
             # avoidance block never dither between two sides. Farther away it changes
@@ -632,14 +605,22 @@ class FuzzyNavController:
                 # all-around sensing (a nearest obstacle off the beam axes, ideal
                 # perception): with the beams alone the flank of the side kept is
                 # unseen, and runs came nearer obstacles (docs/fuzzynav-log.md).
-                turn_w = (p["plan_turn_weight"] if near_block and phi_o == phi_o
-                          and phi_o not in _AXES else 0.0)
-                if (abs(other - phi_t) + turn_w * abs(other) + p["plan_switch_rad"]
-                        < abs(psi - phi_t) + turn_w * abs(psi)
-                        and (not near_block or held_s > p["plan_flip_hold_s"]
-                             or (held_s > p["plan_flip_min_s"]
-                                 and abs(other - phi_t) < p["plan_flip_rad"]
-                                 and self.t - self.best_t < p["plan_stuck_s"]))):
+                turn_w = (
+                    p["plan_turn_weight"]
+                    if near_block and phi_o == phi_o and phi_o not in _AXES
+                    else 0.0
+                )
+                if abs(other - phi_t) + turn_w * abs(other) + p["plan_switch_rad"] < abs(
+                    psi - phi_t
+                ) + turn_w * abs(psi) and (
+                    not near_block
+                    or held_s > p["plan_flip_hold_s"]
+                    or (
+                        held_s > p["plan_flip_min_s"]
+                        and abs(other - phi_t) < p["plan_flip_rad"]
+                        and self.t - self.best_t < p["plan_stuck_s"]
+                    )
+                ):
                     psi, latched = other, -latched
                     self.plan_flip_t = self.t
             elif side_now == 0.0 and not near_block:
@@ -670,10 +651,15 @@ class FuzzyNavController:
             if store_tick:
                 prev_d, prev_phi = self.prev_obstacle
                 self.closing_o = 0.0
-                if (prev_d == prev_d and abs(phi_o - prev_phi) < 0.3
-                        and abs(prev_d - d_o) < 0.3 and abs(vel[1]) < 0.2):
-                    self.closing_o = ((prev_d - d_o) / (dt * self.store_every)
-                                      - vel[0] * math.cos(phi_o))
+                if (
+                    prev_d == prev_d
+                    and abs(phi_o - prev_phi) < 0.3
+                    and abs(prev_d - d_o) < 0.3
+                    and abs(vel[1]) < 0.2
+                ):
+                    self.closing_o = (prev_d - d_o) / (dt * self.store_every) - vel[0] * math.cos(
+                        phi_o
+                    )
                 self.prev_obstacle = (d_o_raw, phi_o)
                 self._track(d_o_raw, phi_o)
             if self.closing_o > _CLOSING_MPS:
@@ -724,9 +710,11 @@ class FuzzyNavController:
         if d_t < self.best_d_t - p["stall_progress_m"]:
             self.best_d_t, self.best_t = d_t, self.t
         if self.follow:
-            if (d_t < self.follow_d_t - p["leave_margin_m"]
-                    or self.t - self.follow_t > p["follow_max_s"]
-                    or min(left, front_eff, right) > p["follow_lost_m"]):
+            if (
+                d_t < self.follow_d_t - p["leave_margin_m"]
+                or self.t - self.follow_t > p["follow_max_s"]
+                or min(left, front_eff, right) > p["follow_lost_m"]
+            ):
                 self.follow = False
                 self.best_d_t, self.best_t = d_t, self.t
         elif self.t - self.best_t > p["stall_s"]:
@@ -745,7 +733,8 @@ class FuzzyNavController:
         a_front = _linz(front_eff, p["alpha_front_lo_m"], p["alpha_front_hi_m"])
         a_side = p["alpha_side_max"] * max(
             _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
-            _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]))
+            _linz(right, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
+        )
         # Arriving: an obstacle beside the robot, or ahead but beyond the target, yields
         # to the goal block as the target gets within arrive_m.
         if d_t < p["arrive_m"]:
@@ -769,8 +758,9 @@ class FuzzyNavController:
         # obstacle being passed while it is still remembered within guard_m.
         # It drives on instead (the goal block alone would turn in place).
         # Not when the target is nearer than the obstacle being passed.
-        guarding = ((self.side > 0 and g_turn < 0.0 and right < p["guard_m"])
-                    or (self.side < 0 and g_turn > 0.0 and left < p["guard_m"]))
+        guarding = (self.side > 0 and g_turn < 0.0 and right < p["guard_m"]) or (
+            self.side < 0 and g_turn > 0.0 and left < p["guard_m"]
+        )
         if guarding and not self.follow and self.plan_side == 0.0 and d_t > min(left, right) + 0.5:
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
@@ -798,8 +788,9 @@ class FuzzyNavController:
                 tp = self.track_pose
                 rel = (self.obs_centre[0] - tp[0], self.obs_centre[1] - tp[1])
                 commanded = speed
-                speed = dodge_speed(speed, rel, (vx, vy), tp[2], p["dodge_horizon_s"],
-                                    p["dodge_safe_m"])
+                speed = dodge_speed(
+                    speed, rel, (vx, vy), tp[2], p["dodge_horizon_s"], p["dodge_safe_m"]
+                )
                 if speed != commanded:
                     dodge = "yield" if speed == 0.0 else "pass first"
         # The sensors look forward only: backing off is allowed for back_max_s at a
@@ -808,8 +799,13 @@ class FuzzyNavController:
         # coming at the robot by itself: nothing is nearer behind, so it backs away on.
         if speed < 0.0:
             self.reverse_s += dt
-            backing_away = (d_o_raw == d_o_raw and phi_o == phi_o and phi_o not in _AXES
-                            and abs(phi_o) < 0.5 * math.pi and self.closing_o > _CLOSING_MPS)
+            backing_away = (
+                d_o_raw == d_o_raw
+                and phi_o == phi_o
+                and phi_o not in _AXES
+                and abs(phi_o) < 0.5 * math.pi
+                and self.closing_o > _CLOSING_MPS
+            )
             if self.reverse_s > p["back_max_s"] and not backing_away:
                 speed = 0.0
                 if abs(turn) < 4.0:
@@ -822,16 +818,34 @@ class FuzzyNavController:
         room = limit - abs(turn)
         if abs(speed) > room:
             speed = math.copysign(room, speed)
-        self.last = {"sectors": (left, front_eff, right), "side": side, "alpha": alpha,
-                     "follow": self.follow, "goal": (g_speed, g_turn),
-                     "avoid": (a_speed, a_turn), "block_inputs": (phi, d_t) + avoid_in,
-                     "plan_offset": self.plan_offset, "dodge": dodge,
-                     "command": (speed, turn)}
+        self.last = {
+            "sectors": (left, front_eff, right),
+            "side": side,
+            "alpha": alpha,
+            "follow": self.follow,
+            "goal": (g_speed, g_turn),
+            "avoid": (a_speed, a_turn),
+            "block_inputs": (phi, d_t) + avoid_in,
+            "plan_offset": self.plan_offset,
+            "dodge": dodge,
+            "command": (speed, turn),
+        }
         self.cmd = (speed - turn, speed + turn)
         # A few floats per call beside the simulation's own log row, so it grows as that does.
-        self.decisions.append((speed - turn, speed + turn, alpha, self.plan_offset,
-                               _DODGE_CODE.get(dodge, 0.0), float(self.follow),
-                               float(self.target_doubted), phi, d_t, *avoid_in))
+        self.decisions.append(
+            (
+                speed - turn,
+                speed + turn,
+                alpha,
+                self.plan_offset,
+                _DODGE_CODE.get(dodge, 0.0),
+                float(self.follow),
+                float(self.target_doubted),
+                phi,
+                d_t,
+                *avoid_in,
+            )
+        )
         return np.array(self.cmd)
 
     def new_target(self) -> None:
@@ -869,7 +883,10 @@ class FuzzyNavController:
             self.target_candidate = None
             return d_t, phi_t
         cand = self.target_candidate
-        if cand is not None and (mx - cand[0]) ** 2 + (my - cand[1]) ** 2 < p["target_still_m"] ** 2:
+        if (
+            cand is not None
+            and (mx - cand[0]) ** 2 + (my - cand[1]) ** 2 < p["target_still_m"] ** 2
+        ):
             self.target_candidate_s += p["control_period_s"]
         else:
             self.target_candidate = (mx, my)
@@ -898,12 +915,17 @@ class FuzzyNavController:
         rho = range_at_clearance(phi_o, d_o + p["dodge_radius_m"])
         cx, cy = x + rho * math.cos(heading + phi_o), y + rho * math.sin(heading + phi_o)
         prev = self.obs_centre
-        if (prev is not None and phi_o not in _AXES
-                and (cx - prev[0]) ** 2 + (cy - prev[1]) ** 2 < 0.3 ** 2):
+        if (
+            prev is not None
+            and phi_o not in _AXES
+            and (cx - prev[0]) ** 2 + (cy - prev[1]) ** 2 < 0.3**2
+        ):
             h = p["control_period_s"] * self.store_every
             vx, vy = self.obs_vel
-            self.obs_vel = (0.5 * vx + 0.5 * (cx - prev[0]) / h,
-                            0.5 * vy + 0.5 * (cy - prev[1]) / h)
+            self.obs_vel = (
+                0.5 * vx + 0.5 * (cx - prev[0]) / h,
+                0.5 * vy + 0.5 * (cy - prev[1]) / h,
+            )
             self.obs_sightings += 1
         else:
             self.obs_vel = (0.0, 0.0)
@@ -939,14 +961,18 @@ class FuzzyNavController:
             mode = f"planner steers {math.degrees(last['plan_offset']):+.0f} deg off the target"
         else:
             mode = "heading for the target"
-        state = {"avoidance weight alpha": f"{last['alpha']:.2f}",
-                 "side": "left" if last["side"] > 0 else "right",
-                 "mode": mode,
-                 "target reading": ("doubted (it moves the target: a disturbance?); "
-                                    "steering by the tracked target" if self.target_doubted
-                                    else "taken as it is"),
-                 "command": "speed {:.1f} V, turn {:.1f} V (left = speed - turn, "
-                            "right = speed + turn)".format(*last["command"])}
+        state = {
+            "avoidance weight alpha": f"{last['alpha']:.2f}",
+            "side": "left" if last["side"] > 0 else "right",
+            "mode": mode,
+            "target reading": (
+                "doubted (it moves the target: a disturbance?); steering by the tracked target"
+                if self.target_doubted
+                else "taken as it is"
+            ),
+            "command": "speed {:.1f} V, turn {:.1f} V (left = speed - turn, "
+            "right = speed + turn)".format(*last["command"]),
+        }
         return self._merged, np.array(last["block_inputs"], dtype=float), state
 
     def teaching_points(self):
@@ -955,8 +981,13 @@ class FuzzyNavController:
         and the bearing the goal block was last fed (the planner's, rad, > 0 left)."""
         x0, y0, th = self.pose
         c, s = math.cos(th), math.sin(th)
-        pts = np.array([(c * (px - x0) + s * (py - y0), c * (py - y0) - s * (px - x0))
-                        for px, py, _ in self.points], dtype=float).reshape(-1, 2)
+        pts = np.array(
+            [
+                (c * (px - x0) + s * (py - y0), c * (py - y0) - s * (px - x0))
+                for px, py, _ in self.points
+            ],
+            dtype=float,
+        ).reshape(-1, 2)
         bearing = self.last["block_inputs"][0] if self.last else math.nan
         return pts, bearing
 
@@ -976,10 +1007,17 @@ class FuzzyNavController:
 
 # ----------------------------------------------------------------------------- factory
 
-def fuzzynav_controller(goal_path: str | Path = GOAL_PATH, avoid_path: str | Path = AVOID_PATH,
-                        params_path: str | Path = PARAMS_PATH) -> FuzzyNavController:
-    return FuzzyNavController(FuzzySystem.from_toml(goal_path), FuzzySystem.from_toml(avoid_path),
-                              load_params(params_path))
+
+def fuzzynav_controller(
+    goal_path: str | Path = GOAL_PATH,
+    avoid_path: str | Path = AVOID_PATH,
+    params_path: str | Path = PARAMS_PATH,
+) -> FuzzyNavController:
+    return FuzzyNavController(
+        read_toml(goal_path),
+        read_toml(avoid_path),
+        load_params(params_path),
+    )
 
 
 def export_fis(directory: str | Path) -> list[Path]:
@@ -989,12 +1027,13 @@ def export_fis(directory: str | Path) -> list[Path]:
     paths = []
     for name, path in (("goal", GOAL_PATH), ("avoid", AVOID_PATH)):
         out = directory / f"fuzzynav_{name}.fis"
-        FuzzySystem.from_toml(path).to_fis(out)
+        write_fis(read_toml(path), out)
         paths.append(out)
     return paths
 
 
 # ----------------------------------------------------------------------------- tuning
+
 
 class FuzzyNavTunable:
     """The tuning protocol of ``controller.tuning`` (duck-typed): a vector of the crisp
@@ -1003,10 +1042,15 @@ class FuzzyNavTunable:
 
     name = "fuzzynav"
 
-    def __init__(self, goal_path=GOAL_PATH, avoid_path=AVOID_PATH, params_path=PARAMS_PATH,
-                 tune_memberships: bool = False):
-        self.goal = FuzzySystem.from_toml(goal_path)
-        self.avoid = FuzzySystem.from_toml(avoid_path)
+    def __init__(
+        self,
+        goal_path=GOAL_PATH,
+        avoid_path=AVOID_PATH,
+        params_path=PARAMS_PATH,
+        tune_memberships: bool = False,
+    ):
+        self.goal = read_toml(goal_path)
+        self.avoid = read_toml(avoid_path)
         # The search starts from the hand design in this file (CRISP_DEFAULTS), never
         # from the shipped file (which a tuning run overwrites), so that the tuning
         # command is reproducible.
@@ -1022,8 +1066,9 @@ class FuzzyNavTunable:
     def _mf_names(self) -> list[str]:
         if not self.tune_memberships:
             return []
-        return ([f"goal.{n}" for n in self.goal.parameter_names()]
-                + [f"avoid.{n}" for n in self.avoid.parameter_names()])
+        return [f"goal.{n}" for n in self.goal.parameter_names()] + [
+            f"avoid.{n}" for n in self.avoid.parameter_names()
+        ]
 
     def parameter_names(self) -> list[str]:
         return [f"crisp.{k}" for k in self._crisp] + self._mf_names()
@@ -1037,8 +1082,9 @@ class FuzzyNavTunable:
     def bounds(self) -> list[tuple[float, float]]:
         b = [CRISP_BOUNDS[k] for k in self._crisp]
         if self.tune_memberships:
-            for value in np.concatenate([self.goal.parameter_vector(),
-                                         self.avoid.parameter_vector()]):
+            for value in np.concatenate(
+                [self.goal.parameter_vector(), self.avoid.parameter_vector()]
+            ):
                 span = max(0.3, 0.3 * abs(value))
                 b.append((value - span, value + span))
         return b
@@ -1051,30 +1097,36 @@ class FuzzyNavTunable:
         goal, avoid = self.goal, self.avoid
         if self.tune_memberships:
             ng = len(goal.parameter_vector())
-            goal = goal.with_parameter_vector(vector[n:n + ng])
-            avoid = avoid.with_parameter_vector(vector[n + ng:])
+            goal = goal.with_parameter_vector(vector[n : n + ng])
+            avoid = avoid.with_parameter_vector(vector[n + ng :])
         return goal, avoid, params
 
     def build(self, vector) -> FuzzyNavController:
         goal, avoid, params = self._split(vector)
         return FuzzyNavController(goal, avoid, params)
 
-    def save(self, vector, path=None) -> list[Path]:
+    def save(self, vector, path) -> list[Path]:
+        """Write the tuned parameters to ``path`` (and, when memberships are tuned, the two
+        rule bases beside it); never into the installed package unless asked to."""
         goal, avoid, params = self._split(vector)
-        params_path = Path(path) if path is not None else self.params_path
+        params_path = Path(path)
         written = [write_params(params, params_path)]
         if self.tune_memberships:
             base = params_path.parent
-            goal.to_toml(base / "fuzzynav_goal.toml")
-            avoid.to_toml(base / "fuzzynav_avoid.toml")
+            write_toml(goal, base / "fuzzynav_goal.toml")
+            write_toml(avoid, base / "fuzzynav_avoid.toml")
             written += [base / "fuzzynav_goal.toml", base / "fuzzynav_avoid.toml"]
         return written
 
 
 def params_toml(params: dict) -> str:
     """The crisp parameters as the ``[crisp]`` table of ``fuzzynav_params.toml``."""
-    lines = ["# fuzzynav's crisp parameters (arbitration, memory, escape); see",
-             "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.", "", "[crisp]"]
+    lines = [
+        "# fuzzynav's crisp parameters (arbitration, memory, escape); see",
+        "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.",
+        "",
+        "[crisp]",
+    ]
     for key in CRISP_DEFAULTS:
         lines.append(f"{key} = {float(params[key])!r}")
     return "\n".join(lines) + "\n"

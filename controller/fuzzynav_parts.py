@@ -14,7 +14,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from controller.fuzzynav import CRISP_DEFAULTS, RULES_DIR
+from fuzzynav.controller.fuzzynav_params import CRISP_DEFAULTS, RULES_DIR
 
 PARTS_PATH = RULES_DIR / "fuzzynav_parts.toml"
 _KEYS = ("name", "what", "item", "off")
@@ -68,14 +68,26 @@ def load_parts(path: str | Path = PARTS_PATH) -> tuple[Part, ...]:
             raise ValueError(f"{where}.off = {off!r}: must be a table of crisp parameters")
         for key, value in off.items():
             if key not in CRISP_DEFAULTS:
-                raise ValueError(f"{where}.off.{key} = {value!r}: not a crisp parameter of fuzzynav")
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value):
+                raise ValueError(
+                    f"{where}.off.{key} = {value!r}: not a crisp parameter of fuzzynav"
+                )
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not math.isfinite(value)
+            ):
                 raise ValueError(f"{where}.off.{key} = {value!r}: must be a finite number")
             if key in owner:
-                raise ValueError(f"{where}.off.{key} = {value!r}: already switched by part "
-                                 f"{owner[key]!r}")
+                raise ValueError(
+                    f"{where}.off.{key} = {value!r}: already switched by part {owner[key]!r}"
+                )
             owner[key] = name
-        parts.append(Part(name, entry["what"], entry["item"],
-                          {key: float(value) for key, value in off.items()}))
+        parts.append(
+            Part(
+                name,
+                entry["what"],
+                entry["item"],
+                {key: float(value) for key, value in off.items()},
+            )
+        )
     return tuple(parts)

@@ -34,8 +34,8 @@ NaN input means "nothing sensed": every membership of NaN is 0 (all shapes).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -228,8 +228,12 @@ SHAPES: dict[str, Shape] = {
         Shape("linsmf", ("a", "b"), linsmf, "linear S: 0 below a, 1 above b"),
         Shape("linzmf", ("a", "b"), linzmf, "linear Z: 1 below a, 0 above b"),
         Shape("gaussmf", ("sigma", "c"), gaussmf, "Gaussian: width sigma, centre c"),
-        Shape("gauss2mf", ("sigma1", "c1", "sigma2", "c2"), gauss2mf,
-              "two-sided Gaussian: left (sigma1, c1), right (sigma2, c2)"),
+        Shape(
+            "gauss2mf",
+            ("sigma1", "c1", "sigma2", "c2"),
+            gauss2mf,
+            "two-sided Gaussian: left (sigma1, c1), right (sigma2, c2)",
+        ),
     )
 }
 
@@ -300,6 +304,7 @@ def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], n
         def k(x):
             y = np.minimum((x - a) / d1, (c - x) / d2)
             return np.fmax(y, 0.0, out=y)
+
         return k
     if shape == "trapmf" and p[0] < p[1] and p[2] < p[3]:
         a, b, c, d = p
@@ -309,6 +314,7 @@ def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], n
             y = np.minimum((x - a) / d1, (d - x) / d2)
             np.fmax(y, 0.0, out=y)
             return np.fmin(y, 1.0, out=y)
+
         return k
     if shape == "linsmf" and p[0] < p[1]:
         a, b = p
@@ -318,6 +324,7 @@ def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], n
             y = (x - a) / d1
             np.fmax(y, 0.0, out=y)
             return np.fmin(y, 1.0, out=y)
+
         return k
     if shape == "linzmf" and p[0] < p[1]:
         a, b = p
@@ -327,6 +334,7 @@ def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], n
             y = (b - x) / d1
             np.fmax(y, 0.0, out=y)
             return np.fmin(y, 1.0, out=y)
+
         return k
     if shape == "gaussmf":
         sigma, c = p
@@ -338,6 +346,7 @@ def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], n
             np.divide(y, negden, out=y)
             np.exp(y, out=y)
             return np.fmax(y, 0.0, out=y)
+
         return k
     func = SHAPES[shape].func
     return lambda x: func(x, p)

@@ -45,10 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-from controller.fis_controller import FisController
-from controller.fuzzy import FuzzySystem
+from fuzzynav.controller.fis_controller import FisController
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.resources import asset_path
 
-ASSETS = Path(__file__).resolve().parents[1] / "assets" / "rules"
+ASSETS = asset_path("rules")
 PAPER_RULES = ASSETS / "paper.toml"
 FIRST_DESIGN = ASSETS / "paper_first_design.toml"
 
@@ -100,8 +102,11 @@ _PARAMETERS: list[tuple[str, float, float, float]] = [
 
 def _five(x0, widths, middle="gaussmf", ramp=None):
     a = np.cumsum([x0, *widths])
-    mid = (("gaussmf", ((a[3] - a[1]) / _K, a[2])) if middle == "gaussmf"
-           else ("trimf", (a[1], a[2], a[3])))
+    mid = (
+        ("gaussmf", ((a[3] - a[1]) / _K, a[2]))
+        if middle == "gaussmf"
+        else ("trimf", (a[1], a[2], a[3]))
+    )
     return [
         ("linzmf", (a[0], a[1])),
         ("trimf", (a[0], a[1], a[2])),
@@ -153,7 +158,7 @@ class PaperTunable:
 
     def __init__(self, template: str | Path = FIRST_DESIGN):
         self.template_path = Path(template)
-        self._template = FuzzySystem.from_toml(self.template_path)
+        self._template = read_toml(self.template_path)
 
     def parameter_names(self) -> list[str]:
         return [p[0] for p in _PARAMETERS]
@@ -168,13 +173,18 @@ class PaperTunable:
         """Shape and parameters of every term, by variable, for ``vector``."""
         v = np.asarray(vector, dtype=float).ravel()
         if v.size != len(_PARAMETERS):
-            raise ValueError(f"paper tunable: vector must have {len(_PARAMETERS)} entries, got {v.size}")
+            raise ValueError(
+                f"paper tunable: vector must have {len(_PARAMETERS)} entries, got {v.size}"
+            )
         b = np.cumsum(v[5:8])
         outputs = _outputs(*v[17:27])
         return {
             "d_t": _five(v[0], v[1:5]),
-            "d_o": [("linzmf", (b[0], b[1])), ("gaussmf", ((b[2] - b[0]) / _K, b[1])),
-                    ("linsmf", (b[1], b[2]))],
+            "d_o": [
+                ("linzmf", (b[0], b[1])),
+                ("gaussmf", ((b[2] - b[0]) / _K, b[1])),
+                ("linsmf", (b[1], b[2])),
+            ],
             "phi_t": _angles(*v[8:12]),
             "phi_o": _angles(*v[12:17]),
             "left": outputs,
@@ -195,8 +205,12 @@ class PaperTunable:
     def system(self, vector) -> FuzzySystem:
         terms = self.terms(vector)
         template = self._shaped(terms)
-        flat = [float(p) for v in template.inputs + template.outputs
-                for _, params in terms[v.name] for p in params]
+        flat = [
+            float(p)
+            for v in template.inputs + template.outputs
+            for _, params in terms[v.name]
+            for p in params
+        ]
         return template.with_parameter_vector(flat)
 
     def __getstate__(self):
@@ -207,13 +221,15 @@ class PaperTunable:
     def build(self, vector) -> FisController:
         return FisController(self.system(vector), name="paper")
 
-    def save(self, vector, path: Path | None = None, header: str = "") -> list[Path]:
-        from controller.rulebase import dumps_toml
+    def save(self, vector, path: Path, header: str = "") -> list[Path]:
+        from fuzzynav.controller.rulebase import dumps_toml
 
-        path = Path(path) if path is not None else PAPER_RULES
+        path = Path(path)
         fis = self.system(vector)
-        fis = fis._replace(description="Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
-                                       "membership functions tuned by fuzzynav tune (not from the paper)")
+        fis = fis._replace(
+            description="Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
+            "membership functions tuned by fuzzynav tune (not from the paper)"
+        )
         names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
         lines = [
             "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",

@@ -25,11 +25,18 @@ class ProportionalController:
 
     name = "p"
 
-    def __init__(self, *, gain_distance_v_per_m: float = 4.0, max_forward_v: float = 12.0,
-                 gain_heading_v_per_rad: float = 6.0):
-        for label, value in (("gain_distance_v_per_m", gain_distance_v_per_m),
-                             ("max_forward_v", max_forward_v),
-                             ("gain_heading_v_per_rad", gain_heading_v_per_rad)):
+    def __init__(
+        self,
+        *,
+        gain_distance_v_per_m: float = 4.0,
+        max_forward_v: float = 12.0,
+        gain_heading_v_per_rad: float = 6.0,
+    ):
+        for label, value in (
+            ("gain_distance_v_per_m", gain_distance_v_per_m),
+            ("max_forward_v", max_forward_v),
+            ("gain_heading_v_per_rad", gain_heading_v_per_rad),
+        ):
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{label} = {value!r}: must be a finite non-negative number")
         self.gain_distance_v_per_m = gain_distance_v_per_m

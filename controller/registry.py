@@ -10,14 +10,26 @@ from pathlib import Path
 
 # name -> (module, factory function, one-line description)
 _FACTORIES: dict[str, tuple[str, str, str]] = {
-    "paper": ("controller.paper", "paper_controller",
-              "the paper's Table 1: 40 Mamdani rules, our tuned membership functions"),
-    "baseline": ("controller.baseline", "baseline_controller",
-                 "stand-in for the paper's reference [19]: goal-seeking + avoidance blocks"),
-    "fuzzynav": ("controller.fuzzynav", "fuzzynav_controller",
-                 "fuzzynav's own navigator: sector avoidance that takes precedence"),
-    "p": ("controller.proportional", "ProportionalController",
-          "proportional go-to-goal, obstacle-blind (a teaching contrast)"),
+    "paper": (
+        "fuzzynav.controller.paper",
+        "paper_controller",
+        "the paper's Table 1: 40 Mamdani rules, our tuned membership functions",
+    ),
+    "baseline": (
+        "fuzzynav.controller.baseline",
+        "baseline_controller",
+        "stand-in for the paper's reference [19]: goal-seeking + avoidance blocks",
+    ),
+    "fuzzynav": (
+        "fuzzynav.controller.fuzzynav",
+        "fuzzynav_controller",
+        "fuzzynav's own navigator: sector avoidance that takes precedence",
+    ),
+    "p": (
+        "fuzzynav.controller.proportional",
+        "ProportionalController",
+        "proportional go-to-goal, obstacle-blind (a teaching contrast)",
+    ),
 }
 
 
@@ -46,7 +58,7 @@ def make_controller(name: str = "paper", fis_path: str | Path | None = None):
         Unknown name, or a ``.fis`` file that cannot be used (the message names it).
     """
     if fis_path is not None:
-        from controller.fis_controller import FisController
+        from fuzzynav.controller.fis_controller import FisController
 
         return FisController.from_fis(fis_path)
     if name not in _FACTORIES:

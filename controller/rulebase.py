@@ -48,13 +48,20 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable
 from . import membership as mf
+from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable, rule_sentence
 
 __all__ = ["read_toml", "write_toml", "parse_rule", "format_rule", "loads_toml", "dumps_toml"]
 
-_SYSTEM_KEYS = {"name", "description", "points", "and", "implication", "aggregation",
-                "defuzzification"}
+_SYSTEM_KEYS = {
+    "name",
+    "description",
+    "points",
+    "and",
+    "implication",
+    "aggregation",
+    "defuzzification",
+}
 _FIXED = {"and": "min", "implication": "min", "aggregation": "max", "defuzzification": "centroid"}
 _VAR_KEYS = {"name", "range", "unit", "description", "terms"}
 _VAR_REQUIRED = ("name", "range", "terms")
@@ -120,9 +127,14 @@ def parse_rule(text: str, inputs: list[Variable], outputs: list[Variable]) -> Ru
                 groups[-1].append(t)
         for g in groups:
             if len(g) != 3 or g[1].upper() != "IS":
-                raise ValueError(f"expected '<variable> IS <term>' in the {side}, got {' '.join(g)!r}"
-                                 + (" (only AND is supported, no OR/NOT)" if any(
-                                     x.upper() in ("OR", "NOT") for x in g) else ""))
+                raise ValueError(
+                    f"expected '<variable> IS <term>' in the {side}, got {' '.join(g)!r}"
+                    + (
+                        " (only AND is supported, no OR/NOT)"
+                        if any(x.upper() in ("OR", "NOT") for x in g)
+                        else ""
+                    )
+                )
             var, term = g[0], g[2]
             if var not in by_name:
                 other = "an output" if side == "antecedent" else "an input"
@@ -135,26 +147,23 @@ def parse_rule(text: str, inputs: list[Variable], outputs: list[Variable]) -> Ru
                 raise ValueError(f"variable {var!r} appears twice in the {side}")
             v = variables[i]
             if term not in v.term_names:
-                hint = " (leave the input out instead of writing NONE)" if term.upper() == "NONE" else ""
+                hint = (
+                    " (leave the input out instead of writing NONE)"
+                    if term.upper() == "NONE"
+                    else ""
+                )
                 raise ValueError(f"unknown term {term!r} of {var!r} (terms: {v.term_names}){hint}")
             picked[i] = v.term_names.index(term)
         return tuple(picked)
 
     ant = clauses(toks[1:t_then], inputs, "antecedent")
-    con = clauses(toks[t_then + 1:end], outputs, "consequent")
+    con = clauses(toks[t_then + 1 : end], outputs, "consequent")
     return Rule(ant, con, weight)
 
 
 def format_rule(system: FuzzySystem, rule: Rule) -> str:
     """The rule as a sentence (the inverse of :func:`parse_rule`)."""
-    ant = " AND ".join(f"{v.name} IS {v.terms[i].name}"
-                       for v, i in zip(system.inputs, rule.antecedent) if i is not None)
-    con = " AND ".join(f"{v.name} IS {v.terms[i].name}"
-                       for v, i in zip(system.outputs, rule.consequent) if i is not None)
-    s = f"IF {ant} THEN {con}"
-    if rule.weight != 1.0:
-        s += f" WEIGHT {_num(rule.weight)}"
-    return s
+    return rule_sentence(system.inputs, system.outputs, rule)
 
 
 # --------------------------------------------------------------------------- reading
@@ -195,8 +204,11 @@ def _check_keys(err: _Err, where: str, table: Any, allowed: set[str], required=(
         raise err(where, table, "must be a table")
     for k in table:
         if k not in allowed:
-            raise err(f"{where}.{k}" if where else k, table[k],
-                      f"unknown key (allowed: {sorted(allowed)})")
+            raise err(
+                f"{where}.{k}" if where else k,
+                table[k],
+                f"unknown key (allowed: {sorted(allowed)})",
+            )
     for k in required:
         if k not in table:
             raise err(f"{where}.{k}" if where else k, None, "missing required key")
@@ -284,8 +296,9 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
             rules.append(parse_rule(text, groups["inputs"], groups["outputs"]))
         except ValueError as e:
             raise err(key, text, f"rule {i + 1}: {e}") from None
-    return FuzzySystem(groups["inputs"], groups["outputs"], rules, name=name,
-                       description=desc, n_points=points)
+    return FuzzySystem(
+        groups["inputs"], groups["outputs"], rules, name=name, description=desc, n_points=points
+    )
 
 
 def loads_toml(text: str, source: str = "<string>") -> FuzzySystem:
@@ -343,17 +356,27 @@ def dumps_toml(system: FuzzySystem) -> str:
         for n in [v.name] + v.term_names:
             why = _bad_name(n)
             if why:
-                raise ValueError(f"cannot write {n!r} (variable {v.name!r}) to a TOML rule base: {why}")
+                raise ValueError(
+                    f"cannot write {n!r} (variable {v.name!r}) to a TOML rule base: {why}"
+                )
     lines = ["[system]", f"name = {_str(system.name)}"]
     if system.description:
         lines.append(f"description = {_str(system.description)}")
     lines.append(f"points = {system.n_points}")
-    lines += ['and = "min"', 'implication = "min"', 'aggregation = "max"',
-              'defuzzification = "centroid"']
+    lines += [
+        'and = "min"',
+        'implication = "min"',
+        'aggregation = "max"',
+        'defuzzification = "centroid"',
+    ]
     for side, vs in (("inputs", system.inputs), ("outputs", system.outputs)):
         for v in vs:
-            lines += ["", f"[[{side}]]", f"name = {_str(v.name)}",
-                      f"range = [{_num(v.range[0])}, {_num(v.range[1])}]"]
+            lines += [
+                "",
+                f"[[{side}]]",
+                f"name = {_str(v.name)}",
+                f"range = [{_num(v.range[0])}, {_num(v.range[1])}]",
+            ]
             if v.unit:
                 lines.append(f"unit = {_str(v.unit)}")
             if v.description:
@@ -361,7 +384,9 @@ def dumps_toml(system: FuzzySystem) -> str:
             lines.append("terms = [")
             for t in v.terms:
                 ps = ", ".join(_num(p) for p in t.params)
-                lines.append(f"  {{ name = {_str(t.name)}, shape = {_str(t.shape)}, params = [{ps}] }},")
+                lines.append(
+                    f"  {{ name = {_str(t.name)}, shape = {_str(t.shape)}, params = [{ps}] }},"
+                )
             lines.append("]")
     lines += ["", "[rulebase]", "rules = ["]
     for r in system.rules:

@@ -18,7 +18,7 @@ import numpy as np
 __all__ = ["Tunable", "tunable", "TUNABLE_NAMES"]
 
 # name -> module whose ``tunable()`` returns the Tunable (imported lazily)
-_MODULES = {"paper": "controller.paper", "fuzzynav": "controller.fuzzynav"}
+_MODULES = {"paper": "fuzzynav.controller.paper", "fuzzynav": "fuzzynav.controller.fuzzynav"}
 TUNABLE_NAMES = tuple(_MODULES)
 
 
@@ -54,7 +54,9 @@ def tunable(name: str) -> Tunable:
     except ModuleNotFoundError as exc:
         if exc.name != _MODULES[name]:
             raise
-        raise ValueError(f"controller = {name!r}: module {_MODULES[name]} does not exist yet") from None
+        raise ValueError(
+            f"controller = {name!r}: module {_MODULES[name]} does not exist yet"
+        ) from None
     factory = getattr(module, "tunable", None)
     if factory is None:
         raise ValueError(f"controller = {name!r}: {_MODULES[name]} defines no tunable()")

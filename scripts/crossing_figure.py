@@ -3,26 +3,29 @@ moving obstacle (ideal perception), without the yield rule, and with the sonars 
 
     .venv/bin/python scripts/crossing_figure.py [OUT.png]
 """
+
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import matplotlib
 
-import matplotlib  # noqa: E402
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from controller.fuzzynav import _HX, _HY, fuzzynav_controller  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
+from fuzzynav.controller.fuzzynav import _HX, _HY, fuzzynav_controller
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
 
-CASES = (("ideal perception: yield, then go", "ideal", {}),
-         ("ideal, yield rule off (dodge_horizon_s = 0)", "ideal", {"dodge_horizon_s": 0.0}),
-         ("ultrasonic: the obstacle is seen too late", "ultrasonic", {}))
+ROOT = Path(__file__).resolve().parents[1]
+
+CASES = (
+    ("ideal perception: yield, then go", "ideal", {}),
+    ("ideal, yield rule off (dodge_horizon_s = 0)", "ideal", {"dodge_horizon_s": 0.0}),
+    ("ultrasonic: the obstacle is seen too late", "ultrasonic", {}),
+)
 
 
 def footprint(pose):
@@ -46,13 +49,17 @@ def draw(ax, title, result, scenario):
         ax.add_patch(plt.Circle((ox, oy), radius, fill=False, color=(0.85, 0.2, 0.2, shade)))
         if k % (2 * every) == 0 or k == len(log.time_s) - 1:
             ax.annotate(f"{t:.0f}", (ox + radius, oy), fontsize=6, color="firebrick")
-            ax.annotate(f"{t:.0f}", log.pose[k, :2] + (0, 0.45), fontsize=6, color="navy",
-                        ha="center")
+            ax.annotate(
+                f"{t:.0f}", log.pose[k, :2] + (0, 0.45), fontsize=6, color="navy", ha="center"
+            )
     ax.plot(*scenario.target, "g*", ms=12)
     ax.plot(*scenario.start, "ko", ms=4)
     m = result.metrics
-    ax.set_title(f"{title}\n{result.outcome}, path {m['path_length_m']:.2f} m, "
-                 f"clearance {max(m['min_clearance_m'], 0.0):.2f} m", fontsize=8)
+    ax.set_title(
+        f"{title}\n{result.outcome}, path {m['path_length_m']:.2f} m, "
+        f"clearance {max(m['min_clearance_m'], 0.0):.2f} m",
+        fontsize=8,
+    )
     ax.set_xlim(-0.8, 10.8)
     # Room for the whole path: without the yield rule the robot may flee up the lane.
     ax.set_ylim(-4.0, max(3.0, float(np.nanmax(log.pose[:, 1])) + 0.8))

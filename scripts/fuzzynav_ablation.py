@@ -13,6 +13,7 @@ figure and the table from counts written before.
 
 An ablation describes; it chooses nothing. Seed 59 was fresh when this was first run.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,12 +21,12 @@ import json
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from fuzzynav.app.experiments import SAFE_CLEARANCE_M
+from fuzzynav.app.experiments import _sweep_one as sweep_one
+from fuzzynav.controller.fuzzynav_parts import load_parts
+from fuzzynav.world.layouts import FAMILIES
 
-from app.experiments import SAFE_CLEARANCE_M, _sweep_one as sweep_one  # noqa: E402
-from controller.fuzzynav_parts import load_parts  # noqa: E402
-from world.layouts import FAMILIES  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 MODES = ("ideal", "ultrasonic")
 
@@ -33,7 +34,8 @@ MODES = ("ideal", "ultrasonic")
 def versions(parts) -> list[dict]:
     """The shipped controller, then one version per part with that part switched off."""
     return [{"name": "shipped", "off": None, "what": "the shipped controller"}] + [
-        {"name": f"no {p.name}", "off": p.name, "what": p.what} for p in parts]
+        {"name": f"no {p.name}", "off": p.name, "what": p.what} for p in parts
+    ]
 
 
 def run_one(job):
@@ -43,14 +45,25 @@ def run_one(job):
     row = sweep_one((family, seed, index, "fuzzynav", mode, (part_off,) if part_off else ()))
     ok = row["reached"] and not row["collided"]
     clearance = row["min_clearance_m"]
-    return (k, family, mode, ok, ok and (clearance is None or clearance >= SAFE_CLEARANCE_M),
-            row["collided"], row["outcome"] == "timeout")
+    return (
+        k,
+        family,
+        mode,
+        ok,
+        ok and (clearance is None or clearance >= SAFE_CLEARANCE_M),
+        row["collided"],
+        row["outcome"] == "timeout",
+    )
 
 
 def tally(rows, n_ablations: int, sizes: dict[str, int]) -> dict:
     """Counts per (ablation, family, mode): n, ok, safe, collided, timeout."""
-    out = {(k, f, m): {"n": 0, "ok": 0, "safe": 0, "collided": 0, "timeout": 0}
-           for k in range(n_ablations) for f in sizes for m in MODES}
+    out = {
+        (k, f, m): {"n": 0, "ok": 0, "safe": 0, "collided": 0, "timeout": 0}
+        for k in range(n_ablations)
+        for f in sizes
+        for m in MODES
+    }
     for k, family, mode, ok, safe, collided, timeout in rows:
         cell = out[(k, family, mode)]
         cell["n"] += 1
@@ -63,13 +76,18 @@ def tally(rows, n_ablations: int, sizes: dict[str, int]) -> dict:
 
 def draw(ablations, counts, sizes, out: Path, seed: int) -> None:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
     columns = [(f, m) for f in sizes for m in MODES]
-    rate = np.array([[100.0 * counts[(k, f, m)]["ok"] / counts[(k, f, m)]["n"] for f, m in columns]
-                     for k in range(len(ablations))])
+    rate = np.array(
+        [
+            [100.0 * counts[(k, f, m)]["ok"] / counts[(k, f, m)]["n"] for f, m in columns]
+            for k in range(len(ablations))
+        ]
+    )
     delta = rate - rate[0]
     fig, ax = plt.subplots(figsize=(1.05 * len(columns) + 3.2, 0.42 * len(ablations) + 1.6))
     limit = max(10.0, float(np.abs(delta).max()))
@@ -77,13 +95,22 @@ def draw(ablations, counts, sizes, out: Path, seed: int) -> None:
     for i in range(len(ablations)):
         for j in range(len(columns)):
             text = f"{rate[i, j]:.0f}" if i == 0 else f"{rate[i, j]:.0f}\n({delta[i, j]:+.0f})"
-            ax.text(j, i, text, ha="center", va="center", fontsize=7,
-                    color="white" if abs(delta[i, j]) > 0.6 * limit else "black")
-    ax.set_xticks(range(len(columns)),
-                  [f"{f}\n{m} (n={sizes[f]})" for f, m in columns], fontsize=7)
+            ax.text(
+                j,
+                i,
+                text,
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="white" if abs(delta[i, j]) > 0.6 * limit else "black",
+            )
+    ax.set_xticks(range(len(columns)), [f"{f}\n{m} (n={sizes[f]})" for f, m in columns], fontsize=7)
     ax.set_yticks(range(len(ablations)), [a["name"] for a in ablations], fontsize=8)
-    ax.set_title(f"fuzzynav with one part switched off: reached without collision, % "
-                 f"(change from shipped), seed {seed}", fontsize=9)
+    ax.set_title(
+        f"fuzzynav with one part switched off: reached without collision, % "
+        f"(change from shipped), seed {seed}",
+        fontsize=9,
+    )
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
@@ -93,14 +120,23 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=59)
     parser.add_argument("--n", type=int, default=200, help="standard layouts")
-    parser.add_argument("--n-hard", type=int, default=100, help="clutter, u_trap, two_moving layouts each")
-    parser.add_argument("--n-jitter", type=int, default=48, help="paper_jitter copies (a third per scenario)")
+    parser.add_argument(
+        "--n-hard", type=int, default=100, help="clutter, u_trap, two_moving layouts each"
+    )
+    parser.add_argument(
+        "--n-jitter", type=int, default=48, help="paper_jitter copies (a third per scenario)"
+    )
     parser.add_argument("--workers", type=int, default=2, choices=(1, 2))
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "fuzzynav_ablation.png")
     parser.add_argument("--json", type=Path, default=None, help="also write the counts as JSON")
-    parser.add_argument("--from-json", type=Path, default=None, metavar="JSON",
-                        help="draw the figure and print the table from counts written before "
-                             "(docs/data/fuzzynav_ablation_seed59.json), without running")
+    parser.add_argument(
+        "--from-json",
+        type=Path,
+        default=None,
+        metavar="JSON",
+        help="draw the figure and print the table from counts written before "
+        "(docs/data/fuzzynav_ablation_seed59.json), without running",
+    )
     args = parser.parse_args(argv)
     if args.from_json is not None:
         ablations, counts, sizes, seed = read_counts(args.from_json)
@@ -109,20 +145,29 @@ def main(argv=None) -> int:
         print(f"wrote {args.out}")
         return 0
     ablations = versions(load_parts())
-    sizes = {f: (args.n if f == "standard" else args.n_jitter if f == "paper_jitter" else args.n_hard)
-             for f in FAMILIES}
+    sizes = {
+        f: (args.n if f == "standard" else args.n_jitter if f == "paper_jitter" else args.n_hard)
+        for f in FAMILIES
+    }
     sizes = {f: n for f, n in sizes.items() if n > 0}
-    jobs = [(k, a["off"], f, args.seed, i, m) for k, a in enumerate(ablations)
-            for f, n in sizes.items() for m in MODES for i in range(n)]
+    jobs = [
+        (k, a["off"], f, args.seed, i, m)
+        for k, a in enumerate(ablations)
+        for f, n in sizes.items()
+        for m in MODES
+        for i in range(n)
+    ]
 
     from rich.progress import Progress
 
     rows = []
     with Progress(transient=True) as progress:
-        task = progress.add_task(f"{len(ablations)} versions x {len(jobs) // len(ablations)} runs",
-                                 total=len(jobs))
+        task = progress.add_task(
+            f"{len(ablations)} versions x {len(jobs) // len(ablations)} runs", total=len(jobs)
+        )
         if args.workers > 1:
             import multiprocessing as mp
+
             with mp.get_context("fork").Pool(args.workers) as pool:
                 for row in pool.imap_unordered(run_one, jobs, chunksize=8):
                     rows.append(row)
@@ -135,11 +180,24 @@ def main(argv=None) -> int:
     print_table(ablations, counts, sizes, args.seed)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({
-            "seed": args.seed, "sizes": sizes,
-            "ablations": [{"name": a["name"], "what": a["what"], "part_off": a["off"],
-                           "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES}}
-                          for k, a in enumerate(ablations)]}, indent=1))
+        args.json.write_text(
+            json.dumps(
+                {
+                    "seed": args.seed,
+                    "sizes": sizes,
+                    "ablations": [
+                        {
+                            "name": a["name"],
+                            "what": a["what"],
+                            "part_off": a["off"],
+                            "counts": {f"{f}/{m}": counts[(k, f, m)] for f in sizes for m in MODES},
+                        }
+                        for k, a in enumerate(ablations)
+                    ],
+                },
+                indent=1,
+            )
+        )
     draw(ablations, counts, sizes, args.out, args.seed)
     print(f"wrote {args.out}")
     return 0
@@ -148,8 +206,9 @@ def main(argv=None) -> int:
 def read_counts(path: Path):
     """(versions, counts, sizes, seed) from a file written by ``--json``."""
     data = json.loads(Path(path).read_text())
-    ablations = [{"name": a["name"], "off": a["part_off"], "what": a["what"]}
-                 for a in data["ablations"]]
+    ablations = [
+        {"name": a["name"], "off": a["part_off"], "what": a["what"]} for a in data["ablations"]
+    ]
     counts = {}
     for k, a in enumerate(data["ablations"]):
         for key, cell in a["counts"].items():
@@ -162,8 +221,10 @@ def print_table(ablations, counts, sizes, seed) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"fuzzynav ablations, seed {seed}: reached without collision "
-                        f"(ideal / ultrasonic), change from shipped")
+    table = Table(
+        title=f"fuzzynav ablations, seed {seed}: reached without collision "
+        f"(ideal / ultrasonic), change from shipped"
+    )
     table.add_column("switched off")
     for f in sizes:
         table.add_column(f"{f} (n={sizes[f]})", justify="right")

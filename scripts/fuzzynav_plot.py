@@ -1,24 +1,25 @@
 """Plot fuzzynav's trajectories on s1-s3 (both perception modes) or on chosen layouts.
 
-    .venv/bin/python scripts/fuzzynav_plot.py OUT.png [family:seed:index ...]
+.venv/bin/python scripts/fuzzynav_plot.py OUT.png [family:seed:index ...]
 """
+
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import matplotlib
 
-import matplotlib  # noqa: E402
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from controller.fuzzynav import fuzzynav_controller  # noqa: E402
-from world.layouts import generate_layout  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
+from fuzzynav.controller.fuzzynav import fuzzynav_controller
+from fuzzynav.world.layouts import generate_layout
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def scenario(spec):
@@ -37,9 +38,13 @@ def main():
         for mode, colour in (("ideal", "tab:blue"), ("ultrasonic", "tab:orange")):
             r = Simulation(sc, fuzzynav_controller(), perception=mode, seed=0).run()
             log = r.log
-            ax.plot(log.pose[:, 0], log.pose[:, 1], color=colour,
-                    label=f"{mode}: {r.outcome}, {r.metrics['path_length_m']:.2f} m, "
-                          f"clear {r.metrics['min_clearance_m']:.2f}")
+            ax.plot(
+                log.pose[:, 0],
+                log.pose[:, 1],
+                color=colour,
+                label=f"{mode}: {r.outcome}, {r.metrics['path_length_m']:.2f} m, "
+                f"clear {r.metrics['min_clearance_m']:.2f}",
+            )
             for j, rad in enumerate(log.obstacle_radii_m):
                 xy = log.obstacle_xy[:, j]
                 ok = np.isfinite(xy[:, 0])

@@ -8,6 +8,7 @@ modes (tune on seed 1, report on other seeds). Deterministic for given arguments
 (scipy's DE with a fixed seed and deferred updating). ``--write`` saves the best vector to
 assets/rules/fuzzynav_params.toml through the Tunable's save().
 """
+
 from __future__ import annotations
 
 import argparse
@@ -16,16 +17,16 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from fuzzynav.controller.fuzzynav import tunable
+from fuzzynav.controller.fuzzynav_params import PARAMS_PATH
+from fuzzynav.world.layouts import generate_layout
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-import numpy as np  # noqa: E402
-from scipy.optimize import differential_evolution  # noqa: E402
-
-from controller.fuzzynav import tunable  # noqa: E402
-from world.layouts import generate_layout  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
 
 PAPER_PATH_M = {"s1": 11.8332, "s2": 11.8672, "s3": 11.8263}
 _CACHE: dict = {}
@@ -80,19 +81,41 @@ def main(argv=None) -> int:
     print(f"initial cost {cost(x0, args.seed, args.n, t):.3f}", flush=True)
 
     def progress(xk, convergence=None):
-        print(f"[{time.time() - started:6.0f} s] generation done; best vector "
-              f"{json.dumps([round(v, 4) for v in xk.tolist()])}", flush=True)
-        if args.write:   # keep the best so far, so that a time limit loses nothing
-            t.save(xk)
+        print(
+            f"[{time.time() - started:6.0f} s] generation done; best vector "
+            f"{json.dumps([round(v, 4) for v in xk.tolist()])}",
+            flush=True,
+        )
+        if args.write:  # keep the best so far, so that a time limit loses nothing
+            t.save(xk, PARAMS_PATH)
 
     res = differential_evolution(
-        cost, bounds, args=(args.seed, args.n, t), x0=x0, seed=args.de_seed,
-        maxiter=args.maxiter, popsize=args.popsize, workers=min(args.workers, 2),
-        updating="deferred", polish=False, init="latinhypercube", callback=progress, tol=0)
-    print(json.dumps({"cost": res.fun, "nfev": res.nfev,
-                      "vector": dict(zip(t.parameter_names(), res.x.tolist()))}, indent=1))
+        cost,
+        bounds,
+        args=(args.seed, args.n, t),
+        x0=x0,
+        seed=args.de_seed,
+        maxiter=args.maxiter,
+        popsize=args.popsize,
+        workers=min(args.workers, 2),
+        updating="deferred",
+        polish=False,
+        init="latinhypercube",
+        callback=progress,
+        tol=0,
+    )
+    print(
+        json.dumps(
+            {
+                "cost": res.fun,
+                "nfev": res.nfev,
+                "vector": dict(zip(t.parameter_names(), res.x.tolist())),
+            },
+            indent=1,
+        )
+    )
     if args.write:
-        for path in t.save(res.x):
+        for path in t.save(res.x, PARAMS_PATH):
             print("wrote", path)
     print(f"wall {time.time() - started:.0f} s")
     return 0

@@ -5,25 +5,25 @@ with their closest point marked.
 
     .venv/bin/python scripts/jitter_figure.py [OUT.png] [--n-per-scenario 16] [--perception ideal]
 """
+
 from __future__ import annotations
 
 import argparse
 import statistics
-import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-import matplotlib  # noqa: E402
+import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from app.runs import run_scenario  # noqa: E402
-from world.layouts import SAFE_DISTANCE_M as SAFE_M, generate_layout  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
+from fuzzynav.app.runs import run_scenario
+from fuzzynav.world.layouts import SAFE_DISTANCE_M as SAFE_M
+from fuzzynav.world.layouts import generate_layout
+from fuzzynav.world.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
 
 SEED = 5
 CONTROLLERS = ("paper", "fuzzynav")
@@ -41,7 +41,7 @@ def runs_for(controller: str, scenario_index: int, n: int, perception: str):
 def draw(ax, name: str, runs) -> None:
     base = load_scenario(name)
     safe_lengths, unsafe = [], 0
-    for layout, result in runs:
+    for _layout, result in runs:
         xy = result.log.pose[:, :2]
         m = result.metrics
         ok = m["reached"] and not m["collided"] and m["min_clearance_m"] >= SAFE_M
@@ -52,15 +52,19 @@ def draw(ax, name: str, runs) -> None:
             unsafe += 1
             ax.plot(xy[:, 0], xy[:, 1], color="#d62728", lw=0.9, alpha=0.9)
             # where the footprint came closest to any obstacle (the logged clearance)
-            k = np.unravel_index(np.nanargmin(result.log.clearance_m),
-                                 result.log.clearance_m.shape)[0]
+            k = np.unravel_index(
+                np.nanargmin(result.log.clearance_m), result.log.clearance_m.shape
+            )[0]
             ax.plot(*xy[k], "x", color="#d62728", ms=6)
     for o in base.obstacles:
         ax.add_patch(plt.Circle(o.position, o.radius_m, color="0.3", alpha=0.6))
         if not o.is_static:
             t = np.linspace(0.0, 60.0, 30)
-            path = (np.asarray(o.position)[None, :] + np.outer(t, o.velocity)
-                    + 0.5 * np.outer(t * t, o.acceleration))
+            path = (
+                np.asarray(o.position)[None, :]
+                + np.outer(t, o.velocity)
+                + 0.5 * np.outer(t * t, o.acceleration)
+            )
             ax.plot(path[:, 0], path[:, 1], ":", color="0.3", lw=1)
     ax.plot(*base.target, "*", color="green", ms=12)
     n = len(runs)
@@ -79,11 +83,14 @@ def main(out: Path, n_per_scenario: int = 16, perception: str = "ideal") -> None
         for index, ax in enumerate(row):
             draw(ax, f"s{index + 1}", runs_for(controller, index, n_per_scenario, perception))
         row[0].set_ylabel(controller, fontsize=10)
-    fig.suptitle(f"s1-s3, each jittered {n_per_scenario} times (obstacles moved by up to 5 cm, "
-                 f"acceleration by up to 5 %, heading by up to 0.03 rad; seed {SEED}), "
-                 f"{perception} perception\nblue: reached with >= {SAFE_M} m clearance; red: "
-                 "collided or came closer (x: the closest point); dotted: the moving obstacle's "
-                 "path over 60 s", fontsize=9)
+    fig.suptitle(
+        f"s1-s3, each jittered {n_per_scenario} times (obstacles moved by up to 5 cm, "
+        f"acceleration by up to 5 %, heading by up to 0.03 rad; seed {SEED}), "
+        f"{perception} perception\nblue: reached with >= {SAFE_M} m clearance; red: "
+        "collided or came closer (x: the closest point); dotted: the moving obstacle's "
+        "path over 60 s",
+        fontsize=9,
+    )
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=100)
@@ -92,7 +99,9 @@ def main(out: Path, n_per_scenario: int = 16, perception: str = "ideal") -> None
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", nargs="?", type=Path, default=ROOT / "docs" / "img" / "paper_jitter.png")
+    parser.add_argument(
+        "out", nargs="?", type=Path, default=ROOT / "docs" / "img" / "paper_jitter.png"
+    )
     parser.add_argument("--n-per-scenario", type=int, default=16)
     parser.add_argument("--perception", default="ideal", choices=("ideal", "ultrasonic"))
     args = parser.parse_args()

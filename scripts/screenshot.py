@@ -12,14 +12,19 @@ from __future__ import annotations
 import argparse
 import shutil
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 
 
 def main(argv=None) -> int:
@@ -40,30 +45,35 @@ def main(argv=None) -> int:
         return 2
     from playwright.sync_api import sync_playwright
 
-    from app.viewer import ViewerApp
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer import ViewerApp
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     app = ViewerApp(args.scenario, args.controller)
     server = ViewerServer(app, port=0)
     try:
         with sync_playwright() as pw:
-            browser = pw.chromium.launch(executable_path=chromium, headless=True,
-                                         args=CHROMIUM_ARGS)
-            page = browser.new_page(viewport={"width": args.width, "height": args.height},
-                                    device_scale_factor=1)
+            browser = pw.chromium.launch(
+                executable_path=chromium, headless=True, args=CHROMIUM_ARGS
+            )
+            page = browser.new_page(
+                viewport={"width": args.width, "height": args.height}, device_scale_factor=1
+            )
             page.goto(server.url)
             page.wait_for_function(
                 "() => { const m = window.__viserMutable; return !!(m && m.camera &&"
                 " m.nodeRefFromName['/target'] && m.nodeRefFromName['/ground']); }",
-                timeout=60_000)
+                timeout=60_000,
+            )
             page.wait_for_timeout(3000)  # the panels dock and the camera refits
             # Headless Chromium renders WebGL in software and viser says so: close that.
             for button in page.locator(".mantine-Notification-closeButton").all():
                 button.click()
             page.get_by_role("button", name="Play").click()
             app.set_speed(args.speed)
-            app.wait_for(lambda a: a.sim.time_s >= args.seconds or a.sim.done,
-                         timeout=args.seconds / args.speed * 4 + 20)
+            app.wait_for(
+                lambda a: a.sim.time_s >= args.seconds or a.sim.done,
+                timeout=args.seconds / args.speed * 4 + 20,
+            )
             app.set_speed(0.2)  # still running in the picture, barely moving
             if args.tab:
                 page.get_by_role("tab", name=args.tab).click()
@@ -74,8 +84,10 @@ def main(argv=None) -> int:
             browser.close()
     finally:
         server.stop()
-    print(f"screenshot: wrote {args.out} (t = {app.sim.time_s:.1f} s, "
-          f"controller {app.controller_label})")
+    print(
+        f"screenshot: wrote {args.out} (t = {app.sim.time_s:.1f} s, "
+        f"controller {app.controller_label})"
+    )
     return 0
 
 

@@ -1,13 +1,10 @@
 import os
-import sys
 from pathlib import Path
 
 import pytest
 from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 # Hypothesis: deterministic in CI, and no deadline (the machine is shared by 2 workers).
 settings.register_profile("fuzzynav", deadline=None, derandomize=True, print_blob=True)

@@ -6,28 +6,46 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.tuning import Case, Objective, run_cost, tune
-from controller.fuzzy import FuzzySystem
-from controller.paper import FIRST_DESIGN
-from controller.registry import make_controller
-from controller.tuning import tunable
-from world.scenario import ObstacleSpec, load_scenario
+from fuzzynav.app.cli import main
+from fuzzynav.app.tuning import Case, Objective, run_cost, tune
+from fuzzynav.controller.fis import read_fis
+from fuzzynav.controller.paper import FIRST_DESIGN
+from fuzzynav.controller.registry import make_controller
+from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.controller.tuning import tunable
+from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 
-SWEEP_KEYS = {"controller", "family", "perception", "n", "seed", "success_rate", "safe_success_rate",
-              "reached", "collisions", "timeouts", "median_path_length_m", "median_path_ratio",
-              "median_min_clearance_m", "wall_time_s", "runs"}
+SWEEP_KEYS = {
+    "controller",
+    "family",
+    "perception",
+    "n",
+    "seed",
+    "success_rate",
+    "safe_success_rate",
+    "reached",
+    "collisions",
+    "timeouts",
+    "median_path_length_m",
+    "median_path_ratio",
+    "median_min_clearance_m",
+    "wall_time_s",
+    "runs",
+}
 
 
 def tiny_case():
-    sc = load_scenario("s1").replace(target=(2.5, 0.5), duration_s=4.0,
-                                     obstacles=(ObstacleSpec((1.5, -1.2), 0.2),))
+    sc = load_scenario("s1").replace(
+        target=(2.5, 0.5), duration_s=4.0, obstacles=(ObstacleSpec((1.5, -1.2), 0.2),)
+    )
     return [Case(sc, "ideal", "tiny")]
 
 
 def test_tune_is_reproducible_with_the_same_seed():
     t = tunable("paper")
-    runs = [tune(t, tiny_case(), maxiter=1, popsize=1, seed=7, control_period_s=0.1) for _ in range(2)]
+    runs = [
+        tune(t, tiny_case(), maxiter=1, popsize=1, seed=7, control_period_s=0.1) for _ in range(2)
+    ]
     assert np.array_equal(runs[0].x, runs[1].x) and runs[0].fun == runs[1].fun
     other = tune(t, tiny_case(), maxiter=1, popsize=1, seed=8, control_period_s=0.1)
     assert not np.array_equal(other.x, runs[0].x)
@@ -46,21 +64,47 @@ def test_cost_prefers_reaching_over_timeout_over_collision():
         assert 10 <= cost < 20 + 20
 
 
-TINY = ('name = "tiny"\nduration_s = 5.0\n[robot]\nstart = [0.0, 0.0]\n'
-        '[target]\nposition = [2.5, 0.5]\n[[obstacles]]\nposition = [1.5, -1.2]\nradius_m = 0.2\n')
+TINY = (
+    'name = "tiny"\nduration_s = 5.0\n[robot]\nstart = [0.0, 0.0]\n'
+    "[target]\nposition = [2.5, 0.5]\n[[obstacles]]\nposition = [1.5, -1.2]\nradius_m = 0.2\n"
+)
 
 
 def test_tune_cli_writes_a_valid_rule_base(tmp_path, write_toml, capsys):
     out = tmp_path / "tuned.toml"
     tiny = write_toml(TINY)
-    assert main(["tune", "--scenarios", str(tiny), "--perception", "ideal", "--maxiter", "1",
-                 "--popsize", "1", "--workers", "1", "--dt", "0.1", "--seed", "3",
-                 "--out", str(out), "--checkpoint", str(tmp_path / "ck.txt"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "tune",
+                "--scenarios",
+                str(tiny),
+                "--perception",
+                "ideal",
+                "--maxiter",
+                "1",
+                "--popsize",
+                "1",
+                "--workers",
+                "1",
+                "--dt",
+                "0.1",
+                "--seed",
+                "3",
+                "--out",
+                str(out),
+                "--checkpoint",
+                str(tmp_path / "ck.txt"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     assert data["written"] == [str(out)] and data["generations"] == 1
     assert "fuzzynav tune" in data["command"] and "--seed 3" in data["command"]
-    fis = FuzzySystem.from_toml(out)
-    assert fis.rules == FuzzySystem.from_toml(FIRST_DESIGN).rules
+    fis = read_toml(out)
+    assert fis.rules == read_toml(FIRST_DESIGN).rules
     assert data["command"] in out.read_text()
     assert len((tmp_path / "ck.txt").read_text().split()) == len(tunable("paper").parameter_names())
 
@@ -85,14 +129,36 @@ def test_sweep_bad_input(capsys):
 
 
 def test_compare_json(capsys):
-    assert main(["compare", "--controllers", "paper,baseline", "--sweep-n", "1", "--workers", "1",
-                 "--json"]) == 0
+    assert (
+        main(
+            [
+                "compare",
+                "--controllers",
+                "paper,baseline",
+                "--sweep-n",
+                "1",
+                "--workers",
+                "1",
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     assert data["controllers"] == ["paper", "baseline"]
     assert len(data["rows"]) == 6
     row = data["rows"][0]
-    for key in ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m", "min_clearance_m",
-                "time_to_target_s", "reached", "collided", "paper"):
+    for key in (
+        "path_length_m",
+        "mad_m",
+        "rmse_m",
+        "min_center_distance_m",
+        "min_clearance_m",
+        "time_to_target_s",
+        "reached",
+        "collided",
+        "paper",
+    ):
         assert key in row
     assert row["paper"]["path_length_m"] == pytest.approx(11.8332)
     assert data["rows"][3]["paper"]["path_length_m"] == pytest.approx(12.4996)
@@ -113,10 +179,22 @@ def test_fis_export_round_trip(tmp_path, capsys):
     path = tmp_path / "paper.fis"
     assert main(["fis", "export", str(path)]) == 0
     text = path.read_text()
-    for label in ("'d_t'", "'d_o'", "'phi_t'", "'phi_o'", "'left'", "'right'", "'VS'", "'near'",
-                  "'medium'", "'far'", "'VN'", "'VP'"):
+    for label in (
+        "'d_t'",
+        "'d_o'",
+        "'phi_t'",
+        "'phi_o'",
+        "'left'",
+        "'right'",
+        "'VS'",
+        "'near'",
+        "'medium'",
+        "'far'",
+        "'VN'",
+        "'VP'",
+    ):
         assert label in text
-    assert FuzzySystem.from_fis(path) == make_controller("paper").fis
+    assert read_fis(path) == make_controller("paper").fis
     capsys.readouterr()
     assert main(["run", "s1", "--fis", str(path), "--json"]) == 0
     via_fis = json.loads(capsys.readouterr().out)
@@ -142,14 +220,16 @@ def test_fis_export_of_a_two_block_controller(tmp_path, capsys, controller):
     for name, system in blocks.items():
         path = out / f"{controller}_{name}.fis"
         assert str(path) in printed
-        assert FuzzySystem.from_fis(path) == system
+        assert read_fis(path) == system
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{controller}_{n}.fis" for n in blocks)
 
 
 def test_fis_export_of_blocks_refuses_a_file_name(tmp_path, capsys):
     assert main(["fis", "export", str(tmp_path / "x.fis"), "--controller", "fuzzynav"]) == 2
-    assert "fuzzynav is 2 fuzzy blocks (goal, avoid), one .fis each: give a directory" \
+    assert (
+        "fuzzynav is 2 fuzzy blocks (goal, avoid), one .fis each: give a directory"
         in capsys.readouterr().err
+    )
     (tmp_path / "plain").write_text("not a directory")
     assert main(["fis", "export", str(tmp_path / "plain"), "--controller", "baseline"]) == 2
     assert "not a directory" in capsys.readouterr().err
@@ -164,8 +244,25 @@ def test_sweep_writes_each_failed_run_to_run_again_and_to_open(tmp_path, capsys)
     from tests.test_recording import Recording
 
     out_dir = tmp_path / "failed"
-    assert main(["sweep", "--n", "4", "--seed", "1", "--controller", "p", "--beside", "none",
-                 "--failures", str(out_dir), "--json"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--n",
+                "4",
+                "--seed",
+                "1",
+                "--controller",
+                "p",
+                "--beside",
+                "none",
+                "--failures",
+                str(out_dir),
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     failed = [r for r in data["runs"] if not (r["reached"] and not r["collided"])]
     assert failed, "the obstacle-blind P controller should fail somewhere"
@@ -173,8 +270,7 @@ def test_sweep_writes_each_failed_run_to_run_again_and_to_open(tmp_path, capsys)
     for f, run in zip(data["failures"], failed):
         scenario_file = out_dir / f"standard_seed1_{run['index']:03d}.toml"
         assert f["scenario_file"] == str(scenario_file) and f["outcome"] == run["outcome"]
-        assert main(["run", str(scenario_file), "--controller", "p", "--seed", "1",
-                     "--json"]) == 0
+        assert main(["run", str(scenario_file), "--controller", "p", "--seed", "1", "--json"]) == 0
         again = json.loads(capsys.readouterr().out)
         assert again["outcome"] == run["outcome"]
         assert again["path_length_m"] == pytest.approx(run["path_length_m"], abs=1e-12)
@@ -182,15 +278,31 @@ def test_sweep_writes_each_failed_run_to_run_again_and_to_open(tmp_path, capsys)
         assert f"standard layout #{run['index']} of seed 1" in meta
         assert f"fuzzynav run {scenario_file} --controller p" in meta
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
-        name for f in data["failures"]
-        for name in (Path(f["scenario_file"]).name, Path(f["recording"]).name))
+        name
+        for f in data["failures"]
+        for name in (Path(f["scenario_file"]).name, Path(f["recording"]).name)
+    )
 
 
 def test_sweep_failures_dir_is_checked_before_the_sweep(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("keep me")
-    assert main(["sweep", "--n", "2", "--controller", "p", "--beside", "none",
-                 "--failures", str(blocker)]) == 2
+    assert (
+        main(
+            [
+                "sweep",
+                "--n",
+                "2",
+                "--controller",
+                "p",
+                "--beside",
+                "none",
+                "--failures",
+                str(blocker),
+            ]
+        )
+        == 2
+    )
     captured = capsys.readouterr()
     assert f"--failures {blocker}: exists and is not a directory" in captured.err
     assert "sweep" not in captured.out and blocker.read_text() == "keep me"
@@ -219,9 +331,27 @@ def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_pa
     from tests.test_recording import Recording
 
     out_dir = tmp_path / "failed"
-    assert main(["sweep", "--n", "4", "--seed", "1", "--controller", "fuzzynav",
-                 "--off", "echo memory", "--beside", "none", "--failures", str(out_dir),
-                 "--json"]) == 0
+    assert (
+        main(
+            [
+                "sweep",
+                "--n",
+                "4",
+                "--seed",
+                "1",
+                "--controller",
+                "fuzzynav",
+                "--off",
+                "echo memory",
+                "--beside",
+                "none",
+                "--failures",
+                str(out_dir),
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     assert data["parts_off"] == ["echo memory"]
     assert [(f["index"], f["outcome"]) for f in data["failures"]] == [(3, "timeout")]
@@ -230,17 +360,34 @@ def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_pa
     assert command in Path(scenario_file).read_text()
     meta = Recording(data["failures"][0]["recording"]).text("/meta/run")
     assert command in meta  # the "reproduce" line
-    assert main(["run", scenario_file, "--controller", "fuzzynav", "--off", "echo memory",
-                 "--seed", "1", "--json"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                scenario_file,
+                "--controller",
+                "fuzzynav",
+                "--off",
+                "echo memory",
+                "--seed",
+                "1",
+                "--json",
+            ]
+        )
+        == 0
+    )
     assert json.loads(capsys.readouterr().out)["outcome"] == "timeout"
     assert main(["run", scenario_file, "--controller", "fuzzynav", "--seed", "1", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["outcome"] == "reached"
 
 
-@pytest.mark.parametrize("argv, needle", [
-    (["--controller", "p", "--off", "echo memory"], "p has no parts to switch off"),
-    (["--controller", "fuzzynav", "--off", "sonar"], "unknown fuzzynav part(s) ['sonar']"),
-])
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--controller", "p", "--off", "echo memory"], "p has no parts to switch off"),
+        (["--controller", "fuzzynav", "--off", "sonar"], "unknown fuzzynav part(s) ['sonar']"),
+    ],
+)
 def test_sweep_off_is_refused_before_the_sweep(capsys, argv, needle):
     assert main(["sweep", "--n", "2", "--beside", "none", *argv]) == 2
     captured = capsys.readouterr()

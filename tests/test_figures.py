@@ -8,12 +8,20 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.figures import (FORMATS, RUN_FIGURES, _orient, check_writable_dir,
-                         membership_figure_names, write_comparison_figure,
-                         write_membership_figures, write_run_figures)
-from app.runs import build_simulation
-from controller.fis_controller import FisController
+from fuzzynav.app.cli import main
+from fuzzynav.app.figures import (
+    FORMATS,
+    RUN_FIGURES,
+    _orient,
+    check_writable_dir,
+    membership_figure_names,
+    write_comparison_figure,
+    write_membership_figures,
+    write_run_figures,
+)
+from fuzzynav.app.runs import build_simulation
+from fuzzynav.controller.fis_controller import FisController
+from fuzzynav.controller.rulebase import read_toml
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -46,10 +54,10 @@ def assert_figures(paths, out_dir, names) -> None:
 
 @pytest.fixture(scope="module")
 def paper_fis():
-    fuzzy = pytest.importorskip("controller.fuzzy")
-    from world.scenario import ASSETS_DIR
+    pytest.importorskip("fuzzynav.controller.fuzzy")
+    from fuzzynav.world.scenario import ASSETS_DIR
 
-    return fuzzy.FuzzySystem.from_toml(ASSETS_DIR / "rules" / "paper.toml")
+    return read_toml(ASSETS_DIR / "rules" / "paper.toml")
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +77,7 @@ def test_run_figures_of_the_p_controller(s2_figures):
 
 
 def test_run_figures_with_a_prefix_and_a_fuzzy_controller(tmp_path, paper_fis):
-    from world.scenario import load_scenario
+    from fuzzynav.world.scenario import load_scenario
 
     scenario = load_scenario("s3").replace(duration_s=6.0)
     sim = build_simulation(scenario, controller_object=FisController(paper_fis))
@@ -84,15 +92,24 @@ def test_run_figures_of_fuzzynav_show_both_blocks_membership(tmp_path):
     """fuzzynav has no single ``fis``: its figures carry the membership functions of
     both blocks' inputs and outputs (goal: phi_t, d_t; avoidance: left, front, right,
     side), outputs named by block."""
-    from controller.fuzzynav import fuzzynav_controller
-    from world.scenario import load_scenario
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.world.scenario import load_scenario
 
     scenario = load_scenario("s1").replace(duration_s=4.0)
     sim = build_simulation(scenario, controller_object=fuzzynav_controller())
-    paths = write_run_figures(sim.run(), tmp_path, controller=sim.controller,
-                              formats=("png",))
-    variables = ("phi_t", "d_t", "left", "front", "right", "side", "goal_speed",
-                 "goal_turn", "avoid_speed", "avoid_turn")
+    paths = write_run_figures(sim.run(), tmp_path, controller=sim.controller, formats=("png",))
+    variables = (
+        "phi_t",
+        "d_t",
+        "left",
+        "front",
+        "right",
+        "side",
+        "goal_speed",
+        "goal_turn",
+        "avoid_speed",
+        "avoid_turn",
+    )
     names = list(RUN_FIGURES) + [f"membership_{v}" for v in variables]
     assert sorted(paths) == sorted(tmp_path / f"{n}.png" for n in names)
     for path in paths:
@@ -118,10 +135,14 @@ def test_comparison_figure(tmp_path, p_runs):
 
 
 def test_comparison_accepts_the_mapping_either_way_round(p_runs):
-    by_scenario = {"s1": {"a": p_runs["s1"], "b": p_runs["s1"]},
-                   "s2": {"a": p_runs["s2"], "b": p_runs["s2"]}}
-    by_controller = {"a": {"s1": p_runs["s1"], "s2": p_runs["s2"]},
-                     "b": {"s1": p_runs["s1"], "s2": p_runs["s2"]}}
+    by_scenario = {
+        "s1": {"a": p_runs["s1"], "b": p_runs["s1"]},
+        "s2": {"a": p_runs["s2"], "b": p_runs["s2"]},
+    }
+    by_controller = {
+        "a": {"s1": p_runs["s1"], "s2": p_runs["s2"]},
+        "b": {"s1": p_runs["s1"], "s2": p_runs["s2"]},
+    }
     assert _orient(by_scenario) is by_scenario
     assert _orient(by_controller) == by_scenario
 
@@ -142,11 +163,12 @@ def test_cli_figures(tmp_path, capsys):
     captured = capsys.readouterr()
     assert str(out_dir) in captured.err
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
-        f"{n}.{ext}" for n in RUN_FIGURES for ext in FORMATS)
+        f"{n}.{ext}" for n in RUN_FIGURES for ext in FORMATS
+    )
 
 
 def test_cli_unwritable_figures_dir_fails_before_the_run(tmp_path, monkeypatch, capsys):
-    from world.simulation import Simulation
+    from fuzzynav.world.simulation import Simulation
 
     def never(self, *a, **k):
         raise AssertionError("the run started")

@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controller.fis import FisFormatError, dumps_fis, loads_fis, read_fis
-from controller.fuzzy import FuzzySystem, Rule, Term, Variable
+from fuzzynav.controller.fis import FisFormatError, dumps_fis, loads_fis, read_fis, write_fis
+from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
+from fuzzynav.controller.rulebase import read_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_TOML = ROOT / "assets" / "rules" / "paper.toml"
@@ -19,21 +20,27 @@ nan = float("nan")
 
 @pytest.fixture(scope="module")
 def paper() -> FuzzySystem:
-    return FuzzySystem.from_toml(PAPER_TOML)
+    return read_toml(PAPER_TOML)
 
 
 def _X(n, seed=0):
     rng = np.random.default_rng(seed)
-    X = np.column_stack([rng.uniform(-3, 33, n), rng.uniform(-0.5, 3.5, n),
-                         rng.uniform(-7, 7, n), rng.uniform(-3.5, 3.5, n)])
+    X = np.column_stack(
+        [
+            rng.uniform(-3, 33, n),
+            rng.uniform(-0.5, 3.5, n),
+            rng.uniform(-7, 7, n),
+            rng.uniform(-3.5, 3.5, n),
+        ]
+    )
     X[rng.random(n) < 0.2, 1] = nan
     return X
 
 
 def test_round_trip_paper(paper, tmp_path):
     p = tmp_path / "paper.fis"
-    paper.to_fis(p)
-    back = FuzzySystem.from_fis(p)
+    write_fis(paper, p)
+    back = read_fis(p)
     assert back == paper
     assert back.name == paper.name
     X = _X(3000)
@@ -50,21 +57,32 @@ def test_paper_fis_text(paper):
     assert f"MF1='VS':'linzmf',[{a!r} {b!r}]".replace(".0 ", " ").replace(".0]", "]") in text
     rules = text.split("[Rules]\n")[1].strip().splitlines()
     assert len(rules) == 40
-    assert rules[0] == "5 0 1 0, 4 1 (1) : 1"      # VL NONE VN NONE -> L VS
-    assert rules[3] == "5 0 4 0, 1 3 (1) : 1"      # VL NONE P NONE -> VS M
-    assert rules[39] == "0 3 0 5, 4 4 (1) : 1"     # NONE far NONE VP -> L L
+    assert rules[0] == "5 0 1 0, 4 1 (1) : 1"  # VL NONE VN NONE -> L VS
+    assert rules[3] == "5 0 4 0, 1 3 (1) : 1"  # VL NONE P NONE -> VS M
+    assert rules[39] == "0 3 0 5, 4 4 (1) : 1"  # NONE far NONE VP -> L L
 
 
 def test_round_trip_other_features():
     """Weights, NONE consequents, trapmf, gauss2mf, degenerate shapes, odd numbers."""
-    x = Variable("x", (-1.0, 1.0), (Term("lo", "trapmf", (-1.0, -1.0, -0.5, 0.0)),
-                                     Term("hi", "gauss2mf", (0.2, 0.3, 0.1, 0.5)),
-                                     Term("spike", "trimf", (0.1, 0.1, 0.1))))
-    y = Variable("y", (0.0, 1e-3), (Term("a", "linzmf", (1e-4, 3.3e-4)),
-                                     Term("b", "linsmf", (2e-4, 2e-4))))
+    x = Variable(
+        "x",
+        (-1.0, 1.0),
+        (
+            Term("lo", "trapmf", (-1.0, -1.0, -0.5, 0.0)),
+            Term("hi", "gauss2mf", (0.2, 0.3, 0.1, 0.5)),
+            Term("spike", "trimf", (0.1, 0.1, 0.1)),
+        ),
+    )
+    y = Variable(
+        "y", (0.0, 1e-3), (Term("a", "linzmf", (1e-4, 3.3e-4)), Term("b", "linsmf", (2e-4, 2e-4)))
+    )
     y2 = Variable("y2", (-5.0, 5.0), (Term("c", "gaussmf", (1 / 3, 0.1)),))
-    s = FuzzySystem([x], [y, y2], [Rule((0,), (0, None), 0.3), Rule((1,), (1, 0), 1.0),
-                                   Rule((2,), (None, 0), 0.0)], name="odd system")
+    s = FuzzySystem(
+        [x],
+        [y, y2],
+        [Rule((0,), (0, None), 0.3), Rule((1,), (1, 0), 1.0), Rule((2,), (None, 0), 0.0)],
+        name="odd system",
+    )
     back = loads_fis(dumps_fis(s))
     assert back == s
     X = np.linspace(-1.2, 1.2, 241)[:, None]
@@ -134,18 +152,51 @@ BAD = [
     ("OrMethod='max'", "OrMethod='probor'", "unsupported OrMethod", 9),
     ("ImpMethod='min'", "ImpMethod='prod'", "unsupported ImpMethod", 10),
     ("AggMethod='max'", "AggMethod='sum'", "unsupported AggMethod", 11),
-    ("DefuzzMethod='centroid'", "DefuzzMethod='bisector'", "unsupported DefuzzMethod 'bisector'", 12),
+    (
+        "DefuzzMethod='centroid'",
+        "DefuzzMethod='bisector'",
+        "unsupported DefuzzMethod 'bisector'",
+        12,
+    ),
     ("Version=2.0", "Version=3.0", "unsupported Version", 4),
     ("NumRules=3", "NumRules=4", "NumRules=4 but the [Rules] section has 3", 37),
-    ("MF3='excellent':'gaussmf',[1.5 10]", "MF3='excellent':'gbellmf',[2 4 10]",
-     "unsupported membership function type 'gbellmf'", 20),
-    ("MF3='excellent':'gaussmf',[1.5 10]", "MF3='excellent':'gaussmf',[1.5 1..0]", "not a number", 20),
-    ("MF3='excellent':'gaussmf',[1.5 10]", "MF3='excellent':'gaussmf',[1.5 NaN]", "not a number", 20),
-    ("MF3='excellent':'gaussmf',[1.5 10]", "MF3='excellent':'gaussmf',[1.5]", "takes 2 parameters", 20),
+    (
+        "MF3='excellent':'gaussmf',[1.5 10]",
+        "MF3='excellent':'gbellmf',[2 4 10]",
+        "unsupported membership function type 'gbellmf'",
+        20,
+    ),
+    (
+        "MF3='excellent':'gaussmf',[1.5 10]",
+        "MF3='excellent':'gaussmf',[1.5 1..0]",
+        "not a number",
+        20,
+    ),
+    (
+        "MF3='excellent':'gaussmf',[1.5 10]",
+        "MF3='excellent':'gaussmf',[1.5 NaN]",
+        "not a number",
+        20,
+    ),
+    (
+        "MF3='excellent':'gaussmf',[1.5 10]",
+        "MF3='excellent':'gaussmf',[1.5]",
+        "takes 2 parameters",
+        20,
+    ),
     ("MF3='excellent':'gaussmf',[1.5 10]", "MF3='excellent':'gaussmf',[-1.5 10]", "sigma > 0", 20),
-    ("MF3='excellent':'gaussmf',[1.5 10]", "MF4='excellent':'gaussmf',[1.5 10]", "expected MF1..MF3", 17),
-    ("MF1='cheap':'trimf',[0 5 10]", "MF1='cheap':'trimf',[0 5 10",
-     "expected 'name':'type',[params]", 33),
+    (
+        "MF3='excellent':'gaussmf',[1.5 10]",
+        "MF4='excellent':'gaussmf',[1.5 10]",
+        "expected MF1..MF3",
+        17,
+    ),
+    (
+        "MF1='cheap':'trimf',[0 5 10]",
+        "MF1='cheap':'trimf',[0 5 10",
+        "expected 'name':'type',[params]",
+        33,
+    ),
     ("Range=[0 30]", "Range=[30 0]", "lo < hi", 31),
     ("Range=[0 30]", "Range=[0 1e999]", "not a finite number", 31),
     ("NumMFs=2", "NumMFs=two", "not an integer", 25),
@@ -207,8 +258,11 @@ def test_writer_rejects_unwritable_names(paper):
 
 def test_numbers_round_trip_exactly():
     vals = [math.pi, -1 / 3, 1e-300, 123456789.123456789, 0.1 + 0.2]
-    x = Variable("x", (-400.0, 1e9), tuple(Term(f"t{i}", "gaussmf", (abs(v) or 1.0, v))
-                                           for i, v in enumerate(vals)))
+    x = Variable(
+        "x",
+        (-400.0, 1e9),
+        tuple(Term(f"t{i}", "gaussmf", (abs(v) or 1.0, v)) for i, v in enumerate(vals)),
+    )
     y = Variable("y", (0.0, 1.0), (Term("a", "trimf", (0.0, 0.5, 1.0)),))
     s = FuzzySystem([x], [y], [Rule((i,), (0,)) for i in range(len(vals))])
     back = loads_fis(dumps_fis(s))

@@ -4,25 +4,24 @@ every switch in it really switches its part off, and back on; the ablation study
 
 import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from fuzzynav.controller.fuzzynav import CRISP_DEFAULTS, DECISION_FIELDS, fuzzynav_controller
+from fuzzynav.controller.fuzzynav_parts import load_parts
+from fuzzynav.world.layouts import generate_layout
+from fuzzynav.world.scenario import load_scenario
+from fuzzynav.world.simulation import Simulation
 
-from controller.fuzzynav import CRISP_DEFAULTS, DECISION_FIELDS, fuzzynav_controller  # noqa: E402
-from controller.fuzzynav_parts import load_parts  # noqa: E402
-from world.layouts import generate_layout  # noqa: E402
-from world.scenario import load_scenario  # noqa: E402
-from world.simulation import Simulation  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("fuzzynav_ablation",
-                                                  ROOT / "scripts" / "fuzzynav_ablation.py")
+    spec = importlib.util.spec_from_file_location(
+        "fuzzynav_ablation", ROOT / "scripts" / "fuzzynav_ablation.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -42,8 +41,14 @@ def _decisions(scenario, mode, parts_off=()):
 # Runs that exercise every part: a crossing obstacle (yield, time to contact), s3's
 # disturbance (doubted readings), cluttered layouts (memory, planner, the turn charge,
 # the deadlock turn, the reversing limit) and a U-trap (the side kept, edge following).
-RUNS = (("crossing", None, "ideal"), ("s3", None, "ideal"), ("clutter", 68, "ideal"),
-        ("clutter", 3, "ultrasonic"), ("u_trap", 14, "ideal"), ("u_trap", 14, "ultrasonic"))
+RUNS = (
+    ("crossing", None, "ideal"),
+    ("s3", None, "ideal"),
+    ("clutter", 68, "ideal"),
+    ("clutter", 3, "ultrasonic"),
+    ("u_trap", 14, "ideal"),
+    ("u_trap", 14, "ultrasonic"),
+)
 _SHIPPED_RUNS: dict = {}
 
 
@@ -92,12 +97,15 @@ def _field(decisions, name):
     return decisions[:, DECISION_FIELDS.index(name)]
 
 
-@pytest.mark.parametrize("part, run, field", [
-    ("bearing planner", ("clutter", 68, "ideal"), "plan_offset_rad"),
-    ("edge following", ("u_trap", 14, "ultrasonic"), "follow"),
-    ("yield or pass first", ("crossing", None, "ideal"), "dodge"),
-    ("doubted readings", ("s3", None, "ideal"), "target_doubted"),
-])
+@pytest.mark.parametrize(
+    "part, run, field",
+    [
+        ("bearing planner", ("clutter", 68, "ideal"), "plan_offset_rad"),
+        ("edge following", ("u_trap", 14, "ultrasonic"), "follow"),
+        ("yield or pass first", ("crossing", None, "ideal"), "dodge"),
+        ("doubted readings", ("s3", None, "ideal"), "target_doubted"),
+    ],
+)
 def test_a_switched_off_part_never_acts(part, run, field):
     """The part's own trace is busy in the shipped run and flat zero with it off."""
     name, index, mode = run
@@ -109,18 +117,21 @@ def test_a_switched_off_part_never_acts(part, run, field):
 _PART = '[[part]]\nname = "a"\nwhat = ""\nitem = 1\noff = { stall_s = 1e9 }\n'
 
 
-@pytest.mark.parametrize("text, named", [
-    (_PART + 'colour = 1\n', "colour"),
-    (_PART.replace("stall_s", "stall_z"), "stall_z = 1000000000.0"),
-    (_PART.replace("1e9", "nan"), "stall_s = nan"),
-    (_PART.replace("1e9", '"off"'), "stall_s = 'off'"),
-    (_PART + _PART, "name = 'a'"),
-    (_PART + _PART.replace('"a"', '"b"'), "already switched by part 'a'"),
-    (_PART.replace('what = ""\n', ""), "what"),
-    (_PART.replace("{ stall_s = 1e9 }", "{}"), "off = {}"),
-    ('[[part]\n', "not valid TOML"),
-    ('title = "x"\n', "title"),
-])
+@pytest.mark.parametrize(
+    "text, named",
+    [
+        (_PART + "colour = 1\n", "colour"),
+        (_PART.replace("stall_s", "stall_z"), "stall_z = 1000000000.0"),
+        (_PART.replace("1e9", "nan"), "stall_s = nan"),
+        (_PART.replace("1e9", '"off"'), "stall_s = 'off'"),
+        (_PART + _PART, "name = 'a'"),
+        (_PART + _PART.replace('"a"', '"b"'), "already switched by part 'a'"),
+        (_PART.replace('what = ""\n', ""), "what"),
+        (_PART.replace("{ stall_s = 1e9 }", "{}"), "off = {}"),
+        ("[[part]\n", "not valid TOML"),
+        ('title = "x"\n', "title"),
+    ],
+)
 def test_a_bad_parts_file_is_refused_with_file_key_and_value(tmp_path, text, named):
     path = tmp_path / "bad.toml"
     path.write_text(text)
@@ -131,15 +142,25 @@ def test_a_bad_parts_file_is_refused_with_file_key_and_value(tmp_path, text, nam
 
 def test_the_ablation_runs_the_shipped_controller_then_each_part_off():
     versions = ABLATION.versions(PARTS)
-    assert versions[0]["off"] is None and [v["off"] for v in versions[1:]] == [p.name for p in PARTS]
+    assert versions[0]["off"] is None and [v["off"] for v in versions[1:]] == [
+        p.name for p in PARTS
+    ]
 
 
 def test_the_tally_counts_each_cell():
-    rows = [(0, "standard", "ideal", True, True, False, False),
-            (0, "standard", "ideal", False, False, True, False),
-            (1, "standard", "ultrasonic", False, False, False, True)]
+    rows = [
+        (0, "standard", "ideal", True, True, False, False),
+        (0, "standard", "ideal", False, False, True, False),
+        (1, "standard", "ultrasonic", False, False, False, True),
+    ]
     counts = ABLATION.tally(rows, 2, {"standard": 2})
-    assert counts[(0, "standard", "ideal")] == {"n": 2, "ok": 1, "safe": 1, "collided": 1, "timeout": 0}
+    assert counts[(0, "standard", "ideal")] == {
+        "n": 2,
+        "ok": 1,
+        "safe": 1,
+        "collided": 1,
+        "timeout": 0,
+    }
     assert counts[(1, "standard", "ultrasonic")]["timeout"] == 1
     assert counts[(1, "standard", "ideal")]["n"] == 0
     assert math.isclose(sum(c["n"] for c in counts.values()), 3)
@@ -153,7 +174,7 @@ def test_the_ablation_figure_redraws_from_its_data(tmp_path):
     versions, counts, sizes, seed = ABLATION.read_counts(data)
     assert seed == 59 and versions[0]["off"] is None
     assert {v["off"] for v in versions[1:]} <= {p.name for p in PARTS}
-    for (k, family, mode), cell in counts.items():
+    for (_k, family, _mode), cell in counts.items():
         assert cell["n"] == sizes[family]
         assert cell["safe"] <= cell["ok"] <= cell["n"] - cell["collided"]
     out = tmp_path / "ablation.png"
@@ -161,16 +182,19 @@ def test_the_ablation_figure_redraws_from_its_data(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.parametrize("mode, parts_off, outcome", [
-    ("ideal", (), "reached"),
-    ("ideal", ("echo memory",), "timeout"),
-    ("ideal", ("bearing planner",), "timeout"),
-    ("ultrasonic", (), "reached"),
-    ("ultrasonic", ("echo memory",), "timeout"),
-    ("ultrasonic", ("bearing planner",), "timeout"),
-    ("ultrasonic", ("edge following",), "timeout"),
-    ("ultrasonic", ("side kept in a trap",), "timeout"),
-])
+@pytest.mark.parametrize(
+    "mode, parts_off, outcome",
+    [
+        ("ideal", (), "reached"),
+        ("ideal", ("echo memory",), "timeout"),
+        ("ideal", ("bearing planner",), "timeout"),
+        ("ultrasonic", (), "reached"),
+        ("ultrasonic", ("echo memory",), "timeout"),
+        ("ultrasonic", ("bearing planner",), "timeout"),
+        ("ultrasonic", ("edge following",), "timeout"),
+        ("ultrasonic", ("side kept in a trap",), "timeout"),
+    ],
+)
 def test_the_trap_scenario_shows_what_the_parts_buy(mode, parts_off, outcome):
     """assets/scenarios/trap.toml, for a class: fuzzynav gets out of the U, and stays in
     it with one of the parts its description names switched off."""

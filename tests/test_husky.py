@@ -16,7 +16,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
-from world.husky import (
+from fuzzynav.world.husky import (
     DEFAULT_PARAMETER_FILE,
     HuskyModel,
     HuskyParameters,
@@ -174,8 +174,8 @@ def test_reciprocal_and_skew_couplings(uneven_model: HuskyModel) -> None:
     assert J_w * A[W_RW, I_L2] == pytest.approx(-L * A[I_L2, W_RW], rel=1e-12)
     # The sides are not coupled directly, nor the motors to the hull.
     assert A[W_LW, W_RW] == A[W_RW, W_LW] == 0.0
-    assert not A[V_MH:W_JH + 1, I_L1:].any()
-    assert not A[I_L1:, V_MH:W_JH + 1].any()
+    assert not A[V_MH : W_JH + 1, I_L1:].any()
+    assert not A[I_L1:, V_MH : W_JH + 1].any()
 
 
 def test_corrected_A_against_paper_eq3_with_the_notes_sign_fixes(

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from world.layouts import FAMILIES, PASSABLE_GAP_M, generate_layout, generate_layouts
-from world.scenario import check_layout
+from fuzzynav.world.layouts import FAMILIES, PASSABLE_GAP_M, generate_layout, generate_layouts
+from fuzzynav.world.scenario import check_layout
 
 
 @pytest.mark.parametrize("family", FAMILIES)
@@ -29,13 +29,18 @@ def test_standard_family_matches_the_issue():
         statics = [o for o in sc.obstacles if o.is_static]
         assert all(0.15 <= o.radius_m <= 0.35 for o in statics)
         for i, a in enumerate(statics):
-            for b in statics[i + 1:]:
-                gap = np.hypot(a.position[0] - b.position[0], a.position[1] - b.position[1]) - a.radius_m - b.radius_m
+            for b in statics[i + 1 :]:
+                gap = (
+                    np.hypot(a.position[0] - b.position[0], a.position[1] - b.position[1])
+                    - a.radius_m
+                    - b.radius_m
+                )
                 assert gap >= PASSABLE_GAP_M - 1e-9
 
 
 def test_u_trap_blocks_the_straight_line():
-    from world.geometry import point_segment_distance
+    from fuzzynav.world.geometry import point_segment_distance
+
     for sc in generate_layouts("u_trap", 10, seed=2):
         centres = np.array([o.position for o in sc.obstacles])
         radii = np.array([o.radius_m for o in sc.obstacles])
@@ -50,8 +55,9 @@ def test_unknown_family():
 
 
 def test_paper_jitter_stays_within_what_the_figures_can_be_read_to():
-    from world.layouts import JITTER_HEADING_RAD, JITTER_MOTION_SCALE, JITTER_POSITION_M
-    from world.scenario import load_scenario
+    from fuzzynav.world.layouts import JITTER_HEADING_RAD, JITTER_MOTION_SCALE, JITTER_POSITION_M
+    from fuzzynav.world.scenario import load_scenario
+
     layouts = generate_layouts("paper_jitter", 12, seed=3)
     for i, sc in enumerate(layouts):
         base = load_scenario(f"s{i % 3 + 1}")

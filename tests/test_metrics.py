@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from world.metrics import deviation_from_line, path_length
+from fuzzynav.world.metrics import deviation_from_line, path_length
 
 
 def test_path_length_of_a_square_walk():
@@ -29,9 +29,9 @@ def test_points_beyond_the_ends_measure_to_the_endpoint():
 
 
 def test_metrics_of_a_run_interrupted_before_its_first_step():
-    from controller.proportional import ProportionalController
-    from world.scenario import load_scenario
-    from world.simulation import Simulation
+    from fuzzynav.controller.proportional import ProportionalController
+    from fuzzynav.world.scenario import load_scenario
+    from fuzzynav.world.simulation import Simulation
 
     result = Simulation(load_scenario("s1"), ProportionalController()).result()
     assert result.metrics["steps"] == 0 and result.metrics["reached"] is False

@@ -7,10 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.runs import run_scenario
-from controller.fuzzy import FuzzySystem
-from controller.paper import FIRST_DESIGN, PAPER_RULES, PaperTunable, paper_controller
-from controller.tuning import Tunable, tunable
+from fuzzynav.app.runs import run_scenario
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, PaperTunable, paper_controller
+from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.controller.tuning import Tunable, tunable
 
 PAPER_TEXT = Path(__file__).resolve().parents[2] / "shared" / "paper" / "fuzzy-husky-paper.txt"
 
@@ -45,15 +46,19 @@ def rule_rows(fis: FuzzySystem):
 
 @pytest.mark.parametrize("path", [PAPER_RULES, FIRST_DESIGN])
 def test_rule_base_is_table1_exactly(path):
-    fis = FuzzySystem.from_toml(path)
+    fis = read_toml(path)
     assert fis.input_names == ["d_t", "d_o", "phi_t", "phi_o"]
     assert fis.output_names == ["left", "right"]
     rows = rule_rows(fis)
     assert len(rows) == 40
     assert [r for r, _ in rows] == table1_rows()
     assert all(w == 1 for _, w in rows)
-    assert [v.range for v in fis.inputs] == [(-1.13, 30.0), (0.0, 3.0), (-2 * np.pi, 2 * np.pi),
-                                             (-np.pi, np.pi)]
+    assert [v.range for v in fis.inputs] == [
+        (-1.13, 30.0),
+        (0.0, 3.0),
+        (-2 * np.pi, 2 * np.pi),
+        (-np.pi, np.pi),
+    ]
     assert [v.range for v in fis.outputs] == [(-0.28, 14.0)] * 2
     for v in fis.inputs + fis.outputs:
         assert {t.shape for t in v.terms} <= {"trimf", "linsmf", "linzmf", "gaussmf"}
@@ -62,14 +67,14 @@ def test_rule_base_is_table1_exactly(path):
 @pytest.mark.skipif(not PAPER_TEXT.exists(), reason="the paper's text is not beside the repo")
 def test_table1_here_matches_the_papers_text():
     lines = PAPER_TEXT.read_text(encoding="utf-8").splitlines()
-    start = next(i for i, l in enumerate(lines) if l.startswith("Table 1."))
-    rows = [l.split("\t") for l in lines[start + 3:start + 43]]
+    start = next(i for i, line in enumerate(lines) if line.startswith("Table 1."))
+    rows = [line.split("\t") for line in lines[start + 3 : start + 43]]
     assert [tuple(r[1:7]) for r in rows] == table1_rows()
     assert all(r[7].strip() == "1" for r in rows)
 
 
 def test_shipped_file_differs_from_first_design_only_in_membership_parameters():
-    shipped, first = FuzzySystem.from_toml(PAPER_RULES), FuzzySystem.from_toml(FIRST_DESIGN)
+    shipped, first = read_toml(PAPER_RULES), read_toml(FIRST_DESIGN)
     assert shipped.rules == first.rules and shipped.n_points == first.n_points
     for a, b in zip(shipped.inputs + shipped.outputs, first.inputs + first.outputs):
         assert (a.name, a.range, a.term_names) == (b.name, b.range, b.term_names)
@@ -78,11 +83,11 @@ def test_shipped_file_differs_from_first_design_only_in_membership_parameters():
 
 def test_sign_convention_target_left_speeds_up_right_wheel():
     c = paper_controller()
-    left, right = c([8.0, np.nan, 0.6, np.nan])      # target on the left
+    left, right = c([8.0, np.nan, 0.6, np.nan])  # target on the left
     assert right > left
-    left, right = c([8.0, np.nan, -0.6, np.nan])     # on the right
+    left, right = c([8.0, np.nan, -0.6, np.nan])  # on the right
     assert left > right
-    left, right = c([8.0, np.nan, 0.0, np.nan])      # ahead: straight on
+    left, right = c([8.0, np.nan, 0.0, np.nan])  # ahead: straight on
     assert left == pytest.approx(right)
 
 
@@ -92,9 +97,9 @@ def test_sign_convention_obstacle_left_turns_right():
     phi_o = next(v for v in c.fis.inputs if v.name == "phi_o")
     grid = np.linspace(0.0, np.pi / 2, 500)
     bearing = float(grid[np.argmax(next(t for t in phi_o.terms if t.name == "P")(grid))])
-    left, right = c([30.0, 0.3, 0.0, bearing])       # near obstacle ahead-left, target ahead
+    left, right = c([30.0, 0.3, 0.0, bearing])  # near obstacle ahead-left, target ahead
     assert left > right
-    left, right = c([30.0, 0.3, 0.0, -bearing])      # ahead-right: turn left
+    left, right = c([30.0, 0.3, 0.0, -bearing])  # ahead-right: turn left
     assert right > left
 
 
@@ -110,7 +115,7 @@ def test_tunable_protocol_and_construction():
     for _ in range(50):  # any vector within the bounds is a valid system (ordering by construction)
         v = rng.uniform(lo, hi)
         fis = t.system(v)
-        assert fis.rules == FuzzySystem.from_toml(FIRST_DESIGN).rules
+        assert fis.rules == read_toml(FIRST_DESIGN).rules
         out = t.build(v)([5.0, 1.0, 0.3, -0.2])
         assert np.all(np.isfinite(out))
     with pytest.raises(ValueError):
@@ -120,7 +125,7 @@ def test_tunable_protocol_and_construction():
 def test_save_writes_a_loadable_rule_base(tmp_path):
     t = tunable("paper")
     [path] = t.save(t.initial_vector(), tmp_path / "x.toml", header="Reproduce with: test")
-    assert FuzzySystem.from_toml(path) == t.system(t.initial_vector())
+    assert read_toml(path) == t.system(t.initial_vector())
     assert "Reproduce with: test" in path.read_text()
 
 

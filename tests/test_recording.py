@@ -13,13 +13,18 @@ import pyarrow as pa
 import pytest
 
 rr = pytest.importorskip("rerun")
-from rerun.chunk import RrdReader  # noqa: E402
+from rerun.chunk import RrdReader
 
-from app import recording  # noqa: E402
-from app.cli import main  # noqa: E402
-from app.recording import (RULES_PATH, LiveRecorder, footprint_outlines, plot_layout,  # noqa: E402
-                           record_run)
-from app.runs import build_simulation  # noqa: E402
+from fuzzynav.app import recording
+from fuzzynav.app.cli import main
+from fuzzynav.app.recording import (
+    RULES_PATH,
+    LiveRecorder,
+    footprint_outlines,
+    plot_layout,
+    record_run,
+)
+from fuzzynav.app.runs import build_simulation
 
 SENSORS = ("left", "front", "right")
 META = ("run", "metrics", "scenario", "rules", "robot")
@@ -93,8 +98,9 @@ def nanos(time_s) -> np.ndarray:
 
 def same(a, b, atol=0.0) -> bool:
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return a.shape == b.shape and bool(np.all((np.isnan(a) & np.isnan(b))
-                                              | (np.abs(a - b) <= atol)))
+    return a.shape == b.shape and bool(
+        np.all((np.isnan(a) & np.isnan(b)) | (np.abs(a - b) <= atol))
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -142,23 +148,30 @@ class TinyFis:
 def make_fuzzy_controller():
     """The project's paper controller if present; else the paper's rule base on the
     fuzzy engine; else a tiny stand-in."""
-    from controller.registry import controller_names, make_controller
+    from fuzzynav.controller.registry import controller_names, make_controller
 
     if "paper" in controller_names():
         controller = make_controller("paper")
         if getattr(controller, "fis", None) is not None:
             return controller
     try:
-        from controller.fuzzy import FuzzySystem
-        from world.scenario import ASSETS_DIR
+        from fuzzynav.controller.rulebase import read_toml
+        from fuzzynav.world.scenario import ASSETS_DIR
     except ImportError:
         return FuzzyController(TinyFis())
-    return FuzzyController(FuzzySystem.from_toml(ASSETS_DIR / "rules" / "paper.toml"))
+    return FuzzyController(read_toml(ASSETS_DIR / "rules" / "paper.toml"))
 
 
 def record(sim, result, path, **kw):
-    return record_run(result, path, controller=sim.controller, sensors=sim.sensors,
-                      parameters=sim.model.parameters, voltage_limit_v=sim.voltage_limit_v, **kw)
+    return record_run(
+        result,
+        path,
+        controller=sim.controller,
+        sensors=sim.sensors,
+        parameters=sim.model.parameters,
+        voltage_limit_v=sim.voltage_limit_v,
+        **kw,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -181,7 +194,7 @@ def s2_p(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def fuzzy_run(tmp_path_factory):
-    from world.scenario import load_scenario
+    from fuzzynav.world.scenario import load_scenario
 
     scenario = load_scenario("s1").replace(duration_s=8.0)
     sim = build_simulation(scenario, controller_object=make_fuzzy_controller())
@@ -198,8 +211,15 @@ def fuzzy_run(tmp_path_factory):
 def test_entity_paths(s1_p):
     sim, result, rec = s1_p
     log = result.log
-    world = {"/world", "/world/start", "/world/ideal_line", "/world/target",
-             "/world/robot/footprint", "/world/robot/heading", "/world/robot/trail"}
+    world = {
+        "/world",
+        "/world/start",
+        "/world/ideal_line",
+        "/world/target",
+        "/world/robot/footprint",
+        "/world/robot/heading",
+        "/world/robot/trail",
+    }
     for oid in log.obstacle_ids:
         world |= {f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/safe_ring"}
     for name in SENSORS:
@@ -237,8 +257,9 @@ def test_series_equal_the_simulation_arrays(s1_p):
     ranges = np.where(np.isinf(log.ranges_m), np.nan, log.ranges_m)  # no echo: NaN
     n = len(log)
     expected = {
-        "/plots/voltage": np.column_stack([log.voltages_v, log.controller_output_v,
-                                           np.full(n, 12.0), np.full(n, -12.0)]),
+        "/plots/voltage": np.column_stack(
+            [log.voltages_v, log.controller_output_v, np.full(n, 12.0), np.full(n, -12.0)]
+        ),
         "/plots/wheels": log.lg_state[:, 0:2],
         "/plots/velocity": log.lg_state[:, 2:4],
         "/plots/current": log.lg_state[:, 4:6],
@@ -276,11 +297,11 @@ def test_world_geometry_follows_the_pose(s1_p):
     params = sim.model.parameters
     times, strips = rec.rows("/world/robot/footprint", "LineStrips2D:strips")
     assert np.array_equal(times, nanos(log.time_s))
-    got = np.array([row[0] for row in strips])          # one closed strip per row
+    got = np.array([row[0] for row in strips])  # one closed strip per row
     assert got.shape == (len(log), 5, 2)
     want = footprint_outlines(log.pose, params.footprint_length_m, params.footprint_width_m)
-    assert np.allclose(got, want, atol=1e-5)             # float32 on the wire
-    assert np.allclose(got[:, 0], got[:, 4])             # closed
+    assert np.allclose(got, want, atol=1e-5)  # float32 on the wire
+    assert np.allclose(got[:, 0], got[:, 4])  # closed
     _, origins = rec.rows("/world/robot/heading", "Arrows2D:origins")
     assert np.allclose(np.array([o[0] for o in origins]), log.pose[:, :2], atol=1e-5)
     _, trail = rec.rows("/world/robot/trail", "LineStrips2D:strips")
@@ -296,8 +317,9 @@ def test_world_geometry_follows_the_pose(s1_p):
         _, ring = rec.rows(f"/world/obstacles/{oid}/safe_ring", "LineStrips2D:strips")
         ring = np.array(ring[0][0])
         centre = log.obstacle_xy[0, col]
-        assert np.allclose(np.hypot(*(ring - centre).T), log.obstacle_radii_m[col] + 0.25,
-                           atol=1e-5)
+        assert np.allclose(
+            np.hypot(*(ring - centre).T), log.obstacle_radii_m[col] + 0.25, atol=1e-5
+        )
     t, target = rec.rows("/world/target", "Points2D:positions")
     assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
     # A hit point for every echo, none without.
@@ -311,8 +333,7 @@ def test_world_geometry_follows_the_pose(s1_p):
 def test_the_moving_obstacle_moves(s2_p):
     _, result, rec = s2_p
     log = result.log
-    moving = [col for col in range(len(log.obstacle_ids))
-              if np.ptp(log.obstacle_xy[:, col, 0]) > 0]
+    moving = [col for col in range(len(log.obstacle_ids)) if np.ptp(log.obstacle_xy[:, col, 0]) > 0]
     assert len(moving) == 1
     col = moving[0]
     oid = log.obstacle_ids[col]
@@ -369,15 +390,16 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
 
 def test_baseline_recording_holds_both_blocks(tmp_path):
     """The baseline blends two fuzzy blocks: /meta/rules holds both, numbered on."""
-    from controller.baseline import BaselineController
-    from controller.rulebase import dumps_toml
-    from world.scenario import load_scenario
+    from fuzzynav.controller.baseline import BaselineController
+    from fuzzynav.controller.rulebase import dumps_toml
+    from fuzzynav.world.scenario import load_scenario
 
     controller = BaselineController()
     scenario = load_scenario("s1").replace(duration_s=2.0)
     sim = build_simulation(scenario, controller_object=controller)
     rules = Recording(record_run(sim.run(), tmp_path / "b.rrd", controller=controller)).text(
-        "/meta/rules")
+        "/meta/rules"
+    )
     assert dumps_toml(controller.goal) in rules and dumps_toml(controller.avoid) in rules
     assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
     assert "not fuzzy" not in rules
@@ -431,11 +453,18 @@ def test_live_recorder_equals_record_run(tmp_path, s2_p):
         assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), entity
     # Chunk boundaries do not show: one row for a static obstacle, a continuous path for
     # the moving one, a continuous trail.
-    for col, oid in enumerate(log.obstacle_ids):
-        for entity in (f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/path",
-                       "/world/robot/trail", "/world/target"):
-            component = "Points2D:positions" if entity.endswith(("body", "target")) \
+    for _col, oid in enumerate(log.obstacle_ids):
+        for entity in (
+            f"/world/obstacles/{oid}/body",
+            f"/world/obstacles/{oid}/path",
+            "/world/robot/trail",
+            "/world/target",
+        ):
+            component = (
+                "Points2D:positions"
+                if entity.endswith(("body", "target"))
                 else "LineStrips2D:strips"
+            )
             a = rec.rows(entity, component)
             b = whole_rec.rows(entity, component)
             assert np.array_equal(a[0], b[0]), entity
@@ -533,8 +562,7 @@ def test_interrupted_run_callback_leaves_a_readable_recording(tmp_path):
 
 
 def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatch, capsys):
-    import app.runs
-    from controller.proportional import ProportionalController
+    from fuzzynav.controller.proportional import ProportionalController
 
     class InterruptedAfter(ProportionalController):
         calls = 0
@@ -545,7 +573,11 @@ def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatc
                 raise KeyboardInterrupt
             return super().__call__(inputs)
 
-    monkeypatch.setattr(app.runs, "make_controller", lambda name, fis_path=None: InterruptedAfter())
+    import fuzzynav.app.runs
+
+    monkeypatch.setattr(
+        fuzzynav.app.runs, "make_controller", lambda name, fis_path=None: InterruptedAfter()
+    )
     path = tmp_path / "ctrlc.rrd"
     assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 130
     assert "interrupted" in capsys.readouterr().err
@@ -555,12 +587,20 @@ def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatc
 
 
 def test_an_empty_log_still_makes_a_readable_recording(tmp_path):
-    from world.simulation import SimulationResult
+    from fuzzynav.world.simulation import SimulationResult
 
     sim = build_simulation("s1", "p")
-    empty = SimulationResult(scenario=sim.scenario, outcome="running", log=sim.log,
-                             collisions=[], wall_time_s=0.0, seed=0, perception="ideal",
-                             control_period_s=0.02, metrics={})
+    empty = SimulationResult(
+        scenario=sim.scenario,
+        outcome="running",
+        log=sim.log,
+        collisions=[],
+        wall_time_s=0.0,
+        seed=0,
+        perception="ideal",
+        control_period_s=0.02,
+        metrics={},
+    )
     assert len(empty.log) == 0
     path = tmp_path / "empty.rrd"
     record(sim, empty, path, extra_metadata={"interrupted": "yes"})
@@ -570,7 +610,7 @@ def test_an_empty_log_still_makes_a_readable_recording(tmp_path):
 
 @pytest.mark.parametrize("where", ["missing-dir/run.rrd", "a-directory"])
 def test_unwritable_rrd_path_fails_before_the_run(tmp_path, monkeypatch, capsys, where):
-    from world.simulation import Simulation
+    from fuzzynav.world.simulation import Simulation
 
     (tmp_path / "a-directory").mkdir()
 
@@ -599,7 +639,10 @@ def test_component_metadata_matches_the_sdk():
     scalars = rr.Scalars(scalars=[1.0]).as_component_batches()[0].component_descriptor()
     d, arrow_type = recording._component_types()[("Scalars", "scalars")]
     assert (d.archetype, d.component, d.component_type) == (
-        scalars.archetype, scalars.component, scalars.component_type)
+        scalars.archetype,
+        scalars.component,
+        scalars.component_type,
+    )
     assert arrow_type == pa.float64()
     field, _ = recording._component_field("/x", "SeriesLines", "names")
     assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
@@ -621,7 +664,7 @@ def test_live_recorder_closed_before_any_row(tmp_path):
 
 
 def _fuzzynav_crossing():
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     controller = fuzzynav_controller()
     sim = build_simulation("crossing", "fuzzynav", controller_object=controller)
@@ -631,7 +674,7 @@ def _fuzzynav_crossing():
 def test_fuzzynav_internals_are_recorded(tmp_path):
     """The crossing run yields to the moving obstacle: the recording's internals plot
     shows it (yield = 1 on some rows), alpha stays in [0, 1], one row per log row."""
-    from app.recording import INTERNALS, INTERNALS_PATH
+    from fuzzynav.app.recording import INTERNALS, INTERNALS_PATH
 
     sim, result, controller = _fuzzynav_crossing()
     path = record_run(result, tmp_path / "fn.rrd", controller=controller)
@@ -639,7 +682,7 @@ def test_fuzzynav_internals_are_recorded(tmp_path):
     times, values = rec.scalars(INTERNALS_PATH)
     assert np.array_equal(times, nanos(result.log.time_s))
     assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNALS)
-    decided = values[:-1]                       # the last row has no decision
+    decided = values[:-1]  # the last row has no decision
     assert np.all(np.isnan(values[-1]))
     alpha, offset, dodge, follow, doubted = decided.T
     assert np.all((alpha >= 0) & (alpha <= 1))
@@ -653,20 +696,20 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     """The controller that drove logged its decisions: the recording plots them and
     decides nothing again. A copy that did not drive is replayed instead; both give
     the same plot."""
-    import app.recording as recording
-    from app.recording import INTERNALS_PATH
-    from controller.fuzzynav import fuzzynav_controller
+    import fuzzynav.app.recording as recording
+    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     assert len(controller.decisions) == len(result.log) - 1  # one per decided row
     replays = []
     real = recording.controller_replica
-    monkeypatch.setattr(recording, "controller_replica",
-                        lambda c: replays.append(c) or real(c))
+    monkeypatch.setattr(recording, "controller_replica", lambda c: replays.append(c) or real(c))
     logged = Recording(record_run(result, tmp_path / "logged.rrd", controller=controller))
     assert replays == []
-    replayed = Recording(record_run(result, tmp_path / "replayed.rrd",
-                                    controller=fuzzynav_controller()))
+    replayed = Recording(
+        record_run(result, tmp_path / "replayed.rrd", controller=fuzzynav_controller())
+    )
     assert len(replays) == 1
     t_logged, v_logged = logged.scalars(INTERNALS_PATH)
     t_replayed, v_replayed = replayed.scalars(INTERNALS_PATH)
@@ -680,14 +723,15 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     what the viewer's teaching panel computes from the controller after each decision;
     where avoidance takes a good part of the command (alpha > 0.3) an avoidance rule
     fires."""
-    from app.recording import INTERNALS_PATH
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     layouts = []
     real = recording.blueprint
-    monkeypatch.setattr(recording, "blueprint",
-                        lambda *a, **kw: layouts.append(a[2]) or real(*a, **kw))
+    monkeypatch.setattr(
+        recording, "blueprint", lambda *a, **kw: layouts.append(a[2]) or real(*a, **kw)
+    )
     rec = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller))
     n_rules = len(controller.goal.rules) + len(controller.avoid.rules)
     assert layouts == [n_rules]  # the layout has a tab for the rules' firing
@@ -703,8 +747,9 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
         assert same(firing[k], system.firing_strengths(inputs[None, :])[0]), k
     _, internals = rec.scalars(INTERNALS_PATH)
     avoiding = internals[:-1, 0] > 0.3
-    assert avoiding.sum() >= 20 and np.all(firing[:-1][avoiding, len(controller.goal.rules):]
-                                     .max(axis=1) > 0.3)
+    assert avoiding.sum() >= 20 and np.all(
+        firing[:-1][avoiding, len(controller.goal.rules) :].max(axis=1) > 0.3
+    )
     rules = rec.text("/meta/rules")
     assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
 
@@ -712,7 +757,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
 def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
     """Decisions that do not line up with the run (tampered with here, as a controller
     swapped mid-run would leave them) are not plotted past the first difference."""
-    from app.recording import INTERNALS_PATH
+    from fuzzynav.app.recording import INTERNALS_PATH
 
     _, result, controller = _fuzzynav_crossing()
     k = 300
@@ -721,22 +766,24 @@ def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
     rec = Recording(record_run(result, tmp_path / "odd.rrd", controller=controller))
     assert INTERNALS_PATH not in rec.entities
     t = result.log.time_s[k]
-    assert f"not recorded (its logged decisions differ from the run at t = {t:.2f} s)" \
-        in rec.text("/meta/run")
+    assert f"not recorded (its logged decisions differ from the run at t = {t:.2f} s)" in rec.text(
+        "/meta/run"
+    )
 
 
 def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
     """A reviewer can rebuild fuzzynav from the recording: both rule blocks as TOML and
     the crisp parameters, not the controller's running state."""
-    from controller.fuzzynav import params_toml
-    from controller.rulebase import dumps_toml
+    from fuzzynav.controller.fuzzynav import params_toml
+    from fuzzynav.controller.rulebase import dumps_toml
 
     _, result, controller = _fuzzynav_crossing()
     rules = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller)).text(
-        "/meta/rules")
+        "/meta/rules"
+    )
     assert dumps_toml(controller.goal) in rules and dumps_toml(controller.avoid) in rules
     assert params_toml(controller.params) in rules
-    crisp = tomllib.loads(rules[rules.index("[crisp]"):])["crisp"]
+    crisp = tomllib.loads(rules[rules.index("[crisp]") :])["crisp"]
     assert crisp == pytest.approx(controller.params)
     assert "not fuzzy" not in rules and "decisions" not in rules
 
@@ -744,8 +791,8 @@ def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
 def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
-    from app.recording import INTERNALS_PATH
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     controller = fuzzynav_controller()
     sim = build_simulation("s3", "fuzzynav", controller_object=controller)
@@ -761,30 +808,31 @@ def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
 def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
     """Recorded with a controller other than the one that drove (other parameters): the
     replay differs at once, the plot stops there and the metadata says so."""
-    from app.recording import INTERNALS_PATH
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     _, result, _ = _fuzzynav_crossing()
     other = fuzzynav_controller()
     other.params["dodge_horizon_s"] = 0.0
     path = record_run(result, tmp_path / "odd.rrd", controller=other)
     rec = Recording(path)
-    assert INTERNALS_PATH not in rec.entities or len(rec.scalars(INTERNALS_PATH)[0]) < len(result.log)
+    assert INTERNALS_PATH not in rec.entities or len(rec.scalars(INTERNALS_PATH)[0]) < len(
+        result.log
+    )
     assert "not recorded (its replay differs from the run at t = " in rec.text("/meta/run")
 
 
 def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     """A live recording ends with the same data and the same layout (with its internals
     tab) as one written after the run."""
-    from app.recording import INTERNALS_PATH
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     layouts = []
     real = recording.blueprint
 
     def spy(scenario, obstacle_ids=(), n_rules=0, log=None, internals=False):
-        layouts.append((list(obstacle_ids), n_rules, None if log is None else len(log),
-                        internals))
+        layouts.append((list(obstacle_ids), n_rules, None if log is None else len(log), internals))
         return real(scenario, obstacle_ids, n_rules, log, internals=internals)
 
     monkeypatch.setattr(recording, "blueprint", spy)
@@ -809,7 +857,7 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
 def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):
     """A recording of fuzzynav with parts switched off names them, and its "reproduce"
     line switches them off again; its crisp parameters are the switched ones."""
-    from controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     controller = fuzzynav_controller()
     controller.set_parts_off(["edge following", "echo memory"])

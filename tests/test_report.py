@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 
-from app.cli import main
+from fuzzynav.app.cli import main
 
 
 def test_report_writes_everything(tmp_path, capsys):
@@ -21,20 +21,31 @@ def test_report_writes_everything(tmp_path, capsys):
         assert (out / "figures" / f"{scenario}_p_trajectory.png").exists()
         assert (images / f"{scenario}_p_trajectory.png").exists()
     assert (out / "figures" / "comparison.png").stat().st_size > 10_000
-    assert (tmp_path / "table4.md").read_text() == markdown   # the README's copy, beside img/
-    assert not (images / "paper_membership.png").exists()     # only when paper is reported
+    assert (tmp_path / "table4.md").read_text() == markdown  # the README's copy, beside img/
+    assert not (images / "paper_membership.png").exists()  # only when paper is reported
 
 
 def test_report_draws_the_paper_membership_overview(tmp_path, capsys):
     from PIL import Image
 
     images = tmp_path / "img"
-    assert main(["report", str(tmp_path / "r"), "--controllers", "paper",
-                 "--readme-images", str(images)]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(tmp_path / "r"),
+                "--controllers",
+                "paper",
+                "--readme-images",
+                str(images),
+            ]
+        )
+        == 0
+    )
     with Image.open(images / "paper_membership.png") as im:
         im.load()
         assert im.size[0] > 500 and im.size[1] > 500
-        assert len(np.unique(np.asarray(im.convert("L")))) > 10   # not blank
+        assert len(np.unique(np.asarray(im.convert("L")))) > 10  # not blank
 
 
 def test_report_refuses_an_unknown_controller(tmp_path, capsys):
@@ -49,8 +60,10 @@ def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    for name, argv in (("fuzzynav_figure", [str(tmp_path / "design.png")]),
-                       ("crossing_figure", None)):
+    for name, argv in (
+        ("fuzzynav_figure", [str(tmp_path / "design.png")]),
+        ("crossing_figure", None),
+    ):
         spec = importlib.util.spec_from_file_location(name, root / "scripts" / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
@@ -59,7 +72,9 @@ def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
             module.main()
         else:
             module.main(tmp_path / "crossing.png")
-    spec = importlib.util.spec_from_file_location("jitter_figure", root / "scripts" / "jitter_figure.py")
+    spec = importlib.util.spec_from_file_location(
+        "jitter_figure", root / "scripts" / "jitter_figure.py"
+    )
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     module.main(tmp_path / "jitter.png", n_per_scenario=1)

@@ -4,8 +4,13 @@ import math
 
 import pytest
 
-from world.scenario import (Scenario, ScenarioError, load_scenario, scenario_from_dict,
-                            scenario_names)
+from fuzzynav.world.scenario import (
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    scenario_from_dict,
+    scenario_names,
+)
 
 VALID = """
 name = "test"
@@ -51,32 +56,43 @@ def test_valid_file_loads(write_toml):
     assert isinstance(sc, Scenario) and sc.duration_s == 60.0
 
 
-@pytest.mark.parametrize("old, new, key, value_text", [
-    ('name = "test"', 'name = "test"\ncolour = "red"', "colour", "red"),
-    ("heading_rad = 0.0", "heading_rad = 0.0\nspeed = 1", "robot.speed", "1"),
-    ("radius_m = 0.2", "radius_m = 0.2\nmass = 3", "obstacles[0].mass", "3"),
-    ("tolerance_m = 0.15", "tolerance_m = 0.15\nradius = 1", "target.radius", "1"),
-    ("duration_s = 60.0", 'duration_s = "long"', "duration_s", "long"),
-    ("duration_s = 60.0", "duration_s = nan", "duration_s", "nan"),
-    ("duration_s = 60.0", "duration_s = -1.0", "duration_s", "-1.0"),
-    ("duration_s = 60.0", "duration_s = 1e9", "duration_s", "1000000000.0"),
-    ("duration_s = 60.0", "duration_s = 3600.5", "duration_s", "3600.5"),
-    # Beyond any arena, and beyond what the controllers compute without overflow.
-    ("position = [8.0, 8.0]", "position = [1e300, 8.0]", "target.position[0]", "1e+300"),
-    ("start = [0.0, 0.0]", "start = [0.0, -2e4]", "robot.start[1]", "-20000.0"),
-    ("radius_m = 0.2", "radius_m = 1e300", "obstacles[0].radius_m", "1e+300"),
-    ("radius_m = 0.2", "radius_m = 0.2\nvelocity = [0.0, 1e3]", "obstacles[0].velocity[1]",
-     "1000.0"),
-    ("radius_m = 0.2", "radius_m = 0.2\nacceleration = [1e308, 0.0]",
-     "obstacles[0].acceleration[0]", "1e+308"),
-    ("tolerance_m = 0.15", "tolerance_m = 1e9", "target.tolerance_m", "1000000000.0"),
-    ("start = [0.0, 0.0]", "start = [0.0, inf]", "robot.start[1]", "inf"),
-    ("start = [0.0, 0.0]", "start = [0.0]", "robot.start", "[0.0]"),
-    ("radius_m = 0.2", "radius_m = 0.0", "obstacles[0].radius_m", "0.0"),
-    ("radius_m = 0.2", "radius_m = -0.3", "obstacles[0].radius_m", "-0.3"),
-    ("tolerance_m = 0.15", "tolerance_m = 0.0", "target.tolerance_m", "0.0"),
-    ("heading_rad = 0.0", "heading_rad = true", "robot.heading_rad", "True"),
-])
+@pytest.mark.parametrize(
+    "old, new, key, value_text",
+    [
+        ('name = "test"', 'name = "test"\ncolour = "red"', "colour", "red"),
+        ("heading_rad = 0.0", "heading_rad = 0.0\nspeed = 1", "robot.speed", "1"),
+        ("radius_m = 0.2", "radius_m = 0.2\nmass = 3", "obstacles[0].mass", "3"),
+        ("tolerance_m = 0.15", "tolerance_m = 0.15\nradius = 1", "target.radius", "1"),
+        ("duration_s = 60.0", 'duration_s = "long"', "duration_s", "long"),
+        ("duration_s = 60.0", "duration_s = nan", "duration_s", "nan"),
+        ("duration_s = 60.0", "duration_s = -1.0", "duration_s", "-1.0"),
+        ("duration_s = 60.0", "duration_s = 1e9", "duration_s", "1000000000.0"),
+        ("duration_s = 60.0", "duration_s = 3600.5", "duration_s", "3600.5"),
+        # Beyond any arena, and beyond what the controllers compute without overflow.
+        ("position = [8.0, 8.0]", "position = [1e300, 8.0]", "target.position[0]", "1e+300"),
+        ("start = [0.0, 0.0]", "start = [0.0, -2e4]", "robot.start[1]", "-20000.0"),
+        ("radius_m = 0.2", "radius_m = 1e300", "obstacles[0].radius_m", "1e+300"),
+        (
+            "radius_m = 0.2",
+            "radius_m = 0.2\nvelocity = [0.0, 1e3]",
+            "obstacles[0].velocity[1]",
+            "1000.0",
+        ),
+        (
+            "radius_m = 0.2",
+            "radius_m = 0.2\nacceleration = [1e308, 0.0]",
+            "obstacles[0].acceleration[0]",
+            "1e+308",
+        ),
+        ("tolerance_m = 0.15", "tolerance_m = 1e9", "target.tolerance_m", "1000000000.0"),
+        ("start = [0.0, 0.0]", "start = [0.0, inf]", "robot.start[1]", "inf"),
+        ("start = [0.0, 0.0]", "start = [0.0]", "robot.start", "[0.0]"),
+        ("radius_m = 0.2", "radius_m = 0.0", "obstacles[0].radius_m", "0.0"),
+        ("radius_m = 0.2", "radius_m = -0.3", "obstacles[0].radius_m", "-0.3"),
+        ("tolerance_m = 0.15", "tolerance_m = 0.0", "target.tolerance_m", "0.0"),
+        ("heading_rad = 0.0", "heading_rad = true", "robot.heading_rad", "True"),
+    ],
+)
 def test_bad_values_are_named(write_toml, old, new, key, value_text):
     path = write_toml(VALID.replace(old, new))
     with pytest.raises(ScenarioError) as info:
@@ -112,8 +128,11 @@ def test_target_too_near_a_static_obstacle_to_reach(write_toml):
     # within the tolerance (0.15 m) of the target: a target 0.1 m off a surface is out of
     # reach, one 0.25 m off is not.
     near = write_toml(VALID.replace("position = [4.0, 4.0]", "position = [8.3, 8.0]"))
-    with pytest.raises(ScenarioError, match=r"target\.position = \[8\.0, 8\.0\]: cannot be "
-                                            r"reached: it is 0\.100 m from static obstacle"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"target\.position = \[8\.0, 8\.0\]: cannot be "
+        r"reached: it is 0\.100 m from static obstacle",
+    ):
         load_scenario(near)
     load_scenario(write_toml(VALID.replace("position = [4.0, 4.0]", "position = [8.45, 8.0]")))
 
@@ -137,22 +156,30 @@ def test_missing_file_and_bad_toml(write_toml, tmp_path):
 
 
 def test_disturbance_stop_before_start():
-    data = {"name": "x", "duration_s": 1.0, "robot": {"start": [0, 0]},
-            "target": {"position": [5, 5]},
-            "disturbance": {"amplitude": 1, "angular_frequency_rad_s": 2, "start_s": 5, "stop_s": 1}}
+    data = {
+        "name": "x",
+        "duration_s": 1.0,
+        "robot": {"start": [0, 0]},
+        "target": {"position": [5, 5]},
+        "disturbance": {"amplitude": 1, "angular_frequency_rad_s": 2, "start_s": 5, "stop_s": 1},
+    }
     with pytest.raises(ScenarioError, match="disturbance.stop_s"):
         scenario_from_dict(data)
 
 
 def test_an_hour_is_the_longest_run_a_file_may_ask_for(write_toml):
-    assert load_scenario(write_toml(VALID.replace("duration_s = 60.0",
-                                                  "duration_s = 3600.0"))).duration_s == 3600.0
+    assert (
+        load_scenario(
+            write_toml(VALID.replace("duration_s = 60.0", "duration_s = 3600.0"))
+        ).duration_s
+        == 3600.0
+    )
 
 
 def test_a_huge_duration_built_in_code_runs_without_a_huge_log():
     """Before, the log was allocated for the whole duration at once: 1e9 s asked numpy for
     8.7 TiB and crashed. Now it starts at an hour's worth and grows."""
-    from app.runs import build_simulation
+    from fuzzynav.app.runs import build_simulation
 
     scenario = load_scenario("s1").replace(duration_s=1e9)
     sim = build_simulation(scenario, "p")
@@ -162,8 +189,10 @@ def test_a_huge_duration_built_in_code_runs_without_a_huge_log():
 
 
 def test_a_disturbance_beyond_reason_is_named(write_toml):
-    table = ("\n[disturbance]\namplitude = {a}\nangular_frequency_rad_s = 2.0\n"
-             "start_s = 1.0\nstop_s = 2.0\n")
+    table = (
+        "\n[disturbance]\namplitude = {a}\nangular_frequency_rad_s = 2.0\n"
+        "start_s = 1.0\nstop_s = 2.0\n"
+    )
     assert load_scenario(write_toml(VALID + table.format(a=1.0))).disturbance.amplitude == 1.0
     with pytest.raises(ScenarioError) as info:
         load_scenario(write_toml(VALID + table.format(a=1e300)))

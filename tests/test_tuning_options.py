@@ -5,16 +5,24 @@ import argparse
 import numpy as np
 import pytest
 
-from app.cli import main
-from app.tuning import (CLEARANCE_WEIGHT, Case, free_indices, read_vector, reproduce_command,
-                        run_cost, tune)
-from controller.tuning import tunable
-from world.scenario import ObstacleSpec, load_scenario
+from fuzzynav.app.cli import main
+from fuzzynav.app.tuning import (
+    CLEARANCE_WEIGHT,
+    Case,
+    free_indices,
+    read_vector,
+    reproduce_command,
+    run_cost,
+    tune,
+)
+from fuzzynav.controller.tuning import tunable
+from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 
 
 def tiny_case():
-    sc = load_scenario("s1").replace(target=(2.5, 0.5), duration_s=4.0,
-                                     obstacles=(ObstacleSpec((1.5, -1.2), 0.2),))
+    sc = load_scenario("s1").replace(
+        target=(2.5, 0.5), duration_s=4.0, obstacles=(ObstacleSpec((1.5, -1.2), 0.2),)
+    )
     return [Case(sc, "ideal", "tiny")]
 
 
@@ -45,8 +53,10 @@ def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     t = tunable("paper")
     names, x0 = t.parameter_names(), t.initial_vector()
     free = free_indices(names, ["phi_o.peak", "d_o.b0"])
-    runs = [tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
-            for _ in range(2)]
+    runs = [
+        tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
+        for _ in range(2)
+    ]
     assert np.array_equal(runs[0].x, runs[1].x) and runs[0].fun == runs[1].fun
     x = runs[0].x
     assert x.shape == x0.shape
@@ -75,10 +85,23 @@ def test_clearance_weight_scales_the_hinge():
 
 
 def test_reproduce_command_names_the_options_that_change_the_result():
-    args = argparse.Namespace(controller="paper", scenarios=["s1"], layouts=None, n=0, layout_seed=0,
-                              perception=["ideal"], maxiter=5, popsize=1, seed=0, dt=0.05,
-                              method="nelder-mead", x0=None, free=["phi_t"], radius=None,
-                              clearance_weight=CLEARANCE_WEIGHT)
+    args = argparse.Namespace(
+        controller="paper",
+        scenarios=["s1"],
+        layouts=None,
+        n=0,
+        layout_seed=0,
+        perception=["ideal"],
+        maxiter=5,
+        popsize=1,
+        seed=0,
+        dt=0.05,
+        method="nelder-mead",
+        x0=None,
+        free=["phi_t"],
+        radius=None,
+        clearance_weight=CLEARANCE_WEIGHT,
+    )
     cmd = reproduce_command(args)
     assert "--method nelder-mead" in cmd and "--free phi_t" in cmd and "--seed" not in cmd
     assert "--clearance-weight" not in cmd
@@ -90,19 +113,67 @@ def test_reproduce_command_names_the_options_that_change_the_result():
 def test_tune_cli_local_search(tmp_path, write_toml, capsys):
     import json
 
-    tiny = write_toml('name = "tiny"\nduration_s = 5.0\n[robot]\nstart = [0.0, 0.0]\n'
-                      '[target]\nposition = [2.5, 0.5]\n[[obstacles]]\nposition = [1.5, -1.2]\n'
-                      'radius_m = 0.2\n')
+    tiny = write_toml(
+        'name = "tiny"\nduration_s = 5.0\n[robot]\nstart = [0.0, 0.0]\n'
+        "[target]\nposition = [2.5, 0.5]\n[[obstacles]]\nposition = [1.5, -1.2]\n"
+        "radius_m = 0.2\n"
+    )
     out = tmp_path / "tuned.toml"
-    assert main(["tune", "--scenarios", str(tiny), "--perception", "ideal", "--method",
-                 "nelder-mead", "--free", "phi_o", "--maxiter", "1", "--workers", "1", "--dt",
-                 "0.1", "--out", str(out), "--json"]) == 0
+    assert (
+        main(
+            [
+                "tune",
+                "--scenarios",
+                str(tiny),
+                "--perception",
+                "ideal",
+                "--method",
+                "nelder-mead",
+                "--free",
+                "phi_o",
+                "--maxiter",
+                "1",
+                "--workers",
+                "1",
+                "--dt",
+                "0.1",
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     data = json.loads(capsys.readouterr().out)
     assert "--method nelder-mead --free phi_o" in data["command"]
     assert data["command"] in out.read_text()
     # --x0 from the file just written: a valid start
-    assert main(["tune", "--scenarios", str(tiny), "--perception", "ideal", "--method", "powell",
-                 "--x0", str(out), "--free", "d_o.b0", "--maxiter", "1", "--workers", "1",
-                 "--dt", "0.1", "--out", str(tmp_path / "again.toml"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "tune",
+                "--scenarios",
+                str(tiny),
+                "--perception",
+                "ideal",
+                "--method",
+                "powell",
+                "--x0",
+                str(out),
+                "--free",
+                "d_o.b0",
+                "--maxiter",
+                "1",
+                "--workers",
+                "1",
+                "--dt",
+                "0.1",
+                "--out",
+                str(tmp_path / "again.toml"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["tune", "--free", "nope", "--maxiter", "1"]) == 2

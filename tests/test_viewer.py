@@ -17,15 +17,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from app.viewer import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
-from controller.registry import controller_names
 from net_helpers import port_is_free
+
+from fuzzynav.app.viewer import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
+from fuzzynav.controller.fis import write_fis
+from fuzzynav.controller.registry import controller_names
 
 ROOT = Path(__file__).resolve().parents[1]
 FUZZY = "paper" if "paper" in controller_names() else None
-
-
 
 
 @pytest.fixture
@@ -37,7 +36,7 @@ def app():
 
 @pytest.fixture
 def served():
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     a = ViewerApp("s1", "p")
     server = ViewerServer(a, port=0)
@@ -47,9 +46,14 @@ def served():
 
 def world_state(a: ViewerApp) -> dict:
     s = a.snapshot()
-    return {"time": s.time_s, "pose": s.pose, "target": s.target,
-            "obstacles": [(o.id, o.xy, o.radius_m) for o in s.obstacles],
-            "controller": s.controller_label, "run": s.run_id}
+    return {
+        "time": s.time_s,
+        "pose": s.pose,
+        "target": s.target,
+        "obstacles": [(o.id, o.xy, o.radius_m) for o in s.obstacles],
+        "controller": s.controller_label,
+        "run": s.run_id,
+    }
 
 
 # -- the server ------------------------------------------------------------------------
@@ -93,7 +97,7 @@ def test_speed_factor_paces_the_simulation(app):
 
 
 def test_server_stop_frees_the_port():
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     a = ViewerApp("s1", "p")
     server = ViewerServer(a, port=0)
@@ -112,9 +116,14 @@ def test_ctrl_c_stops_the_cli_server_and_frees_the_port(stop_signal):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "s2", "--port", str(port)],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, env=env)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fuzzynav.app.cli", "serve", "s2", "--port", str(port)],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+    )
     try:
         lines = []
         deadline = time.monotonic() + 60
@@ -154,7 +163,9 @@ def test_moving_the_target_changes_where_the_robot_goes():
     moved, a = drive((8.0, -4.0))
     # The target moved from up-right to down-right of the start: so did the robot.
     assert reference[1] > 0.5 and moved[1] < -0.3, (reference, moved)
-    assert np.linalg.norm(moved - np.array([8.0, -4.0])) < np.linalg.norm(reference - np.array([8.0, -4.0]))
+    assert np.linalg.norm(moved - np.array([8.0, -4.0])) < np.linalg.norm(
+        reference - np.array([8.0, -4.0])
+    )
     # A reset starts from the layout as edited, the restore button from the file.
     a.reset()
     assert a.sim.arena.target.tolist() == [8.0, -4.0] and a.layout_edited
@@ -245,10 +256,10 @@ def test_an_oversized_upload_is_refused(app):
 
 @pytest.mark.skipif(FUZZY is None, reason="no fuzzy controller in this build")
 def test_a_good_fis_upload_drives_and_keeps_the_world(app, tmp_path):
-    from controller.registry import make_controller
+    from fuzzynav.controller.registry import make_controller
 
     path = tmp_path / "mine.fis"
-    make_controller("paper").fis.to_fis(path)
+    write_fis(make_controller("paper").fis, path)
     app.play()
     assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
     app.pause()
@@ -274,8 +285,10 @@ def test_a_bad_scenario_upload_names_the_key_and_keeps_the_world(app):
     with pytest.raises(ViewerError, match="not a valid TOML"):
         app.upload_scenario(b"[[[", "x.toml")
     assert world_state(app) == before
-    good = (b'name = "open field"\nduration_s = 30.0\n[robot]\nstart = [0.0, 0.0]\n'
-            b'[target]\nposition = [4.0, 1.0]\n')
+    good = (
+        b'name = "open field"\nduration_s = 30.0\n[robot]\nstart = [0.0, 0.0]\n'
+        b"[target]\nposition = [4.0, 1.0]\n"
+    )
     label = app.upload_scenario(good, "C:\\Users\\me\\open.toml")
     assert label == UPLOADED_PREFIX + "open.toml"
     assert app.snapshot().target == (4.0, 1.0) and label in app.scenario_options()
@@ -332,10 +345,10 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     parts (arbitration weight, side, mode) in words."""
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     app.set_controller("fuzzynav")
-    assert app.teaching() is None            # not called yet
+    assert app.teaching() is None  # not called yet
     for _ in range(5):
         app.step_once()
     info = app.teaching()
@@ -343,7 +356,7 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     assert info["input_names"] == ["phi_t", "d_t", "left", "front", "right", "side"]
     assert info["strengths"].shape == (len(fis.rules),) == (21,)
     assert info["strengths"].max() > 0
-    assert info["inputs"][1] == pytest.approx(app.controller.last_inputs[0])   # d_t
+    assert info["inputs"][1] == pytest.approx(app.controller.last_inputs[0])  # d_t
     assert set(info["state"]) >= {"avoidance weight alpha", "side", "mode"}
     html_text = ViewerServer._rules_html(info)
     assert "Crisp parts" in html_text and "front" in html_text
@@ -353,23 +366,28 @@ def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):
     """The remembered echoes are drawn in the world from the robot's own frame: after a
     few seconds of s1 they lie near the obstacles' surfaces; the steering line starts
     at the robot. Controllers without a memory draw none."""
-    assert app.snapshot().memory_xy is None          # p
+    assert app.snapshot().memory_xy is None  # p
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
     # Turned away from the world's axes, so that the robot's own frame (which starts at
     # its start pose) differs from the world's.
-    app.upload_scenario(b'name = "turned"\nduration_s = 60.0\n[robot]\nstart = [1.0, -1.0]\n'
-                        b'heading_rad = 2.0\n[target]\nposition = [-6.0, 6.0]\n'
-                        b'[[obstacles]]\nposition = [-2.2, 2.6]\nradius_m = 0.3\n'
-                        b'[[obstacles]]\nposition = [-3.6, 3.9]\nradius_m = 0.25\n', "turned.toml")
+    app.upload_scenario(
+        b'name = "turned"\nduration_s = 60.0\n[robot]\nstart = [1.0, -1.0]\n'
+        b"heading_rad = 2.0\n[target]\nposition = [-6.0, 6.0]\n"
+        b"[[obstacles]]\nposition = [-2.2, 2.6]\nradius_m = 0.3\n"
+        b"[[obstacles]]\nposition = [-3.6, 3.9]\nradius_m = 0.25\n",
+        "turned.toml",
+    )
     app.set_controller("fuzzynav")
     while app.sim.time_s < 9.0:
         app.step_once()
     snap = app.snapshot()
     points = snap.memory_xy
     assert points.ndim == 2 and points.shape[1] == 2 and len(points) >= 3
-    gaps = [min(math.hypot(px - o.xy[0], py - o.xy[1]) - o.radius_m for o in snap.obstacles)
-            for px, py in points]
+    gaps = [
+        min(math.hypot(px - o.xy[0], py - o.xy[1]) - o.radius_m for o in snap.obstacles)
+        for px, py in points
+    ]
     # A wrong transform puts them 6-8 m off. Right, they lie near a surface, but only
     # sonar echoes are remembered now (no exact surface points of ideal perception):
     # an echo is placed on its beam's axis though it may come from anywhere in the 15 deg
@@ -401,7 +419,7 @@ def test_display_names_never_become_paths():
 
 
 def test_cli_has_serve_and_demo():
-    from app.cli import build_parser
+    from fuzzynav.app.cli import build_parser
 
     parser = build_parser()
     args = parser.parse_args(["serve"])
@@ -414,7 +432,7 @@ def test_cli_has_serve_and_demo():
 
 
 def test_cli_refuses_a_bad_scenario_and_an_unwritable_rrd(capsys, tmp_path):
-    from app.cli import main
+    from fuzzynav.app.cli import main
 
     assert main(["serve", "no-such-scenario", "--port", "0"]) == 2
     assert "no such scenario file" in capsys.readouterr().err
@@ -464,7 +482,7 @@ def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
 def test_cli_refuses_a_host_it_cannot_listen_on(capsys):
     # 192.0.2.1 is TEST-NET-1 (RFC 5737): no machine has it. viser alone would retry a
     # thousand ports and then wait forever; the check refuses it at once.
-    from app.cli import main
+    from fuzzynav.app.cli import main
 
     started = time.perf_counter()
     assert main(["serve", "s1", "--host", "192.0.2.1", "--port", "0"]) == 2
@@ -474,7 +492,7 @@ def test_cli_refuses_a_host_it_cannot_listen_on(capsys):
 
 
 def test_rrd_records_each_run_to_its_own_file(tmp_path):
-    pytest.importorskip("app.recording")
+    pytest.importorskip("fuzzynav.app.recording")
     path = tmp_path / "session.rrd"
     a = ViewerApp("s1", "p", rrd_path=path).start()
     try:
@@ -542,7 +560,7 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
     while fuzzynav drives; the status line says which parts are off."""
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     def shown(predicate, timeout=10.0):
         # the server redraws from its own thread: wait for it
@@ -560,9 +578,12 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
         app.set_controller("fuzzynav")
         app.set_part("bearing planner", False)
         assert shown(lambda: "fuzzynav (without bearing planner)" in server.status.content)
-        assert shown(lambda: server.parts_folder.visible
-                     and not server.part_boxes["bearing planner"].value)
-        assert all(box.value for name, box in server.part_boxes.items() if name != "bearing planner")
+        assert shown(
+            lambda: server.parts_folder.visible and not server.part_boxes["bearing planner"].value
+        )
+        assert all(
+            box.value for name, box in server.part_boxes.items() if name != "bearing planner"
+        )
         for name in ("echo memory", "edge following"):
             app.set_part(name, False)
         assert shown(lambda: "fuzzynav (3 parts off)" in server.status.content)

@@ -13,15 +13,21 @@ import shutil
 
 import numpy as np
 import pytest
-
-from app.viewer import ViewerApp
 from net_helpers import port_is_free
+
+from fuzzynav.app.viewer import ViewerApp
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(120)]
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 VIEWPORT = {"width": 1280, "height": 800}
 
 # Screen position of the target handle's ground-plane square (the gizmo's plane slider),
@@ -57,8 +63,6 @@ JS_SCENE_READY = """
 """
 
 
-
-
 @pytest.fixture(scope="module")
 def browser():
     if CHROMIUM is None:
@@ -81,7 +85,7 @@ def browser():
 def shared(browser):
     """One server and one connected tab for the module (a page load costs seconds of
     software WebGL); each test starts from scenario s1 at t = 0, paused."""
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     app = ViewerApp("s1", "p")
     server = ViewerServer(app, port=0)
@@ -115,7 +119,8 @@ def open_page(browser, url):
     page.wait_for_function(
         "() => { const m = window.__viserMutable; const r = m.canvas.getBoundingClientRect();"
         " return r.width < window.innerWidth * 0.7 && Math.abs(m.camera.aspect - r.width / r.height) < 0.01; }",
-        timeout=30_000)
+        timeout=30_000,
+    )
     page.wait_for_timeout(500)
     return page
 
@@ -123,8 +128,10 @@ def open_page(browser, url):
 def canvas_pixels(page) -> np.ndarray:
     from PIL import Image
 
-    rect = page.evaluate("() => { const r = window.__viserMutable.canvas.getBoundingClientRect();"
-                         " return {x: r.left, y: r.top, width: r.width, height: r.height}; }")
+    rect = page.evaluate(
+        "() => { const r = window.__viserMutable.canvas.getBoundingClientRect();"
+        " return {x: r.left, y: r.top, width: r.width, height: r.height}; }"
+    )
     png = page.screenshot(clip=rect)
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=float)
 
@@ -164,7 +171,9 @@ def test_pressing_play_advances_simulation_time(served, page):
     assert app.wait_for(lambda a: a.sim.time_s > 0.5, timeout=15), app.message
     page.wait_for_function(
         "() => { const m = document.body.innerText.match(/t = +([0-9.]+) s/); "
-        "return m && parseFloat(m[1]) > 0.3; }", timeout=15_000)
+        "return m && parseFloat(m[1]) > 0.3; }",
+        timeout=15_000,
+    )
     page.get_by_role("button", name="Pause").click()
     assert app.wait_for(lambda a: not a.playing, timeout=10)
 
@@ -204,9 +213,12 @@ def test_a_target_dropped_on_an_obstacle_is_flagged_in_the_page(served, page):
     app = served.app
     drag_target(page, -0.5, -1.6, steps=10)
     assert app.wait_for(lambda a: "cannot get there" in a.message, timeout=10), (
-        app.sim.arena.target, app.message)
-    page.wait_for_function("() => document.body.innerText.includes('cannot get there')",
-                           timeout=10_000)
+        app.sim.arena.target,
+        app.message,
+    )
+    page.wait_for_function(
+        "() => document.body.innerText.includes('cannot get there')", timeout=10_000
+    )
 
 
 def test_two_clients_share_one_world_and_closing_one_does_not_stop_it(browser, served, page):
@@ -218,7 +230,9 @@ def test_two_clients_share_one_world_and_closing_one_does_not_stop_it(browser, s
     # The other tab sees the same clock.
     second.wait_for_function(
         "() => { const m = document.body.innerText.match(/t = +([0-9.]+) s/); "
-        "return m && parseFloat(m[1]) > 0.3; }", timeout=15_000)
+        "return m && parseFloat(m[1]) > 0.3; }",
+        timeout=15_000,
+    )
     first.context.close()  # the tab that pressed Play goes away
     t = app.sim.time_s
     assert app.wait_for(lambda a: a.sim.time_s > t + 0.5, timeout=15)
@@ -227,11 +241,14 @@ def test_two_clients_share_one_world_and_closing_one_does_not_stop_it(browser, s
     # ... and the remaining tab keeps showing the clock going on.
     second.wait_for_function(
         "(t) => { const m = document.body.innerText.match(/t = +([0-9.]+) s/); "
-        "return m && parseFloat(m[1]) > t; }", arg=t, timeout=15_000)
+        "return m && parseFloat(m[1]) > t; }",
+        arg=t,
+        timeout=15_000,
+    )
 
 
 def test_the_server_stops_and_frees_its_port(browser):
-    from app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer_ui import ViewerServer
 
     app = ViewerApp("s1", "p")
     server = ViewerServer(app, port=0)
@@ -239,8 +256,9 @@ def test_the_server_stops_and_frees_its_port(browser):
     try:
         page = browser.new_context(viewport=VIEWPORT).new_page()
         page.goto(server.url)
-        page.wait_for_function("() => !!(window.__viserMutable && window.__viserMutable.camera)",
-                               timeout=30_000)
+        page.wait_for_function(
+            "() => !!(window.__viserMutable && window.__viserMutable.camera)", timeout=30_000
+        )
         assert app.wait_for(lambda a: len(server.server.get_clients()) == 1, timeout=10)
         assert not port_is_free(port)
     finally:
@@ -249,7 +267,10 @@ def test_the_server_stops_and_frees_its_port(browser):
     # The tab notices: the green "connected" cloud of the title bar fades away.
     page.wait_for_function(
         "() => { const ok = document.querySelector('svg.tabler-icon-cloud-check');"
-        " return !ok || getComputedStyle(ok).opacity === '0'; }", timeout=30_000, polling=200)
+        " return !ok || getComputedStyle(ok).opacity === '0'; }",
+        timeout=30_000,
+        polling=200,
+    )
     # A new viewer gets the very same port (viser would silently take the next one).
     again = ViewerServer(ViewerApp("s1", "p"), port=port)
     try:
@@ -274,8 +295,10 @@ def test_unticking_a_fuzzynav_part_in_the_page_switches_it_off(served, page):
         box.click()
         assert app.wait_for(lambda a: a.parts_off == ("edge following",), timeout=10)
         assert app.controller.inner.parts_off == ("edge following",)
-        page.wait_for_function("() => document.body.innerText.includes("
-                               "'fuzzynav (without edge following)')", timeout=15_000)
+        page.wait_for_function(
+            "() => document.body.innerText.includes('fuzzynav (without edge following)')",
+            timeout=15_000,
+        )
         box.click()
         assert app.wait_for(lambda a: a.parts_off == (), timeout=10)
     finally:

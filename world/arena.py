@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
-from world.scenario import ObstacleSpec
+from fuzzynav.world.scenario import ObstacleSpec
 
 try:  # pymunk's own cffi binding of Chipmunk: the calls its properties make, minus Vec2d.
     from pymunk._chipmunk import ffi as _ffi
@@ -49,8 +49,15 @@ else:  # looking a function up on the cffi lib costs as much as a short call
 
 # Space.step's own bookkeeping, which _step_space repeats around the bare Chipmunk step;
 # checked against the pymunk it was written for (7.x), else Space.step is called.
-_SPACE_STEP_STATE = ("_locked", "_removed_shapes", "_add_later", "_remove_later",
-                     "_post_step_callbacks", "_bodies_to_check", "threaded")
+_SPACE_STEP_STATE = (
+    "_locked",
+    "_removed_shapes",
+    "_add_later",
+    "_remove_later",
+    "_post_step_callbacks",
+    "_bodies_to_check",
+    "threaded",
+)
 _FAST_SPACE_STEP = _cp is not None and pymunk.version.split(".")[0] == "7"
 
 ROBOT_COLLISION_TYPE = 1
@@ -90,13 +97,21 @@ class Obstacle:
         self.law_start_s = time_s
         self.is_static = not (self.initial_velocity.any() or self.acceleration.any())
         # The law as plain floats for the hot path (same operations as position_at).
-        self._law = (*self.initial_position.tolist(), *self.initial_velocity.tolist(),
-                     *(0.5 * self.acceleration).tolist(), float(time_s))
+        self._law = (
+            *self.initial_position.tolist(),
+            *self.initial_velocity.tolist(),
+            *(0.5 * self.acceleration).tolist(),
+            float(time_s),
+        )
         self.body.position = tuple(self.initial_position)
 
     def position_at(self, time_s: float) -> np.ndarray:
         tau = time_s - self.law_start_s
-        return self.initial_position + self.initial_velocity * tau + 0.5 * self.acceleration * tau * tau
+        return (
+            self.initial_position
+            + self.initial_velocity * tau
+            + 0.5 * self.acceleration * tau * tau
+        )
 
     def _xy_at(self, time_s: float) -> tuple[float, float]:
         """:meth:`position_at` as two floats, bit for bit (same operations, same order)."""
@@ -109,8 +124,12 @@ class Obstacle:
 
     def spec_at(self, time_s: float) -> ObstacleSpec:
         """The obstacle as a scenario entry, as if its law started at ``time_s``."""
-        return ObstacleSpec(tuple(self.position_at(time_s)), self.radius_m,
-                            tuple(self.velocity_at(time_s)), tuple(self.acceleration))
+        return ObstacleSpec(
+            tuple(self.position_at(time_s)),
+            self.radius_m,
+            tuple(self.velocity_at(time_s)),
+            tuple(self.acceleration),
+        )
 
 
 class _Scene(NamedTuple):
@@ -142,8 +161,9 @@ class Arena:
         the LG model's velocities every step.
     """
 
-    def __init__(self, footprint_m=(0.99, 0.67), mass_kg: float = 48.39,
-                 inertia_kg_m2: float = 3.0556):
+    def __init__(
+        self, footprint_m=(0.99, 0.67), mass_kg: float = 48.39, inertia_kg_m2: float = 3.0556
+    ):
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)
@@ -155,11 +175,15 @@ class Arena:
         # Chipmunk pointers for the hot path, when this pymunk exposes them.
         self._robot_ptr = getattr(self.robot, "_body", None) if _cp is not None else None
         self._space_ptr = getattr(self.space, "_space", None) if _cp is not None else None
-        self._fast_space_step = (_FAST_SPACE_STEP and self._space_ptr is not None
-                                 and all(hasattr(self.space, a) for a in _SPACE_STEP_STATE))
+        self._fast_space_step = (
+            _FAST_SPACE_STEP
+            and self._space_ptr is not None
+            and all(hasattr(self.space, a) for a in _SPACE_STEP_STATE)
+        )
         self._pose = (0.0, 0.0, 0.0)
-        self.space.on_collision(ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE,
-                                begin=self._on_contact)
+        self.space.on_collision(
+            ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE, begin=self._on_contact
+        )
         self.obstacles: dict[int, Obstacle] = {}
         self.target = np.zeros(2)
         self.time_s = 0.0
@@ -207,8 +231,11 @@ class Arena:
         self._scene_obstacles = list(self.obstacles.values())
         self._scene_ids = [o.id for o in self._scene_obstacles]
         self._scene_radii = [o.radius_m for o in self._scene_obstacles]
-        self._moving = [(i, o, getattr(o.body, "_body", None) if _cp is not None else None)
-                        for i, o in enumerate(self._scene_obstacles) if not o.is_static]
+        self._moving = [
+            (i, o, getattr(o.body, "_body", None) if _cp is not None else None)
+            for i, o in enumerate(self._scene_obstacles)
+            if not o.is_static
+        ]
         self._moving_xy = None
         self._any_moving = bool(self._moving)
 
@@ -287,12 +314,14 @@ class Arena:
                 dy = cy - y
                 qx = abs(c * dx + s * dy) - hx
                 qy = abs(ns * dx + c * dy) - hy
-                inside = qy if qy > qx else qx          # max(qx, qy)
+                inside = qy if qy > qx else qx  # max(qx, qy)
                 inside = 0.0 if 0.0 < inside else inside  # min(inside, 0.0)
-                clearances.append(_hypot(0.0 if 0.0 > qx else qx, 0.0 if 0.0 > qy else qy)
-                                  + inside - radius)
+                clearances.append(
+                    _hypot(0.0 if 0.0 > qx else qx, 0.0 if 0.0 > qy else qy) + inside - radius
+                )
             scene = self._scene_cache = _new_tuple(
-                _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat))
+                _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat)
+            )
         return scene
 
     def _ray_candidates(self, reach_m: float):
@@ -428,5 +457,6 @@ class Arena:
         obstacle_id = getattr(other, "obstacle_id", -1)
         p = self.robot.position
         q = other.body.position
-        self.collisions.append(Collision(self.time_s + space.current_time_step, obstacle_id,
-                                         (p.x, p.y), (q.x, q.y)))
+        self.collisions.append(
+            Collision(self.time_s + space.current_time_step, obstacle_id, (p.x, p.y), (q.x, q.y))
+        )

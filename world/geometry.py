@@ -34,8 +34,9 @@ def to_robot_frame(point, robot_xy, heading_rad: float) -> tuple[float, float]:
     return (c * dx + s * dy, -s * dx + c * dy)
 
 
-def rectangle_circle_clearance(robot_xy, heading_rad: float, length_m: float, width_m: float,
-                               circle_xy, radius_m: float) -> float:
+def rectangle_circle_clearance(
+    robot_xy, heading_rad: float, length_m: float, width_m: float, circle_xy, radius_m: float
+) -> float:
     """Distance between a rectangle centred on the robot and a circle's surface.
 
     Negative when they overlap (then it is minus the circle's penetration depth of its
@@ -49,8 +50,14 @@ def rectangle_circle_clearance(robot_xy, heading_rad: float, length_m: float, wi
     return outside + inside - radius_m
 
 
-def rectangle_circles_clearance(robot_xy, heading_rad: float, length_m: float, width_m: float,
-                                centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+def rectangle_circles_clearance(
+    robot_xy,
+    heading_rad: float,
+    length_m: float,
+    width_m: float,
+    centres: np.ndarray,
+    radii: np.ndarray,
+) -> np.ndarray:
     """Vectorised :func:`rectangle_circle_clearance` over (n, 2) centres and (n,) radii."""
     c, s = math.cos(heading_rad), math.sin(heading_rad)
     d = centres - np.asarray(robot_xy, dtype=float)

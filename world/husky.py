@@ -84,6 +84,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import expm
 
+from fuzzynav.resources import asset_path
+
 __all__ = [
     "DEFAULT_PARAMETER_FILE",
     "STATE_NAMES",
@@ -104,7 +106,7 @@ __all__ = [
     "zoh_discretise",
 ]
 
-DEFAULT_PARAMETER_FILE = Path(__file__).resolve().parents[1] / "assets" / "husky.toml"
+DEFAULT_PARAMETER_FILE = asset_path("husky.toml")
 
 STATE_NAMES = ("w_LW", "w_RW", "v_MH", "w_JH", "i_L1", "i_L2")
 INPUT_NAMES = ("v_s1", "v_s2")
@@ -601,9 +603,7 @@ class HuskyModel:
             self._step_matrices[dt_s] = discrete.step_matrix
             return discrete
 
-    def step(
-        self, x: np.ndarray, u: np.ndarray, dt_s: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def step(self, x: np.ndarray, u: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
         r"""Advance one step with the voltages held constant; exact for any ``dt_s``.
 
         Parameters

@@ -34,7 +34,13 @@ import math
 
 import numpy as np
 
-from world.scenario import ObstacleSpec, Scenario, ScenarioError, check_layout, load_scenario
+from fuzzynav.world.scenario import (
+    ObstacleSpec,
+    Scenario,
+    ScenarioError,
+    check_layout,
+    load_scenario,
+)
 
 FAMILIES = ("standard", "clutter", "u_trap", "two_moving", "paper_jitter")
 JITTER_POSITION_M = 0.05
@@ -45,8 +51,8 @@ ROBOT_WIDTH_M = 0.67
 SAFE_DISTANCE_M = 0.25
 # A gap is passable when the robot fits with its safe distance on both sides.
 PASSABLE_GAP_M = ROBOT_WIDTH_M + 2 * SAFE_DISTANCE_M
-START_CLEAR_M = 1.2    # no obstacle surface this close to the start centre
-TARGET_CLEAR_M = 1.0   # nor to the target, so that it can be reached safely
+START_CLEAR_M = 1.2  # no obstacle surface this close to the start centre
+TARGET_CLEAR_M = 1.0  # nor to the target, so that it can be reached safely
 
 
 def _duration_s(distance_m: float) -> float:
@@ -72,13 +78,29 @@ def _fits(centre, radius, placed, start, target) -> bool:
     return all(np.linalg.norm(centre - c) - radius - r >= PASSABLE_GAP_M for c, r in placed)
 
 
-def _scatter(rng, count, start, target, along, across, distance, *, lateral_m,
-             placed=None, radius_range=(0.15, 0.35), tries=200):
+def _scatter(
+    rng,
+    count,
+    start,
+    target,
+    along,
+    across,
+    distance,
+    *,
+    lateral_m,
+    placed=None,
+    radius_range=(0.15, 0.35),
+    tries=200,
+):
     placed = list(placed or [])
     for _ in range(count):
         for _ in range(tries):
             radius = rng.uniform(*radius_range)
-            centre = start + along * rng.uniform(0.15, 0.85) * distance + across * rng.uniform(-lateral_m, lateral_m)
+            centre = (
+                start
+                + along * rng.uniform(0.15, 0.85) * distance
+                + across * rng.uniform(-lateral_m, lateral_m)
+            )
             if _fits(centre, radius, placed, start, target):
                 placed.append((centre, radius))
                 break
@@ -104,7 +126,7 @@ def _moving(rng, start, target, along, across, distance):
         acceleration = np.zeros(2)
     else:
         velocity = np.zeros(2)
-        acceleration = towards * 2.0 * offset / arrival_s ** 2
+        acceleration = towards * 2.0 * offset / arrival_s**2
     return ObstacleSpec(tuple(origin), radius, tuple(velocity), tuple(acceleration))
 
 
@@ -114,7 +136,7 @@ def _u_trap(rng, start, target, along, across, distance):
     depth = rng.uniform(0.4, 0.6) * distance
     half_width = rng.uniform(1.2, 1.8)
     arm = rng.uniform(1.2, 2.0)
-    pitch = 2 * radius + 0.1   # closer than the robot is wide: no way through the walls
+    pitch = 2 * radius + 0.1  # closer than the robot is wide: no way through the walls
     bottom = start + along * depth
     points = []
     for s in np.arange(-half_width, half_width + 1e-9, pitch):
@@ -138,9 +160,9 @@ def generate_layout(family: str, seed: int, index: int) -> Scenario:
     raise RuntimeError(f"no valid {family} layout for seed {seed}, index {index} in 50 draws")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _paper_scenario(name: str) -> Scenario:
-    return load_scenario(name)   # frozen: safe to share between layouts
+    return load_scenario(name)  # frozen: safe to share between layouts
 
 
 def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
@@ -150,18 +172,29 @@ def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
     for o in base.obstacles:
         if o.is_static:
             shift = rng.uniform(-JITTER_POSITION_M, JITTER_POSITION_M, 2)
-            obstacles.append(dataclasses.replace(
-                o, position=(o.position[0] + float(shift[0]), o.position[1] + float(shift[1]))))
+            obstacles.append(
+                dataclasses.replace(
+                    o, position=(o.position[0] + float(shift[0]), o.position[1] + float(shift[1]))
+                )
+            )
         else:
             scale = rng.uniform(1 - JITTER_MOTION_SCALE, 1 + JITTER_MOTION_SCALE, 2)
-            obstacles.append(dataclasses.replace(
-                o, velocity=(o.velocity[0] * float(scale[0]), o.velocity[1] * float(scale[1])),
-                acceleration=(o.acceleration[0] * float(scale[0]),
-                              o.acceleration[1] * float(scale[1]))))
+            obstacles.append(
+                dataclasses.replace(
+                    o,
+                    velocity=(o.velocity[0] * float(scale[0]), o.velocity[1] * float(scale[1])),
+                    acceleration=(
+                        o.acceleration[0] * float(scale[0]),
+                        o.acceleration[1] * float(scale[1]),
+                    ),
+                )
+            )
     scenario = base.replace(
         name=f"paper_jitter #{index}: {name} jittered (seed {seed})",
         heading_rad=base.heading_rad + float(rng.uniform(-JITTER_HEADING_RAD, JITTER_HEADING_RAD)),
-        obstacles=tuple(obstacles), source=f"<layout paper_jitter seed={seed} index={index}>")
+        obstacles=tuple(obstacles),
+        source=f"<layout paper_jitter seed={seed} index={index}>",
+    )
     check_layout(scenario)
     return scenario
 
@@ -172,25 +205,33 @@ def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scena
     start, target, along, across, distance = _frame(rng)
     moving: list[ObstacleSpec] = []
     if family == "standard":
-        placed = _scatter(rng, int(rng.integers(1, 5)), start, target, along, across, distance,
-                          lateral_m=1.0)
+        placed = _scatter(
+            rng, int(rng.integers(1, 5)), start, target, along, across, distance, lateral_m=1.0
+        )
         if rng.random() < 0.25:
             moving.append(_moving(rng, start, target, along, across, distance))
     elif family == "clutter":
-        placed = _scatter(rng, int(rng.integers(5, 10)), start, target, along, across, distance,
-                          lateral_m=2.5)
+        placed = _scatter(
+            rng, int(rng.integers(5, 10)), start, target, along, across, distance, lateral_m=2.5
+        )
     elif family == "u_trap":
         placed = _u_trap(rng, start, target, along, across, distance)
     else:
-        placed = _scatter(rng, int(rng.integers(1, 3)), start, target, along, across, distance,
-                          lateral_m=1.0)
+        placed = _scatter(
+            rng, int(rng.integers(1, 3)), start, target, along, across, distance, lateral_m=1.0
+        )
         moving = [_moving(rng, start, target, along, across, distance) for _ in range(2)]
     statics = [ObstacleSpec((float(c[0]), float(c[1])), float(r)) for c, r in placed]
     scenario = Scenario(
-        name=f"{family} #{index} (seed {seed})", duration_s=_duration_s(distance),
-        start=(0.0, 0.0), heading_rad=float(rng.uniform(-math.pi, math.pi)),
-        target=(float(target[0]), float(target[1])), tolerance_m=0.15,
-        obstacles=tuple(statics + moving), source=f"<layout {family} seed={seed} index={index}>")
+        name=f"{family} #{index} (seed {seed})",
+        duration_s=_duration_s(distance),
+        start=(0.0, 0.0),
+        heading_rad=float(rng.uniform(-math.pi, math.pi)),
+        target=(float(target[0]), float(target[1])),
+        tolerance_m=0.15,
+        obstacles=tuple(statics + moving),
+        source=f"<layout {family} seed={seed} index={index}>",
+    )
     check_layout(scenario)
     return scenario
 
@@ -198,5 +239,3 @@ def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scena
 def generate_layouts(family: str, n: int, seed: int) -> list[Scenario]:
     """The first ``n`` layouts of a family for a seed."""
     return [generate_layout(family, seed, i) for i in range(n)]
-
-

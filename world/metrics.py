@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from world.geometry import point_segment_distance
+from fuzzynav.world.geometry import point_segment_distance
 
 
 def path_length(xy: np.ndarray) -> float:
@@ -46,10 +46,21 @@ def compute_metrics(result) -> dict:
     """The metrics of a :class:`world.simulation.SimulationResult` as a plain dict."""
     log = result.log
     if len(log) == 0:  # interrupted before the first step: nothing to measure yet
-        return {"reached": False, "collided": False, "outcome": result.outcome,
-                "time_to_target_s": None, "path_length_m": 0.0, "mad_m": None, "rmse_m": None,
-                "min_center_distance_m": None, "min_clearance_m": None, "max_abs_voltage_v": 0.0,
-                "sim_time_s": 0.0, "steps": 0, "wall_time_s": float(result.wall_time_s)}
+        return {
+            "reached": False,
+            "collided": False,
+            "outcome": result.outcome,
+            "time_to_target_s": None,
+            "path_length_m": 0.0,
+            "mad_m": None,
+            "rmse_m": None,
+            "min_center_distance_m": None,
+            "min_clearance_m": None,
+            "max_abs_voltage_v": 0.0,
+            "sim_time_s": 0.0,
+            "steps": 0,
+            "wall_time_s": float(result.wall_time_s),
+        }
     xy = log.pose[:, :2]
     sc = result.scenario
     mad, rmse = deviation_from_line(xy, sc.start, sc.target)

@@ -30,9 +30,9 @@ import math
 
 import numpy as np
 
-from world.arena import Arena
-from world.geometry import wrap_angle_scalar
-from world.sensors import RangeSensorArray
+from fuzzynav.world.arena import Arena
+from fuzzynav.world.geometry import wrap_angle_scalar
+from fuzzynav.world.sensors import RangeSensorArray
 
 _hypot, _atan2, _fmod = math.hypot, math.atan2, math.fmod
 _PI, _TWO_PI = math.pi, 2.0 * math.pi
@@ -48,8 +48,9 @@ def target_inputs(pose, target) -> tuple[float, float]:
     return math.hypot(dx, dy), wrap_angle_scalar(math.atan2(dy, dx) - pose[2])
 
 
-def ideal_obstacle_inputs(arena: Arena, cutoff_m: float = OBSTACLE_CUTOFF_M
-                          ) -> tuple[float, float, int]:
+def ideal_obstacle_inputs(
+    arena: Arena, cutoff_m: float = OBSTACLE_CUTOFF_M
+) -> tuple[float, float, int]:
     """(d_o, phi_o, obstacle id) of the nearest obstacle by exact geometry; NaN, NaN, -1
     when none is within ``cutoff_m``."""
     return _ideal_obstacle_inputs(arena, arena.pose, cutoff_m)
@@ -72,8 +73,9 @@ def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, 
     return d_o, phi_o, scene.ids[k]
 
 
-def ultrasonic_obstacle_inputs(ranges_m, mount_angles_rad,
-                               cutoff_m: float = OBSTACLE_CUTOFF_M) -> tuple[float, float]:
+def ultrasonic_obstacle_inputs(
+    ranges_m, mount_angles_rad, cutoff_m: float = OBSTACLE_CUTOFF_M
+) -> tuple[float, float]:
     """(d_o, phi_o) from range readings; NaN, NaN when every reading is beyond the cutoff."""
     if type(ranges_m) is not list:
         ranges_m = np.asarray(ranges_m, dtype=float).tolist()
@@ -87,8 +89,7 @@ def ultrasonic_obstacle_inputs(ranges_m, mount_angles_rad,
 class Perception:
     """Turns the arena (and the sensors' readings) into the controller's four inputs."""
 
-    def __init__(self, mode: str, sensors: RangeSensorArray,
-                 cutoff_m: float = OBSTACLE_CUTOFF_M):
+    def __init__(self, mode: str, sensors: RangeSensorArray, cutoff_m: float = OBSTACLE_CUTOFF_M):
         if mode not in PERCEPTION_MODES:
             raise ValueError(f"perception = {mode!r}: must be one of {', '.join(PERCEPTION_MODES)}")
         self.mode = mode

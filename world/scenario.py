@@ -34,9 +34,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from world.geometry import rectangle_circle_clearance
+from fuzzynav.resources import assets_dir
+from fuzzynav.world.geometry import rectangle_circle_clearance
 
-ASSETS_DIR = Path(__file__).resolve().parents[1] / "assets"
+ASSETS_DIR = assets_dir()
 SCENARIO_DIR = ASSETS_DIR / "scenarios"
 
 # The real Husky A200 footprint (notes section 1); the world uses the same numbers
@@ -95,7 +96,7 @@ class Scenario:
     description: str = ""
     source: str = field(default="<memory>", compare=False)
 
-    def replace(self, **changes) -> "Scenario":
+    def replace(self, **changes) -> Scenario:
         return replace(self, **changes)
 
     def to_dict(self) -> dict:
@@ -133,14 +134,26 @@ class Scenario:
         lines = [f"name = {_toml_str(d['name'])}"]
         if self.description:
             lines.append(f"description = {_toml_str(self.description)}")
-        lines += [f"duration_s = {d['duration_s']!r}", "", "[robot]",
-                  f"start = {_toml_list(self.start)}", f"heading_rad = {self.heading_rad!r}",
-                  "", "[target]", f"position = {_toml_list(self.target)}",
-                  f"tolerance_m = {self.tolerance_m!r}"]
+        lines += [
+            f"duration_s = {d['duration_s']!r}",
+            "",
+            "[robot]",
+            f"start = {_toml_list(self.start)}",
+            f"heading_rad = {self.heading_rad!r}",
+            "",
+            "[target]",
+            f"position = {_toml_list(self.target)}",
+            f"tolerance_m = {self.tolerance_m!r}",
+        ]
         for o in self.obstacles:
-            lines += ["", "[[obstacles]]", f"position = {_toml_list(o.position)}",
-                      f"radius_m = {o.radius_m!r}", f"velocity = {_toml_list(o.velocity)}",
-                      f"acceleration = {_toml_list(o.acceleration)}"]
+            lines += [
+                "",
+                "[[obstacles]]",
+                f"position = {_toml_list(o.position)}",
+                f"radius_m = {o.radius_m!r}",
+                f"velocity = {_toml_list(o.velocity)}",
+                f"acceleration = {_toml_list(o.acceleration)}",
+            ]
         if self.disturbance is not None:
             dist = d["disturbance"]
             lines += ["", "[disturbance]"] + [f"{k} = {v!r}" for k, v in dist.items()]
@@ -200,9 +213,16 @@ class _Reader:
                 self.fail(full, None, "missing required key")
         return data
 
-    def number(self, value: Any, key: str, *, positive: bool = False,
-               non_negative: bool = False, limit: float | None = None,
-               unit: str = "") -> float:
+    def number(
+        self,
+        value: Any,
+        key: str,
+        *,
+        positive: bool = False,
+        non_negative: bool = False,
+        limit: float | None = None,
+        unit: str = "",
+    ) -> float:
         """A finite number; with ``limit``, at most that in magnitude."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, value, "must be a number")
@@ -217,12 +237,15 @@ class _Reader:
             self.fail(key, value, f"must be within +-{limit:g}{unit}")
         return value
 
-    def point(self, value: Any, key: str, limit: float = MAX_COORDINATE_M,
-              unit: str = " m") -> tuple[float, float]:
+    def point(
+        self, value: Any, key: str, limit: float = MAX_COORDINATE_M, unit: str = " m"
+    ) -> tuple[float, float]:
         if not isinstance(value, list) or len(value) != 2:
             self.fail(key, value, "must be a list of two numbers [x, y]")
-        return (self.number(value[0], f"{key}[0]", limit=limit, unit=unit),
-                self.number(value[1], f"{key}[1]", limit=limit, unit=unit))
+        return (
+            self.number(value[0], f"{key}[0]", limit=limit, unit=unit),
+            self.number(value[1], f"{key}[1]", limit=limit, unit=unit),
+        )
 
     def string(self, value: Any, key: str) -> str:
         if not isinstance(value, str):
@@ -251,18 +274,27 @@ def scenario_from_dict(
     description = r.string(data.get("description", ""), "description")
     duration_s = r.number(data["duration_s"], "duration_s", positive=True)
     if duration_s > MAX_DURATION_S:
-        r.fail("duration_s", duration_s, f"must be at most {MAX_DURATION_S:g} s (an hour of "
-                                         f"simulated time)")
+        r.fail(
+            "duration_s",
+            duration_s,
+            f"must be at most {MAX_DURATION_S:g} s (an hour of simulated time)",
+        )
 
     robot = r.table(data["robot"], "robot", _ROBOT_KEYS, {"start"})
     start = r.point(robot["start"], "robot.start")
-    heading = r.number(robot.get("heading_rad", 0.0), "robot.heading_rad", limit=1000.0,
-                       unit=" rad")
+    heading = r.number(
+        robot.get("heading_rad", 0.0), "robot.heading_rad", limit=1000.0, unit=" rad"
+    )
 
     target_t = r.table(data["target"], "target", _TARGET_KEYS, {"position"})
     target = r.point(target_t["position"], "target.position")
-    tolerance = r.number(target_t.get("tolerance_m", 0.15), "target.tolerance_m", positive=True,
-                         limit=MAX_RADIUS_M, unit=" m")
+    tolerance = r.number(
+        target_t.get("tolerance_m", 0.15),
+        "target.tolerance_m",
+        positive=True,
+        limit=MAX_RADIUS_M,
+        unit=" m",
+    )
 
     raw_obstacles = data.get("obstacles", [])
     if not isinstance(raw_obstacles, list):
@@ -271,42 +303,72 @@ def scenario_from_dict(
     for i, raw in enumerate(raw_obstacles):
         key = f"obstacles[{i}]"
         o = r.table(raw, key, _OBSTACLE_KEYS, {"position", "radius_m"})
-        obstacles.append(ObstacleSpec(
-            position=r.point(o["position"], f"{key}.position"),
-            radius_m=r.number(o["radius_m"], f"{key}.radius_m", positive=True,
-                              limit=MAX_RADIUS_M, unit=" m"),
-            velocity=r.point(o.get("velocity", [0.0, 0.0]), f"{key}.velocity",
-                             MAX_SPEED_MPS, " m/s"),
-            acceleration=r.point(o.get("acceleration", [0.0, 0.0]), f"{key}.acceleration",
-                                 MAX_ACCELERATION_MPS2, " m/s^2"),
-        ))
+        obstacles.append(
+            ObstacleSpec(
+                position=r.point(o["position"], f"{key}.position"),
+                radius_m=r.number(
+                    o["radius_m"], f"{key}.radius_m", positive=True, limit=MAX_RADIUS_M, unit=" m"
+                ),
+                velocity=r.point(
+                    o.get("velocity", [0.0, 0.0]), f"{key}.velocity", MAX_SPEED_MPS, " m/s"
+                ),
+                acceleration=r.point(
+                    o.get("acceleration", [0.0, 0.0]),
+                    f"{key}.acceleration",
+                    MAX_ACCELERATION_MPS2,
+                    " m/s^2",
+                ),
+            )
+        )
 
     disturbance = None
     if "disturbance" in data:
         d = r.table(data["disturbance"], "disturbance", _DISTURBANCE_KEYS, _DISTURBANCE_KEYS)
         disturbance = Disturbance(
-            amplitude=r.number(d["amplitude"], "disturbance.amplitude",
-                               limit=MAX_DISTURBANCE),
-            angular_frequency_rad_s=r.number(d["angular_frequency_rad_s"],
-                                             "disturbance.angular_frequency_rad_s",
-                                             limit=1e4, unit=" rad/s"),
-            start_s=r.number(d["start_s"], "disturbance.start_s", non_negative=True,
-                             limit=MAX_DURATION_S, unit=" s"),
-            stop_s=r.number(d["stop_s"], "disturbance.stop_s", non_negative=True,
-                            limit=MAX_DURATION_S, unit=" s"),
+            amplitude=r.number(d["amplitude"], "disturbance.amplitude", limit=MAX_DISTURBANCE),
+            angular_frequency_rad_s=r.number(
+                d["angular_frequency_rad_s"],
+                "disturbance.angular_frequency_rad_s",
+                limit=1e4,
+                unit=" rad/s",
+            ),
+            start_s=r.number(
+                d["start_s"],
+                "disturbance.start_s",
+                non_negative=True,
+                limit=MAX_DURATION_S,
+                unit=" s",
+            ),
+            stop_s=r.number(
+                d["stop_s"],
+                "disturbance.stop_s",
+                non_negative=True,
+                limit=MAX_DURATION_S,
+                unit=" s",
+            ),
         )
         if disturbance.stop_s < disturbance.start_s:
             r.fail("disturbance.stop_s", disturbance.stop_s, "must not be before start_s")
 
-    scenario = Scenario(name=name, duration_s=duration_s, start=start, heading_rad=heading,
-                        target=target, tolerance_m=tolerance, obstacles=tuple(obstacles),
-                        disturbance=disturbance, description=description, source=source)
+    scenario = Scenario(
+        name=name,
+        duration_s=duration_s,
+        start=start,
+        heading_rad=heading,
+        target=target,
+        tolerance_m=tolerance,
+        obstacles=tuple(obstacles),
+        disturbance=disturbance,
+        description=description,
+        source=source,
+    )
     check_layout(scenario, footprint_m)
     return scenario
 
 
-def target_blocker(target, tolerance_m: float, obstacles, half_width_m: float
-                   ) -> tuple[int, str] | None:
+def target_blocker(
+    target, tolerance_m: float, obstacles, half_width_m: float
+) -> tuple[int, str] | None:
     """The first static obstacle that keeps the robot from the target, as
     ``(index, reason)``, or None.
 
@@ -321,13 +383,17 @@ def target_blocker(target, tolerance_m: float, obstacles, half_width_m: float
             continue
         gap_m = math.dist(o.position, target) - o.radius_m
         if gap_m < 0.0:
-            return i, (f"lies inside static obstacle obstacles[{i}] at {list(o.position)} "
-                       f"(radius {o.radius_m} m)")
+            return i, (
+                f"lies inside static obstacle obstacles[{i}] at {list(o.position)} "
+                f"(radius {o.radius_m} m)"
+            )
         if gap_m + tolerance_m < half_width_m:
-            return i, (f"cannot be reached: it is {gap_m:.3f} m from static obstacle "
-                       f"obstacles[{i}] at {list(o.position)} (radius {o.radius_m} m), and "
-                       f"the robot's centre, which must come within {tolerance_m} m of it, "
-                       f"stays at least its half-width {half_width_m} m from any obstacle")
+            return i, (
+                f"cannot be reached: it is {gap_m:.3f} m from static obstacle "
+                f"obstacles[{i}] at {list(o.position)} (radius {o.radius_m} m), and "
+                f"the robot's centre, which must come within {tolerance_m} m of it, "
+                f"stays at least its half-width {half_width_m} m from any obstacle"
+            )
     return None
 
 
@@ -338,20 +404,26 @@ def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_
     length, width = footprint_m
     for i, o in enumerate(scenario.obstacles):
         clearance = rectangle_circle_clearance(
-            scenario.start, scenario.heading_rad, length, width, o.position, o.radius_m)
+            scenario.start, scenario.heading_rad, length, width, o.position, o.radius_m
+        )
         if clearance <= 0.0:
-            r.fail(f"obstacles[{i}].position", list(o.position),
-                   f"overlaps the robot's footprint at its start {list(scenario.start)}")
-    blocked = target_blocker(scenario.target, scenario.tolerance_m, scenario.obstacles,
-                             0.5 * width)
+            r.fail(
+                f"obstacles[{i}].position",
+                list(o.position),
+                f"overlaps the robot's footprint at its start {list(scenario.start)}",
+            )
+    blocked = target_blocker(scenario.target, scenario.tolerance_m, scenario.obstacles, 0.5 * width)
     if blocked is not None:
         r.fail("target.position", list(scenario.target), blocked[1])
     statics = [(i, o) for i, o in enumerate(scenario.obstacles) if o.is_static]
     for n, (i, a) in enumerate(statics):
-        for j, b in statics[n + 1:]:
+        for j, b in statics[n + 1 :]:
             if math.dist(a.position, b.position) < a.radius_m + b.radius_m:
-                r.fail(f"obstacles[{j}].position", list(b.position),
-                       f"overlaps static obstacle obstacles[{i}] at {list(a.position)}")
+                r.fail(
+                    f"obstacles[{j}].position",
+                    list(b.position),
+                    f"overlaps static obstacle obstacles[{i}] at {list(a.position)}",
+                )
 
 
 def scenario_names() -> list[str]:
@@ -368,8 +440,9 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
     return Path(text)
 
 
-def load_scenario(name_or_path: str | Path,
-                  footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M) -> Scenario:
+def load_scenario(
+    name_or_path: str | Path, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M
+) -> Scenario:
     """Load and validate a scenario by shipped name (``s1``) or by path.
 
     Raises
@@ -381,8 +454,9 @@ def load_scenario(name_or_path: str | Path,
     source = str(path)
     if not path.is_file():
         known = ", ".join(scenario_names())
-        raise ScenarioError(source, "file", str(name_or_path),
-                            f"no such scenario file (shipped scenarios: {known})")
+        raise ScenarioError(
+            source, "file", str(name_or_path), f"no such scenario file (shipped scenarios: {known})"
+        )
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

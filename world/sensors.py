@@ -31,10 +31,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pymunk
 
-from world.arena import RAY_FILTER, Arena, _cp, _ffi
+from fuzzynav.world.arena import RAY_FILTER, Arena, _cp, _ffi
 
 if _cp is not None:
-    from world.arena import _cpSpaceSegmentQueryFirst
+    from fuzzynav.world.arena import _cpSpaceSegmentQueryFirst
 
 # Slack on the prefilter's distances and angles, far above the rounding of the centres
 # and directions it compares: it may let a ray through that misses, never the reverse.
@@ -91,8 +91,10 @@ class SensorConfig:
         if self.rays_per_beam < 1:
             raise ValueError(f"SensorConfig.rays_per_beam = {self.rays_per_beam!r}: must be >= 1")
         if self.min_range_m >= self.max_range_m:
-            raise ValueError(f"SensorConfig.min_range_m = {self.min_range_m!r}: "
-                             f"must be below max_range_m = {self.max_range_m!r}")
+            raise ValueError(
+                f"SensorConfig.min_range_m = {self.min_range_m!r}: "
+                f"must be below max_range_m = {self.max_range_m!r}"
+            )
 
     def ray_offsets_rad(self) -> np.ndarray:
         if self.rays_per_beam == 1:
@@ -130,8 +132,10 @@ class RangeSensorArray:
         """(origin in the world, centre direction in the world) of each sensor."""
         x, y, heading = pose
         c, s = math.cos(heading), math.sin(heading)
-        return [((x + c * m.x_m - s * m.y_m, y + s * m.x_m + c * m.y_m), heading + m.angle_rad)
-                for m in self.config.mounts]
+        return [
+            ((x + c * m.x_m - s * m.y_m, y + s * m.x_m + c * m.y_m), heading + m.angle_rad)
+            for m in self.config.mounts
+        ]
 
     def _constants(self) -> tuple:
         """Per-config constants: mounts as floats, the reach of any ray from the centre."""
@@ -204,15 +208,15 @@ class RangeSensorArray:
                     for dx, dy, margin in near:
                         along = dx * ux + dy * uy
                         across = dx * uy - dy * ux
-                        if (-margin <= along <= max_range + margin
-                                and -margin <= across <= margin):
+                        if -margin <= along <= max_range + margin and -margin <= across <= margin:
                             break
                     else:
                         continue
                     end = (ox + max_range * ux, oy + max_range * uy)
                     if fast:
-                        if _cpSpaceSegmentQueryFirst(space_ptr, (ox, oy), end, 0.0,
-                                                     shape_filter, info):
+                        if _cpSpaceSegmentQueryFirst(
+                            space_ptr, (ox, oy), end, 0.0, shape_filter, info
+                        ):
                             distance = info.alpha * max_range
                             if distance < nearest:
                                 point = info.point
@@ -260,9 +264,13 @@ class RangeSensorArray:
         max_range = cfg.max_range_m
         ranges, hits = [], None
         for k, (origin, direction) in enumerate(self.beam_geometry(arena.pose)):
-            ends = [(origin[0] + max_range * math.cos(direction + offset),
-                     origin[1] + max_range * math.sin(direction + offset))
-                    for offset in self._offsets]
+            ends = [
+                (
+                    origin[0] + max_range * math.cos(direction + offset),
+                    origin[1] + max_range * math.sin(direction + offset),
+                )
+                for offset in self._offsets
+            ]
             nearest, hit = math.inf, None
             # The rays are segments, so the box around their ends and the origin holds
             # them all: when no shape touches it, no ray can hit and none is cast.

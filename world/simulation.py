@@ -38,12 +38,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from world.arena import Arena, Collision
-from world.husky import N_STATES, HuskyModel
-from world.metrics import compute_metrics
-from world.perception import Perception
-from world.scenario import Scenario
-from world.sensors import RangeSensorArray, SensorConfig
+from fuzzynav.world.arena import Arena, Collision
+from fuzzynav.world.husky import N_STATES, HuskyModel
+from fuzzynav.world.metrics import compute_metrics
+from fuzzynav.world.perception import Perception
+from fuzzynav.world.scenario import Scenario
+from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
 OUTCOMES = ("reached", "collided", "timeout")
 _FLOAT64 = np.dtype(np.float64)
@@ -55,20 +55,20 @@ _pack_into = struct.pack_into
 class SimulationLog:
     """Per-step arrays of one run (see the module docstring for the row convention)."""
 
-    time_s: np.ndarray            # (N,)
-    pose: np.ndarray              # (N, 3): x m, y m, heading rad (continuous, not wrapped)
-    lg_state: np.ndarray          # (N, 6): w_LW, w_RW, v_MH, w_JH, i_L1, i_L2
-    inputs: np.ndarray            # (N, 4): d_t, d_o, phi_t, phi_o as the controller saw them
-    disturbance: np.ndarray       # (N,): the value added to every input
+    time_s: np.ndarray  # (N,)
+    pose: np.ndarray  # (N, 3): x m, y m, heading rad (continuous, not wrapped)
+    lg_state: np.ndarray  # (N, 6): w_LW, w_RW, v_MH, w_JH, i_L1, i_L2
+    inputs: np.ndarray  # (N, 4): d_t, d_o, phi_t, phi_o as the controller saw them
+    disturbance: np.ndarray  # (N,): the value added to every input
     controller_output_v: np.ndarray  # (N, 2): left, right before saturation
-    voltages_v: np.ndarray        # (N, 2): left, right as applied
-    ranges_m: np.ndarray          # (N, 3): left, front, right sensor readings
-    target_xy: np.ndarray         # (N, 2)
-    obstacle_xy: np.ndarray       # (N, n_obstacles, 2); NaN while an obstacle is absent
+    voltages_v: np.ndarray  # (N, 2): left, right as applied
+    ranges_m: np.ndarray  # (N, 3): left, front, right sensor readings
+    target_xy: np.ndarray  # (N, 2)
+    obstacle_xy: np.ndarray  # (N, n_obstacles, 2); NaN while an obstacle is absent
     obstacle_radii_m: np.ndarray  # (n_obstacles,)
     obstacle_ids: list[int]
     center_distance_m: np.ndarray  # (N, n_obstacles): robot centre to obstacle centre
-    clearance_m: np.ndarray       # (N, n_obstacles): footprint to obstacle surface
+    clearance_m: np.ndarray  # (N, n_obstacles): footprint to obstacle surface
 
     def __len__(self) -> int:
         return len(self.time_s)
@@ -105,8 +105,17 @@ class _LogBuffer:
     per block from the logged pose and centres (``np.hypot``, as before).
     """
 
-    _FIELDS = {"time_s": 1, "pose": 3, "lg_state": 6, "inputs": 4, "disturbance": 1,
-               "controller_output_v": 2, "voltages_v": 2, "ranges_m": 3, "target_xy": 2}
+    _FIELDS = {
+        "time_s": 1,
+        "pose": 3,
+        "lg_state": 6,
+        "inputs": 4,
+        "disturbance": 1,
+        "controller_output_v": 2,
+        "voltages_v": 2,
+        "ranges_m": 3,
+        "target_xy": 2,
+    }
     _FLUSH_ROWS = 512
 
     def __init__(self, capacity: int):
@@ -118,14 +127,14 @@ class _LogBuffer:
         self.obstacle_radii: list[float] = []
         # Per obstacle column: x, y, centre distance, clearance.
         self.obstacles = np.full((self.capacity, 0, 4), np.nan)
-        self._written = 0          # rows already in the matrices
-        self._pending = 0          # rows not yet written; their numbers, flattened:
-        self._rows: list = []      # `width` per row
-        self._xy: list = []        # x, y per obstacle column
+        self._written = 0  # rows already in the matrices
+        self._pending = 0  # rows not yet written; their numbers, flattened:
+        self._rows: list = []  # `width` per row
+        self._xy: list = []  # x, y per obstacle column
         self._clearances: list = []  # one per obstacle column
-        self._ids_seen = None      # the ids list the pending obstacle data follows
+        self._ids_seen = None  # the ids list the pending obstacle data follows
         self._columns: list[int] = []
-        self._direct = True        # those ids are exactly the columns, in order
+        self._direct = True  # those ids are exactly the columns, in order
 
     def _grow(self) -> None:
         self.capacity *= 2
@@ -140,13 +149,15 @@ class _LogBuffer:
                 self.obstacle_ids.append(obstacle_id)
                 self.obstacle_radii.append(float(radius))
             self.obstacles = np.concatenate(
-                [self.obstacles, np.full((self.capacity, len(new), 4), np.nan)], axis=1)
+                [self.obstacles, np.full((self.capacity, len(new), 4), np.nan)], axis=1
+            )
         self._columns = [self.obstacle_ids.index(i) for i in ids]
         self._direct = list(ids) == self.obstacle_ids
         self._ids_seen = ids
 
-    def append(self, row: list[float], ids: list[int], radii, xy: list[float],
-               clearances: list[float]) -> None:
+    def append(
+        self, row: list[float], ids: list[int], radii, xy: list[float], clearances: list[float]
+    ) -> None:
         """Log one row: ``row`` in ``_FIELDS`` order; per obstacle present (``ids``),
         its radius, its centre (in ``xy``, flat: x0, y0, x1, y1, ...) and clearance."""
         if ids is not self._ids_seen:
@@ -201,8 +212,10 @@ class _LogBuffer:
         n = self.n
         fields, start = {}, 0
         for name, width in self._FIELDS.items():
-            column = self.rows[:n, start:start + width]
-            fields[name] = column[:, 0].copy() if name in ("time_s", "disturbance") else column.copy()
+            column = self.rows[:n, start : start + width]
+            fields[name] = (
+                column[:, 0].copy() if name in ("time_s", "disturbance") else column.copy()
+            )
             start += width
         return SimulationLog(
             **fields,
@@ -240,10 +253,19 @@ class Simulation:
         recorded and the run goes on.
     """
 
-    def __init__(self, scenario: Scenario, controller, *, perception: str = "ideal",
-                 control_period_s: float = 0.02, seed: int | None = None,
-                 model: HuskyModel | None = None, sensor_config: SensorConfig | None = None,
-                 voltage_limit_v: float = 12.0, stop_on_collision: bool = True):
+    def __init__(
+        self,
+        scenario: Scenario,
+        controller,
+        *,
+        perception: str = "ideal",
+        control_period_s: float = 0.02,
+        seed: int | None = None,
+        model: HuskyModel | None = None,
+        sensor_config: SensorConfig | None = None,
+        voltage_limit_v: float = 12.0,
+        stop_on_collision: bool = True,
+    ):
         if not (math.isfinite(control_period_s) and control_period_s > 0):
             raise ValueError(f"control_period_s = {control_period_s!r}: must be positive")
         if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
@@ -253,8 +275,11 @@ class Simulation:
         self.control_period_s = float(control_period_s)
         self.model = model or HuskyModel.default()
         params = self.model.parameters
-        self.arena = Arena((params.footprint_length_m, params.footprint_width_m),
-                           params.hull_mass_kg, params.hull_inertia_kg_m2)
+        self.arena = Arena(
+            (params.footprint_length_m, params.footprint_width_m),
+            params.hull_mass_kg,
+            params.hull_inertia_kg_m2,
+        )
         self.sensors = RangeSensorArray(sensor_config)
         self.perception = Perception(perception, self.sensors)
         self.voltage_limit_v = float(voltage_limit_v)
@@ -340,8 +365,10 @@ class Simulation:
         else:
             left, right = np.asarray(raw, dtype=float).reshape(2).tolist()
         if not (math.isfinite(left) and math.isfinite(right)):
-            raise ValueError(f"controller returned non-finite voltages {[left, right]} "
-                             f"for inputs {inputs.tolist()} at t = {self.time_s:.3f} s")
+            raise ValueError(
+                f"controller returned non-finite voltages {[left, right]} "
+                f"for inputs {inputs.tolist()} at t = {self.time_s:.3f} s"
+            )
         return left, right
 
     def step(self) -> str | None:
@@ -364,8 +391,20 @@ class Simulation:
         v_right = low if low > right else right
         v_right = limit if limit < v_right else v_right
         x_list = self._state_list()
-        self._record(x_list, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, left, right,
-                     v_left, v_right, target_xy)
+        self._record(
+            x_list,
+            d_t,
+            d_o,
+            phi_t,
+            phi_o,
+            ranges_list,
+            disturbance,
+            left,
+            right,
+            v_left,
+            v_right,
+            target_xy,
+        )
 
         dt = self.control_period_s
         forward_speed, yaw_rate = self._advance_plant(x_list, v_left, v_right, dt)
@@ -381,8 +420,20 @@ class Simulation:
         if self.outcome is not None:
             d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
             nan = math.nan
-            self._record(self._state_list(), d_t, d_o, phi_t, phi_o, ranges_list, disturbance,
-                         nan, nan, nan, nan, None)
+            self._record(
+                self._state_list(),
+                d_t,
+                d_o,
+                phi_t,
+                phi_o,
+                ranges_list,
+                disturbance,
+                nan,
+                nan,
+                nan,
+                nan,
+                None,
+            )
         self._wall_time_s += time.perf_counter() - started
         return self.outcome
 
@@ -393,16 +444,16 @@ class Simulation:
             return x.tolist()
         return np.asarray(x, dtype=float).reshape(-1).tolist()
 
-    def _advance_plant(self, x_list: list[float], v_left: float, v_right: float,
-                       dt: float) -> tuple[float, float]:
+    def _advance_plant(
+        self, x_list: list[float], v_left: float, v_right: float, dt: float
+    ) -> tuple[float, float]:
         """``HuskyModel.step`` on floats: sets ``self.x``, returns the step-mean forward
         speed and yaw rate. The same (12 x 8) product with the same ``[x; u]`` as
         ``HuskyModel.step``, so the same numbers, without its per-call overheads."""
         model = self.model
         cached_model, cached_dt, matrix = self._plant
         if model is not cached_model or dt != cached_dt:
-            matrix = (model.discrete(dt).step_matrix
-                      if type(model).step is HuskyModel.step else None)
+            matrix = model.discrete(dt).step_matrix if type(model).step is HuskyModel.step else None
             self._plant = (model, dt, matrix)
         if matrix is None:
             self.x, x_mean = model.step(self.x, np.array((v_left, v_right)), dt)
@@ -411,18 +462,47 @@ class Simulation:
         _PACK_XU(z, 0, *x_list, v_left, v_right)  # z = [x; u], without building an array
         result = np.dot(matrix, z)
         self.x = result[:N_STATES]
-        mean = result[N_STATES + 2:N_STATES + 4].tolist()
+        mean = result[N_STATES + 2 : N_STATES + 4].tolist()
         return mean[0], mean[1]
 
-    def _record(self, x_list, d_t, d_o, phi_t, phi_o, ranges_list, disturbance, raw_left,
-                raw_right, v_left, v_right, target_xy) -> None:
+    def _record(
+        self,
+        x_list,
+        d_t,
+        d_o,
+        phi_t,
+        phi_o,
+        ranges_list,
+        disturbance,
+        raw_left,
+        raw_right,
+        v_left,
+        v_right,
+        target_xy,
+    ) -> None:
         arena = self.arena
         x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target.tolist()
         # Same order as _LogBuffer._FIELDS.
-        row = [arena.time_s, x, y, heading, *x_list, d_t, d_o, phi_t, phi_o, disturbance,
-               raw_left, raw_right, v_left, v_right, *ranges_list, *target_xy]
+        row = [
+            arena.time_s,
+            x,
+            y,
+            heading,
+            *x_list,
+            d_t,
+            d_o,
+            phi_t,
+            phi_o,
+            disturbance,
+            raw_left,
+            raw_right,
+            v_left,
+            v_right,
+            *ranges_list,
+            *target_xy,
+        ]
         scene = arena._scene()
         self._log.append(row, scene.ids, scene.radii, scene.xy_flat, scene.clearances)
 
@@ -442,9 +522,14 @@ class Simulation:
     def result(self) -> SimulationResult:
         log = self.log
         result = SimulationResult(
-            scenario=self.scenario, outcome=self.outcome or "running", log=log,
-            collisions=list(self.arena.collisions), wall_time_s=self._wall_time_s,
-            seed=self.seed, perception=self.perception.mode,
-            control_period_s=self.control_period_s)
+            scenario=self.scenario,
+            outcome=self.outcome or "running",
+            log=log,
+            collisions=list(self.arena.collisions),
+            wall_time_s=self._wall_time_s,
+            seed=self.seed,
+            perception=self.perception.mode,
+            control_period_s=self.control_period_s,
+        )
         result.metrics = compute_metrics(result)
         return result

@@ -1,0 +1,190 @@
+"""``fuzzynav serve``: the viewer's command line (the server around :mod:`viewer_ui`).
+
+The app model (:mod:`fuzzynav.app.viewer`) knows nothing of the browser; the browser
+side (:mod:`fuzzynav.app.viewer_ui`) uses the model; this module starts both.
+"""
+
+from __future__ import annotations
+
+import signal
+import socket
+import sys
+import threading
+import time
+from pathlib import Path
+
+from fuzzynav.app.viewer import ViewerApp, ViewerError
+
+# ---------------------------------------------------------------------------------------
+# Command line
+
+
+def _check_rrd(path):
+    """Refuse an --rrd path that cannot be written, before the server starts."""
+    if path is None:
+        return None
+    try:
+        from fuzzynav.app.recording import check_writable_file
+    except ModuleNotFoundError as exc:
+        if exc.name not in ("fuzzynav.app.recording", "rerun"):
+            raise
+        from fuzzynav.app.cli import UsageError
+
+        raise UsageError(
+            "--rrd: live recording needs app/recording.py and rerun-sdk, "
+            "which are not available in this installation"
+        ) from None
+    return check_writable_file(path)
+
+
+def check_host(host: str) -> None:
+    """Refuse a host this machine cannot listen on, before the server starts.
+
+    (viser 1.1 retries an address it cannot bind on the next thousand ports and then
+    waits forever for a server that never started; a port already in use is fine: it
+    takes the next free one, and the printed address says which.)
+    """
+    try:
+        family, _, _, _, address = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as exc:
+        raise ViewerError(f"--host {host!r}: unknown host ({exc})") from None
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((address[0], 0))
+        except OSError as exc:
+            raise ViewerError(
+                f"--host {host!r}: this machine cannot listen on that "
+                f"address ({exc.strerror or exc})"
+            ) from None
+
+
+def _print_url(server, host: str, open_message: bool) -> None:
+    if not open_message:
+        return
+    print(f"fuzzynav viewer: {server.url}  (Ctrl-C stops it)", flush=True)
+    if host not in ("127.0.0.1", "localhost", "::1"):
+        print(
+            f"fuzzynav viewer: bound to {host}: other machines on the network can "
+            "open it and change the world",
+            flush=True,
+        )
+
+
+def serve(
+    scenario="s1",
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    rrd=None,
+    controller: str | None = None,
+    open_message: bool = True,
+    block: bool = True,
+):
+    """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
+    otherwise it returns the running :class:`app.viewer_ui.ViewerServer`."""
+    from fuzzynav.app.viewer_ui import ViewerServer
+
+    rrd = _check_rrd(rrd)
+    check_host(host)
+    app = ViewerApp(scenario, controller, rrd_path=rrd)
+    server = ViewerServer(app, host=host, port=port)
+    if not block:
+        _print_url(server, host, open_message)
+        return server
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        # `kill` (SIGTERM) stops the viewer as cleanly as Ctrl-C does.
+        def on_term(signum, frame):
+            raise KeyboardInterrupt
+
+        previous = signal.signal(signal.SIGTERM, on_term)
+    try:
+        # The URL is printed inside the try: a Ctrl-C that arrives as soon as a user (or a
+        # test) sees it must still stop the server cleanly.
+        _print_url(server, host, open_message)
+        while True:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+        server.stop()
+        files = ", ".join(str(p) for p in app.recorded_files)
+        print(
+            "fuzzynav viewer: stopped, port released" + (f"; recorded {files}" if files else ""),
+            flush=True,
+        )
+    return None
+
+
+def cmd_serve(args) -> int:
+    serve(
+        args.scenario,
+        host=args.host,
+        port=args.port,
+        rrd=args.rrd,
+        controller=getattr(args, "controller", None),
+    )
+    return 0
+
+
+def add_commands(subparsers) -> None:
+    from fuzzynav.app.cli import integer_in, scenario_help
+    from fuzzynav.controller.registry import controller_names
+
+    for name, help_text in (
+        ("serve", "start the interactive browser viewer"),
+        ("demo", "the viewer on scenario s1 with default settings"),
+    ):
+        parser = subparsers.add_parser(name, help=help_text)
+        if name == "serve":
+            parser.add_argument(
+                "scenario",
+                nargs="?",
+                default="s1",
+                help=scenario_help(),
+            )
+            parser.add_argument(
+                "--host",
+                default="127.0.0.1",
+                help="address to bind (default 127.0.0.1: this machine only)",
+            )
+            parser.add_argument(
+                "--port",
+                type=integer_in(0, 65535),
+                default=8080,
+                help="port (default 8080; the next free one if taken)",
+            )
+            parser.add_argument(
+                "--rrd",
+                type=Path,
+                default=None,
+                metavar="PATH",
+                help="also record the session to rerun files: the first run "
+                "to PATH, later runs to <stem>-run2.rrd, ...",
+            )
+            parser.add_argument(
+                "--controller",
+                default=None,
+                choices=controller_names(),
+                help="controller to start with (default: paper)",
+            )
+        else:
+            parser.set_defaults(
+                scenario="s1", host="127.0.0.1", port=8080, rrd=None, controller=None
+            )
+        parser.set_defaults(func=cmd_serve)
+
+
+def main(argv=None) -> int:
+    """``python -m fuzzynav.app.serve [SCENARIO] [--host H] [--port P] [--rrd PATH]``: the same
+    as ``fuzzynav serve``."""
+
+    from fuzzynav.app.cli import main as cli_main
+
+    return cli_main(["serve", *(sys.argv[1:] if argv is None else argv)])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
