@@ -25,7 +25,7 @@ import sys
 import textwrap
 from pathlib import Path
 
-from fuzzynav.world.perception import PERCEPTION_MODES
+from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 from fuzzynav.world.scenario import ScenarioError, resolve_scenario_path, scenario_names
 
 EXIT_BAD_INPUT = 2
@@ -93,6 +93,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
         choices=PERCEPTION_MODES,
         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors",
     )
+    add_geometry_option(parser)
     parser.add_argument(
         "--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)"
     )
@@ -107,6 +108,16 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
         "--dt", type=float, default=0.02, metavar="SECONDS", help="control period (default 0.02 s)"
     )
     add_off_option(parser)
+
+
+def add_geometry_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--geometry",
+        default="husky",
+        choices=GEOMETRIES,
+        help="husky: the real 0.99 x 0.67 m footprint (default); paper: the paper's point "
+        "robot, inputs and distances centre to centre (Eqs. 7-12), ideal perception only",
+    )
 
 
 def add_off_option(parser: argparse.ArgumentParser) -> None:
@@ -177,6 +188,7 @@ def cmd_run(args) -> int:
         fis_path=args.fis,
         control_period_s=args.dt,
         sensor_noise_std_m=args.noise,
+        geometry=args.geometry,
     )
     label = args.fis.name if args.fis else args.controller
     parts_off = switch_parts_off(sim.controller, args.off, label)
@@ -198,7 +210,10 @@ def cmd_run(args) -> int:
     if args.json:
         print_json(row)
         return 0
-    table = Table(title=f"{result.scenario.name} — {label}, {args.perception} perception")
+    table = Table(
+        title=f"{result.scenario.name} — {label}, {args.perception} perception, "
+        f"{args.geometry} geometry"
+    )
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, value in row.items():
@@ -216,6 +231,8 @@ EXTENSION_MODULES = (
     "fuzzynav.app.figures",
     "fuzzynav.app.report",
     "fuzzynav.app.serve",
+    "fuzzynav.app.paper_fit",
+    "fuzzynav.app.trace",
 )
 
 
@@ -298,6 +315,16 @@ COMMAND_DOCS = {
         "Start the browser viewer: drag obstacles and the target while the robot drives, "
         "and watch the fuzzy inference. Binds 127.0.0.1 unless --host says otherwise.",
         ["fuzzynav serve", "fuzzynav serve s2 --controller fuzzynav --port 8081"],
+    ),
+    "fit-paper": (
+        "Reconstruct the paper controller's membership functions (not printed in the "
+        "paper) and the unstated initial heading by fitting s1-s3, run in the paper's "
+        "point-robot geometry, to the paper's Table 4 and the events of its section 4. "
+        "Long: tens of minutes on two cores.",
+        [
+            "fuzzynav fit-paper --maxiter 2 --popsize 2 --out trial.toml",
+            "fuzzynav fit-paper --seed 1 --out paper_table4.toml",
+        ],
     ),
     "demo": (
         "The browser viewer on scenario s1 with default settings (what 'make demo' runs).",

@@ -19,7 +19,7 @@ from fuzzynav.controller.fis import read_fis, write_fis
 FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
 
 
-def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
+def export_fis(path: str | Path, controller: str = "paper", geometry: str = "husky") -> list[Path]:
     """Write ``controller``'s fuzzy systems under ``path`` (MATLAB .fis); returns the files.
 
     One system (``paper``): ``path`` is the file, ending in ``.fis``. Several blocks
@@ -30,7 +30,7 @@ def export_fis(path: str | Path, controller: str = "paper") -> list[Path]:
     if controller not in FIS_CONTROLLERS:
         raise ValueError(f"controller = {controller!r}: choose one of {', '.join(FIS_CONTROLLERS)}")
     path = Path(path)
-    ctrl = make_controller(controller)
+    ctrl = make_controller(controller, geometry=geometry)
     blocks = getattr(ctrl, "rule_blocks", None)
     if blocks is None:
         if path.suffix.lower() != ".fis":
@@ -69,7 +69,7 @@ def default_export_path(controller: str) -> Path:
 
 def cmd_fis_export(args) -> int:
     target = args.path if args.path is not None else default_export_path(args.controller)
-    for path in export_fis(target, args.controller):
+    for path in export_fis(target, args.controller, args.geometry):
         # Read back: what is printed is what the file holds.
         print(f"wrote {path} ({_signature(read_fis(path))})")
     return 0
@@ -96,5 +96,12 @@ def add_commands(subparsers) -> None:
         default="paper",
         choices=FIS_CONTROLLERS,
         help="whose rule base (default paper; fuzzynav and baseline have two blocks each)",
+    )
+    export.add_argument(
+        "--geometry",
+        default="husky",
+        choices=("husky", "paper"),
+        help="the paper controller's rule base for this geometry: tuned for the Husky's "
+        "footprint (default) or fitted to Table 4 in the paper's point-robot geometry",
     )
     export.set_defaults(func=cmd_fis_export)

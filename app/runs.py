@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
+from fuzzynav.world.perception import check_geometry
 from fuzzynav.world.scenario import Scenario, load_scenario
 from fuzzynav.world.sensors import SensorConfig
 from fuzzynav.world.simulation import Simulation, SimulationResult
@@ -26,6 +28,9 @@ SUMMARY_KEYS = (
     "sim_time_s",
     "steps",
     "wall_time_s",
+    "voltage_jumps",
+    "geometry",
+    "min_safety_distance_m",
 )
 
 
@@ -40,13 +45,20 @@ def build_simulation(
     sensor_noise_std_m: float = 0.0,
     controller_object=None,
     stop_on_collision: bool = True,
+    geometry: str = "husky",
 ) -> Simulation:
+    """A simulation from user choices. In the paper's geometry the scenario starts at its
+    ``paper_heading_rad`` when it has one (the fitted initial heading of s1-s3), and
+    ``--controller paper`` drives with the rule base fitted in that geometry."""
+    check_geometry(geometry, perception)
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario)
+    if geometry == "paper" and scenario.paper_heading_rad is not None:
+        scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
     ctrl = (
         controller_object
         if controller_object is not None
-        else make_controller(controller, fis_path)
+        else make_controller(controller, fis_path, geometry=geometry)
     )
     return Simulation(
         scenario,
@@ -56,6 +68,7 @@ def build_simulation(
         seed=seed,
         sensor_config=SensorConfig(noise_std_m=sensor_noise_std_m),
         stop_on_collision=stop_on_collision,
+        geometry=geometry,
     )
 
 

@@ -9,7 +9,9 @@ times perception modes) of a per-run cost (:func:`run_cost`):
   (so a collision is always worse than a timeout, and a timeout closer to the target
   is better than one far away);
 * plus ``20 * max(0, 0.30 m - min clearance)``: clearance below the paper's 0.25 m safe
-  distance (with a 5 cm margin) is penalised even when the target is reached.
+  distance (with a 5 cm margin) is penalised even when the target is reached;
+* plus, in ideal perception, ``0.05`` per voltage jump over 2 V beyond the first 10
+  (``world.metrics.voltage_jumps``): chattering voltages are not the paper's.
 
 Tuning runs of the paper controller use a 0.05 s control period by default (``--dt``):
 the plant's ZOH step is exact at any period and s1's trajectory moves by millimetres
@@ -62,6 +64,8 @@ class Case:
 
 
 CLEARANCE_WEIGHT = 20.0
+CHATTER_WEIGHT = 0.05
+CHATTER_FREE_JUMPS = 10
 
 
 def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
@@ -82,6 +86,8 @@ def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
     clearance = m.get("min_clearance_m")
     if clearance is not None and math.isfinite(clearance):
         cost += clearance_weight * max(0.0, SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M - clearance)
+    if result.perception == "ideal":
+        cost += CHATTER_WEIGHT * max(0, m.get("voltage_jumps", 0) - CHATTER_FREE_JUMPS)
     return float(cost)
 
 

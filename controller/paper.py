@@ -53,11 +53,21 @@ from fuzzynav.resources import asset_path
 ASSETS = asset_path("rules")
 PAPER_RULES = ASSETS / "paper.toml"
 FIRST_DESIGN = ASSETS / "paper_first_design.toml"
+#: Fitted in the paper's point-robot geometry to its Table 4 (``fuzzynav fit-paper``).
+PAPER_TABLE4_RULES = ASSETS / "paper_table4.toml"
+RULES_BY_GEOMETRY = {"husky": PAPER_RULES, "paper": PAPER_TABLE4_RULES}
 
 _K = 4.71  # 2 * sqrt(2 ln 2) * 2: Gaussian at 0.5 half-way to the neighbouring peaks
 
 
-def paper_controller(path: str | Path = PAPER_RULES) -> FisController:
+def paper_controller(path: str | Path | None = None, geometry: str = "husky") -> FisController:
+    """Table 1 with the shipped membership functions for ``geometry`` (or ``path``)."""
+    if path is None:
+        if geometry not in RULES_BY_GEOMETRY:
+            raise ValueError(
+                f"geometry = {geometry!r}: must be one of {', '.join(RULES_BY_GEOMETRY)}"
+            )
+        path = RULES_BY_GEOMETRY[geometry]
     return FisController.from_toml(path, name="paper")
 
 
@@ -249,5 +259,10 @@ class PaperTunable:
         return [path]
 
 
-def tunable() -> PaperTunable:
-    return PaperTunable()
+def tunable():
+    """What ``fuzzynav tune --controller paper`` tunes: the partition parametrisation,
+    which has no holes by construction (:mod:`fuzzynav.controller.paper_partition`;
+    :class:`PaperTunable` is the earlier 27-number layout, kept for its first design)."""
+    from fuzzynav.controller.paper_partition import PaperPartitionTunable
+
+    return PaperPartitionTunable()

@@ -49,8 +49,14 @@ def describe(name: str) -> str:
     return _FACTORIES[name][2]
 
 
-def make_controller(name: str = "paper", fis_path: str | Path | None = None):
+def make_controller(
+    name: str = "paper", fis_path: str | Path | None = None, geometry: str = "husky"
+):
     """A fresh controller by name, or a fuzzy controller read from a MATLAB ``.fis`` file.
+
+    ``geometry`` picks the paper controller's rule base: the one tuned for the Husky's
+    footprint, or the one fitted to the paper's Table 4 in its point-robot geometry.
+    Other controllers have one design for both.
 
     Raises
     ------
@@ -64,4 +70,6 @@ def make_controller(name: str = "paper", fis_path: str | Path | None = None):
     if name not in _FACTORIES:
         raise ValueError(f"controller = {name!r}: unknown (choose from {', '.join(_FACTORIES)})")
     module, factory, _ = _FACTORIES[name]
+    if name == "paper":
+        return getattr(import_module(module), factory)(geometry=geometry)
     return getattr(import_module(module), factory)()

@@ -149,13 +149,19 @@ class _Scene(NamedTuple):
     xy_flat: list
 
 
+#: The contact shape of a point robot (paper geometry), metres.
+POINT_ROBOT_RADIUS_M = 1e-4
+
+
 class Arena:
     """The pymunk world holding the robot, the obstacles and the target.
 
     Parameters
     ----------
     footprint_m : (length, width)
-        The robot's collision rectangle, metres (real Husky A200: 0.99 x 0.67).
+        The robot's collision rectangle, metres (real Husky A200: 0.99 x 0.67);
+        ``(0, 0)`` makes the robot a point (the paper's geometry): it touches an obstacle
+        when its centre enters the obstacle's disc.
     mass_kg, inertia_kg_m2 : float
         Given to the pymunk body; they never matter for the motion, which is set from
         the LG model's velocities every step.
@@ -167,7 +173,16 @@ class Arena:
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)
-        self.robot_shape = pymunk.Poly.create_box(self.robot, self.footprint_m)
+        if self.footprint_m == (0.0, 0.0):
+            # A point has no pymunk shape; a circle far below any obstacle's size reports
+            # the moment the centre reaches a disc (to within its 0.1 mm radius).
+            self.robot_shape = pymunk.Circle(self.robot, POINT_ROBOT_RADIUS_M)
+        elif min(self.footprint_m) > 0.0:
+            self.robot_shape = pymunk.Poly.create_box(self.robot, self.footprint_m)
+        else:
+            raise ValueError(
+                f"footprint_m = {footprint_m!r}: both sides > 0, or (0, 0) for a point"
+            )
         self.robot_shape.sensor = True
         self.robot_shape.collision_type = ROBOT_COLLISION_TYPE
         self.robot_shape.filter = pymunk.ShapeFilter(categories=ROBOT_CATEGORY)

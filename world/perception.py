@@ -13,6 +13,16 @@ The inputs are in the paper's order ``(d_t, d_o, phi_t, phi_o)``:
 ``phi_o`` (rad)
     Bearing of the nearest obstacle relative to the heading, (-pi, pi]; NaN with d_o.
 
+Two geometries (``geometry``):
+
+``husky``
+    The real Husky's 0.99 x 0.67 m footprint: ``d_o`` is footprint to surface.
+``paper``
+    The paper's point robot: ``d_t``, ``d_o``, ``phi_t``, ``phi_o`` exactly by Eqs. 7-12
+    from the robot's centre to the target's and the obstacles' centres (the nearest
+    obstacle by centre distance). Only ``ideal`` perception: the paper computes its inputs
+    from positions, and a range sensor cannot see a centre.
+
 Two modes:
 
 ``ideal``
@@ -39,7 +49,20 @@ _PI, _TWO_PI = math.pi, 2.0 * math.pi
 
 OBSTACLE_CUTOFF_M = 3.0
 PERCEPTION_MODES = ("ideal", "ultrasonic")
+GEOMETRIES = ("husky", "paper")
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
+
+
+def check_geometry(geometry: str, perception: str = "ideal") -> None:
+    """Refuse an unknown geometry, and the paper's point robot with range sensors."""
+    if geometry not in GEOMETRIES:
+        raise ValueError(f"geometry = {geometry!r}: must be one of {', '.join(GEOMETRIES)}")
+    if geometry == "paper" and perception != "ideal":
+        raise ValueError(
+            f"perception = {perception!r} with geometry = 'paper': the paper's robot is a "
+            "point whose inputs are Eqs. 7-12 from positions; use perception 'ideal' "
+            "(or geometry 'husky' for the range sensors)"
+        )
 
 
 def target_inputs(pose, target) -> tuple[float, float]:
@@ -89,10 +112,19 @@ def ultrasonic_obstacle_inputs(
 class Perception:
     """Turns the arena (and the sensors' readings) into the controller's four inputs."""
 
-    def __init__(self, mode: str, sensors: RangeSensorArray, cutoff_m: float = OBSTACLE_CUTOFF_M):
+    def __init__(
+        self,
+        mode: str,
+        sensors: RangeSensorArray,
+        cutoff_m: float = OBSTACLE_CUTOFF_M,
+        geometry: str = "husky",
+    ):
         if mode not in PERCEPTION_MODES:
             raise ValueError(f"perception = {mode!r}: must be one of {', '.join(PERCEPTION_MODES)}")
+        check_geometry(geometry, mode)
         self.mode = mode
+        self.geometry = geometry
+        self._centre_to_centre = geometry == "paper"
         self.sensors = sensors
         self.cutoff_m = cutoff_m
         self._mount_angles = [float(m.angle_rad) for m in sensors.config.mounts]
@@ -131,6 +163,9 @@ class Perception:
         if self.mode == "ideal":
             scene = arena._scene()
             clearances = scene[3]
+            if self._centre_to_centre and clearances:
+                # Eq. 8: centre to centre (a point robot's clearance plus the radius).
+                clearances = [c + r for c, r in zip(clearances, scene[1])]
             if clearances:
                 k = clearances.index(min(clearances))  # np.argmin's first minimum
                 nearest = clearances[k]

@@ -41,7 +41,7 @@ import numpy as np
 from fuzzynav.world.arena import Arena, Collision
 from fuzzynav.world.husky import N_STATES, HuskyModel
 from fuzzynav.world.metrics import compute_metrics
-from fuzzynav.world.perception import Perception
+from fuzzynav.world.perception import Perception, check_geometry
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
@@ -85,6 +85,7 @@ class SimulationResult:
     perception: str
     control_period_s: float
     metrics: dict = field(default_factory=dict)
+    geometry: str = "husky"
 
     @property
     def reached(self) -> bool:
@@ -251,6 +252,11 @@ class Simulation:
     stop_on_collision : bool
         End the run as ``collided`` at the first contact (default); otherwise contacts are
         recorded and the run goes on.
+    geometry : {"husky", "paper"}
+        ``husky`` (default): the real 0.99 x 0.67 m footprint collides and senses.
+        ``paper``: the paper's point robot; its inputs are Eqs. 7-12 centre to centre
+        (:mod:`world.perception`), it collides when its centre enters an obstacle's disc,
+        and its logged clearance is centre to surface. Ideal perception only.
     """
 
     def __init__(
@@ -265,6 +271,7 @@ class Simulation:
         sensor_config: SensorConfig | None = None,
         voltage_limit_v: float = 12.0,
         stop_on_collision: bool = True,
+        geometry: str = "husky",
     ):
         if not (math.isfinite(control_period_s) and control_period_s > 0):
             raise ValueError(f"control_period_s = {control_period_s!r}: must be positive")
@@ -275,13 +282,20 @@ class Simulation:
         self.control_period_s = float(control_period_s)
         self.model = model or HuskyModel.default()
         params = self.model.parameters
+        check_geometry(geometry, perception)
+        self.geometry = geometry
+        footprint = (
+            (0.0, 0.0)
+            if geometry == "paper"
+            else (params.footprint_length_m, params.footprint_width_m)
+        )
         self.arena = Arena(
-            (params.footprint_length_m, params.footprint_width_m),
+            footprint,
             params.hull_mass_kg,
             params.hull_inertia_kg_m2,
         )
         self.sensors = RangeSensorArray(sensor_config)
-        self.perception = Perception(perception, self.sensors)
+        self.perception = Perception(perception, self.sensors, geometry=geometry)
         self.voltage_limit_v = float(voltage_limit_v)
         self.stop_on_collision = stop_on_collision
         self.disturbance = scenario.disturbance
@@ -530,6 +544,7 @@ class Simulation:
             seed=self.seed,
             perception=self.perception.mode,
             control_period_s=self.control_period_s,
+            geometry=self.geometry,
         )
         result.metrics = compute_metrics(result)
         return result
