@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 
-.PHONY: demo test bench report ablation screenshot clean
+.PHONY: demo test lint test-lowest check-wheel bench report ablation screenshot clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,25 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed-test
 	$(PY) -m pytest -n 2 --durations=15
+
+# ruff, with the project's configuration (pyproject.toml).
+lint: $(VENV)/.installed-test
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+# The whole suite with every runtime dependency at its declared lower bound.
+LOWEST := .venv-lowest
+test-lowest: $(VENV)/.installed-test
+	$(PY) .ci/lowest_constraints.py > .ci/lowest-constraints.txt
+	test -x $(LOWEST)/bin/python || $(PYTHON) -m venv $(LOWEST)
+	$(LOWEST)/bin/python -m pip install --quiet --upgrade pip
+	$(LOWEST)/bin/python -m pip install --quiet -c .ci/lowest-constraints.txt -e '.[test]'
+	$(LOWEST)/bin/python -m pip list 2>/dev/null | grep -iE '^(numpy|scipy|pymunk|viser|rerun-sdk|rich|matplotlib) '
+	$(LOWEST)/bin/python -m pytest -n 2 -q -p no:cacheprovider
+
+# The built wheel, installed outside the checkout and used from an empty folder.
+check-wheel: $(VENV)/.installed-test
+	PY=$(PY) bash .ci/check_wheel.sh
 
 bench: $(VENV)/.installed-test
 	for b in bench/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
@@ -43,4 +62,4 @@ screenshot: $(VENV)/.installed-test
 	$(PY) scripts/screenshot.py --scenario crossing --controller fuzzynav --seconds 9 --out docs/img/viewer_fuzzynav.png
 
 clean:
-	rm -rf $(VENV) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(LOWEST) .pytest_cache .hypothesis .ci/lowest-constraints.txt

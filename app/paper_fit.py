@@ -171,6 +171,7 @@ def fit(
     control_period_s: float,
     x0=None,
     on_generation=None,
+    checkpoint=None,
 ):
     from scipy.optimize import differential_evolution
 
@@ -184,6 +185,15 @@ def fit(
 
     def callback(intermediate_result):
         generation[0] += 1
+        if checkpoint is not None:  # the best vector so far, as a --x0 file reads it
+            values = dict(zip(tunable.parameter_names(), intermediate_result.x[:-1]))
+            values["initial_heading_rad"] = intermediate_result.x[-1]
+            line = ", ".join(f"{k}={v!r}" for k, v in values.items())
+            Path(checkpoint).write_text(
+                f"# generation {generation[0]}, cost {intermediate_result.fun!r}\n"
+                f"# tuned vector: {line}\n",
+                encoding="utf-8",
+            )
         if on_generation is not None:
             on_generation(generation[0], float(intermediate_result.fun))
 
@@ -274,7 +284,10 @@ def cmd_fit_paper(args) -> int:
             f"generation {k}/{args.maxiter}: best cost {best:.4f} ({time.perf_counter() - started:.0f} s)"
         )
 
-    result = fit(args.maxiter, args.popsize, args.seed, args.workers, args.dt, x0, on_generation)
+    result = fit(
+        args.maxiter, args.popsize, args.seed, args.workers, args.dt, x0, on_generation,
+        checkpoint=args.checkpoint,
+    )
     elapsed = time.perf_counter() - started
     command = (
         f"fuzzynav fit-paper --maxiter {args.maxiter} --popsize {args.popsize} "
@@ -351,6 +364,10 @@ def add_commands(subparsers) -> None:
         default=None,
         metavar="PATH",
         help="where to write the fitted rule base (default: ./paper_table4.toml)",
+    )
+    p.add_argument(
+        "--checkpoint", type=Path, default=None, metavar="PATH",
+        help="write the best vector so far to this file after every generation (--x0 reads it)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     p.set_defaults(func=cmd_fit_paper)
