@@ -34,7 +34,7 @@ PANEL_HZ = 4.0  # the status line and the inference view
 PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
 PLOT_POINTS = 120
 TRAIL_CHUNK = 16  # trail points per scene node: a frame re-sends at most this many
-SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "2", "5", "10")
+SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
 GHOST_GREY = (148, 163, 184)
 
@@ -211,6 +211,7 @@ class ViewerServer:
         self._distance_top = None
         self._start_xy = tuple(app.sim.scenario.start)
         self.view_3d = False
+        self._fitting_until: dict[int, float] = {}
         self.show_handles = False
         self.presentation = False
         self._ghost_drawn = -1
@@ -272,8 +273,8 @@ class ViewerServer:
         """Unless the 3D view is switched on, a camera tilted (a drag on the ground
         rotates it in viser) is put straight back above the point it looks at, at the
         same distance: panning and zooming stay, tilting does not."""
-        if self.view_3d:
-            return
+        if self.view_3d or time.monotonic() < self._fitting_until.get(client.client_id, 0.0):
+            return  # (our own fit moves position, then look_at: not a user's tilt)
         try:
             camera = client.camera
             position = np.asarray(camera.position, dtype=float)
@@ -304,6 +305,7 @@ class ViewerServer:
             if not force and fitted is not None and abs(aspect - fitted) <= 0.02 * fitted:
                 return
             self._camera_fits[client.client_id] = aspect
+            self._fitting_until[client.client_id] = time.monotonic() + 1.0
             self._point_camera(camera, bounds, aspect)
         except Exception:  # the tab went away meanwhile
             self._camera_fits.pop(client.client_id, None)
@@ -791,7 +793,9 @@ class ViewerServer:
     def _on_editor_button(self, event) -> None:
         if self.editor_buttons.value == "Download .fis":
             text = self.app.edited_fis_text()
-            event.client.send_file_download("paper_edited.fis", text.encode("utf-8"))
+            event.client.send_file_download(
+                "paper_edited.fis", text.encode("utf-8"), save_immediately=True
+            )
             return
         self.app.reset_membership_editor()
         editor = self.app.editor()
@@ -858,13 +862,15 @@ class ViewerServer:
         app = self.app
         grab: dict = {}
 
-        def on_drag(event) -> None:
+        # async: run on the event loop, in order (a thread pool could take "start" after
+        # an "update" and measure the drag from a point that has moved).
+        async def on_drag(event) -> None:
             if event.client is None:
                 return
             if event.phase == "start" or "xy" not in grab:
                 self._dragging.add(name)
-                grab["from"] = np.asarray(event.start_position[:2], dtype=float)
-                grab["xy"] = np.asarray(gizmo.position[:2], dtype=float)
+                grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
+                grab["xy"] = np.array(gizmo.position[:2], dtype=float)
             x, y = grab["xy"] + np.asarray(event.end_position[:2], dtype=float) - grab["from"]
             try:
                 if obstacle_id is None:

@@ -255,7 +255,7 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
             d = float(degrees[k])
             colour = palette[k % len(palette)]
             text = f"{term.name} {_fmt_degree(d)}"
-            if tx + 5.0 * len(text) > x0 + w:
+            if tx + 5.6 * len(text) > x0 + w:
                 tx, ty = x0, ty + 10
             weight = "700" if d > 0 else "400"
             opacity = "1" if d > 0 else "0.55"
@@ -263,7 +263,7 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
                 f"<text x='{tx:.0f}' y='{ty:.0f}' font-size='9' fill='{colour}' "
                 f"font-weight='{weight}' opacity='{opacity}' class='fz-degree'>{html.escape(text)}</text>"
             )
-            tx += 5.0 * len(text) + 6
+            tx += 5.6 * len(text) + 6
     parts.append("</svg>")
     return "".join(parts)
 
@@ -549,9 +549,10 @@ def marker_style(markers: dict) -> str:
     rules = []
     for element_id, where in markers.items():
         if where is None:
-            rules.append(f"#{element_id}{{display:none}}")
+            rules.append(f"#{element_id}{{display:none!important}}")
         else:
             rules.append(
-                f"#{element_id}{{display:block;left:{100 * where[0]:.1f}%;top:{100 * where[1]:.1f}%}}"
+                f"#{element_id}{{display:block!important;left:{100 * where[0]:.1f}%;"
+                f"top:{100 * where[1]:.1f}%}}"
             )
     return "<style>" + "".join(rules) + "</style>"
