@@ -103,10 +103,8 @@ def api_latency(n: int = 60, controller: str | None = None) -> list[float]:
 
 JS_HANDLE = """
 () => {
-  const m = window.__viserMutable, cam = m.camera, handle = m.nodeRefFromName['/target'];
-  let plane = null;
-  handle.traverse((c) => { if (!plane && c.isMesh && c.geometry && c.geometry.type === 'PlaneGeometry') plane = c; });
-  const p = new cam.position.constructor(); plane.getWorldPosition(p);
+  const m = window.__viserMutable, cam = m.camera, node = m.nodeRefFromName['/target'];
+  const p = new cam.position.constructor(); node.getWorldPosition(p);
   const v = p.project(cam), r = m.canvas.getBoundingClientRect();
   return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height];
 }
