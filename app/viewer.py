@@ -69,6 +69,7 @@ DEFAULT_DISTURBANCE = Disturbance(
 )
 NEW_OBSTACLE_RADIUS_M = 0.25
 UPLOADED_PREFIX = "uploaded: "
+EDITED_LABEL = "paper (edited)"
 
 
 class ViewerError(ValueError):
@@ -147,6 +148,16 @@ class ObstacleView:
 
 
 @dataclass
+class Ghost:
+    """The previous run, kept on screen when the next starts: its trail, what drove it
+    (scenario, controller, perception, parts) and its metrics."""
+
+    trail: np.ndarray
+    label: str
+    metrics: dict
+
+
+@dataclass
 class Snapshot:
     """What the scene needs to draw one frame (copied under the lock)."""
 
@@ -187,6 +198,9 @@ class Snapshot:
     # controller driving has such parts at all.
     parts_off: tuple[str, ...] = ()
     has_parts: bool = False
+    ghost: Ghost | None = None
+    ghost_id: int = 0
+    run_label: str = ""
     extra: dict = field(default_factory=dict)
 
 
@@ -241,6 +255,11 @@ class ViewerApp:
         self.uploaded_label: str | None = None
         self.uploaded_scenarios: dict[str, Scenario] = {}
         self.parts_off: tuple[str, ...] = ()
+        self.ghost: Ghost | None = None
+        self.ghost_id = 0
+        self._trail = None
+        self.run_label = ""
+        self.paper_edit = None  # the membership editor (PaperEditor), built on first use
 
         scenario_obj, label = self._resolve_scenario(scenario)
         names = controller_names()
@@ -516,6 +535,7 @@ class ViewerApp:
         with self.lock:
             self.playing = False
             layout = self._layout_scenario()
+            self._reset_locked(layout)
             try:
                 check_layout(layout)
             except ScenarioError as exc:
@@ -527,7 +547,27 @@ class ViewerApp:
                     else "the run goes ahead"
                 )
                 self._notice(f"Note: {exc.key} {exc.reason}; {consequence}.", "warning")
-            self._reset_locked(layout)
+
+    def _run_label(self) -> str:
+        parts = [self.scenario_label, self.controller_label, self.sim.perception.mode]
+        if self.parts_off and hasattr(self.controller.inner, "set_parts_off"):
+            parts.append("without " + " and ".join(self.parts_off))
+        return " · ".join(parts)
+
+    def _partial_metrics(self) -> dict:
+        """What can be said of a run stopped before its end: its time and path so far."""
+        trail = np.asarray(self._trail, dtype=float)
+        length = float(np.sum(np.linalg.norm(np.diff(trail, axis=0), axis=1)))
+        return {
+            "outcome": f"stopped at t = {self.sim.time_s:.1f} s",
+            "path_length_m": length,
+        }
+
+    def _restart_if_finished_locked(self) -> None:
+        """After a change of controller, perception or part: a finished run's outcome
+        belonged to what drove it, so a finished run restarts (and becomes the ghost)."""
+        if self.sim.done:
+            self._reset_locked(self._layout_scenario())
 
     def set_speed(self, factor) -> None:
         try:
@@ -547,6 +587,16 @@ class ViewerApp:
 
     def _reset_locked(self, scenario: Scenario) -> None:
         self._close_recorder_locked()
+        if getattr(self, "_trail", None) is not None and len(self._trail) > 1:
+            # The run that ends here stays on screen as a ghost, its numbers beside the next.
+            self.ghost = Ghost(
+                trail=np.array(self._trail, dtype=float),
+                label=self._run_label(),
+                metrics=dict(self.metrics) if self.metrics else self._partial_metrics(),
+            )
+            self.ghost_id += 1
+        # A new run: what was said about the last one (its outcome) no longer holds.
+        self.message, self.message_level = "", "info"
         self.sim.reset(seed=self.seed, scenario=scenario)
         self._apply_disturbance_locked()
         self._layout = [
@@ -561,6 +611,7 @@ class ViewerApp:
         self.controller.last_inputs = np.full(4, np.nan)
         self.controller.last_output = np.full(2, np.nan)
         self.metrics = None
+        self.run_label = self._run_label()
         self.run_id += 1
         self.layout_id += 1
         self._anchor()
@@ -665,10 +716,58 @@ class ViewerApp:
                 self._target_warning = text
                 self._notice(text, "warning")
                 return text
+            on_robot = self.obstacles_on_robot()
+            if on_robot:
+                text = (
+                    f"Obstacle {', '.join(str(i) for i in on_robot)} is on the robot: "
+                    "Play will end in a collision at once. Drag it off the robot."
+                )
+                self._target_warning = text
+                self._notice(text, "warning")
+                return text
             if self._target_warning is not None:
                 self._target_warning = None
                 self._notice("The target can be reached again.", "info")
             return None
+
+    def obstacles_on_robot(self) -> list[int]:
+        """Ids of the obstacles that overlap the robot's footprint where it stands."""
+        with self.lock:
+            arena = self.sim.arena
+            clearances = arena.clearances()
+            ids = list(arena.obstacles)
+            return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
+
+    # -- the paper controller's membership editor ----------------------------------
+
+    def editor(self):
+        """The membership editor of the paper controller (built on first use)."""
+        from fuzzynav.app.viewer_editor import PaperEditor
+
+        with self.lock:
+            if self.paper_edit is None:
+                self.paper_edit = PaperEditor()
+            return self.paper_edit
+
+    def set_membership_parameter(self, name: str, value) -> None:
+        """Change one of the paper controller's membership parameters and drive with the
+        edited system at once (the run goes on)."""
+        editor = self.editor()
+        try:
+            controller = editor.set(name, value)
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
+        self._install_controller(controller, EDITED_LABEL, quiet=True)
+
+    def reset_membership_editor(self) -> None:
+        """Back to the shipped paper controller (and its parameters in the editor)."""
+        editor = self.editor()
+        controller = editor.reset()
+        self._install_controller(controller, "paper")
+
+    def edited_fis_text(self) -> str:
+        """The edited paper system as a MATLAB .fis file (text)."""
+        return self.editor().fis_text()
 
     def move_target(self, xy) -> None:
         x, y = self._check_xy(xy)
@@ -763,6 +862,8 @@ class ViewerApp:
         from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
+        if self.paper_edit is not None and self.paper_edit.edited:
+            options.append(EDITED_LABEL)
         if self.uploaded_label:
             options.append(self.uploaded_label)
         return options
@@ -771,6 +872,8 @@ class ViewerApp:
         """Swap the controller by name; the run goes on from where it is."""
         if self.uploaded_label and name == self.uploaded_label:
             inner = self.uploaded_controller
+        elif name == EDITED_LABEL and self.paper_edit is not None:
+            inner = self.paper_edit.controller()
         else:
             try:
                 inner = self._make_named_controller(name)
@@ -784,7 +887,7 @@ class ViewerApp:
         """Drive with a ready-made controller object (tests, notebooks)."""
         self._install_controller(controller, label)
 
-    def _install_controller(self, inner, label: str) -> None:
+    def _install_controller(self, inner, label: str, quiet: bool = False) -> None:
         with self.lock:
             inner.reset()
             if hasattr(inner, "set_parts_off"):
@@ -792,7 +895,26 @@ class ViewerApp:
             self.controller.inner = inner
             self.controller.name = label
             self.controller_label = label
-            self._notice(f"Controller: {label}.", "info")
+            self._restart_if_finished_locked()
+            self._answer_again_locked()
+            if not quiet:
+                self._notice(f"Controller: {label}.", "info")
+            else:
+                self._bump()
+
+    def _answer_again_locked(self) -> None:
+        """What the panels show must be the controller now driving: a stateless one
+        (a plain fuzzy system) is asked again at the last inputs; one with a memory
+        (fuzzynav) would be disturbed by an extra call, so its answer is unknown
+        until the next step."""
+        c = self.controller
+        if not np.isfinite(c.last_inputs[0]):
+            return
+        inner = c.inner
+        if getattr(inner, "fis", None) is not None and not hasattr(inner, "teaching_view"):
+            c.last_output = np.asarray(inner(c.last_inputs), dtype=float).reshape(2)
+        else:
+            c.last_output = np.full(2, np.nan)
 
     def upload_fis(self, content: bytes, filename: str = "controller.fis") -> str:
         """Build a controller from an uploaded MATLAB ``.fis`` and drive with it.
@@ -849,6 +971,7 @@ class ViewerApp:
             inner = self.controller.inner
             if hasattr(inner, "set_parts_off"):
                 inner.set_parts_off(self.parts_off)
+                self._restart_if_finished_locked()
                 self._notice(f"fuzzynav: {name} {'on' if on else 'off'}.", "info")
             else:
                 self._notice(
@@ -861,6 +984,7 @@ class ViewerApp:
             raise ViewerError(f"perception = {mode!r}: choose one of {', '.join(PERCEPTION_MODES)}")
         with self.lock:
             self.sim.perception = Perception(mode, self.sim.sensors)
+            self._restart_if_finished_locked()
             self._bump()
 
     def set_disturbance(self, on: bool) -> None:
@@ -950,6 +1074,9 @@ class ViewerApp:
                 steer_heading_rad=steer,
                 parts_off=self.parts_off,
                 has_parts=hasattr(self.controller.inner, "set_parts_off"),
+                ghost=self.ghost,
+                ghost_id=self.ghost_id,
+                run_label=self.run_label,
             )
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:

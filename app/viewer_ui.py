@@ -19,10 +19,10 @@ from collections import deque
 import numpy as np
 import viser
 
+from fuzzynav.app import viewer_views as views
 from fuzzynav.app.viewer import (
     NOISE_RANGE_M,
     SAFE_DISTANCE_M,
-    SPEED_RANGE,
     Snapshot,
     ViewerApp,
     ViewerError,
@@ -30,8 +30,13 @@ from fuzzynav.app.viewer import (
 from fuzzynav.world.perception import PERCEPTION_MODES
 
 FRAME_HZ = 30.0
-PANEL_HZ = 5.0
-PLOT_POINTS = 300
+PANEL_HZ = 4.0  # the status line and the inference view
+PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
+PLOT_POINTS = 120
+TRAIL_CHUNK = 16  # trail points per scene node: a frame re-sends at most this many
+SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
+TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
+GHOST_GREY = (148, 163, 184)
 
 # Colours (RGB 0-255).
 HUSKY_YELLOW = (250, 190, 20)
@@ -48,6 +53,35 @@ STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
 
 OBSTACLE_HEIGHT_M = 0.5
+# The target is drawn (and picked) above the obstacles: dropped on one, it is still
+# the target that a press on it grabs.
+TARGET_HEIGHT_M = OBSTACLE_HEIGHT_M + 0.08
+
+COLOUR_KEY = [
+    ("#dc2626", "beam: echo within 0.25 m (the safe distance)"),
+    ("#f59e0b", "beam: echo at about 1 m"),
+    ("#16a34a", "beam: echo at 3 m or more"),
+    ("#afafaf", "beam: no echo (thin, full range)"),
+    ("#2563eb", "trail of this run"),
+    ("#94a3b8", "ghost: the previous run's trail"),
+    ("#9333ea", "fuzzynav's echo memory (points it remembers)"),
+    ("#16a34a", "fuzzynav's planned bearing (thick green line)"),
+    ("#d97706", "safe-distance ring (red: an obstacle inside)"),
+    ("#606f88", "static obstacle"),
+    ("#ea580c", "moving obstacle"),
+    ("#dc2626", "target (drag it)"),
+]
+
+
+def colour_key_html() -> str:
+    rows = "".join(
+        f"<div style='display:flex;align-items:center;gap:6px'><span style='display:inline-block;"
+        f"width:22px;height:5px;border-radius:2px;background:{c}'></span>{html.escape(t)}</div>"
+        for c, t in COLOUR_KEY
+    )
+    return f"<div class='fz-colour-key' style='font-size:0.8em;padding:0 6px'>{rows}</div>"
+
+
 # Paper Table 4, proposed method (S1, S2, S3): shown beside our numbers for the shipped
 # scenarios when their layout has not been edited.
 PAPER_TABLE4 = {
@@ -176,6 +210,19 @@ class ViewerServer:
         self._last_metrics_run = -1
         self._distance_top = None
         self._start_xy = tuple(app.sim.scenario.start)
+        self.view_3d = False
+        self._fitting_until: dict[int, float] = {}
+        self.show_handles = False
+        self.presentation = False
+        self._ghost_drawn = -1
+        self.ghost_node = None
+        self._system_key = None
+        self._system_count = 0
+        self._uid = "fz0"
+        self._surface_key = None
+        self._surface_planes: list = []
+        self._last_inference = None
+        self._next_plot = 0.0
 
         self.server.scene.set_up_direction("+z")
         self._build_gui()
@@ -214,12 +261,35 @@ class ViewerServer:
         """Frame the arena for this tab, and again whenever its canvas changes shape in
         its first seconds (it starts as wide as the window and narrows when the side
         panels dock, which takes a while on a slow machine)."""
+        client.camera.on_update(lambda camera: self._keep_top_down(client))
         deadline = time.monotonic() + 20.0
         while time.monotonic() < deadline and not self._stop.is_set():
             if client.client_id not in self.server.get_clients():
                 return
             self._fit_camera(client, force=False)
             time.sleep(0.2)
+
+    def _keep_top_down(self, client) -> None:
+        """Unless the 3D view is switched on, a camera tilted (a drag on the ground
+        rotates it in viser) is put straight back above the point it looks at, at the
+        same distance: panning and zooming stay, tilting does not."""
+        if self.view_3d or time.monotonic() < self._fitting_until.get(client.client_id, 0.0):
+            return  # (our own fit moves position, then look_at: not a user's tilt)
+        try:
+            camera = client.camera
+            position = np.asarray(camera.position, dtype=float)
+            look_at = np.asarray(camera.look_at, dtype=float)
+        except Exception:
+            return
+        view = look_at - position
+        distance = float(np.linalg.norm(view))
+        if distance <= 0:
+            return
+        tilt = math.acos(max(-1.0, min(1.0, -view[2] / distance)))
+        if tilt <= TOP_DOWN_TOLERANCE_RAD:
+            return
+        camera.position = (look_at[0], look_at[1] - 1e-3 * distance, look_at[2] + distance)
+        camera.look_at = tuple(look_at)
 
     def _fit_camera(self, client, force: bool) -> None:
         """Point this tab's camera straight down at the arena, if its shape changed."""
@@ -235,6 +305,7 @@ class ViewerServer:
             if not force and fitted is not None and abs(aspect - fitted) <= 0.02 * fitted:
                 return
             self._camera_fits[client.client_id] = aspect
+            self._fitting_until[client.client_id] = time.monotonic() + 1.0
             self._point_camera(camera, bounds, aspect)
         except Exception:  # the tab went away meanwhile
             self._camera_fits.pop(client.client_id, None)
@@ -309,13 +380,15 @@ class ViewerServer:
             line_width=2.5,
             active_axes=(True, True, False),
             disable_rotations=True,
+            disable_axes=not self.show_handles,
+            disable_sliders=not self.show_handles,
             depth_test=False,
-            position=(tx, ty, 0.06),
+            position=(tx, ty, TARGET_HEIGHT_M),
         )
         for k, (radius, colour) in enumerate(
             ((0.36, TARGET_RED), (0.25, (255, 255, 255)), (0.13, TARGET_RED))
         ):
-            scene.add_cylinder(
+            ring = scene.add_cylinder(
                 f"/target/ring{k}",
                 radius=radius,
                 height=0.02,
@@ -323,6 +396,7 @@ class ViewerServer:
                 position=(0.0, 0.0, -0.05 + 0.006 * k),
                 cast_shadow=False,
             )
+            ring.on_drag("left")(self._make_body_drag("/target", None, self.target))
         scene.add_label(
             "/target/label",
             "target",
@@ -351,6 +425,13 @@ class ViewerServer:
             np.zeros((1, 2, 3), np.float32),
             STEER_GREEN,
             thickness=0.06,
+            visible=False,
+        )
+        self.ghost_node = scene.add_line_segments(
+            "/ghost/trail",
+            np.zeros((1, 2, 3), np.float32),
+            GHOST_GREY,
+            thickness=0.035,
             visible=False,
         )
 
@@ -447,16 +528,11 @@ class ViewerServer:
         self.status = gui.add_html(self._status_html(app.snapshot()))
         self.run_buttons = gui.add_button_group("Run", ("Play", "Pause", "Step", "Reset"))
         self.run_buttons.on_click(self._guarded(self._on_run_button))
-        self.speed = gui.add_slider(
-            "Speed ×",
-            SPEED_RANGE[0],
-            SPEED_RANGE[1],
-            0.1,
-            1.0,
-            marks=((0.1, "0.1"), (1.0, "1"), (2.5, "2.5"), (5.0, "5"), (10.0, "10")),
-            hint="Simulated seconds per real second",
-        )
-        self.speed.on_update(self._guarded(lambda e: app.set_speed(self.speed.value)))
+        # Speeds as choices: a linear slider gave 0.1-1x a tenth of its track.
+        self.speed = gui.add_button_group("Speed ×", SPEED_CHOICES)
+        self.speed.on_click(self._guarded(lambda e: app.set_speed(float(self.speed.value))))
+        # Messages below the buttons, so that one appearing never moves them.
+        self.message_html = gui.add_html("")
 
         with gui.add_folder("Scenario"):
             self.scenario_dd = gui.add_dropdown(
@@ -509,7 +585,7 @@ class ViewerServer:
             self.noise = gui.add_slider(
                 "Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01, app.noise_std_m
             )
-            self.noise.on_update(self._guarded(lambda e: app.set_noise(self.noise.value)))
+            self.noise.on_update(self._guarded(self._on_noise))
             # What each part of fuzzynav does, shown by switching it off while it drives
             # (shown while fuzzynav drives; assets/rules/fuzzynav_parts.toml).
             self.parts_folder = gui.add_folder(
@@ -528,14 +604,47 @@ class ViewerServer:
                     )
                     self.part_boxes[part.name] = box
 
+        with gui.add_folder("View", expand_by_default=False):
+            self.handles_cb = gui.add_checkbox(
+                "Show drag handles",
+                self.show_handles,
+                hint="Arrows on the target and the obstacles (they also drag by their body)",
+            )
+            self.handles_cb.on_update(self._guarded(self._on_handles))
+            self.view_3d_cb = gui.add_checkbox(
+                "3D view (tilt with the mouse)",
+                self.view_3d,
+                hint="Off: the camera stays straight above the arena",
+            )
+            self.view_3d_cb.on_update(self._guarded(self._on_view_3d))
+            self.presentation_cb = gui.add_checkbox(
+                "Presentation mode (large type)",
+                self.presentation,
+                hint="A wide inference panel and large type, for a projector",
+            )
+            self.presentation_cb.on_update(self._guarded(self._on_presentation))
+        with gui.add_folder("Colour key"):
+            gui.add_html(colour_key_html())
         with gui.add_folder("Result"):
             self.result = gui.add_html(self._RESULT_PENDING)
         gui.add_markdown(
-            "<small>Drag the arrows or the square of a handle to move the **target** or an "
-            "**obstacle**; the robot reacts at once. Scroll to zoom, right-drag to pan.</small>"
+            "<small>Drag the **target** or an **obstacle** by its body; the robot reacts at "
+            "once. Scroll to zoom, right-drag to pan.</small>"
         )
 
         panel = gui.add_panel()
+        self.left_panel = panel
+        self._inference_tab = panel.add_tab("Inference", viser.Icon.BRAIN)
+        with self._inference_tab:
+            self.defs_html = gui.add_html("", order=0.0)
+            self.inference_html = gui.add_html("", order=1.0)
+        self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
+        with self._surface_tab:
+            self.surface_html = gui.add_html("", order=0.0)
+            self.marker_html = gui.add_html("", order=1.0)
+        self._editor_tab = panel.add_tab("Editor", viser.Icon.ADJUSTMENTS)
+        with self._editor_tab:
+            self._build_editor()
         self._signals_tab = panel.add_tab("Signals", viser.Icon.CHART_LINE)
         self.plot_distance = None
         self._make_distance_plot(self._distance_range())
@@ -567,16 +676,56 @@ class ViewerServer:
                 aspect=1.9,
                 order=2.0,
             )
-        self._rules_tab = panel.add_tab("Fuzzy rules", viser.Icon.BRAIN)
-        with self._rules_tab:
-            self.rules_html = gui.add_html("", order=0.0)
-            self.aggregate_plot = None
-            self._aggregate_range = None
         panel.dock_left()
-        panel.set_width(370)
+        panel.set_width(400)
         main = gui.main_panel
         main.dock_right()
         main.set_width(330)
+
+    def _build_editor(self) -> None:
+        """Sliders for the paper controller's membership parameters (the tuner's
+        parametrisation: ordered terms stay valid), a download and a reset."""
+        gui = self.server.gui
+        app = self.app
+        editor = app.editor()
+        note = (
+            "The sliders start from the shipped rule base's own numbers."
+            if editor.exact
+            else "The shipped rule base does not record its parameters: the sliders start "
+            "from the tuner's starting point (Reset drives with the shipped one)."
+        )
+        gui.add_html(
+            "<div style='font-size:0.85em;padding:0 6px'>Move a slider and the robot drives "
+            "with the edited <b>paper</b> controller at once (the run goes on). Each number "
+            "is a position or a width of the tuner's parametrisation "
+            f"(controller/paper.py), so the terms stay in order. {note}</div>"
+        )
+        self.editor_buttons = gui.add_button_group(
+            "Edited system", ("Download .fis", "Reset to shipped")
+        )
+        self.editor_buttons.on_click(self._guarded(self._on_editor_button))
+        self.editor_sliders = {}
+        groups: dict[str, list[str]] = {}
+        for name in editor.names:
+            groups.setdefault(name.split(".")[0], []).append(name)
+        titles = {"v": "outputs left, right (V)"}
+        for group, names in groups.items():
+            with gui.add_folder(titles.get(group, group), expand_by_default=group == "d_t"):
+                for name in names:
+                    lo, hi = editor.bounds[name]
+                    slider = gui.add_slider(
+                        name.split(".", 1)[1],
+                        lo,
+                        hi,
+                        step=round((hi - lo) / 200, 4),
+                        initial_value=editor.value(name),
+                    )
+                    slider.on_update(
+                        self._guarded(
+                            lambda e, name=name: app.set_membership_parameter(name, e.target.value)
+                        )
+                    )
+                    self.editor_sliders[name] = slider
 
     def _distance_range(self) -> float:
         """Top of the distance plot: the start-target distance, rounded up, at least 4 m."""
@@ -615,38 +764,43 @@ class ViewerServer:
             )
         self._distance_top = top
 
-    def _make_aggregate_plot(self, lo: float, hi: float) -> None:
-        """(Re)build the aggregated-output plot for an output range [lo, hi] (a fixed x
-        range: viser's uPlot keeps the x range of its first data)."""
-        if self.aggregate_plot is not None:
-            self.aggregate_plot.remove()
-        with self._rules_tab:
-            self.aggregate_plot = self.server.gui.add_uplot(
-                data=(np.array([lo, hi]), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2)),
-                series=(
-                    {"label": "V"},
-                    {
-                        "label": "left",
-                        "stroke": "#7c3aed",
-                        "width": 2,
-                        "fill": "rgba(124,58,237,0.15)",
-                    },
-                    {
-                        "label": "right",
-                        "stroke": "#059669",
-                        "width": 2,
-                        "fill": "rgba(5,150,105,0.15)",
-                    },
-                    {"label": "centroid L", "stroke": "#7c3aed", "width": 2, "dash": [3, 3]},
-                    {"label": "centroid R", "stroke": "#059669", "width": 2, "dash": [3, 3]},
-                ),
-                title="Aggregated outputs and centroids",
-                scales={"x": {"time": False, "range": [lo, hi]}, "y": {"range": [0.0, 1.05]}},
-                legend={"show": True, "live": False},
-                aspect=1.5,
-                order=1.0,
+    def _on_noise(self, event) -> None:
+        try:
+            self.app.set_noise(self.noise.value)
+        except ViewerError:
+            self.noise.value = self.app.noise_std_m  # never leave the box blank or wrong
+            raise
+
+    def _on_handles(self, event) -> None:
+        self.show_handles = bool(self.handles_cb.value)
+        gizmos = [self.target] + [node["handle"] for node in self._obstacle_nodes.values()]
+        for gizmo in gizmos:
+            gizmo.disable_axes = not self.show_handles
+            gizmo.disable_sliders = not self.show_handles
+
+    def _on_view_3d(self, event) -> None:
+        self.view_3d = bool(self.view_3d_cb.value)
+        if not self.view_3d:
+            for client in self.server.get_clients().values():
+                self._fit_camera(client, force=True)
+
+    def _on_presentation(self, event) -> None:
+        self.presentation = bool(self.presentation_cb.value)
+        self.left_panel.set_width(720 if self.presentation else 400)
+        self._last_inference = None  # redraw with the new type size
+        self.app._bump()
+
+    def _on_editor_button(self, event) -> None:
+        if self.editor_buttons.value == "Download .fis":
+            text = self.app.edited_fis_text()
+            event.client.send_file_download(
+                "paper_edited.fis", text.encode("utf-8"), save_immediately=True
             )
-        self._aggregate_range = (lo, hi)
+            return
+        self.app.reset_membership_editor()
+        editor = self.app.editor()
+        for name, slider in self.editor_sliders.items():
+            slider.value = editor.value(name)
 
     def _guarded(self, func):
         """Run a GUI callback; a refused action becomes a message in the page."""
@@ -701,6 +855,37 @@ class ViewerServer:
         label = self.app.upload_scenario(uploaded.content, uploaded.name)
         self.scenario_dd.options = self.app.scenario_options()
         self.scenario_dd.value = label
+
+    def _make_body_drag(self, name: str, obstacle_id: int | None, gizmo):
+        """Drag the target or an obstacle by its body: it follows the pointer on the
+        horizontal plane through the point grabbed."""
+        app = self.app
+        grab: dict = {}
+
+        # async: run on the event loop, in order (a thread pool could take "start" after
+        # an "update" and measure the drag from a point that has moved).
+        async def on_drag(event) -> None:
+            if event.client is None:
+                return
+            if event.phase == "start" or "xy" not in grab:
+                self._dragging.add(name)
+                grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
+                grab["xy"] = np.array(gizmo.position[:2], dtype=float)
+            x, y = grab["xy"] + np.asarray(event.end_position[:2], dtype=float) - grab["from"]
+            try:
+                if obstacle_id is None:
+                    app.move_target((x, y))
+                else:
+                    app.move_obstacle(obstacle_id, (x, y))
+                gizmo.position = (x, y, float(gizmo.position[2]))
+            except ViewerError as exc:
+                app._notice(str(exc), "warning")
+            if event.phase == "end":
+                grab.clear()
+                self._dragging.discard(name)
+                app.check_target()
+
+        return on_drag
 
     def _make_drag_callback(self, name: str, obstacle_id: int | None):
         app = self.app
@@ -807,20 +992,39 @@ class ViewerServer:
         if snap.target != self._last_target:
             self._last_target = snap.target
             if "/target" not in self._dragging:
-                self.target.position = (snap.target[0], snap.target[1], 0.06)
+                self.target.position = (snap.target[0], snap.target[1], TARGET_HEIGHT_M)
             sx, sy = self._start_xy
             self.ideal.points = np.array(
                 [[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]], dtype=np.float32
             )
         self._draw_memory(snap)
         self._draw_trail()
+        self._draw_ghost(snap)
+
+    def _draw_ghost(self, snap: Snapshot) -> None:
+        if snap.ghost_id == self._ghost_drawn:
+            return
+        self._ghost_drawn = snap.ghost_id
+        ghost = snap.ghost
+        if ghost is None or len(ghost.trail) < 2:
+            self.ghost_node.visible = False
+            return
+        segs = polyline_segments(ghost.trail, 0.012)
+        self.ghost_node.points = segs
+        self.ghost_node.colors = np.broadcast_to(np.array(GHOST_GREY, np.uint8), segs.shape).copy()
+        self.ghost_node.visible = True
 
     def _draw_memory(self, snap: Snapshot) -> None:
         """fuzzynav's remembered echoes (where the robot believes they are) and the
         bearing it steers to; hidden for controllers without a memory."""
         shown = snap.memory_xy is not None
         if self.memory.visible != shown:
-            self.memory.visible = self.steer.visible = shown
+            self.memory.visible = shown
+        # The planned bearing only while there is one (none before the first step of a
+        # run: a line left from the last run would lie).
+        steering = shown and math.isfinite(snap.steer_heading_rad)
+        if self.steer.visible != steering:
+            self.steer.visible = steering
         if not shown:
             return
         pts = snap.memory_xy
@@ -881,16 +1085,19 @@ class ViewerServer:
                     line_width=2.5,
                     active_axes=(True, True, False),
                     disable_rotations=True,
+                    disable_axes=not self.show_handles,
+                    disable_sliders=not self.show_handles,
                     depth_test=False,
                     position=(ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01),
                 )
-                scene.add_cylinder(
+                body = scene.add_cylinder(
                     f"{name}/body",
                     radius=ob.radius_m,
                     height=OBSTACLE_HEIGHT_M,
                     color=STATIC_COLOUR if ob.is_static else MOVING_COLOUR,
                     position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01),
                 )
+                body.on_drag("left")(self._make_body_drag(name, ob.id, handle))
                 if not ob.is_static:
                     scene.add_label(
                         f"{name}/label",
@@ -913,7 +1120,7 @@ class ViewerServer:
         self._trail_index += len(new)
         scene = self.server.scene
         points = np.concatenate([self._trail_points, new])
-        chunk = 150
+        chunk = TRAIL_CHUNK
         while len(points) > chunk:
             # A full chunk is frozen as a node of its own; the next starts at its end.
             name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
@@ -938,16 +1145,38 @@ class ViewerServer:
     # -- panels ------------------------------------------------------------------------
 
     def _draw_panels(self, snap: Snapshot) -> None:
-        self.status.content = self._status_html(snap)
+        self._set_html(self.status, self._status_html(snap))
+        self._set_html(self.message_html, self._message_html(snap))
         self._sync_controls(snap)
-        self._draw_plots()
-        self._draw_teaching()
-        if snap.metrics is not None and self._last_metrics_run != snap.run_id:
-            self._last_metrics_run = snap.run_id
+        now = time.perf_counter()
+        if now >= self._next_plot or not snap.playing:
+            self._next_plot = now + 1.0 / PLOT_HZ
+            self._draw_plots()
+        self._draw_inference(snap)
+        self._draw_surface(snap)
+        key = (snap.run_id, snap.metrics is not None, snap.ghost_id)
+        if self._last_metrics_run != key:
+            self._last_metrics_run = key
             self.result.content = self._metrics_html(snap)
-        elif snap.metrics is None and self._last_metrics_run != -snap.run_id - 1:
-            self._last_metrics_run = -snap.run_id - 1
-            self.result.content = self._RESULT_PENDING
+
+    @staticmethod
+    def _set_html(element, content: str) -> None:
+        """Send an HTML element only when its text changes."""
+        if element.content != content:
+            element.content = content
+
+    @staticmethod
+    def _message_html(snap: Snapshot) -> str:
+        if not snap.message:
+            return ""
+        colour = {"error": "#b91c1c", "warning": "#b45309", "success": "#15803d"}.get(
+            snap.message_level, "#334155"
+        )
+        return (
+            f"<div class='fz-message' style='margin:0 6px;padding:4px 6px;border-radius:4px;"
+            f"background:{colour}14;color:{colour};font-size:0.85em'>"
+            f"{html.escape(snap.message)}</div>"
+        )
 
     def _sync_controls(self, snap: Snapshot) -> None:
         """Show in every tab what the world is (another tab may have changed it)."""
@@ -973,8 +1202,12 @@ class ViewerServer:
         for name, box in self.part_boxes.items():
             if box.value != (name not in snap.parts_off):
                 box.value = name not in snap.parts_off
-        if abs(self.speed.value - snap.speed) > 1e-9:
-            self.speed.value = snap.speed
+        if self.app.paper_edit is not None:
+            editor = self.app.paper_edit
+            for name, slider in self.editor_sliders.items():
+                value = editor.value(name)
+                if abs(slider.value - value) > 1e-9:
+                    slider.value = value
 
     def _status_html(self, snap: Snapshot) -> str:
         state = (
@@ -994,20 +1227,9 @@ class ViewerServer:
         }.get(state, "#64748b")
         d_t, d_o, phi_t, phi_o = snap.inputs
         v_l, v_r = snap.voltages_v
-        level_colour = {"error": "#b91c1c", "warning": "#b45309", "success": "#15803d"}.get(
-            snap.message_level, "#334155"
-        )
-        message = (
-            (
-                f"<div style='margin-top:6px;padding:4px 6px;border-radius:4px;"
-                f"background:{level_colour}14;color:{level_colour};font-size:0.85em'>"
-                f"{html.escape(snap.message)}</div>"
-            )
-            if snap.message
-            else ""
-        )
         return (
-            "<div style='font-family:system-ui,sans-serif;line-height:1.35'>"
+            "<div class='fz-status' style='font-family:system-ui,sans-serif;line-height:1.35;"
+            "padding:0 8px'>"
             f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
             f"<span style='font-size:1.6em;font-weight:600;font-variant-numeric:tabular-nums'>"
             f"t = {snap.time_s:6.2f} s</span>"
@@ -1021,8 +1243,7 @@ class ViewerServer:
             f"{_fmt(d_o, 'm') if math.isfinite(d_o) else 'none'}</td>"
             f"<td>V<sub>L</sub> {_fmt(v_l, 'V', 1)}</td></tr><tr>"
             f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
-            f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table>"
-            f"{message}</div>"
+            f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table></div>"
         )
 
     @staticmethod
@@ -1035,7 +1256,10 @@ class ViewerServer:
         )
 
     def _metrics_html(self, snap: Snapshot) -> str:
-        m = snap.metrics
+        if snap.metrics is None and snap.ghost is None:
+            return self._RESULT_PENDING
+        m = snap.metrics or {"outcome": "running" if snap.playing else "not finished"}
+        ghost = snap.ghost.metrics if snap.ghost is not None else None
         paper = PAPER_TABLE4.get(snap.scenario_label) if not snap.layout_edited else None
         colour = "#15803d" if m.get("outcome") == "reached" else "#b91c1c"
         rows = [
@@ -1050,6 +1274,7 @@ class ViewerServer:
         ]
         head = (
             "<tr><th style='text-align:left'>metric</th><th style='text-align:right'>this run</th>"
+            + ("<th style='text-align:right;color:#64748b'>previous</th>" if ghost else "")
             + ("<th style='text-align:right'>paper</th>" if paper else "")
             + "</tr>"
         )
@@ -1068,11 +1293,34 @@ class ViewerServer:
                 if paper
                 else ""
             )
+            ghost_cell = ""
+            if ghost:
+                g = ghost.get(
+                    key
+                    or {
+                        "Outcome": "outcome",
+                        "Time to target": "time_to_target_s",
+                        "Min clearance (footprint)": "min_clearance_m",
+                        "Max |voltage|": "max_abs_voltage_v",
+                    }.get(label, "")
+                )
+                ghost_cell = (
+                    "<td style='text-align:right;color:#64748b'>"
+                    f"{html.escape(str(g)) if label == 'Outcome' and g else _fmt(g, unit, 3)}</td>"
+                )
             body.append(
-                f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{paper_cell}</tr>"
+                f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{ghost_cell}"
+                f"{paper_cell}</tr>"
             )
         note = (
-            "<div style='color:#64748b;font-size:0.8em'>Paper: Table 4, proposed method. "
+            "<div style='color:#64748b;font-size:0.8em'>"
+            + (
+                f"Previous run (grey trail): {html.escape(snap.ghost.label)}. "
+                if snap.ghost is not None
+                else ""
+            )
+            + f"This run: {html.escape(snap.run_label)}. "
+            "Paper: Table 4, proposed method. "
             "MAD and RMSE are distances from the straight start–target line.</div>"
         )
         return (
@@ -1098,117 +1346,175 @@ class ViewerServer:
         self.plot_angle.data = (t, rows[:, 3], rows[:, 4])
         self.plot_voltage.data = (t, rows[:, 5], rows[:, 6])
 
-    def _draw_teaching(self) -> None:
+    def _system_uid(self, fis) -> str:
+        """An id prefix for this system's SVG definitions (new when the system changes)."""
+        key = id(fis)
+        if key != self._system_key:
+            self._system_key = key
+            self._system_count += 1
+            self._uid = f"fz{self._system_count}"
+            self.defs_html.content = views.defs_html(fis, self._uid)
+        return self._uid
+
+    def _draw_inference(self, snap: Snapshot) -> None:
         info = self.app.teaching()
         if info is None:
             fis = self.app.fuzzy_system()
             if fis is None:
                 text = (
-                    f"The controller <b>{html.escape(self.app.controller_label)}</b> has no "
-                    "fuzzy rules to show. Choose a fuzzy controller (paper, baseline, "
-                    "fuzzynav) or upload a .fis file."
+                    f"The controller <b>{html.escape(snap.controller_label)}</b> has no "
+                    "fuzzy rules to show. Choose a fuzzy controller (paper, fuzzynav) or "
+                    "upload a .fis file."
                 )
             else:
                 text = "Press <b>Play</b> or <b>Step</b>: the rules that fire appear here."
-            self.rules_html.content = f"<div style='font-size:0.9em;color:#475569'>{text}</div>"
-            if self.aggregate_plot is not None:
-                self.aggregate_plot.remove()
-                self.aggregate_plot, self._aggregate_range = None, None
+            self._set_html(
+                self.inference_html,
+                f"<div style='font-size:0.9em;color:#475569;padding:0 6px'>{text}</div>",
+            )
             return
-        self.rules_html.content = self._rules_html(info)
-        grid, membership, centroids = info["grid"], info["membership"], info["centroids"]
-        x = grid[0]
-        lo, hi = float(x.min()), float(x.max())
-        if self._aggregate_range != (lo, hi):
-            self._make_aggregate_plot(lo, hi)
-        extra = []
-        for c in centroids[:2]:
-            extra += [c - 1e-6, c, c + 1e-6]
-        xs = np.unique(np.concatenate([x, np.asarray(extra, dtype=float)]))
-        series = [np.interp(xs, grid[k], membership[k]) for k in range(min(2, len(grid)))]
-        while len(series) < 2:
-            series.append(np.zeros_like(xs))
-        spikes = []
-        for c in list(centroids[:2]) + [np.nan] * (2 - len(centroids[:2])):
-            spike = np.zeros_like(xs)
-            if math.isfinite(c):
-                spike[np.argmin(np.abs(xs - c))] = 1.0
-            spikes.append(spike)
-        self.aggregate_plot.data = (xs, *series, *spikes)
-        names = info["output_names"]
-        self.aggregate_plot.title = "Aggregated outputs · centroids " + ", ".join(
-            f"{n} {c:.2f} V" for n, c in zip(names, centroids)
+        fis = info["fis"]
+        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.presentation)
+        if key == self._last_inference:
+            return
+        self._last_inference = key
+        uid = self._system_uid(fis)
+        labels = list(info["input_names"])
+        if info.get("state") is not None and "phi_t" in labels:
+            # fuzzynav's goal block is fed the planner's bearing, not the target's.
+            labels[labels.index("phi_t")] = "phi_plan (planned bearing)"
+        inf = views.infer(fis, info["inputs"], labels, info["output_names"])
+        self._set_html(
+            self.inference_html,
+            views.inference_html(inf, uid=uid, large=self.presentation, crisp=info["state"]),
         )
 
-    @staticmethod
-    def _rules_html(info: dict) -> str:
-        fis = info["fis"]
-        strengths = info["strengths"]
-        x = info["inputs"]
-        units = {
-            "d_t": "m",
-            "d_o": "m",
-            "phi_t": "rad",
-            "phi_o": "rad",
-            "left": "m",
-            "front": "m",
-            "right": "m",
-        }
-        lines = []
-        memberships = fis.memberships(np.asarray([x]))
-        for name, value, var, mu in zip(info["input_names"], x, fis.inputs, memberships):
-            degrees = mu[0]
-            terms = " ".join(
-                f"<span style='opacity:{0.35 + 0.65 * d:.2f}'>{html.escape(t.name)}&nbsp;{d:.2f}</span>"
-                for t, d in zip(var.terms, degrees)
-                if d > 0.005
+    # -- control surfaces ---------------------------------------------------------------
+
+    def _surface_planes_for(self, inner):
+        """(title, fis, x index, y index, x range, y range, held inputs, outputs) per
+        plane; outputs are ('speed', 'turn') from (left, right) or the block's own."""
+        fis = getattr(inner, "fis", None)
+        if fis is not None and fis.n_inputs == 4 and not hasattr(inner, "teaching_view"):
+            names = fis.input_names
+            ranges = [tuple(v.range) for v in fis.inputs]
+            d_t_range = (0.0, min(ranges[0][1], 12.0))
+            held = np.array([5.0, np.nan, 0.0, np.nan])
+            d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
+            return [
+                (
+                    f"{names[0]}, {names[2]} with no obstacle sensed",
+                    fis,
+                    0,
+                    2,
+                    d_t_range,
+                    (-math.pi, math.pi),
+                    held,
+                    "wheels",
+                ),
+                (
+                    f"{names[1]}, {names[3]} with the target 5 m ahead",
+                    fis,
+                    1,
+                    3,
+                    d_o_range,
+                    (-math.pi / 2, math.pi / 2),
+                    held,
+                    "wheels",
+                ),
+            ]
+        goal = getattr(inner, "goal", None)
+        if goal is not None and hasattr(inner, "teaching_view"):
+            held = np.zeros(goal.n_inputs)
+            held[:] = [5.0 if n == "d_t" else 0.0 for n in goal.input_names]
+            xi = goal.input_names.index("d_t")
+            yi = 1 - xi
+            return [
+                (
+                    "fuzzynav's goal block over (d_t, phi_plan); its avoidance block reads "
+                    "three sector distances, not (d_o, phi_o)",
+                    goal,
+                    xi,
+                    yi,
+                    (0.0, min(goal.inputs[xi].range[1], 12.0)),
+                    (-math.pi, math.pi),
+                    held,
+                    "block",
+                )
+            ]
+        return []
+
+    def _draw_surface(self, snap: Snapshot) -> None:
+        inner = self.app.controller.inner
+        key = (id(getattr(inner, "fis", None)), id(inner))
+        if key != self._surface_key:
+            self._surface_key = key
+            self._surface_planes = self._surface_planes_for(inner)
+            self.surface_html.content = self._surface_html(snap)
+        markers = {}
+        d_t, d_o, phi_t, phi_o = snap.inputs
+        for p, plane in enumerate(self._surface_planes):
+            title, fis, xi, yi, x_range, y_range, held, kind = plane
+            if kind == "block":
+                info = self.app.teaching()
+                x = info["inputs"] if info is not None else np.full(2, np.nan)
+                vx, vy = float(x[xi]), float(x[yi])
+            elif xi == 0:
+                vx, vy = d_t, phi_t
+            else:
+                vx, vy = d_o, phi_o
+            where = views.marker_fraction(vx, vy, x_range, y_range)
+            for k in range(2):
+                markers[f"fz-op{p}{k}"] = where
+        self._set_html(self.marker_html, views.marker_style(markers))
+
+    def _surface_html(self, snap: Snapshot) -> str:
+        if not self._surface_planes:
+            return (
+                "<div style='font-size:0.9em;color:#475569;padding:0 6px'>The controller "
+                f"<b>{html.escape(snap.controller_label)}</b> has no fuzzy surface to show.</div>"
             )
-            shown = f"{value:.2f} {units.get(name, '')}" if math.isfinite(value) else "none sensed"
-            lines.append(
-                f"<tr><td style='white-space:nowrap'><b>{html.escape(name)}</b> = {shown}</td>"
-                f"<td style='color:#334155'>{terms or '—'}</td></tr>"
+        import base64
+
+        blocks = []
+        for p, (title, fis, xi, yi, x_range, y_range, held, kind) in enumerate(
+            self._surface_planes
+        ):
+            xs, ys, out = views.surface_grid(fis, xi, yi, x_range, y_range, held)
+            if kind == "wheels":
+                left, right = out[..., 0], out[..., 1]
+                fields = [
+                    ("speed = (left + right) / 2 (V)", 0.5 * (left + right)),
+                    ("turn = right − left (V, + = to the left)", right - left),
+                ]
+            else:
+                fields = [(f"{fis.output_names[k]}", out[..., k]) for k in range(2)]
+            cells = []
+            for k, (label, values) in enumerate(fields):
+                limit = float(np.nanmax(np.abs(values))) or 1.0
+                png = base64.b64encode(views.surface_png(values, limit)).decode()
+                cells.append(
+                    "<div style='flex:1;min-width:0'>"
+                    f"<div style='font-size:0.8em;font-weight:600'>{html.escape(label)}</div>"
+                    "<div style='position:relative'>"
+                    f"<img src='data:image/png;base64,{png}' style='width:100%;display:block;"
+                    "image-rendering:pixelated;border:1px solid #cbd5e1'/>"
+                    f"<div id='fz-op{p}{k}' class='fz-op' style='position:absolute;display:none;"
+                    "width:12px;height:12px;margin:-6px 0 0 -6px;border-radius:50%;"
+                    "border:2px solid #111;background:#facc15'></div></div>"
+                    f"<div style='font-size:0.7em;color:#475569;display:flex;"
+                    f"justify-content:space-between'><span>{x_range[0]:.1f}</span>"
+                    f"<span>{html.escape(fis.input_names[xi])} →</span><span>{x_range[1]:.1f}</span></div>"
+                    f"<div style='font-size:0.7em;color:#475569'>colour: −{limit:.1f} (blue) … "
+                    f"+{limit:.1f} (red); {html.escape(fis.input_names[yi])} from "
+                    f"{y_range[0]:.2f} (bottom) to {y_range[1]:.2f} (top)</div></div>"
+                )
+            blocks.append(
+                f"<div style='font-weight:600;margin-top:6px'>{html.escape(title)}</div>"
+                f"<div style='display:flex;gap:8px'>{''.join(cells)}</div>"
             )
-        cells = []
-        for i, s in enumerate(strengths):
-            text = html.escape(fis.rule_text(i))
-            cells.append(
-                f"<div title='rule {i + 1}: {text} — {s:.2f}' style='height:22px;border-radius:3px;"
-                f"background:rgba(37,99,235,{0.06 + 0.94 * s:.3f});color:{'#fff' if s > 0.5 else '#334155'};"
-                f"font-size:10px;text-align:center;line-height:22px'>{i + 1}</div>"
-            )
-        order = [i for i in np.argsort(-strengths, kind="stable") if strengths[i] > 1e-3][:6]
-        top = "".join(
-            f"<tr><td style='width:28px;text-align:right'>{i + 1}</td>"
-            f"<td style='width:70px'><div style='background:#e2e8f0;border-radius:2px'>"
-            f"<div style='width:{100 * strengths[i]:.0f}%;height:8px;background:#2563eb;"
-            f"border-radius:2px'></div></div><span style='font-size:10px'>{strengths[i]:.2f}</span></td>"
-            f"<td style='font-size:11px'>{html.escape(fis.rule_text(i))}</td></tr>"
-            for i in order
-        )
-        n_firing = int(np.sum(strengths > 1e-3))
-        state = info.get("state") or {}
-        crisp = "".join(
-            f"<tr><td style='white-space:nowrap'><b>{html.escape(k)}</b></td>"
-            f"<td style='color:#334155'>{html.escape(v)}</td></tr>"
-            for k, v in state.items()
-        )
-        crisp = (
-            (
-                "<div style='font-weight:600;margin-bottom:2px'>Crisp parts</div>"
-                f"<table style='width:100%'>{crisp}</table>"
-            )
-            if crisp
-            else ""
-        )
         return (
-            "<div style='font-family:system-ui,sans-serif;font-size:0.85em'>"
-            f"{crisp}"
-            "<div style='font-weight:600;margin-bottom:2px'>Fuzzified inputs</div>"
-            f"<table style='width:100%'>{''.join(lines)}</table>"
-            f"<div style='font-weight:600;margin:6px 0 2px'>Rule firing strengths "
-            f"({n_firing} of {len(strengths)} fire)</div>"
-            f"<div style='display:grid;grid-template-columns:repeat(10,1fr);gap:2px'>{''.join(cells)}</div>"
-            "<div style='font-weight:600;margin:6px 0 2px'>Strongest rules now</div>"
-            f"<table style='width:100%;border-collapse:collapse'>{top or '<tr><td>none fire</td></tr>'}</table>"
-            "</div>"
+            "<div class='fz-surface' style='font-family:system-ui,sans-serif;font-size:0.9em;"
+            "padding:0 6px'>The crisp outputs over two inputs, the others held; the yellow "
+            "dot is where the robot is now." + "".join(blocks) + "</div>"
         )

@@ -1,10 +1,13 @@
-"""Make the README's screenshot of the viewer: docs/img/viewer.png.
+"""Make the viewer's screenshots: docs/img/viewer.png, and with ``--all`` the teacher's
+guide's (docs/viewer.md): the inference view, the control surface and the editor, each
+at 1280x800 and at 1920x1080 (docs/img/viewer-<view>-<width>.png).
 
 Starts the viewer in this process on a free port, opens it in headless Chromium
 (Debian's ``chromium`` package; ``playwright install`` is not needed), presses Play,
 lets the robot drive for a few simulated seconds and saves the page.
 
     .venv/bin/python scripts/screenshot.py [--scenario s1] [--seconds 14] [--speed 4]
+    .venv/bin/python scripts/screenshot.py --all
 """
 
 from __future__ import annotations
@@ -32,12 +35,46 @@ def main(argv=None) -> int:
     parser.add_argument("--scenario", default="s1")
     parser.add_argument("--controller", default=None, help="default: paper if available")
     parser.add_argument("--seconds", type=float, default=13.0, help="simulated seconds to play")
-    parser.add_argument("--tab", default="Fuzzy rules", help="left panel tab to show")
+    parser.add_argument("--tab", default="Inference", help="left panel tab to show")
     parser.add_argument("--speed", type=float, default=4.0, help="speed factor while playing")
     parser.add_argument("--width", type=int, default=1600)
     parser.add_argument("--height", type=int, default=900)
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "viewer.png")
+    parser.add_argument("--presentation", action="store_true", help="presentation mode on")
+    parser.add_argument(
+        "--all", action="store_true", help="the guide's screenshots (three views, two sizes)"
+    )
     args = parser.parse_args(argv)
+    if args.all:
+        shots = [
+            ("inference", "Inference", 1280, 800, False),
+            ("inference", "Inference", 1920, 1080, True),
+            ("surface", "Surface", 1280, 800, False),
+            ("surface", "Surface", 1920, 1080, False),
+            ("editor", "Editor", 1280, 800, False),
+            ("editor", "Editor", 1920, 1080, False),
+        ]
+        for view, tab, width, height, presentation in shots:
+            out = ROOT / "docs" / "img" / f"viewer-{view}-{width}.png"
+            extra = ["--presentation"] if presentation else []
+            code = main(
+                [
+                    "--tab",
+                    tab,
+                    "--width",
+                    str(width),
+                    "--height",
+                    str(height),
+                    "--out",
+                    str(out),
+                    "--seconds",
+                    "9",
+                    *extra,
+                ]
+            )
+            if code:
+                return code
+        return 0
 
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
@@ -75,6 +112,9 @@ def main(argv=None) -> int:
                 timeout=args.seconds / args.speed * 4 + 20,
             )
             app.set_speed(0.2)  # still running in the picture, barely moving
+            if args.presentation:
+                page.get_by_text("View", exact=True).click()
+                page.get_by_role("checkbox", name="Presentation mode (large type)").click()
             if args.tab:
                 page.get_by_role("tab", name=args.tab).click()
             page.wait_for_timeout(1500)  # let the panels and the scene catch up

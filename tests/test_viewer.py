@@ -345,7 +345,7 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     parts (arbitration weight, side, mode) in words."""
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app import viewer_views as views
 
     app.set_controller("fuzzynav")
     assert app.teaching() is None  # not called yet
@@ -358,8 +358,12 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     assert info["strengths"].max() > 0
     assert info["inputs"][1] == pytest.approx(app.controller.last_inputs[0])  # d_t
     assert set(info["state"]) >= {"avoidance weight alpha", "side", "mode"}
-    html_text = ViewerServer._rules_html(info)
+    inf = views.infer(info["fis"], info["inputs"])
+    html_text = views.inference_html(inf, crisp=info["state"])
     assert "Crisp parts" in html_text and "front" in html_text
+    # The two blocks are drawn apart, each with only its own variables.
+    assert html_text.count("Block ") == 2
+    assert "goal_speed" in html_text and "avoid_turn" in html_text
 
 
 def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):

@@ -1,0 +1,118 @@
+"""Edit the paper controller's membership functions while it drives.
+
+The sliders move the numbers of the tuner's parametrisation
+(:class:`fuzzynav.controller.paper.PaperTunable`): ordered anchors built from positive
+widths, so that however a slider is moved, every shape stays valid and the terms stay
+in their order. The editor starts from the shipped rule base's own numbers when its
+file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they rebuild
+that system; else from the tuner's starting point, and it says so. Reset drives with the
+shipped controller itself, exactly as ``paper`` is built.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+VECTOR_LINE = re.compile(r"^#\s*tuned vector:\s*(.+)$", re.MULTILINE)
+
+
+def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
+    """(vector, exact): the parametrisation of the shipped system if its file records
+    it and it rebuilds that system (to 1e-4), else the tuner's starting vector."""
+    names = tunable.parameter_names()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError:
+        text = ""
+    match = VECTOR_LINE.search(text)
+    if match:
+        values = dict(
+            (k.strip(), float(v))
+            for k, v in (item.split("=") for item in match.group(1).split(","))
+        )
+        if set(values) == set(names):
+            vector = np.array([values[n] for n in names])
+            try:
+                rebuilt = tunable.system(vector)
+            except ValueError:
+                rebuilt = None
+            if rebuilt is not None and np.allclose(
+                rebuilt.parameter_vector(), shipped_fis.parameter_vector(), atol=1e-4
+            ):
+                return vector, True
+    return tunable.initial_vector(), False
+
+
+class PaperEditor:
+    """The edited paper system: a parameter vector, and the controller it builds."""
+
+    def __init__(self):
+        from fuzzynav.controller.paper import PAPER_RULES, PaperTunable, paper_controller
+
+        self.tunable = PaperTunable()
+        self.shipped = paper_controller()
+        self.start, self.exact = shipped_vector(self.tunable, self.shipped.fis, PAPER_RULES)
+        self.names = self.tunable.parameter_names()
+        self.bounds = dict(zip(self.names, self.tunable.bounds()))
+        self.vector = self.start.copy()
+        self.edited = False
+        self._controller = self.shipped
+
+    def value(self, name: str) -> float:
+        return float(self.vector[self.names.index(name)])
+
+    def set(self, name: str, value):
+        """Set one parameter; returns the controller of the edited system."""
+        if name not in self.names:
+            raise ValueError(
+                f"membership parameter {name!r}: unknown (have {', '.join(self.names)})"
+            )
+        try:
+            value = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} = {value!r}: must be a number") from None
+        lo, hi = self.bounds[name]
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise ValueError(f"{name} = {value!r}: must be between {lo} and {hi}")
+        vector = self.vector.copy()
+        vector[self.names.index(name)] = value
+        controller = self._build(vector)
+        self.vector, self._controller, self.edited = vector, controller, True
+        return controller
+
+    def _build(self, vector):
+        """The shipped system (its rules, ranges, names) with the shapes of ``vector``;
+        the tuner's own template when the shipped file's layout differs."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        shaped = self.tunable.system(vector)  # raises ValueError on an invalid shape
+        try:
+            fis = self.shipped.fis.with_parameter_vector(shaped.parameter_vector())
+            if [t.shape for v in fis.inputs + fis.outputs for t in v.terms] != [
+                t.shape for v in shaped.inputs + shaped.outputs for t in v.terms
+            ]:
+                fis = shaped
+        except ValueError:
+            fis = shaped
+        return FisController(fis, name="paper (edited)")
+
+    def reset(self):
+        """Back to the shipped controller."""
+        from fuzzynav.controller.paper import paper_controller
+
+        self.vector = self.start.copy()
+        self.edited = False
+        self._controller = paper_controller()
+        return self._controller
+
+    def controller(self):
+        return self._controller
+
+    def fis_text(self) -> str:
+        from fuzzynav.controller.fis import dumps_fis
+
+        fis = self._controller.fis
+        return dumps_fis(fis.replace(name="paper_edited" if self.edited else fis.name))

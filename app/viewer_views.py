@@ -1,0 +1,558 @@
+"""The viewer's teaching views, as pure functions from a fuzzy system to HTML and SVG.
+
+- :func:`inference_html`: MATLAB's rule viewer for any Mamdani system at one input
+  vector: each input's membership functions with the value as a vertical line and each
+  term's degree; every rule as a row (antecedent terms filled up to their degree, the
+  consequent clipped at the rule's strength; firing rows highlighted); the aggregated
+  output set of each output with its centroid; "no rule fires: fallback" said when so.
+  Rules that share no variable (fuzzynav's goal and avoidance blocks, merged into one
+  system) are drawn as separate blocks, each with only its own columns.
+- :func:`surface_grid` / :func:`surface_png`: the control surface, crisp outputs over
+  a plane of two inputs, as a heatmap image.
+- :func:`marker_style`: the operating point on the surfaces as a few bytes of CSS: the
+  heatmaps are sent once, only this moves (see :mod:`app.viewer_ui`).
+
+Nothing here knows viser or the simulation; the strings are shown with viser's HTML
+element (which sets them as innerHTML).
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+CELL_W = 66.0  # width of one variable's column in the rule grid (SVG units)
+CELL_H = 17.0  # height of one rule row
+NUM_W = 46.0  # width of the rule-number column
+CURVE_POINTS = 21  # samples of a membership function in a rule cell
+
+INPUT_LINE = "#dc2626"
+ANTECEDENT_FILL = "#f59e0b"
+CONSEQUENT_FILL = "#2563eb"
+FIRING_ROW = "#fef3c7"
+OUTLINE = "#94a3b8"
+BOLD = " font-weight='700'"
+
+# How the teaching views name a controller's inputs when the engine's name would
+# mislead: fuzzynav's goal block is fed the planner's bearing in an input named phi_t,
+# which is not the target bearing the status line calls phi_t.
+UNITS = {
+    "d_t": "m",
+    "d_o": "m",
+    "phi_t": "rad",
+    "phi_o": "rad",
+    "left": "m",
+    "front": "m",
+    "right": "m",
+}
+
+
+@dataclass
+class Inference:
+    """Everything the inference view draws, at one input vector."""
+
+    fis: object  # FuzzySystem
+    inputs: np.ndarray  # (n_inputs,)
+    memberships: list  # per input: (n_terms,) degrees
+    strengths: np.ndarray  # (n_rules,)
+    grid: np.ndarray  # (n_outputs, n_points)
+    aggregate: np.ndarray  # (n_outputs, n_points)
+    centroids: np.ndarray  # (n_outputs,)
+    input_labels: list
+    output_labels: list
+
+    @property
+    def n_firing(self) -> int:
+        """Rules with a non-zero strength (every one counts, however weak)."""
+        return int(np.sum(self.strengths > 0.0))
+
+    @property
+    def fallback(self) -> list[bool]:
+        """Per output: no rule gives it any membership, so the engine's fallback (the
+        middle of its range) is the output."""
+        return [not bool(np.any(a > 0.0)) for a in self.aggregate]
+
+
+def infer(fis, x, input_labels=None, output_labels=None) -> Inference:
+    """Run the engine's own teaching calls (memberships, firing strengths, aggregated)."""
+    x = np.asarray(x, dtype=float).reshape(-1)[: fis.n_inputs]
+    memberships = [m[0] for m in fis.memberships(np.asarray([x]))]
+    strengths = np.asarray(fis.firing_strengths(np.asarray([x])))[0]
+    grid, aggregate, centroids = fis.aggregated(x)
+    return Inference(
+        fis,
+        x,
+        memberships,
+        strengths,
+        np.asarray(grid),
+        np.asarray(aggregate),
+        np.asarray(centroids),
+        list(input_labels or fis.input_names),
+        list(output_labels or fis.output_names),
+    )
+
+
+def rule_blocks(fis) -> list[tuple[list[int], list[int], list[int]]]:
+    """Rules grouped by the variables they share: [(rule indices, input indices,
+    output indices)], in rule order. One block for an ordinary system; fuzzynav's
+    merged goal + avoidance system gives two."""
+    n_in = fis.n_inputs
+    parent = list(range(n_in + fis.n_outputs))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    used = []
+    for rule in fis.rules:
+        vs = [i for i, k in enumerate(rule.antecedent) if k is not None]
+        vs += [n_in + j for j, k in enumerate(rule.consequent) if k is not None]
+        used.append(vs)
+        for v in vs[1:]:
+            parent[find(v)] = find(vs[0])
+    blocks: dict[int, tuple[list, set]] = {}
+    for r, vs in enumerate(used):
+        root = find(vs[0])
+        blocks.setdefault(root, ([], set()))
+        blocks[root][0].append(r)
+        blocks[root][1].update(vs)
+    out = []
+    for rules, vs in sorted(blocks.values(), key=lambda b: b[0][0]):
+        ins = sorted(v for v in vs if v < n_in)
+        outs = sorted(v - n_in for v in vs if v >= n_in)
+        out.append((rules, ins, outs))
+    return out
+
+
+def _sample(variable, n: int = CURVE_POINTS) -> tuple[np.ndarray, list[np.ndarray]]:
+    lo, hi = variable.range
+    xs = np.linspace(lo, hi, n)
+    # Add each term's own break points, so that triangles keep their corners.
+    breaks = [p for t in variable.terms for p in t.params if lo < p < hi]
+    xs = np.unique(np.concatenate([xs, np.asarray(breaks, dtype=float)]))
+    return xs, [np.clip(np.asarray(t(xs), dtype=float), 0.0, 1.0) for t in variable.terms]
+
+
+def _path(xs, ys, x0, y0, w, h, lo, hi, closed=False) -> str:
+    """An SVG path of (xs, ys) in the box (x0, y0, w, h); y = 1 at the top."""
+    px = x0 + (np.asarray(xs) - lo) / (hi - lo) * w
+    py = y0 + h - np.asarray(ys) * h
+    pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(px, py))
+    if closed:
+        return f"M{px[0]:.1f},{y0 + h:.1f} L{pts} L{px[-1]:.1f},{y0 + h:.1f}Z"
+    return f"M{pts}"
+
+
+def _x_of(value, lo, hi, x0, w) -> float | None:
+    if not math.isfinite(value):
+        return None
+    return x0 + (min(max(value, lo), hi) - lo) / (hi - lo) * w
+
+
+def _fmt_value(value: float, unit: str) -> str:
+    if not math.isfinite(value):
+        return "none sensed" if math.isnan(value) else f"{value}"
+    return f"{value:.2f} {unit}".strip()
+
+
+def _fmt_degree(d: float) -> str:
+    """A degree readable however small: 0.55, 0.031, 0.0004 (never a bare 0.00)."""
+    if d <= 0.0:
+        return "0"
+    if d >= 0.095:
+        return f"{d:.2f}"
+    return f"{d:.2g}"
+
+
+INPUT_W, INPUT_H = 150.0, 46.0
+PALETTE = ("#7c3aed", "#0891b2", "#16a34a", "#ea580c", "#db2777", "#475569", "#65a30d")
+
+
+def defs_html(fis, uid: str) -> str:
+    """Every term's outline, once: for the input plots and for the rule cells. Sent when
+    the system changes; :func:`inference_html` refers to these (SVG ``<use>``), so that
+    what it sends at every step is the few things that move."""
+    w, h = CELL_W - 4.0, CELL_H - 4.0
+    defs = []
+    for kind, variables in (("in", fis.inputs), ("out", fis.outputs)):
+        for v, var in enumerate(variables):
+            lo, hi = var.range
+            xs, curves = _sample(var)
+            big_xs, big_curves = _sample(var, 61)
+            for k, ys in enumerate(curves):
+                # t: a rule cell's outline, f: its area; T, F: the same in an input plot.
+                big = big_curves[k]
+                defs += [
+                    f"<path id='{uid}{kind}{v}t{k}' d='{_path(xs, ys, 0, 0, w, h, lo, hi)}'/>",
+                    f"<path id='{uid}{kind}{v}f{k}' d='{_path(xs, ys, 0, 0, w, h, lo, hi, True)}'/>",
+                    f"<path id='{uid}{kind}{v}T{k}' "
+                    f"d='{_path(big_xs, big, 0, 0, INPUT_W, INPUT_H, lo, hi)}'/>",
+                    f"<path id='{uid}{kind}{v}F{k}' "
+                    f"d='{_path(big_xs, big, 0, 0, INPUT_W, INPUT_H, lo, hi, True)}'/>",
+                ]
+    return (
+        "<svg width='0' height='0' style='position:absolute' aria-hidden='true'>"
+        f"<defs>{''.join(defs)}</defs></svg>"
+    )
+
+
+def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
+    """Each input's terms with the value as a red line and each term's degree."""
+    fis = inf.fis
+    indices = list(range(fis.n_inputs)) if indices is None else list(indices)
+    w, h, gap = INPUT_W, INPUT_H, 40.0
+    cols = 2
+    rows = math.ceil(len(indices) / cols)
+    width = cols * w + (cols - 1) * 16 + 8
+    height = rows * (h + gap) + 4
+    parts = [
+        f"<svg viewBox='0 0 {width:.0f} {height:.0f}' style='width:100%;display:block'"
+        " font-family='system-ui,sans-serif'>"
+    ]
+    palette = PALETTE
+    for slot, i in enumerate(indices):
+        var = fis.inputs[i]
+        lo, hi = var.range
+        x0 = 4 + (slot % cols) * (w + 16)
+        y0 = 14 + (slot // cols) * (h + gap)
+        value = float(inf.inputs[i])
+        label = inf.input_labels[i]
+        parts.append(
+            f"<text x='{x0:.0f}' y='{y0 - 3:.0f}' font-size='10' font-weight='600'>"
+            f"{html.escape(label)} = {html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
+        )
+        parts.append(
+            f"<rect x='{x0:.0f}' y='{y0:.0f}' width='{w:.0f}' height='{h:.0f}' fill='#f8fafc'"
+            " stroke='#e2e8f0'/>"
+        )
+        degrees = inf.memberships[i]
+        for k in range(len(var.terms)):
+            colour = palette[k % len(palette)]
+            d = float(degrees[k])
+            if d > 0:
+                parts.append(
+                    _clipped_use(f"{uid}in{i}F{k}", f"{uid}ci{i}k{k}", x0, y0, w, h, d, colour, 0.3)
+                )
+            parts.append(
+                f"<use href='#{uid}in{i}T{k}' x='{x0:.0f}' y='{y0:.0f}' fill='none' "
+                f"stroke='{colour}' stroke-width='1.3'/>"
+            )
+        xline = _x_of(value, lo, hi, x0, w)
+        if xline is not None:
+            parts.append(
+                f"<line x1='{xline:.1f}' x2='{xline:.1f}' y1='{y0:.0f}' y2='{y0 + h:.0f}' "
+                f"stroke='{INPUT_LINE}' stroke-width='1.8'/>"
+            )
+        # The terms' degrees under the plot, in the curves' colours (two lines if need be).
+        tx, ty = x0, y0 + h + 11
+        for k, term in enumerate(var.terms):
+            d = float(degrees[k])
+            colour = palette[k % len(palette)]
+            text = f"{term.name} {_fmt_degree(d)}"
+            if tx + 5.6 * len(text) > x0 + w:
+                tx, ty = x0, ty + 10
+            weight = "700" if d > 0 else "400"
+            opacity = "1" if d > 0 else "0.55"
+            parts.append(
+                f"<text x='{tx:.0f}' y='{ty:.0f}' font-size='9' fill='{colour}' "
+                f"font-weight='{weight}' opacity='{opacity}' class='fz-degree'>{html.escape(text)}</text>"
+            )
+            tx += 5.6 * len(text) + 6
+    parts.append("</svg>")
+    return "".join(parts)
+
+
+def _clipped_use(ref, clip_id, x0, y0, w, h, level, fill, opacity) -> str:
+    """A term's area (``ref``, drawn in a w x h box at (x0, y0)) cut at ``level``: the
+    min(membership, level) of Mamdani's implication, drawn with a clip rectangle."""
+    top = h * (1.0 - level)
+    return (
+        f"<g transform='translate({x0:.1f},{y0:.1f})'><clipPath id='{clip_id}'>"
+        f"<rect x='0' y='{top:.1f}' width='{w:.1f}' height='{h - top + 0.5:.1f}'/></clipPath>"
+        f"<use href='#{ref}' clip-path='url(#{clip_id})' fill='{fill}' fill-opacity='{opacity}'"
+        " stroke='none'/></g>"
+    )
+
+
+def rules_svg(inf: Inference, rules, ins, outs, uid: str = "fz") -> str:
+    """MATLAB's rule viewer for one block: a row per rule, a column per variable."""
+    fis = inf.fis
+    n_cols = len(ins) + len(outs)
+    head = 28.0
+    width = NUM_W + n_cols * CELL_W + 10.0  # a gap between inputs and outputs
+    height = head + (len(rules) + 1) * CELL_H + 34.0
+    parts = [
+        f"<svg viewBox='0 0 {width:.0f} {height:.0f}' style='width:100%;display:block'"
+        " font-family='system-ui,sans-serif' class='fz-rules'>"
+    ]
+
+    def col_x(c):
+        return NUM_W + c * CELL_W + (10.0 if c >= len(ins) else 0.0)
+
+    samples = {}
+    for c, i in enumerate(ins):
+        var = fis.inputs[i]
+        samples[("in", i)] = _sample(var)
+        value = float(inf.inputs[i])
+        parts.append(
+            f"<text x='{col_x(c) + 2:.0f}' y='11' font-size='9.5' font-weight='600'>"
+            f"{html.escape(inf.input_labels[i])}</text>"
+            f"<text x='{col_x(c) + 2:.0f}' y='22' font-size='8.5' fill='{INPUT_LINE}'>"
+            f"{html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
+        )
+    for c, j in enumerate(outs, start=len(ins)):
+        var = fis.outputs[j]
+        samples[("out", j)] = _sample(var)
+        parts.append(
+            f"<text x='{col_x(c) + 2:.0f}' y='11' font-size='9.5' font-weight='600'>"
+            f"{html.escape(inf.output_labels[j])}</text>"
+            f"<text x='{col_x(c) + 2:.0f}' y='22' font-size='8.5' fill='{CONSEQUENT_FILL}'>"
+            f"{inf.centroids[j]:.2f} {html.escape(var.unit or '')}</text>"
+        )
+    pad = 2.0
+    w, h = CELL_W - 2 * pad, CELL_H - 2 * pad
+    # Each rule cell refers to its term's outline (defs_html): a few bytes per cell; only
+    # the firing cells carry geometry.
+    parts.append(f"<g fill='none' stroke='{OUTLINE}' stroke-width='0.8'>")
+    fills = []
+    for row, r in enumerate(rules):
+        rule = fis.rules[r]
+        s = float(inf.strengths[r])
+        y0 = head + row * CELL_H
+        firing = s > 0.0
+        if firing:
+            parts.append(
+                f"<rect class='fz-firing' data-rule='{r + 1}' data-strength='{s:.6g}' x='0'"
+                f" y='{y0:.1f}' width='{width:.0f}' height='{CELL_H:.0f}' fill='{FIRING_ROW}'"
+                " stroke='none'/>"
+            )
+        parts.append(
+            f"<text x='2' y='{y0 + 12:.1f}' font-size='9' stroke='none'"
+            f" fill='{'#0f172a' if firing else '#94a3b8'}'"
+            f"{BOLD if firing else ''}>{r + 1}"
+            f"{(' ' + _fmt_degree(s)) if firing else ''}</text>"
+        )
+        cells = [("in", i, rule.antecedent[i]) for i in ins] + [
+            ("out", j, rule.consequent[j]) for j in outs
+        ]
+        for c, (kind, v, k) in enumerate(cells):
+            if k is None:
+                continue
+            x0 = col_x(c) + pad
+            parts.append(f"<use href='#{uid}{kind}{v}t{k}' x='{x0:.0f}' y='{y0 + pad:.0f}'/>")
+            level = float(inf.memberships[v][k]) if kind == "in" else s
+            if level > 0:
+                fill = ANTECEDENT_FILL if kind == "in" else CONSEQUENT_FILL
+                fills.append(
+                    _clipped_use(
+                        f"{uid}{kind}{v}f{k}",
+                        f"{uid}c{r}_{c}",
+                        x0,
+                        y0 + pad,
+                        w,
+                        h,
+                        level,
+                        fill,
+                        0.85,
+                    )
+                )
+    parts.append("</g>")
+    if fills:
+        parts.append(
+            f"<g fill-opacity='0.8' stroke='#334155' stroke-width='0.6'>{''.join(fills)}</g>"
+        )
+    # The input values as vertical lines through every row of their column.
+    top, bottom = head, head + len(rules) * CELL_H
+    for c, i in enumerate(ins):
+        var = fis.inputs[i]
+        lo, hi = var.range
+        xline = _x_of(float(inf.inputs[i]), lo, hi, col_x(c) + pad, CELL_W - 2 * pad)
+        if xline is not None:
+            parts.append(
+                f"<line class='fz-input-line' x1='{xline:.1f}' x2='{xline:.1f}' y1='{top:.0f}' "
+                f"y2='{bottom:.0f}' stroke='{INPUT_LINE}' stroke-width='1.2'/>"
+            )
+    # The aggregated output of each output, with its centroid, under its column.
+    y0 = bottom + 6
+    agg_h = CELL_H * 1.6
+    for c, j in enumerate(outs, start=len(ins)):
+        var = fis.outputs[j]
+        lo, hi = var.range
+        x0, w = col_x(c) + pad, CELL_W - 2 * pad
+        a = inf.aggregate[j]
+        peak = float(a.max()) if len(a) else 0.0
+        # A set only a few per cent high is invisible at scale 1: drawn taller, and said.
+        zoom = 1.0 if peak >= 0.25 or peak <= 0 else 1.0 / peak
+        parts.append(
+            f"<rect x='{x0:.1f}' y='{y0:.1f}' width='{w:.1f}' height='{agg_h:.1f}' fill='#eff6ff'"
+            " stroke='#bfdbfe'/>"
+        )
+        if peak > 0:
+            parts.append(
+                f"<path class='fz-aggregate' d='{_path(inf.grid[j], np.minimum(a * zoom, 1.0), x0, y0, w, agg_h, lo, hi, True)}'"
+                f" fill='{CONSEQUENT_FILL}' fill-opacity='0.55'/>"
+            )
+        xc = _x_of(float(inf.centroids[j]), lo, hi, x0, w)
+        if xc is not None:
+            parts.append(
+                f"<line class='fz-centroid' x1='{xc:.1f}' x2='{xc:.1f}' y1='{y0 - 2:.1f}' "
+                f"y2='{y0 + agg_h + 2:.1f}' stroke='#0f172a' stroke-width='1.6'/>"
+            )
+        note = "fallback" if peak <= 0 else (f"×{zoom:.0f}" if zoom > 1 else "")
+        if note:
+            parts.append(
+                f"<text x='{x0 + 1:.1f}' y='{y0 + agg_h + 10:.1f}' font-size='8'"
+                f" fill='{'#b91c1c' if peak <= 0 else '#475569'}'>{note}</text>"
+            )
+    parts.append(
+        f"<text x='2' y='{y0 + 12:.1f}' font-size='8.5' fill='#334155'>aggregated</text></svg>"
+    )
+    return "".join(parts)
+
+
+def inference_html(
+    inf: Inference, *, uid: str = "fz", large: bool = False, crisp: dict | None = None
+) -> str:
+    """The whole inference view: summary, inputs, rule grid(s), aggregated outputs."""
+    fs = "1.25em" if large else "0.85em"
+    n, total = inf.n_firing, len(inf.strengths)
+    fallback = inf.fallback
+    lines = []
+    if n == 0 or all(fallback):
+        lines.append(
+            "<div class='fz-fallback' style='padding:4px 6px;border-radius:4px;"
+            "background:#fee2e2;color:#991b1b;font-weight:600'>No rule fires: fallback. "
+            "Every output takes the middle of its range (the engine's and MATLAB's "
+            "convention).</div>"
+        )
+    else:
+        best = int(np.argmax(inf.strengths))
+        lines.append(
+            f"<div class='fz-summary'><b>{n} of {total} rules fire</b> (strength &gt; 0); "
+            f"strongest: rule {best + 1} at {_fmt_degree(float(inf.strengths[best]))}.</div>"
+        )
+        names = [inf.output_labels[j] for j, f in enumerate(fallback) if f]
+        if names:
+            lines.append(
+                "<div class='fz-fallback' style='color:#991b1b'>No rule concludes on "
+                f"{html.escape(', '.join(names))}: fallback to the middle of its range.</div>"
+            )
+    centroid_text = ", ".join(
+        f"{html.escape(name)} = {c:.2f}" for name, c in zip(inf.output_labels, inf.centroids)
+    )
+    lines.append(f"<div>Outputs (centroids): {centroid_text}</div>")
+    if crisp:
+        rows = "".join(
+            f"<tr><td style='white-space:nowrap;padding-right:6px'><b>{html.escape(k)}</b></td>"
+            f"<td>{html.escape(v)}</td></tr>"
+            for k, v in crisp.items()
+        )
+        lines.append(
+            "<div style='font-weight:600;margin-top:4px'>Crisp parts</div>"
+            f"<table style='width:100%'>{rows}</table>"
+        )
+    blocks = rule_blocks(inf.fis)
+    for b, (rules, ins, outs) in enumerate(blocks):
+        if len(blocks) > 1:
+            names = ", ".join(inf.output_labels[j] for j in outs)
+            lines.append(
+                f"<div style='font-weight:700;margin-top:8px'>Block {b + 1}: "
+                f"{len(rules)} rules → {html.escape(names)}</div>"
+            )
+        lines.append("<div style='font-weight:600;margin-top:6px'>Inputs and their terms</div>")
+        lines.append(inputs_svg(inf, ins, uid))
+        lines.append(
+            "<div style='font-weight:600;margin-top:6px'>Rules (firing ones highlighted; "
+            "yellow: antecedent degree, blue: consequent clipped at the rule's strength)</div>"
+        )
+        lines.append(
+            "<div class='fz-rule-scroll' style='max-height:48vh;overflow-y:auto;"
+            f"border:1px solid #e2e8f0;border-radius:4px'>{rules_svg(inf, rules, ins, outs, uid)}</div>"
+        )
+    return (
+        f"<div class='fz-inference' style='font-family:system-ui,sans-serif;font-size:{fs};"
+        f"padding:0 4px'>{''.join(lines)}</div>"
+    )
+
+
+# -- control surfaces ------------------------------------------------------------------
+
+
+@dataclass
+class Surface:
+    """Crisp outputs over a plane of two inputs (the others held)."""
+
+    title: str
+    x_name: str
+    y_name: str
+    x: np.ndarray  # (nx,)
+    y: np.ndarray  # (ny,)
+    values: dict  # name -> (ny, nx)
+
+
+def surface_grid(fis, x_index, y_index, x_range, y_range, held, n: int = 41) -> tuple:
+    """Evaluate ``fis`` on an n x n grid of inputs ``x_index`` and ``y_index`` with the
+    other inputs at ``held`` (a full input vector). Returns (xs, ys, outputs (ny, nx, n_out))."""
+    xs = np.linspace(*x_range, n)
+    ys = np.linspace(*y_range, n)
+    gx, gy = np.meshgrid(xs, ys)
+    X = np.tile(np.asarray(held, dtype=float), (gx.size, 1))
+    X[:, x_index] = gx.ravel()
+    X[:, y_index] = gy.ravel()
+    Y = fis.evaluate(X)
+    return xs, ys, Y.reshape(n, n, -1)
+
+
+def diverging_rgb(values: np.ndarray, limit: float) -> np.ndarray:
+    """Blue (negative) - white - red (positive), symmetric about 0, for a heatmap."""
+    t = np.clip(np.asarray(values, dtype=float) / max(limit, 1e-9), -1.0, 1.0)
+    pos = np.array([220, 38, 38], float)
+    neg = np.array([37, 99, 235], float)
+    white = np.array([255, 255, 255], float)
+    a = np.abs(t)[..., None]
+    col = np.where(t[..., None] >= 0, white + a * (pos - white), white + a * (neg - white))
+    col = np.where(np.isfinite(values)[..., None], col, 200.0)
+    return col.astype(np.uint8)
+
+
+def surface_png(values: np.ndarray, limit: float, scale: int = 4) -> bytes:
+    """The heatmap (rows = y from the top, so flipped: +y up) as PNG bytes."""
+    from PIL import Image
+
+    rgb = diverging_rgb(values[::-1], limit)
+    img = Image.fromarray(rgb, "RGB").resize(
+        (rgb.shape[1] * scale, rgb.shape[0] * scale), Image.NEAREST
+    )
+    buf = io.BytesIO()
+    img.save(buf, format="PNG", optimize=True)
+    return buf.getvalue()
+
+
+def marker_fraction(value_x, value_y, x_range, y_range) -> tuple[float, float] | None:
+    """Where the operating point sits on a heatmap, as fractions (left, top), or None
+    when it is off the plane (an input not sensed)."""
+    if not (math.isfinite(value_x) and math.isfinite(value_y)):
+        return None
+    fx = (value_x - x_range[0]) / (x_range[1] - x_range[0])
+    fy = (value_y - y_range[0]) / (y_range[1] - y_range[0])
+    return float(np.clip(fx, 0.0, 1.0)), float(np.clip(1.0 - fy, 0.0, 1.0))
+
+
+def marker_style(markers: dict) -> str:
+    """CSS that places each marker (element id -> (left, top) fractions or None)."""
+    rules = []
+    for element_id, where in markers.items():
+        if where is None:
+            rules.append(f"#{element_id}{{display:none!important}}")
+        else:
+            rules.append(
+                f"#{element_id}{{display:block!important;left:{100 * where[0]:.1f}%;"
+                f"top:{100 * where[1]:.1f}%}}"
+            )
+    return "<style>" + "".join(rules) + "</style>"
