@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import time
 import tomllib
 from pathlib import Path
@@ -69,7 +70,8 @@ def measure(result) -> dict:
         "passes": closest_approaches(log.time_s, log.center_distance_m),
         "chatter_steps": m["voltage_jumps"],
         "final_phi_t_rad": float(log.inputs[-1, 2]),
-        "final_distance_m": float(log.inputs[-1, 0]),
+        "final_distance_m": float(log.inputs[-1, 0] - log.disturbance[-1]),
+        "closest_to_target_m": float(np.min(log.inputs[:, 0] - log.disturbance)),
         "max_voltage_v": (
             float(np.nanmax(log.voltages_v[:, 0])),
             float(np.nanmax(log.voltages_v[:, 1])),
@@ -78,7 +80,12 @@ def measure(result) -> dict:
 
 
 def run_paper_geometry(
-    system, scenario_name: str, heading_rad: float, control_period_s: float, stall_s=None
+    system,
+    scenario_name: str,
+    heading_rad: float,
+    control_period_s: float,
+    stall_s=None,
+    model=None,
 ):
     """One ideal-perception run of ``system`` in the paper's geometry; with ``stall_s``,
     stopped as a timeout once it makes no progress for that long (as tuning does)."""
@@ -95,6 +102,7 @@ def run_paper_geometry(
         perception="ideal",
         control_period_s=control_period_s,
         geometry="paper",
+        model=model,
     )
     if stall_s is None:
         return sim.run()
@@ -126,8 +134,13 @@ def residuals(measured: dict, paper: dict) -> list[tuple[str, float]]:
 
 
 def run_cost(measured: dict, paper: dict) -> float:
+    """A reached run: the squared scaled residuals plus penalties for a final bearing off
+    zero and for chatter. A run that does not arrive costs more than any that does, and
+    less the closer it came (and the more paper-like it was on the way)."""
     if not measured["reached"]:
-        return 50.0 + measured["final_distance_m"]
+        partial = sum(min(r * r, 25.0) for _, r in residuals(measured, paper))
+        cost = 30.0 + 10.0 * measured["closest_to_target_m"] + 0.2 * partial
+        return float(cost + (30.0 if measured["collided"] else 0.0))
     cost = sum(r * r for _, r in residuals(measured, paper))
     if measured["collided"]:
         cost += 50.0
@@ -146,12 +159,17 @@ class FitCost:
         self.control_period_s = control_period_s
         self.stall_s = stall_s
         self.paper = paper_results()
+        from fuzzynav.world.husky import HuskyModel
+
+        self.model = HuskyModel.default()  # one plant: its ZOH matrices are computed once
 
     def measure_all(self, vector) -> list[dict]:
         system = self.tunable.system(vector[:-1])
         return [
             measure(
-                run_paper_geometry(system, name, vector[-1], self.control_period_s, self.stall_s)
+                run_paper_geometry(
+                    system, name, vector[-1], self.control_period_s, self.stall_s, self.model
+                )
             )
             for name in SCENARIOS
         ]
@@ -163,6 +181,17 @@ class FitCost:
             return 1e6
 
 
+def _write_checkpoint(path, names, x, cost, generation) -> None:
+    """The best vector so far, in the form ``--x0`` reads."""
+    values = dict(zip(names, [float(v) for v in x[:-1]]))
+    values["initial_heading_rad"] = float(x[-1])
+    line = ", ".join(f"{k}={v!r}" for k, v in values.items())
+    Path(path).write_text(
+        f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n",
+        encoding="utf-8",
+    )
+
+
 def fit(
     maxiter: int,
     popsize: int,
@@ -172,32 +201,65 @@ def fit(
     x0=None,
     on_generation=None,
     checkpoint=None,
+    radius=None,
+    method: str = "cmaes",
+    sigma0: float = 0.15,
 ):
+    """Fit the partition parameters and the initial heading; returns (x, cost, nit, nfev).
+
+    ``method="cmaes"`` (default): :func:`cmaes` from ``x0`` with step ``sigma0`` (a
+    fraction of each bound's span), ``popsize`` candidates a generation. ``"de"``: scipy's
+    differential evolution, ``popsize`` x 23 candidates a generation."""
+    import multiprocessing
+
     from scipy.optimize import differential_evolution
 
     from fuzzynav.controller.paper_partition import PaperPartitionTunable
 
     tunable = PaperPartitionTunable()
+    names = tunable.parameter_names()
     bounds = tunable.bounds() + [HEADING_BOUNDS_RAD]
     cost = FitCost(control_period_s)
     start = np.append(tunable.initial_vector(), 0.0) if x0 is None else np.asarray(x0, float)
+    if radius is not None:  # a local search: each bound narrowed to start +- radius x span
+        bounds = [
+            (max(lo, x - radius * (hi - lo)), min(hi, x + radius * (hi - lo)))
+            for (lo, hi), x in zip(bounds, start)
+        ]
+    if method == "cmaes":
+
+        def report(generation, best_f, best_x, sigma):
+            if checkpoint is not None:
+                _write_checkpoint(checkpoint, names, best_x, best_f, generation)
+            if on_generation is not None:
+                on_generation(generation, best_f)
+
+        if workers == 1:
+            return cmaes(
+                cost,
+                bounds,
+                start,
+                sigma0,
+                maxiter,
+                popsize,
+                seed,
+                lambda f, xs: [f(x) for x in xs],
+                report,
+            )
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, pool.map, report)
     generation = [0]
 
     def callback(intermediate_result):
         generation[0] += 1
-        if checkpoint is not None:  # the best vector so far, as a --x0 file reads it
-            values = dict(zip(tunable.parameter_names(), intermediate_result.x[:-1]))
-            values["initial_heading_rad"] = intermediate_result.x[-1]
-            line = ", ".join(f"{k}={v!r}" for k, v in values.items())
-            Path(checkpoint).write_text(
-                f"# generation {generation[0]}, cost {intermediate_result.fun!r}\n"
-                f"# tuned vector: {line}\n",
-                encoding="utf-8",
+        if checkpoint is not None:
+            _write_checkpoint(
+                checkpoint, names, intermediate_result.x, intermediate_result.fun, generation[0]
             )
         if on_generation is not None:
             on_generation(generation[0], float(intermediate_result.fun))
 
-    return differential_evolution(
+    result = differential_evolution(
         cost,
         bounds,
         x0=start,
@@ -210,6 +272,7 @@ def fit(
         tol=0,
         callback=callback,
     )
+    return result.x, float(result.fun), int(result.nit), int(result.nfev)
 
 
 def residual_table(vector, control_period_s: float = 0.02) -> list[dict]:
@@ -253,11 +316,12 @@ def read_fitted(path: str | Path) -> tuple[np.ndarray, float]:
 
     for line in Path(path).read_text(encoding="utf-8").splitlines():
         if line.startswith("# tuned vector:"):
-            values = dict(
-                item.strip().split("=") for item in line.split(":", 1)[1].split(",") if "=" in item
-            )
-            vector = np.array([float(values[p[0]]) for p in PARTITION_PARAMETERS])
-            return vector, float(values["initial_heading_rad"])
+            values = dict(re.findall(r"([\w.]+)=(?:np\.float64\()?([-+0-9.eE]+)", line))
+            try:
+                vector = np.array([float(values[p[0]]) for p in PARTITION_PARAMETERS])
+                return vector, float(values["initial_heading_rad"])
+            except (KeyError, ValueError) as exc:
+                raise ValueError(f"{path}: the tuned vector lacks or garbles {exc}") from None
     raise ValueError(f"{path}: no '# tuned vector:' header line")
 
 
@@ -269,6 +333,8 @@ def cmd_fit_paper(args) -> int:
 
     if not (math.isfinite(args.dt) and 0.001 <= args.dt <= 0.1):
         raise UsageError(f"--dt {args.dt!r}: must be from 0.001 to 0.1 s")
+    if args.radius is not None and not (math.isfinite(args.radius) and 0 < args.radius <= 1):
+        raise UsageError(f"--radius {args.radius!r}: must be in (0, 1]")
     out = args.out if args.out is not None else Path.cwd() / "paper_table4.toml"
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: folder {out.parent} does not exist")
@@ -284,20 +350,31 @@ def cmd_fit_paper(args) -> int:
             f"generation {k}/{args.maxiter}: best cost {best:.4f} ({time.perf_counter() - started:.0f} s)"
         )
 
-    result = fit(
-        args.maxiter, args.popsize, args.seed, args.workers, args.dt, x0, on_generation,
+    x, best, nit, nfev = fit(
+        args.maxiter,
+        args.popsize,
+        args.seed,
+        args.workers,
+        args.dt,
+        x0,
+        on_generation,
         checkpoint=args.checkpoint,
+        radius=args.radius,
+        method=args.method,
+        sigma0=args.sigma,
     )
     elapsed = time.perf_counter() - started
     command = (
         f"fuzzynav fit-paper --maxiter {args.maxiter} --popsize {args.popsize} "
-        f"--seed {args.seed} --dt {args.dt:g} --workers {args.workers}"
+        f"--seed {args.seed} --dt {args.dt:g} --workers {args.workers} --method {args.method}"
+        + (f" --sigma {args.sigma:g}" if args.method == "cmaes" else "")
         + (f" --x0 {args.x0.name}" if args.x0 is not None else "")
+        + (f" --radius {args.radius:g}" if args.radius is not None else "")
     )
-    vector, heading = result.x[:-1], float(result.x[-1])
+    vector, heading = x[:-1], float(x[-1])
     header = (
         f"Reproduce with: {command}\n"
-        f"(best cost {result.fun:.6f} after {result.nit} generations, {result.nfev} candidates, "
+        f"(best cost {best:.6f} after {nit} generations, {nfev} candidates, "
         f"{elapsed:.0f} s on {args.workers} workers; cost: app/paper_fit.py)\n"
         f"Fitted, not from the paper: the initial heading, {heading:.6f} rad "
         "(the scenarios' paper_heading_rad)"
@@ -309,17 +386,15 @@ def cmd_fit_paper(args) -> int:
     path.write_text(text, encoding="utf-8")
     summary = {
         "out": str(path),
-        "cost": float(result.fun),
+        "cost": best,
         "initial_heading_rad": heading,
-        "generations": int(result.nit),
+        "generations": nit,
         "seconds": elapsed,
     }
     if args.json:
         print_json(summary)
     else:
-        console.print(
-            f"wrote {path} (cost {result.fun:.4f}, heading {heading:.4f} rad, {elapsed:.0f} s)"
-        )
+        console.print(f"wrote {path} (cost {best:.4f}, heading {heading:.4f} rad, {elapsed:.0f} s)")
     return 0
 
 
@@ -336,9 +411,9 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--popsize",
         type=integer_in(1),
-        default=8,
+        default=16,
         metavar="K",
-        help="population = K x 23 parameters (default 8)",
+        help="candidates a generation: cmaes K (default 16); de K x 23",
     )
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument(
@@ -366,8 +441,103 @@ def add_commands(subparsers) -> None:
         help="where to write the fitted rule base (default: ./paper_table4.toml)",
     )
     p.add_argument(
-        "--checkpoint", type=Path, default=None, metavar="PATH",
+        "--method",
+        choices=("cmaes", "de"),
+        default="cmaes",
+        help="cmaes: a seeded CMA-ES from --x0 (default); de: scipy's differential evolution",
+    )
+    p.add_argument(
+        "--sigma",
+        type=float,
+        default=0.15,
+        metavar="FRACTION",
+        help="cmaes: the first step, a fraction of each bound's span (default 0.15)",
+    )
+    p.add_argument(
+        "--radius",
+        type=float,
+        default=None,
+        metavar="FRACTION",
+        help="narrow every bound to the --x0 value +- FRACTION x its span (a local search)",
+    )
+    p.add_argument(
+        "--checkpoint",
+        type=Path,
+        default=None,
+        metavar="PATH",
         help="write the best vector so far to this file after every generation (--x0 reads it)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     p.set_defaults(func=cmd_fit_paper)
+
+
+def cmaes(
+    cost,
+    bounds,
+    x0,
+    sigma0: float,
+    maxiter: int,
+    popsize: int,
+    seed: int,
+    pool_map,
+    on_generation=None,
+):
+    """A plain (mu/mu_w, lambda)-CMA-ES (Hansen's tutorial, 2016) on the box ``bounds``,
+    searching in coordinates scaled to [0, 1]; a candidate outside the box is evaluated
+    at its projection plus a quadratic penalty, so the search stays in it. Seeded: the
+    same arguments give the same result. ``pool_map(f, xs)`` evaluates a population
+    (in order), e.g. a multiprocessing pool's map. Returns (best x, best cost, generations,
+    evaluations)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array(bounds, dtype=float).T
+    span = hi - lo
+    n = len(lo)
+    lam = max(popsize, 4)
+    mu = lam // 2
+    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
+    weights /= weights.sum()
+    mueff = 1.0 / np.sum(weights**2)
+    cc = (4 + mueff / n) / (n + 4 + 2 * mueff / n)
+    cs = (mueff + 2) / (n + mueff + 5)
+    c1 = 2 / ((n + 1.3) ** 2 + mueff)
+    cmu = min(1 - c1, 2 * (mueff - 2 + 1 / mueff) / ((n + 2) ** 2 + mueff))
+    damps = 1 + 2 * max(0.0, math.sqrt((mueff - 1) / (n + 1)) - 1) + cs
+    chi_n = math.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n))
+    mean = (np.asarray(x0, float) - lo) / span
+    sigma = sigma0
+    pc, ps = np.zeros(n), np.zeros(n)
+    B, D, C = np.eye(n), np.ones(n), np.eye(n)
+    best_x, best_f, evaluations = np.asarray(x0, float), math.inf, 0
+    for generation in range(1, maxiter + 1):
+        z = rng.standard_normal((lam, n))
+        y = z @ (B * D).T
+        unit = mean + sigma * y
+        inside = np.clip(unit, 0.0, 1.0)
+        xs = lo + inside * span
+        values = np.array(pool_map(cost, list(xs)), dtype=float)
+        values += 1e3 * np.sum((unit - inside) ** 2, axis=1)  # outside the box
+        evaluations += lam
+        order = np.argsort(values, kind="stable")
+        if values[order[0]] < best_f:
+            best_f, best_x = float(values[order[0]]), xs[order[0]].copy()
+        y_w = weights @ y[order[:mu]]
+        mean = mean + sigma * y_w
+        c_inv_sqrt = B @ np.diag(1 / D) @ B.T
+        ps = (1 - cs) * ps + math.sqrt(cs * (2 - cs) * mueff) * (c_inv_sqrt @ y_w)
+        hsig = np.linalg.norm(ps) / math.sqrt(
+            1 - (1 - cs) ** (2 * generation)
+        ) / chi_n < 1.4 + 2 / (n + 1)
+        pc = (1 - cc) * pc + hsig * math.sqrt(cc * (2 - cc) * mueff) * y_w
+        artmp = y[order[:mu]]
+        C = (
+            (1 - c1 - cmu) * C
+            + c1 * (np.outer(pc, pc) + (not hsig) * cc * (2 - cc) * C)
+            + cmu * (artmp.T * weights) @ artmp
+        )
+        sigma *= math.exp((cs / damps) * (np.linalg.norm(ps) / chi_n - 1))
+        C = np.triu(C) + np.triu(C, 1).T
+        eigenvalues, B = np.linalg.eigh(C)
+        D = np.sqrt(np.maximum(eigenvalues, 1e-20))
+        if on_generation is not None:
+            on_generation(generation, best_f, best_x, sigma)
+    return best_x, best_f, maxiter, evaluations

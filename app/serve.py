@@ -79,6 +79,7 @@ def serve(
     controller: str | None = None,
     open_message: bool = True,
     block: bool = True,
+    geometry: str = "husky",
 ):
     """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
     otherwise it returns the running :class:`app.viewer_ui.ViewerServer`."""
@@ -86,7 +87,7 @@ def serve(
 
     rrd = _check_rrd(rrd)
     check_host(host)
-    app = ViewerApp(scenario, controller, rrd_path=rrd)
+    app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)
     server = ViewerServer(app, host=host, port=port)
     if not block:
         _print_url(server, host, open_message)
@@ -125,12 +126,13 @@ def cmd_serve(args) -> int:
         port=args.port,
         rrd=args.rrd,
         controller=getattr(args, "controller", None),
+        geometry=getattr(args, "geometry", "husky"),
     )
     return 0
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cli import integer_in, scenario_help
+    from fuzzynav.app.cli import add_geometry_option, integer_in, scenario_help
     from fuzzynav.controller.registry import controller_names
 
     for name, help_text in (
@@ -170,9 +172,15 @@ def add_commands(subparsers) -> None:
                 choices=controller_names(),
                 help="controller to start with (default: paper)",
             )
+            add_geometry_option(parser)
         else:
             parser.set_defaults(
-                scenario="s1", host="127.0.0.1", port=8080, rrd=None, controller=None
+                scenario="s1",
+                host="127.0.0.1",
+                port=8080,
+                rrd=None,
+                controller=None,
+                geometry="husky",
             )
         parser.set_defaults(func=cmd_serve)
 

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.world.perception import PERCEPTION_MODES, Perception
+from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES, Perception
 from fuzzynav.world.scenario import (
     Disturbance,
     ObstacleSpec,
@@ -184,6 +184,7 @@ class Snapshot:
     scenario_label: str
     controller_label: str
     perception: str
+    geometry: str
     disturbance_on: bool
     noise_std_m: float
     message: str
@@ -235,6 +236,7 @@ class ViewerApp:
         seed: int | None = 0,
         control_period_s: float = 0.02,
         rrd_path=None,
+        geometry: str = "husky",
     ):
         from fuzzynav.controller.registry import controller_names
 
@@ -261,11 +263,16 @@ class ViewerApp:
         self.run_label = ""
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
 
+        if geometry not in GEOMETRIES:
+            raise ViewerError(f"geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}")
+        if geometry == "paper" and perception != "ideal":
+            raise ViewerError("the paper's geometry takes ideal perception only")
+        self.geometry = geometry
         scenario_obj, label = self._resolve_scenario(scenario)
         names = controller_names()
         if controller is None:
             controller = "paper" if "paper" in names else names[0]
-        inner = self._make_named_controller(controller)
+        inner = self._make_named_controller(controller, geometry)
         self.controller_label = controller
         self.noise_std_m = self._check_noise(noise_std_m)
         if perception not in PERCEPTION_MODES:
@@ -278,6 +285,7 @@ class ViewerApp:
             control_period_s=control_period_s,
             seed=seed,
             sensor_config=SensorConfig(noise_std_m=self.noise_std_m),
+            geometry=geometry,
         )
         self.scenario_label = label
         self.base_scenario = scenario_obj
@@ -302,14 +310,14 @@ class ViewerApp:
         return sc, label
 
     @staticmethod
-    def _make_named_controller(name: str):
+    def _make_named_controller(name: str, geometry: str = "husky"):
         from fuzzynav.controller.registry import controller_names, make_controller
 
         if name not in controller_names():
             raise ViewerError(
                 f"controller {name!r} is not available (available: {', '.join(controller_names())})"
             )
-        return make_controller(name)
+        return make_controller(name, geometry=geometry)
 
     @staticmethod
     def _check_noise(std) -> float:
@@ -597,6 +605,9 @@ class ViewerApp:
             self.ghost_id += 1
         # A new run: what was said about the last one (its outcome) no longer holds.
         self.message, self.message_level = "", "info"
+        if self.geometry == "paper" and scenario.paper_heading_rad is not None:
+            # s1-s3 start, in the paper's geometry, at the fitted initial heading.
+            scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
         self.sim.reset(seed=self.seed, scenario=scenario)
         self._apply_disturbance_locked()
         self._layout = [
@@ -735,6 +746,8 @@ class ViewerApp:
         with self.lock:
             arena = self.sim.arena
             clearances = arena.clearances()
+            if self.geometry == "paper":  # the 25 cm are judged centre to centre there
+                clearances = clearances + np.array(arena._scene().radii, dtype=float)
             ids = list(arena.obstacles)
             return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
 
@@ -876,7 +889,7 @@ class ViewerApp:
             inner = self.paper_edit.controller()
         else:
             try:
-                inner = self._make_named_controller(name)
+                inner = self._make_named_controller(name, self.geometry)
             except ViewerError:
                 raise
             except Exception as exc:
@@ -979,11 +992,44 @@ class ViewerApp:
                     "info",
                 )
 
+    def set_geometry(self, geometry: str) -> None:
+        """The Husky's footprint or the paper's point robot (inputs centre to centre);
+        the run restarts, and the paper controller takes that geometry's rule base."""
+        if geometry not in GEOMETRIES:
+            raise ViewerError(f"geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}")
+        with self.lock:
+            if geometry == self.geometry:
+                return
+            sim = self.sim
+            mode = sim.perception.mode
+            note = ""
+            if geometry == "paper" and mode != "ideal":
+                mode, note = "ideal", " (ideal perception: the point robot has no sonars)"
+            self.geometry = geometry
+            self.sim = Simulation(
+                sim.scenario,
+                self.controller,
+                perception=mode,
+                control_period_s=sim.control_period_s,
+                seed=self.seed,
+                sensor_config=sim.sensors.config,
+                geometry=geometry,
+            )
+            if self.controller_label == "paper":
+                self.controller.inner = self._make_named_controller("paper", geometry)
+            self._reset_locked(self._layout_scenario())
+            self._notice(f"Geometry: {geometry}{note}.", "info")
+
     def set_perception(self, mode: str) -> None:
         if mode not in PERCEPTION_MODES:
             raise ViewerError(f"perception = {mode!r}: choose one of {', '.join(PERCEPTION_MODES)}")
+        if self.geometry == "paper" and mode != "ideal":
+            raise ViewerError(
+                "the paper's geometry is a point robot with exact inputs: ideal perception "
+                "only (switch the geometry to husky for the sonars)"
+            )
         with self.lock:
-            self.sim.perception = Perception(mode, self.sim.sensors)
+            self.sim.perception = Perception(mode, self.sim.sensors, geometry=self.geometry)
             self._restart_if_finished_locked()
             self._bump()
 
@@ -1015,7 +1061,7 @@ class ViewerApp:
             )
             sensors = RangeSensorArray(config, seed=self.seed)
             sim.sensors = sensors
-            sim.perception = Perception(sim.perception.mode, sensors)
+            sim.perception = Perception(sim.perception.mode, sensors, geometry=self.geometry)
             self.noise_std_m = std_m
             self._bump()
 
@@ -1064,6 +1110,7 @@ class ViewerApp:
                 scenario_label=self.scenario_label,
                 controller_label=self.controller_label,
                 perception=sim.perception.mode,
+                geometry=self.geometry,
                 disturbance_on=self.disturbance_on,
                 noise_std_m=self.noise_std_m,
                 message=self.message,

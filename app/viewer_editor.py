@@ -1,9 +1,10 @@
 """Edit the paper controller's membership functions while it drives.
 
 The sliders move the numbers of the tuner's parametrisation
-(:class:`fuzzynav.controller.paper.PaperTunable`): ordered anchors built from positive
-widths, so that however a slider is moved, every shape stays valid and the terms stay
-in their order. The editor starts from the shipped rule base's own numbers when its
+(``fuzzynav.controller.paper.tunable()``: the partition layout of
+:mod:`fuzzynav.controller.paper_partition`): ordered centres built from positive widths,
+so that however a slider is moved, every shape stays valid, the terms stay in their
+order, and no input is left uncovered (no rule base with holes can be made here). The editor starts from the shipped rule base's own numbers when its
 file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they rebuild
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
@@ -50,9 +51,9 @@ class PaperEditor:
     """The edited paper system: a parameter vector, and the controller it builds."""
 
     def __init__(self):
-        from fuzzynav.controller.paper import PAPER_RULES, PaperTunable, paper_controller
+        from fuzzynav.controller.paper import PAPER_RULES, paper_controller, tunable
 
-        self.tunable = PaperTunable()
+        self.tunable = tunable()
         self.shipped = paper_controller()
         self.start, self.exact = shipped_vector(self.tunable, self.shipped.fis, PAPER_RULES)
         self.names = self.tunable.parameter_names()

@@ -27,9 +27,10 @@ from fuzzynav.app.viewer import (
     ViewerApp,
     ViewerError,
 )
-from fuzzynav.world.perception import PERCEPTION_MODES
+from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 
 FRAME_HZ = 30.0
+HUSKY_FOOTPRINT_M = (0.99, 0.67)  # drawn; the world's own footprint is the arena's
 PANEL_HZ = 4.0  # the status line and the inference view
 PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
 PLOT_POINTS = 120
@@ -321,35 +322,55 @@ class ViewerServer:
         # ... so light the scene ourselves: soft all round, plus a sun from above.
         scene.add_light_ambient("/lights/ambient", intensity=1.6)
         scene.add_light_directional("/lights/sun", intensity=1.2, position=(2.0, -3.0, 10.0))
-        L, W = self.app.sim.arena.footprint_m
+        L, W = HUSKY_FOOTPRINT_M
         self.robot = scene.add_frame("/robot", show_axes=False)
-        scene.add_box(
-            "/robot/body",
+        # The paper's geometry draws the robot as the point it is (a small disc), the
+        # Husky's as its body; both exist, one is shown (``_show_geometry``).
+        self.point_robot = scene.add_cylinder(
+            "/robot/point",
+            radius=0.06,
+            height=0.04,
             color=HUSKY_YELLOW,
-            dimensions=(L, W * 0.78, 0.26),
-            position=(0.0, 0.0, 0.25),
+            wxyz=(math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0),
+            position=(0.0, 0.0, 0.05),
+            visible=False,
         )
-        scene.add_box(
-            "/robot/deck",
-            color=HUSKY_DARK,
-            dimensions=(0.62 * L, 0.62 * W, 0.03),
-            position=(-0.06 * L, 0.0, 0.39),
+        self._husky_nodes = []
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/body",
+                color=HUSKY_YELLOW,
+                dimensions=(L, W * 0.78, 0.26),
+                position=(0.0, 0.0, 0.25),
+            )
         )
-        scene.add_box(
-            "/robot/bumper",
-            color=HUSKY_DARK,
-            dimensions=(0.06, W * 0.78, 0.12),
-            position=(0.5 * L - 0.03, 0.0, 0.2),
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/deck",
+                color=HUSKY_DARK,
+                dimensions=(0.62 * L, 0.62 * W, 0.03),
+                position=(-0.06 * L, 0.0, 0.39),
+            )
+        )
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/bumper",
+                color=HUSKY_DARK,
+                dimensions=(0.06, W * 0.78, 0.12),
+                position=(0.5 * L - 0.03, 0.0, 0.2),
+            )
         )
         wheel_q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)
         for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
-            scene.add_cylinder(
-                f"/robot/wheel{i}",
-                radius=0.165,
-                height=0.11,
-                color=(25, 25, 25),
-                wxyz=wheel_q,
-                position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165),
+            self._husky_nodes.append(
+                scene.add_cylinder(
+                    f"/robot/wheel{i}",
+                    radius=0.165,
+                    height=0.11,
+                    color=(25, 25, 25),
+                    wxyz=wheel_q,
+                    position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165),
+                )
             )
         # Heading arrow on the deck.
         arrow = np.array(
@@ -361,10 +382,15 @@ class ViewerServer:
             dtype=np.float32,
         )
         scene.add_line_segments("/robot/heading", arrow, (255, 255, 255), thickness=0.05)
-        ring = rounded_rectangle(L, W, SAFE_DISTANCE_M)
+        self._ring_points = {
+            "husky": polyline_segments(rounded_rectangle(L, W, SAFE_DISTANCE_M), 0.03),
+            # the paper's 25 cm, centre to centre: an obstacle's centre must stay outside
+            "paper": polyline_segments(rounded_rectangle(0.0, 0.0, SAFE_DISTANCE_M), 0.03),
+        }
         self.ring = scene.add_line_segments(
-            "/robot/safe_ring", polyline_segments(ring, 0.03), RING_OK, thickness=0.035
+            "/robot/safe_ring", self._ring_points["husky"], RING_OK, thickness=0.035
         )
+        self._shown_geometry = "husky"
         # Beams that echo: thick, coloured by the reading; beams that do not: thin grey.
         self.beams = scene.add_line_segments(
             "/robot/beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.07
@@ -372,6 +398,7 @@ class ViewerServer:
         self.free_beams = scene.add_line_segments(
             "/robot/free_beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.025
         )
+        self._show_geometry(self.app.geometry)
         # Target: a bullseye with a handle that slides on the ground.
         tx, ty = self.app.sim.arena.target
         self.target = scene.add_transform_controls(
@@ -573,6 +600,16 @@ class ViewerServer:
             )
             self.perception_dd.on_update(
                 self._guarded(lambda e: app.set_perception(self.perception_dd.value))
+            )
+            self.geometry_dd = gui.add_dropdown(
+                "Geometry",
+                GEOMETRIES,
+                initial_value=app.geometry,
+                hint="husky: the real 0.99 x 0.67 m footprint; paper: the paper's point robot, "
+                "inputs and distances centre to centre (ideal perception)",
+            )
+            self.geometry_dd.on_update(
+                self._guarded(lambda e: app.set_geometry(self.geometry_dd.value))
             )
             self.disturbance_cb = gui.add_checkbox(
                 "Disturbance",
@@ -943,7 +980,21 @@ class ViewerServer:
                 continue
             self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
 
+    def _show_geometry(self, geometry: str) -> None:
+        """The Husky's body for its footprint; a small disc for the paper's point robot."""
+        if geometry == self._shown_geometry:
+            return
+        self._shown_geometry = geometry
+        for node in self._husky_nodes:
+            node.visible = geometry == "husky"
+        self.point_robot.visible = geometry == "paper"
+        # The point robot senses exactly, not with the sonars: no beams are drawn.
+        self.beams.visible = self.free_beams.visible = geometry == "husky"
+        self.ring.points = self._ring_points[geometry]
+        self._ring_alert = None  # recolour the new ring
+
     def _draw_scene(self, snap: Snapshot) -> None:
+        self._show_geometry(snap.geometry)
         if snap.run_id != self._drawn_run:
             self._drawn_run = snap.run_id
             for node in self._trail_nodes + [self._current_trail]:
@@ -1193,6 +1244,8 @@ class ViewerServer:
             self.controller_dd.value = snap.controller_label
         if self.perception_dd.value != snap.perception:
             self.perception_dd.value = snap.perception
+        if self.geometry_dd.value != snap.geometry:
+            self.geometry_dd.value = snap.geometry
         if self.disturbance_cb.value != snap.disturbance_on:
             self.disturbance_cb.value = snap.disturbance_on
         if abs(self.noise.value - snap.noise_std_m) > 1e-9:

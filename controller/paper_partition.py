@@ -43,7 +43,7 @@ TEMPLATE = asset_path("rules", "paper_first_design.toml")
 # name, lower, upper, starting value (a hand layout: speeds of a few volts, turns at
 # +-0.3 rad, obstacles felt from 1.5 m).
 PARTITION_PARAMETERS: list[tuple[str, float, float, float]] = [
-    ("d_t.c0", 0.0, 1.5, 0.3),
+    ("d_t.c0", -1.13, 1.5, 0.3),  # the paper's d_t range starts at -1.13 m
     ("d_t.w1", 0.2, 4.0, 1.0),
     ("d_t.w2", 0.3, 6.0, 2.0),
     ("d_t.w3", 0.3, 8.0, 3.0),

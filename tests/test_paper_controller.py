@@ -9,7 +9,8 @@ import pytest
 
 from fuzzynav.app.runs import run_scenario
 from fuzzynav.controller.fuzzy import FuzzySystem
-from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, PaperTunable, paper_controller
+from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, paper_controller
+from fuzzynav.controller.paper_partition import PaperPartitionTunable
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.controller.tuning import Tunable, tunable
 
@@ -105,7 +106,7 @@ def test_sign_convention_obstacle_left_turns_right():
 
 def test_tunable_protocol_and_construction():
     t = tunable("paper")
-    assert isinstance(t, Tunable) and isinstance(t, PaperTunable)
+    assert isinstance(t, Tunable) and isinstance(t, PaperPartitionTunable)
     names, bounds, x0 = t.parameter_names(), t.bounds(), t.initial_vector()
     assert len(names) == len(bounds) == len(x0) == len(set(names))
     lo, hi = np.array(bounds).T

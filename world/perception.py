@@ -128,10 +128,14 @@ class Perception:
         self.sensors = sensors
         self.cutoff_m = cutoff_m
         self._mount_angles = [float(m.angle_rad) for m in sensors.config.mounts]
+        self._no_ranges = np.full(len(self._mount_angles), math.inf)
+        self._no_ranges.flags.writeable = False
+        self._no_ranges_list = self._no_ranges.tolist()
 
     def inputs(self, arena: Arena, time_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(inputs (4,), sensor ranges (3,)); the sensors are read in both modes so that
-        their readings are always logged."""
+        their readings are always logged (in the paper's geometry the point robot has
+        none: the ranges are inf)."""
         d_t, d_o, phi_t, phi_o, ranges, _ = self._sense(arena, time_s)
         return np.array((d_t, d_o, phi_t, phi_o)), ranges
 
@@ -144,10 +148,14 @@ class Perception:
         ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
         """
         sensors = self.sensors
-        ranges = sensors.read(arena, time_s)
-        ranges_list = getattr(sensors, "_ranges_list", None)
-        if ranges_list is None or len(ranges_list) != len(ranges):
-            ranges_list = np.asarray(ranges, dtype=float).tolist()
+        if self._centre_to_centre:  # the paper's point robot senses exactly, no sonars
+            ranges = self._no_ranges
+            ranges_list = self._no_ranges_list
+        else:
+            ranges = sensors.read(arena, time_s)
+            ranges_list = getattr(sensors, "_ranges_list", None)
+            if ranges_list is None or len(ranges_list) != len(ranges):
+                ranges_list = np.asarray(ranges, dtype=float).tolist()
         x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target
