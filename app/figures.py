@@ -573,7 +573,7 @@ def write_membership_figures(
     for kind, var in variables:
         lo, hi = var.range
         x = np.linspace(lo, hi, points)
-        fig, ax = _new_figure(6.4, 3.0)
+        fig, ax = _new_figure(7.6, 3.2 if title_suffix else 3.0)
         a = ax[0, 0]
         for _k, term in enumerate(var.terms):
             y = np.asarray(term(x), dtype=float)
@@ -688,7 +688,8 @@ def comparison_figure(
     column_titles = column_titles or {}
     footprint_m = footprint_m or _default_footprint()
     rows, cols = len(scenarios), len(controllers)
-    fig, axes = _new_figure(3.6 * cols + 0.4, 3.5 * rows + 0.3, rows, cols)
+    # wide enough for its title even with one column
+    fig, axes = _new_figure(max(3.6 * cols + 0.4, 6.4), 3.5 * rows + 0.3, rows, cols)
     letters = "abcdefghijklmnopqrstuvwxyz"
     for i, scenario in enumerate(scenarios):
         row_results = [grid[scenario].get(c) for c in controllers]
@@ -892,7 +893,7 @@ def write_paper_figures(
             out_dir,
             formats=formats,
             stem=lambda var, name=name: membership_figure_stem(var, name),
-            title_suffix=f" — {name}, {geometry} geometry",
+            title_suffix=f"\n{name} controller, {geometry} geometry",
         )
         for var in tuple(fis.inputs) + tuple(fis.outputs):
             stem = membership_figure_stem(var.name, name)
@@ -925,7 +926,7 @@ def write_paper_figures(
             controllers=columns,
             column_titles=FIG27_TITLES,
             title=(
-                f"Fig. {figure}: trajectories while reaching the target, {geometry} geometry\n{who}"
+                f"Fig. {figure}, {geometry} geometry: trajectories while reaching the target\n{who}"
             ),
         )
         entries.append(
