@@ -317,6 +317,15 @@ def _bearings(log) -> np.ndarray:
     return np.mod(np.arctan2(dy, dx) - log.pose[:, 2:3] + math.pi, 2 * math.pi) - math.pi
 
 
+def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
+    """A copy with NaN where an angle wraps between +pi and -pi, so that no vertical
+    line is drawn across the axes there."""
+    out = np.array(angles, dtype=float, copy=True)
+    jumps = np.abs(np.diff(out, axis=0)) > math.pi
+    out[1:][jumps] = np.nan
+    return out
+
+
 def _wrap(angle):
     return np.mod(angle + math.pi, 2 * math.pi) - math.pi
 
@@ -406,7 +415,7 @@ def run_figure(
         fig, ax = _new_figure(7.6, 3.6)
         a = ax[0, 0]
         if len(log.obstacle_ids) and len(log):
-            bearings = _bearings(log)
+            bearings = _break_at_wraps(_bearings(log))
             for col in range(len(log.obstacle_ids)):
                 a.plot(
                     t,
