@@ -32,6 +32,7 @@ import math
 import os
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -47,6 +48,9 @@ TARGET = "#2ca02c"
 OBSTACLE = "#d62728"
 SAFE = "#555555"
 MOVING = "#9467bd"
+WHEEL_LEFT = "#1f77b4"
+WHEEL_RIGHT = "#d62728"
+DISTURBANCE = "#f2a900"
 OBSTACLE_COLORS = [
     "#d62728",
     "#ff7f0e",
@@ -169,6 +173,10 @@ def draw_trajectory(
         zorder=1,
     )
     moving = set(_moving_columns(log)) if len(log) else set()
+    paper_geometry = getattr(result, "geometry", "husky") == "paper"
+    safe_label = f"{SAFE_DISTANCE_M} m safe distance" + (
+        ", centre to centre" if paper_geometry else ""
+    )
     for col in range(len(log.obstacle_ids)):
         radius = float(log.obstacle_radii_m[col])
         pts = log.obstacle_xy[:, col]
@@ -194,13 +202,15 @@ def draw_trajectory(
         ax.add_patch(
             Circle(
                 last,
-                radius + SAFE_DISTANCE_M,
+                # the paper's point robot is judged centre to centre, the Husky's footprint
+                # from the obstacle's surface
+                SAFE_DISTANCE_M if paper_geometry else radius + SAFE_DISTANCE_M,
                 facecolor="none",
                 edgecolor=SAFE,
                 lw=0.9,
                 ls="--",
                 zorder=3,
-                label=f"{SAFE_DISTANCE_M} m safe distance" if col == 0 else None,
+                label=(safe_label if col == 0 else None),
             )
         )
         ax.annotate(
@@ -217,6 +227,20 @@ def draw_trajectory(
             outline = _footprint(log.pose[k], *footprint_m)
             ax.plot(outline[:, 0], outline[:, 1], color=ROBOT, lw=0.5, alpha=0.35, zorder=4)
     ax.plot(xy[:, 0], xy[:, 1], color=ROBOT, lw=1.8, label="robot (centre)", zorder=5)
+    window = disturbance_window_s(scenario)
+    if window is not None and len(log):
+        during = (log.time_s >= window[0]) & (log.time_s <= window[1])
+        if during.any():
+            ax.plot(
+                xy[during, 0],
+                xy[during, 1],
+                color=DISTURBANCE,
+                lw=4.0,
+                alpha=0.6,
+                solid_capstyle="butt",
+                label=f"during the disturbance ({window[0]:g}–{window[1]:g} s)",
+                zorder=4.5,
+            )
     ax.plot(*start, marker="o", color="k", ms=5, ls="none", label="start", zorder=6)
     ax.add_patch(Circle(target, scenario.tolerance_m, facecolor=TARGET, alpha=0.3, zorder=5))
     ax.plot(*target, marker="*", color=TARGET, ms=12, ls="none", label="target", zorder=6)
@@ -242,14 +266,49 @@ def draw_trajectory(
 
 
 def _run_title(result, controller_label: str | None) -> str:
-    who = f" — {controller_label}" if controller_label else ""
-    return f"{result.scenario.name}{who} ({result.outcome})"
+    """Two lines: the scenario; then the controller, the geometry and the outcome."""
+    who = f"{controller_label} controller, " if controller_label else ""
+    return f"{result.scenario.name}\n{who}{_geometry_label(result)} ({result.outcome})"
 
 
-def _time_axes(ax, ylabel: str) -> None:
-    ax.set_xlabel("time (s)")
+def _geometry_label(result) -> str:
+    return f"{getattr(result, 'geometry', 'husky')} geometry"
+
+
+def disturbance_window_s(scenario) -> tuple[float, float] | None:
+    """(start, stop) seconds of the scenario's input disturbance, or None."""
+    d = getattr(scenario, "disturbance", None)
+    return None if d is None else (float(d.start_s), float(d.stop_s))
+
+
+def _shade_disturbance(ax, scenario) -> None:
+    """Shade the disturbance window on a time axis (a patch with gid ``disturbance``)."""
+    window = disturbance_window_s(scenario)
+    if window is None:
+        return
+    ax.axvspan(
+        *window,
+        facecolor=DISTURBANCE,
+        alpha=0.22,
+        lw=0,
+        zorder=0,
+        gid="disturbance",
+        label=f"disturbance ({window[0]:g}–{window[1]:g} s)",
+    )
+
+
+def _time_axes(ax, ylabel: str, scenario=None, *, xlabel: bool = True) -> None:
+    if xlabel:
+        ax.set_xlabel("time (s)")
     ax.set_ylabel(ylabel)
     ax.grid(True, lw=0.3, alpha=0.6)
+    if scenario is not None:
+        _shade_disturbance(ax, scenario)
+
+
+def _legend_outside(ax) -> None:
+    # Beside the axes, never over the curves.
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
 def _bearings(log) -> np.ndarray:
@@ -258,15 +317,176 @@ def _bearings(log) -> np.ndarray:
     return np.mod(np.arctan2(dy, dx) - log.pose[:, 2:3] + math.pi, 2 * math.pi) - math.pi
 
 
+def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
+    """A copy with NaN where an angle wraps between +pi and -pi, so that no vertical
+    line is drawn across the axes there."""
+    out = np.array(angles, dtype=float, copy=True)
+    jumps = np.abs(np.diff(out, axis=0)) > math.pi
+    out[1:][jumps] = np.nan
+    return out
+
+
+def _wrap(angle):
+    return np.mod(angle + math.pi, 2 * math.pi) - math.pi
+
+
+def run_figure(
+    kind: str,
+    result,
+    *,
+    controller_label: str | None = None,
+    footprint_m=None,
+    voltage_limit_v: float = 12.0,
+):
+    """One of the paper's run figures (``kind`` in :data:`RUN_FIGURES`) as a matplotlib
+    ``Figure``, not saved. Titles name the scenario, controller and geometry; every time
+    axis of a scenario with a disturbance has the window shaded (gid ``disturbance``)."""
+    if kind not in RUN_FIGURES:
+        raise ValueError(f"figure kind {kind!r}: not one of {', '.join(RUN_FIGURES)}")
+    log = result.log
+    scenario = result.scenario
+    t = log.time_s
+    title = _run_title(result, controller_label)
+    paper_geometry = getattr(result, "geometry", "husky") == "paper"
+
+    if kind == "trajectory":
+        fig, ax = _new_figure(6.4, 6.0)
+        draw_trajectory(
+            ax[0, 0],
+            result,
+            footprint_m=footprint_m or _default_footprint(),
+            footprints=not paper_geometry,
+            title=f"Trajectory — {title}",
+        )
+        return fig
+
+    if kind == "distances":
+        fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
+        top, bottom = ax[0, 0], ax[1, 0]
+        d_t = np.hypot(log.target_xy[:, 0] - log.pose[:, 0], log.target_xy[:, 1] - log.pose[:, 1])
+        top.plot(t, d_t, color=TARGET, lw=1.6, label="to the target")
+        for col in range(len(log.obstacle_ids)):
+            color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
+            name = _obstacle_label(log, col)
+            top.plot(t, log.center_distance_m[:, col], color=color, lw=1.2, label=f"to {name}")
+            bottom.plot(t, log.clearance_m[:, col], color=color, lw=1.2, label=name)
+        safe_label = f"{SAFE_DISTANCE_M} m safe distance"
+        if paper_geometry:  # the paper's point robot: safety is judged centre to centre
+            top.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
+        else:
+            bottom.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
+        bottom.axhline(0.0, color="k", lw=0.6)
+        _time_axes(top, "distance, centre to centre (m)", scenario, xlabel=False)
+        _time_axes(
+            bottom,
+            "centre to obstacle surface (m)" if paper_geometry else "footprint clearance (m)",
+            scenario,
+        )
+        top.set_title(f"Distances — {title}", fontsize=9)
+        for a in (top, bottom):
+            _legend_outside(a)
+        return fig
+
+    if kind == "angles":
+        fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
+        top, bottom = ax[0, 0], ax[1, 0]
+        phi_t = _wrap(
+            np.arctan2(log.target_xy[:, 1] - log.pose[:, 1], log.target_xy[:, 0] - log.pose[:, 0])
+            - log.pose[:, 2]
+        )
+        if disturbance_window_s(scenario) is not None and len(log):
+            top.plot(
+                t,
+                log.inputs[:, 2],
+                color="0.55",
+                lw=0.7,
+                label="phi_t as the controller received it",
+            )
+        top.plot(t, phi_t, color=ROBOT, lw=1.4, label="phi_t")
+        bottom.plot(t, log.pose[:, 2], color="#d62728", lw=1.4, label="heading")
+        _time_axes(top, "target angle phi_t (rad)", scenario, xlabel=False)
+        _time_axes(bottom, "heading (rad)", scenario)
+        top.set_title(f"Target angle and heading — {title}", fontsize=9)
+        for a in (top, bottom):
+            _legend_outside(a)
+        return fig
+
+    if kind == "obstacle_angles":
+        fig, ax = _new_figure(7.6, 3.6)
+        a = ax[0, 0]
+        if len(log.obstacle_ids) and len(log):
+            bearings = _break_at_wraps(_bearings(log))
+            for col in range(len(log.obstacle_ids)):
+                a.plot(
+                    t,
+                    bearings[:, col],
+                    color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
+                    lw=1.2,
+                    label=_obstacle_label(log, col),
+                )
+        else:
+            a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
+        a.axhline(0.0, color="k", lw=0.6)
+        _time_axes(a, "obstacle angle (rad)", scenario)
+        a.set_title(f"Obstacle angles — {title}", fontsize=9)
+        if a.get_legend_handles_labels()[0]:
+            _legend_outside(a)
+        return fig
+
+    # voltages: one panel per wheel (neither hides the other) and their difference
+    fig, ax = _new_figure(7.6, 6.4, 3, 1, sharex=True, height_ratios=(1.0, 1.0, 0.75))
+    limit = float(voltage_limit_v)
+    for row, (name, color) in enumerate(
+        (("left (v_s1)", WHEEL_LEFT), ("right (v_s2)", WHEEL_RIGHT))
+    ):
+        a = ax[row, 0]
+        a.plot(
+            t,
+            log.controller_output_v[:, row],
+            color=color,
+            lw=0.7,
+            alpha=0.4,
+            label="before saturation",
+        )
+        a.plot(t, log.voltages_v[:, row], color=color, lw=1.4, label=f"{name}, applied")
+        for sign in (1, -1):
+            a.axhline(
+                sign * limit,
+                color="0.3",
+                ls="--",
+                lw=0.9,
+                label=f"±{limit:g} V limit" if sign > 0 else None,
+            )
+        _time_axes(a, f"{name.split()[0]} wheel (V)", scenario, xlabel=False)
+        _legend_outside(a)
+    ax[1, 0].sharey(ax[0, 0])
+    diff = ax[2, 0]
+    diff.plot(
+        t,
+        log.voltages_v[:, 0] - log.voltages_v[:, 1],
+        color="0.2",
+        lw=1.1,
+        label="left − right (applied)",
+    )
+    diff.axhline(0.0, color="k", lw=0.6)
+    _time_axes(diff, "left − right (V)", scenario)
+    _legend_outside(diff)
+    ax[0, 0].set_title(f"Wheel voltages — {title}", fontsize=9)
+    return fig
+
+
 def write_run_figures(
     result,
     out_dir,
     controller=None,
     *,
     prefix: str = "",
+    names=None,
     formats=FORMATS,
     footprint_m=None,
     voltage_limit_v: float = 12.0,
+    membership: bool = True,
+    controller_label: str | None = None,
 ) -> list[Path]:
     """Write the paper's figure set for one run (see the module docstring).
 
@@ -276,128 +496,31 @@ def write_run_figures(
     out_dir : directory, created if needed
     controller : optional; with a ``fis`` the membership figures are written too
     prefix : put before every file name (e.g. ``"s1_paper_"``)
+    names : optional mapping of figure kind to file stem (without extension), instead
+        of ``prefix + kind`` (the report names files by the paper's figure number)
     formats : file types (default PNG and SVG)
     footprint_m : (length, width) of the outlines drawn on the trajectory; default the
-        real Husky's (0.99 m x 0.67 m)
+        real Husky's (0.99 m x 0.67 m); none are drawn in the paper's geometry
     voltage_limit_v : the saturation drawn on the voltage figure
+    membership : also write the controller's membership figures (when it is fuzzy)
+    controller_label : the controller's name in titles (default: the controller's)
 
     Returns the files written, in order.
     """
     out_dir = check_writable_dir(out_dir, option="out_dir")
-    log = result.log
-    t = log.time_s
-    label = _controller_label(controller)
-    title = _run_title(result, label)
-    footprint_m = footprint_m or _default_footprint()
+    label = controller_label or _controller_label(controller)
     written: list[Path] = []
-
-    # Fig. 12: trajectory
-    fig, ax = _new_figure(6.4, 6.0)
-    draw_trajectory(ax[0, 0], result, footprint_m=footprint_m, title=f"Trajectory — {title}")
-    written += _save(fig, out_dir, f"{prefix}trajectory", formats)
-
-    # Fig. 13: distances
-    fig, ax = _new_figure(7.0, 5.6, 2, 1, sharex=True)
-    d_t = np.hypot(log.target_xy[:, 0] - log.pose[:, 0], log.target_xy[:, 1] - log.pose[:, 1])
-    ax[0, 0].plot(t, d_t, color=TARGET, lw=1.6, label="to the target")
-    for col in range(len(log.obstacle_ids)):
-        color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
-        ax[0, 0].plot(
-            t,
-            log.center_distance_m[:, col],
-            color=color,
-            lw=1.2,
-            label=f"to {_obstacle_label(log, col)}",
+    for kind in RUN_FIGURES:
+        fig = run_figure(
+            kind,
+            result,
+            controller_label=label,
+            footprint_m=footprint_m,
+            voltage_limit_v=voltage_limit_v,
         )
-        ax[1, 0].plot(
-            t, log.clearance_m[:, col], color=color, lw=1.2, label=_obstacle_label(log, col)
-        )
-    ax[1, 0].axhline(
-        SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=f"{SAFE_DISTANCE_M} m safe distance"
-    )
-    ax[1, 0].axhline(0.0, color="k", lw=0.6)
-    _time_axes(ax[0, 0], "distance, centre to centre (m)")
-    _time_axes(ax[1, 0], "footprint clearance (m)")
-    ax[0, 0].set_title(f"Distances — {title}", fontsize=9)
-    for a in ax[:, 0]:
-        a.legend(fontsize=7, loc="best")
-    written += _save(fig, out_dir, f"{prefix}distances", formats)
-
-    # Fig. 14: target angle and heading
-    fig, ax = _new_figure(7.0, 5.6, 2, 1, sharex=True)
-    phi_t = (
-        np.mod(
-            np.arctan2(log.target_xy[:, 1] - log.pose[:, 1], log.target_xy[:, 0] - log.pose[:, 0])
-            - log.pose[:, 2]
-            + math.pi,
-            2 * math.pi,
-        )
-        - math.pi
-    )
-    ax[0, 0].plot(t, phi_t, color="#1f77b4", lw=1.4)
-    ax[1, 0].plot(t, log.pose[:, 2], color="#d62728", lw=1.4)
-    _time_axes(ax[0, 0], "target angle phi_t (rad)")
-    _time_axes(ax[1, 0], "heading (rad)")
-    ax[0, 0].set_title(f"Target angle and heading — {title}", fontsize=9)
-    written += _save(fig, out_dir, f"{prefix}angles", formats)
-
-    # Fig. 15: obstacle angles
-    fig, ax = _new_figure(7.0, 3.6)
-    a = ax[0, 0]
-    if len(log.obstacle_ids) and len(log):
-        bearings = _bearings(log)
-        for col in range(len(log.obstacle_ids)):
-            a.plot(
-                t,
-                bearings[:, col],
-                color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
-                lw=1.2,
-                label=_obstacle_label(log, col),
-            )
-        a.legend(fontsize=7, loc="best")
-    else:
-        a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
-    a.axhline(0.0, color="k", lw=0.6)
-    _time_axes(a, "obstacle angle (rad)")
-    a.set_title(f"Obstacle angles — {title}", fontsize=9)
-    written += _save(fig, out_dir, f"{prefix}obstacle_angles", formats)
-
-    # Fig. 16: voltages
-    fig, ax = _new_figure(7.0, 3.6)
-    a = ax[0, 0]
-    limit = float(voltage_limit_v)
-    a.plot(
-        t,
-        log.controller_output_v[:, 0],
-        color="#1f77b4",
-        lw=0.8,
-        alpha=0.35,
-        label="left, before saturation",
-    )
-    a.plot(
-        t,
-        log.controller_output_v[:, 1],
-        color="#d62728",
-        lw=0.8,
-        alpha=0.35,
-        label="right, before saturation",
-    )
-    a.plot(t, log.voltages_v[:, 0], color="#1f77b4", lw=1.4, label="left (v_s1)")
-    a.plot(t, log.voltages_v[:, 1], color="#d62728", lw=1.4, label="right (v_s2)")
-    for sign in (1, -1):
-        a.axhline(
-            sign * limit,
-            color="0.3",
-            ls="--",
-            lw=0.9,
-            label=f"±{limit:g} V limit" if sign > 0 else None,
-        )
-    _time_axes(a, "voltage (V)")
-    a.set_title(f"Wheel voltages — {title}", fontsize=9)
-    a.legend(fontsize=7, loc="best", ncols=2)
-    written += _save(fig, out_dir, f"{prefix}voltages", formats)
-
-    fis = _fis(controller)
+        stem = names[kind] if names is not None else f"{prefix}{kind}"
+        written += _save(fig, out_dir, stem, formats)
+    fis = _fis(controller) if membership else None
     if fis is not None:
         written += write_membership_figures(fis, out_dir, prefix=prefix, formats=formats)
     return written
@@ -441,17 +564,25 @@ def membership_figure_names(fis) -> list[str]:
 
 
 def write_membership_figures(
-    fis, out_dir, *, prefix: str = "", formats=FORMATS, points: int = 1001
+    fis,
+    out_dir,
+    *,
+    prefix: str = "",
+    formats=FORMATS,
+    points: int = 1001,
+    stem=None,
+    title_suffix: str = "",
 ) -> list[Path]:
     """One figure per input and output variable of a ``FuzzySystem``: every term's
-    membership over the variable's range, named ``membership_<variable>``."""
+    membership over the variable's range, named ``membership_<variable>`` (or
+    ``stem(variable)`` when given), ``title_suffix`` added to each title."""
     out_dir = check_writable_dir(out_dir, option="out_dir")
     written = []
     variables = [("input", v) for v in fis.inputs] + [("output", v) for v in fis.outputs]
     for kind, var in variables:
         lo, hi = var.range
         x = np.linspace(lo, hi, points)
-        fig, ax = _new_figure(6.4, 3.0)
+        fig, ax = _new_figure(7.6, 3.2 if title_suffix else 3.0)
         a = ax[0, 0]
         for _k, term in enumerate(var.terms):
             y = np.asarray(term(x), dtype=float)
@@ -473,9 +604,10 @@ def write_membership_figures(
         a.set_ylabel("membership")
         a.grid(True, lw=0.3, alpha=0.6)
         desc = getattr(var, "description", "")
-        a.set_title(f"{kind} {var.name}" + (f": {desc}" if desc else ""), fontsize=9)
+        a.set_title(f"{kind} {var.name}" + (f": {desc}" if desc else "") + title_suffix, fontsize=9)
         a.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
-        written += _save(fig, out_dir, f"{prefix}membership_{var.name}", formats)
+        name = stem(var.name) if stem is not None else f"{prefix}membership_{var.name}"
+        written += _save(fig, out_dir, name, formats)
     return written
 
 
@@ -537,36 +669,36 @@ def _orient(results: dict) -> dict:
     return results
 
 
-def write_comparison_figure(
+def comparison_figure(
     results_by_controller_by_scenario: dict,
-    out_dir,
     *,
-    name: str = "comparison",
-    formats=FORMATS,
+    controllers=None,
+    column_titles: dict | None = None,
+    title: str | None = None,
     footprint_m=None,
-) -> list[Path]:
-    """The paper's Fig. 27: one row per scenario, one column per controller, each panel
-    the trajectory of that controller in that scenario (same axes along a row).
-
-    ``results_by_controller_by_scenario`` maps a scenario label to a mapping of
-    controller label to ``SimulationResult``, e.g. ``{"s1": {"baseline": r1, "paper":
-    r2}, "s2": {...}}``; any number of either. (Given as ``{controller: {scenario:
-    result}}`` it is recognised and transposed.) A missing pair is drawn as an empty
-    panel. Returns the files written.
-    """
-    out_dir = check_writable_dir(out_dir, option="out_dir")
+):
+    """The comparison grid as a matplotlib ``Figure`` (not saved): one row per scenario,
+    one column per controller (``controllers`` fixes which and in what order; default
+    every controller present, in order of appearance), each panel the trajectory of that
+    controller in that scenario, same axes along a row, panels lettered (a), (b), ...
+    row by row as the paper's Fig. 27. ``column_titles`` maps a controller to the name
+    its panels carry (default the controller's label)."""
     grid = _orient(results_by_controller_by_scenario)
     scenarios = list(grid)
-    controllers: list = []
-    for inner in grid.values():
-        for c in inner:
-            if c not in controllers:
-                controllers.append(c)
+    if controllers is None:
+        controllers = []
+        for inner in grid.values():
+            for c in inner:
+                if c not in controllers:
+                    controllers.append(c)
+    controllers = list(controllers)
     if not scenarios or not controllers:
-        raise ValueError("write_comparison_figure: no results to draw")
+        raise ValueError("comparison figure: no results to draw")
+    column_titles = column_titles or {}
     footprint_m = footprint_m or _default_footprint()
     rows, cols = len(scenarios), len(controllers)
-    fig, axes = _new_figure(3.6 * cols + 0.4, 3.5 * rows + 0.3, rows, cols)
+    # wide enough for its title even with one column
+    fig, axes = _new_figure(max(3.6 * cols + 0.4, 6.4), 3.5 * rows + 0.3, rows, cols)
     letters = "abcdefghijklmnopqrstuvwxyz"
     for i, scenario in enumerate(scenarios):
         row_results = [grid[scenario].get(c) for c in controllers]
@@ -574,9 +706,10 @@ def write_comparison_figure(
             ax = axes[i, j]
             index = i * cols + j
             tag = f"({letters[index]})" if index < len(letters) else f"({index + 1})"
+            shown = column_titles.get(controller, controller)
             if result is None:
                 ax.set_axis_off()
-                ax.set_title(f"{tag} {controller}, {scenario}: not run", fontsize=8)
+                ax.set_title(f"{tag} {shown}, {scenario}: not run", fontsize=8)
                 continue
             m = result.metrics or {}
             length = m.get("path_length_m")
@@ -587,10 +720,44 @@ def write_comparison_figure(
                 footprint_m=footprint_m,
                 footprints=False,
                 legend=(i == 0 and j == 0),
-                title=f"{tag} {controller}, {scenario}: {result.outcome}{extra}",
+                title=f"{tag} {shown}, {scenario}: {result.outcome}{extra}",
             )
+            # which run a panel shows, for a reader of the Figure object (and the tests)
+            ax.set_gid(f"{scenario}/{controller}")
         _share_limits([axes[i, j] for j in range(cols) if row_results[j] is not None])
-    fig.suptitle("Trajectories while reaching the target (paper Fig. 27)", fontsize=10)
+    fig.suptitle(title or "Trajectories while reaching the target (paper Fig. 27)", fontsize=10)
+    return fig
+
+
+def write_comparison_figure(
+    results_by_controller_by_scenario: dict,
+    out_dir,
+    *,
+    name: str = "comparison",
+    formats=FORMATS,
+    footprint_m=None,
+    controllers=None,
+    column_titles: dict | None = None,
+    title: str | None = None,
+) -> list[Path]:
+    """The paper's Fig. 27: one row per scenario, one column per controller, each panel
+    the trajectory of that controller in that scenario (same axes along a row).
+
+    ``results_by_controller_by_scenario`` maps a scenario label to a mapping of
+    controller label to ``SimulationResult``, e.g. ``{"s1": {"baseline": r1, "paper":
+    r2}, "s2": {...}}``; any number of either. (Given as ``{controller: {scenario:
+    result}}`` it is recognised and transposed.) A missing pair is drawn as an empty
+    panel. ``controllers``, ``column_titles`` and ``title`` as
+    :func:`comparison_figure`. Returns the files written.
+    """
+    out_dir = check_writable_dir(out_dir, option="out_dir")
+    fig = comparison_figure(
+        results_by_controller_by_scenario,
+        controllers=controllers,
+        column_titles=column_titles,
+        title=title,
+        footprint_m=footprint_m,
+    )
     return _save(fig, out_dir, name, formats)
 
 
@@ -606,6 +773,215 @@ def _share_limits(axes) -> None:
     for ax in axes:
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
+
+
+# ---------------------------------------------------------------------------------------
+# The paper's figure set, files named by the paper's figure numbers (``fuzzynav report``)
+
+# Figs. 12-16 are s1's run figures in RUN_FIGURES order; s2 repeats them as 17-21, s3 as 22-26.
+FIRST_RUN_FIGURE = {"s1": 12, "s2": 17, "s3": 22}
+COMPARISON_FIGURE = 27
+# Figs. 6-11: the membership functions of the paper's controller.
+MEMBERSHIP_FIGURE = {"d_t": 6, "phi_t": 7, "d_o": 8, "phi_o": 9, "left": 10, "right": 11}
+# Fig. 27's columns in the paper's order: (a) method of [19] s1, (b) proposed s1, (c) ...
+FIG27_COLUMNS = ("baseline", "paper")
+FIG27_TITLES = {"baseline": "ref. [19] stand-in (baseline)", "paper": "proposed (paper)"}
+FIGURE_WHAT = {
+    "trajectory": "trajectory of the robot's centre, obstacles and their safe distance",
+    "distances": "distance to the target and to each obstacle over time",
+    "angles": "target angle phi_t and heading over time",
+    "obstacle_angles": "angle of each obstacle from the heading over time",
+    "voltages": "wheel voltages, left (v_s1) and right (v_s2), and their difference",
+    "membership": "membership functions of",
+    "comparison": "trajectories in s1-s3, side by side",
+}
+
+
+def paper_figure_number(scenario: str, kind: str) -> int | None:
+    """The paper's figure number of a run figure (Fig. 12 = s1's trajectory, ..., Fig. 26
+    = s3's voltages), or None for a scenario the paper has no figures of."""
+    first = FIRST_RUN_FIGURE.get(scenario)
+    if first is None or kind not in RUN_FIGURES:
+        return None
+    return first + RUN_FIGURES.index(kind)
+
+
+def paper_figure_stem(scenario: str, kind: str, controller: str) -> str:
+    """The file name (no extension) of a run figure in the report: ``fig12_s1_trajectory_
+    paper`` = Fig. 12, scenario s1, the trajectory, controller ``paper``; the geometry is
+    the folder's name. Scenarios outside s1-s3 go without a number."""
+    number = paper_figure_number(scenario, kind)
+    head = f"fig{number:02d}_" if number is not None else ""
+    return f"{head}{scenario}_{kind}_{controller}"
+
+
+def membership_figure_stem(variable: str, controller: str) -> str:
+    """``fig06_membership_d_t_paper`` for the paper controller's Figs. 6-11, else
+    ``membership_<variable>_<controller>`` (the paper has no such figure)."""
+    number = MEMBERSHIP_FIGURE.get(variable) if controller == "paper" else None
+    head = f"fig{number:02d}_" if number is not None else ""
+    return f"{head}membership_{variable}_{controller}"
+
+
+@dataclass(frozen=True)
+class IndexEntry:
+    """One figure of the report's index (``figures/index.md``): its number in the paper
+    ("12", "27", "27b", "" when the paper has none), what it shows, and its files
+    (PNG, SVG)."""
+
+    figure: str
+    what: str
+    scenario: str
+    controller: str
+    geometry: str
+    files: tuple[Path, ...]
+
+
+def write_paper_figures(
+    results: dict,
+    controllers: dict,
+    root,
+    geometry: str,
+    *,
+    formats=FORMATS,
+    voltage_limit_v: float = 12.0,
+) -> list[IndexEntry]:
+    """The paper's Figs. 6-27 for one geometry into ``root/<geometry>/``.
+
+    Parameters
+    ----------
+    results : ``{scenario: {controller name: SimulationResult}}`` (s1-s3 get the paper's
+        numbers 12-26)
+    controllers : ``{controller name: controller object}``; a fuzzy one also gets its
+        membership figures (the paper controller's as Figs. 6-11)
+    root : the figures folder; the geometry's subfolder is created
+    geometry : ``husky`` or ``paper``, the folder's name and every title's
+    formats, voltage_limit_v : as :func:`write_run_figures`
+
+    Fig. 27 is the paper's 3 x 2: rows the scenarios, columns ``baseline`` (the stand-in
+    for [19]) and ``paper`` (the proposed method), as far as they were run; every other
+    controller (e.g. fuzzynav) gets Fig. "27b", laid out the same, beside it.
+
+    Returns the index entries of every figure written, in order.
+    """
+    out_dir = check_writable_dir(Path(root) / geometry, option="out_dir")
+    entries: list[IndexEntry] = []
+    names_in_order: list[str] = []
+    for scenario, inner in results.items():
+        for name, result in inner.items():
+            if name not in names_in_order:
+                names_in_order.append(name)
+            stems = {kind: paper_figure_stem(scenario, kind, name) for kind in RUN_FIGURES}
+            files = write_run_figures(
+                result,
+                out_dir,
+                names=stems,
+                formats=formats,
+                voltage_limit_v=voltage_limit_v,
+                membership=False,
+                controller_label=name,
+            )
+            for kind in RUN_FIGURES:
+                number = paper_figure_number(scenario, kind)
+                entries.append(
+                    IndexEntry(
+                        "" if number is None else str(number),
+                        FIGURE_WHAT[kind],
+                        scenario,
+                        name,
+                        geometry,
+                        tuple(p for p in files if p.stem == stems[kind]),
+                    )
+                )
+    for name in names_in_order:
+        fis = _fis(controllers.get(name))
+        if fis is None:
+            continue
+        files = write_membership_figures(
+            fis,
+            out_dir,
+            formats=formats,
+            stem=lambda var, name=name: membership_figure_stem(var, name),
+            title_suffix=f"\n{name} controller, {geometry} geometry",
+        )
+        for var in tuple(fis.inputs) + tuple(fis.outputs):
+            stem = membership_figure_stem(var.name, name)
+            number = MEMBERSHIP_FIGURE.get(var.name) if name == "paper" else None
+            entries.append(
+                IndexEntry(
+                    "" if number is None else str(number),
+                    f"{FIGURE_WHAT['membership']} {var.name}",
+                    "—",
+                    name,
+                    geometry,
+                    tuple(p for p in files if p.stem == stem),
+                )
+            )
+    scenarios = list(results)
+    pair = [c for c in FIG27_COLUMNS if c in names_in_order]
+    others = [c for c in names_in_order if c not in FIG27_COLUMNS]
+    for figure, columns, stem, what in (
+        (str(COMPARISON_FIGURE), pair, "fig27_comparison", "the paper's 3 x 2"),
+        (f"{COMPARISON_FIGURE}b", others, "fig27b_" + "_".join(others), "beside Fig. 27"),
+    ):
+        if not columns:
+            continue
+        who = " and ".join(FIG27_TITLES.get(c, c) for c in columns)
+        files = write_comparison_figure(
+            results,
+            out_dir,
+            name=stem,
+            formats=formats,
+            controllers=columns,
+            column_titles=FIG27_TITLES,
+            title=(
+                f"Fig. {figure}, {geometry} geometry: trajectories while reaching the target\n{who}"
+            ),
+        )
+        entries.append(
+            IndexEntry(
+                figure,
+                f"{FIGURE_WHAT['comparison']} ({what})",
+                ", ".join(scenarios),
+                ", ".join(columns),
+                geometry,
+                tuple(files),
+            )
+        )
+    return entries
+
+
+def write_figure_index(entries, root) -> Path:
+    """``root/index.md``: one row per figure (the paper's figure number, what it shows,
+    scenario, controller, geometry) with links to its files, relative to ``root``."""
+    root = Path(root)
+    lines = [
+        "# The paper's figures",
+        "",
+        "Files are named `fig<NN>_<scenario>_<figure>_<controller>` after the paper's figure",
+        "numbers (s1: Figs. 12-16, s2: 17-21, s3: 22-26; Fig. 27 the comparison, 27b the",
+        "other controllers beside it; the paper controller's membership functions Figs. 6-11),",
+        "in one folder per geometry. Wheels: left = v_s1, right = v_s2 (Eqs. 3-4).",
+        "",
+        "| figure | what it shows | scenario | controller | geometry | files |",
+        "|---|---|---|---|---|---|",
+    ]
+    geometries = list(dict.fromkeys(e.geometry for e in entries))
+
+    def order(e: IndexEntry):
+        # by geometry, then the paper's figure number (27b after 27; unnumbered last)
+        digits = e.figure.rstrip("abcdefghijklmnopqrstuvwxyz")
+        return (geometries.index(e.geometry), int(digits) if digits else 999, e.figure)
+
+    for e in sorted(entries, key=order):
+        links = " · ".join(f"[{p.suffix[1:]}]({p.relative_to(root).as_posix()})" for p in e.files)
+        number = f"Fig. {e.figure}" if e.figure else "—"
+        lines.append(
+            f"| {number} | {e.what} | {e.scenario} | {e.controller} | {e.geometry} | {links} |"
+        )
+    path = root / "index.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
 
 
 # ---------------------------------------------------------------------------------------

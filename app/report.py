@@ -1,51 +1,189 @@
 """``fuzzynav report OUT_DIR``: everything a reviewer needs, for s1-s3 and every controller.
 
-For each scenario and controller it writes a rerun recording (``rrd/``) and the paper's
-figure set (``figures/``); then the paper's Fig. 27 (all controllers side by side per
-scenario) and the comparison table as ``table4.md`` and ``table4.json``. With
-``--readme-images DIR`` the s1-s3 figures the README shows are also copied there, with
-the paper controller's membership overview, and ``table4.md`` beside DIR.
+For each geometry (``--geometry husky|paper|both``, default both), scenario and controller
+it writes a rerun recording (``rrd/<geometry>/``) and the paper's figures, named by the
+paper's figure numbers (``figures/<geometry>/fig12_s1_trajectory_paper.png``, ...; Fig. 27
+the paper's 3 x 2 comparison, Fig. 27b the other controllers beside it), with an index
+``figures/index.md``; then Table 4 in every geometry beside the paper's numbers, with the
+differences in per cent, as ``table4.md`` and ``table4.json``. With ``--readme-images DIR``
+the husky-geometry s1-s3 trajectories and Fig. 27 are also copied there under the names the
+docs use (``s1_paper_trajectory.png``, ``comparison.png``), with the paper controller's
+membership overview, and ``table4.md`` beside DIR.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import shutil
 from pathlib import Path
 
-from fuzzynav.app.experiments import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
+GEOMETRY_CHOICES = (*GEOMETRIES, "both")
 
 
-def _markdown(rows: list[dict]) -> str:
+def geometries_of(choice: str) -> tuple[str, ...]:
+    """``--geometry``'s value as the geometries to report: ``both`` = husky and paper."""
+    if choice == "both":
+        return tuple(GEOMETRIES)
+    if choice not in GEOMETRIES:
+        raise ValueError(f"--geometry {choice!r}: must be one of {', '.join(GEOMETRY_CHOICES)}")
+    return (choice,)
+
+
+def percent_difference(ours, published) -> float | None:
+    """``100 (ours - published) / published``: how far ours is from the paper's number,
+    in per cent of the paper's; None when either is missing or not finite, or the
+    paper's is zero."""
+    if ours is None or published is None:
+        return None
+    ours, published = float(ours), float(published)
+    if not (math.isfinite(ours) and math.isfinite(published)) or published == 0.0:
+        return None
+    return 100.0 * (ours - published) / published
+
+
+def published_table4(controller: str, scenario: str) -> dict | None:
+    """The paper's Table 4 numbers for a controller's row: the proposed method's (for
+    ``paper``) from ``assets/paper/results.toml``; the method of [19]'s (for
+    ``baseline``, a stand-in for it), which that file does not hold, from
+    :data:`app.experiments.PAPER_TABLE4`; None for any other controller."""
+    if controller == "paper":
+        from fuzzynav.app.paper_fit import paper_results
+
+        table = paper_results()["table4"].get(scenario)
+        return None if table is None else {k: float(table[k]) for k in TABLE4_ROWS}
+    ref = PAPER_TABLE4.get(controller)
+    if ref is None or scenario not in SCENARIOS:
+        return None
+    index = SCENARIOS.index(scenario)
+    return {k: float(ref[k][index]) for k in TABLE4_ROWS}
+
+
+def paper_events(result, scenario: str) -> list[dict]:
+    """Section 4's events (closest approach to each obstacle: time and centre distance)
+    as the paper gives them beside ours, each with its difference in per cent."""
+    from fuzzynav.app.paper_fit import closest_approaches, paper_results
+
+    events = paper_results().get("events", {}).get(scenario, [])
+    log = result.log
+    ours = closest_approaches(log.time_s, log.center_distance_m) if len(log) else []
+    rows = []
+    for event in events:
+        k = int(event["obstacle"])
+        time_s, distance_m = ours[k] if k < len(ours) else (None, None)
+        if distance_m is not None and not math.isfinite(distance_m):
+            time_s, distance_m = None, None
+        paper_time, paper_distance = event.get("time_s"), event.get("distance_m")
+        rows.append(
+            {
+                "obstacle": k,
+                "time_s": time_s,
+                "distance_m": distance_m,
+                "paper_time_s": paper_time,
+                "paper_distance_m": paper_distance,
+                "time_difference_percent": percent_difference(time_s, paper_time),
+                "distance_difference_percent": percent_difference(distance_m, paper_distance),
+            }
+        )
+    return rows
+
+
+def report_row(controller: str, scenario: str, result, geometry: str) -> dict:
+    """One row of the report's Table 4: the run's numbers (as ``compare``'s rows), its
+    geometry, the paper's numbers and ours' difference from them in per cent (and, for
+    the paper controller, section 4's events)."""
+    row = table4_row(controller, scenario, SCENARIOS.index(scenario), result)
+    published = published_table4(controller, scenario)
+    row["geometry"] = geometry
+    row["voltage_jumps"] = result.metrics["voltage_jumps"]
+    row["min_safety_distance_m"] = result.metrics["min_safety_distance_m"]
+    row["paper"] = published
+    row["difference_percent"] = (
+        {k: percent_difference(row[k], published[k]) for k in TABLE4_ROWS} if published else None
+    )
+    if controller == "paper":
+        row["events"] = paper_events(result, scenario)
+    return {"geometry": geometry, **row}
+
+
+def _number(value, digits: int = 3) -> str:
+    return "—" if value is None else f"{value:.{digits}f}"
+
+
+def _percent(value) -> str:
+    return "—" if value is None else f"{value:+.1f} %"
+
+
+def _markdown(rows: list[dict], perception: str) -> str:
     head = [
+        "geometry",
         "scenario",
         "controller",
         *TABLE4_ROWS,
-        "min_clearance_m",
+        "min_safety_distance_m",
         "time_to_target_s",
+        "voltage_jumps",
         "outcome",
     ]
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for row in rows:
-        paper = row.get("paper")
-        cells = [row["scenario"], row["controller"]]
-        for key in TABLE4_ROWS:
-            value = row[key]
-            text = "—" if value is None else f"{value:.3f}"
-            if paper:
-                text += f" ({paper[key]:.4g})"
-            cells.append(text)
-        cells.append("—" if row["min_clearance_m"] is None else f"{row['min_clearance_m']:.3f}")
-        cells.append("—" if row["time_to_target_s"] is None else f"{row['time_to_target_s']:.1f}")
-        cells.append(row["outcome"])
-        lines.append("| " + " | ".join(cells) + " |")
-    return (
-        "\n".join(lines) + "\n\nIn brackets: the paper's published Table 4 value (for `baseline`, "
-        "the paper's ref. [19], of which our baseline is only a stand-in).\n"
-    )
+    out = [
+        f"# Table 4 — {perception} perception",
+        "",
+        "Each cell: ours (the paper's published value; ours' difference in per cent of it).",
+        "For `paper` the paper's proposed method; for `baseline` the paper's ref. [19], of",
+        "which our baseline is only a stand-in. `min_safety_distance_m` is what the 0.25 m",
+        "safe distance is judged on: the footprint's clearance in the husky geometry, the",
+        "centre distance in the paper's (a point robot). `voltage_jumps`: control steps with",
+        "a wheel jump over 2 V, outside s3's disturbance.",
+    ]
+    for geometry in dict.fromkeys(r["geometry"] for r in rows):
+        out += ["", f"## {geometry} geometry", ""]
+        out += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for row in (r for r in rows if r["geometry"] == geometry):
+            paper, diff = row.get("paper"), row.get("difference_percent")
+            cells = [row["geometry"], row["scenario"], row["controller"]]
+            for key in TABLE4_ROWS:
+                text = _number(row[key])
+                if paper:
+                    text += f" ({paper[key]:.4g}; {_percent(diff[key])})"
+                cells.append(text)
+            cells += [
+                _number(row["min_safety_distance_m"]),
+                _number(row["time_to_target_s"], 1),
+                str(row["voltage_jumps"]),
+                row["outcome"],
+            ]
+            out.append("| " + " | ".join(cells) + " |")
+    events = [(r, e) for r in rows for e in r.get("events", [])]
+    if events:
+        out += [
+            "",
+            "## Section 4's events, paper controller",
+            "",
+            "Closest approach to each obstacle, centre to centre: ours (the paper's; "
+            "difference in per cent). The paper gives no time for s1's passes.",
+            "",
+            "| geometry | scenario | obstacle | time_s | distance_m |",
+            "|---|---|---|---|---|",
+        ]
+        for row, e in events:
+            time_cell = _number(e["time_s"], 1)
+            if e["paper_time_s"] is not None:
+                time_cell += f" ({e['paper_time_s']:g}; {_percent(e['time_difference_percent'])})"
+            dist_cell = _number(e["distance_m"])
+            if e["paper_distance_m"] is not None:
+                dist_cell += (
+                    f" ({e['paper_distance_m']:g}; {_percent(e['distance_difference_percent'])})"
+                )
+            out.append(
+                f"| {row['geometry']} | {row['scenario']} | {e['obstacle']} "
+                f"| {time_cell} | {dist_cell} |"
+            )
+    return "\n".join(out) + "\n"
 
 
 def write_report(
@@ -54,28 +192,53 @@ def write_report(
     perception: str = "ideal",
     readme_images: str | Path | None = None,
     progress=True,
+    geometries=GEOMETRIES,
+    formats=None,
 ) -> dict:
-    """Run, record and draw every (scenario, controller) pair; returns the table object."""
+    """Run, record and draw every (geometry, scenario, controller); returns the table.
+
+    Parameters
+    ----------
+    out_dir : the report's folder (created)
+    controllers : controller names
+    perception : ``ideal`` or ``ultrasonic`` (the paper's geometry takes only ideal)
+    readme_images : optional folder for the docs' copies (see the module docstring)
+    progress : show a progress bar
+    geometries : any of ``husky`` and ``paper``
+    formats : figure file types (default PNG and SVG)
+    """
     from rich.progress import Progress
 
-    from fuzzynav.app.figures import check_writable_dir, write_comparison_figure, write_run_figures
+    from fuzzynav.app.figures import (
+        FORMATS,
+        check_writable_dir,
+        write_figure_index,
+        write_paper_figures,
+    )
     from fuzzynav.app.recording import record_run
     from fuzzynav.app.runs import build_simulation
+    from fuzzynav.world.perception import check_geometry
 
+    geometries = tuple(geometries)
+    for geometry in geometries:
+        check_geometry(geometry, perception)
     out = check_writable_dir(out_dir, option="OUT_DIR")
-    rrd_dir, fig_dir = out / "rrd", out / "figures"
+    fig_dir = out / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
-    rrd_dir.mkdir(parents=True, exist_ok=True)
-    results: dict[str, dict] = {s: {} for s in SCENARIOS}
-    rows = []
-    pairs = [(s, c) for s in SCENARIOS for c in controllers]
+    rows, entries = [], []
+    jobs = [(g, s, c) for g in geometries for s in SCENARIOS for c in controllers]
+    results: dict[str, dict[str, dict]] = {g: {s: {} for s in SCENARIOS} for g in geometries}
+    controller_objects: dict[str, dict] = {g: {} for g in geometries}
     with Progress(disable=not progress) as bar:
-        task = bar.add_task("report", total=len(pairs))
-        for scenario, name in pairs:
-            bar.update(task, description=f"{scenario} · {name}")
-            sim = build_simulation(scenario, name, perception=perception, seed=0)
+        task = bar.add_task("report", total=len(jobs) + len(geometries))
+        for geometry, scenario, name in jobs:
+            bar.update(task, description=f"{geometry} · {scenario} · {name}")
+            sim = build_simulation(scenario, name, perception=perception, seed=0, geometry=geometry)
             result = sim.run()
-            results[scenario][name] = result
+            results[geometry][scenario][name] = result
+            controller_objects[geometry].setdefault(name, sim.controller)
+            rrd_dir = out / "rrd" / geometry
+            rrd_dir.mkdir(parents=True, exist_ok=True)
             record_run(
                 result,
                 rrd_dir / f"{scenario}_{name}.rrd",
@@ -83,31 +246,59 @@ def write_report(
                 sensors=sim.sensors,
                 parameters=sim.model.parameters,
             )
-            write_run_figures(result, fig_dir, sim.controller, prefix=f"{scenario}_{name}_")
-            rows.append(table4_row(name, scenario, SCENARIOS.index(scenario), result))
+            rows.append(report_row(name, scenario, result, geometry))
             bar.advance(task)
-    write_comparison_figure(results, fig_dir, name="comparison")
-    table = {"perception": perception, "controllers": list(controllers), "rows": rows}
-    (out / "table4.json").write_text(json.dumps(table, indent=2), encoding="utf-8")
-    (out / "table4.md").write_text(_markdown(rows), encoding="utf-8")
-    if readme_images is not None:
-        images = Path(readme_images)
-        images.mkdir(parents=True, exist_ok=True)
-        for path in fig_dir.glob("*.png"):
-            if path.name.startswith(("comparison",)) or "_trajectory" in path.name:
-                shutil.copy2(path, images / path.name)
-        # the README's table lives beside its images' folder (docs/table4.md)
-        shutil.copy2(out / "table4.md", images.parent / "table4.md")
-        if "paper" in controllers:
-            from fuzzynav.app.figures import write_membership_overview
-            from fuzzynav.controller.paper import PAPER_RULES
-
-            write_membership_overview(
-                read_toml(PAPER_RULES),
-                images / "paper_membership.png",
-                "Paper controller, tuned membership functions (assets/rules/paper.toml)",
+        for geometry in geometries:
+            bar.update(task, description=f"{geometry} · figures")
+            entries += write_paper_figures(
+                results[geometry],
+                controller_objects[geometry],
+                fig_dir,
+                geometry,
+                formats=formats or FORMATS,
             )
+            bar.advance(task)
+    write_figure_index(entries, fig_dir)
+    table = {
+        "perception": perception,
+        "geometries": list(geometries),
+        "controllers": list(controllers),
+        "rows": rows,
+    }
+    (out / "table4.json").write_text(json.dumps(table, indent=2), encoding="utf-8")
+    (out / "table4.md").write_text(_markdown(rows, perception), encoding="utf-8")
+    if readme_images is not None:
+        _copy_readme_images(out, fig_dir, Path(readme_images), controllers, geometries)
     return table
+
+
+def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geometries):
+    """The docs' pictures under the names they use: the husky geometry's trajectories
+    (``s1_paper_trajectory.png``), its Fig. 27 (``comparison.png``), the paper
+    controller's membership overview; ``table4.md`` beside the folder."""
+    from fuzzynav.app.figures import paper_figure_stem
+
+    images.mkdir(parents=True, exist_ok=True)
+    if "husky" in geometries:
+        husky = fig_dir / "husky"
+        for scenario in SCENARIOS:
+            for name in controllers:
+                source = husky / f"{paper_figure_stem(scenario, 'trajectory', name)}.png"
+                if source.exists():
+                    shutil.copy2(source, images / f"{scenario}_{name}_trajectory.png")
+        if (husky / "fig27_comparison.png").exists():
+            shutil.copy2(husky / "fig27_comparison.png", images / "comparison.png")
+    # the README's table lives beside its images' folder (docs/table4.md)
+    shutil.copy2(out / "table4.md", images.parent / "table4.md")
+    if "paper" in controllers:
+        from fuzzynav.app.figures import write_membership_overview
+        from fuzzynav.controller.paper import PAPER_RULES
+
+        write_membership_overview(
+            read_toml(PAPER_RULES),
+            images / "paper_membership.png",
+            "Paper controller, tuned membership functions (assets/rules/paper.toml)",
+        )
 
 
 def cmd_report(args) -> int:
@@ -125,8 +316,17 @@ def cmd_report(args) -> int:
             raise UsageError(
                 f"--controllers: {name!r} is not available (have {', '.join(offered)})"
             )
-    write_report(args.out_dir, wanted, args.perception, args.readme_images)
-    print(f"report written to {args.out_dir} (table4.md, table4.json, figures/, rrd/)")
+    geometries = geometries_of(args.geometry)
+    if "paper" in geometries and args.perception != "ideal":
+        raise UsageError(
+            f"--perception {args.perception} with --geometry {args.geometry}: the paper's "
+            "geometry (a point robot) takes ideal perception only; use --geometry husky"
+        )
+    write_report(args.out_dir, wanted, args.perception, args.readme_images, geometries=geometries)
+    print(
+        f"report written to {args.out_dir} (table4.md, table4.json, figures/index.md, "
+        "figures/, rrd/)"
+    )
     return 0
 
 
@@ -134,7 +334,8 @@ def add_commands(subparsers) -> None:
     from fuzzynav.world.perception import PERCEPTION_MODES
 
     p = subparsers.add_parser(
-        "report", help="recordings, figures and Table 4 for s1-s3 and every controller"
+        "report",
+        help="recordings, the paper's Figs. 6-27 and Table 4 for s1-s3 and every controller",
     )
     p.add_argument("out_dir", type=Path, help="directory to write into (created)")
     p.add_argument(
@@ -146,12 +347,21 @@ def add_commands(subparsers) -> None:
         "--perception",
         default="ideal",
         choices=PERCEPTION_MODES,
-        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
+        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default "
+        "ideal; the paper's geometry takes ideal only)",
+    )
+    p.add_argument(
+        "--geometry",
+        default="both",
+        choices=GEOMETRY_CHOICES,
+        help="husky: the real 0.99 x 0.67 m footprint; paper: the paper's point robot, "
+        "centre to centre (Eqs. 7-12); both (default): each, side by side in the table",
     )
     p.add_argument(
         "--readme-images",
         type=Path,
         default=None,
-        help="also copy the trajectory and comparison PNGs here (the README's docs/img)",
+        help="also copy the husky geometry's trajectories and Fig. 27 here (the docs' "
+        "docs/img), and table4.md beside it",
     )
     p.set_defaults(func=cmd_report)

@@ -202,3 +202,140 @@ def test_trajectory_is_drawn_where_the_robot_went(tmp_path, p_runs, s2_figures):
     svg = (out_dir / "trajectory.svg").read_text()
     longest = max(len(re.findall(r"\bL\b", d)) for d in re.findall(r' d="([^"]*)"', svg))
     assert longest > 20  # matplotlib simplifies a smooth path; a few markers have none
+
+
+# ---------------------------------------------------------------------------------------
+# The paper's figure set (issue 17 item 5)
+
+
+def test_paper_figure_numbers():
+    from fuzzynav.app.figures import (
+        membership_figure_stem,
+        paper_figure_number,
+        paper_figure_stem,
+    )
+
+    expected = {"s1": range(12, 17), "s2": range(17, 22), "s3": range(22, 27)}
+    for scenario, numbers in expected.items():
+        assert [paper_figure_number(scenario, k) for k in RUN_FIGURES] == list(numbers)
+    # the order within a scenario is the paper's: trajectory, distances, angles,
+    # obstacle angles, voltages
+    assert RUN_FIGURES == ("trajectory", "distances", "angles", "obstacle_angles", "voltages")
+    assert paper_figure_stem("s1", "trajectory", "paper") == "fig12_s1_trajectory_paper"
+    assert paper_figure_stem("s3", "voltages", "baseline") == "fig26_s3_voltages_baseline"
+    assert paper_figure_number("trap", "trajectory") is None
+    assert paper_figure_stem("trap", "trajectory", "paper") == "trap_trajectory_paper"
+    assert membership_figure_stem("d_t", "paper") == "fig06_membership_d_t_paper"
+    assert membership_figure_stem("right", "paper") == "fig11_membership_right_paper"
+    assert membership_figure_stem("d_t", "baseline") == "membership_d_t_baseline"
+
+
+@pytest.fixture(scope="module")
+def s3_p_run():
+    # the paper controller, which is still on its way during the disturbance (p is not)
+    result = build_simulation("s3", "paper").run()
+    assert result.log.time_s[-1] > 35.0
+    return result
+
+
+def _spans(ax):
+    return [p for p in ax.patches if p.get_gid() == "disturbance"]
+
+
+def test_s3_disturbance_is_shaded_on_every_time_axis(s3_p_run):
+    from fuzzynav.app.figures import run_figure
+
+    window = (s3_p_run.scenario.disturbance.start_s, s3_p_run.scenario.disturbance.stop_s)
+    assert window == (25.0, 35.0)
+    for kind in RUN_FIGURES[1:]:  # every figure over time
+        fig = run_figure(kind, s3_p_run)
+        assert fig.axes, kind
+        for ax in fig.axes:
+            spans = _spans(ax)
+            assert len(spans) == 1, (kind, ax.get_ylabel())
+            box = spans[0].get_bbox()
+            assert (box.x0, box.x1) == pytest.approx(window), (kind, ax.get_ylabel())
+    # on the trajectory, the stretch driven during the disturbance is marked
+    traj = run_figure("trajectory", s3_p_run)
+    marked = [ln for ln in traj.axes[0].lines if ln.get_label().startswith("during the dist")]
+    assert len(marked) == 1
+    t = s3_p_run.log.time_s
+    assert len(marked[0].get_xdata()) == np.count_nonzero((t >= 25.0) & (t <= 35.0))
+
+
+def test_s1_has_no_disturbance_shading(p_runs):
+    from fuzzynav.app.figures import run_figure
+
+    for kind in RUN_FIGURES:
+        fig = run_figure(kind, p_runs["s1"])
+        assert all(not _spans(ax) for ax in fig.axes), kind
+        assert not any(
+            ln.get_label().startswith("during the dist") for ax in fig.axes for ln in ax.lines
+        )
+
+
+def test_voltage_figure_draws_each_wheel_in_its_own_panel(s3_p_run):
+    """Neither wheel hides the other: the left (v_s1) and right (v_s2) wheels each have a
+    panel, sharing the time axis and the voltage scale, and a third shows the difference."""
+    from fuzzynav.app.figures import run_figure
+
+    fig = run_figure("voltages", s3_p_run, controller_label="p")
+    left, right, diff = fig.axes
+    log = s3_p_run.log
+
+    def applied(ax):
+        (line,) = [ln for ln in ax.lines if ln.get_label().endswith(", applied")]
+        return line
+
+    assert applied(left).get_label() == "left (v_s1), applied"
+    assert applied(right).get_label() == "right (v_s2), applied"
+    np.testing.assert_array_equal(applied(left).get_ydata(), log.voltages_v[:, 0])
+    np.testing.assert_array_equal(applied(right).get_ydata(), log.voltages_v[:, 1])
+    (d,) = [ln for ln in diff.lines if ln.get_label().startswith("left − right")]
+    np.testing.assert_allclose(d.get_ydata(), log.voltages_v[:, 0] - log.voltages_v[:, 1])
+    assert left.get_shared_x_axes().joined(left, right)
+    assert left.get_shared_x_axes().joined(left, diff)
+    assert left.get_ylim() == right.get_ylim()
+    assert "left" in left.get_ylabel() and "right" in right.get_ylabel()
+
+
+def test_titles_name_the_geometry():
+    from fuzzynav.app.figures import run_figure
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario = load_scenario("s1").replace(duration_s=2.0)
+    for geometry in ("husky", "paper"):
+        result = build_simulation(scenario, "p", geometry=geometry).run()
+        for kind in RUN_FIGURES:
+            fig = run_figure(kind, result, controller_label="p")
+            titles = [ax.get_title() for ax in fig.axes if ax.get_title()]
+            assert titles and f"{geometry} geometry" in titles[0], (geometry, kind)
+            assert "p controller" in titles[0]
+
+
+def test_fig27_is_the_papers_3_by_2():
+    """Rows s1-s3; columns the method of [19] (our stand-in, baseline) and the proposed
+    method (paper), lettered (a)-(f) row by row as the paper's caption."""
+    from fuzzynav.app.figures import FIG27_COLUMNS, FIG27_TITLES, comparison_figure
+    from fuzzynav.world.scenario import load_scenario
+
+    assert FIG27_COLUMNS == ("baseline", "paper")
+    grid = {}
+    for s in ("s1", "s2", "s3"):
+        scenario = load_scenario(s).replace(duration_s=3.0)
+        grid[s] = {
+            c: build_simulation(scenario, c).run() for c in ("paper", "fuzzynav", "baseline")
+        }
+    fig = comparison_figure(grid, controllers=FIG27_COLUMNS, column_titles=FIG27_TITLES)
+    assert len(fig.axes) == 6
+    letters = iter("abcdef")
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        assert spec.get_geometry()[:2] == (3, 2)
+        row, col = spec.rowspan.start, spec.colspan.start
+        scenario, controller = f"s{row + 1}", FIG27_COLUMNS[col]
+        assert ax.get_gid() == f"{scenario}/{controller}"
+        assert ax.get_title().startswith(
+            f"({next(letters)}) {FIG27_TITLES[controller]}, {scenario}"
+        )
+    assert "fuzzynav" not in " ".join(ax.get_title() for ax in fig.axes)
