@@ -86,7 +86,7 @@ def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
     clearance = m.get("min_clearance_m")
     if clearance is not None and math.isfinite(clearance):
         cost += clearance_weight * max(0.0, SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M - clearance)
-    if result.perception == "ideal":
+    if getattr(result, "perception", "ideal") == "ideal":
         cost += CHATTER_WEIGHT * max(0, m.get("voltage_jumps", 0) - CHATTER_FREE_JUMPS)
     return float(cost)
 

@@ -254,7 +254,9 @@ def closest_approach_m(rel, obstacle_vel, robot_vel, horizon_s: float) -> float:
     ``t* = clip(-rel . r / |r|^2, 0, horizon_s)``."""
     rx, ry = obstacle_vel[0] - robot_vel[0], obstacle_vel[1] - robot_vel[1]
     r2 = rx * rx + ry * ry
-    t = 0.0 if r2 < 1e-12 else min(max(-(rel[0] * rx + rel[1] * ry) / r2, 0.0), horizon_s)
+    # Only an exactly zero relative velocity has no closest time: a tiny one (1e-8 m/s)
+    # still moves the obstacle by its speed times the horizon.
+    t = 0.0 if r2 == 0.0 else min(max(-(rel[0] * rx + rel[1] * ry) / r2, 0.0), horizon_s)
     return math.hypot(rel[0] + rx * t, rel[1] + ry * t)
 
 

@@ -576,7 +576,7 @@ def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatc
     import fuzzynav.app.runs
 
     monkeypatch.setattr(
-        fuzzynav.app.runs, "make_controller", lambda name, fis_path=None: InterruptedAfter()
+        fuzzynav.app.runs, "make_controller", lambda name, fis_path=None, **kw: InterruptedAfter()
     )
     path = tmp_path / "ctrlc.rrd"
     assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 130

@@ -52,7 +52,7 @@ def test_free_indices():
 def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     t = tunable("paper")
     names, x0 = t.parameter_names(), t.initial_vector()
-    free = free_indices(names, ["phi_o.peak", "d_o.b0"])
+    free = free_indices(names, ["phi_o.p1", "d_o.b0"])
     runs = [
         tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
         for _ in range(2)
