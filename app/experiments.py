@@ -10,9 +10,11 @@ A sweep run "succeeds" when the target is reached without a collision; the stric
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 SAFE_CLEARANCE_M = 0.25
@@ -39,30 +41,133 @@ SCENARIOS = ("s1", "s2", "s3")
 # --------------------------------------------------------------------------- sweep
 
 
-def _sweep_one(job):
-    """One layout run (top level: picklable for a worker pool)."""
-    family, seed, index, controller, perception, parts_off = job
+@dataclass(frozen=True)
+class LayoutJob:
+    """One run of a study: layout ``index`` of ``family`` for ``seed``, driven by
+    ``controller`` (``parts_off`` switched off) in ``perception``; ``options`` are
+    further keyword options of :func:`app.runs.build_simulation`, as sorted (name,
+    value) pairs (hashable, picklable). Everything the run's result depends on: the
+    same job gives the same row on any executor and any worker."""
+
+    family: str
+    seed: int
+    index: int
+    controller: str
+    perception: str = "ideal"
+    parts_off: tuple[str, ...] = ()
+    options: tuple[tuple[str, object], ...] = ()
+
+    def key(self) -> tuple:
+        return (
+            self.controller,
+            tuple(self.parts_off),
+            self.family,
+            self.seed,
+            self.perception,
+            json.dumps(dict(self.options), sort_keys=True),
+            self.index,
+        )
+
+
+def row_key(row: dict) -> tuple:
+    """The identity of a row (:meth:`LayoutJob.key` of the job that made it)."""
+    return (
+        row["controller"],
+        tuple(row["parts_off"]),
+        row["family"],
+        row["seed"],
+        row["perception"],
+        json.dumps(row.get("options", {}), sort_keys=True),
+        row["index"],
+    )
+
+
+def run_layout(job: LayoutJob) -> dict:
+    """The row of one job (top level: what an executor sends to a worker)."""
+    return run_layout_row(
+        job.family,
+        job.seed,
+        job.index,
+        controller=job.controller,
+        perception=job.perception,
+        parts_off=job.parts_off,
+        **dict(job.options),
+    )
+
+
+def run_layout_row(
+    family: str,
+    seed: int,
+    index: int,
+    *,
+    controller: str,
+    perception: str = "ideal",
+    parts_off=(),
+    **options,
+) -> dict:
+    """Run layout ``index`` of ``family``/``seed``; its row (what ``--out`` writes).
+
+    ``options`` go to :func:`app.runs.build_simulation` as keywords. The row: the job
+    (index, controller, parts_off, family, seed, perception, and options if any), the
+    outcome (outcome, reached, collided, success = reached without collision), the
+    run's path_length_m, min_clearance_m, time_to_target_s, straight_line_m and
+    straight_ratio (path / straight line), n_obstacles, and the benchmark metrics of
+    :func:`world.metrics.benchmark_metrics` (shortest_path_m, path_ratio,
+    optimal_time_s, time_ratio, score). Non-finite numbers are None.
+    """
+    from fuzzynav.app.resultlog import finite_or_none
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.layouts import generate_layout
 
     scenario = generate_layout(family, seed, index)
-    sim = build_simulation(scenario, controller, perception=perception, seed=seed)
+    sim = build_simulation(scenario, controller, perception=perception, seed=seed, **options)
     if parts_off:
-        sim.controller.set_parts_off(parts_off)
+        sim.controller.set_parts_off(list(parts_off))
     result = sim.run()
     m = result.metrics
     straight = math.dist(scenario.start, scenario.target)
-    return {
+    row = {
         "index": index,
+        "controller": controller,
+        "parts_off": list(parts_off),
+        "family": family,
+        "seed": seed,
+        "perception": perception,
+        **({"options": dict(options)} if options else {}),
         "outcome": result.outcome,
         "reached": bool(m["reached"]),
         "collided": bool(m["collided"]),
+        "success": bool(m["reached"] and not m["collided"]),
         "path_length_m": m["path_length_m"],
-        "path_ratio": m["path_length_m"] / straight,
+        "straight_line_m": straight,
+        "straight_ratio": m["path_length_m"] / straight,
         "min_clearance_m": m["min_clearance_m"],
         "time_to_target_s": m["time_to_target_s"],
         "n_obstacles": len(scenario.obstacles),
+        **run_benchmark(result, sim.model, sim.voltage_limit_v),
     }
+    return finite_or_none(row)
+
+
+def run_benchmark(result, model, voltage_limit_v: float) -> dict:
+    """The benchmark metrics of a finished run (world/metrics.py): the shortest path
+    of its scenario keeping the clearance, for ``model``'s footprint width, and that
+    plant's top speed at ``voltage_limit_v``."""
+    from fuzzynav.world.metrics import benchmark_metrics, top_speed_mps
+    from fuzzynav.world.shortest_path import robot_shortest_path_m
+
+    sc = result.scenario
+    m = result.metrics
+    shortest = robot_shortest_path_m(
+        sc.start, sc.target, sc.obstacles, model.parameters.footprint_width_m
+    )
+    return benchmark_metrics(
+        success=bool(m["reached"] and not m["collided"]),
+        path_length_m=m["path_length_m"],
+        time_to_target_s=m["time_to_target_s"],
+        shortest_path_m=shortest,
+        top_speed_mps=top_speed_mps(model, voltage_limit_v),
+    )
 
 
 def _median(values):
@@ -70,18 +175,13 @@ def _median(values):
     return statistics.median(values) if values else None
 
 
-def sweep(
-    controller: str,
-    n: int,
-    seed: int,
-    family: str = "standard",
-    perception: str = "ideal",
-    workers: int = 1,
-    progress=None,
-    parts_off: tuple[str, ...] = (),
-) -> dict:
-    """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows).
-    ``parts_off``: fuzzynav's parts to switch off (``assets/rules/fuzzynav_parts.toml``)."""
+def _mean(values):
+    values = [v for v in values if v is not None and math.isfinite(v)]
+    return statistics.fmean(values) if values else None
+
+
+def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
+    """Refuse a sweep that cannot run (before any run); the parts off, normalised."""
     from fuzzynav.controller.registry import controller_names, make_controller
     from fuzzynav.world.layouts import FAMILIES
 
@@ -100,46 +200,111 @@ def sweep(
             raise ValueError(
                 f"parts_off = {list(parts_off)}: {controller} has no parts to switch off"
             )
-        probe.set_parts_off(parts_off)  # an unknown part is refused before any run
-        parts_off = probe.parts_off
-    jobs = [(family, seed, i, controller, perception, parts_off) for i in range(n)]
-    start = time.perf_counter()
-    runs = []
-    if workers > 1:
-        import multiprocessing as mp
+        probe.set_parts_off(list(parts_off))  # an unknown part is refused before any run
+        parts_off = tuple(probe.parts_off)
+    return parts_off
 
-        with mp.get_context("fork").Pool(min(workers, n)) as pool:
-            for row in pool.imap(_sweep_one, jobs):
-                runs.append(row)
-                if progress:
-                    progress(len(runs))
-    else:
-        for job in jobs:
-            runs.append(_sweep_one(job))
+
+def sweep_jobs(
+    controller, n, seed, family="standard", perception="ideal", parts_off=(), options=None
+) -> list[LayoutJob]:
+    """The jobs of one sweep: layouts 0..n-1."""
+    opts = tuple(sorted((options or {}).items()))
+    return [
+        LayoutJob(family, seed, i, controller, perception, tuple(parts_off), opts) for i in range(n)
+    ]
+
+
+def run_jobs(jobs, executor=None, *, log=None, progress=None) -> list[dict]:
+    """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
+
+    ``executor``: an :class:`app.executor.Executor` (default: serial). ``log``: an open
+    :class:`app.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
+    new row is written to it as it arrives, and rows of other studies are refused.
+    ``progress(done, total)`` after each row (and once at the start).
+    """
+    from fuzzynav.app.executor import SerialExecutor
+
+    executor = executor or SerialExecutor()
+    keys = [job.key() for job in jobs]
+    found = {}
+    if log is not None:
+        log.check_belongs(keys)
+        found = {k: log.rows[k] for k in keys if k in log.rows}
+    todo = [job for job, k in zip(jobs, keys) if k not in found]
+    if progress:
+        progress(len(found), len(jobs))
+    results = executor.imap_unordered(run_layout, todo)
+    try:
+        for row in results:
+            if log is not None:
+                log.write(row)
+            found[row_key(row)] = row
             if progress:
-                progress(len(runs))
-    ok = [r for r in runs if r["reached"] and not r["collided"]]
+                progress(len(found), len(jobs))
+    finally:
+        results.close()
+    return [found[k] for k in keys]
+
+
+def summarize(rows: list[dict], *, wall_time_s: float | None = None) -> dict:
+    """The summary of one sweep's rows (one controller, family, seed, perception)."""
+    first = rows[0]
+    n = len(rows)
+    ok = [r for r in rows if r["success"]]
     safe = [
         r for r in ok if r["min_clearance_m"] is None or r["min_clearance_m"] >= SAFE_CLEARANCE_M
     ]
     return {
-        "controller": controller,
-        "parts_off": list(parts_off),
-        "family": family,
-        "perception": perception,
+        "controller": first["controller"],
+        "parts_off": list(first["parts_off"]),
+        "family": first["family"],
+        "perception": first["perception"],
+        **({"options": first["options"]} if "options" in first else {}),
         "n": n,
-        "seed": seed,
+        "seed": first["seed"],
         "success_rate": len(ok) / n,
         "safe_success_rate": len(safe) / n,
-        "reached": sum(r["reached"] for r in runs),
-        "collisions": sum(r["collided"] for r in runs),
-        "timeouts": sum(r["outcome"] == "timeout" for r in runs),
+        "reached": sum(r["reached"] for r in rows),
+        "collisions": sum(r["collided"] for r in rows),
+        "timeouts": sum(r["outcome"] == "timeout" for r in rows),
         "median_path_length_m": _median([r["path_length_m"] for r in ok]),
         "median_path_ratio": _median([r["path_ratio"] for r in ok]),
-        "median_min_clearance_m": _median([r["min_clearance_m"] for r in runs]),
-        "wall_time_s": time.perf_counter() - start,
-        "runs": runs,
+        "median_time_ratio": _median([r["time_ratio"] for r in ok]),
+        "mean_score": _mean([r["score"] for r in rows]),
+        "median_straight_ratio": _median([r["straight_ratio"] for r in ok]),
+        "median_shortest_path_m": _median([r["shortest_path_m"] for r in rows]),
+        "no_reference_path": sum(r["shortest_path_m"] is None for r in rows),
+        "median_min_clearance_m": _median([r["min_clearance_m"] for r in rows]),
+        "wall_time_s": wall_time_s,
+        "runs": rows,
     }
+
+
+def sweep(
+    controller: str,
+    n: int,
+    seed: int,
+    family: str = "standard",
+    perception: str = "ideal",
+    *,
+    executor=None,
+    log=None,
+    progress=None,
+    parts_off: tuple[str, ...] = (),
+    options: dict | None = None,
+) -> dict:
+    """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows).
+
+    ``parts_off``: fuzzynav's parts to switch off (``assets/rules/fuzzynav_parts.toml``);
+    ``options``: keyword options of :func:`app.runs.build_simulation` for every run;
+    ``executor``, ``log``, ``progress``: as :func:`run_jobs`.
+    """
+    parts_off = check_sweep(controller, n, family, parts_off)
+    start = time.perf_counter()
+    jobs = sweep_jobs(controller, n, seed, family, perception, parts_off, options)
+    rows = run_jobs(jobs, executor, log=log, progress=progress)
+    return summarize(rows, wall_time_s=time.perf_counter() - start)
 
 
 def failed_runs(out: dict) -> list[dict]:
@@ -166,6 +331,7 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     family, seed = out["family"], out["seed"]
     controller, perception = out["controller"], out["perception"]
     parts_off = out.get("parts_off") or []
+    options = out.get("options") or {}
     off = off_flag(parts_off)
     written = []
     for done, run in enumerate(failed_runs(out), start=1):
@@ -182,7 +348,7 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
             encoding="utf-8",
         )
         sim = build_simulation(
-            load_scenario(scenario_file), controller, perception=perception, seed=seed
+            load_scenario(scenario_file), controller, perception=perception, seed=seed, **options
         )
         if parts_off:
             sim.controller.set_parts_off(parts_off)
@@ -215,37 +381,90 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     return written
 
 
-def _sweep_with_bar(
-    controller, n, seed, family, perception, workers, quiet, label="", parts_off=()
-):
+class StudyInterrupted(Exception):
+    """Ctrl-C during a study: what was kept has been said on stderr (exit status 130)."""
+
+
+def _progress_bar(label: str, quiet: bool):
     from rich.console import Console
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
         Progress,
+        ProgressColumn,
         TextColumn,
+        TimeElapsedColumn,
         TimeRemainingColumn,
     )
+    from rich.text import Text
 
-    with Progress(
-        TextColumn(f"sweep {label or controller}"),
+    class RateColumn(ProgressColumn):
+        def render(self, task):
+            speed = task.finished_speed or task.speed
+            return Text(f"{speed:.2f} runs/s" if speed else "- runs/s", style="progress.data.speed")
+
+    return Progress(
+        TextColumn(label),
         BarColumn(),
         MofNCompleteColumn(),
+        RateColumn(),
+        TimeElapsedColumn(),
+        TextColumn("left"),
         TimeRemainingColumn(),
         console=Console(stderr=True),
         disable=quiet,
-    ) as bar:
-        task = bar.add_task("sweep", total=n)
-        return sweep(
-            controller,
-            n,
-            seed,
-            family,
-            perception,
-            workers,
-            progress=lambda done: bar.update(task, completed=done),
-            parts_off=parts_off,
-        )
+    )
+
+
+def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
+    """``jobs`` on the executor of ``args`` (``--executor/--workers/--scheduler``) with a
+    progress bar, each row into ``--out`` as it arrives (``--resume``: the rows there
+    are kept); (rows in the jobs' order, wall time in s). Ctrl-C: every finished row is
+    kept in ``--out``, a message says so, :class:`StudyInterrupted` is raised."""
+    import contextlib
+    import sys
+
+    from fuzzynav.app.cli import UsageError
+    from fuzzynav.app.executor import executor_from_args
+    from fuzzynav.app.resultlog import ResultLog
+
+    out = getattr(args, "out", None)
+    if getattr(args, "resume", False) and out is None:
+        raise UsageError("--resume: give the --out PATH.jsonl to resume")
+    log = ResultLog(out, resume=args.resume, key=row_key) if out is not None else None
+    if log is not None:
+        log.check_belongs(job.key() for job in jobs)  # before a worker starts
+    start = time.perf_counter()
+    try:
+        with contextlib.ExitStack() as stack:
+            executor = stack.enter_context(executor_from_args(args))
+            if log is not None:
+                stack.enter_context(log)
+            with _progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
+                task = bar.add_task("runs", total=len(jobs))
+
+                def progress(done, total):
+                    bar.update(task, completed=done, total=total)
+
+                rows = run_jobs(jobs, executor, log=log, progress=progress)
+    except KeyboardInterrupt:
+        if log is not None:
+            kept = sum(1 for job in jobs if job.key() in log.rows)
+            print(
+                f"fuzzynav: interrupted: {kept} of {len(jobs)} runs are in {log.path}; "
+                f"the same command with --resume runs the other {len(jobs) - kept}",
+                file=sys.stderr,
+            )
+        else:
+            print(
+                "fuzzynav: interrupted: the finished runs were not kept (give --out "
+                "PATH.jsonl to keep every run as it finishes, and --resume to go on)",
+                file=sys.stderr,
+            )
+        raise StudyInterrupted from None
+    if log is not None and log.dropped_partial_line and not quiet:
+        print(f"{log.path}: an unfinished last line was dropped and run again", file=sys.stderr)
+    return rows, time.perf_counter() - start
 
 
 def _fmt(value, digits=3):
@@ -258,13 +477,18 @@ def _fmt(value, digits=3):
     return str(value)
 
 
+def _options(args) -> dict:
+    """Keyword options of build_simulation that a command passes to every run (none
+    yet: a --geometry option would add its value here)."""
+    return {}
+
+
 def cmd_sweep(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
     from fuzzynav.app.cli import parse_off, print_json
 
-    _check_workers(args.workers)
     if args.failures is not None:
         from fuzzynav.app.figures import check_writable_dir
 
@@ -272,25 +496,24 @@ def cmd_sweep(args) -> int:
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
-    parts_off = parse_off(args.off)
+    parts_off = check_sweep(args.controller, args.n, args.family, parse_off(args.off))
     label = args.controller + (f" without {', '.join(parts_off)}" if parts_off else "")
-    out = _sweep_with_bar(
-        args.controller,
-        args.n,
-        args.seed,
-        args.family,
-        args.perception,
-        args.workers,
-        args.json,
-        label=label,
-        parts_off=parts_off,
+    options = _options(args)
+    jobs = sweep_jobs(
+        args.controller, args.n, args.seed, args.family, args.perception, parts_off, options
     )
-    other = None
-    if beside not in ("none", args.controller):
+    with_beside = beside not in ("none", args.controller)
+    if with_beside:
         # the same layouts, so that the two rates are comparable run for run
-        other = _sweep_with_bar(
-            beside, args.n, args.seed, args.family, args.perception, args.workers, args.json
+        jobs += sweep_jobs(beside, args.n, args.seed, args.family, args.perception, (), options)
+    try:
+        rows, wall_time_s = run_study(
+            jobs, args, f"sweep {label}" + (f" and {beside}" if with_beside else ""), args.json
         )
+    except StudyInterrupted:
+        return 130
+    out = summarize(rows[: args.n], wall_time_s=wall_time_s)
+    other = summarize(rows[args.n :], wall_time_s=wall_time_s) if with_beside else None
     failures = (
         _write_failures_with_bar(out, args.failures, args.json)
         if args.failures is not None
@@ -314,6 +537,8 @@ def cmd_sweep(args) -> int:
         if key not in ("runs", "controller"):
             table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
     Console().print(table)
+    if args.out is not None:
+        print(f"every run: {args.out}")
     if failures:
         listing = Table(
             title=f"{len(failures)} failed run(s) of {args.controller}: "
@@ -356,11 +581,18 @@ def _write_failures_with_bar(out, directory, quiet):
 # --------------------------------------------------------------------------- compare
 
 
-def table4_row(controller: str, scenario: str, index: int, result) -> dict:
+def table4_row(controller: str, scenario: str, index: int, result, sim=None) -> dict:
     """One row of our Table 4: a run's metrics beside the paper's published numbers
-    (``index`` is the scenario's column in the paper's table)."""
+    (``index`` is the scenario's column in the paper's table), and the benchmark
+    metrics (:func:`run_benchmark`; of ``sim``'s plant, the paper's Husky if None)."""
     m = result.metrics
     published = PAPER_TABLE4.get(controller)
+    if sim is None:
+        from fuzzynav.world.husky import HuskyModel
+
+        model, limit = HuskyModel.default(), 12.0
+    else:
+        model, limit = sim.model, sim.voltage_limit_v
     return {
         "controller": controller,
         "scenario": scenario,
@@ -370,8 +602,20 @@ def table4_row(controller: str, scenario: str, index: int, result) -> dict:
         "reached": m["reached"],
         "collided": m["collided"],
         "outcome": result.outcome,
+        **run_benchmark(result, model, limit),
         "paper": {k: published[k][index] for k in TABLE4_ROWS} if published else None,
     }
+
+
+def run_table4(job) -> dict:
+    """One Table 4 row: (controller, scenario, column index, perception, options) ->
+    :func:`table4_row` (top level: what an executor sends to a worker)."""
+    from fuzzynav.app.resultlog import finite_or_none
+    from fuzzynav.app.runs import build_simulation
+
+    controller, scenario, index, perception, options = job
+    sim = build_simulation(scenario, controller, perception=perception, seed=0, **dict(options))
+    return finite_or_none(table4_row(controller, scenario, index, sim.run(), sim))
 
 
 def compare(
@@ -380,22 +624,36 @@ def compare(
     sweep_n: int = 0,
     sweep_seed: int = 1,
     family: str = "standard",
-    workers: int = 1,
-    quiet: bool = True,
+    *,
+    executor=None,
+    sweep_rows=None,
+    options: dict | None = None,
 ) -> dict:
-    """Runs of each controller on s1-s3 (and optionally a sweep); the ``compare --json`` object."""
-    from fuzzynav.app.runs import run_scenario
+    """Runs of each controller on s1-s3 (and optionally a sweep of each); the
+    ``compare --json`` object. ``executor``: where the runs go (default: serial);
+    ``sweep_rows``: the sweep's rows, run already (:func:`compare_sweep_jobs`, in
+    their order), instead of running them here."""
+    from fuzzynav.app.executor import SerialExecutor
 
-    rows = [
-        table4_row(name, scenario, i, run_scenario(scenario, name, perception=perception, seed=0))
-        for name in controllers
-        for i, scenario in enumerate(SCENARIOS)
-    ]
+    executor = executor or SerialExecutor()
+    opts = tuple(sorted((options or {}).items()))
+    rows = executor.map(
+        run_table4,
+        [
+            (name, scenario, i, perception, opts)
+            for name in controllers
+            for i, scenario in enumerate(SCENARIOS)
+        ],
+    )
     sweeps = []
     if sweep_n > 0:
-        for name in controllers:
-            s = _sweep_with_bar(name, sweep_n, sweep_seed, family, perception, workers, quiet)
+        jobs = compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, options)
+        if sweep_rows is None:
+            sweep_rows = run_jobs(jobs, executor)
+        for k in range(len(controllers)):
+            s = summarize(sweep_rows[k * sweep_n : (k + 1) * sweep_n])
             s.pop("runs")
+            s.pop("wall_time_s")
             sweeps.append(s)
     return {
         "perception": perception,
@@ -409,11 +667,21 @@ def compare(
     }
 
 
+def compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, options=None):
+    """The jobs of compare's sweep: every controller on the same layouts, in turn."""
+    return [
+        job
+        for name in controllers
+        for job in sweep_jobs(name, sweep_n, sweep_seed, family, perception, (), options)
+    ]
+
+
 def cmd_compare(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
     from fuzzynav.app.cli import UsageError, print_json
+    from fuzzynav.app.executor import executor_from_args
     from fuzzynav.controller.registry import controller_names
 
     offered = controller_names()
@@ -423,24 +691,37 @@ def cmd_compare(args) -> int:
             raise UsageError(
                 f"--controllers: {name!r} is not available (have {', '.join(offered)})"
             )
-    _check_workers(args.workers)
     if args.sweep_n < 0:
         raise UsageError(f"--sweep-n {args.sweep_n}: must be >= 0")
-    out = compare(
-        wanted,
-        args.perception,
-        args.sweep_n,
-        args.sweep_seed,
-        args.family,
-        args.workers,
-        quiet=args.json,
-    )
+    if args.out is not None and args.sweep_n == 0:
+        raise UsageError("--out: only the sweep's runs are written; give --sweep-n N > 0")
+    options = _options(args)
+    sweep_rows = None
+    if args.sweep_n > 0:
+        jobs = compare_sweep_jobs(
+            wanted, args.perception, args.sweep_n, args.sweep_seed, args.family, options
+        )
+        try:
+            sweep_rows, _ = run_study(jobs, args, f"sweep of {', '.join(wanted)}", quiet=args.json)
+        except StudyInterrupted:
+            return 130
+    with executor_from_args(args) as executor:
+        out = compare(
+            wanted,
+            args.perception,
+            args.sweep_n,
+            args.sweep_seed,
+            args.family,
+            executor=executor,
+            sweep_rows=sweep_rows,
+            options=options,
+        )
     if args.json:
         print_json(out)
         return 0
     console = Console()
     if not console.is_terminal:
-        console = Console(width=200)
+        console = Console(width=220)
     table = Table(title=f"Table 4, ours (paper's published value) — {args.perception} perception")
     for col in (
         "scenario",
@@ -453,6 +734,10 @@ def cmd_compare(args) -> int:
         "time s",
         "reached",
         "collided",
+        "shortest m",
+        "path / shortest",
+        "time / optimal",
+        "score",
     ):
         table.add_column(col, justify="left" if col in ("scenario", "controller") else "right")
     for row in out["rows"]:
@@ -469,6 +754,10 @@ def cmd_compare(args) -> int:
             _fmt(row["time_to_target_s"], 1),
             _fmt(row["reached"]),
             _fmt(row["collided"]),
+            _fmt(row["shortest_path_m"]),
+            _fmt(row["path_ratio"]),
+            _fmt(row["time_ratio"], 2),
+            _fmt(row["score"]),
         )
     console.print(table)
     if "baseline" in wanted:
@@ -476,6 +765,11 @@ def cmd_compare(args) -> int:
             "baseline: a STAND-IN for the paper's ref. [19] (controller/baseline.py); the "
             "numbers in brackets on its rows are the paper's ref. [19] numbers, not the stand-in's."
         )
+    console.print(
+        "shortest: the shortest path keeping 0.25 m from the static obstacles (docs/"
+        "experiments.md); score = success x optimal time / clip(time, 2, 8 x optimal), "
+        "optimal time = shortest / top speed (0.617 m/s)"
+    )
     if out["sweeps"]:
         st = Table(title=f"sweep: {args.sweep_n} {args.family} layouts, seed {args.sweep_seed}")
         for col in (
@@ -485,7 +779,10 @@ def cmd_compare(args) -> int:
             "collisions",
             "timeouts",
             "median path m",
+            "median path / shortest",
             "median path / straight",
+            "median time / optimal",
+            "mean score",
             "median clearance m",
         ):
             st.add_column(col, justify="left" if col == "controller" else "right")
@@ -498,29 +795,45 @@ def cmd_compare(args) -> int:
                 str(s["timeouts"]),
                 _fmt(s["median_path_length_m"]),
                 _fmt(s["median_path_ratio"]),
+                _fmt(s["median_straight_ratio"]),
+                _fmt(s["median_time_ratio"], 2),
+                _fmt(s["mean_score"]),
                 _fmt(s["median_min_clearance_m"]),
             )
         console.print(st)
+        if args.out is not None:
+            console.print(f"every sweep run: {args.out}")
     return 0
 
 
 # --------------------------------------------------------------------------- CLI
 
 
-def _check_workers(workers: int) -> None:
-    from fuzzynav.app.cli import UsageError
-
-    if not 1 <= workers <= 2:
-        raise UsageError(f"--workers {workers}: must be 1 or 2 (the machine has 2 shared cores)")
-
-
 def _csv(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def add_study_output_options(parser) -> None:
+    """``--out PATH.jsonl`` and ``--resume``."""
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="PATH.jsonl",
+        help="write every run as one JSON line as it finishes (docs/experiments.md); an "
+        "existing file is refused unless --resume",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on with the --out file: the runs in it are not run again",
+    )
 
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
     from fuzzynav.app.cli import add_off_option, integer_in, seed_type
+    from fuzzynav.app.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
     from fuzzynav.world.perception import PERCEPTION_MODES
@@ -547,7 +860,8 @@ def add_commands(subparsers) -> None:
         choices=PERCEPTION_MODES,
         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
     )
-    p.add_argument("--workers", type=int, default=1, help="worker processes, 1 or 2 (default 1)")
+    add_executor_options(p)
+    add_study_output_options(p)
     p.add_argument(
         "--beside",
         default="auto",
@@ -596,8 +910,7 @@ def add_commands(subparsers) -> None:
         help="seed of that sweep (default 5, a seed no controller was designed or tuned on)",
     )
     c.add_argument("--family", default="standard", choices=FAMILIES, help="family of that sweep")
-    c.add_argument(
-        "--workers", type=int, default=2, help="worker processes for the sweep, 1 or 2 (default 2)"
-    )
+    add_executor_options(c)
+    add_study_output_options(c)
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.set_defaults(func=cmd_compare)

@@ -122,3 +122,66 @@ def compute_metrics(result) -> dict:
             log.center_distance_m if geometry == "paper" else log.clearance_m
         ),
     }
+
+
+# --------------------------------------------------------------------------- benchmark
+#
+# Judged against the shortest collision-free path (world/shortest_path.py), as the BARN
+# benchmark judges against its A* path (Perille et al., "Benchmarking Metric Ground
+# Navigation", 2020): ``score = success * optimal_time / clip(time, 2 * optimal_time,
+# 8 * optimal_time)`` with ``optimal_time = shortest_path_m / top speed``. The top speed
+# is the plant's own steady forward speed at the saturation voltage on both sides
+# (0.617 m/s for the paper's Husky at 12 V): the fastest any controller can drive it
+# straight. A run that keeps up the top speed along the shortest path would score 1 /
+# 2 = 0.5 (the clip caps every score at 0.5, as BARN's does at 1/4); a successful run
+# that takes 8 x the optimal time or more scores 1/8 = 0.125; a failure scores 0.
+# The start heading is not counted in the optimum (a turn on the spot is not free), so
+# a score near 0.5 is out of reach; the numbers compare controllers on the same layouts.
+
+BENCHMARK_KEYS = ("shortest_path_m", "path_ratio", "optimal_time_s", "time_ratio", "score")
+SCORE_CLIP = (2.0, 8.0)
+
+
+def top_speed_mps(model, voltage_limit_v: float) -> float:
+    """Steady forward speed [m/s] of ``model`` (a :class:`world.husky.HuskyModel`) with
+    ``voltage_limit_v`` on both sides."""
+    from fuzzynav.world.husky import STATE_NAMES
+
+    state = model.steady_state(np.array([voltage_limit_v, voltage_limit_v], float))
+    return float(state[STATE_NAMES.index("v_MH")])
+
+
+def benchmark_metrics(
+    *,
+    success: bool,
+    path_length_m: float,
+    time_to_target_s: float | None,
+    shortest_path_m: float,
+    top_speed_mps: float,
+) -> dict:
+    """The benchmark numbers of one run (see the comment above :data:`BENCHMARK_KEYS`).
+
+    ``path_ratio = path_length_m / shortest_path_m`` and ``time_ratio = time /
+    optimal_time_s`` of a successful run (None otherwise); ``score`` for every run (0
+    for a failure). All None when no collision-free path exists (``shortest_path_m``
+    inf): that layout has no reference, and its score is undefined.
+    """
+    if not (top_speed_mps > 0 and math.isfinite(top_speed_mps)):
+        raise ValueError(f"top_speed_mps = {top_speed_mps!r}: must be finite and > 0")
+    if not math.isfinite(shortest_path_m) or shortest_path_m <= 0.0:
+        return dict.fromkeys(BENCHMARK_KEYS)
+    optimal_time_s = shortest_path_m / top_speed_mps
+    out = {
+        "shortest_path_m": float(shortest_path_m),
+        "path_ratio": None,
+        "optimal_time_s": optimal_time_s,
+        "time_ratio": None,
+        "score": 0.0,
+    }
+    if success and time_to_target_s is not None:
+        low, high = SCORE_CLIP
+        clipped = min(max(time_to_target_s, low * optimal_time_s), high * optimal_time_s)
+        out["path_ratio"] = path_length_m / shortest_path_m
+        out["time_ratio"] = time_to_target_s / optimal_time_s
+        out["score"] = optimal_time_s / clipped
+    return out

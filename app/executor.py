@@ -1,0 +1,347 @@
+"""Where the runs of an experiment execute: in this process, on this machine's cores, or
+on a Dask cluster. One interface for ``sweep``, ``compare``, ``tune`` and the ablation.
+
+``serial``
+    One after the other in this process (no start-up cost; what a test or a debugger
+    wants).
+``local`` (the default)
+    A pool of ``--workers`` processes on this machine (default: every CPU this process
+    may use, :func:`available_cpus`). The processes are started with ``forkserver`` on
+    Linux and the BSDs and with ``spawn`` on macOS and Windows: never ``fork``, which
+    copies the parent's threads' locks (rich's progress bar refreshes from a thread)
+    and is unsafe on macOS. The fork server imports fuzzynav once and each worker forks
+    from it, so a pool starts in well under a second.
+``dask``
+    A ``dask.distributed`` cluster: the one at ``--scheduler tcp://HOST:8786``, or, with
+    no scheduler, a ``LocalCluster`` of ``--workers`` processes (one thread each: a run
+    holds the GIL) bound to 127.0.0.1 with no dashboard. Needs ``pip install
+    'fuzzynav[dask]'`` here and the same fuzzynav on every worker.
+
+Tasks are chunks of several items (:func:`chunk_size`), so the cost of sending a task
+(about a millisecond on a pool, a few on Dask) stays small against the runs it carries
+(0.1-0.5 s each). Task functions must be top-level functions of an importable module
+and their items picklable (no lambdas, no closures): that is what ``spawn`` and a
+remote worker can import. Results do not depend on the executor or the number of
+workers: each item carries everything its result depends on (a layout is seeded by its
+index), and :meth:`Executor.map` keeps the order.
+
+Workers ignore SIGINT: Ctrl-C reaches the parent, which stops the pool (terminating
+runs in progress) and keeps what had arrived.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import os
+import signal
+import sys
+from collections.abc import Callable, Iterable, Iterator
+
+__all__ = [
+    "EXECUTORS",
+    "Executor",
+    "SerialExecutor",
+    "LocalExecutor",
+    "DaskExecutor",
+    "available_cpus",
+    "chunk_size",
+    "default_start_method",
+    "make_executor",
+    "add_executor_options",
+    "executor_from_args",
+]
+
+EXECUTORS = ("serial", "local", "dask")
+TASKS_PER_WORKER = 8  # tasks per worker at least: evens out slow and fast runs
+MAX_CHUNK = 4  # items per task at most: ~1 s of runs, so Ctrl-C loses little
+WORKER_PRELOAD = ("fuzzynav.app.runs", "fuzzynav.world.shortest_path")
+
+
+def available_cpus() -> int:
+    """The CPUs this process may run on (its affinity mask, or cgroup's count where
+    Python 3.13's ``os.process_cpu_count`` knows it), at least 1."""
+    count = getattr(os, "process_cpu_count", None)
+    if count is not None:
+        n = count()
+    elif hasattr(os, "sched_getaffinity"):
+        n = len(os.sched_getaffinity(0))
+    else:  # macOS, Windows before 3.13
+        n = os.cpu_count()
+    return max(1, n or 1)
+
+
+def default_start_method() -> str:
+    """``forkserver`` where it exists and is safe (Linux, the BSDs), else ``spawn``."""
+    if sys.platform in ("darwin", "win32"):
+        return "spawn"
+    return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+
+
+def chunk_size(n_items: int, n_workers: int) -> int:
+    """Items per task: about :data:`TASKS_PER_WORKER` tasks per worker, at most
+    :data:`MAX_CHUNK` items each, at least one."""
+    if n_items <= 0:
+        return 1
+    return max(1, min(MAX_CHUNK, math.ceil(n_items / (TASKS_PER_WORKER * max(1, n_workers)))))
+
+
+def _chunks(items: list, size: int) -> list[tuple[int, list]]:
+    return [(start, items[start : start + size]) for start in range(0, len(items), size)]
+
+
+def run_chunk(function: Callable, items: list) -> list:
+    """The task every executor sends: ``function`` on each item, in order (top level:
+    picklable by reference)."""
+    return [function(item) for item in items]
+
+
+def _indexed_chunk(function: Callable, start: int, items: list) -> tuple[int, list]:
+    return start, run_chunk(function, items)
+
+
+def _worker_init() -> None:
+    # Ctrl-C in a terminal signals the whole process group: only the parent acts on it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _pool_task(packed):
+    function, start, items = packed
+    return _indexed_chunk(function, start, items)
+
+
+class Executor:
+    """Runs a function on many items. Subclasses: :class:`SerialExecutor`,
+    :class:`LocalExecutor`, :class:`DaskExecutor`. A context manager (closes itself)."""
+
+    kind = "?"
+    workers = 1
+
+    def imap_unordered(self, function: Callable, items: Iterable) -> Iterator:
+        """``function(item)`` for every item, yielded as each chunk finishes (in no set
+        order); stopping the iteration early (or Ctrl-C) cancels what is left."""
+        items = list(items)
+        for _, results in self._chunked(function, items, chunk_size(len(items), self.workers)):
+            yield from results
+
+    def map(self, function: Callable, items: Iterable) -> list:
+        """``[function(item) for item in items]``, in order (scipy's ``workers=``
+        map-like)."""
+        items = list(items)
+        size = chunk_size(len(items), self.workers)
+        out = [None] * len(items)
+        for start, results in self._chunked(function, items, size):
+            out[start : start + len(results)] = results
+        return out
+
+    def _chunked(self, function, items, size) -> Iterator[tuple[int, list]]:
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        return f"{self.kind}, {self.workers} worker{'s' if self.workers != 1 else ''}"
+
+    def close(self) -> None:
+        """Release the pool or the cluster connection (idempotent)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+class SerialExecutor(Executor):
+    """Everything in this process, in order."""
+
+    kind = "serial"
+
+    def imap_unordered(self, function, items):
+        for item in items:
+            yield function(item)
+
+    def map(self, function, items):
+        return [function(item) for item in items]
+
+    def _chunked(self, function, items, size):
+        yield 0, [function(item) for item in items]
+
+
+class LocalExecutor(Executor):
+    """A process pool on this machine, started on first use and kept until :meth:`close`
+    (``tune`` maps every generation through the same pool)."""
+
+    kind = "local"
+
+    def __init__(self, workers: int | None = None, start_method: str | None = None):
+        self.workers = _check_workers(workers if workers is not None else available_cpus())
+        self.start_method = start_method or default_start_method()
+        if self.start_method not in multiprocessing.get_all_start_methods():
+            raise ValueError(
+                f"start_method = {self.start_method!r}: this platform has "
+                f"{', '.join(multiprocessing.get_all_start_methods())}"
+            )
+        self._pool = None
+
+    def _get_pool(self):
+        if self._pool is None:
+            context = multiprocessing.get_context(self.start_method)
+            if self.start_method == "forkserver":
+                context.set_forkserver_preload(list(WORKER_PRELOAD))
+            self._pool = context.Pool(self.workers, initializer=_worker_init)
+        return self._pool
+
+    def _chunked(self, function, items, size):
+        if not items:
+            return
+        pool = self._get_pool()
+        packed = [(function, start, chunk) for start, chunk in _chunks(items, size)]
+        try:
+            yield from pool.imap_unordered(_pool_task, packed)
+        except BaseException:
+            self.terminate()  # Ctrl-C, an error in a run, or a consumer that stopped
+            raise
+
+    def terminate(self) -> None:
+        """Stop the workers now (runs in progress are lost; nothing else is)."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def close(self):
+        if self._pool is not None:
+            self._pool.close()
+            self._pool.join()
+            self._pool = None
+
+
+class DaskExecutor(Executor):
+    """A ``dask.distributed`` client: of the cluster at ``scheduler``, or of a
+    ``LocalCluster`` of ``workers`` processes started here (and closed with it)."""
+
+    kind = "dask"
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None):
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise ValueError(
+                "--executor dask needs dask.distributed: pip install 'fuzzynav[dask]'"
+            ) from None
+        self.scheduler = scheduler
+        self._cluster = None
+        if scheduler is None:
+            self.workers = _check_workers(workers if workers is not None else available_cpus())
+            self._cluster = LocalCluster(
+                n_workers=self.workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+            )
+            self.client = Client(self._cluster)
+        else:
+            try:
+                self.client = Client(scheduler, timeout="10s")
+            except OSError as exc:
+                raise ValueError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+            threads = sum(self.client.nthreads().values())
+            if threads == 0:
+                self.client.close()
+                raise ValueError(f"--scheduler {scheduler}: the cluster has no workers")
+            # the cluster decides how many run at once; --workers only sizes the chunks
+            self.workers = _check_workers(workers) if workers is not None else threads
+
+    def _chunked(self, function, items, size):
+        from distributed import as_completed
+
+        futures = [
+            self.client.submit(_indexed_chunk, function, start, chunk, pure=False)
+            for start, chunk in _chunks(items, size)
+        ]
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            self.client.cancel(futures)
+
+    def describe(self):
+        where = self.scheduler or "a LocalCluster on this machine"
+        return f"dask ({where}), {self.workers} worker{'s' if self.workers != 1 else ''}"
+
+    def close(self):
+        if getattr(self, "client", None) is not None:
+            self.client.close()
+            self.client = None
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+
+def _check_workers(workers) -> int:
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
+    return workers
+
+
+def make_executor(
+    kind: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    *,
+    start_method: str | None = None,
+) -> Executor:
+    """An executor (module docstring). ``workers`` None: every CPU this process may use
+    (for ``dask`` with a scheduler: the cluster's threads). ``scheduler`` only with
+    ``dask``."""
+    if kind not in EXECUTORS:
+        raise ValueError(f"executor = {kind!r}: choose from {', '.join(EXECUTORS)}")
+    if scheduler is not None and kind != "dask":
+        raise ValueError(f"--scheduler {scheduler}: only with --executor dask")
+    if kind == "serial":
+        if workers is not None:
+            _check_workers(workers)
+        return SerialExecutor()
+    if kind == "local":
+        return LocalExecutor(workers, start_method)
+    return DaskExecutor(workers, scheduler)
+
+
+def add_executor_options(parser) -> None:
+    """``--executor``, ``--workers`` and ``--scheduler`` on an argparse parser."""
+    from fuzzynav.app.cli import integer_in
+
+    parser.add_argument(
+        "--executor",
+        choices=EXECUTORS,
+        default="local",
+        help="serial: this process; local: a process pool on this machine; dask: a Dask "
+        "cluster (default local)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=integer_in(1),
+        default=None,
+        metavar="N",
+        help=f"worker processes (default: the CPUs this process may use, here "
+        f"{available_cpus()}; with --scheduler: the cluster's)",
+    )
+    parser.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="with --executor dask: join this cluster, e.g. tcp://HOST:8786 (default: a "
+        "LocalCluster of --workers processes on this machine)",
+    )
+
+
+def executor_from_args(args) -> Executor:
+    """The executor the parsed ``--executor/--workers/--scheduler`` ask for; bad values
+    are a UsageError (exit status 2)."""
+    from fuzzynav.app.cli import UsageError
+
+    try:
+        return make_executor(args.executor, args.workers, args.scheduler)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
