@@ -24,9 +24,9 @@ time, so that an orbiting candidate does not cost 150 s of simulation.
 
 ``--method de`` (the default): ``scipy.optimize.differential_evolution`` runs with a fixed
 seed, ``updating="deferred"``, ``polish=False`` and the starting vector in its initial
-population; the cost of a generation is spread over ``--workers`` processes with a
-multiprocessing pool's map, which keeps the order, so the result does not depend on the
-number of workers. ``--radius R`` narrows every bound to the starting value +- R times
+population; the cost of a generation is mapped over the executor (``--executor
+serial|local|dask``, ``--workers``, ``--scheduler``: app/executor.py) in order, so the
+result does not depend on the executor or the number of workers. ``--radius R`` narrows every bound to the starting value +- R times
 the bound's span (a local DE around a vector that already works).
 
 ``--method nelder-mead`` or ``powell``: ``scipy.optimize.minimize`` from the starting
@@ -275,6 +275,7 @@ def tune(
     popsize: int = 1,
     seed: int = 0,
     workers: int = 1,
+    executor=None,
     on_generation=None,
     x0=None,
     control_period_s: float = 0.05,
@@ -288,7 +289,9 @@ def tune(
     tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
     ``.nit``. ``on_generation(step, best cost, best vector)`` is called after every DE
     generation or local-search iteration; ``on_evaluation(count, best cost so far)`` after
-    every candidate of a local search (one process: Powell's iterations are long)."""
+    every candidate of a local search (one process: Powell's iterations are long).
+    ``executor`` (:mod:`app.executor`): where DE evaluates its population (a local
+    search is sequential and runs here); without one, ``workers > 1`` is a local pool."""
     from scipy.optimize import Bounds, differential_evolution, minimize
 
     all_bounds = np.asarray(tunable.bounds(), float)
@@ -329,11 +332,14 @@ def tune(
             tol=0.0,
             callback=callback,
         )
-        if workers > 1:
-            import multiprocessing as mp
+        if executor is None and workers > 1:
+            from fuzzynav.app.executor import LocalExecutor
 
-            with mp.get_context("fork").Pool(workers) as pool:
+            with LocalExecutor(workers) as pool:
                 result = differential_evolution(objective, workers=pool.map, **kwargs)
+        elif executor is not None and executor.kind != "serial":
+            # the population of a generation, mapped in order: the same result anywhere
+            result = differential_evolution(objective, workers=executor.map, **kwargs)
         else:
             result = differential_evolution(objective, **kwargs)
     elif method in ("nelder-mead", "powell"):
@@ -368,6 +374,7 @@ def _csv(text: str) -> list[str]:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app.cli import integer_in, seed_type
+    from fuzzynav.app.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
 
     p = subparsers.add_parser(
@@ -413,9 +420,7 @@ def add_commands(subparsers) -> None:
         metavar="K",
         help="population = popsize x parameters (default 4)",
     )
-    p.add_argument(
-        "--workers", type=int, default=2, metavar="N", help="worker processes (default 2)"
-    )
+    add_executor_options(p)
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument(
         "--method",
@@ -493,14 +498,15 @@ def cmd_tune(args) -> int:
     )
 
     from fuzzynav.app.cli import UsageError, print_json
+    from fuzzynav.app.executor import SerialExecutor, executor_from_args
     from fuzzynav.controller.tuning import tunable as get_tunable
     from fuzzynav.world.perception import PERCEPTION_MODES
 
     for mode in args.perception:
         if mode not in PERCEPTION_MODES:
             raise UsageError(f"--perception {mode!r}: must be among {', '.join(PERCEPTION_MODES)}")
-    if args.maxiter < 1 or args.popsize < 1 or args.workers < 1:
-        raise UsageError("--maxiter, --popsize and --workers must be >= 1")
+    if args.maxiter < 1 or args.popsize < 1:
+        raise UsageError("--maxiter and --popsize must be >= 1")
     if args.radius is not None and args.radius <= 0:
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
@@ -534,16 +540,21 @@ def cmd_tune(args) -> int:
     start = time.perf_counter()
     history = []
     step = "generation" if args.method == "de" else "iteration"
-    with Progress(
-        TextColumn(step + " {task.completed}/{task.total}"),
-        BarColumn(),
-        TextColumn("best cost {task.fields[best]}"),
-        TextColumn("{task.fields[seen]}"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=console,
-        disable=args.json,
-    ) as progress:
+    # a local search is sequential: no pool or cluster for it
+    executor = executor_from_args(args) if args.method == "de" else SerialExecutor()
+    with (
+        executor,
+        Progress(
+            TextColumn(step + " {task.completed}/{task.total}"),
+            BarColumn(),
+            TextColumn("best cost {task.fields[best]}"),
+            TextColumn("{task.fields[seen]}"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=console,
+            disable=args.json,
+        ) as progress,
+    ):
         task = progress.add_task("tune", total=args.maxiter, best="-", seen="")
 
         def on_evaluation(count, best):
@@ -570,7 +581,7 @@ def cmd_tune(args) -> int:
             maxiter=args.maxiter,
             popsize=args.popsize,
             seed=args.seed,
-            workers=args.workers,
+            executor=executor,
             on_generation=on_generation,
             control_period_s=args.dt,
             method=args.method,

@@ -2,8 +2,9 @@
 
     .venv/bin/python bench/bench_fuzzy.py [--rules assets/rules/paper.toml] [--quick]
 
-Prints a table of median times (medians over repeats): our evaluate_one, our batch per
-row (N = 10,000), simpful per call, scikit-fuzzy per call, and the ratios; plus the
+Prints a table of median times (medians over repeats): our evaluate_one, our evaluate on
+one row, our batch per row (N = 10,000), simpful per call, scikit-fuzzy per call, and
+the ratios; evaluate per row for small N against its two paths (the dispatch threshold); plus the
 largest differences seen between the engines on the same inputs, and a calibration
 figure for the machine (a plain Python loop), because absolute times on a shared VM
 vary by a factor of two from minute to minute. "CPU time" is this thread's CPU time
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.controller import fuzzy as fuzzy_module
 from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.rulebase import read_toml
@@ -189,6 +191,56 @@ def _skfuzzy(system: FuzzySystem):
     return run
 
 
+def _dispatch_table(system: FuzzySystem, reps: int):
+    """evaluate(X) per row against the batch path alone and evaluate_one row by row, for
+    small N around the dispatch threshold (CPU time, medians)."""
+    from rich.table import Table
+
+    def per_row(fn, X, n_calls):
+        samples = []
+        for _ in range(reps):
+            c0 = time.thread_time()
+            for _ in range(n_calls):
+                fn(X)
+            samples.append((time.thread_time() - c0) / n_calls / len(X))
+        return statistics.median(samples)
+
+    def batch_only(X):
+        saved = fuzzy_module._ROW_BY_ROW_MAX
+        fuzzy_module._ROW_BY_ROW_MAX = 0
+        try:
+            return system.evaluate(X)
+        finally:
+            fuzzy_module._ROW_BY_ROW_MAX = saved
+
+    def one_by_one(X):
+        return [system.evaluate_one(x) for x in X]
+
+    threshold = fuzzy_module._ROW_BY_ROW_MAX
+    t = Table(
+        title=f"evaluate(X) per row by batch size N (CPU us, medians of {reps}); rows up to "
+        f"N = {threshold} go one by one"
+    )
+    for col in ("N", "evaluate (dispatched)", "batch path alone", "evaluate_one per row", "best"):
+        t.add_column(col, justify="right")
+    worst = 0.0
+    for n in (1, 2, 4, 8, 12, 16, 17, 24, 32, 64, 256, 4096):
+        X = _inputs(n, seed=n)
+        calls = max(3, 4000 // n)
+        d = per_row(system.evaluate, X, calls)
+        b = per_row(batch_only, X, calls)
+        o = per_row(one_by_one, X, calls)
+        worst = max(worst, d / min(b, o))
+        t.add_row(
+            str(n),
+            f"{d * 1e6:.1f}",
+            f"{b * 1e6:.1f}",
+            f"{o * 1e6:.1f}",
+            "batch" if b < o else "one by one",
+        )
+    return t, worst
+
+
 def _verdict(target: float, wall: float, cpu: float) -> str:
     def mark(v):
         return "[green]met[/]" if v <= target else "[red]missed[/]"
@@ -243,6 +295,8 @@ def main(argv=None) -> int:
         skf_s = _median_per_call(skf, list(Xs[:20]), 3 if args.quick else 5)
         d_simp = max(np.abs(simp(x) - system.evaluate_one(x)).max() for x in Xs[:40])
         d_skf = max(np.abs(skf(x) - system.evaluate_one(x)).max() for x in Xs[:40])
+    one_row = [X[i : i + 1] for i in range(2000)]
+    eval1_s = statistics.median(_median_single(system.evaluate, one_row) for _ in range(reps))
     ident = np.array_equal(
         np.array([system.evaluate_one(x) for x in X[:3000]]), system.evaluate(X)[:3000]
     )
@@ -273,6 +327,13 @@ def main(argv=None) -> int:
         "",
     )
     t.add_row(
+        "ours: evaluate on one row (N=1)",
+        f"{eval1_s * us:.1f} us",
+        "",
+        f"{eval1_s / one_s:.2f}",
+        "",
+    )
+    t.add_row(
         f"ours: evaluate, per row (N={n_batch:,})",
         f"{row_s * us:.2f} us",
         f"{row_cpu * us:.2f} us",
@@ -294,6 +355,12 @@ def main(argv=None) -> int:
         f"largest |ours - scikit-fuzzy| on 40 inputs: {d_skf:.2e} V (area centroid, see tests)"
     )
     console.print(f"evaluate_one == evaluate bit for bit on 3000 rows: {ident}")
+    table, worst = _dispatch_table(system, reps)
+    console.print(table)
+    console.print(
+        f"dispatched evaluate vs the better of the two paths, worst N: x{worst:.2f} "
+        "(1.00 = the dispatch always picks the faster path)"
+    )
     console.print(
         f"machine calibration: a 1e6-iteration Python float loop takes {_calibration_ms():.0f} ms "
         "(a typical desktop: ~40-60 ms)"

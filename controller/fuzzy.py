@@ -188,6 +188,10 @@ _array, _minimum, _max_reduce, _accumulate = (
 
 _BLOCK = 16384  # rows per block of memberships / firing strengths in evaluate()
 _CHUNK = 512  # rows per block of the grid aggregation (its buffers stay in cache)
+# Up to this many rows, evaluate() runs the single-row path per row: the batch path's
+# fixed cost (~0.3-0.5 ms of numpy calls) is then more than the rows cost one by one
+# (15-25 us each); the crossover is measured in bench/bench_fuzzy.py.
+_ROW_BY_ROW_MAX = 16
 
 
 class _Workspace:
@@ -611,9 +615,17 @@ class FuzzySystem:
 
     # ------------------------------------------------------------------ inference
     def evaluate(self, X) -> np.ndarray:
-        """Crisp outputs for a batch: X (N, n_inputs) -> (N, n_outputs)."""
+        """Crisp outputs for a batch: X (N, n_inputs) -> (N, n_outputs).
+
+        Up to ``_ROW_BY_ROW_MAX`` rows go through :meth:`evaluate_one`'s path one by one
+        (as fast as it for one row), more through the block-wise batch path; both give
+        the same bits (module docstring)."""
         X = self._check_X(X)
         N = X.shape[0]
+        if N <= _ROW_BY_ROW_MAX:
+            return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(
+                N, len(self.outputs)
+            )
         Y = np.empty((N, len(self.outputs)))
         G = self.n_points
         for b0 in range(0, N, _BLOCK):

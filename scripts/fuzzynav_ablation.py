@@ -5,7 +5,8 @@ collision) and draws ``docs/img/fuzzynav_ablation.png``: one row per ablation, o
 per family and perception mode, each cell the success rate and its change from shipped.
 
     .venv/bin/python scripts/fuzzynav_ablation.py [--seed 59] [--n 200] [--n-hard 100]
-        [--n-jitter 48] [--workers 2] [--out docs/img/fuzzynav_ablation.png] [--json OUT]
+        [--n-jitter 48] [--executor serial|local|dask] [--workers N] [--scheduler ADDRESS]
+        [--runs RUNS.jsonl [--resume]] [--out docs/img/fuzzynav_ablation.png] [--json OUT]
     .venv/bin/python scripts/fuzzynav_ablation.py --from-json docs/data/fuzzynav_ablation_seed59.json
 
 The first form runs (about 30 minutes on 2 cores for the defaults); the second redraws the
@@ -21,8 +22,8 @@ import json
 import sys
 from pathlib import Path
 
-from fuzzynav.app.experiments import SAFE_CLEARANCE_M
-from fuzzynav.app.experiments import _sweep_one as sweep_one
+from fuzzynav.app.executor import add_executor_options
+from fuzzynav.app.experiments import SAFE_CLEARANCE_M, LayoutJob, StudyInterrupted, run_study
 from fuzzynav.controller.fuzzynav_parts import load_parts
 from fuzzynav.world.layouts import FAMILIES
 
@@ -38,17 +39,15 @@ def versions(parts) -> list[dict]:
     ]
 
 
-def run_one(job):
-    """One run: (version index, part off, family, seed, layout index, mode) -> outcome flags,
-    run and judged as `fuzzynav sweep --off` runs and judges it."""
-    k, part_off, family, seed, index, mode = job
-    row = sweep_one((family, seed, index, "fuzzynav", mode, (part_off,) if part_off else ()))
-    ok = row["reached"] and not row["collided"]
+def outcome(k: int, row: dict) -> tuple:
+    """(version index, family, mode, ok, safe, collided, timeout) of a sweep row, judged as
+    `fuzzynav sweep --off` judges it (the row is the sweep's own: app.experiments)."""
+    ok = row["success"]
     clearance = row["min_clearance_m"]
     return (
         k,
-        family,
-        mode,
+        row["family"],
+        row["perception"],
         ok,
         ok and (clearance is None or clearance >= SAFE_CLEARANCE_M),
         row["collided"],
@@ -126,7 +125,18 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--n-jitter", type=int, default=48, help="paper_jitter copies (a third per scenario)"
     )
-    parser.add_argument("--workers", type=int, default=2, choices=(1, 2))
+    add_executor_options(parser)
+    parser.add_argument(
+        "--runs",
+        dest="out_runs",
+        type=Path,
+        default=None,
+        metavar="PATH.jsonl",
+        help="write every run as one JSON line as it finishes (as `sweep --out`)",
+    )
+    parser.add_argument(
+        "--resume", action="store_true", help="go on with the --runs file: its runs are kept"
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "fuzzynav_ablation.png")
     parser.add_argument("--json", type=Path, default=None, help="also write the counts as JSON")
     parser.add_argument(
@@ -151,31 +161,32 @@ def main(argv=None) -> int:
     }
     sizes = {f: n for f, n in sizes.items() if n > 0}
     jobs = [
-        (k, a["off"], f, args.seed, i, m)
-        for k, a in enumerate(ablations)
+        LayoutJob(f, args.seed, i, "fuzzynav", m, (a["off"],) if a["off"] else ())
+        for a in ablations
         for f, n in sizes.items()
         for m in MODES
         for i in range(n)
     ]
+    version_of = {a["off"]: k for k, a in enumerate(ablations)}
+    study = argparse.Namespace(
+        executor=args.executor,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        out=args.out_runs,
+        resume=args.resume,
+    )
+    from fuzzynav.app.cli import UsageError
 
-    from rich.progress import Progress
-
-    rows = []
-    with Progress(transient=True) as progress:
-        task = progress.add_task(
-            f"{len(ablations)} versions x {len(jobs) // len(ablations)} runs", total=len(jobs)
+    try:
+        found, _ = run_study(
+            jobs, study, f"{len(ablations)} versions x {len(jobs) // len(ablations)} runs", False
         )
-        if args.workers > 1:
-            import multiprocessing as mp
-
-            with mp.get_context("fork").Pool(args.workers) as pool:
-                for row in pool.imap_unordered(run_one, jobs, chunksize=8):
-                    rows.append(row)
-                    progress.advance(task)
-        else:
-            for job in jobs:
-                rows.append(run_one(job))
-                progress.advance(task)
+    except StudyInterrupted:
+        return 130
+    except (UsageError, ValueError) as exc:
+        print(f"fuzzynav_ablation: error: {exc}", file=sys.stderr)
+        return 2
+    rows = [outcome(version_of[r["parts_off"][0] if r["parts_off"] else None], r) for r in found]
     counts = tally(rows, len(ablations), sizes)
     print_table(ablations, counts, sizes, args.seed)
     if args.json:

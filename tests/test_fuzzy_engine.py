@@ -332,7 +332,7 @@ def test_evaluate_one_identical_to_batch(paper, xs):
     assert np.array_equal(paper.aggregated(list(xs[0])).output, batch[0])
 
 
-@pytest.mark.parametrize("n", [1, 2, 3, 511, 512, 513, 1025, 16385])
+@pytest.mark.parametrize("n", [1, 2, 3, 16, 17, 511, 512, 513, 1025, 16385])
 def test_batch_equals_one_by_one_across_block_edges(paper, n):
     rng = np.random.default_rng(n)
     X = _random_X(rng, n)
