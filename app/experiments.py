@@ -449,7 +449,10 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
                 rows = run_jobs(jobs, executor, log=log, progress=progress)
     except KeyboardInterrupt:
         if log is not None:
-            kept = sum(1 for job in jobs if job.key() in log.rows)
+            log.close()
+            # read back: Ctrl-C may land after a row reached the file, before it was counted
+            on_file = ResultLog(log.path, resume=True, key=row_key).rows
+            kept = sum(1 for job in jobs if job.key() in on_file)
             print(
                 f"fuzzynav: interrupted: {kept} of {len(jobs)} runs are in {log.path}; "
                 f"the same command with --resume runs the other {len(jobs) - kept}",

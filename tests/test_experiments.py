@@ -28,6 +28,9 @@ SWEEP_KEYS = {
     "timeouts",
     "median_path_length_m",
     "median_path_ratio",
+    "median_time_ratio",
+    "mean_score",
+    "median_straight_ratio",
     "median_min_clearance_m",
     "wall_time_s",
     "runs",
@@ -125,7 +128,7 @@ def test_sweep_json(capsys):
 
 def test_sweep_bad_input(capsys):
     assert main(["sweep", "--n", "0"]) == 2
-    assert main(["sweep", "--n", "1", "--workers", "8"]) == 2
+    assert main(["sweep", "--n", "1", "--executor", "threads"]) == 2
 
 
 def test_compare_json(capsys):
