@@ -623,9 +623,7 @@ class FuzzySystem:
         X = self._check_X(X)
         N = X.shape[0]
         if N <= _ROW_BY_ROW_MAX:
-            return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(
-                N, len(self.outputs)
-            )
+            return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(N, len(self.outputs))
         Y = np.empty((N, len(self.outputs)))
         G = self.n_points
         for b0 in range(0, N, _BLOCK):
