@@ -409,8 +409,9 @@ def _progress_bar(label: str, quiet: bool):
         MofNCompleteColumn(),
         RateColumn(),
         TimeElapsedColumn(),
-        TextColumn("left"),
+        TextColumn("elapsed,"),
         TimeRemainingColumn(),
+        TextColumn("left"),
         console=Console(stderr=True),
         disable=quiet,
     )
