@@ -110,7 +110,8 @@ def run_layout_row(
     ``options`` go to :func:`app.runs.build_simulation` as keywords. The row: the job
     (index, controller, parts_off, family, seed, perception, and options if any), the
     outcome (outcome, reached, collided, success = reached without collision), the
-    run's path_length_m, min_clearance_m, time_to_target_s, straight_line_m and
+    run's path_length_m, min_clearance_m, min_safety_distance_m (what the safe distance
+    is judged on in the run's geometry), time_to_target_s, straight_line_m and
     straight_ratio (path / straight line), n_obstacles, and the benchmark metrics of
     :func:`world.metrics.benchmark_metrics` (shortest_path_m, path_ratio,
     optimal_time_s, time_ratio, score). Non-finite numbers are None.
@@ -142,6 +143,7 @@ def run_layout_row(
         "straight_line_m": straight,
         "straight_ratio": m["path_length_m"] / straight,
         "min_clearance_m": m["min_clearance_m"],
+        "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
         "time_to_target_s": m["time_to_target_s"],
         "n_obstacles": len(scenario.obstacles),
         **run_benchmark(result, sim.model, sim.voltage_limit_v),
@@ -158,9 +160,10 @@ def run_benchmark(result, model, voltage_limit_v: float) -> dict:
 
     sc = result.scenario
     m = result.metrics
-    shortest = robot_shortest_path_m(
-        sc.start, sc.target, sc.obstacles, model.parameters.footprint_width_m
-    )
+    # the paper's geometry drives a point robot: the clearance alone inflates obstacles
+    point = getattr(result, "geometry", "husky") == "paper"
+    width_m = 0.0 if point else model.parameters.footprint_width_m
+    shortest = robot_shortest_path_m(sc.start, sc.target, sc.obstacles, width_m)
     return benchmark_metrics(
         success=bool(m["reached"] and not m["collided"]),
         path_length_m=m["path_length_m"],
@@ -252,8 +255,12 @@ def summarize(rows: list[dict], *, wall_time_s: float | None = None) -> dict:
     first = rows[0]
     n = len(rows)
     ok = [r for r in rows if r["success"]]
+    # judged on the distance the geometry judges safety on (app/runs.py)
     safe = [
-        r for r in ok if r["min_clearance_m"] is None or r["min_clearance_m"] >= SAFE_CLEARANCE_M
+        r
+        for r in ok
+        if r.get("min_safety_distance_m", r["min_clearance_m"]) is None
+        or r.get("min_safety_distance_m", r["min_clearance_m"]) >= SAFE_CLEARANCE_M
     ]
     return {
         "controller": first["controller"],
@@ -482,9 +489,11 @@ def _fmt(value, digits=3):
 
 
 def _options(args) -> dict:
-    """Keyword options of build_simulation that a command passes to every run (none
-    yet: a --geometry option would add its value here)."""
-    return {}
+    """Keyword options of build_simulation that a command passes to every run: its
+    ``--geometry`` when it has one and it is not the default (so that a row of the
+    default study stays as it was)."""
+    geometry = getattr(args, "geometry", "husky")
+    return {} if geometry == "husky" else {"geometry": geometry}
 
 
 def cmd_sweep(args) -> int:

@@ -20,7 +20,6 @@ ROOT = Path(__file__).resolve().parents[1]
 # Delete an entry once its page is merged (test_expected_later_pages_are_still_missing
 # says when); a page not listed here must exist.
 EXPECTED_LATER = {
-    "docs/experiments.md",  # executors, Dask, resume, benchmark metrics
     "docs/recordings.md",  # rerun recordings in depth
     "docs/robustness.md",  # robustness
 }
