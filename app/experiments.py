@@ -509,6 +509,9 @@ def cmd_sweep(args) -> int:
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
+    from fuzzynav.world.perception import check_geometry
+
+    check_geometry(getattr(args, "geometry", "husky"), args.perception)  # before any run
     parts_off = check_sweep(args.controller, args.n, args.family, parse_off(args.off))
     label = args.controller + (f" without {', '.join(parts_off)}" if parts_off else "")
     options = _options(args)
@@ -845,7 +848,7 @@ def add_study_output_options(parser) -> None:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
-    from fuzzynav.app.cli import add_off_option, integer_in, seed_type
+    from fuzzynav.app.cli import add_geometry_option, add_off_option, integer_in, seed_type
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
@@ -856,6 +859,7 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser(
         "sweep", help="run a controller on seeded random layouts; success rate"
     )
+    add_geometry_option(p)
     p.add_argument("--n", type=integer_in(1), default=200, help="number of layouts (default 200)")
     p.add_argument("--seed", type=seed_type, default=1, help="layout seed (default 1)")
     p.add_argument(
@@ -898,6 +902,7 @@ def add_commands(subparsers) -> None:
     c = subparsers.add_parser(
         "compare", help="the paper's Table 4: controllers on s1-s3 beside the paper"
     )
+    add_geometry_option(c)
     c.add_argument(
         "--controllers",
         type=_csv,

@@ -133,20 +133,25 @@ def residuals(measured: dict, paper: dict) -> list[tuple[str, float]]:
     return out
 
 
+RESIDUAL_CAP = 16.0  # a residual counts at most as 4 tolerances: one bad number cannot
+# outweigh arriving
+NOT_REACHED_COST = 200.0  # above any arriving run's largest possible cost
+
+
 def run_cost(measured: dict, paper: dict) -> float:
-    """A reached run: the squared scaled residuals plus penalties for a final bearing off
-    zero and for chatter. A run that does not arrive costs more than any that does, and
-    less the closer it came (and the more paper-like it was on the way)."""
+    """A run that arrives: its squared scaled residuals, each capped at
+    :data:`RESIDUAL_CAP`, plus penalties for a final bearing off zero and for chatter
+    (capped alike), so that every arriving run costs less than :data:`NOT_REACHED_COST`.
+    One that does not arrive costs more, and less the closer it came (and the more
+    paper-like it was on the way); a collision costs 50 more."""
+    terms = [min(r * r, RESIDUAL_CAP) for _, r in residuals(measured, paper)]
     if not measured["reached"]:
-        partial = sum(min(r * r, 25.0) for _, r in residuals(measured, paper))
-        cost = 30.0 + 10.0 * measured["closest_to_target_m"] + 0.2 * partial
-        return float(cost + (30.0 if measured["collided"] else 0.0))
-    cost = sum(r * r for _, r in residuals(measured, paper))
-    if measured["collided"]:
-        cost += 50.0
-    cost += (measured["final_phi_t_rad"] / 0.3) ** 2
-    cost += max(0, measured["chatter_steps"] - CHATTER_FREE_STEPS) ** 2 / 25.0
-    return float(cost)
+        cost = NOT_REACHED_COST + 10.0 * measured["closest_to_target_m"] + 0.2 * sum(terms)
+        return float(cost + (50.0 if measured["collided"] else 0.0))
+    terms.append(min((measured["final_phi_t_rad"] / 0.3) ** 2, RESIDUAL_CAP))
+    jumps = max(0, measured["chatter_steps"] - CHATTER_FREE_STEPS)
+    terms.append(min(jumps**2 / 25.0, RESIDUAL_CAP))
+    return float(sum(terms) + (50.0 if measured["collided"] else 0.0))
 
 
 class FitCost:

@@ -310,7 +310,9 @@ def tune(
     if radius is not None:
         span = radius * (hi - lo)
         lo, hi = np.maximum(lo, x0[sel] - span), np.minimum(hi, x0[sel] + span)
-    start = x0[sel]
+    # A start on a bound can round to just outside it in scipy's [0, 1] scaling.
+    margin = 1e-9 * (hi - lo)
+    start = np.clip(x0[sel], lo + margin, hi - margin)
     generation = [0]
 
     def callback(intermediate_result):
