@@ -135,7 +135,25 @@ def residuals(measured: dict, paper: dict) -> list[tuple[str, float]]:
 
 RESIDUAL_CAP = 16.0  # a residual counts at most as 4 tolerances: one bad number cannot
 # outweigh arriving
-NOT_REACHED_COST = 200.0  # above any arriving run's largest possible cost
+NOT_REACHED_COST = 300.0  # above any arriving run's largest possible cost (16 terms x 16)
+
+
+# The bounds below which the reconstruction does not count as done (issue 17): path 3 %,
+# MAD, RMSE, minimum distance and the event times 25 %. A residual past 80 % of its
+# bound is penalised steeply, so the fit keeps inside them before it polishes the aim.
+DONE_BOUNDS = {"path_length_m": 0.03, "mad_m": 0.25, "rmse_m": 0.25, "min_center_distance_m": 0.25}
+DONE_EVENT_TIME = 0.25
+
+
+def done_bound_penalty(name: str, scaled_residual: float) -> float:
+    if name in DONE_BOUNDS:
+        tol, bound = (PATH_TOL if name == "path_length_m" else TABLE4_TOL), DONE_BOUNDS[name]
+    elif name.endswith(".time_s"):
+        tol, bound = EVENT_TIME_TOL, DONE_EVENT_TIME
+    else:
+        return 0.0
+    excess = max(0.0, abs(scaled_residual * tol) / bound - 0.8)
+    return min(400.0 * excess * excess, RESIDUAL_CAP)
 
 
 def run_cost(measured: dict, paper: dict) -> float:
@@ -148,6 +166,7 @@ def run_cost(measured: dict, paper: dict) -> float:
     if not measured["reached"]:
         cost = NOT_REACHED_COST + 10.0 * measured["closest_to_target_m"] + 0.2 * sum(terms)
         return float(cost + (50.0 if measured["collided"] else 0.0))
+    terms += [done_bound_penalty(name, r) for name, r in residuals(measured, paper)]
     terms.append(min((measured["final_phi_t_rad"] / 0.3) ** 2, RESIDUAL_CAP))
     jumps = max(0, measured["chatter_steps"] - CHATTER_FREE_STEPS)
     terms.append(min(jumps**2 / 25.0, RESIDUAL_CAP))
@@ -238,6 +257,8 @@ def fit(
                 _write_checkpoint(checkpoint, names, best_x, best_f, generation)
             if on_generation is not None:
                 on_generation(generation, best_f)
+
+        from fuzzynav.app.cmaes import cmaes
 
         if workers == 1:
             return cmaes(
@@ -474,75 +495,3 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
     p.set_defaults(func=cmd_fit_paper)
-
-
-def cmaes(
-    cost,
-    bounds,
-    x0,
-    sigma0: float,
-    maxiter: int,
-    popsize: int,
-    seed: int,
-    pool_map,
-    on_generation=None,
-):
-    """A plain (mu/mu_w, lambda)-CMA-ES (Hansen's tutorial, 2016) on the box ``bounds``,
-    searching in coordinates scaled to [0, 1]; a candidate outside the box is evaluated
-    at its projection plus a quadratic penalty, so the search stays in it. Seeded: the
-    same arguments give the same result. ``pool_map(f, xs)`` evaluates a population
-    (in order), e.g. a multiprocessing pool's map. Returns (best x, best cost, generations,
-    evaluations)."""
-    rng = np.random.default_rng(seed)
-    lo, hi = np.array(bounds, dtype=float).T
-    span = hi - lo
-    n = len(lo)
-    lam = max(popsize, 4)
-    mu = lam // 2
-    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
-    weights /= weights.sum()
-    mueff = 1.0 / np.sum(weights**2)
-    cc = (4 + mueff / n) / (n + 4 + 2 * mueff / n)
-    cs = (mueff + 2) / (n + mueff + 5)
-    c1 = 2 / ((n + 1.3) ** 2 + mueff)
-    cmu = min(1 - c1, 2 * (mueff - 2 + 1 / mueff) / ((n + 2) ** 2 + mueff))
-    damps = 1 + 2 * max(0.0, math.sqrt((mueff - 1) / (n + 1)) - 1) + cs
-    chi_n = math.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n))
-    mean = (np.asarray(x0, float) - lo) / span
-    sigma = sigma0
-    pc, ps = np.zeros(n), np.zeros(n)
-    B, D, C = np.eye(n), np.ones(n), np.eye(n)
-    best_x, best_f, evaluations = np.asarray(x0, float), math.inf, 0
-    for generation in range(1, maxiter + 1):
-        z = rng.standard_normal((lam, n))
-        y = z @ (B * D).T
-        unit = mean + sigma * y
-        inside = np.clip(unit, 0.0, 1.0)
-        xs = lo + inside * span
-        values = np.array(pool_map(cost, list(xs)), dtype=float)
-        values += 1e3 * np.sum((unit - inside) ** 2, axis=1)  # outside the box
-        evaluations += lam
-        order = np.argsort(values, kind="stable")
-        if values[order[0]] < best_f:
-            best_f, best_x = float(values[order[0]]), xs[order[0]].copy()
-        y_w = weights @ y[order[:mu]]
-        mean = mean + sigma * y_w
-        c_inv_sqrt = B @ np.diag(1 / D) @ B.T
-        ps = (1 - cs) * ps + math.sqrt(cs * (2 - cs) * mueff) * (c_inv_sqrt @ y_w)
-        hsig = np.linalg.norm(ps) / math.sqrt(
-            1 - (1 - cs) ** (2 * generation)
-        ) / chi_n < 1.4 + 2 / (n + 1)
-        pc = (1 - cc) * pc + hsig * math.sqrt(cc * (2 - cc) * mueff) * y_w
-        artmp = y[order[:mu]]
-        C = (
-            (1 - c1 - cmu) * C
-            + c1 * (np.outer(pc, pc) + (not hsig) * cc * (2 - cc) * C)
-            + cmu * (artmp.T * weights) @ artmp
-        )
-        sigma *= math.exp((cs / damps) * (np.linalg.norm(ps) / chi_n - 1))
-        C = np.triu(C) + np.triu(C, 1).T
-        eigenvalues, B = np.linalg.eigh(C)
-        D = np.sqrt(np.maximum(eigenvalues, 1e-20))
-        if on_generation is not None:
-            on_generation(generation, best_f, best_x, sigma)
-    return best_x, best_f, maxiter, evaluations

@@ -219,6 +219,8 @@ def reproduce_command(args) -> str:
     method = getattr(args, "method", "de")
     if method != "de":
         parts += ["--method", method]
+    if method == "cmaes":
+        parts += ["--sigma", f"{args.sigma:g}"]
     if getattr(args, "x0", None) is not None:
         parts += ["--x0", str(args.x0)]
     if getattr(args, "free", None):
@@ -284,6 +286,7 @@ def tune(
     radius: float | None = None,
     clearance_weight: float = CLEARANCE_WEIGHT,
     on_evaluation=None,
+    sigma0: float = 0.15,
 ):
     """Minimise the cost (module docstring); returns scipy's OptimizeResult with ``.x`` the
     tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
@@ -292,7 +295,7 @@ def tune(
     every candidate of a local search (one process: Powell's iterations are long).
     ``executor`` (:mod:`app.executor`): where DE evaluates its population (a local
     search is sequential and runs here); without one, ``workers > 1`` is a local pool."""
-    from scipy.optimize import Bounds, differential_evolution, minimize
+    from scipy.optimize import Bounds, OptimizeResult, differential_evolution, minimize
 
     all_bounds = np.asarray(tunable.bounds(), float)
     x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
@@ -362,8 +365,27 @@ def tune(
         result = minimize(
             counted, start, method=method, bounds=Bounds(lo, hi), options=options, callback=callback
         )
+    elif method == "cmaes":
+        from fuzzynav.app.cmaes import cmaes
+
+        def report(k, best_f, best_x, sigma):
+            generation[0] = k
+            if on_generation is not None:
+                on_generation(k, best_f, objective.full(best_x))
+
+        if executor is not None and executor.kind != "serial":
+            mapper = executor.map
+        else:
+
+            def mapper(f, xs):
+                return [f(x) for x in xs]
+
+        x, fun, nit, nfev = cmaes(
+            objective, list(zip(lo, hi)), start, sigma0, maxiter, popsize, seed, mapper, report
+        )
+        result = OptimizeResult(x=x, fun=fun, nit=nit, nfev=nfev)
     else:
-        raise ValueError(f"method = {method!r}: must be de, nelder-mead or powell")
+        raise ValueError(f"method = {method!r}: must be de, cmaes, nelder-mead or powell")
     result.x = objective.full(result.x)
     result.fun = float(result.fun)
     result.nit = int(getattr(result, "nit", generation[0]))
@@ -426,9 +448,17 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument(
         "--method",
-        choices=("de", "nelder-mead", "powell"),
+        choices=("de", "cmaes", "nelder-mead", "powell"),
         default="de",
-        help="differential evolution (default) or a local search from the start vector",
+        help="differential evolution (default), CMA-ES from the start vector (--popsize "
+        "candidates a generation, first step --sigma), or a local search from it",
+    )
+    p.add_argument(
+        "--sigma",
+        type=float,
+        default=0.15,
+        metavar="FRACTION",
+        help="cmaes: the first step, a fraction of each bound's span (default 0.15)",
     )
     p.add_argument(
         "--x0",
@@ -592,6 +622,7 @@ def cmd_tune(args) -> int:
             radius=args.radius,
             clearance_weight=args.clearance_weight,
             on_evaluation=on_evaluation,
+            sigma0=args.sigma,
         )
     elapsed = time.perf_counter() - start
     header = (
