@@ -46,6 +46,14 @@ from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
 OUTCOMES = ("reached", "collided", "timeout")
+#: The control period's bounds: below a millisecond the log of an ordinary run grows to
+#: gigabytes (1e-5 s asked for 4.3 GB) for nothing the exact ZOH plant needs; above a
+#: second the sensors (25 Hz) and the collision sub-steps lose their meaning.
+MIN_CONTROL_PERIOD_S = 1e-3
+MAX_CONTROL_PERIOD_S = 1.0
+#: The most steps one run may take (duration / period): about 25 MB of log per
+#: million steps without obstacles, plus 32 bytes per obstacle and step.
+MAX_STEPS = 4_000_000
 _FLOAT64 = np.dtype(np.float64)
 _PACK_XU = struct.Struct(f"{N_STATES + 2}d").pack_into
 _pack_into = struct.pack_into
@@ -273,8 +281,21 @@ class Simulation:
         stop_on_collision: bool = True,
         geometry: str = "husky",
     ):
-        if not (math.isfinite(control_period_s) and control_period_s > 0):
-            raise ValueError(f"control_period_s = {control_period_s!r}: must be positive")
+        if not (
+            math.isfinite(control_period_s)
+            and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
+        ):
+            raise ValueError(
+                f"control_period_s = {control_period_s!r}: must be from "
+                f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
+            )
+        steps = scenario.duration_s / control_period_s
+        if steps > MAX_STEPS:
+            raise ValueError(
+                f"control_period_s = {control_period_s!r} with duration_s = "
+                f"{scenario.duration_s!r}: {steps:.3g} steps, more than one run may take "
+                f"({MAX_STEPS}); use a longer period or a shorter scenario"
+            )
         if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
             raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
         self.scenario = scenario
