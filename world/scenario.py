@@ -553,5 +553,6 @@ def loads_scenario(
         text = decode_user_bytes(content, source) if isinstance(content, bytes) else content
         data = loads_scenario_data(text, source)
     except InputError as exc:
-        raise ScenarioError(source, "file", source, exc.reason) from None
+        reason = exc.reason.replace("not valid TOML:", "not a valid TOML scenario:", 1)
+        raise ScenarioError(source, "file", "upload", reason) from None
     return scenario_from_dict(data, source=source, footprint_m=footprint_m)
