@@ -18,14 +18,19 @@ reader of stdout went away.
 
 from __future__ import annotations
 
-import argparse
-import json
-import math
-import os
-import shlex
 import sys
-import textwrap
-from pathlib import Path
+
+try:  # a Ctrl-C while even these load ends quietly, as one in main() does
+    import argparse
+    import json
+    import math
+    import os
+    import shlex
+    import textwrap
+    from pathlib import Path
+except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
+    print("fuzzynav: interrupted", file=sys.stderr)
+    raise SystemExit(130) from None
 
 # Only the standard library at import time: a Ctrl-C while numpy and the rest load must
 # reach main()'s handler (no traceback), so everything else is imported inside it.
