@@ -19,10 +19,12 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /robot/trail                          LineStrips2D: the segment travelled in each step
                                             (the default view shows every segment up to the cursor)
       /obstacles/{id}/body                  Points2D of the obstacle's radius (moving ones move)
-      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface
+      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface,
+                                            sent once and moved by a Transform3D translation
       /obstacles/{id}/path                  LineStrips2D segments of a moving obstacle's path
       /target                               Points2D, radius = arrival tolerance
-      /start, /ideal_line                   static: the start, the straight start-target line
+      /start, /ideal_line, /scale           static: the start, the straight start-target line,
+                                            a 1 m scale bar
       /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
     /plots                                  Scalars: one entity per plot, one instance
@@ -40,14 +42,20 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /current           i_L1, i_L2 (A)
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
-      /rules             fuzzy controllers only: R1, R2, ... the firing strength of
-                         every rule
+    /rules                                  fuzzy controllers only
+      /firing            BarChart per step: bar k is rule R(k+1)'s firing strength (float32)
+      /heatmap           static Tensor: rules x time (binned, max per bin)
+      /texts             static TextDocument: every rule in words
     /meta                                   static TextDocuments
       /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
 
 The default blueprint (sent first, so that a viewer opening a file still loading uses
-it) puts the world on the left and the paper's figures stacked on the right, with tabs
-for the plant, the sensors, the rules and the run's documents.
+it; again at the end with the legends placed) puts the world on the left and the paper's
+figures stacked on the right, with tabs for the plant, the sensors, the rules and the
+run's documents. The application id is ``fuzzynav-<scenario>-<controller>``, so each
+scenario and controller keeps its own layout in a viewer. docs/recordings.md says what
+every entity and tab shows; docs/robustness.md how files are written (whole, beside the
+target, renamed; a partial run as ``<stem>.partial.rrd``).
 
 Row conventions follow :mod:`world.simulation`: row k holds the state at ``time_s[k]``;
 the voltages of the last row are NaN (no decision follows it), and are logged as NaN.

@@ -28,8 +28,8 @@ HUSKY_TEXT = asset_path("husky.toml").read_text(encoding="utf-8")
 # non-finite values, a byte-order mark, stray quotes and brackets.
 NASTY = st.sampled_from(
     [
-        "[" * 400,
-        "{a=" * 400,
+        "[" * 3000,
+        "{a=" * 3000,
         "1" * 6000,
         "9" * 400 + ".5",
         "1e400",

@@ -105,4 +105,6 @@ def test_check_handshake_rules():
         )
         is None
     )
-    assert check_handshake({"Host": "rebind.example:8080"}, "0.0.0.0", lan, websocket=True) is not None
+    assert (
+        check_handshake({"Host": "rebind.example:8080"}, "0.0.0.0", lan, websocket=True) is not None
+    )
