@@ -267,7 +267,10 @@ rules = ["IF x IS a THEN y IS b"]
 
 @pytest.mark.parametrize(
     "points, needle",
-    [("points = 1000000000", "must be an integer from 2 to 10001"), ("points = 1e400", "system.points")],
+    [
+        ("points = 1000000000", "must be an integer from 2 to 10001"),
+        ("points = 1e400", "system.points"),
+    ],
 )
 def test_rule_base_points_are_bounded(points, needle):
     with pytest.raises(ValueError, match=needle):
