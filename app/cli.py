@@ -10,25 +10,33 @@ Further sub-commands and ``run`` options come from the modules in
 - ``run_hook(args, sim)``: called before a ``run`` starts; returns None or a callback
   ``(result, interrupted) -> None`` called when it ends (also after Ctrl-C).
 
-Exit status: 0 when a run completed, whatever its outcome; 2 for bad input, with the
-error on stderr.
+Exit status: 0 when a run completed, whatever its outcome; 2 for bad input or a file
+that could not be read or written (a read-only folder, a full disk), with the error on
+stderr and no traceback; 130 after Ctrl-C (what was interrupted is said); 141 when the
+reader of stdout went away.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import math
-import os
-import shlex
 import sys
-import textwrap
-from pathlib import Path
 
-from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
-from fuzzynav.world.scenario import ScenarioError, resolve_scenario_path, scenario_names
+try:  # a Ctrl-C while even these load ends quietly, as one in main() does
+    import argparse
+    import json
+    import math
+    import os
+    import shlex
+    import textwrap
+    from pathlib import Path
+except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
+    print("fuzzynav: interrupted", file=sys.stderr)
+    raise SystemExit(130) from None
+
+# Only the standard library at import time: a Ctrl-C while numpy and the rest load must
+# reach main()'s handler (no traceback), so everything else is imported inside it.
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
 
 
@@ -57,6 +65,26 @@ def integer_in(low: int, high: int | None = None):
 seed_type = integer_in(0)
 
 
+def float_in(low: float, high: float, unit: str = ""):
+    """An argparse ``type``: a finite number in ``[low, high]``; NaN, inf and anything
+    out of range are refused with the value and the bounds named
+    (``argument --dt: '1e-05': must be a number from 0.001 to 1 s``)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and low <= value <= high):
+            raise argparse.ArgumentTypeError(
+                f"{text[:40]!r}: must be a number from {low:g} to {high:g}{unit}"
+            )
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
 def _json_default(value):
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -68,12 +96,16 @@ def print_json(data) -> None:
 
 
 def scenario_label(name_or_path: str) -> str:
+    from fuzzynav.world.scenario import resolve_scenario_path
+
     path = resolve_scenario_path(name_or_path)
     return path.stem if path.parent.name == "scenarios" and path.exists() else str(name_or_path)
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
     from fuzzynav.controller.registry import controller_names
+    from fuzzynav.world.perception import PERCEPTION_MODES
+    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
     parser.add_argument(
         "--controller",
@@ -99,18 +131,25 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--noise",
-        type=float,
+        type=float_in(0.0, 10.0, " m"),
         default=0.0,
         metavar="STD_M",
         help="sensor noise standard deviation in metres (default 0)",
     )
     parser.add_argument(
-        "--dt", type=float, default=0.02, metavar="SECONDS", help="control period (default 0.02 s)"
+        "--dt",
+        type=float_in(MIN_CONTROL_PERIOD_S, MAX_CONTROL_PERIOD_S, " s"),
+        default=0.02,
+        metavar="SECONDS",
+        help=f"control period (default 0.02 s; from {MIN_CONTROL_PERIOD_S:g} to "
+        f"{MAX_CONTROL_PERIOD_S:g} s)",
     )
     add_off_option(parser)
 
 
 def add_geometry_option(parser: argparse.ArgumentParser) -> None:
+    from fuzzynav.world.perception import GEOMETRIES
+
     parser.add_argument(
         "--geometry",
         default="husky",
@@ -198,14 +237,10 @@ def cmd_run(args) -> int:
     try:
         result = sim.run()
     except KeyboardInterrupt:
-        result = sim.result()
-        for hook in hooks:
-            if hook is not None:
-                hook(result, interrupted=True)
+        print("fuzzynav: interrupted: writing what was asked for the partial run", file=sys.stderr)
+        _finish_hooks(hooks, sim.result(), interrupted=True)
         raise
-    for hook in hooks:
-        if hook is not None:
-            hook(result, interrupted=False)
+    _finish_hooks(hooks, result, interrupted=False)
     row = summary(result, label, scenario_label(args.scenario))
     if args.json:
         print_json(row)
@@ -222,6 +257,24 @@ def cmd_run(args) -> int:
         table.add_row(key, str(value))
     Console().print(table)
     return 0
+
+
+def _finish_hooks(hooks, result, interrupted: bool) -> None:
+    """Call every hook (recording, figures) even when one fails (a full disk for the
+    figures must not cost the recording); then raise the first failure."""
+    failure = None
+    for hook in hooks:
+        if hook is None:
+            continue
+        try:
+            hook(result, interrupted=interrupted)
+        except Exception as exc:  # reported once every hook has had its turn
+            if failure is None:
+                failure = exc
+            else:
+                print(f"fuzzynav: error: {exc}", file=sys.stderr)
+    if failure is not None:
+        raise failure
 
 
 EXTENSION_MODULES = (
@@ -252,6 +305,8 @@ def _extensions() -> list:
 
 def scenario_help() -> str:
     """The help of a SCENARIO argument: the shipped names, or a path."""
+    from fuzzynav.world.scenario import scenario_names
+
     return f"a shipped scenario ({', '.join(scenario_names())}) or the path of a scenario TOML file"
 
 
@@ -376,15 +431,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def describe_os_error(exc: OSError) -> str:
+    """An OSError as one line: what, which file, why (``cannot write out/a.png: No
+    space left on device``)."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    name = exc.filename if exc.filename is not None else None
+    return f"{name}: {reason}" if name is not None else reason
+
+
 def main(argv=None) -> int:
-    parser = build_parser()
+    """The command line; returns the exit status (see the module docstring). Ctrl-C at
+    any moment, from loading the libraries on, ends with a line, never a traceback."""
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help (0), or argparse refused the input (2, said why)
-        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help (0), or argparse refused the input (2, said why)
+            return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
+        return _dispatch(args)
+    except KeyboardInterrupt:
+        print("fuzzynav: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _dispatch(args) -> int:
     try:
         return args.func(args) or 0
-    except (ScenarioError, UsageError, ValueError, FileNotFoundError) as exc:
+    except (UsageError, ValueError) as exc:  # ScenarioError, FisFormatError are ValueErrors
         print(f"fuzzynav: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
@@ -392,9 +465,15 @@ def main(argv=None) -> int:
         # ours. Python's advice: point stdout at devnull so the exit's flush stays quiet.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
-    except KeyboardInterrupt:
-        print("fuzzynav: interrupted", file=sys.stderr)
-        return 130
+    except OSError as exc:  # a read-only folder, a full disk, a file that vanished
+        print(f"fuzzynav: error: {describe_os_error(exc)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except MemoryError:
+        print(
+            "fuzzynav: error: out of memory (a limit this should have met is missing)",
+            file=sys.stderr,
+        )
+        return EXIT_BAD_INPUT
 
 
 if __name__ == "__main__":

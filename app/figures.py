@@ -1006,13 +1006,18 @@ def run_hook(args, sim):
 
     def write(result, interrupted: bool) -> None:
         params = sim.model.parameters
-        paths = write_run_figures(
-            result,
-            out_dir,
-            controller=sim.controller,
-            footprint_m=(params.footprint_length_m, params.footprint_width_m),
-            voltage_limit_v=sim.voltage_limit_v,
-        )
+        try:
+            paths = write_run_figures(
+                result,
+                out_dir,
+                controller=sim.controller,
+                footprint_m=(params.footprint_length_m, params.footprint_width_m),
+                voltage_limit_v=sim.voltage_limit_v,
+            )
+        except OSError as exc:  # a full disk, a folder removed meanwhile
+            raise ValueError(
+                f"--figures {out_dir}: the figures were not written ({exc.strerror or exc})"
+            ) from None
         what = "partial run, " if interrupted else ""
         print(
             f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to {out_dir}",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fuzzynav.controller.fis import read_fis, write_fis
+from fuzzynav.controller.fis import dumps_fis, read_fis
 
 FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
 
@@ -37,7 +37,7 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
             raise ValueError(f"{path}: the file name must end in .fis")
         if not path.parent.exists():
             raise ValueError(f"{path}: directory {path.parent} does not exist")
-        write_fis(ctrl.fis, path)
+        _write(ctrl.fis, path)
         return [path]
     systems = blocks()
     if path.suffix.lower() == ".fis":
@@ -49,12 +49,26 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
         raise ValueError(f"{path}: not a directory")
     if not path.parent.exists():
         raise ValueError(f"{path}: directory {path.parent} does not exist")
-    path.mkdir(exist_ok=True)
+    try:
+        path.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot create the directory ({exc.strerror or exc})") from None
     written = []
     for name, system in systems.items():
         written.append(path / f"{controller}_{name}.fis")
-        write_fis(system, written[-1])
+        _write(system, written[-1])
     return written
+
+
+def _write(system, path: Path) -> None:
+    """Write one .fis whole or not at all (:mod:`app.safe_files`): a full disk or a
+    read-only folder leaves any old file as it was, and says so (ValueError)."""
+    from fuzzynav.app.safe_files import write_text_atomically
+
+    try:
+        write_text_atomically(path, dumps_fis(system))
+    except OSError as exc:
+        raise ValueError(f"{path}: not written ({exc.strerror or exc})") from None
 
 
 def _signature(system) -> str:

@@ -19,10 +19,12 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /robot/trail                          LineStrips2D: the segment travelled in each step
                                             (the default view shows every segment up to the cursor)
       /obstacles/{id}/body                  Points2D of the obstacle's radius (moving ones move)
-      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface
+      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface,
+                                            sent once and moved by a Transform3D translation
       /obstacles/{id}/path                  LineStrips2D segments of a moving obstacle's path
       /target                               Points2D, radius = arrival tolerance
-      /start, /ideal_line                   static: the start, the straight start-target line
+      /start, /ideal_line, /scale           static: the start, the straight start-target line,
+                                            a 1 m scale bar
       /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
     /plots                                  Scalars: one entity per plot, one instance
@@ -40,14 +42,20 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /current           i_L1, i_L2 (A)
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
-      /rules             fuzzy controllers only: R1, R2, ... the firing strength of
-                         every rule
+    /rules                                  fuzzy controllers only
+      /firing            BarChart per step: bar k is rule R(k+1)'s firing strength (float32)
+      /heatmap           static Tensor: rules x time (binned, max per bin)
+      /texts             static TextDocument: every rule in words
     /meta                                   static TextDocuments
       /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
 
 The default blueprint (sent first, so that a viewer opening a file still loading uses
-it) puts the world on the left and the paper's figures stacked on the right, with tabs
-for the plant, the sensors, the rules and the run's documents.
+it; again at the end with the legends placed) puts the world on the left and the paper's
+figures stacked on the right, with tabs for the plant, the sensors, the rules and the
+run's documents. The application id is ``fuzzynav-<scenario>-<controller>``, so each
+scenario and controller keeps its own layout in a viewer. docs/recordings.md says what
+every entity and tab shows; docs/robustness.md how files are written (whole, beside the
+target, renamed; a partial run as ``<stem>.partial.rrd``).
 
 Row conventions follow :mod:`world.simulation`: row k holds the state at ``time_s[k]``;
 the voltages of the last row are NaN (no decision follows it), and are logged as NaN.
@@ -73,6 +81,7 @@ import functools
 import json
 import math
 import platform
+import re
 import shlex
 import subprocess
 import sys
@@ -93,6 +102,8 @@ TRAIL = (40, 110, 220)
 TARGET = (30, 160, 60)
 OBSTACLE = (200, 60, 50)
 SAFE_RING = (240, 150, 40)
+START = (235, 235, 235)
+SCALE = (200, 200, 200)
 OBSTACLE_PATH = (150, 60, 160)
 SENSOR_COLORS = {"left": (0, 170, 200), "front": (120, 120, 120), "right": (200, 0, 170)}
 SERIES_PALETTE = [
@@ -125,29 +136,31 @@ OBSTACLE_PALETTE = [
 
 
 def check_writable_file(path) -> Path:
-    """Raise ValueError (with the reason) unless a file can be written at ``path``.
+    """Raise ValueError (with the reason) unless a recording can be written at ``path``:
+    a regular file or none, in a folder where a file can be made (recordings are
+    written beside the target and renamed over it). Creates nothing that stays."""
+    import stat
 
-    The check creates nothing that stays: a file that did not exist is removed again.
-    """
+    from fuzzynav.app.safe_files import discard, temporary_beside
+
     path = Path(path)
-    if path.exists() and path.is_dir():
+    if path.is_dir():
         raise ValueError(f"--rrd {path}: is a directory, not a file")
+    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
+        raise ValueError(
+            f"--rrd {path}: is not a regular file (a device or a pipe); "
+            "a recording is written to a file, whole, then renamed into place"
+        )
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.exists():
         raise ValueError(f"--rrd {path}: directory {parent} does not exist")
     if not parent.is_dir():
         raise ValueError(f"--rrd {path}: {parent} is not a directory")
-    existed = path.exists()
     try:
-        with open(path, "ab"):
-            pass
+        probe = temporary_beside(path)
     except OSError as exc:
         raise ValueError(f"--rrd {path}: cannot write there ({exc.strerror or exc})") from None
-    if not existed:
-        try:
-            path.unlink()
-        except OSError:
-            pass
+    discard(probe, path)
     return path
 
 
@@ -289,7 +302,11 @@ def controller_label(controller) -> str:
     return type(controller).__name__
 
 
-RULES_PATH = "/plots/rules"
+RULES_PATH = "/rules/firing"  # BarChart per step: every rule's firing strength (float32)
+RULES_HEATMAP_PATH = "/rules/heatmap"  # static Tensor, rules x time bins (max per bin)
+RULES_TEXT_PATH = "/rules/texts"  # static TextDocument: R1 ... Rn in words
+#: The most time bins of the rule heatmap (a long run is binned: the max per bin).
+HEATMAP_MAX_BINS = 1500
 
 
 def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> list[tuple]:
@@ -350,8 +367,6 @@ def plot_layout(
         for path, names, _, _ in _plot_spec(obstacle_ids, sensor_names, voltage_limit_v)
         if names
     }
-    if n_rules:
-        layout[RULES_PATH] = [f"R{k + 1}" for k in range(n_rules)]
     return layout
 
 
@@ -371,6 +386,7 @@ def _component_types() -> dict:
         rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x"),
         rr.LineStrips2D(strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)], labels="x"),
         rr.Arrows2D(vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)]),
+        rr.BarChart(values=np.zeros(2, dtype=np.float32), color=(0, 0, 0)),
     )
     out = {}
     for sample in samples:
@@ -416,6 +432,68 @@ def _strips_array(strips: np.ndarray):
     return pa.ListArray.from_arrays(offsets, points, type=arrow_type)
 
 
+def _tensor_rows(values: np.ndarray):
+    """Rows of float32 vectors (n, k) as the TensorData Arrow array of a BarChart's
+    ``values`` (one tensor of shape [k] per row), built straight from numpy: the SDK's
+    converter takes a 2D array for one tensor."""
+    import pyarrow as pa
+
+    _, arrow_type = _component_types()[("BarChart", "values")]
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    n, k = values.shape
+    shape = pa.ListArray.from_arrays(
+        pa.array(np.arange(n + 1, dtype=np.int32)),
+        pa.array(np.full(n, k, dtype=np.uint64)),
+        type=arrow_type.field("shape").type,
+    )
+    names = pa.nulls(n, arrow_type.field("names").type)
+    union = arrow_type.field("buffer").type
+    children = []
+    for child in union:
+        if child.name == "F32":
+            children.append(
+                pa.ListArray.from_arrays(
+                    pa.array(np.arange(0, n * k + 1, k, dtype=np.int32)),
+                    pa.array(values.reshape(-1)),
+                    type=child.type,
+                )
+            )
+        else:
+            children.append(pa.array([], type=child.type))
+    code = union.type_codes[[child.name for child in union].index("F32")]
+    buffer = pa.Array.from_buffers(
+        union,
+        n,
+        [
+            None,
+            pa.py_buffer(np.full(n, code, dtype=np.int8).tobytes()),
+            pa.py_buffer(np.arange(n, dtype=np.int32).tobytes()),
+        ],
+        children=children,
+    )
+    return pa.StructArray.from_arrays([shape, names, buffer], fields=list(arrow_type))
+
+
+def _translation_columns(xy: np.ndarray):
+    """Transform3D translation columns (x, y, 0) for ``send_columns``."""
+    import rerun as rr
+
+    xyz = np.zeros((len(xy), 3), dtype=np.float32)
+    xyz[:, :2] = xy
+    return rr.Transform3D.columns(translation=xyz)
+
+
+def rule_heatmap(strengths: np.ndarray, max_bins: int) -> np.ndarray:
+    """(rules, bins) float32: the firing strengths (rows, rules) binned over time, each
+    bin the largest strength of its rows; one column per row if there are few."""
+    strengths = np.asarray(strengths, dtype=np.float32)
+    n = len(strengths)
+    if n <= max_bins:
+        return np.ascontiguousarray(strengths.T)
+    edges = np.linspace(0, n, max_bins + 1).astype(int)
+    return np.ascontiguousarray(np.maximum.reduceat(strengths, edges[:-1], axis=0).T)
+
+
 def _column(archetype: str, name: str, array, lengths=None):
     """A ready Arrow array as a ``send_columns`` column: one instance per row unless
     ``lengths`` says how many each row holds."""
@@ -456,7 +534,7 @@ class _StaticBatch:
 
         for name, value in components.items():
             values = value if isinstance(value, list) else [value]  # a list: instances
-            if name == "colors":
+            if name in ("colors", "color"):
                 values = [_rgba(v) for v in values]
             field, arrow_type = _component_field(entity, archetype, name)
             self.fields.append(field)
@@ -591,6 +669,10 @@ class _ColumnWriter:
         self._target: tuple[float, float] | None = None
         self.obstacle_ids: list[int] = []
         self.n_rules = 0
+        self.rule_times: list[np.ndarray] = []  # for the heatmap, sent at the end
+        self.rule_strengths: list[np.ndarray] = []
+        self._rings: set[int] = set()
+        self._legend_samples: dict[str, list[np.ndarray]] = {}
 
     # -- low level ---------------------------------------------------------------------
 
@@ -614,6 +696,18 @@ class _ColumnWriter:
                 path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
             )
         self._rows.add_series(path, columns)
+        self._legend_samples.setdefault(path, []).append(np.asarray(columns)[::5])
+
+    def legend_corners(self) -> dict:
+        """Per plot, the corner its data leave most empty (for the legend)."""
+        corners = {}
+        for path, parts in self._legend_samples.items():
+            widths = {p.shape[1] for p in parts if p.ndim == 2}
+            if len(widths) == 1:  # (obstacles added mid-run change the width: skip)
+                corner = _legend_corner(np.concatenate(parts))
+                if corner is not None:
+                    corners[path] = corner
+        return corners
 
     def _series(self, log, start, end, pose, target, ranges, inputs):
         """(path, names, colors, widths, columns) of every plot, in :func:`plot_layout`'s
@@ -662,6 +756,7 @@ class _ColumnWriter:
             return
         t = log.time_s[start:end]
         rows = self._rows = _RowBatch(t)
+        self._rows_time = t
         pose = log.pose[start:end]
 
         # -- the robot
@@ -775,14 +870,51 @@ class _ColumnWriter:
         self.sent = end
 
     def _plot_rules(self, strengths: np.ndarray) -> None:
-        self.n_rules = n = strengths.shape[1]
-        self._plot(
-            RULES_PATH,
-            [f"R{k + 1}" for k in range(n)],
-            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(n)],
-            [1.0] * n,
-            strengths,
+        """Every rule's firing strength at every row as one bar chart (bar k-1 is rule
+        Rk, float32), and kept for the run's heatmap (:meth:`send_heatmap`). One bar
+        chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
+        strengths = np.ascontiguousarray(strengths, dtype=np.float32)
+        self.n_rules = strengths.shape[1]
+        self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
+        self._rows.add(RULES_PATH, "BarChart", "values", _tensor_rows(strengths))
+        self.rule_times.append(np.asarray(self._rows_time, dtype=float))
+        self.rule_strengths.append(strengths)
+
+    def send_heatmap(self, static: _StaticBatch) -> None:
+        """The rule firing of the whole run as a heatmap: rules down, time across (at
+        most :data:`HEATMAP_MAX_BINS` bins, each the max over its rows, so a brief
+        firing stays visible), with the rules in words beside it."""
+        if not self.rule_strengths:
+            return
+        import rerun as rr
+
+        times = np.concatenate(self.rule_times)
+        strengths = np.nan_to_num(np.concatenate(self.rule_strengths), nan=0.0)
+        heatmap = rule_heatmap(strengths, HEATMAP_MAX_BINS)
+        static.add_archetype(
+            RULES_HEATMAP_PATH,
+            rr.Tensor(heatmap, dim_names=["rule", "time bin"], value_range=[0.0, 1.0]),
         )
+        span = f"{times[0]:.2f} s to {times[-1]:.2f} s" if len(times) else "no rows"
+        bins = heatmap.shape[1]
+        lines = [
+            f"# Rule firing, {span}",
+            "",
+            f"Heatmap: row k is rule R(k+1), {bins} columns over the run "
+            f"({len(times)} steps, the largest strength in each column).",
+            "Bar chart: bar k is rule R(k+1) at the time cursor.",
+            "",
+        ]
+        lines += [f"- **R{k + 1}**: {text}" for k, text in enumerate(self.rule_texts())]
+        static.add_archetype(
+            RULES_TEXT_PATH, rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN)
+        )
+
+    def rule_texts(self) -> list[str]:
+        system = self.fis if self.fis is not None else self.blocks
+        if system is None or not hasattr(system, "rule_text"):
+            return [f"(rule {k + 1})" for k in range(self.n_rules)]
+        return [system.rule_text(k) for k in range(min(self.n_rules, len(system.rules)))]
 
     def _internals(self, log, start: int, end: int) -> None:
         """Plot the controller's inner state on rows [start, end): from the decisions it
@@ -892,13 +1024,39 @@ class _ColumnWriter:
                     )
                 ],
             )
-            ring = pos[:, None, :] + _circle(radius + SAFE_DISTANCE_M)[None, :, :]
-            self._style(f"{base}/safe_ring", "LineStrips2D", colors=SAFE_RING, radii=0.01)
-            self._send(
-                f"{base}/safe_ring",
-                tc,
-                [_column("LineStrips2D", "strips", _strips_array(ring), lengths)],
-            )
+            # The safe ring: one static circle around the origin, moved by a translation
+            # where the obstacle moves (12 bytes a row, not 49 points).
+            # The circle is sent where the obstacle appears or vanishes, the translation
+            # where it moves.
+            ring_path = f"{base}/safe_ring"
+            shown_now = present[rows]
+            before = np.empty_like(shown_now)
+            before[1:] = shown_now[:-1]
+            before[0] = (not shown_now[0]) if prev is None else prev[0]
+            flips = np.flatnonzero(shown_now != before)
+            self._style(ring_path, "LineStrips2D", colors=SAFE_RING, radii=0.01)
+            if len(flips):
+                circle = _circle(radius + SAFE_DISTANCE_M)
+                strips = np.repeat(circle[None], int(shown_now[flips].sum()), axis=0)
+                self._send(
+                    ring_path,
+                    _time_column(t[rows[flips]]),
+                    [
+                        _column(
+                            "LineStrips2D",
+                            "strips",
+                            _strips_array(strips),
+                            shown_now[flips].astype(np.int32),
+                        )
+                    ],
+                )
+            if shown_now.any():
+                self.rec.send_columns(
+                    ring_path,
+                    indexes=[_time_column(t[rows[shown_now]])],
+                    columns=_translation_columns(pos),
+                    strict=True,
+                )
             # The path: a segment for every move between two present rows.
             present_rows = rows[present[rows]]
             if len(present_rows):
@@ -941,10 +1099,28 @@ def _static_world(static: _StaticBatch, scenario) -> None:
     import rerun as rr
 
     static.add_archetype("/world", rr.Transform3D(scale=[1.0, -1.0, 1.0]))
+    # Light, with a dark rim: visible on rerun's dark theme and on a light one.
     static.add_archetype(
         "/world/start",
         rr.Points2D(
-            positions=[scenario.start], radii=0.08, colors=[(60, 60, 60)], labels=["start"]
+            positions=[scenario.start, scenario.start],
+            radii=[0.12, 0.08],
+            colors=[(20, 20, 20), START],
+            labels=["", "start"],
+        ),
+    )
+    # A scale: a 1 m bar with 10 cm ticks, just below and left of the start (the view's
+    # bounds always hold the start with a 1 m margin).
+    x0, bar_y = scenario.start[0] - 0.8, scenario.start[1] - 0.75
+    strips = [[(x0 + 0.3, bar_y), (x0 + 1.3, bar_y)]]
+    strips += [
+        [(x0 + 0.3 + 0.1 * k, bar_y), (x0 + 0.3 + 0.1 * k, bar_y + (0.1 if k % 5 == 0 else 0.05))]
+        for k in range(11)
+    ]
+    static.add_archetype(
+        "/world/scale",
+        rr.LineStrips2D(
+            strips=strips, colors=[SCALE] * len(strips), radii=0.012, labels=["1 m"] + [""] * 10
         ),
     )
     static.add_archetype(
@@ -1171,26 +1347,90 @@ def _metrics(static: _StaticBatch, metrics: dict, outcome: str) -> None:
 
 
 def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
+    """The world view's bounds: the robot's whole path (or, before it has one, the
+    start), the target, and the obstacles near them, with a 1 m margin. A moving
+    obstacle counts only where it comes within 2 m of that area, so a long run's view
+    is the robot's, not the path of an obstacle that left for the horizon."""
     xs = [scenario.start[0], scenario.target[0]]
     ys = [scenario.start[1], scenario.target[1]]
-    for o in scenario.obstacles:
-        xs.append(o.position[0])
-        ys.append(o.position[1])
     if log is not None and len(log):
-        xs += [float(np.nanmin(log.pose[:, 0])), float(np.nanmax(log.pose[:, 0]))]
-        ys += [float(np.nanmin(log.pose[:, 1])), float(np.nanmax(log.pose[:, 1]))]
-        obstacles = log.obstacle_xy.reshape(-1, 2)
-        obstacles = obstacles[np.all(np.isfinite(obstacles), axis=1)]
-        if len(obstacles):  # moving obstacles may leave the scenario's box
-            xs += [float(obstacles[:, 0].min()), float(obstacles[:, 0].max())]
-            ys += [float(obstacles[:, 1].min()), float(obstacles[:, 1].max())]
+        xy = log.pose[:, :2]
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if len(xy):
+            xs += [float(xy[:, 0].min()), float(xy[:, 0].max())]
+            ys += [float(xy[:, 1].min()), float(xy[:, 1].max())]
+    near = 2.0
+    lo_x, hi_x, lo_y, hi_y = min(xs) - near, max(xs) + near, min(ys) - near, max(ys) + near
+
+    def keep(points, radii):
+        for (x, y), r in zip(points, radii):
+            if lo_x <= x <= hi_x and lo_y <= y <= hi_y:
+                xs.extend((x - r, x + r))
+                ys.extend((y - r, y + r))
+
+    keep([o.position for o in scenario.obstacles], [o.radius_m for o in scenario.obstacles])
+    if log is not None and len(log) and log.obstacle_xy.size:
+        radii = np.repeat(log.obstacle_radii_m[None, :], len(log), axis=0).reshape(-1)
+        points = log.obstacle_xy.reshape(-1, 2)
+        finite = np.all(np.isfinite(points), axis=1)
+        inside = (
+            finite
+            & (points[:, 0] >= lo_x)
+            & (points[:, 0] <= hi_x)
+            & (points[:, 1] >= lo_y)
+            & (points[:, 1] <= hi_y)
+        )
+        if inside.any():
+            p, r = points[inside], radii[inside]
+            xs += [float((p[:, 0] - r).min()), float((p[:, 0] + r).max())]
+            ys += [float((p[:, 1] - r).min()), float((p[:, 1] + r).max())]
     margin = 1.0
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
 
-def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: bool = False):
+def _legend_corner(series: np.ndarray):
+    """The corner of a plot its data leave most empty (rerun draws the legend over the
+    plot): the fewest points of ``series`` (rows, k) in each corner's quarter-box of
+    the plot's normalised time-value area. None without data."""
+    import rerun.blueprint as rrb
+
+    values = np.asarray(series, dtype=float)
+    if values.ndim != 2 or not values.size:
+        return None
+    n = len(values)
+    t = np.repeat(np.linspace(0.0, 1.0, n)[:, None], values.shape[1], axis=1).reshape(-1)
+    v = values.reshape(-1)
+    ok = np.isfinite(v)
+    if not ok.any():
+        return None
+    t, v = t[ok], v[ok]
+    lo, hi = float(v.min()), float(v.max())
+    v = (v - lo) / (hi - lo) if hi > lo else np.full_like(v, 0.5)
+    size = 0.35
+    counts = {
+        rrb.Corner2D.LeftTop: np.count_nonzero((t < size) & (v > 1 - size)),
+        rrb.Corner2D.RightTop: np.count_nonzero((t > 1 - size) & (v > 1 - size)),
+        rrb.Corner2D.LeftBottom: np.count_nonzero((t < size) & (v < size)),
+        rrb.Corner2D.RightBottom: np.count_nonzero((t > 1 - size) & (v < size)),
+    }
+    return min(counts, key=counts.get)
+
+
+def blueprint(
+    scenario,
+    obstacle_ids=(),
+    n_rules: int = 0,
+    log=None,
+    internals: bool = False,
+    legend_corners=None,
+):
     """The default layout: the world on the left, the paper's plots stacked on the right
-    (further tabs: plant, sensors, rule firing, run information)."""
+    (further tabs: plant, sensors, rules, internals, run information).
+
+    It depends on the run only through what the recording's application id already
+    fixes (scenario and controller: obstacle ids, whether rules and internals exist)
+    and through the world's bounds and the legends' corners, so that two recordings
+    opened in one viewer do not share, or fight over, one layout."""
     import rerun.blueprint as rrb
 
     x_range, y_range = _world_bounds(scenario, log)
@@ -1213,20 +1453,19 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
     )
 
     # Every plot shows the whole run, like the paper's figures (the viewer would
-    # otherwise show a window around the time cursor).
-    if log is not None and len(log):
-        whole_run = rrb.TimeRange(
-            start=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[0])),
-            end=rrb.TimeRangeBoundary.absolute(seconds=float(log.time_s[-1])),
-        )
-    else:
-        whole_run = rrb.TimeRange(
-            start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
-        )
+    # otherwise show a window around the time cursor): unbounded both ways, so that the
+    # layout holds for any run, not only this one's time span.
+    whole_run = rrb.TimeRange(
+        start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
+    )
+    corners = dict(legend_corners or {})
 
     def plot(origin, name, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
         axis = rrb.TimeAxis(view_range=whole_run)
+        corner = corners.get(origin)
+        if corner is not None:
+            kw["plot_legend"] = rrb.PlotLegend(corner=corner)
         return rrb.TimeSeriesView(origin=origin, name=name, axis_x=axis, **kw)
 
     paper = rrb.Vertical(
@@ -1252,7 +1491,22 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
     )
     tabs = [paper, plant, sensing]
     if n_rules:
-        tabs.append(plot("/plots/rules", f"firing strength of the {n_rules} rules"))
+        tabs.append(
+            rrb.Vertical(
+                rrb.TensorView(
+                    origin=RULES_HEATMAP_PATH,
+                    name="rule firing over the run (rules down, time across)",
+                    scalar_mapping=rrb.TensorScalarMapping(colormap="viridis"),
+                    view_fit="Fill",
+                ),
+                rrb.BarChartView(
+                    origin=RULES_PATH, name="rule firing at the cursor (bar k: R(k+1))"
+                ),
+                rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
+                row_shares=[2, 2, 3],
+                name="rules",
+            )
+        )
     if internals:
         tabs.append(
             plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target")
@@ -1261,17 +1515,14 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
         rrb.Tabs(
             *[
                 rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
-                for name in (
-                    "run",
-                    "metrics",
-                    "scenario",
-                    "rules",
-                    "robot",
-                )
+                for name in ("run", "metrics", "scenario", "rules", "robot")
             ],
             name="run information",
         )
     )
+    # Short tab names (a long one hid "run information"); the internals' tab says whose.
+    if internals:
+        tabs[-2] = rrb.Vertical(tabs[-2], name="internals")
     right = rrb.Tabs(*tabs, active_tab=0)
     return rrb.Blueprint(
         rrb.Horizontal(world, right, column_shares=[1, 1]),
@@ -1282,7 +1533,27 @@ def blueprint(scenario, obstacle_ids=(), n_rules: int = 0, log=None, internals: 
     )
 
 
+class RecordingError(ValueError):
+    """A recording that could not be written (the message says which file, why, and
+    that any old file at the path is unchanged)."""
+
+
+def _id_part(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_")[:60] or "run"
+
+
+def application_id(scenario, controller) -> str:
+    """``fuzzynav-<scenario>-<controller>``: rerun keeps one layout per application id,
+    so recordings of different scenarios or controllers opened in one viewer each keep
+    their own (the scenario is its file's stem, s1, or its name)."""
+    source = getattr(scenario, "source", "") or ""
+    label = Path(source).stem if source and source != "<memory>" else scenario.name
+    # (rerun 0.41 takes letters, digits, "-" and "_" in an application id.)
+    return f"{APPLICATION_ID}-{_id_part(label)}-{_id_part(controller_label(controller))}"
+
+
 def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
+    """A recording stream saving to ``path`` (rerun's file sink)."""
     import rerun as rr
 
     rec = rr.RecordingStream(application_id)
@@ -1290,6 +1561,35 @@ def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str
     if recording_name:
         rec.send_recording_name(recording_name)
     return rec
+
+
+def _not_written(path: Path, reason: str) -> RecordingError:
+    old = "the file there before is unchanged" if path.exists() else "nothing was written there"
+    return RecordingError(f"--rrd {path}: the recording was not written ({reason}); {old}")
+
+
+def write_recording_bytes(path, data: bytes) -> Path:
+    """Write a finished recording: to a temporary file beside ``path``, flushed to disk,
+    renamed over ``path`` only when complete (:mod:`app.safe_files`). A full disk or an
+    unwritable folder raises :class:`RecordingError` and leaves ``path`` as it was; an
+    interrupt (Ctrl-C) removes the temporary file and propagates."""
+    from fuzzynav.app.safe_files import commit, discard, temporary_beside
+
+    path = Path(path)
+    try:
+        tmp = temporary_beside(path)
+    except OSError as exc:
+        raise _not_written(path, f"cannot write in its folder: {exc.strerror or exc}") from None
+    try:
+        with open(tmp, "wb") as stream:
+            stream.write(data)
+        return commit(tmp, path)
+    except OSError as exc:
+        discard(tmp, path)
+        raise _not_written(path, exc.strerror or str(exc)) from None
+    except BaseException:
+        discard(tmp, path)
+        raise
 
 
 # ---------------------------------------------------------------------------------------
@@ -1334,15 +1634,19 @@ def record_run(
     fis = controller_fis(controller)
     scenario = result.scenario
     log = result.log
-    rec = _open_stream(path, recording_name=f"{scenario.name} · {controller_label(controller)}")
+    import rerun as rr
+
+    check_writable_file(path)
+    # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
+    # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
+    rec = rr.RecordingStream(application_id(scenario, controller))
+    stream = rec.binary_stream()
+    rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
     try:
         # The layout first: a viewer that opens the file while it loads uses it at once.
         n_rules = len(getattr(rule_system(controller), "rules", ()))
-        rec.send_blueprint(
-            blueprint(
-                scenario, list(log.obstacle_ids), n_rules, log, internals=has_internals(controller)
-            )
-        )
+        layout = (scenario, list(log.obstacle_ids), n_rules, log)
+        rec.send_blueprint(blueprint(*layout, internals=has_internals(controller)))
         writer = _ColumnWriter(
             rec,
             footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
@@ -1374,10 +1678,17 @@ def record_run(
             extra_metadata=extra,
         )
         _metrics(writer.static, result.metrics, result.outcome)
+        writer.send_heatmap(writer.static)
         writer.static.send(rec)
+        # Again, now with the legends placed where the data leave room.
+        rec.send_blueprint(
+            blueprint(
+                *layout, internals=has_internals(controller), legend_corners=writer.legend_corners()
+            )
+        )
     finally:
-        rec.disconnect()  # flushes, writes the footer, closes the file
-    return path
+        rec.disconnect()  # flushes and ends the stream (its footer)
+    return write_recording_bytes(path, stream.read(flush=False) or b"")
 
 
 class LiveRecorder:
@@ -1426,15 +1737,25 @@ class LiveRecorder:
         if int(chunk_steps) < 1:
             raise ValueError(f"chunk_steps = {chunk_steps!r}: must be >= 1")
         self.path = Path(path) if path is not None else None
+        self._tmp: Path | None = None
+        self.kept_partial: Path | None = None
         if self.path is not None:
+            from fuzzynav.app.safe_files import temporary_beside
+
             check_writable_file(self.path)
+            try:  # written beside the target, renamed over it by close()
+                self._tmp = temporary_beside(self.path)
+            except OSError as exc:
+                raise _not_written(self.path, exc.strerror or str(exc)) from None
         if not (math.isfinite(min_interval_s) and min_interval_s >= 0):
             raise ValueError(f"min_interval_s = {min_interval_s!r}: must be >= 0")
         self.chunk_steps = int(chunk_steps)
         self.min_interval_s = float(min_interval_s)
         self._last_send = -math.inf
         self.extra_metadata = dict(extra_metadata or {})
-        self._rec = stream if stream is not None else _open_stream(self.path)
+        # A file's stream opens with the first update, when its application id (the
+        # scenario and controller) is known.
+        self._rec = stream
         self._owns_stream = stream is None
         self._writer: _ColumnWriter | None = None
         self._sim = None
@@ -1444,7 +1765,31 @@ class LiveRecorder:
     def rows_sent(self) -> int:
         return self._writer.sent if self._writer is not None else 0
 
+    def _open(self, sim=None) -> None:
+        if self._rec is None:
+            app_id = application_id(sim.scenario, sim.controller) if sim else APPLICATION_ID
+            self._rec = _open_stream(self._tmp, app_id)
+
+    def _failed(self, exc: BaseException) -> RecordingError:
+        """Close the file after a failed write (a full disk) and keep what was written
+        under a name that says it is partial; the error to raise."""
+        from fuzzynav.app.safe_files import discard
+
+        self.closed = True
+        try:
+            if self._rec is not None and self._owns_stream:
+                self._rec.disconnect()
+        except Exception:  # the stream is broken already; what matters is the file
+            pass
+        reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+        if self._tmp is None:
+            return RecordingError(f"recording stream failed ({reason})")
+        self.kept_partial = discard(self._tmp, self.path, keep_partial=True)
+        kept = f"; what was written is in {self.kept_partial}" if self.kept_partial else ""
+        return RecordingError(str(_not_written(self.path, reason)) + kept)
+
     def _start(self, sim) -> None:
+        self._open(sim)
         params = sim.model.parameters
         self._writer = _ColumnWriter(
             self._rec,
@@ -1493,6 +1838,12 @@ class LiveRecorder:
             raise ValueError("LiveRecorder.update after close()")
         if self._sim is not None and sim is not self._sim:
             raise ValueError("LiveRecorder records one simulation; open another for this one")
+        try:
+            return self._update(sim, force)
+        except (OSError, RuntimeError) as exc:  # rerun's sink: "No space left on device"
+            raise self._failed(exc) from None
+
+    def _update(self, sim, force: bool) -> int:
         if self._writer is None:
             self._sim = sim
             self._start(sim)
@@ -1515,12 +1866,31 @@ class LiveRecorder:
         return n - sent
 
     def close(self, sim=None, *, extra_metadata: dict | None = None) -> None:
-        """Send what is left, the metrics and the final layout; close the file."""
+        """Send what is left, the metrics and the final layout; close the file and, for
+        a path, rename it into place (a failure keeps the old file at the path and the
+        partial one as ``<stem>.partial.rrd``: :class:`RecordingError`)."""
         if self.closed:
             return
         sim = sim if sim is not None else self._sim
         if sim is not None and self._writer is not None and _log_length(sim) < self._writer.sent:
             sim = None  # reset since: its log and metrics belong to another run
+        try:
+            self._close(sim, extra_metadata)
+        except (OSError, RuntimeError) as exc:
+            raise self._failed(exc) from None
+        except BaseException:  # Ctrl-C: keep what there is, under a name that says so
+            self._failed(KeyboardInterrupt("interrupted"))
+            raise
+        if self._tmp is not None:
+            from fuzzynav.app.safe_files import commit
+
+            try:
+                commit(self._tmp, self.path)
+            except OSError as exc:
+                raise self._failed(exc) from None
+
+    def _close(self, sim, extra_metadata) -> None:
+        self._open(sim)
         try:
             if sim is not None:
                 self.update(sim, force=True)
@@ -1532,6 +1902,7 @@ class LiveRecorder:
                 result = sim.result() if _log_length(sim) else None  # no metrics of nothing
                 if result is not None:
                     _metrics(static, result.metrics, result.outcome)
+                self._writer.send_heatmap(static)
                 static.send(self._rec)
                 w = self._writer
                 self._rec.send_blueprint(
@@ -1541,6 +1912,7 @@ class LiveRecorder:
                         w.n_rules,
                         result.log if result is not None else None,
                         internals=w.internals,
+                        legend_corners=w.legend_corners(),
                     )
                 )
         finally:
@@ -1579,31 +1951,54 @@ def add_run_options(parser) -> None:
 
 
 def run_hook(args, sim):
+    """``run --rrd PATH``: the recording is written when the run ends, whole, in place
+    of any old file; after Ctrl-C the partial run goes to ``<stem>.partial.rrd`` (marked
+    interrupted inside) and PATH is left as it was."""
     path = getattr(args, "rrd", None)
     if path is None:
         return None
+    from fuzzynav.app.safe_files import partial_path
+
     check_writable_file(path)
     argv = command_line()
 
     def write(result, interrupted: bool) -> None:
         extra = {"command line": "`" + argv + "`"}
+        target = Path(path)
         if interrupted:
             extra["interrupted"] = (
                 f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)"
                 if len(result.log)
                 else "yes (before the first step)"
             )
-        record_run(
-            result,
-            path,
-            controller=sim.controller,
-            sensors=sim.sensors,
-            parameters=sim.model.parameters,
-            voltage_limit_v=sim.voltage_limit_v,
-            extra_metadata=extra,
-        )
-        print(
-            f"fuzzynav: recording written to {path} (open it with: rerun {path})", file=sys.stderr
-        )
+            target = partial_path(path)
+        try:
+            record_run(
+                result,
+                target,
+                controller=sim.controller,
+                sensors=sim.sensors,
+                parameters=sim.model.parameters,
+                voltage_limit_v=sim.voltage_limit_v,
+                extra_metadata=extra,
+            )
+        except KeyboardInterrupt:
+            print(
+                f"fuzzynav: interrupted while writing the recording: {target} not written "
+                f"({'the old file is unchanged' if target.exists() else 'no file made'})",
+                file=sys.stderr,
+            )
+            raise
+        if interrupted:
+            print(
+                f"fuzzynav: the run was interrupted: its recording so far is in {target} "
+                f"(marked interrupted; {path} is unchanged)",
+                file=sys.stderr,
+            )
+        else:
+            print(
+                f"fuzzynav: recording written to {target} (open it with: rerun {target})",
+                file=sys.stderr,
+            )
 
     return write

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import shlex
 import time
 from dataclasses import dataclass
@@ -392,14 +393,41 @@ def tune(
     return result
 
 
+def check_output_file(path: Path, option: str) -> Path:
+    """Refuse (UsageError) an output path that cannot be written: a directory, a
+    missing or read-only folder. Creates nothing that stays."""
+    import tempfile
+
+    from fuzzynav.app.cli import UsageError
+
+    path = Path(path)
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a directory, not a file")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"{option} {path}: folder {parent} does not exist")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UsageError(f"{option} {path}: the file is read-only")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".fuzzynav-probe-", dir=parent)
+    except OSError as exc:
+        raise UsageError(
+            f"{option} {path}: cannot write in {parent} ({exc.strerror or exc})"
+        ) from None
+    os.close(fd)
+    os.unlink(probe)
+    return path
+
+
 def _csv(text: str) -> list[str]:
     return [t.strip() for t in text.split(",") if t.strip()]
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cli import integer_in, seed_type
+    from fuzzynav.app.cli import float_in, integer_in, seed_type
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
+    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
     p = subparsers.add_parser(
         "tune", help="tune a controller's membership functions (differential evolution)"
@@ -436,10 +464,16 @@ def add_commands(subparsers) -> None:
         default=["ideal", "ultrasonic"],
         help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
     )
-    p.add_argument("--maxiter", type=int, default=10, metavar="N", help="generations (default 10)")
+    p.add_argument(
+        "--maxiter",
+        type=integer_in(1, 100_000),
+        default=10,
+        metavar="N",
+        help="generations (default 10)",
+    )
     p.add_argument(
         "--popsize",
-        type=int,
+        type=integer_in(1, 1000),
         default=4,
         metavar="K",
         help="population = popsize x parameters (default 4)",
@@ -478,14 +512,14 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument(
         "--radius",
-        type=float,
+        type=float_in(1e-9, 1e3),
         default=None,
         metavar="FRACTION",
         help="narrow every bound to start +- FRACTION x its span (default: full bounds)",
     )
     p.add_argument(
         "--clearance-weight",
-        type=float,
+        type=float_in(0.0, 1e9),
         default=CLEARANCE_WEIGHT,
         metavar="COST_PER_M",
         help=f"cost per metre of clearance below {SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M:g} m "
@@ -493,7 +527,7 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument(
         "--dt",
-        type=float,
+        type=float_in(MIN_CONTROL_PERIOD_S, MAX_CONTROL_PERIOD_S, " s"),
         default=None,
         metavar="SECONDS",
         help="control period while tuning (default: the controller's own, 0.05 s for "
@@ -544,6 +578,14 @@ def cmd_tune(args) -> int:
     t = get_tunable(args.controller)
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"
+    # Before the tuning: an hour of tuning must not end in "cannot write there".
+    check_output_file(args.out, "--out")
+    if args.checkpoint is not None:
+        check_output_file(args.checkpoint, "--checkpoint")
+    for name in ("clearance_weight", "radius"):
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):  # called from code, not argparse
+            raise UsageError(f"--{name.replace('_', '-')} {value!r}: must be a finite number")
     fixed = getattr(t, "control_period_s", None)  # a controller that counts its calls
     if args.dt is None:
         args.dt = fixed if fixed is not None else 0.05

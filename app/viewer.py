@@ -36,7 +36,6 @@ import re
 import tempfile
 import threading
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,7 +49,7 @@ from fuzzynav.world.scenario import (
     ScenarioError,
     check_layout,
     load_scenario,
-    scenario_from_dict,
+    loads_scenario,
     scenario_names,
     target_blocker,
 )
@@ -671,13 +670,9 @@ class ViewerApp:
         label = UPLOADED_PREFIX + safe_display_name(filename, "scenario.toml")
         if len(content) > MAX_UPLOAD_BYTES:
             raise ViewerError(f"{label}: {len(content)} bytes is too large for a scenario file")
-        try:
-            data = tomllib.loads(bytes(content).decode("utf-8"))
-        except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-            raise ViewerError(f"{label}: not a valid TOML scenario ({exc})") from None
-        try:
-            scenario = scenario_from_dict(
-                data, source=label, footprint_m=self.sim.arena.footprint_m
+        try:  # bounded: nesting, numbers, counts (world/scenario.py)
+            scenario = loads_scenario(
+                bytes(content), source=label, footprint_m=self.sim.arena.footprint_m
             )
         except ScenarioError as exc:
             raise ViewerError(str(exc)) from None

@@ -20,6 +20,7 @@ import numpy as np
 import viser
 
 from fuzzynav.app import viewer_views as views
+from fuzzynav.app.origin_guard import guarded_server_start
 from fuzzynav.app.viewer import (
     NOISE_RANGE_M,
     SAFE_DISTANCE_M,
@@ -191,7 +192,8 @@ class ViewerServer:
     def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080):
         self.app = app
         self.host = host
-        self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
+        with guarded_server_start(host):  # only its own page may connect (app/origin_guard.py)
+            self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
         self.port = self.server.get_port()
         self._stop = threading.Event()
         self._camera_fits: dict[int, float] = {}

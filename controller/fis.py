@@ -49,8 +49,11 @@ import math
 import re
 from pathlib import Path
 
+from fuzzynav.resources import InputError, escape_controls, read_user_text, shorten
+
 from . import membership as mf
 from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable
+from .rulebase import MAX_RULES, MAX_TERMS, MAX_VARIABLES
 
 __all__ = ["read_fis", "write_fis", "loads_fis", "dumps_fis", "FisFormatError"]
 
@@ -59,9 +62,15 @@ class FisFormatError(ValueError):
     """A .fis file we cannot read (malformed or unsupported)."""
 
 
-_NUM = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+# Each alternative starts with a different character class and nothing repeats a
+# repeat, so matching is linear in the token's length (the former \d+\.?\d* tried
+# every split of a run of digits: 20,000 digits and an 'x' took 39 s).
+_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+_INT_RE = re.compile(r"[+-]?\d+")
+#: The most digits an integer field (a count, an index) may have before it is refused.
+_MAX_INT_DIGITS = 9
 _NUM_RE = re.compile(rf"^{_NUM}$")
-_SECTION_RE = re.compile(r"^\[(System|Input(\d+)|Output(\d+)|Rules)\]$")
+_SECTION_RE = re.compile(r"^\[(System|Input(\d{1,9})|Output(\d{1,9})|Rules)\]$")
 _KV_RE = re.compile(r"^([A-Za-z][A-Za-z0-9]*)\s*=\s*(.*)$")
 _STR_RE = re.compile(r"^'([^']*)'$")
 _VEC_RE = re.compile(r"^\[([^\]]*)\]$")
@@ -86,8 +95,8 @@ class _Reader:
 
     def err(self, lineno: int | None, what: str, value=None) -> FisFormatError:
         where = f"{self.source}:{lineno}" if lineno else self.source
-        tail = f" (got {value!r})" if value is not None else ""
-        return FisFormatError(f"{where}: {what}{tail}")
+        tail = f" (got {shorten(repr(value))})" if value is not None else ""
+        return FisFormatError(f"{escape_controls(where)}: {what}{tail}")
 
     def num(self, lineno: int, text: str, what: str) -> float:
         t = text.strip()
@@ -98,17 +107,21 @@ class _Reader:
             raise self.err(lineno, f"{what}: not a finite number", t)
         return v
 
-    def int_(self, lineno: int, text: str, what: str) -> int:
+    def int_(self, lineno: int, text: str, what: str, limit: int) -> int:
+        """An integer of at most ``limit`` in magnitude (the limit is named)."""
         t = text.strip()
-        if not re.fullmatch(r"[+-]?\d+", t):
+        if not _INT_RE.fullmatch(t):
             raise self.err(lineno, f"{what}: not an integer", t)
-        return int(t)
+        digits = t.lstrip("+-").lstrip("0") or "0"  # never int() of thousands of digits
+        if len(digits) > _MAX_INT_DIGITS or int(digits) > limit:
+            raise self.err(lineno, f"{what}: too large (at most {limit})", t)
+        return -int(digits) if t.startswith("-") else int(digits)
 
     def string(self, lineno: int, text: str, what: str) -> str:
         m = _STR_RE.match(text.strip())
         if not m:
             raise self.err(lineno, f"{what}: expected a quoted string like 'name'", text.strip())
-        return m.group(1)
+        return escape_controls(m.group(1))
 
     def vector(self, lineno: int, text: str, what: str) -> list[float]:
         m = _VEC_RE.match(text.strip())
@@ -186,9 +199,9 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         lineno, val = sysd["Version"]
         if rd.num(lineno, val, "Version") != 2.0:
             raise rd.err(lineno, "unsupported Version (only 2.0)", val)
-    n_in = rd.int_(*sysd["NumInputs"], "NumInputs")
-    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs")
-    n_rules = rd.int_(*sysd["NumRules"], "NumRules")
+    n_in = rd.int_(*sysd["NumInputs"], "NumInputs", MAX_VARIABLES)
+    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs", MAX_VARIABLES)
+    n_rules = rd.int_(*sysd["NumRules"], "NumRules", MAX_RULES)
 
     def variables(kind: str, count: int) -> list[Variable]:
         secs = [s for s in sections if s[0] == kind]
@@ -210,7 +223,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                 key, val = m.group(1), m.group(2).strip()
                 mm = re.fullmatch(r"MF(\d+)", key)
                 if mm:
-                    k = int(mm.group(1))
+                    k = rd.int_(lineno, mm.group(1), key, MAX_TERMS)
                     if k in mfs:
                         raise rd.err(lineno, f"duplicate {key}", line)
                     mfs[k] = (lineno, val)
@@ -227,7 +240,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
             rng = rd.vector(*kv["Range"], "Range")
             if len(rng) != 2 or not rng[0] < rng[1]:
                 raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
-            nmf = rd.int_(*kv["NumMFs"], "NumMFs")
+            nmf = rd.int_(*kv["NumMFs"], "NumMFs", MAX_TERMS)
             if sorted(mfs) != list(range(1, nmf + 1)):
                 raise rd.err(
                     kv["NumMFs"][0],
@@ -272,8 +285,10 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         if not m:
             raise rd.err(lineno, "expected a rule like '1 0 2 0, 3 1 (1) : 1'", line)
         ant_t, con_t, w_t, conn_t = m.groups()
-        ant = [rd.int_(lineno, t, "antecedent index") for t in ant_t.split()]
-        con = [rd.int_(lineno, t, "consequent index") for t in con_t.split()]
+        if len(rules) >= n_rules:
+            raise rd.err(lineno, f"more rules than NumRules={n_rules}", line)
+        ant = [rd.int_(lineno, t, "antecedent index", MAX_TERMS) for t in ant_t.split()]
+        con = [rd.int_(lineno, t, "consequent index", MAX_TERMS) for t in con_t.split()]
         if len(ant) != n_in:
             raise rd.err(
                 lineno,
@@ -289,7 +304,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         w = rd.num(lineno, w_t, "rule weight")
         if not 0.0 <= w <= 1.0:
             raise rd.err(lineno, "rule weight must be in [0, 1]", w_t.strip())
-        conn = rd.int_(lineno, conn_t, "connection")
+        conn = rd.int_(lineno, conn_t, "connection", 2)
         if conn not in (1, 2):
             raise rd.err(lineno, "connection must be 1 (AND) or 2 (OR)", conn_t)
         if conn == 2 and sum(a != 0 for a in ant) > 1:
@@ -340,11 +355,9 @@ def read_fis(path) -> FuzzySystem:
     """Read a MATLAB .fis file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")  # tolerate a byte-order mark
-    except OSError as e:
-        raise FisFormatError(f"{path}: cannot read: {e}") from None
-    except UnicodeDecodeError as e:
-        raise FisFormatError(f"{path}: not UTF-8 text: {e}") from None
+        text = read_user_text(path, ".fis file")  # a byte-order mark is dropped
+    except InputError as e:
+        raise FisFormatError(str(e)) from None
     return loads_fis(text, str(path))
 
 

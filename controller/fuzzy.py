@@ -58,6 +58,32 @@ __all__ = ["Term", "Variable", "Rule", "FuzzySystem", "Aggregation", "DEFAULT_PO
 DEFAULT_POINTS = 101
 
 
+def _literal(value: float) -> str:
+    """A float as Python source for the generated single-sample code: repr() (which
+    reads back exactly) for a finite number, names bound in its namespace for inf and
+    NaN (repr gives 'inf', which is no Python literal)."""
+    value = float(value)
+    if math.isfinite(value):
+        return repr(value)
+    if math.isnan(value):
+        return "_NAN"
+    return "_INF" if value > 0 else "(-_INF)"
+
+
+def _plain_divisor(value: float) -> bool:
+    """Whether Python's float division by ``value`` is numpy's (not 0, not inf)."""
+    return value != 0.0 and math.isfinite(value)
+
+
+def _gauss_exp(d: float, den: float, clip: bool) -> float:
+    """``exp(-(d * d) / den)`` with numpy's IEEE division (x / 0 is inf, 0 / 0 NaN, no
+    exception), as the vectorised gaussmf/gauss2mf compute it when 2 sigma^2 under- or
+    overflows; ``clip`` maps NaN to 0 as the batch gaussmf kernel's fmax does."""
+    with np.errstate(all="ignore"):
+        y = np.exp(-(np.float64(d) * np.float64(d)) / np.float64(den))
+        return float(np.fmax(y, 0.0)) if clip else float(y)
+
+
 # --------------------------------------------------------------------------- data
 
 
@@ -420,7 +446,7 @@ class FuzzySystem:
         n_in = len(self.inputs)
         lines.append(f"    if len(x) != {n_in}:")
         lines.append("        raise ValueError(_msg % len(x))")
-        r = repr
+        r = _literal
         for i, v in enumerate(self.inputs):
             xi = f"x{i}"
             lines.append(f"    {xi} = float(x[{i}])")
@@ -471,18 +497,33 @@ class FuzzySystem:
                         body.append(f"{m} = 1.0 if {xi} < {r(a)} else 0.0")
                 elif term.shape == "gaussmf":
                     s, c = p
+                    den = 2.0 * s * s
                     body.append(f"d = {xi} - {r(c)}")
-                    body.append(f"{m} = _float(_exp(-(d * d) / {r(2.0 * s * s)}))")
+                    if _plain_divisor(den):
+                        body.append(f"{m} = _float(_exp(-(d * d) / {r(den)}))")
+                    else:  # 2 sigma^2 under- or overflows: numpy's IEEE division
+                        body.append(f"{m} = _gauss_exp(d, {r(den)}, True)")
                 elif term.shape == "gauss2mf":
                     s1, c1, s2, c2 = p
                     # a flat side is exactly 1.0, as the vectorised np.where gives
+                    den1, den2 = 2.0 * s1 * s1, 2.0 * s2 * s2
+                    g1 = (
+                        f"_float(_exp(-(d * d) / {r(den1)}))"
+                        if _plain_divisor(den1)
+                        else f"_gauss_exp(d, {r(den1)}, False)"
+                    )
+                    g2 = (
+                        f"_float(_exp(-(d * d) / {r(den2)}))"
+                        if _plain_divisor(den2)
+                        else f"_gauss_exp(d, {r(den2)}, False)"
+                    )
                     body.append(f"if {xi} < {r(c1)}:")
                     body.append(f"    d = {xi} - {r(c1)}")
-                    body.append(f"    y1 = _float(_exp(-(d * d) / {r(2.0 * s1 * s1)}))")
+                    body.append(f"    y1 = {g1}")
                     body.append("else: y1 = 1.0")
                     body.append(f"if {xi} > {r(c2)}:")
                     body.append(f"    d = {xi} - {r(c2)}")
-                    body.append(f"    y2 = _float(_exp(-(d * d) / {r(2.0 * s2 * s2)}))")
+                    body.append(f"    y2 = {g2}")
                     body.append("else: y2 = 1.0")
                     body.append(f"{m} = y1 * y2")
                 else:  # pragma: no cover - check_params guards this
@@ -535,6 +576,9 @@ class FuzzySystem:
         ns = {
             "_exp": np.exp,
             "_float": float,
+            "_gauss_exp": _gauss_exp,
+            "_INF": math.inf,
+            "_NAN": math.nan,
             "_msg": f"expected {n_in} inputs {self.input_names}, got %d",
         }
         exec(compile(src, f"<fuzzy front {self.name}>", "exec"), ns)

@@ -44,9 +44,10 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from pathlib import Path
 from typing import Any
+
+from fuzzynav.resources import InputError, escape_controls, loads_user_toml, read_user_text, shown
 
 from . import membership as mf
 from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable, rule_sentence
@@ -71,16 +72,25 @@ _RULEBASE_KEYS = {"rules"}
 
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
+# Limits on what a rule base (TOML or .fis) may ask the engine to build: far beyond any
+# controller here (4 inputs, 2 outputs, 5 terms, 40 rules, 101 points), and small
+# enough that building one takes well under a second and at most ~40 MB (the output
+# terms are sampled on the grid: outputs x terms x points floats).
+MAX_VARIABLES = 16  #: inputs, and outputs, each
+MAX_TERMS = 32  #: terms (membership functions) per variable
+MAX_RULES = 5000
+MAX_POINTS = 10_001  #: defuzzification grid points
+MAX_NAME_CHARS = 200
+
 
 class _Err:
     def __init__(self, source: str):
         self.source = source
 
     def __call__(self, key: str, value: Any, why: str) -> ValueError:
-        v = repr(value)
-        if len(v) > 120:
-            v = v[:100] + " ... " + v[-15:]
-        return ValueError(f"{self.source}: key {key!r}: value {v}: {why}")
+        return ValueError(
+            f"{escape_controls(self.source)}: key {key!r}: value {shown(value)}: {why}"
+        )
 
 
 # --------------------------------------------------------------------------- rules
@@ -172,6 +182,8 @@ def format_rule(system: FuzzySystem, rule: Rule) -> str:
 def _finite(err: _Err, key: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise err(key, value, "must be a number")
+    if isinstance(value, int) and abs(value) > 2**63:
+        raise err(key, value, "is too large (at most 9.22e18 in magnitude)")
     v = float(value)
     if not math.isfinite(v):
         raise err(key, value, "must be finite")
@@ -181,6 +193,8 @@ def _finite(err: _Err, key: str, value: Any) -> float:
 def _string(err: _Err, key: str, value: Any, name: bool = False) -> str:
     if not isinstance(value, str):
         raise err(key, value, "must be a string")
+    if len(value) > MAX_NAME_CHARS and name:
+        raise err(key, value, f"a name of {len(value)} characters (at most {MAX_NAME_CHARS})")
     if name:
         why = _bad_name(value)
         if why:
@@ -229,6 +243,10 @@ def _variable(err: _Err, where: str, t: Any) -> Variable:
     terms_raw = t["terms"]
     if not isinstance(terms_raw, list) or not terms_raw:
         raise err(f"{where}.terms", terms_raw, "must be a non-empty array of terms")
+    if len(terms_raw) > MAX_TERMS:
+        raise err(
+            f"{where}.terms", terms_raw, f"{len(terms_raw)} terms: at most {MAX_TERMS} allowed"
+        )
     terms = []
     seen = set()
     for j, tt in enumerate(terms_raw):
@@ -258,11 +276,11 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
     _check_keys(err, "", data, _TOP_KEYS, tuple(_TOP_KEYS))
     sysd = data["system"]
     _check_keys(err, "system", sysd, _SYSTEM_KEYS, ("name",))
-    name = _string(err, "system.name", sysd["name"])
-    desc = _string(err, "system.description", sysd.get("description", ""))
+    name = escape_controls(_string(err, "system.name", sysd["name"]))
+    desc = escape_controls(_string(err, "system.description", sysd.get("description", "")), "\n\t")
     points = sysd.get("points", DEFAULT_POINTS)
-    if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-        raise err("system.points", points, "must be an integer >= 2")
+    if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= MAX_POINTS:
+        raise err("system.points", points, f"must be an integer from 2 to {MAX_POINTS}")
     for k, want in _FIXED.items():
         if k in sysd and sysd[k] != want:
             raise err(f"system.{k}", sysd[k], f"only {want!r} is supported")
@@ -273,6 +291,8 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
         arr = data[side]
         if not isinstance(arr, list) or not arr:
             raise err(side, arr, f"must be a non-empty array of tables ([[{side}]])")
+        if len(arr) > MAX_VARIABLES:
+            raise err(side, arr, f"{len(arr)} {side}: at most {MAX_VARIABLES} allowed")
         vs = []
         for i, t in enumerate(arr):
             v = _variable(err, f"{side}[{i}]", t)
@@ -287,6 +307,10 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
     rules_raw = rb["rules"]
     if not isinstance(rules_raw, list) or not rules_raw:
         raise err("rulebase.rules", rules_raw, "must be a non-empty array of rule strings")
+    if len(rules_raw) > MAX_RULES:
+        raise err(
+            "rulebase.rules", rules_raw, f"{len(rules_raw)} rules: at most {MAX_RULES} allowed"
+        )
     rules = []
     for i, text in enumerate(rules_raw):
         key = f"rulebase.rules[{i}]"
@@ -304,9 +328,9 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
 def loads_toml(text: str, source: str = "<string>") -> FuzzySystem:
     """Parse a TOML rule base from a string (``source`` names it in errors)."""
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ValueError(f"{source}: not valid TOML: {e}") from None
+        data = loads_user_toml(text, source)
+    except InputError as e:
+        raise ValueError(str(e)) from None
     return _from_dict(data, source)
 
 
@@ -314,9 +338,9 @@ def read_toml(path) -> FuzzySystem:
     """Read a TOML rule base file."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise ValueError(f"{path}: cannot read: {e}") from None
+        text = read_user_text(path, "rule base file")
+    except InputError as e:
+        raise ValueError(str(e)) from None
     return loads_toml(text, str(path))
 
 

@@ -13,11 +13,17 @@ This folder holds only the package's front door (``__init__``, ``__main__``).
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("fuzzynav")
-except PackageNotFoundError:  # imported from a checkout that was never installed
-    __version__ = "0+unknown"
-
 __all__ = ["__version__"]
+
+
+def __getattr__(name: str):
+    # Read on first use: importlib.metadata costs tens of milliseconds at every start of
+    # the command line, and a Ctrl-C in them could not be caught yet (issue 19).
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            return version("fuzzynav")
+        except PackageNotFoundError:  # imported from a checkout that was never installed
+            return "0+unknown"
+    raise AttributeError(f"module 'fuzzynav' has no attribute {name!r}")

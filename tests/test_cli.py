@@ -60,7 +60,10 @@ def test_run_table(capsys):
     "argv, needle",
     [
         (["run", "no-such-scenario", "--controller", "p"], "no such scenario file"),
-        (["run", "s1", "--controller", "p", "--dt", "-1"], "control_period_s"),
+        (
+            ["run", "s1", "--controller", "p", "--dt", "-1"],
+            "argument --dt: '-1': must be a number from 0.001 to 1 s",
+        ),
     ],
 )
 def test_bad_input_exits_2_with_message(capsys, argv, needle):

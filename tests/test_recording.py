@@ -18,7 +18,9 @@ from rerun.chunk import RrdReader
 from fuzzynav.app import recording
 from fuzzynav.app.cli import main
 from fuzzynav.app.recording import (
+    RULES_HEATMAP_PATH,
     RULES_PATH,
+    RULES_TEXT_PATH,
     LiveRecorder,
     footprint_outlines,
     plot_layout,
@@ -90,6 +92,14 @@ class Recording:
 
     def text(self, entity: str) -> str:
         return self.static[entity]["TextDocument:text"][0]
+
+    def bars(self, entity: str):
+        """(times in ns, values (rows, bars)) of a BarChart entity, as float32 was sent."""
+        times, values = self.rows(entity, "BarChart:values")
+        tensors = [v[0] for v in values]
+        assert all(t["shape"] == tensors[0]["shape"] for t in tensors)
+        matrix = np.array([[np.nan if x is None else x for x in t["buffer"]] for t in tensors])
+        return times, matrix.reshape(len(tensors), -1)
 
 
 def nanos(time_s) -> np.ndarray:
@@ -233,7 +243,8 @@ def test_entity_paths(s1_p):
     assert RULES_PATH not in rec.entities  # P is not fuzzy
     # Static obstacles never move: no path entity for them.
     assert not any(e.endswith("/path") for e in rec.entities)
-    assert [r.application_id for r in rec.recordings] == ["fuzzynav"]
+    # One application id (so one layout) per scenario and controller.
+    assert [r.application_id for r in rec.recordings] == ["fuzzynav-s1-p"]
     assert rec.blueprints, "the default layout is stored with the recording"
     assert rec.timelines == {"sim_time"}
 
@@ -314,12 +325,13 @@ def test_world_geometry_follows_the_pose(s1_p):
         assert list(t) == [0] and np.allclose(pos[0][0], log.obstacle_xy[0, col], atol=1e-6)
         radius = rec.static[f"/world/obstacles/{oid}/body"]["Points2D:radii"][0]
         assert radius == pytest.approx(log.obstacle_radii_m[col], abs=1e-6)
-        _, ring = rec.rows(f"/world/obstacles/{oid}/safe_ring", "LineStrips2D:strips")
+        # The ring: a circle about the origin, sent once, moved by a translation.
+        t, ring = rec.rows(f"/world/obstacles/{oid}/safe_ring", "LineStrips2D:strips")
+        assert list(t) == [0]
         ring = np.array(ring[0][0])
-        centre = log.obstacle_xy[0, col]
-        assert np.allclose(
-            np.hypot(*(ring - centre).T), log.obstacle_radii_m[col] + 0.25, atol=1e-5
-        )
+        assert np.allclose(np.hypot(*ring.T), log.obstacle_radii_m[col] + 0.25, atol=1e-5)
+        t, shift = rec.rows(f"/world/obstacles/{oid}/safe_ring", "Transform3D:translation")
+        assert list(t) == [0] and np.allclose(shift[0][0][:2], log.obstacle_xy[0, col], atol=1e-5)
     t, target = rec.rows("/world/target", "Points2D:positions")
     assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
     # A hit point for every echo, none without.
@@ -377,15 +389,18 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     strengths = fis.firing_strengths(result.log.inputs)
     n_rules = len(fis.rules)
     assert strengths.shape == (len(result.log), n_rules)
-    times, rows = rec.rows(RULES_PATH, "Scalars:scalars")
+    times, rows = rec.bars(RULES_PATH)
     assert np.array_equal(times, nanos(result.log.time_s))
-    assert same(np.array(rows, dtype=float), strengths)  # one instance per rule
+    assert same(rows, strengths.astype(np.float32))  # one bar per rule, float32
     assert strengths.max() > 0.5  # something fired
     rules = rec.text("/meta/rules")
     assert f"R{n_rules}: {fis.rule_text(n_rules - 1)}" in rules
-    style = rec.static[RULES_PATH]
-    assert style["SeriesLines:names"] == [f"R{k + 1}" for k in range(n_rules)]
-    assert len(style["SeriesLines:colors"]) == n_rules
+    # The heatmap (rules x time: one column per step here) and the rules in words.
+    heatmap = rec.static[RULES_HEATMAP_PATH]["Tensor:data"][0]
+    assert heatmap["shape"] == [n_rules, len(result.log)]
+    assert same(np.array(heatmap["buffer"]).reshape(n_rules, -1), strengths.T.astype(np.float32))
+    texts = rec.text(RULES_TEXT_PATH)
+    assert all(f"**R{k + 1}**: {fis.rule_text(k)}" in texts for k in range(n_rules))
 
 
 def test_baseline_recording_holds_both_blocks(tmp_path):
@@ -547,13 +562,16 @@ def test_interrupted_run_callback_leaves_a_readable_recording(tmp_path):
 
     sim = build_simulation("s1", "p")
     path = tmp_path / "partial.rrd"
+    path.write_bytes(b"an older recording")
     hook = recording.run_hook(argparse.Namespace(rrd=path), sim)
     for _ in range(100):
         sim.step()
     partial = sim.result()
     assert partial.outcome == "running"
     hook(partial, interrupted=True)
-    rec = Recording(path)
+    # The interrupted run goes beside, under a name that says so; the old file stays.
+    assert path.read_bytes() == b"an older recording"
+    rec = Recording(tmp_path / "partial.partial.rrd")
     times, values = rec.series("/plots/velocity", "v_MH (m/s)")
     assert len(values) == 100 and same(values, partial.log.lg_state[:, 2])
     assert times[-1] == nanos(partial.log.time_s[-1])
@@ -580,8 +598,11 @@ def test_ctrl_c_during_a_cli_run_still_writes_the_recording(tmp_path, monkeypatc
     )
     path = tmp_path / "ctrlc.rrd"
     assert main(["run", "s1", "--controller", "p", "--rrd", str(path)]) == 130
-    assert "interrupted" in capsys.readouterr().err
-    rec = Recording(path)
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "ctrlc.partial.rrd" in err and "Traceback" not in err
+    assert not path.exists()  # nothing pretends to be a whole run
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ctrlc.partial.rrd"]  # no temporaries
+    rec = Recording(tmp_path / "ctrlc.partial.rrd")
     assert rec.scalars("/plots/voltage")[1].shape[0] == 60
     assert "Ctrl-C" in rec.text("/meta/run")
 
@@ -734,17 +755,19 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     )
     rec = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller))
     n_rules = len(controller.goal.rules) + len(controller.avoid.rules)
-    assert layouts == [n_rules]  # the layout has a tab for the rules' firing
-    times, firing = rec.scalars(RULES_PATH)
+    # The layout has a tab for the rules' firing (sent first, and again with the legends).
+    assert layouts == [n_rules, n_rules]
+    times, firing = rec.bars(RULES_PATH)
     assert np.array_equal(times, nanos(result.log.time_s))
-    assert rec.static[RULES_PATH]["SeriesLines:names"] == [f"R{k + 1}" for k in range(n_rules)]
+    assert firing.shape == (len(result.log), n_rules)
     assert np.all(np.isnan(firing[-1]))  # the last row has no decision
     log = result.log
     fresh = fuzzynav_controller()
     for k in range(len(log) - 1):
         fresh(log.inputs[k], ranges_m=log.ranges_m[k])
         system, inputs, _ = fresh.teaching_view()
-        assert same(firing[k], system.firing_strengths(inputs[None, :])[0]), k
+        want = system.firing_strengths(inputs[None, :])[0].astype(np.float32)
+        assert same(firing[k], want), k
     _, internals = rec.scalars(INTERNALS_PATH)
     avoiding = internals[:-1, 0] > 0.3
     assert avoiding.sum() >= 20 and np.all(
@@ -831,14 +854,14 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     layouts = []
     real = recording.blueprint
 
-    def spy(scenario, obstacle_ids=(), n_rules=0, log=None, internals=False):
+    def spy(scenario, obstacle_ids=(), n_rules=0, log=None, internals=False, **kw):
         layouts.append((list(obstacle_ids), n_rules, None if log is None else len(log), internals))
-        return real(scenario, obstacle_ids, n_rules, log, internals=internals)
+        return real(scenario, obstacle_ids, n_rules, log, internals=internals, **kw)
 
     monkeypatch.setattr(recording, "blueprint", spy)
     sim, whole, controller = _fuzzynav_crossing()
     whole_rec = Recording(record_run(whole, tmp_path / "whole.rrd", controller=controller))
-    (whole_layout,) = layouts
+    whole_layout = layouts[-1]  # (sent first, then again with the legends placed)
     assert whole_layout[3], "fuzzynav's layout has its internals tab"
     sim = build_simulation("crossing", "fuzzynav", controller_object=fuzzynav_controller())
     live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=53, min_interval_s=0.0)
@@ -848,10 +871,15 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     live.close(sim)
     assert layouts[-1] == whole_layout  # the layout the live file is left with
     live_rec = Recording(tmp_path / "live.rrd")
-    for path in (INTERNALS_PATH, RULES_PATH):
-        t_live, v_live = live_rec.scalars(path)
-        t_whole, v_whole = whole_rec.scalars(path)
+    for path, read in ((INTERNALS_PATH, Recording.scalars), (RULES_PATH, Recording.bars)):
+        t_live, v_live = read(live_rec, path)
+        t_whole, v_whole = read(whole_rec, path)
         assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), path
+    heatmap = "Tensor:data"
+    assert (
+        live_rec.static[RULES_HEATMAP_PATH][heatmap]
+        == whole_rec.static[RULES_HEATMAP_PATH][heatmap]
+    )
 
 
 def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):

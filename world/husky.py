@@ -75,7 +75,6 @@ so :math:`x(\Delta t) = [\Phi z_0]_{1:6}` and the mean state over the step is
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, fields, replace
 from numbers import Real
 from pathlib import Path
@@ -84,7 +83,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import expm
 
-from fuzzynav.resources import asset_path
+from fuzzynav.resources import InputError, asset_path, loads_user_toml, read_user_text, shown
 
 __all__ = [
     "DEFAULT_PARAMETER_FILE",
@@ -104,6 +103,8 @@ __all__ = [
     "assemble_state_space",
     "paper_printed_A",
     "zoh_discretise",
+    "check_physical_plant",
+    "PHYSICAL_RANGES",
 ]
 
 DEFAULT_PARAMETER_FILE = asset_path("husky.toml")
@@ -124,14 +125,78 @@ _FOOTPRINT_TABLE = "footprint"
 _FOOTPRINT_KEYS = {"length_m": "footprint_length_m", "width_m": "footprint_width_m"}
 
 
+#: What a husky.toml value may be: far around the Husky's own numbers (a robot from a
+#: toy to a car), and inside what the plant computes without overflow (a hull inertia
+#: of 1e-300 gave NaN; some extreme values drove the robot at 1e85 m/s). The unit is
+#: part of the message.
+PHYSICAL_RANGES: dict[str, tuple[float, float, str]] = {
+    "R_ohm": (1e-4, 1e3, "ohm"),
+    "L_henry": (1e-7, 10.0, "H"),
+    "torque_constant_nm_per_a": (1e-4, 100.0, "N m/A"),
+    "gear_ratio": (1e-2, 1e4, "-"),
+    "wheel_inertia_kg_m2": (1e-6, 1e3, "kg m^2"),
+    "hull_mass_kg": (0.1, 1e5, "kg"),
+    "hull_inertia_kg_m2": (1e-3, 1e6, "kg m^2"),
+    "wheel_radius_m": (0.01, 5.0, "m"),
+    "a_m": (1e-3, 20.0, "m"),
+    "b_m": (1e-3, 20.0, "m"),
+    "c_m": (1e-3, 20.0, "m"),
+    "wheel_damping_fl": (1e-6, 1e6, "N m s/rad"),
+    "wheel_damping_rl": (1e-6, 1e6, "N m s/rad"),
+    "wheel_damping_fr": (1e-6, 1e6, "N m s/rad"),
+    "wheel_damping_rr": (1e-6, 1e6, "N m s/rad"),
+    "hull_yaw_damping": (1e-6, 1e6, "N m s/rad"),
+    "footprint_length_m": (0.05, 20.0, "m"),
+    "footprint_width_m": (0.05, 20.0, "m"),
+}
+#: The fastest the plant may drive at 12 V in steady state: more is no ground robot.
+MAX_STEADY_SPEED_MPS = 50.0
+
+
+def check_physical_plant(p: HuskyParameters, source: str = "husky parameters") -> None:
+    """Refuse a plant no robot has, naming the key and the value (ValueError).
+
+    Every value within :data:`PHYSICAL_RANGES`; the state matrix finite with every
+    eigenvalue's real part below zero (the passive model is stable: a plant that is not
+    would blow up); the steady forward speed at 12 V at most
+    :data:`MAX_STEADY_SPEED_MPS`.
+    """
+    keys = {v: k for k, v in _toml_key_to_field().items()}
+    for name, (low, high, unit) in PHYSICAL_RANGES.items():
+        value = getattr(p, name)
+        if not low <= value <= high:
+            raise ValueError(
+                f"{source}: key {keys.get(name, name)!r} = {value!r}: must be from "
+                f"{low:g} to {high:g} {unit} for a physically possible robot"
+            )
+    A, B = assemble_state_space(p)
+    eigenvalues = np.linalg.eigvals(A) if np.all(np.isfinite(A)) else np.array([np.nan])
+    worst = float(np.max(eigenvalues.real))
+    if not (np.all(np.isfinite(eigenvalues)) and worst < 0.0):
+        raise ValueError(
+            f"{source}: these parameters make an unstable plant (largest real part of an "
+            f"eigenvalue of A: {worst!r} 1/s); every eigenvalue must have a negative real part"
+        )
+    speed = float(np.linalg.solve(A, -(B[:, 0] + B[:, 1]) * 12.0)[_V_MH])
+    if not abs(speed) <= MAX_STEADY_SPEED_MPS:
+        raise ValueError(
+            f"{source}: these parameters drive the robot at {speed:.4g} m/s at 12 V "
+            f"(at most {MAX_STEADY_SPEED_MPS:g} m/s for a ground robot): check "
+            f"torque_constant_nm_per_a, gear_ratio and the dampings"
+        )
+
+
 def _check_positive_finite(value: object, what: str) -> float:
     """Return ``value`` as a float or raise ``ValueError`` naming ``what`` and it."""
     # bool is a Real in Python; `true` in a TOML file is a typo, not 1.0.
     if isinstance(value, bool) or not isinstance(value, Real):
-        raise ValueError(f"{what} = {value!r}: must be a number")
-    number = float(value)
+        raise ValueError(f"{what} = {shown(value)}: must be a number")
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond any float
+        number = math.inf
     if not math.isfinite(number) or number <= 0.0:
-        raise ValueError(f"{what} = {value!r}: must be finite and > 0")
+        raise ValueError(f"{what} = {shown(value)}: must be finite and > 0")
     return number
 
 
@@ -232,16 +297,15 @@ class HuskyParameters:
         """
         path = Path(path)
         try:
-            with path.open("rb") as stream:
-                document = tomllib.load(stream)
-        except tomllib.TOMLDecodeError as error:
-            raise ValueError(f"{path}: not valid TOML: {error}") from error
+            document = loads_user_toml(read_user_text(path, "husky parameter file"), str(path))
+        except InputError as error:
+            raise ValueError(str(error)) from None
 
         flat = _flatten_parameter_document(document, path)
         key_to_field = _toml_key_to_field()
         for key, value in flat.items():
             if key not in key_to_field:
-                raise ValueError(f"{path}: unknown key {key!r} = {value!r}")
+                raise ValueError(f"{path}: unknown key {shown(key)} = {shown(value)}")
         missing = [key for key in key_to_field if key not in flat]
         if missing:
             raise ValueError(f"{path}: missing key(s) {', '.join(map(repr, missing))}")
@@ -252,7 +316,9 @@ class HuskyParameters:
                 values[field_name] = _check_positive_finite(flat[key], f"key {key!r}")
             except ValueError as error:
                 raise ValueError(f"{path}: {error}") from None
-        return cls(**values)
+        parameters = cls(**values)
+        check_physical_plant(parameters, str(path))
+        return parameters
 
 
 def _toml_key_to_field() -> dict[str, str]:
@@ -274,8 +340,8 @@ def _flatten_parameter_document(document: dict, path: Path) -> dict[str, object]
     for key, value in document.items():
         if key == _FOOTPRINT_TABLE:
             if not isinstance(value, dict):
-                raise ValueError(f"{path}: key {key!r} = {value!r}: must be a table")
-            for sub_key, sub_value in value.items():
+                raise ValueError(f"{path}: key {key!r} = {shown(value)}: must be a table")
+            for sub_key, sub_value in value.items():  # (names checked by the caller)
                 flat[f"{key}.{sub_key}"] = sub_value
         else:
             flat[key] = value

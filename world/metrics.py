@@ -10,7 +10,9 @@
     robot and the obstacles as points).
 ``min_clearance_m``
     Ours: the smallest distance between the real footprint and an obstacle's surface
-    (in the paper's geometry: between the point robot and an obstacle's surface).
+    (in the paper's geometry: between the point robot and an obstacle's surface): the
+    smaller of the logged steps' and the arena's sweep between them (the true minimum,
+    to 5 mm; see docs/robustness.md).
 ``min_safety_distance_m``
     The distance the 25 cm safe distance is judged on: ``min_clearance_m`` for the Husky's
     footprint, ``min_center_distance_m`` in the paper's geometry (the paper measures
@@ -70,6 +72,12 @@ def _finite_min(values: np.ndarray) -> float | None:
     return float(finite.min()) if finite.size else None
 
 
+def _min_clearance(logged: np.ndarray, swept: float | None) -> float | None:
+    """The smaller of the logged clearances' minimum and the swept one (None: none)."""
+    found = [v for v in (_finite_min(logged), swept) if v is not None and math.isfinite(v)]
+    return min(found) if found else None
+
+
 def compute_metrics(result) -> dict:
     """The metrics of a :class:`world.simulation.SimulationResult` as a plain dict."""
     log = result.log
@@ -107,7 +115,9 @@ def compute_metrics(result) -> dict:
         "mad_m": mad,
         "rmse_m": rmse,
         "min_center_distance_m": _finite_min(log.center_distance_m),
-        "min_clearance_m": _finite_min(log.clearance_m),
+        "min_clearance_m": _min_clearance(
+            log.clearance_m, getattr(result, "swept_min_clearance_m", None)
+        ),
         "max_abs_voltage_v": float(np.abs(applied).max()) if applied.size else 0.0,
         "sim_time_s": float(log.time_s[-1]),
         "steps": int(len(log) - 1),
@@ -118,8 +128,10 @@ def compute_metrics(result) -> dict:
             None if sc.disturbance is None else (sc.disturbance.start_s, sc.disturbance.stop_s),
         ),
         "geometry": geometry,
-        "min_safety_distance_m": _finite_min(
-            log.center_distance_m if geometry == "paper" else log.clearance_m
+        "min_safety_distance_m": (
+            _finite_min(log.center_distance_m)
+            if geometry == "paper"
+            else _min_clearance(log.clearance_m, getattr(result, "swept_min_clearance_m", None))
         ),
     }
 

@@ -29,12 +29,18 @@ Files are parsed with :mod:`tomllib`, never evaluated.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from fuzzynav.resources import assets_dir
+from fuzzynav.resources import (
+    InputError,
+    assets_dir,
+    escape_controls,
+    loads_user_toml,
+    read_user_text,
+    shown,
+)
 from fuzzynav.world.geometry import rectangle_circle_clearance
 
 ASSETS_DIR = assets_dir()
@@ -50,7 +56,7 @@ class ScenarioError(ValueError):
 
     def __init__(self, source: str, key: str, value: Any, reason: str):
         self.source, self.key, self.value, self.reason = source, key, value, reason
-        super().__init__(f"{source}: {key} = {value!r}: {reason}")
+        super().__init__(f"{escape_controls(str(source))}: {key} = {shown(value)}: {reason}")
 
 
 @dataclass(frozen=True)
@@ -197,6 +203,12 @@ MAX_DISTURBANCE = 1_000.0
 #: The longest run a scenario file may ask for: a run's log grows with its length (an
 #: hour at the default 20 ms period is 180,000 rows, about 35 MB).
 MAX_DURATION_S = 3600.0
+#: The most obstacles a scenario may hold: far more than any layout here (at most 20),
+#: and few enough that validating (a k-d tree) and running stay quick.
+MAX_OBSTACLES = 1000
+#: The largest integer a number key takes as written (beyond it a float loses the
+#: integer anyway; Python cannot even print an integer of more than 4300 digits).
+_MAX_EXACT_INT = 2**63
 _TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
 _ROBOT_KEYS = {"start", "heading_rad", "paper_heading_rad"}
 _TARGET_KEYS = {"position", "tolerance_m"}
@@ -239,6 +251,8 @@ class _Reader:
         """A finite number; with ``limit``, at most that in magnitude."""
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, value, "must be a number")
+        if isinstance(value, int) and abs(value) > _MAX_EXACT_INT:
+            self.fail(key, value, f"is too large (at most {_MAX_EXACT_INT:.3g} in magnitude)")
         value = float(value)
         if not math.isfinite(value):
             self.fail(key, value, "must be finite (NaN and inf are not allowed)")
@@ -260,10 +274,13 @@ class _Reader:
             self.number(value[1], f"{key}[1]", limit=limit, unit=unit),
         )
 
-    def string(self, value: Any, key: str) -> str:
+    def string(self, value: Any, key: str, keep: str = "") -> str:
+        """A string, with control characters (but those in ``keep``) written as visible
+        escapes: a name is printed in tables and titles, and ESC or NUL must not drive
+        the terminal."""
         if not isinstance(value, str):
             self.fail(key, value, "must be a string")
-        return value
+        return escape_controls(value, keep)
 
 
 def scenario_from_dict(
@@ -284,7 +301,7 @@ def scenario_from_dict(
     r = _Reader(source)
     r.table(data, "", _TOP_KEYS, {"name", "duration_s", "robot", "target"})
     name = r.string(data["name"], "name")
-    description = r.string(data.get("description", ""), "description")
+    description = r.string(data.get("description", ""), "description", keep="\n\t")
     duration_s = r.number(data["duration_s"], "duration_s", positive=True)
     if duration_s > MAX_DURATION_S:
         r.fail(
@@ -319,6 +336,12 @@ def scenario_from_dict(
     raw_obstacles = data.get("obstacles", [])
     if not isinstance(raw_obstacles, list):
         r.fail("obstacles", raw_obstacles, "must be an array of tables ([[obstacles]])")
+    if len(raw_obstacles) > MAX_OBSTACLES:
+        r.fail(
+            "obstacles",
+            raw_obstacles,
+            f"{len(raw_obstacles)} obstacles: at most {MAX_OBSTACLES} are allowed",
+        )
     obstacles = []
     for i, raw in enumerate(raw_obstacles):
         key = f"obstacles[{i}]"
@@ -436,15 +459,43 @@ def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_
     blocked = target_blocker(scenario.target, scenario.tolerance_m, scenario.obstacles, 0.5 * width)
     if blocked is not None:
         r.fail("target.position", list(scenario.target), blocked[1])
-    statics = [(i, o) for i, o in enumerate(scenario.obstacles) if o.is_static]
-    for n, (i, a) in enumerate(statics):
-        for j, b in statics[n + 1 :]:
-            if math.dist(a.position, b.position) < a.radius_m + b.radius_m:
-                r.fail(
-                    f"obstacles[{j}].position",
-                    list(b.position),
-                    f"overlaps static obstacle obstacles[{i}] at {list(a.position)}",
-                )
+    overlap = first_overlap([o for o in scenario.obstacles if o.is_static])
+    if overlap is not None:
+        statics = [i for i, o in enumerate(scenario.obstacles) if o.is_static]
+        i, j = statics[overlap[0]], statics[overlap[1]]
+        r.fail(
+            f"obstacles[{j}].position",
+            list(scenario.obstacles[j].position),
+            f"overlaps static obstacle obstacles[{i}] at {list(scenario.obstacles[i].position)}",
+        )
+
+
+def first_overlap(obstacles) -> tuple[int, int] | None:
+    """The first pair ``(i, j)``, ``i < j``, of circles that overlap (centres nearer than
+    the sum of the radii), in the order of ``j`` then ``i``; None if none do.
+
+    A k-d tree of the centres gives the candidate pairs (centres within twice the largest
+    radius), so a layout of well-spread obstacles costs O(n log n), not the O(n^2) of
+    every pair; :data:`MAX_OBSTACLES` bounds the worst case.
+    """
+    if len(obstacles) < 2:
+        return None
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    centres = np.array([o.position for o in obstacles], dtype=float)
+    radii = np.array([o.radius_m for o in obstacles], dtype=float)
+    pairs = cKDTree(centres).query_pairs(2.0 * float(radii.max()), output_type="ndarray")
+    if not len(pairs):
+        return None
+    i, j = pairs[:, 0], pairs[:, 1]
+    gap = np.hypot(*(centres[i] - centres[j]).T)
+    hit = gap < radii[i] + radii[j]
+    if not hit.any():
+        return None
+    i, j = i[hit], j[hit]
+    first = np.lexsort((i, j))[0]  # the smallest j, then the smallest i
+    return int(i[first]), int(j[first])
 
 
 def scenario_names() -> list[str]:
@@ -473,13 +524,35 @@ def load_scenario(
     """
     path = resolve_scenario_path(name_or_path)
     source = str(path)
-    if not path.is_file():
+    if not path.exists() and not path.is_symlink():
         known = ", ".join(scenario_names())
         raise ScenarioError(
             source, "file", str(name_or_path), f"no such scenario file (shipped scenarios: {known})"
         )
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ScenarioError(source, "file", path.name, f"not valid TOML: {exc}") from None
+        data = loads_scenario_data(read_user_text(path, "scenario file"), source)
+    except InputError as exc:
+        raise ScenarioError(source, "file", path.name, exc.reason) from None
+    return scenario_from_dict(data, source=source, footprint_m=footprint_m)
+
+
+def loads_scenario_data(text: str, source: str) -> dict:
+    """The plain data of a scenario's TOML text, every limit checked
+    (:func:`fuzzynav.resources.loads_user_toml`); raises InputError."""
+    return loads_user_toml(text, source)
+
+
+def loads_scenario(
+    content: str | bytes, source: str, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M
+) -> Scenario:
+    """Parse and validate a scenario from its TOML text or bytes (an upload);
+    ``source`` names it in errors. Raises :class:`ScenarioError`."""
+    from fuzzynav.resources import decode_user_bytes
+
+    try:
+        text = decode_user_bytes(content, source) if isinstance(content, bytes) else content
+        data = loads_scenario_data(text, source)
+    except InputError as exc:
+        reason = exc.reason.replace("not valid TOML:", "not a valid TOML scenario:", 1)
+        raise ScenarioError(source, "file", "upload", reason) from None
     return scenario_from_dict(data, source=source, footprint_m=footprint_m)

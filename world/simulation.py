@@ -46,6 +46,15 @@ from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
 OUTCOMES = ("reached", "collided", "timeout")
+#: The control period's bounds: below a millisecond the log of an ordinary run grows to
+#: gigabytes (1e-5 s asked for 4.3 GB) for nothing the exact ZOH plant needs; above a
+#: second the sensors (25 Hz) and the collision sub-steps lose their meaning.
+MIN_CONTROL_PERIOD_S = 1e-3
+MAX_CONTROL_PERIOD_S = 1.0
+#: The most steps :meth:`Simulation.run` takes (duration / period): the log holds 27
+#: floats a step plus 4 per obstacle, and grows by doubling, so 2 million steps of a
+#: run with a few obstacles stay under 1.5 GB (an hour at 2 ms; 1e-5 s asked 4.3 GB).
+MAX_STEPS = 2_000_000
 _FLOAT64 = np.dtype(np.float64)
 _PACK_XU = struct.Struct(f"{N_STATES + 2}d").pack_into
 _pack_into = struct.pack_into
@@ -86,6 +95,9 @@ class SimulationResult:
     control_period_s: float
     metrics: dict = field(default_factory=dict)
     geometry: str = "husky"
+    #: The true minimum footprint clearance over the run, swept between the steps
+    #: (:meth:`world.arena.Arena._sweep`); the log holds it at the steps only.
+    swept_min_clearance_m: float | None = None
 
     @property
     def reached(self) -> bool:
@@ -273,8 +285,14 @@ class Simulation:
         stop_on_collision: bool = True,
         geometry: str = "husky",
     ):
-        if not (math.isfinite(control_period_s) and control_period_s > 0):
-            raise ValueError(f"control_period_s = {control_period_s!r}: must be positive")
+        if not (
+            math.isfinite(control_period_s)
+            and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
+        ):
+            raise ValueError(
+                f"control_period_s = {control_period_s!r}: must be from "
+                f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
+            )
         if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
             raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
         self.scenario = scenario
@@ -523,7 +541,22 @@ class Simulation:
     # -- whole runs --------------------------------------------------------------------
 
     def run(self, progress=None) -> SimulationResult:
-        """Run to the end; ``progress(time_s)`` is called now and then if given."""
+        """Run to the end; ``progress(time_s)`` is called now and then if given.
+
+        Raises
+        ------
+        ValueError
+            Before the first step, when the run would take more than :data:`MAX_STEPS`
+            steps (its duration over the control period): its log would not fit in
+            memory. (Stepping by hand, as the viewer does, has no such bound.)
+        """
+        steps = (self.scenario.duration_s - self.time_s) / self.control_period_s
+        if steps > MAX_STEPS:
+            raise ValueError(
+                f"control_period_s = {self.control_period_s!r} with duration_s = "
+                f"{self.scenario.duration_s!r}: {steps:.3g} steps, more than one run may "
+                f"take ({MAX_STEPS}); use a longer period or a shorter scenario"
+            )
         every = max(1, int(1.0 / self.control_period_s))
         steps = 0
         while self.outcome is None:  # not self.done
@@ -545,6 +578,9 @@ class Simulation:
             perception=self.perception.mode,
             control_period_s=self.control_period_s,
             geometry=self.geometry,
+            swept_min_clearance_m=(
+                self.arena.min_clearance_m if math.isfinite(self.arena.min_clearance_m) else None
+            ),
         )
         result.metrics = compute_metrics(result)
         return result
