@@ -754,7 +754,7 @@ class ViewerApp:
 
         with self.lock:
             if self.paper_edit is None:
-                self.paper_edit = PaperEditor()
+                self.paper_edit = PaperEditor(self.geometry)
             return self.paper_edit
 
     def set_membership_parameter(self, name: str, value) -> None:
@@ -1012,6 +1012,7 @@ class ViewerApp:
             )
             if self.controller_label == "paper":
                 self.controller.inner = self._make_named_controller("paper", geometry)
+            self.paper_edit = None  # the editor edits this geometry's rule base
             self._reset_locked(self._layout_scenario())
             self._notice(f"Geometry: {geometry}{note}.", "info")
 

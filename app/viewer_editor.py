@@ -34,7 +34,7 @@ def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
             (k.strip(), float(v))
             for k, v in (item.split("=") for item in match.group(1).split(","))
         )
-        if set(values) == set(names):
+        if set(names) <= set(values):  # a fitted file also names its initial heading
             vector = np.array([values[n] for n in names])
             try:
                 rebuilt = tunable.system(vector)
@@ -50,12 +50,20 @@ def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
 class PaperEditor:
     """The edited paper system: a parameter vector, and the controller it builds."""
 
-    def __init__(self):
-        from fuzzynav.controller.paper import PAPER_RULES, paper_controller, tunable
+    def __init__(self, geometry: str = "husky"):
+        from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
+        from fuzzynav.controller.paper_partition import PaperPartitionTunable
 
-        self.tunable = tunable()
-        self.shipped = paper_controller()
-        self.start, self.exact = shipped_vector(self.tunable, self.shipped.fis, PAPER_RULES)
+        self.geometry = geometry
+        self.shipped = paper_controller(geometry=geometry)
+        path = RULES_BY_GEOMETRY[geometry]
+        # The layout the shipped file was made in: the partition one (no holes) for the
+        # rule base fitted to Table 4, the earlier 27-number one for the Husky's.
+        for candidate in (PaperPartitionTunable(), PaperTunable()):
+            self.tunable = candidate
+            self.start, self.exact = shipped_vector(candidate, self.shipped.fis, path)
+            if self.exact:
+                break
         self.names = self.tunable.parameter_names()
         self.bounds = dict(zip(self.names, self.tunable.bounds()))
         self.vector = self.start.copy()
@@ -106,7 +114,7 @@ class PaperEditor:
 
         self.vector = self.start.copy()
         self.edited = False
-        self._controller = paper_controller()
+        self._controller = paper_controller(geometry=self.geometry)
         return self._controller
 
     def controller(self):

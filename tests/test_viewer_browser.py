@@ -650,3 +650,21 @@ def test_speed_choices_noise_box_colour_key(served, page):
         assert words in key
     style = page.locator(".fz-status").first.get_attribute("style")
     assert "padding:0 8px" in style.replace(" 8px", " 8px")
+
+
+def test_geometry_control_shows_the_paper_point_robot(served, page):
+    """Issue 17: the viewer switches to the paper's geometry; every tab is told, the
+    dropdown follows, the Husky's body gives way to a point and the beams go."""
+    app = served.app
+    try:
+        app.set_geometry("paper")
+        page.wait_for_function(
+            "() => document.body.innerText.includes('Geometry: paper')", timeout=15_000
+        )
+        assert app.wait_for(lambda a: served.geometry_dd.value == "paper", timeout=10)
+        assert served.point_robot.visible and not served.beams.visible
+        assert not any(node.visible for node in served._husky_nodes)
+    finally:
+        app.set_geometry("husky")
+    assert app.wait_for(lambda a: served.geometry_dd.value == "husky", timeout=10)
+    assert all(node.visible for node in served._husky_nodes)
