@@ -84,3 +84,14 @@ def cmaes(
         if on_generation is not None:
             on_generation(generation, best_f, best_x, sigma)
     return best_x, best_f, maxiter, evaluations
+
+
+def add_sigma_option(parser) -> None:
+    """``--sigma``: CMA-ES's first step, for the commands that offer it."""
+    parser.add_argument(
+        "--sigma",
+        type=float,
+        default=0.15,
+        metavar="FRACTION",
+        help="cmaes: the first step, a fraction of each bound's span (default 0.15)",
+    )

@@ -428,6 +428,7 @@ def cmd_fit_paper(args) -> int:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app.cli import integer_in, seed_type
+    from fuzzynav.app.cmaes import add_sigma_option
 
     p = subparsers.add_parser(
         "fit-paper",
@@ -474,13 +475,7 @@ def add_commands(subparsers) -> None:
         default="cmaes",
         help="cmaes: a seeded CMA-ES from --x0 (default); de: scipy's differential evolution",
     )
-    p.add_argument(
-        "--sigma",
-        type=float,
-        default=0.15,
-        metavar="FRACTION",
-        help="cmaes: the first step, a fraction of each bound's span (default 0.15)",
-    )
+    add_sigma_option(p)
     p.add_argument(
         "--radius",
         type=float,

@@ -425,6 +425,7 @@ def _csv(text: str) -> list[str]:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app.cli import float_in, integer_in, seed_type
+    from fuzzynav.app.cmaes import add_sigma_option
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
     from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
@@ -487,13 +488,7 @@ def add_commands(subparsers) -> None:
         help="differential evolution (default), CMA-ES from the start vector (--popsize "
         "candidates a generation, first step --sigma), or a local search from it",
     )
-    p.add_argument(
-        "--sigma",
-        type=float,
-        default=0.15,
-        metavar="FRACTION",
-        help="cmaes: the first step, a fraction of each bound's span (default 0.15)",
-    )
+    add_sigma_option(p)
     p.add_argument(
         "--x0",
         type=Path,

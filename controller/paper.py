@@ -46,8 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzynav.controller.fis_controller import FisController
-from fuzzynav.controller.fuzzy import FuzzySystem
-from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.controller.paper_partition import TableOneTunable
 from fuzzynav.resources import asset_path
 
 ASSETS = asset_path("rules")
@@ -157,35 +156,33 @@ def _angles(peak, width, halfwidth, foot, tail=None):
     ]
 
 
-class PaperTunable:
+class PaperTunable(TableOneTunable):
     """The paper controller's membership functions as 27 bounded numbers (module doc).
 
     Only membership parameters change: the rules (Table 1), ranges, term names and shape
     kinds come from the first design and stay as they are.
     """
 
-    name = "paper"
-
-    def __init__(self, template: str | Path = FIRST_DESIGN):
-        self.template_path = Path(template)
-        self._template = read_toml(self.template_path)
-
-    def parameter_names(self) -> list[str]:
-        return [p[0] for p in _PARAMETERS]
-
-    def initial_vector(self) -> np.ndarray:
-        return np.array([p[3] for p in _PARAMETERS])
-
-    def bounds(self) -> list[tuple[float, float]]:
-        return [(p[1], p[2]) for p in _PARAMETERS]
+    PARAMETERS = _PARAMETERS
+    DESCRIPTION = (
+        "Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
+        "membership functions tuned by fuzzynav tune (not from the paper)"
+    )
+    HEADER = (
+        "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",
+        "#",
+        "# From the paper: inputs, outputs, ranges, term names, shape kinds, Mamdani",
+        "# min/max/centroid and the 40 rules of Table 1 (weight 1), unchanged.",
+        "# NOT from the paper: the membership parameters, found by `fuzzynav tune`",
+        "# (controller/paper.py documents the 27-number parametrisation; the hand-made",
+        "# starting point is assets/rules/paper_first_design.toml).",
+        "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
+        "#",
+    )
 
     def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
         """Shape and parameters of every term, by variable, for ``vector``."""
-        v = np.asarray(vector, dtype=float).ravel()
-        if v.size != len(_PARAMETERS):
-            raise ValueError(
-                f"paper tunable: vector must have {len(_PARAMETERS)} entries, got {v.size}"
-            )
+        v = self._vector(vector)
         b = np.cumsum(v[5:8])
         outputs = _outputs(*v[17:27])
         return {
@@ -200,63 +197,6 @@ class PaperTunable:
             "left": outputs,
             "right": outputs,
         }
-
-    def _shaped(self, terms) -> FuzzySystem:
-        """The template with this parametrisation's shapes (built once, then reused)."""
-        if getattr(self, "_shaped_template", None) is None:
-            fis = self._template
-            for var, ts in terms.items():
-                variable = next(x for x in fis.inputs + fis.outputs if x.name == var)
-                for term, (shape, params) in zip(variable.term_names, ts):
-                    fis = fis.with_term_params(var, term, [float(p) for p in params], shape=shape)
-            self._shaped_template = fis
-        return self._shaped_template
-
-    def system(self, vector) -> FuzzySystem:
-        terms = self.terms(vector)
-        template = self._shaped(terms)
-        flat = [
-            float(p)
-            for v in template.inputs + template.outputs
-            for _, params in terms[v.name]
-            for p in params
-        ]
-        return template.with_parameter_vector(flat)
-
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state["_shaped_template"] = None
-        return state
-
-    def build(self, vector) -> FisController:
-        return FisController(self.system(vector), name="paper")
-
-    def save(self, vector, path: Path, header: str = "") -> list[Path]:
-        from fuzzynav.controller.rulebase import dumps_toml
-
-        path = Path(path)
-        fis = self.system(vector)
-        fis = fis._replace(
-            description="Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
-            "membership functions tuned by fuzzynav tune (not from the paper)"
-        )
-        names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
-        lines = [
-            "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",
-            "#",
-            "# From the paper: inputs, outputs, ranges, term names, shape kinds, Mamdani",
-            "# min/max/centroid and the 40 rules of Table 1 (weight 1), unchanged.",
-            "# NOT from the paper: the membership parameters, found by `fuzzynav tune`",
-            "# (controller/paper.py documents the 27-number parametrisation; the hand-made",
-            "# starting point is assets/rules/paper_first_design.toml).",
-            "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
-            "#",
-        ]
-        lines += [f"# {line}" if line else "#" for line in header.splitlines()]
-        lines += [f"# tuned vector: {names}", ""]
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text("\n".join(lines) + "\n" + dumps_toml(fis), encoding="utf-8")
-        return [path]
 
 
 def tunable():

@@ -84,10 +84,16 @@ def _mirrored(p1: float, width: float) -> list[float]:
     return [-p2, -p1, 0.0, p1, p2]
 
 
-class PaperPartitionTunable:
-    """The paper controller (Table 1) with partition membership functions (module doc)."""
+class TableOneTunable:
+    """What every parametrisation of Table 1's membership functions shares: a template
+    rule base (rules, ranges, names) whose shapes :meth:`terms` fills in from a bounded
+    vector. Subclasses give ``PARAMETERS`` ((name, low, high, start) rows), ``terms``
+    and the header lines that say where the numbers come from."""
 
     name = "paper"
+    PARAMETERS: list[tuple[str, float, float, float]] = []
+    DESCRIPTION = ""
+    HEADER: tuple[str, ...] = ()
 
     def __init__(self, template: str | Path = TEMPLATE):
         self.template_path = Path(template)
@@ -95,36 +101,29 @@ class PaperPartitionTunable:
         self._shaped_template: FuzzySystem | None = None
 
     def parameter_names(self) -> list[str]:
-        return [p[0] for p in PARTITION_PARAMETERS]
+        return [p[0] for p in self.PARAMETERS]
 
     def initial_vector(self) -> np.ndarray:
-        return np.array([p[3] for p in PARTITION_PARAMETERS])
+        return np.array([p[3] for p in self.PARAMETERS])
 
     def bounds(self) -> list[tuple[float, float]]:
-        return [(p[1], p[2]) for p in PARTITION_PARAMETERS]
+        return [(p[1], p[2]) for p in self.PARAMETERS]
 
     def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
+        raise NotImplementedError
+
+    def _vector(self, vector) -> np.ndarray:
         v = np.asarray(vector, dtype=float).ravel()
-        if v.size != len(PARTITION_PARAMETERS):
+        if v.size != len(self.PARAMETERS):
             raise ValueError(
-                f"paper partition: vector must have {len(PARTITION_PARAMETERS)} entries, "
+                f"{type(self).__name__}: vector must have {len(self.PARAMETERS)} entries, "
                 f"got {v.size}"
             )
-        centres = np.cumsum(v[12:17])
-        outputs = [
-            ("trimf", (c - h, c, c + h)) for c, h in zip(centres.tolist(), v[17:22].tolist())
-        ]
-        return {
-            "d_t": partition(np.cumsum(v[0:5])),
-            "d_o": partition(np.cumsum(v[5:8])),
-            "phi_t": partition(_mirrored(v[8], v[9])),
-            "phi_o": partition(_mirrored(v[10], v[11])),
-            "left": outputs,
-            "right": outputs,
-        }
+        return v
 
     def _shaped(self, terms) -> FuzzySystem:
-        if self._shaped_template is None:
+        """The template with this parametrisation's shapes (built once, then reused)."""
+        if getattr(self, "_shaped_template", None) is None:
             fis = self._template
             for var, shapes in terms.items():
                 variable = next(x for x in fis.inputs + fis.outputs if x.name == var)
@@ -153,25 +152,48 @@ class PaperPartitionTunable:
         return FisController(self.system(vector), name="paper")
 
     def save(self, vector, path: str | Path, header: str = "") -> list[Path]:
-        """Write the rule base with a header saying what is fitted and how to redo it."""
+        """Write the rule base with a header saying what is tuned and how to redo it."""
         path = Path(path)
-        fis = self.system(vector)._replace(
-            description="Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
-            "partition membership functions fitted by fuzzynav (not from the paper)"
-        )
+        fis = self.system(vector)._replace(description=self.DESCRIPTION)
         names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
-        lines = [
-            "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",
-            "#",
-            "# From the paper: inputs, outputs, ranges, term names, Mamdani min/max/centroid",
-            "# and the 40 rules of Table 1 (weight 1), unchanged.",
-            "# NOT from the paper: the membership parameters (Ruspini partitions on every",
-            "# input: no holes; controller/paper_partition.py), fitted as the header says.",
-            "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
-            "#",
-        ]
+        lines = list(self.HEADER)
         lines += [f"# {line}" if line else "#" for line in header.splitlines()]
         lines += [f"# tuned vector: {names}", ""]
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text("\n".join(lines) + "\n" + dumps_toml(fis), encoding="utf-8")
         return [path]
+
+
+class PaperPartitionTunable(TableOneTunable):
+    """The paper controller (Table 1) with partition membership functions (module doc)."""
+
+    PARAMETERS = PARTITION_PARAMETERS
+    DESCRIPTION = (
+        "Pahlavan & Khankalantary fuzzy navigator, Table 1 rules; "
+        "partition membership functions fitted by fuzzynav (not from the paper)"
+    )
+    HEADER = (
+        "# The fuzzy navigator of Pahlavan & Khankalantary (paper section 3, Table 1).",
+        "#",
+        "# From the paper: inputs, outputs, ranges, term names, Mamdani min/max/centroid",
+        "# and the 40 rules of Table 1 (weight 1), unchanged.",
+        "# NOT from the paper: the membership parameters (Ruspini partitions on every",
+        "# input: no holes; controller/paper_partition.py), fitted as the header says.",
+        "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
+        "#",
+    )
+
+    def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
+        v = self._vector(vector)
+        centres = np.cumsum(v[12:17])
+        outputs = [
+            ("trimf", (c - h, c, c + h)) for c, h in zip(centres.tolist(), v[17:22].tolist())
+        ]
+        return {
+            "d_t": partition(np.cumsum(v[0:5])),
+            "d_o": partition(np.cumsum(v[5:8])),
+            "phi_t": partition(_mirrored(v[8], v[9])),
+            "phi_o": partition(_mirrored(v[10], v[11])),
+            "left": outputs,
+            "right": outputs,
+        }

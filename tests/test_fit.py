@@ -1,0 +1,111 @@
+"""The optimiser and the command that reconstructed the paper controller's rule base."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fuzzynav.app.cli import main
+from fuzzynav.app.cmaes import cmaes
+from fuzzynav.app.paper_fit import (
+    NOT_REACHED_COST,
+    paper_results,
+    read_fitted,
+    run_cost,
+)
+from fuzzynav.controller.paper import PAPER_TABLE4_RULES
+from fuzzynav.controller.paper_partition import PARTITION_PARAMETERS, PaperPartitionTunable
+from fuzzynav.controller.rulebase import read_toml
+
+
+def _serial(f, xs):
+    return [f(x) for x in xs]
+
+
+def _shifted_sphere(x):
+    return float(np.sum((np.asarray(x) - np.array([0.3, -1.2, 2.0, 0.7])) ** 2))
+
+
+def test_cmaes_finds_a_quadratic_minimum_and_repeats_itself():
+    bounds = [(-3.0, 3.0)] * 4
+    x, f, nit, nfev = cmaes(_shifted_sphere, bounds, np.zeros(4), 0.3, 80, 10, 1, _serial)
+    np.testing.assert_allclose(x, [0.3, -1.2, 2.0, 0.7], atol=1e-3)
+    assert f < 1e-5 and nit == 80 and nfev == 800
+    again = cmaes(_shifted_sphere, bounds, np.zeros(4), 0.3, 80, 10, 1, _serial)
+    assert np.array_equal(again[0], x) and again[1] == f  # seeded: the same run
+
+
+def test_cmaes_stays_in_the_box():
+    # The unconstrained minimum (0.3, -1.2, 2.0, 0.7) lies outside on the third axis.
+    bounds = [(-3.0, 3.0), (-3.0, 3.0), (-1.0, 1.0), (-3.0, 3.0)]
+    seen = []
+
+    def recording(x):
+        seen.append(np.asarray(x))
+        return _shifted_sphere(x)
+
+    x, *_ = cmaes(recording, bounds, np.zeros(4), 0.3, 60, 10, 2, _serial)
+    lo, hi = np.array(bounds).T
+    assert all(np.all((lo <= s) & (s <= hi)) for s in seen)
+    assert x[2] == pytest.approx(1.0, abs=1e-3)
+
+
+def _measured(reached=True, **changes):
+    paper = paper_results()
+    table = paper["table4"]["s2"]
+    m = {
+        "scenario": "s2",
+        "reached": reached,
+        "collided": False,
+        "path_length_m": table["path_length_m"],
+        "mad_m": table["mad_m"],
+        "rmse_m": table["rmse_m"],
+        "min_center_distance_m": table["min_center_distance_m"],
+        "passes": [(29.0, 0.38), (61.0, 0.72)],
+        "chatter_steps": 0,
+        "final_phi_t_rad": 0.0,
+        "closest_to_target_m": 0.1,
+    }
+    m.update(changes)
+    return m, paper
+
+
+def test_the_papers_own_numbers_cost_nothing_and_any_arrival_beats_none():
+    m, paper = _measured()
+    assert run_cost(m, paper) == pytest.approx(0.0, abs=1e-12)
+    worst, _ = _measured(
+        path_length_m=1e3,
+        mad_m=1e3,
+        rmse_m=1e3,
+        min_center_distance_m=1e3,
+        passes=[(1e3, 1e3), (1e3, 1e3)],
+        chatter_steps=10_000,
+        final_phi_t_rad=3.0,
+    )
+    lost, _ = _measured(reached=False)
+    assert run_cost(worst, paper) < NOT_REACHED_COST <= run_cost(lost, paper)
+
+
+def test_the_shipped_fit_is_rebuilt_from_its_own_header():
+    vector, heading = read_fitted(PAPER_TABLE4_RULES)
+    assert len(vector) == len(PARTITION_PARAMETERS)
+    assert read_toml(PAPER_TABLE4_RULES) == PaperPartitionTunable().system(vector) or np.allclose(
+        read_toml(PAPER_TABLE4_RULES).parameter_vector(),
+        PaperPartitionTunable().system(vector).parameter_vector(),
+        atol=1e-5,  # the header prints 6 significant digits
+    )
+    from fuzzynav.world.scenario import load_scenario
+
+    assert all(load_scenario(s).paper_heading_rad == heading for s in ("s1", "s2", "s3"))
+
+
+def test_fit_paper_command_writes_a_rule_base_with_its_reproduce_line(tmp_path, capsys):
+    out = tmp_path / "trial.toml"
+    argv = ["fit-paper", "--maxiter", "1", "--popsize", "2", "--workers", "1", "--out", str(out)]
+    assert main(argv + ["--json"]) == 0
+    text = out.read_text(encoding="utf-8")
+    assert "Reproduce with: fuzzynav fit-paper --maxiter 1 --popsize 2" in text
+    assert "initial_heading_rad=" in text
+    read_toml(out)  # a valid rule base
+    assert main(["fit-paper", "--dt", "5", "--out", str(tmp_path / "x.toml")]) == 2
+    assert main(["fit-paper", "--out", str(tmp_path / "no" / "x.toml")]) == 2
