@@ -186,7 +186,14 @@ def open_tab(page, name: str) -> None:
 
 def test_page_connects_and_draws_the_arena(served, page):
     assert len(served.server.get_clients()) == 1
-    pixels = canvas_pixels(page)
+    # The scene arrives in several messages: look again (up to 10 s) until the target's
+    # red has been drawn, then judge the whole picture.
+    for _ in range(30):
+        pixels = canvas_pixels(page)
+        r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+        if np.sum((r > 170) & (g < 90) & (b < 90)) > 50:
+            break
+        page.wait_for_timeout(330)
     assert pixels.shape[0] > 300 and pixels.shape[1] > 300
     # Not blank: the grid, the robot, the obstacles and the target give contrast and colour.
     assert pixels.std() > 15, pixels.std()
