@@ -156,7 +156,12 @@ def canvas_pixels(page) -> np.ndarray:
 def drag_node(page, name: str, dx_m: float, dy_m: float, steps: int) -> None:
     """Drag a node (the target, an obstacle) by its body, by (dx_m, dy_m) in the world,
     as a user would: the mouse pressed on it, moved in ``steps`` steps, released."""
-    points = page.evaluate(JS_NODE_SCREEN, {"name": name, "dx": dx_m, "dy": dy_m})
+    # A node of a new run reaches the browser a few frames after the reset: wait for it.
+    for _ in range(40):
+        points = page.evaluate(JS_NODE_SCREEN, {"name": name, "dx": dx_m, "dy": dy_m})
+        if points is not None:
+            break
+        page.wait_for_timeout(250)
     assert points is not None, f"no node {name} in the scene"
     (x0, y0), (x1, y1) = points["from"], points["to"]
     page.mouse.move(x0, y0)
@@ -186,12 +191,13 @@ def open_tab(page, name: str) -> None:
 
 def test_page_connects_and_draws_the_arena(served, page):
     assert len(served.server.get_clients()) == 1
-    # The scene arrives in several messages: look again (up to 10 s) until the target's
-    # red has been drawn, then judge the whole picture.
+    # The scene arrives in several messages: look again (up to 10 s) until the Husky's
+    # yellow and the target's red have been drawn, then judge the whole picture.
     for _ in range(30):
         pixels = canvas_pixels(page)
         r, g, b = pixels[..., 0], pixels[..., 1], pixels[..., 2]
-        if np.sum((r > 170) & (g < 90) & (b < 90)) > 50:
+        husky = np.sum((r > 200) & (g > 140) & (g < 215) & (b < 90))
+        if husky > 50 and np.sum((r > 170) & (g < 90) & (b < 90)) > 50:
             break
         page.wait_for_timeout(330)
     assert pixels.shape[0] > 300 and pixels.shape[1] > 300
