@@ -274,7 +274,10 @@ def test_ctrl_c_during_start_up_prints_no_traceback(after_s):
     if not script.exists():
         pytest.skip("the fuzzynav command is not installed beside this Python")
     process = subprocess.Popen(
-        [sys.executable, "-X", "importtime", str(script), "run", "s1"],
+        # a 1 ms loop makes the run itself last seconds, so that every delay below falls
+        # while fuzzynav runs (on a quick machine a 20 ms run of s1 is over within 1 s and
+        # a late signal met the interpreter's own exit)
+        [sys.executable, "-X", "importtime", str(script), "run", "s1", "--dt", "0.001"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
