@@ -156,11 +156,15 @@ def canvas_pixels(page) -> np.ndarray:
 def drag_node(page, name: str, dx_m: float, dy_m: float, steps: int) -> None:
     """Drag a node (the target, an obstacle) by its body, by (dx_m, dy_m) in the world,
     as a user would: the mouse pressed on it, moved in ``steps`` steps, released."""
-    # A node of a new run reaches the browser a few frames after the reset: wait for it.
+    # A node of a new run reaches the browser a few frames after the reset, and the
+    # camera may still be refitting: wait until the node is there and stands still on
+    # screen, then press on it.
+    points = None
     for _ in range(40):
-        points = page.evaluate(JS_NODE_SCREEN, {"name": name, "dx": dx_m, "dy": dy_m})
-        if points is not None:
+        now = page.evaluate(JS_NODE_SCREEN, {"name": name, "dx": dx_m, "dy": dy_m})
+        if now is not None and now == points:
             break
+        points = now
         page.wait_for_timeout(250)
     assert points is not None, f"no node {name} in the scene"
     (x0, y0), (x1, y1) = points["from"], points["to"]
