@@ -90,6 +90,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.safe_files import check_writable_file  # noqa: F401  (re-exported)
+
 TIMELINE = "sim_time"
 APPLICATION_ID = "fuzzynav"
 SAFE_DISTANCE_M = 0.25
@@ -133,35 +135,6 @@ OBSTACLE_PALETTE = [
 
 # ---------------------------------------------------------------------------------------
 # Checks
-
-
-def check_writable_file(path) -> Path:
-    """Raise ValueError (with the reason) unless a recording can be written at ``path``:
-    a regular file or none, in a folder where a file can be made (recordings are
-    written beside the target and renamed over it). Creates nothing that stays."""
-    import stat
-
-    from fuzzynav.app.safe_files import discard, temporary_beside
-
-    path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"--rrd {path}: is a directory, not a file")
-    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
-        raise ValueError(
-            f"--rrd {path}: is not a regular file (a device or a pipe); "
-            "a recording is written to a file, whole, then renamed into place"
-        )
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.exists():
-        raise ValueError(f"--rrd {path}: directory {parent} does not exist")
-    if not parent.is_dir():
-        raise ValueError(f"--rrd {path}: {parent} is not a directory")
-    try:
-        probe = temporary_beside(path)
-    except OSError as exc:
-        raise ValueError(f"--rrd {path}: cannot write there ({exc.strerror or exc})") from None
-    discard(probe, path)
-    return path
 
 
 # ---------------------------------------------------------------------------------------

@@ -80,3 +80,31 @@ def write_text_atomically(path, text: str) -> Path:
     except BaseException:
         discard(tmp, path)
         raise
+
+
+def check_writable_file(path, option: str = "--rrd") -> Path:
+    """Raise ValueError (with ``option``, the path and the reason) unless a file can be
+    written at ``path`` whole: a regular file or none, in a folder where a file can be
+    made (files are written beside the target and renamed over it, as
+    :func:`write_text_atomically` does). Creates nothing that stays."""
+    import stat
+
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{option} {path}: is a directory, not a file")
+    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
+        raise ValueError(
+            f"{option} {path}: is not a regular file (a device or a pipe); "
+            "the file is written whole, then renamed into place"
+        )
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.exists():
+        raise ValueError(f"{option} {path}: directory {parent} does not exist")
+    if not parent.is_dir():
+        raise ValueError(f"{option} {path}: {parent} is not a directory")
+    try:
+        probe = temporary_beside(path)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    discard(probe, path)
+    return path

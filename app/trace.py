@@ -17,10 +17,12 @@ final state, with no command: its voltages are empty. Numbers are written with
 from __future__ import annotations
 
 import csv
+import io
 import math
-import os
 import sys
 from pathlib import Path
+
+from fuzzynav.app.safe_files import check_writable_file, write_text_atomically
 
 TRACE_COLUMNS = (
     "time_s",
@@ -61,20 +63,13 @@ def trace_rows(log):
 
 
 def write_trace(log, path: str | Path) -> Path:
-    """Write the trace to ``path`` through a temporary file beside it, so that an
-    existing file is replaced only by a complete one."""
-    path = Path(path)
-    partial = path.with_name(f".{path.name}.partial")
-    try:
-        with partial.open("w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(TRACE_COLUMNS)
-            writer.writerows(trace_rows(log))
-        os.replace(partial, path)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
-    return path
+    """Write the trace to ``path`` whole or not at all (an existing file is replaced
+    only by a complete one)."""
+    buffer = io.StringIO(newline="")
+    writer = csv.writer(buffer)
+    writer.writerow(TRACE_COLUMNS)
+    writer.writerows(trace_rows(log))
+    return write_text_atomically(path, buffer.getvalue())
 
 
 def add_run_options(parser) -> None:
@@ -91,14 +86,7 @@ def run_hook(args, sim):
     path = getattr(args, "trace", None)
     if path is None:
         return None
-    from fuzzynav.app.cli import UsageError
-
-    if path.exists() and path.is_dir():
-        raise UsageError(f"--trace {path}: is a folder")
-    if not path.parent.is_dir():
-        raise UsageError(f"--trace {path}: folder {path.parent} does not exist")
-    if not os.access(path.parent, os.W_OK):
-        raise UsageError(f"--trace {path}: folder {path.parent} is not writable")
+    check_writable_file(path, "--trace")  # before the run, not after it
 
     def write(result, interrupted: bool) -> None:
         write_trace(result.log, path)
