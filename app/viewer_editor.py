@@ -1,10 +1,14 @@
 """Edit the paper controller's membership functions while it drives.
 
-The sliders move the numbers of the tuner's parametrisation
-(``fuzzynav.controller.paper.tunable()``: the partition layout of
-:mod:`fuzzynav.controller.paper_partition`): ordered centres built from positive widths,
-so that however a slider is moved, every shape stays valid, the terms stay in their
-order, and no input is left uncovered (no rule base with holes can be made here). The editor starts from the shipped rule base's own numbers when its
+The sliders move the numbers of the layout the shipped rule base was made in: the
+partition layout of :mod:`fuzzynav.controller.paper_partition` for the paper geometry's
+``rules/paper_table4.toml``, the 27-number layout of
+:class:`fuzzynav.controller.paper.PaperTunable` for the Husky's ``rules/paper.toml``.
+Both build their shapes from positive widths, so that however a slider is moved, every
+shape stays valid and the terms stay in their order. The partition layout leaves no
+input uncovered; in the 27-number one a slider can open a hole (its Z and P terms may
+stop overlapping), and the rule panel then says that no rule fires and the fallback
+applies. The editor starts from the shipped rule base's own numbers when its
 file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they rebuild
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.

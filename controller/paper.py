@@ -174,8 +174,8 @@ class PaperTunable(TableOneTunable):
         "# From the paper: inputs, outputs, ranges, term names, shape kinds, Mamdani",
         "# min/max/centroid and the 40 rules of Table 1 (weight 1), unchanged.",
         "# NOT from the paper: the membership parameters, found by `fuzzynav tune`",
-        "# (controller/paper.py documents the 27-number parametrisation; the hand-made",
-        "# starting point is assets/rules/paper_first_design.toml).",
+        "# (controller/paper.py documents the 27-number parametrisation; where the",
+        "# search started is in the command below and docs/paper-controller.md).",
         "# Sign convention: phi > 0 = target/obstacle on the LEFT. d_o NaN = nothing sensed.",
         "#",
     )
@@ -200,9 +200,9 @@ class PaperTunable(TableOneTunable):
 
 
 def tunable():
-    """What ``fuzzynav tune --controller paper`` tunes: the partition parametrisation,
-    which has no holes by construction (:mod:`fuzzynav.controller.paper_partition`;
-    :class:`PaperTunable` is the earlier 27-number layout, kept for its first design)."""
-    from fuzzynav.controller.paper_partition import PaperPartitionTunable
-
-    return PaperPartitionTunable()
+    """What ``fuzzynav tune --controller paper`` tunes: the 27-number layout of the
+    Husky-geometry rule base (:class:`PaperTunable`), with a cost for holes in the
+    tuner (app/tuning.py). The paper-geometry fit (``fuzzynav fit-paper``) uses the
+    partition layout, :class:`fuzzynav.controller.paper_partition.PaperPartitionTunable`,
+    which has no holes by construction."""
+    return PaperTunable()

@@ -91,6 +91,9 @@ class TableOneTunable:
     and the header lines that say where the numbers come from."""
 
     name = "paper"
+    #: ``fuzzynav tune`` adds a cost for holes (app/tuning.py): Table 1's two rule
+    #: families must each cover their inputs (controller/coverage.py).
+    holes_penalised = True
     PARAMETERS: list[tuple[str, float, float, float]] = []
     DESCRIPTION = ""
     HEADER: tuple[str, ...] = ()

@@ -58,13 +58,14 @@ def test_cost_prefers_reaching_over_timeout_over_collision():
     t = tunable("paper")
     objective = Objective(t, [Case(load_scenario("s1"), "ideal", "s1")], control_period_s=0.1)
     [result] = objective.runs(t.initial_vector())
-    cost = run_cost(result)
+    # without the clearance hinge, the three outcomes fall in disjoint bands
+    cost = run_cost(result, clearance_weight=0.0)
     if result.outcome == "reached":
-        assert cost < 10
+        assert cost < 5
     elif result.collided:
-        assert cost >= 20
+        assert cost >= 14
     else:
-        assert 10 <= cost < 20 + 20
+        assert 5 <= cost < 14
 
 
 TINY = (

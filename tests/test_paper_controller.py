@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.runs import run_scenario
+from fuzzynav.app.tuning import read_vector
 from fuzzynav.controller.fuzzy import FuzzySystem
-from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, paper_controller
-from fuzzynav.controller.paper_partition import PaperPartitionTunable
+from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, PaperTunable, paper_controller
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.controller.tuning import Tunable, tunable
 
@@ -105,8 +105,8 @@ def test_sign_convention_obstacle_left_turns_right():
 
 
 def test_tunable_protocol_and_construction():
-    t = tunable("paper")
-    assert isinstance(t, Tunable) and isinstance(t, PaperPartitionTunable)
+    t = tunable("paper")  # the layout the Husky geometry's rules/paper.toml was tuned in
+    assert isinstance(t, Tunable) and isinstance(t, PaperTunable)
     names, bounds, x0 = t.parameter_names(), t.bounds(), t.initial_vector()
     assert len(names) == len(bounds) == len(x0) == len(set(names))
     lo, hi = np.array(bounds).T
@@ -121,6 +121,14 @@ def test_tunable_protocol_and_construction():
         assert np.all(np.isfinite(out))
     with pytest.raises(ValueError):
         tunable("nope")
+
+
+def test_the_shipped_husky_rule_base_is_its_tuned_vector():
+    """rules/paper.toml's header vector (6 digits) rebuilds the shipped system."""
+    t = tunable("paper")
+    vector = read_vector(PAPER_RULES, t.parameter_names())
+    shipped = read_toml(PAPER_RULES)
+    assert np.allclose(t.system(vector).parameter_vector(), shipped.parameter_vector(), atol=1e-4)
 
 
 def test_save_writes_a_loadable_rule_base(tmp_path):

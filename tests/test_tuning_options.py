@@ -1,6 +1,7 @@
 """fuzzynav tune's local-search options: --method, --x0, --free, --radius, --clearance-weight."""
 
 import argparse
+import math
 
 import numpy as np
 import pytest
@@ -9,6 +10,7 @@ from fuzzynav.app.cli import main
 from fuzzynav.app.tuning import (
     CLEARANCE_WEIGHT,
     Case,
+    Objective,
     free_indices,
     read_vector,
     reproduce_command,
@@ -52,7 +54,7 @@ def test_free_indices():
 def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     t = tunable("paper")
     names, x0 = t.parameter_names(), t.initial_vector()
-    free = free_indices(names, ["phi_o.p1", "d_o.b0"])
+    free = free_indices(names, ["phi_o.peak", "d_o.b0"])
     runs = [
         tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
         for _ in range(2)
@@ -108,6 +110,11 @@ def test_reproduce_command_names_the_options_that_change_the_result():
     args.method, args.radius, args.clearance_weight = "de", 0.1, 50.0
     cmd = reproduce_command(args)
     assert "--method" not in cmd and "--radius 0.1" in cmd and "--clearance-weight 50.0" in cmd
+    # CMA-ES draws its candidates from the seed, popsize of them a generation
+    args.method, args.sigma = "cmaes", 0.02
+    cmd = reproduce_command(args)
+    assert "--method cmaes" in cmd and "--sigma 0.02" in cmd
+    assert "--popsize 1" in cmd and "--seed 0" in cmd
 
 
 def test_tune_cli_local_search(tmp_path, write_toml, capsys):
@@ -177,3 +184,54 @@ def test_tune_cli_local_search(tmp_path, write_toml, capsys):
     )
     capsys.readouterr()
     assert main(["tune", "--free", "nope", "--maxiter", "1"]) == 2
+
+
+def _fake_run(outcome, path_xy, collided=False):
+    """A finished s1 run that drove along ``path_xy`` (no clearance problem)."""
+    path_xy = np.asarray(path_xy, float)
+
+    class Log:
+        pose = np.column_stack([path_xy, np.zeros(len(path_xy))])
+        target_xy = np.tile([8.0, 8.0], (len(path_xy), 1))
+
+        def __len__(self):
+            return len(path_xy)
+
+    class R:
+        scenario = load_scenario("s1")
+        log = Log()
+        perception = "ultrasonic"
+        metrics = {"path_length_m": 12.0, "time_to_target_s": 50.0, "min_clearance_m": 1.0}
+
+    R.outcome, R.collided = outcome, collided
+    return R()
+
+
+def test_a_timeout_is_graded_by_its_nearest_approach_and_ranks_between():
+    reached = run_cost(_fake_run("reached", [(0, 0), (8, 8)]))
+    # an orbit that passed 0.3 m from the target and ended 3 m away
+    orbit = run_cost(_fake_run("timeout", [(0, 0), (8.3, 8.0), (11.0, 8.0)]))
+    # a dead end that never came nearer than 5.7 m and stopped there
+    dead_end = run_cost(_fake_run("timeout", [(0, 0), (4.0, 4.0)]))
+    crash_near = run_cost(_fake_run("timeout", [(0, 0), (7.5, 7.5)], collided=True))
+    assert reached < orbit < dead_end < crash_near
+    assert orbit == pytest.approx(5.0 + 8.0 * 0.3 / math.hypot(8, 8))
+
+
+def test_cmaes_never_returns_worse_than_its_start():
+    t = tunable("paper")
+    x0 = t.initial_vector()
+    objective = Objective(t, tiny_case(), control_period_s=0.1)
+    result = tune(
+        t,
+        tiny_case(),
+        maxiter=1,
+        popsize=4,
+        seed=3,
+        method="cmaes",
+        sigma0=0.3,
+        x0=x0,
+        control_period_s=0.1,
+    )
+    assert result.fun <= objective(x0) + 1e-12
+    assert result.fun == pytest.approx(objective(result.x))
