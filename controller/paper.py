@@ -2,9 +2,11 @@
 
 The rules, ranges, term names and shape kinds are the paper's; the membership
 parameters are ours (the paper's figures are missing) and live in
-``assets/rules/paper.toml``, produced by ``fuzzynav tune`` (the command is in that
-file's header). ``assets/rules/paper_first_design.toml`` keeps the hand-made first
-design the tuner started from.
+``assets/rules/paper.toml`` (the Husky geometry's), produced by ``fuzzynav tune`` (the
+command is in that file's header, its start is ``assets/paper/husky_start.toml``, and
+docs/paper-controller.md tells the stages before it).
+``assets/rules/paper_first_design.toml`` keeps the hand-made first design the first
+tuning started from.
 
 Tuning parametrisation (:class:`PaperTunable`, 27 numbers). Every variable is laid out
 by a few ordered "anchor" points built from positive widths, so that every shape is
@@ -76,8 +78,8 @@ def paper_controller(path: str | Path | None = None, geometry: str = "husky") ->
 # design (the first design's layout with the module doc's changes); it reached the target
 # in 5 of the 6 runs, without a collision, but its VS output sat at 1.6 V, so its
 # tightest turn near the target was too wide (s2 looped round the target). By hand:
-# v.vs_end 1.877 -> 1.2 (all six runs reach; cost 3.13 against 5.08). The shipped rule
-# base refines this vector (the command is in its header).
+# v.vs_end 1.877 -> 1.2 (all six runs reach; cost 3.13 against 5.08). The first
+# shipped rule base refined this vector; today's descends from that one.
 _PARAMETERS: list[tuple[str, float, float, float]] = [
     ("d_t.a0", 0.0, 1.5, 0.4402671094666306),
     ("d_t.w1", 0.2, 3.0, 2.287395326094861),

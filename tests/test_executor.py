@@ -110,6 +110,19 @@ def test_tune_de_is_the_same_on_a_pool():
     assert np.array_equal(serial.x, pooled.x) and serial.fun == pooled.fun
 
 
+def test_tune_cmaes_is_the_same_on_a_pool():
+    sc = load_scenario("s1").replace(
+        target=(2.5, 0.5), duration_s=4.0, obstacles=(ObstacleSpec((1.5, -1.2), 0.2),)
+    )
+    case = [Case(sc, "ideal", "tiny")]
+    t = tunable("paper")
+    kwargs = dict(maxiter=2, popsize=4, seed=3, control_period_s=0.1, method="cmaes")
+    serial = tune(t, case, **kwargs)
+    with LocalExecutor(2) as executor:
+        pooled = tune(t, case, executor=executor, **kwargs)
+    assert np.array_equal(serial.x, pooled.x) and serial.fun == pooled.fun
+
+
 def test_workers_beyond_two_are_accepted_and_zero_refused(capsys):
     assert main(["sweep", "--n", "1", "--beside", "none", "--workers", "3", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["n"] == 1
