@@ -82,8 +82,8 @@ TIMEOUT_COST = 5.0  # + TIMEOUT_SLOPE x nearest approach / straight
 TIMEOUT_SLOPE = 8.0
 COLLISION_COST = 14.0  # + 5 x remaining / straight: above every timeout
 COVERAGE_WEIGHT = 100.0
-COVERAGE_FLOOR = 0.12  # the tests ask 0.1 on a finer grid: a margin for the points between
-#: The obstacle inputs' holes are counted ahead of the axle line (and a grid step more).
+COVERAGE_FLOOR = 0.12  # the tests ask 0.1: a margin
+#: The obstacle inputs' holes are counted ahead of the axle line (and 0.05 rad more).
 COVERAGE_SECTOR_RAD = 1.62
 
 
