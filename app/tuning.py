@@ -176,10 +176,12 @@ class Objective:
         return x
 
     def runs(self, vector) -> list:
+        return self._runs(self.tunable.build(self.full(vector)))
+
+    def _runs(self, controller) -> list:
         from fuzzynav.world.simulation import Simulation
 
         results = []
-        controller = self.tunable.build(self.full(vector))
         for case in self.cases:
             controller.reset()
             sim = Simulation(
@@ -194,16 +196,16 @@ class Objective:
 
     def __call__(self, vector) -> float:
         try:
-            results = self.runs(vector)
+            controller = self.tunable.build(self.full(vector))
+            results = self._runs(controller)
         except ValueError:  # an invalid shape (should not happen by construction)
             return 1e3
         cost = float(np.mean([run_cost(r, self.clearance_weight) for r in results]))
         if getattr(self.tunable, "holes_penalised", False):
             from fuzzynav.controller.coverage import coverage_shortfall
 
-            system = self.tunable.system(self.full(vector))
             shortfall = coverage_shortfall(
-                system, COVERAGE_FLOOR, obstacle_sector_rad=COVERAGE_SECTOR_RAD
+                controller.fis, COVERAGE_FLOOR, obstacle_sector_rad=COVERAGE_SECTOR_RAD
             )
             cost += COVERAGE_WEIGHT * shortfall
         return cost
