@@ -22,7 +22,8 @@ assert not bad, f"the wheel installs more than fuzzynav: {sorted(bad)}"
 for needed in ("fuzzynav/assets/husky.toml", "fuzzynav/assets/rules/paper.toml",
                "fuzzynav/assets/rules/paper_table4.toml", "fuzzynav/assets/scenarios/s1.toml",
                "fuzzynav/assets/paper/results.toml", "fuzzynav/app/cli.py",
-               "fuzzynav/world/husky.py", "fuzzynav/controller/fuzzy.py", "fuzzynav/__main__.py"):
+               "fuzzynav/world/husky.py", "fuzzynav/controller/fuzzy.py", "fuzzynav/__main__.py",
+               "fuzzynav/api.py"):
     assert needed in names, f"the wheel lacks {needed}"
 assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names), "no LICENSE in the wheel"
 print(f"wheel contents: {len(names)} files, top level {sorted(tops)}")
@@ -46,6 +47,8 @@ assert row["reached"] and not row["collided"], row
 print(f"run s1: reached in {row['time_to_target_s']:.1f} s, path {row['path_length_m']:.2f} m")
 PYEOF
     "$fz" run s1 --geometry paper --json >/dev/null
+    # The Python interface, as the README shows it.
+    "$work/venv/bin/python" -c "import fuzzynav; r = fuzzynav.simulate('s1'); print(r.outcome, r.trace['x_m'][-1])"
     # An installed wheel names its version and no git revision (it is no checkout).
     "$work/venv/bin/python" -c "
 from fuzzynav.app.recording import package_versions

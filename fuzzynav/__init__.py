@@ -1,5 +1,15 @@
 """fuzzynav: the Pahlavan-Khankalantary fuzzy navigator on a linear-graph Husky model.
 
+The Python interface (:mod:`fuzzynav.api`, documented in docs/api.md)::
+
+    import fuzzynav
+    run = fuzzynav.simulate("s1", controller="paper", perception="ideal")
+    print(run.outcome, run.metrics["path_length_m"], run.trace["x_m"][-1])
+
+:func:`simulate`, :func:`sweep`, :func:`load_scenario`, :func:`make_controller`,
+:func:`read_fis` and :func:`write_fis` are loaded on first use, so that ``import
+fuzzynav`` and ``fuzzynav --version`` stay fast.
+
 One import package, laid out in the repository as separate folders and joined here by
 setuptools' ``package-dir`` mapping (``pyproject.toml``):
 
@@ -8,12 +18,23 @@ setuptools' ``package-dir`` mapping (``pyproject.toml``):
 - :mod:`fuzzynav.app`         (``app/``)        command line, viewer, recordings, figures;
 - :mod:`fuzzynav.assets`      (``assets/``)     data: robot parameters, rule bases, scenarios.
 
-This folder holds only the package's front door (``__init__``, ``__main__``).
+This folder holds the package's front door (``__init__``, ``__main__``, ``api``).
 """
 
 from __future__ import annotations
 
-__all__ = ["__version__"]
+__all__ = [
+    "__version__",
+    "Run",
+    "simulate",
+    "sweep",
+    "load_scenario",
+    "make_controller",
+    "read_fis",
+    "write_fis",
+]
+
+_API = frozenset(__all__) - {"__version__"}
 
 
 def __getattr__(name: str):
@@ -26,4 +47,13 @@ def __getattr__(name: str):
             return version("fuzzynav")
         except PackageNotFoundError:  # imported from a checkout that was never installed
             return "0+unknown"
+    if name in _API:
+        # numpy, scipy and pymunk load here, not at `import fuzzynav`.
+        from fuzzynav import api
+
+        return getattr(api, name)
     raise AttributeError(f"module 'fuzzynav' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,327 @@
+"""fuzzynav's Python interface: what a notebook or a script calls.
+
+The command line is a layer over the same functions (``fuzzynav run`` builds its
+simulation with :func:`fuzzynav.app.runs.build_simulation`, as :func:`simulate` does),
+so a run made here and the same run made from the shell give the same numbers.
+
+Everything is reached from the package itself, imported on first use so that
+``fuzzynav --version`` stays fast::
+
+    >>> import fuzzynav
+    >>> run = fuzzynav.simulate("s1")
+    >>> run.outcome
+    'reached'
+    >>> run.trace["x_m"][-1]  # doctest: +SKIP
+    9.86...
+
+Functions
+---------
+simulate        one run of a scenario; a :class:`Run`
+sweep           seeded random layouts; one row (a dict) per run
+load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
+make_controller a controller by name (``"paper"``, ``"fuzzynav"``, ...) or a ``.fis`` file
+read_fis        a MATLAB ``.fis`` file as a :class:`~fuzzynav.controller.fuzzy.FuzzySystem`
+write_fis       a fuzzy system to a ``.fis`` file (written whole or not at all)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from fuzzynav.controller.fis import dumps_fis
+from fuzzynav.controller.fis import read_fis as _read_fis
+from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.registry import make_controller as _make_controller
+from fuzzynav.world.scenario import Scenario
+from fuzzynav.world.scenario import load_scenario as _load_scenario
+
+__all__ = [
+    "Run",
+    "simulate",
+    "sweep",
+    "load_scenario",
+    "make_controller",
+    "read_fis",
+    "write_fis",
+]
+
+
+class Run:
+    """One finished run: what ``fuzzynav run`` prints, traces and records, as Python
+    objects.
+
+    Attributes
+    ----------
+    outcome : str
+        ``"reached"``, ``"collision"`` or ``"timeout"``.
+    metrics : dict
+        The fields of ``fuzzynav run --json``: path_length_m, mad_m, rmse_m,
+        min_clearance_m, time_to_target_s, ... (SI units in the names; a number that
+        does not apply, e.g. the time to target of a run that never arrived, is NaN).
+    trace : dict of str to numpy.ndarray
+        One array per column of ``fuzzynav run --trace`` (``time_s``, ``x_m``, ``y_m``,
+        ``heading_rad``, the four controller inputs, the voltages, ...), one element per
+        control step; NaN where the CSV has an empty cell (nothing sensed, or no command
+        after the final state).
+    result : fuzzynav.world.simulation.SimulationResult
+        The simulation's own result (the full log, the scenario).
+    controller : object
+        The controller that drove (its ``fis`` attribute is the fuzzy system, for the
+        fuzzy controllers).
+    """
+
+    def __init__(self, simulation, result, controller_label: str, scenario_label: str):
+        self._simulation = simulation
+        self.result = result
+        self.controller = simulation.controller
+        self._controller_label = controller_label
+        self._scenario_label = scenario_label
+        self._trace: dict[str, np.ndarray] | None = None
+
+    @property
+    def outcome(self) -> str:
+        return self.result.outcome
+
+    @property
+    def metrics(self) -> dict:
+        from fuzzynav.app.runs import summary
+
+        row = summary(self.result, self._controller_label, self._scenario_label)
+        return {k: (math.nan if v is None else v) for k, v in row.items()}
+
+    @property
+    def trace(self) -> dict[str, np.ndarray]:
+        if self._trace is None:
+            # The CSV's own rows, read back: the arrays are the trace file's columns,
+            # whatever columns it has, and equal to it (the cells are exact reprs).
+            from fuzzynav.app.trace import TRACE_COLUMNS, trace_rows
+
+            rows = list(trace_rows(self.result.log))
+            table = np.array(
+                [[float(cell) if cell != "" else math.nan for cell in row] for row in rows],
+                dtype=float,
+            ).reshape(len(rows), len(TRACE_COLUMNS))
+            self._trace = {name: table[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)}
+        return self._trace
+
+    def save_rrd(self, path: str | Path) -> Path:
+        """Write the run as a rerun recording (``rerun PATH`` opens it), whole or not
+        at all. Returns the path written."""
+        from fuzzynav.app.recording import record_run
+
+        sim = self._simulation
+        return record_run(
+            self.result,
+            path,
+            controller=sim.controller,
+            sensors=sim.sensors,
+            parameters=sim.model.parameters,
+            voltage_limit_v=sim.voltage_limit_v,
+            extra_metadata={"made by": "fuzzynav.simulate (Python)"},
+        )
+
+    def figures(self, folder: str | Path) -> list[Path]:
+        """Write the paper's figures of the run (PNG and SVG) into ``folder`` (created
+        if needed), as ``fuzzynav run --figures`` does. Returns the files written."""
+        from fuzzynav.app.figures import write_run_figures
+
+        sim = self._simulation
+        params = sim.model.parameters
+        return write_run_figures(
+            self.result,
+            folder,
+            controller=sim.controller,
+            footprint_m=(params.footprint_length_m, params.footprint_width_m),
+            voltage_limit_v=sim.voltage_limit_v,
+        )
+
+    def __repr__(self) -> str:
+        m = self.result.metrics
+        return (
+            f"<fuzzynav.Run {self._scenario_label} · {self._controller_label}: {self.outcome}, "
+            f"path {m['path_length_m']:.2f} m, {len(self.result.log)} steps>"
+        )
+
+
+def _label_of_scenario(scenario) -> str:
+    if isinstance(scenario, Scenario):
+        return scenario.name
+    from fuzzynav.world.scenario import resolve_scenario_path
+
+    path = resolve_scenario_path(scenario)
+    return path.stem if path.parent.name == "scenarios" and path.exists() else str(scenario)
+
+
+def simulate(
+    scenario: str | Path | Scenario,
+    controller: str | object = "paper",
+    perception: str = "ideal",
+    geometry: str = "husky",
+    seed: int | None = None,
+    *,
+    control_period_s: float = 0.02,
+    sensor_noise_std_m: float = 0.0,
+    fis: str | Path | FuzzySystem | None = None,
+) -> Run:
+    """Run one scenario to its end (target reached, collision or time out).
+
+    Parameters
+    ----------
+    scenario : str, Path or Scenario
+        A shipped scenario's name (``"s1"``, ``"s2"``, ``"s3"``, ``"crossing"``, ...), the
+        path of a scenario TOML file, or a :class:`~fuzzynav.world.scenario.Scenario`.
+    controller : str or controller object
+        A controller's name (``"paper"``, ``"fuzzynav"``, ``"baseline"``, ``"p"``; see
+        ``fuzzynav run --help``) or a controller object, e.g. from
+        :func:`make_controller` with a membership function swapped.
+    perception : {"ideal", "ultrasonic"}
+        ``ideal``: the exact nearest obstacle; ``ultrasonic``: the three range sensors.
+    geometry : {"husky", "paper"}
+        ``husky``: the real 0.99 m x 0.67 m footprint; ``paper``: the paper's point robot
+        (inputs centre to centre, Eqs. 7-12; ideal perception only).
+    seed : int or None
+        Seeds the sensor noise. None means 0, the command line's default, so that
+        ``simulate("s1")`` is ``fuzzynav run s1``.
+    control_period_s : float
+        The controller's period in seconds (default 0.02 s).
+    sensor_noise_std_m : float
+        The sonars' noise standard deviation in metres (default 0).
+    fis : str, Path or FuzzySystem, optional
+        Drive with this fuzzy system instead (4 inputs, 2 outputs), as ``--fis``.
+
+    Returns
+    -------
+    Run
+
+    Raises
+    ------
+    ValueError
+        An unknown scenario, controller, perception or geometry, or a value out of range
+        (the message names it).
+    """
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.controller.fis_controller import FisController
+
+    if seed is None:
+        seed = 0
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed = {seed!r}: must be an integer >= 0")
+    controller_object = None
+    label = controller
+    if isinstance(fis, FuzzySystem):
+        controller_object, label = FisController(fis, name=fis.name), fis.name
+        fis = None
+    elif fis is not None:
+        label = Path(fis).name
+    elif not isinstance(controller, str):
+        if not callable(controller):
+            raise ValueError(
+                f"controller = {controller!r}: must be a name or a controller object "
+                "(callable on the four inputs)"
+            )
+        controller_object = controller
+        label = getattr(controller, "name", type(controller).__name__)
+    sim = build_simulation(
+        scenario,
+        controller if isinstance(controller, str) else "paper",
+        perception=perception,
+        seed=int(seed),
+        fis_path=fis,
+        control_period_s=control_period_s,
+        sensor_noise_std_m=sensor_noise_std_m,
+        controller_object=controller_object,
+        geometry=geometry,
+    )
+    result = sim.run()
+    return Run(sim, result, str(label), _label_of_scenario(scenario))
+
+
+def sweep(
+    controller: str = "paper",
+    n: int = 50,
+    seed: int = 0,
+    family: str = "standard",
+    perception: str = "ideal",
+    geometry: str = "husky",
+    *,
+    workers: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[dict]:
+    """Run ``controller`` on ``n`` seeded random layouts of ``family``.
+
+    Parameters
+    ----------
+    controller : str
+        A controller's name.
+    n : int
+        How many layouts (layouts 0 .. n - 1 of the family and seed).
+    seed : int
+        The layouts' seed (the same seed gives the same layouts everywhere).
+    family : str
+        The layout family (``"standard"``, ``"clutter"``, ...; see ``fuzzynav sweep
+        --help``).
+    perception, geometry : str
+        As :func:`simulate`.
+    workers : int
+        Processes to spread the runs over (1: in this process).
+    progress : callable, optional
+        Called as ``progress(done, total)`` as runs finish.
+
+    Returns
+    -------
+    list of dict
+        One row per layout, in layout order: the fields ``fuzzynav sweep --out`` writes
+        (index, outcome, success, path_length_m, min_clearance_m, time_to_target_s,
+        shortest_path_m, ...). A number that does not apply is None.
+    """
+    from fuzzynav.app.executor import make_executor
+    from fuzzynav.app.experiments import sweep as run_sweep
+
+    options = {} if geometry == "husky" else {"geometry": geometry}
+    executor = make_executor("local" if workers > 1 else "serial", workers=workers)
+    try:
+        out = run_sweep(
+            controller,
+            n,
+            seed,
+            family,
+            perception,
+            executor=executor,
+            progress=progress,
+            options=options,
+        )
+    finally:
+        executor.close()
+    return out["runs"]
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """A scenario by shipped name (``"s1"``) or by the path of a scenario TOML file,
+    validated (unknown keys, overlaps and out-of-range values are refused with the
+    file, key and value named: :class:`~fuzzynav.world.scenario.ScenarioError`)."""
+    return _load_scenario(name_or_path)
+
+
+def make_controller(name: str = "paper", *, fis: str | Path | None = None, geometry: str = "husky"):
+    """A fresh controller: by name (``"paper"``, ``"fuzzynav"``, ``"baseline"``,
+    ``"p"``), or a fuzzy controller read from a MATLAB ``.fis`` file. ``geometry``
+    picks the paper controller's rule base for that geometry. The fuzzy controllers
+    expose their system as ``.fis``; give the controller to :func:`simulate`."""
+    return _make_controller(name, fis, geometry=geometry)
+
+
+def read_fis(path: str | Path) -> FuzzySystem:
+    """A MATLAB Fuzzy Logic Toolbox ``.fis`` file, parsed (never evaluated)."""
+    return _read_fis(path)
+
+
+def write_fis(system: FuzzySystem, path: str | Path) -> Path:
+    """Write ``system`` as a MATLAB ``.fis`` file (GNU Octave reads it as the same
+    system). Returns the path."""
+    from fuzzynav.app.safe_files import write_text_atomically
+
+    return write_text_atomically(path, dumps_fis(system))
