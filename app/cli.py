@@ -22,12 +22,29 @@ import sys
 
 try:  # a Ctrl-C while even these load ends quietly, as one in main() does
     import argparse
-    import json
-    import math
     import os
-    import shlex
     import textwrap
     from pathlib import Path
+
+    # The vocabulary the command modules share (only the standard library below it).
+    from fuzzynav.app.args import (
+        EXIT_BAD_INPUT,
+        EXIT_BROKEN_PIPE,
+        EXIT_INTERRUPTED,
+        UsageError,
+        add_geometry_option,
+        add_off_option,
+        describe_os_error,
+        float_in,
+        integer_in,
+        off_flag,
+        parse_off,
+        print_json,
+        scenario_help,
+        scenario_label,
+        seed_type,
+        switch_parts_off,
+    )
 except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
     print("fuzzynav: interrupted", file=sys.stderr)
     raise SystemExit(130) from None
@@ -35,71 +52,26 @@ except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
 # Only the standard library at import time: a Ctrl-C while numpy and the rest load must
 # reach main()'s handler (no traceback), so everything else is imported inside it.
 
-EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130
-EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
-
-
-class UsageError(Exception):
-    """Bad input from the user: printed on stderr, exit status 2."""
-
-
-def integer_in(low: int, high: int | None = None):
-    """An argparse ``type``: an integer in ``[low, high]``; anything else is refused
-    with the value named (``argument --seed: '-3': must be an integer >= 0``)."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = None
-        if value is None or value < low or (high is not None and value > high):
-            bound = f">= {low}" if high is None else f"from {low} to {high}"
-            raise argparse.ArgumentTypeError(f"{text!r}: must be an integer {bound}")
-        return value
-
-    parse.__name__ = "integer"
-    return parse
-
-
-seed_type = integer_in(0)
-
-
-def float_in(low: float, high: float, unit: str = ""):
-    """An argparse ``type``: a finite number in ``[low, high]``; NaN, inf and anything
-    out of range are refused with the value and the bounds named
-    (``argument --dt: '1e-05': must be a number from 0.001 to 1 s``)."""
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and low <= value <= high):
-            raise argparse.ArgumentTypeError(
-                f"{text[:40]!r}: must be a number from {low:g} to {high:g}{unit}"
-            )
-        return value
-
-    parse.__name__ = "number"
-    return parse
-
-
-def _json_default(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    raise TypeError(f"not JSON serialisable: {value!r}")
-
-
-def print_json(data) -> None:
-    print(json.dumps(data, indent=2, default=_json_default, allow_nan=False))
-
-
-def scenario_label(name_or_path: str) -> str:
-    from fuzzynav.world.scenario import resolve_scenario_path
-
-    path = resolve_scenario_path(name_or_path)
-    return path.stem if path.parent.name == "scenarios" and path.exists() else str(name_or_path)
+__all__ = [  # what other modules and the tests used to import from here, still here
+    "EXIT_BAD_INPUT",
+    "EXIT_BROKEN_PIPE",
+    "EXIT_INTERRUPTED",
+    "UsageError",
+    "add_geometry_option",
+    "add_off_option",
+    "build_parser",
+    "describe_os_error",
+    "float_in",
+    "integer_in",
+    "main",
+    "off_flag",
+    "parse_off",
+    "print_json",
+    "scenario_help",
+    "scenario_label",
+    "seed_type",
+    "switch_parts_off",
+]
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
@@ -145,50 +117,6 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
         f"{MAX_CONTROL_PERIOD_S:g} s)",
     )
     add_off_option(parser)
-
-
-def add_geometry_option(parser: argparse.ArgumentParser) -> None:
-    from fuzzynav.world.perception import GEOMETRIES
-
-    parser.add_argument(
-        "--geometry",
-        default="husky",
-        choices=GEOMETRIES,
-        help="husky: the real 0.99 x 0.67 m footprint (default); paper: the paper's point "
-        "robot, inputs and distances centre to centre (Eqs. 7-12), ideal perception only",
-    )
-
-
-def add_off_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--off",
-        default="",
-        metavar="PART[,PART...]",
-        help="fuzzynav only: switch these parts off, e.g. 'edge following' "
-        "(the names: fuzzynav parts)",
-    )
-
-
-def parse_off(off: str) -> list[str]:
-    """``--off "echo memory, edge following"`` -> the part names."""
-    return [name.strip() for name in off.split(",") if name.strip()]
-
-
-def off_flag(parts_off) -> str:
-    """The ``--off`` that switches these parts off again in a command line ("" for none)."""
-    return f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
-
-
-def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
-    """Apply ``--off PART[,PART...]`` to a controller that has parts (fuzzynav); returns
-    the parts now off. Any other controller, or an unknown part, is refused."""
-    names = parse_off(off)
-    if not names:
-        return ()
-    if not hasattr(controller, "set_parts_off"):
-        raise UsageError(f"--off {off!r}: only fuzzynav has parts to switch off (here: {label})")
-    controller.set_parts_off(names)
-    return controller.parts_off
 
 
 def cmd_parts(args) -> int:
@@ -301,13 +229,6 @@ def _extensions() -> list:
             if exc.name != name:
                 raise
     return found
-
-
-def scenario_help() -> str:
-    """The help of a SCENARIO argument: the shipped names, or a path."""
-    from fuzzynav.world.scenario import scenario_names
-
-    return f"a shipped scenario ({', '.join(scenario_names())}) or the path of a scenario TOML file"
 
 
 #: What each sub-command is for, at more length than its one-line help, and examples
@@ -429,14 +350,6 @@ def build_parser() -> argparse.ArgumentParser:
             module.add_commands(sub)
     _finish_help(sub)
     return parser
-
-
-def describe_os_error(exc: OSError) -> str:
-    """An OSError as one line: what, which file, why (``cannot write out/a.png: No
-    space left on device``)."""
-    reason = exc.strerror or str(exc) or type(exc).__name__
-    name = exc.filename if exc.filename is not None else None
-    return f"{name}: {reason}" if name is not None else reason
 
 
 def main(argv=None) -> int:

@@ -39,6 +39,8 @@ import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator
 
+from fuzzynav.app.args import UsageError, integer_in
+
 __all__ = [
     "EXECUTORS",
     "Executor",
@@ -330,7 +332,6 @@ def make_executor(
 
 def add_executor_options(parser) -> None:
     """``--executor``, ``--workers`` and ``--scheduler`` on an argparse parser."""
-    from fuzzynav.app.cli import integer_in
 
     parser.add_argument(
         "--executor",
@@ -359,7 +360,6 @@ def add_executor_options(parser) -> None:
 def executor_from_args(args) -> Executor:
     """The executor the parsed ``--executor/--workers/--scheduler`` ask for; bad values
     are a UsageError (exit status 2)."""
-    from fuzzynav.app.cli import UsageError
 
     try:
         return make_executor(args.executor, args.workers, args.scheduler)

@@ -17,6 +17,17 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from fuzzynav.app.args import (
+    UsageError,
+    add_geometry_option,
+    add_off_option,
+    integer_in,
+    off_flag,
+    parse_off,
+    print_json,
+    seed_type,
+)
+
 SAFE_CLEARANCE_M = 0.25
 
 # Paper Table 4 (notes section 2): method of ref. [19] | proposed, for S1 / S2 / S3.
@@ -328,7 +339,6 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
-    from fuzzynav.app.cli import off_flag
     from fuzzynav.app.recording import record_run
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.layouts import generate_layout
@@ -432,7 +442,6 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
     import contextlib
     import sys
 
-    from fuzzynav.app.cli import UsageError
     from fuzzynav.app.executor import executor_from_args
     from fuzzynav.app.resultlog import ResultLog
 
@@ -499,8 +508,6 @@ def _options(args) -> dict:
 def cmd_sweep(args) -> int:
     from rich.console import Console
     from rich.table import Table
-
-    from fuzzynav.app.cli import parse_off, print_json
 
     if args.failures is not None:
         from fuzzynav.app.figures import check_writable_dir
@@ -696,7 +703,6 @@ def cmd_compare(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from fuzzynav.app.cli import UsageError, print_json
     from fuzzynav.app.executor import executor_from_args
     from fuzzynav.controller.registry import controller_names
 
@@ -848,7 +854,6 @@ def add_study_output_options(parser) -> None:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
-    from fuzzynav.app.cli import add_geometry_option, add_off_option, integer_in, seed_type
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.args import UsageError, integer_in, print_json, seed_type
 from fuzzynav.resources import asset_path
 
 RESULTS_PATH = asset_path("paper", "results.toml")
@@ -356,7 +357,6 @@ def read_fitted(path: str | Path) -> tuple[np.ndarray, float]:
 def cmd_fit_paper(args) -> int:
     from rich.console import Console
 
-    from fuzzynav.app.cli import UsageError, print_json
     from fuzzynav.controller.paper_partition import PaperPartitionTunable
 
     if not (math.isfinite(args.dt) and 0.001 <= args.dt <= 0.1):
@@ -427,7 +427,6 @@ def cmd_fit_paper(args) -> int:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cli import integer_in, seed_type
     from fuzzynav.app.cmaes import add_sigma_option
 
     p = subparsers.add_parser(

@@ -90,6 +90,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.args import off_flag
 from fuzzynav.app.safe_files import check_writable_file  # noqa: F401  (re-exported)
 
 TIMELINE = "sim_time"
@@ -1191,7 +1192,6 @@ def reproduce_command(scenario, controller, perception, seed, control_period_s) 
     stem = Path(where).stem
     if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
         where = stem
-    from fuzzynav.app.cli import off_flag
 
     off = off_flag(tuple(getattr(controller, "parts_off", None) or ()))
     return (

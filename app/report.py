@@ -18,6 +18,7 @@ import math
 import shutil
 from pathlib import Path
 
+from fuzzynav.app.args import UsageError
 from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.world.perception import GEOMETRIES
@@ -302,7 +303,6 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
 
 
 def cmd_report(args) -> int:
-    from fuzzynav.app.cli import UsageError
     from fuzzynav.controller.registry import controller_names
 
     offered = controller_names()

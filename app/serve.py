@@ -8,11 +8,11 @@ from __future__ import annotations
 
 import signal
 import socket
-import sys
 import threading
 import time
 from pathlib import Path
 
+from fuzzynav.app.args import UsageError, add_geometry_option, integer_in, scenario_help
 from fuzzynav.app.viewer import ViewerApp, ViewerError
 
 # ---------------------------------------------------------------------------------------
@@ -28,7 +28,6 @@ def _check_rrd(path):
     except ModuleNotFoundError as exc:
         if exc.name not in ("fuzzynav.app.recording", "rerun"):
             raise
-        from fuzzynav.app.cli import UsageError
 
         raise UsageError(
             "--rrd: live recording needs app/recording.py and rerun-sdk, "
@@ -132,7 +131,6 @@ def cmd_serve(args) -> int:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cli import add_geometry_option, integer_in, scenario_help
     from fuzzynav.controller.registry import controller_names
 
     for name, help_text in (
@@ -183,16 +181,3 @@ def add_commands(subparsers) -> None:
                 geometry="husky",
             )
         parser.set_defaults(func=cmd_serve)
-
-
-def main(argv=None) -> int:
-    """``python -m fuzzynav.app.serve [SCENARIO] [--host H] [--port P] [--rrd PATH]``: the same
-    as ``fuzzynav serve``."""
-
-    from fuzzynav.app.cli import main as cli_main
-
-    return cli_main(["serve", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -62,6 +62,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
+
 SAFE_CLEARANCE_M = 0.25
 CLEARANCE_MARGIN_M = 0.05
 
@@ -433,8 +435,6 @@ def check_output_file(path: Path, option: str) -> Path:
     missing or read-only folder. Creates nothing that stays."""
     import tempfile
 
-    from fuzzynav.app.cli import UsageError
-
     path = Path(path)
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a directory, not a file")
@@ -459,7 +459,6 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cli import float_in, integer_in, seed_type
     from fuzzynav.app.cmaes import add_sigma_option
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
@@ -593,7 +592,6 @@ def cmd_tune(args) -> int:
         TimeRemainingColumn,
     )
 
-    from fuzzynav.app.cli import UsageError, print_json
     from fuzzynav.app.executor import SerialExecutor, executor_from_args
     from fuzzynav.controller.tuning import tunable as get_tunable
     from fuzzynav.world.perception import PERCEPTION_MODES
