@@ -116,7 +116,6 @@ def run_layout_row(
     :func:`world.metrics.benchmark_metrics` (shortest_path_m, path_ratio,
     optimal_time_s, time_ratio, score). Non-finite numbers are None.
     """
-    from fuzzynav.app.resultlog import finite_or_none
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.layouts import generate_layout
 
@@ -125,17 +124,32 @@ def run_layout_row(
     if parts_off:
         sim.controller.set_parts_off(list(parts_off))
     result = sim.run()
-    m = result.metrics
+    job = LayoutJob(
+        family, seed, index, controller, perception, tuple(parts_off), tuple(options.items())
+    )
+    return layout_row(job, scenario, result.metrics, sim.model, sim.voltage_limit_v)
+
+
+def layout_row(job: LayoutJob, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:
+    """The row of ``job`` from its run's ``metrics`` (:func:`world.metrics.compute_metrics`
+    keys): one function for both engines (pymunk and :mod:`world.batch`)."""
+    from types import SimpleNamespace
+
+    from fuzzynav.app.resultlog import finite_or_none
+
+    m = metrics
+    options = dict(job.options)
     straight = math.dist(scenario.start, scenario.target)
+    run = SimpleNamespace(scenario=scenario, metrics=m, geometry=options.get("geometry", "husky"))
     row = {
-        "index": index,
-        "controller": controller,
-        "parts_off": list(parts_off),
-        "family": family,
-        "seed": seed,
-        "perception": perception,
-        **({"options": dict(options)} if options else {}),
-        "outcome": result.outcome,
+        "index": job.index,
+        "controller": job.controller,
+        "parts_off": list(job.parts_off),
+        "family": job.family,
+        "seed": job.seed,
+        "perception": job.perception,
+        **({"options": options} if options else {}),
+        "outcome": m["outcome"],
         "reached": bool(m["reached"]),
         "collided": bool(m["collided"]),
         "success": bool(m["reached"] and not m["collided"]),
@@ -146,7 +160,7 @@ def run_layout_row(
         "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
         "time_to_target_s": m["time_to_target_s"],
         "n_obstacles": len(scenario.obstacles),
-        **run_benchmark(result, sim.model, sim.voltage_limit_v),
+        **run_benchmark(run, model, voltage_limit_v),
     }
     return finite_or_none(row)
 
@@ -218,14 +232,21 @@ def sweep_jobs(
     ]
 
 
-def run_jobs(jobs, executor=None, *, log=None, progress=None) -> list[dict]:
+def run_jobs(
+    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None
+) -> list[dict]:
     """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
 
     ``executor``: an :class:`app.executor.Executor` (default: serial). ``log``: an open
     :class:`app.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
     new row is written to it as it arrives, and rows of other studies are refused.
-    ``progress(done, total)`` after each row (and once at the start).
+    ``progress(done, total)`` after each row (and once at the start). ``engine``:
+    ``pymunk`` (one task per run) or ``batch`` (:mod:`app.batch_runs`: batches of runs
+    as tasks; controllers it cannot drive run on pymunk, and ``on_fallback(message)``
+    is told so).
     """
+    if engine not in ("pymunk", "batch"):
+        raise ValueError(f"engine = {engine!r}: must be pymunk or batch")
     from fuzzynav.app.executor import SerialExecutor
 
     executor = executor or SerialExecutor()
@@ -237,12 +258,22 @@ def run_jobs(jobs, executor=None, *, log=None, progress=None) -> list[dict]:
     todo = [job for job, k in zip(jobs, keys) if k not in found]
     if progress:
         progress(len(found), len(jobs))
-    results = executor.imap_unordered(run_layout, todo)
+    if engine == "batch":
+        from fuzzynav.app.batch_runs import run_task, tasks
+
+        items, fallbacks = tasks(todo, executor.workers)
+        for message in fallbacks:
+            if on_fallback is not None:
+                on_fallback(message)
+        results = executor.imap_unordered(run_task, items)
+    else:
+        results = executor.imap_unordered(run_layout, todo)
     try:
-        for row in results:
-            if log is not None:
-                log.write(row)
-            found[row_key(row)] = row
+        for batch in results:
+            for row in batch if engine == "batch" else [batch]:
+                if log is not None:
+                    log.write(row)
+                found[row_key(row)] = row
             if progress:
                 progress(len(found), len(jobs))
     finally:
@@ -300,17 +331,18 @@ def sweep(
     progress=None,
     parts_off: tuple[str, ...] = (),
     options: dict | None = None,
+    engine: str = "pymunk",
 ) -> dict:
     """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows).
 
     ``parts_off``: fuzzynav's parts to switch off (``assets/rules/fuzzynav_parts.toml``);
     ``options``: keyword options of :func:`app.runs.build_simulation` for every run;
-    ``executor``, ``log``, ``progress``: as :func:`run_jobs`.
+    ``executor``, ``log``, ``progress``, ``engine``: as :func:`run_jobs`.
     """
     parts_off = check_sweep(controller, n, family, parts_off)
     start = time.perf_counter()
     jobs = sweep_jobs(controller, n, seed, family, perception, parts_off, options)
-    rows = run_jobs(jobs, executor, log=log, progress=progress)
+    rows = run_jobs(jobs, executor, log=log, progress=progress, engine=engine)
     return summarize(rows, wall_time_s=time.perf_counter() - start)
 
 
@@ -454,7 +486,14 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
                 def progress(done, total):
                     bar.update(task, completed=done, total=total)
 
-                rows = run_jobs(jobs, executor, log=log, progress=progress)
+                rows = run_jobs(
+                    jobs,
+                    executor,
+                    log=log,
+                    progress=progress,
+                    engine=getattr(args, "engine", "pymunk"),
+                    on_fallback=lambda message: print(f"fuzzynav: {message}", file=sys.stderr),
+                )
     except KeyboardInterrupt:
         if log is not None:
             log.close()
@@ -644,6 +683,7 @@ def compare(
     executor=None,
     sweep_rows=None,
     options: dict | None = None,
+    engine: str = "pymunk",
 ) -> dict:
     """Runs of each controller on s1-s3 (and optionally a sweep of each); the
     ``compare --json`` object. ``executor``: where the runs go (default: serial);
@@ -665,7 +705,7 @@ def compare(
     if sweep_n > 0:
         jobs = compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, options)
         if sweep_rows is None:
-            sweep_rows = run_jobs(jobs, executor)
+            sweep_rows = run_jobs(jobs, executor, engine=engine)
         for k in range(len(controllers)):
             s = summarize(sweep_rows[k * sweep_n : (k + 1) * sweep_n])
             s.pop("runs")
@@ -731,6 +771,7 @@ def cmd_compare(args) -> int:
             executor=executor,
             sweep_rows=sweep_rows,
             options=options,
+            engine=args.engine,
         )
     if args.json:
         print_json(out)
@@ -846,6 +887,18 @@ def add_study_output_options(parser) -> None:
     )
 
 
+def add_engine_option(parser) -> None:
+    """``--engine batch|pymunk`` (docs/experiments.md)."""
+    parser.add_argument(
+        "--engine",
+        choices=("batch", "pymunk"),
+        default="batch",
+        help="batch: thousands of runs at once as numpy arrays (world/batch.py; paper, "
+        "baseline and p); pymunk: one world at a time, the reference (default batch; "
+        "controllers the batch engine cannot drive run on pymunk, said on stderr)",
+    )
+
+
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
     from fuzzynav.app.cli import add_geometry_option, add_off_option, integer_in, seed_type
@@ -878,6 +931,7 @@ def add_commands(subparsers) -> None:
         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
     )
     add_executor_options(p)
+    add_engine_option(p)
     add_study_output_options(p)
     p.add_argument(
         "--beside",
@@ -929,6 +983,7 @@ def add_commands(subparsers) -> None:
     )
     c.add_argument("--family", default="standard", choices=FAMILIES, help="family of that sweep")
     add_executor_options(c)
+    add_engine_option(c)
     add_study_output_options(c)
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.set_defaults(func=cmd_compare)

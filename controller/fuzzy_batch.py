@@ -198,7 +198,9 @@ class BatchFuzzy:
                 # Mamdani aggregate, with each row's own sampled output term.
                 np.minimum(self._mfg[groups, o, slot % kmax, :], level[:, None], out=clipped)
                 np.maximum(aggregate, clipped, out=aggregate)
-            numerator = aggregate @ self._grid[o]
+            # Row by row reductions (no BLAS product, whose result for a row depends on
+            # the rows around it): a row gives the same bits in any batch.
+            numerator = (aggregate * self._grid[o]).sum(axis=1)
             denominator = aggregate.sum(axis=1)
             y = np.full(n, self._mid[o])
             np.divide(numerator, denominator, out=y, where=denominator > 0.0)

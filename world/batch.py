@@ -325,7 +325,11 @@ def run_batch(
     model = model or HuskyModel.default()
     config = sensor_config or SensorConfig()
     dt = float(control_period_s)
-    step_matrix_t = np.ascontiguousarray(model.discrete(dt).step_matrix.T)
+    # The rows of the step product the loop uses: the new state, then the step-mean
+    # forward speed and yaw rate.
+    step_rows = np.ascontiguousarray(
+        model.discrete(dt).step_matrix[[*range(N_STATES), _V_COLUMN, _W_COLUMN]]
+    )
     params = model.parameters
     if geometry == "paper":
         half_length = half_width = 0.0
@@ -547,10 +551,13 @@ def run_batch(
         a.prev_v = volts
 
         # -- plant and motion -----------------------------------------------------
-        product = np.concatenate([a.lg, volts], axis=1) @ step_matrix_t
+        # einsum, not matmul: BLAS's result for a row depends on the rows around it
+        # (its kernels block the rows), einsum's does not, so a run gives the same bits
+        # in any batch (resume, any number of workers).
+        product = np.einsum("ij,kj->ik", np.concatenate([a.lg, volts], axis=1), step_rows)
         a.lg = product[:, :N_STATES]
-        v = product[:, _V_COLUMN]
-        w = product[:, _W_COLUMN]
+        v = product[:, N_STATES]
+        w = product[:, N_STATES + 1]
         pose0 = (a.x, a.y, a.h)
         c0 = a.clear
         a.x, a.y, a.h = advance_pose(a.x, a.y, a.h, v, w, dt)

@@ -1,0 +1,195 @@
+"""Studies on the lockstep batch engine (:mod:`world.batch`): sweeps' rows, executor
+tasks, and the Python entry point a notebook calls.
+
+``--engine batch`` (the default of ``sweep``, ``compare``, ``tune`` and ``fit-paper``)
+puts a study's runs into batches of up to :data:`MAX_BATCH` runs; each batch is one
+executor task (:func:`run_task`), so batches spread over a local pool or a Dask
+cluster as single runs do. A row depends only on its job: the batch engine computes
+every run's numbers row by row (no operation mixes runs), so a run gives the same bits
+whatever batch it is in, and ``--resume`` and any number of workers give the same
+rows (tests/test_batch.py).
+
+Controllers the batch engine cannot drive (:data:`controller.batch.BATCHABLE` lists
+the ones it can) run on the pymunk engine, one task per run, and the command says so.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+ENGINES = ("batch", "pymunk")
+#: Runs per batch task at most: a batch's arrays stay in the cache's neighbourhood, and
+#: Ctrl-C loses at most one batch per worker.
+MAX_BATCH = 1000
+#: Runs per batch task at least (when there are that many): below it, a step's fixed
+#: cost (a few hundred numpy calls) outweighs the runs it advances.
+MIN_BATCH = 100
+
+
+def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
+    """Why ``controller`` (a registry name) cannot run on the batch engine, or None."""
+    from fuzzynav.controller.batch import BATCHABLE
+
+    options = dict(options or {})
+    if controller not in BATCHABLE:
+        return (
+            f"controller {controller!r} cannot be batched (the batch engine drives "
+            f"{', '.join(BATCHABLE)}: stateless controllers; fuzzynav's navigator keeps a "
+            "memory and plans)"
+        )
+    if parts_off:
+        return f"parts_off {list(parts_off)}: only fuzzynav has parts to switch off"
+    unknown = sorted(set(options) - {"geometry"})
+    if unknown:
+        return f"options {unknown}: the batch engine takes only the geometry option"
+    return None
+
+
+def _scenario(job):
+    from fuzzynav.world.layouts import generate_layout
+
+    scenario = generate_layout(job.family, job.seed, job.index)
+    if dict(job.options).get("geometry") == "paper" and scenario.paper_heading_rad is not None:
+        # as app.runs.build_simulation: the paper's geometry starts at its fitted heading
+        scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
+    return scenario
+
+
+def run_layout_batch(jobs: Sequence) -> list[dict]:
+    """The rows of ``jobs`` (:class:`app.experiments.LayoutJob`, one controller,
+    perception and options), run together on the batch engine; in the jobs' order.
+    Top level: what an executor sends to a worker."""
+    from fuzzynav.app.experiments import layout_row
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.husky import HuskyModel
+
+    jobs = list(jobs)
+    first = jobs[0]
+    study = (first.controller, first.perception, first.parts_off, first.options)
+    for job in jobs:
+        if (job.controller, job.perception, job.parts_off, job.options) != study:
+            raise ValueError(f"one batch runs one study: {job} differs from {first}")
+    reason = not_batchable_reason(first.controller, first.parts_off, dict(first.options))
+    if reason is not None:
+        raise ValueError(reason)
+    geometry = dict(first.options).get("geometry", "husky")
+    scenarios = [_scenario(job) for job in jobs]
+    model = HuskyModel.default()
+    result = run_batch(
+        scenarios,
+        batch_controller(make_controller(first.controller, geometry=geometry)),
+        perception=first.perception,
+        geometry=geometry,
+        seeds=[job.seed for job in jobs],
+        model=model,
+    )
+    return [
+        layout_row(job, scenario, result.metrics(i), model, 12.0)
+        for i, (job, scenario) in enumerate(zip(jobs, scenarios))
+    ]
+
+
+def run_task(item) -> list[dict]:
+    """One executor task: ``("batch", jobs)`` on the batch engine, or ``("pymunk",
+    job)`` on the pymunk engine; a list of rows either way (top level)."""
+    from fuzzynav.app.experiments import run_layout
+
+    kind, payload = item
+    if kind == "batch":
+        return run_layout_batch(payload)
+    return [run_layout(payload)]
+
+
+def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
+    """The executor items of ``jobs`` on the batch engine, and what falls back.
+
+    Jobs of one study (controller, perception, parts off, options) are cut into batches
+    of :data:`MIN_BATCH` to :data:`MAX_BATCH` runs, about two per worker; jobs whose
+    controller cannot be batched become one pymunk task each. Returns (items, one
+    message per study that fell back to the pymunk engine).
+    """
+    studies: dict[tuple, list] = {}
+    for job in jobs:
+        studies.setdefault((job.controller, job.perception, job.parts_off, job.options), []).append(
+            job
+        )
+    items, fallbacks = [], []
+    for (controller, _, parts_off, options), group in studies.items():
+        reason = not_batchable_reason(controller, parts_off, dict(options))
+        if reason is not None:
+            fallbacks.append(f"{reason}: its {len(group)} runs use the pymunk engine")
+            items += [("pymunk", job) for job in group]
+            continue
+        size = math.ceil(len(group) / (2 * max(1, workers)))
+        size = max(min(MIN_BATCH, len(group)), min(MAX_BATCH, size))
+        items += [("batch", tuple(group[k : k + size])) for k in range(0, len(group), size)]
+    return items, fallbacks
+
+
+def run_layouts(
+    family: str = "standard",
+    n: int = 100,
+    seed: int = 1,
+    *,
+    controller="paper",
+    perception: str = "ideal",
+    geometry: str = "husky",
+    indices: Sequence[int] | None = None,
+    **run_options,
+):
+    """Run layouts of a family on the batch engine: the Python entry point (a notebook's).
+
+    Parameters
+    ----------
+    family, seed : str, int
+        The layouts (:mod:`world.layouts`).
+    n : int
+        Layouts 0 .. n-1 (ignored when ``indices`` is given).
+    controller : str, controller, or sequence of controllers
+        A registry name (``paper``, ``baseline``, ``p``), a controller object, or one
+        controller per run (a tuning generation: one structure, per-run parameters).
+    perception, geometry : str
+        As :class:`world.simulation.Simulation`.
+    indices : sequence of int, optional
+        The layout indices to run.
+    **run_options
+        Further keywords of :func:`world.batch.run_batch` (``control_period_s``,
+        ``seeds``, ``sensor_config``, ``record_poses``, ``max_duration_s``...).
+
+    Returns
+    -------
+    world.batch.BatchResult
+        Arrays (N,): ``outcome`` (indices into ``OUTCOMES``; ``.outcomes`` as words),
+        ``collided``, ``path_length_m``, ``min_clearance_m``, ``time_to_target_s``...;
+        ``metrics(i)`` for one run as a dict.
+    """
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.layouts import generate_layout
+
+    indices = list(range(n)) if indices is None else [int(i) for i in indices]
+    scenarios = [generate_layout(family, seed, i) for i in indices]
+    if geometry == "paper":
+        scenarios = [
+            dataclasses.replace(s, heading_rad=s.paper_heading_rad)
+            if s.paper_heading_rad is not None
+            else s
+            for s in scenarios
+        ]
+    if isinstance(controller, str):
+        ctrl = batch_controller(make_controller(controller, geometry=geometry))
+    elif isinstance(controller, (list, tuple)):
+        if len(controller) != len(scenarios):
+            raise ValueError(f"controller: {len(controller)} controllers for {len(scenarios)} runs")
+        ctrl = batch_controller(list(controller), np.arange(len(controller)))
+    else:
+        ctrl = batch_controller(controller)
+    run_options.setdefault("seeds", seed)
+    return run_batch(scenarios, ctrl, perception=perception, geometry=geometry, **run_options)
