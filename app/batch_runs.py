@@ -28,6 +28,8 @@ MAX_BATCH = 1000
 #: Runs per batch task at least (when there are that many): below it, a step's fixed
 #: cost (a few hundred numpy calls) outweighs the runs it advances.
 MIN_BATCH = 100
+#: The options of app.runs.build_simulation a batch takes.
+_RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m")
 
 
 def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
@@ -43,9 +45,9 @@ def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | N
         )
     if parts_off:
         return f"parts_off {list(parts_off)}: only fuzzynav has parts to switch off"
-    unknown = sorted(set(options) - {"geometry"})
+    unknown = sorted(set(options) - set(_RUN_OPTIONS))
     if unknown:
-        return f"options {unknown}: the batch engine takes only the geometry option"
+        return f"options {unknown}: the batch engine takes {', '.join(_RUN_OPTIONS)}"
     return None
 
 
@@ -68,6 +70,7 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
     from fuzzynav.controller.registry import make_controller
     from fuzzynav.world.batch import run_batch
     from fuzzynav.world.husky import HuskyModel
+    from fuzzynav.world.sensors import SensorConfig
 
     jobs = list(jobs)
     first = jobs[0]
@@ -78,7 +81,8 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
     reason = not_batchable_reason(first.controller, first.parts_off, dict(first.options))
     if reason is not None:
         raise ValueError(reason)
-    geometry = dict(first.options).get("geometry", "husky")
+    options = dict(first.options)
+    geometry = options.get("geometry", "husky")
     scenarios = [_scenario(job) for job in jobs]
     model = HuskyModel.default()
     result = run_batch(
@@ -88,6 +92,8 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
         geometry=geometry,
         seeds=[job.seed for job in jobs],
         model=model,
+        control_period_s=options.get("control_period_s", 0.02),
+        sensor_config=SensorConfig(noise_std_m=options.get("sensor_noise_std_m", 0.0)),
     )
     return [
         layout_row(job, scenario, result.metrics(i), model, 12.0)
@@ -128,6 +134,7 @@ def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
             continue
         size = math.ceil(len(group) / (2 * max(1, workers)))
         size = max(min(MIN_BATCH, len(group)), min(MAX_BATCH, size))
+        size = math.ceil(len(group) / math.ceil(len(group) / size))  # even batches
         items += [("batch", tuple(group[k : k + size])) for k in range(0, len(group), size)]
     return items, fallbacks
 
