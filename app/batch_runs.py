@@ -200,3 +200,84 @@ def run_layouts(
         ctrl = batch_controller(controller)
     run_options.setdefault("seeds", seed)
     return run_batch(scenarios, ctrl, perception=perception, geometry=geometry, **run_options)
+
+
+def objective_costs(objective, vectors) -> list[float]:
+    """:class:`app.tuning.Objective`'s cost of every vector, all candidates x cases on
+    the batch engine (one batch per perception mode); the same per-run cost
+    (:func:`app.tuning.outcome_cost`) and holes penalty. Top level: an executor task."""
+    from fuzzynav.app.tuning import STALL_S, outcome_cost
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.world.batch import run_batch
+
+    vectors = [np.asarray(v, dtype=float) for v in vectors]
+    costs = [0.0] * len(vectors)
+    built, controllers = [], []
+    for k, vector in enumerate(vectors):
+        try:
+            controller = objective.tunable.build(objective.full(vector))
+        except ValueError:  # an invalid shape, as Objective.__call__ prices it
+            costs[k] = 1e3
+            continue
+        built.append(k)
+        controllers.append(controller)
+    if not built:
+        return costs
+    stall_s = getattr(objective.tunable, "stall_cutoff_s", STALL_S)
+    # per candidate, its runs' costs in the cases' order (as Objective.__call__ averages)
+    per_case = {k: [0.0] * len(objective.cases) for k in built}
+    for perception in dict.fromkeys(c.perception for c in objective.cases):
+        chosen = [j for j, c in enumerate(objective.cases) if c.perception == perception]
+        scenarios = [objective.cases[j].scenario for _ in built for j in chosen]
+        run_sets = np.repeat(np.arange(len(built)), len(chosen))
+        result = run_batch(
+            scenarios,
+            batch_controller(controllers, run_sets),
+            perception=perception,
+            control_period_s=objective.control_period_s,
+            seeds=0,
+            stall_s=stall_s,
+        )
+        outcomes = result.outcomes
+        for i, scenario in enumerate(scenarios):
+            k = built[int(run_sets[i])]
+            per_case[k][chosen[i % len(chosen)]] = outcome_cost(
+                scenario,
+                outcomes[i],
+                bool(result.collided[i]),
+                result.metrics(i),
+                float(result.min_target_distance_m[i]),
+                float(result.final_target_distance_m[i]),
+                perception,
+                objective.clearance_weight,
+            )
+    for k, controller in zip(built, controllers):
+        costs[k] = float(np.mean(per_case[k])) + objective.penalty(controller)
+    return costs
+
+
+def batch_mapper(objective, probe_vector, executor=None):
+    """A map-like ``mapper(function, vectors) -> costs`` for DE and CMA-ES that runs a
+    whole generation on the batch engine (split over ``executor``'s workers, each part
+    one task), and None with the reason when the tunable's controller cannot be
+    batched. ``probe_vector`` is built once to ask."""
+    import functools
+
+    from fuzzynav.controller.batch import NotBatchable, batch_controller
+
+    try:
+        batch_controller(objective.tunable.build(objective.full(probe_vector)))
+    except NotBatchable as exc:
+        return None, f"{exc}: tuning on the pymunk engine"
+    task = functools.partial(objective_costs, objective)
+
+    def mapper(_function, vectors):
+        vectors = list(vectors)
+        workers = 1 if executor is None or executor.kind == "serial" else executor.workers
+        if workers <= 1 or len(vectors) < 2:
+            return task(vectors)
+        size = math.ceil(len(vectors) / workers)
+        parts = [vectors[k : k + size] for k in range(0, len(vectors), size)]
+        return [cost for part in executor.map(task, parts) for cost in part]
+
+    return mapper, None

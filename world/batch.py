@@ -94,6 +94,10 @@ class BatchResult:
     min_safety_distance_m: np.ndarray
     max_abs_voltage_v: np.ndarray
     voltage_jumps: np.ndarray  # (N,) int
+    #: Distance from the robot's centre to the target, m: its least over the logged
+    #: rows, and at the last logged row (what tuning's cost reads).
+    min_target_distance_m: np.ndarray
+    final_target_distance_m: np.ndarray
     geometry: str
     perception: str
     wall_time_s: float
@@ -261,6 +265,7 @@ def run_batch(
     voltage_limit_v: float = 12.0,
     record_poses: bool = False,
     max_duration_s: float | None = None,
+    stall_s: float | None = None,
 ) -> BatchResult:
     """Run every scenario to its end in lockstep; their outcomes and metrics.
 
@@ -291,6 +296,10 @@ def run_batch(
     max_duration_s : float, optional
         Stop every run still going at this time as ``timeout`` (tuning's cap); the
         scenarios' own durations otherwise.
+    stall_s : float, optional
+        Tuning's early stop (:func:`app.tuning.run_until_stalled`): a run whose
+        distance to the target has not reached a new minimum by 5 cm for this many
+        seconds ends as ``timeout``, its last step unlogged, as there.
 
     Raises
     ------
@@ -397,6 +406,8 @@ def run_batch(
     min_clear = np.full(n_runs, np.inf)
     max_abs_v = np.zeros(n_runs)
     jumps = np.zeros(n_runs, dtype=np.int64)
+    min_target = np.full(n_runs, np.inf)
+    final_target = np.full(n_runs, np.nan)
     pose_log: list | None = [] if record_poses else None
 
     # The ideal path (the start-target segment) of every run, for MAD and RMSE.
@@ -423,6 +434,8 @@ def run_batch(
         tolerance=np.array([sc.tolerance_m for sc in scenarios], dtype=float),
         ranges=np.full((n_runs, n_sensors), np.inf),
         prev_v=np.full((n_runs, 2), np.nan),
+        best=np.full(n_runs, np.inf),  # the stall rule's best distance and its time
+        best_t=np.zeros(n_runs),
         clear=np.zeros((n_runs, m)),
         cx=np.zeros((n_runs, m)),
         cy=np.zeros((n_runs, m)),
@@ -436,8 +449,34 @@ def run_batch(
             lw[:, 1] + lw[:, 3] * t + lw[:, 5] * t * t,
         )
 
-    def log_row() -> None:
-        """What one logged row adds to the metrics: position, clearances, centres."""
+    def log_row(rows_mask=None) -> None:
+        """What one logged row adds to the metrics: position, target distance, centres
+        (of the runs ``rows_mask`` selects; all if None)."""
+        if rows_mask is not None and not rows_mask.all():
+            kept = _Active(
+                **{
+                    name: getattr(a, name)
+                    for name in (
+                        "run",
+                        "x",
+                        "y",
+                        "h",
+                        "start",
+                        "seg",
+                        "seg_len2",
+                        "present",
+                        "cx",
+                        "cy",
+                        "target",
+                    )
+                }
+            )
+            kept.keep(rows_mask)
+        else:
+            kept = a
+        _log_row(kept)
+
+    def _log_row(a) -> None:
         run = a.run
         px = a.x - a.start[:, 0]
         py = a.y - a.start[:, 1]
@@ -450,9 +489,10 @@ def run_batch(
         dev_abs[run] += np.abs(d)
         dev_sq[run] += d * d
         rows[run] += 1
+        to_target = np.hypot(a.target[:, 0] - a.x, a.target[:, 1] - a.y)
+        min_target[run] = np.minimum(min_target[run], to_target)
+        final_target[run] = to_target
         if m:
-            clear = np.where(a.present, a.clear, np.inf)
-            min_clear[run] = np.minimum(min_clear[run], clear.min(axis=1))
             centre = np.hypot(a.cx - a.x[:, None], a.cy - a.y[:, None])
             centre = np.where(a.present, centre, np.inf)
             min_centre[run] = np.minimum(min_centre[run], centre.min(axis=1))
@@ -581,6 +621,10 @@ def run_batch(
             obstacle_path = speed * dt + np.hypot(lw[:, 4], lw[:, 5]) * dt * dt
             path = np.where(a.moving, path + obstacle_path, path)
         low = np.minimum(c0, a.clear)
+        # the arena's swept minimum takes both ends of every step (the logged rows too)
+        min_clear[a.run] = np.minimum(
+            min_clear[a.run], np.where(a.present, low, np.inf).min(axis=1)
+        )
         bound = 0.5 * (c0 + a.clear - path)
         swept = a.present & ~((bound >= low - SWEEP_TOLERANCE_M) | (bound >= SWEEP_RELEVANT_M))
         if swept.any():
@@ -606,17 +650,32 @@ def run_batch(
         collided[a.run] |= hit
 
         # -- the logged row after the step, and the ends ------------------------------
-        steps_done[a.run] += 1
-        path_sum[a.run] += np.hypot(a.x - pose0[0], a.y - pose0[1])
-        log_row()
-        reached = np.hypot(a.target[:, 0] - a.x, a.target[:, 1] - a.y) <= a.tolerance
+        to_target = np.hypot(a.target[:, 0] - a.x, a.target[:, 1] - a.y)
+        reached = to_target <= a.tolerance
         timeout = t >= a.duration - 1e-9
         ended = reached | hit | timeout
+        if stall_s is not None:
+            # run_until_stalled, after every step (the last one too): a new best by
+            # 5 cm, or a stall that ends the run as a timeout
+            better = to_target < a.best - 0.05
+            stalled = ~better & (t - a.best_t > stall_s)
+            a.best = np.where(better, to_target, a.best)
+            a.best_t = np.where(better, t, a.best_t)
+            cut = stalled & ~ended  # stopped before its end: the step is not logged
+        else:
+            stalled = cut = np.zeros(len(ended), dtype=bool)
+        logged = ~cut
+        steps_done[a.run] += 1
+        steps_done[a.run[cut]] -= 1
+        moved = np.hypot(a.x - pose0[0], a.y - pose0[1])
+        path_sum[a.run] += np.where(logged, moved, 0.0)
+        log_row(logged)
+        ended |= stalled
         if ended.any():
-            code = np.where(reached, 0, np.where(hit, 1, 2))
+            code = np.where(stalled, 2, np.where(reached, 0, np.where(hit, 1, 2)))
             finished = a.run[ended]
             outcome[finished] = code[ended]
-            sim_time[finished] = t
+            sim_time[finished] = np.where(cut, t0, t)[ended]
             a.keep(~ended)
 
     n_rows = np.maximum(rows, 1)
@@ -646,6 +705,8 @@ def run_batch(
         min_safety_distance_m=min_centre if point_robot else min_clear,
         max_abs_voltage_v=max_abs_v,
         voltage_jumps=jumps,
+        min_target_distance_m=min_target,
+        final_target_distance_m=final_target,
         geometry=geometry,
         perception=perception,
         wall_time_s=time.perf_counter() - started,
