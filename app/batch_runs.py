@@ -281,3 +281,103 @@ def batch_mapper(objective, probe_vector, executor=None):
         return [cost for part in executor.map(task, parts) for cost in part]
 
     return mapper, None
+
+
+def fit_measures(fit_cost, vectors) -> list[list[dict] | None]:
+    """:meth:`app.paper_fit.FitCost.measure_all` of every vector on the batch engine:
+    every candidate x s1-s3 in one batch (the paper's point robot, ideal perception,
+    the fit's period, cap and stall rule); None for a vector that builds no system."""
+    from fuzzynav.app.paper_fit import SCENARIOS
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.fis_controller import FisController
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.scenario import load_scenario
+
+    out: list = [None] * len(vectors)
+    built, controllers, scenarios = [], [], []
+    for k, vector in enumerate(vectors):
+        vector = np.asarray(vector, dtype=float)
+        try:
+            system = fit_cost.tunable.system(vector[:-1])
+        except ValueError:
+            continue
+        built.append(k)
+        controllers.append(FisController(system, name="paper"))
+        for name in SCENARIOS:
+            scenario = dataclasses.replace(load_scenario(name), heading_rad=float(vector[-1]))
+            if fit_cost.stall_s is not None:  # as app.paper_fit.run_paper_geometry
+                scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
+            scenarios.append(scenario)
+    if not built:
+        return out
+    run_sets = np.repeat(np.arange(len(built)), len(SCENARIOS))
+    result = run_batch(
+        scenarios,
+        batch_controller(controllers, run_sets),
+        perception="ideal",
+        geometry="paper",
+        control_period_s=fit_cost.control_period_s,
+        model=fit_cost.model,
+        stall_s=fit_cost.stall_s,
+        trace=True,
+    )
+    for i, scenario in enumerate(scenarios):
+        m = result.metrics(i)
+        n_obstacles = len(scenario.obstacles)
+        measured = {
+            "scenario": SCENARIOS[i % len(SCENARIOS)],
+            "reached": m["reached"],
+            "collided": m["collided"],
+            "time_to_target_s": m["time_to_target_s"],
+            "path_length_m": m["path_length_m"],
+            "mad_m": m["mad_m"],
+            "rmse_m": m["rmse_m"],
+            "min_center_distance_m": m["min_center_distance_m"],
+            "passes": [
+                (
+                    float(result.closest_center_time_s[i, j]),
+                    float(result.closest_center_distance_m[i, j]),
+                )
+                for j in range(n_obstacles)
+            ],
+            "chatter_steps": m["voltage_jumps"],
+            "final_phi_t_rad": float(result.final_phi_t_rad[i]),
+            "final_distance_m": float(result.final_target_distance_m[i]),
+            "closest_to_target_m": float(result.min_target_distance_m[i]),
+            "max_voltage_v": tuple(float(v) for v in result.max_voltage_v[i]),
+        }
+        k = built[int(run_sets[i])]
+        out[k] = (out[k] or []) + [measured]
+    return out
+
+
+def fit_costs(fit_cost, vectors) -> list[float]:
+    """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine
+    (top level: a pool task)."""
+    from fuzzynav.app.paper_fit import run_cost
+
+    costs = []
+    for measures in fit_measures(fit_cost, vectors):
+        if measures is None:
+            costs.append(1e6)  # as FitCost: a candidate that cannot run
+        else:
+            costs.append(sum(run_cost(m, fit_cost.paper) for m in measures))
+    return costs
+
+
+def fit_mapper(fit_cost, pool_map=None, workers: int = 1):
+    """A map-like ``mapper(function, vectors)`` for the fit's CMA-ES or DE: a whole
+    generation as one batch (or one per worker through ``pool_map``)."""
+    import functools
+
+    task = functools.partial(fit_costs, fit_cost)
+
+    def mapper(_function, vectors):
+        vectors = list(vectors)
+        if pool_map is None or workers <= 1 or len(vectors) < 2:
+            return task(vectors)
+        size = math.ceil(len(vectors) / workers)
+        parts = [vectors[k : k + size] for k in range(0, len(vectors), size)]
+        return [cost for part in pool_map(task, parts) for cost in part]
+
+    return mapper

@@ -319,3 +319,29 @@ def test_sweep_engine_option_and_the_fallback_message(capsys):
     assert "'fuzzynav' cannot be batched" in capsys.readouterr().err
     assert main(["sweep", "--n", "1", "--engine", "warp"]) == 2
     assert "--engine" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- tune and fit-paper
+
+
+def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
+    from fuzzynav.app.batch_runs import fit_costs, objective_costs
+    from fuzzynav.app.paper_fit import FitCost
+    from fuzzynav.app.tuning import Case, Objective
+    from fuzzynav.controller.tuning import tunable
+    from fuzzynav.world.scenario import ObstacleSpec, load_scenario
+
+    sc = load_scenario("s1").replace(
+        target=(2.5, 0.5), duration_s=6.0, obstacles=(ObstacleSpec((1.5, -1.2), 0.2),)
+    )
+    t = tunable("paper")
+    cases = [Case(sc, "ideal", "tiny"), Case(sc, "ultrasonic", "tiny/u")]
+    objective = Objective(t, cases, control_period_s=0.1)
+    _, vectors = _candidates(3, seed=5)
+    batch = objective_costs(objective, vectors)
+    assert len(set(batch)) == 3  # the candidates' costs differ
+    assert np.allclose(batch, [objective(v) for v in vectors], rtol=0, atol=1e-9)
+    # the fit: the paper's point robot on s1-s3 with the stall rule, at a coarse period
+    fit = FitCost(control_period_s=0.1)
+    vector = np.append(fit.tunable.initial_vector(), 0.3)
+    assert fit_costs(fit, [vector]) == pytest.approx([fit(vector)], rel=1e-9)

@@ -101,6 +101,13 @@ class BatchResult:
     geometry: str
     perception: str
     wall_time_s: float
+    #: With ``trace=True``: the target bearing input phi_t (rad, disturbance included)
+    #: of the last logged row (N,); per obstacle the closest centre distance (m) and
+    #: its first time (s) (N, M); the largest applied voltage per wheel (N, 2), V.
+    final_phi_t_rad: np.ndarray | None = None
+    closest_center_distance_m: np.ndarray | None = None
+    closest_center_time_s: np.ndarray | None = None
+    max_voltage_v: np.ndarray | None = None
     #: Per run, its logged poses (steps + 1, 3) when ``record_poses`` was asked.
     poses: list | None = None
     scenarios: list = field(default_factory=list)
@@ -266,6 +273,7 @@ def run_batch(
     record_poses: bool = False,
     max_duration_s: float | None = None,
     stall_s: float | None = None,
+    trace: bool = False,
 ) -> BatchResult:
     """Run every scenario to its end in lockstep; their outcomes and metrics.
 
@@ -300,6 +308,9 @@ def run_batch(
         Tuning's early stop (:func:`app.tuning.run_until_stalled`): a run whose
         distance to the target has not reached a new minimum by 5 cm for this many
         seconds ends as ``timeout``, its last step unlogged, as there.
+    trace : bool
+        Also keep what the paper fit measures (``BatchResult.final_phi_t_rad`` and the
+        fields after it).
 
     Raises
     ------
@@ -408,6 +419,11 @@ def run_batch(
     jumps = np.zeros(n_runs, dtype=np.int64)
     min_target = np.full(n_runs, np.inf)
     final_target = np.full(n_runs, np.nan)
+    if trace:
+        final_phi_t = np.full(n_runs, np.nan)
+        pass_d = np.full((n_runs, m), np.inf)
+        pass_t = np.zeros((n_runs, m))
+        max_v = np.full((n_runs, 2), -np.inf)
     pose_log: list | None = [] if record_poses else None
 
     # The ideal path (the start-target segment) of every run, for MAD and RMSE.
@@ -449,7 +465,7 @@ def run_batch(
             lw[:, 1] + lw[:, 3] * t + lw[:, 5] * t * t,
         )
 
-    def log_row(rows_mask=None) -> None:
+    def log_row(rows_mask=None, t_row=0.0) -> None:
         """What one logged row adds to the metrics: position, target distance, centres
         (of the runs ``rows_mask`` selects; all if None)."""
         if rows_mask is not None and not rows_mask.all():
@@ -468,15 +484,16 @@ def run_batch(
                         "cx",
                         "cy",
                         "target",
+                        "disturbance",
                     )
                 }
             )
             kept.keep(rows_mask)
         else:
             kept = a
-        _log_row(kept)
+        _log_row(kept, t_row)
 
-    def _log_row(a) -> None:
+    def _log_row(a, t_row) -> None:
         run = a.run
         px = a.x - a.start[:, 0]
         py = a.y - a.start[:, 1]
@@ -496,6 +513,16 @@ def run_batch(
             centre = np.hypot(a.cx - a.x[:, None], a.cy - a.y[:, None])
             centre = np.where(a.present, centre, np.inf)
             min_centre[run] = np.minimum(min_centre[run], centre.min(axis=1))
+            if trace:  # paper_fit.closest_approaches: the first least distance
+                closer = centre < pass_d[run]
+                pass_d[run] = np.where(closer, centre, pass_d[run])
+                pass_t[run] = np.where(closer, t_row, pass_t[run])
+        if trace:  # the row's phi_t input as sensed then, disturbance included
+            phi_t = _wrap(np.arctan2(a.target[:, 1] - a.y, a.target[:, 0] - a.x) - a.h)
+            amp, omega, d_start, d_stop = a.disturbance.T
+            on = (d_start <= t_row) & (t_row < d_stop)
+            value = np.where(on, amp * np.sin(omega * t_row), 0.0)
+            final_phi_t[run] = np.where(value != 0.0, phi_t + value, phi_t)
         if pose_log is not None:
             pose_log.append((run.copy(), np.stack([a.x, a.y, a.h], axis=1)))
 
@@ -585,6 +612,8 @@ def run_batch(
         volts = np.where(limit < volts, limit, volts)
         run = a.run
         max_abs_v[run] = np.maximum(max_abs_v[run], np.abs(volts).max(axis=1))
+        if trace:
+            max_v[run] = np.maximum(max_v[run], volts)
         jump = (np.abs(volts - a.prev_v) > VOLTAGE_JUMP_V).any(axis=1)
         in_window = a.has_window & (d_start <= t) & (t <= d_stop)
         jumps[run] += jump & ~in_window
@@ -669,7 +698,7 @@ def run_batch(
         steps_done[a.run[cut]] -= 1
         moved = np.hypot(a.x - pose0[0], a.y - pose0[1])
         path_sum[a.run] += np.where(logged, moved, 0.0)
-        log_row(logged)
+        log_row(logged, t)
         ended |= stalled
         if ended.any():
             code = np.where(stalled, 2, np.where(reached, 0, np.where(hit, 1, 2)))
@@ -707,6 +736,10 @@ def run_batch(
         voltage_jumps=jumps,
         min_target_distance_m=min_target,
         final_target_distance_m=final_target,
+        final_phi_t_rad=final_phi_t if trace else None,
+        closest_center_distance_m=pass_d if trace else None,
+        closest_center_time_s=pass_t if trace else None,
+        max_voltage_v=max_v if trace else None,
         geometry=geometry,
         perception=perception,
         wall_time_s=time.perf_counter() - started,
