@@ -51,7 +51,7 @@ from fuzzynav.world.arena import (
     SWEEP_SPACING_M,
     SWEEP_TOLERANCE_M,
 )
-from fuzzynav.world.husky import N_STATES, HuskyModel
+from fuzzynav.world.husky import N_STATES, HuskyModel, step_product
 from fuzzynav.world.metrics import VOLTAGE_JUMP_V
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
 from fuzzynav.world.scenario import Scenario
@@ -346,7 +346,7 @@ def run_batch(
     config = sensor_config or SensorConfig()
     dt = float(control_period_s)
     # The rows of the step product the loop uses: the new state, then the step-mean
-    # forward speed and yaw rate.
+    # forward speed and yaw rate (a row's sum is the same whatever rows are kept).
     step_rows = np.ascontiguousarray(
         model.discrete(dt).step_matrix[[*range(N_STATES), _V_COLUMN, _W_COLUMN]]
     )
@@ -620,10 +620,9 @@ def run_batch(
         a.prev_v = volts
 
         # -- plant and motion -----------------------------------------------------
-        # einsum, not matmul: BLAS's result for a row depends on the rows around it
-        # (its kernels block the rows), einsum's does not, so a run gives the same bits
-        # in any batch (resume, any number of workers).
-        product = np.einsum("ij,kj->ik", np.concatenate([a.lg, volts], axis=1), step_rows)
+        # the pymunk engine's product (world.husky.step_product): the same bits, in a
+        # batch of any size
+        product = step_product(step_rows, np.concatenate([a.lg, volts], axis=1))
         a.lg = product[:, :N_STATES]
         v = product[:, N_STATES]
         w = product[:, N_STATES + 1]
