@@ -48,6 +48,38 @@ def same_structure(a: FuzzySystem, b: FuzzySystem) -> bool:
     return _structure(a) == _structure(b)
 
 
+def _strict(shape: str, params: np.ndarray) -> bool:
+    """Whether every set's parameters are strictly ordered, so that
+    :func:`membership.fast_kernel`'s clipped-ramp formulas apply (the same bits)."""
+    if shape == "trimf":
+        return bool(np.all((params[:, 0] < params[:, 1]) & (params[:, 1] < params[:, 2])))
+    if shape in ("linsmf", "linzmf"):
+        return bool(np.all(params[:, 0] < params[:, 1]))
+    return shape == "gaussmf"
+
+
+def _mf_rows_fast(shape: str, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """:func:`controller.membership.fast_kernel`'s formulas with per-row parameters
+    (strictly ordered ones: :func:`_strict`); bit for bit the reference values."""
+    if shape == "trimf":
+        a, b, c = p[:, 0], p[:, 1], p[:, 2]
+        y = np.minimum((x - a) / (b - a), (c - x) / (c - b))
+        return np.fmax(y, 0.0, out=y)
+    if shape == "linsmf":
+        a, b = p[:, 0], p[:, 1]
+        y = (x - a) / (b - a)
+    elif shape == "linzmf":
+        a, b = p[:, 0], p[:, 1]
+        y = (b - x) / (b - a)
+    else:  # gaussmf
+        sigma, c = p[:, 0], p[:, 1]
+        d = x - c
+        y = np.exp((d * d) / -(2.0 * sigma * sigma))
+        return np.fmax(y, 0.0, out=y)
+    np.fmax(y, 0.0, out=y)
+    return np.fmin(y, 1.0, out=y)
+
+
 def _mf_rows(shape: str, x: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Membership of ``x`` (n,) with per-row parameters ``p`` (n, n_params): the
     vectorised reference formulas of :mod:`controller.membership`, operation for
@@ -126,7 +158,10 @@ class BatchFuzzy:
         for i, variable in enumerate(first.inputs):
             for j, term in enumerate(variable.terms):
                 params = np.array([s.inputs[i].terms[j].params for s in systems], dtype=float)
-                self._input_terms.append((first._batch_terms_row(i, j), i, term.shape, params))
+                kernel = _mf_rows_fast if _strict(term.shape, params) else _mf_rows
+                self._input_terms.append(
+                    (first._batch_terms_row(i, j), i, term.shape, params, kernel)
+                )
         # Every set's output terms sampled on the grid once: (K, n_out, kmax, G).
         self._mfg = np.stack([s._mfg for s in systems])
         self._grid = first._grid
@@ -169,8 +204,8 @@ class BatchFuzzy:
         system = self.structure
         n = X.shape[0]
         rows: list = [None] * system._n_cols
-        for row, i, shape, params in self._input_terms:
-            rows[row] = _mf_rows(shape, X[:, i], params[groups])
+        for row, i, shape, params, kernel in self._input_terms:
+            rows[row] = kernel(shape, X[:, i], params[groups])
         rows[system._ONE] = np.ones(n)
         F = np.empty((len(system.rules), n))
         for r_i, rr in enumerate(system._rule_rows):

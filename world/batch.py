@@ -403,6 +403,10 @@ def run_batch(
     rngs = (
         [np.random.default_rng(s) for s in seeds] if ultrasonic and config.noise_std_m > 0 else None
     )
+    # The farthest any ray reaches from the robot's centre, m (world.sensors' prefilter).
+    sonar_reach_m = (
+        max(math.hypot(mt.x_m, mt.y_m) for mt in config.mounts) + config.max_range_m + 1e-6
+    )
 
     # -- per-run results (batch order) ----------------------------------------------
     outcome = np.full(n_runs, -1, dtype=np.int64)
@@ -543,22 +547,35 @@ def run_batch(
         if ultrasonic and not t + 1e-12 < next_update_s:
             following = next_update_s + update_period_s
             next_update_s = following if following > t else t + update_period_s
-            c, s = np.cos(a.h)[:, None], np.sin(a.h)[:, None]
-            ox = a.x[:, None] + c * mount_x - s * mount_y  # (n, sensors)
-            oy = a.y[:, None] + s * mount_x + c * mount_y
-            direction = a.h[:, None] + mount_angle
-            ray = (direction[:, :, None] + offsets).reshape(n, n_sensors * n_rays)
-            hits = sonar_distances(
-                np.repeat(ox, n_rays, axis=1),
-                np.repeat(oy, n_rays, axis=1),
-                np.cos(ray),
-                np.sin(ray),
-                config.max_range_m,
-                a.cx,
-                a.cy,
-                np.where(a.present, a.radius, np.nan),
-            ).reshape(n, n_sensors, n_rays)
-            ranges = hits.min(axis=2)
+            # Only the obstacles within a ray's reach of the robot (a conservative
+            # test, as the pymunk sensors' prefilter): the readings of casting all.
+            dxr = a.cx - a.x[:, None]
+            dyr = a.cy - a.y[:, None]
+            within = sonar_reach_m + a.radius
+            near = a.present & (dxr * dxr + dyr * dyr <= within * within)
+            ranges = np.full((n, n_sensors), np.inf)
+            pair_rows, pair_cols = np.nonzero(near)
+            if pair_rows.size:
+                starts = np.flatnonzero(np.r_[True, pair_rows[1:] != pair_rows[:-1]])
+                seen_rows = pair_rows[starts]
+                pair_row = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, pair_rows.size]))
+                h = a.h[seen_rows]
+                c, s = np.cos(h)[:, None], np.sin(h)[:, None]
+                ox = a.x[seen_rows, None] + c * mount_x - s * mount_y  # (pair_rows, sensors)
+                oy = a.y[seen_rows, None] + s * mount_x + c * mount_y
+                direction = h[:, None] + mount_angle
+                ray = (direction[:, :, None] + offsets).reshape(-1, n_sensors * n_rays)
+                hits = sonar_distances(
+                    np.repeat(ox, n_rays, axis=1)[pair_row],
+                    np.repeat(oy, n_rays, axis=1)[pair_row],
+                    np.cos(ray)[pair_row],
+                    np.sin(ray)[pair_row],
+                    config.max_range_m,
+                    a.cx[pair_rows, pair_cols][:, None],
+                    a.cy[pair_rows, pair_cols][:, None],
+                    a.radius[pair_rows, pair_cols][:, None],
+                ).reshape(pair_rows.size, n_sensors, n_rays)
+                ranges[seen_rows] = np.minimum.reduceat(hits.min(axis=2), starts, axis=0)
             echo = np.isfinite(ranges)
             if rngs is not None:
                 for row in np.flatnonzero(echo.any(axis=1)).tolist():
