@@ -89,8 +89,8 @@ COVERAGE_SECTOR_RAD = 1.62
 
 def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
     """The cost of one finished run (module docstring)."""
-    if len(result.log) == 0:
-        nearest = final = None
+    if result.outcome == "reached" or len(result.log) == 0:
+        nearest = final = None  # a reached run's cost reads no distance
     else:
         to_target = np.linalg.norm(result.log.target_xy - result.log.pose[:, :2], axis=1)
         nearest, final = float(to_target.min()), float(to_target[-1])
