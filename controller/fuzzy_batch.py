@@ -13,9 +13,9 @@ The inference is :meth:`FuzzySystem.evaluate`'s (Mamdani min/max, centroid on th
   the numbers are its numbers, bit for bit;
 * with several, the input memberships are the reference formulas of
   :mod:`controller.membership` with per-row parameter columns (the same operations, so
-  the same bits), the firing strengths and slot levels are min/max (exact), and only
-  the centroid's two sums may add in another order: equal to ``evaluate`` row by row to
-  about 1e-15 relative (tests/test_batch.py checks 1e-12 V).
+  the same bits), the firing strengths and slot levels are min/max (exact), and the
+  centroid's two sums run in grid order as ``evaluate``'s: equal to ``evaluate`` row by
+  row, bit for bit (tests/test_batch.py checks it, and the issue's 1e-12 V).
 """
 
 from __future__ import annotations
@@ -164,6 +164,8 @@ class BatchFuzzy:
                 )
         # Every set's output terms sampled on the grid once: (K, n_out, kmax, G).
         self._mfg = np.stack([s._mfg for s in systems])
+        # the same, as (output, term, grid point, set): a gather by set is one take
+        self._mfgT = np.ascontiguousarray(self._mfg.transpose(1, 2, 3, 0))
         self._grid = first._grid
         self._mid = np.array(first._mid)
 
@@ -218,9 +220,14 @@ class BatchFuzzy:
         if system._weighted:
             F *= system._W[:, None]
         kmax = system._kmax
+        G = system.n_points
         Y = np.empty((n, system.n_outputs))
-        aggregate = np.zeros((n, system.n_points))
-        clipped = np.empty((n, system.n_points))
+        # Laid out as (grid point, row), as FuzzySystem.evaluate: its sums over the grid
+        # run in grid order (a reduce over axis 0 of >= 2 columns, a cumsum for one),
+        # so each row's centroid is evaluate's to the bit, in a batch of any size.
+        aggregate = np.zeros((G, n))
+        clipped = np.empty((G, n))
+        weighted = np.empty((G, n))
         for o in range(system.n_outputs):
             aggregate.fill(0.0)
             for slot, rule_list in system._slot_rules:
@@ -231,12 +238,15 @@ class BatchFuzzy:
                     np.maximum(level, F[q], out=level)
                 # min(level, term on the grid) per row, then max over the terms: the
                 # Mamdani aggregate, with each row's own sampled output term.
-                np.minimum(self._mfg[groups, o, slot % kmax, :], level[:, None], out=clipped)
+                np.minimum(self._mfgT[o, slot % kmax][:, groups], level, out=clipped)
                 np.maximum(aggregate, clipped, out=aggregate)
-            # Row by row reductions (no BLAS product, whose result for a row depends on
-            # the rows around it): a row gives the same bits in any batch.
-            numerator = (aggregate * self._grid[o]).sum(axis=1)
-            denominator = aggregate.sum(axis=1)
+            np.multiply(aggregate, system._gridcol[o], out=weighted)
+            if n >= 2:
+                numerator = np.add.reduce(weighted, axis=0)
+                denominator = np.add.reduce(aggregate, axis=0)
+            else:
+                numerator = np.cumsum(weighted[:, 0])[-1:]
+                denominator = np.cumsum(aggregate[:, 0])[-1:]
             y = np.full(n, self._mid[o])
             np.divide(numerator, denominator, out=y, where=denominator > 0.0)
             Y[:, o] = y
