@@ -61,11 +61,67 @@ def _scenario(job):
     return scenario
 
 
+def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:
+    """The row of ``job`` from its run's ``metrics`` (:func:`world.metrics.compute_metrics`
+    keys): one function for both engines (pymunk and :mod:`world.batch`)."""
+    from types import SimpleNamespace
+
+    from fuzzynav.app.resultlog import finite_or_none
+
+    m = metrics
+    options = dict(job.options)
+    straight = math.dist(scenario.start, scenario.target)
+    run = SimpleNamespace(scenario=scenario, metrics=m, geometry=options.get("geometry", "husky"))
+    row = {
+        "index": job.index,
+        "controller": job.controller,
+        "parts_off": list(job.parts_off),
+        "family": job.family,
+        "seed": job.seed,
+        "perception": job.perception,
+        **({"options": options} if options else {}),
+        "outcome": m["outcome"],
+        "reached": bool(m["reached"]),
+        "collided": bool(m["collided"]),
+        "success": bool(m["reached"] and not m["collided"]),
+        "path_length_m": m["path_length_m"],
+        "straight_line_m": straight,
+        "straight_ratio": m["path_length_m"] / straight,
+        "min_clearance_m": m["min_clearance_m"],
+        "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
+        "time_to_target_s": m["time_to_target_s"],
+        "n_obstacles": len(scenario.obstacles),
+        **run_benchmark(run, model, voltage_limit_v),
+    }
+    return finite_or_none(row)
+
+
+def run_benchmark(result, model, voltage_limit_v: float) -> dict:
+    """The benchmark metrics of a finished run (world/metrics.py): the shortest path
+    of its scenario keeping the clearance, for ``model``'s footprint width, and that
+    plant's top speed at ``voltage_limit_v``."""
+    from fuzzynav.world.metrics import benchmark_metrics, top_speed_mps
+    from fuzzynav.world.shortest_path import robot_shortest_path_m
+
+    sc = result.scenario
+    m = result.metrics
+    # the paper's geometry drives a point robot: the clearance alone inflates obstacles
+    point = getattr(result, "geometry", "husky") == "paper"
+    width_m = 0.0 if point else model.parameters.footprint_width_m
+    shortest = robot_shortest_path_m(sc.start, sc.target, sc.obstacles, width_m)
+    return benchmark_metrics(
+        success=bool(m["reached"] and not m["collided"]),
+        path_length_m=m["path_length_m"],
+        time_to_target_s=m["time_to_target_s"],
+        shortest_path_m=shortest,
+        top_speed_mps=top_speed_mps(model, voltage_limit_v),
+    )
+
+
 def run_layout_batch(jobs: Sequence) -> list[dict]:
     """The rows of ``jobs`` (:class:`app.experiments.LayoutJob`, one controller,
     perception and options), run together on the batch engine; in the jobs' order.
     Top level: what an executor sends to a worker."""
-    from fuzzynav.app.experiments import layout_row
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.controller.registry import make_controller
     from fuzzynav.world.batch import run_batch
@@ -99,17 +155,6 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
         layout_row(job, scenario, result.metrics(i), model, 12.0)
         for i, (job, scenario) in enumerate(zip(jobs, scenarios))
     ]
-
-
-def run_task(item) -> list[dict]:
-    """One executor task: ``("batch", jobs)`` on the batch engine, or ``("pymunk",
-    job)`` on the pymunk engine; a list of rows either way (top level)."""
-    from fuzzynav.app.experiments import run_layout
-
-    kind, payload = item
-    if kind == "batch":
-        return run_layout_batch(payload)
-    return [run_layout(payload)]
 
 
 def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
@@ -202,11 +247,12 @@ def run_layouts(
     return run_batch(scenarios, ctrl, perception=perception, geometry=geometry, **run_options)
 
 
-def objective_costs(objective, vectors) -> list[float]:
+def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[float]:
     """:class:`app.tuning.Objective`'s cost of every vector, all candidates x cases on
     the batch engine (one batch per perception mode); the same per-run cost
-    (:func:`app.tuning.outcome_cost`) and holes penalty. Top level: an executor task."""
-    from fuzzynav.app.tuning import STALL_S, outcome_cost
+    (``cost_function``: :func:`app.tuning.outcome_cost`, given by the caller so that this
+    module does not import app.tuning) and holes penalty, tuning's stall rule after
+    ``stall_s`` s. Top level: an executor task."""
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.world.batch import run_batch
 
@@ -223,7 +269,6 @@ def objective_costs(objective, vectors) -> list[float]:
         controllers.append(controller)
     if not built:
         return costs
-    stall_s = getattr(objective.tunable, "stall_cutoff_s", STALL_S)
     # per candidate, its runs' costs in the cases' order (as Objective.__call__ averages)
     per_case = {k: [0.0] * len(objective.cases) for k in built}
     for perception in dict.fromkeys(c.perception for c in objective.cases):
@@ -241,7 +286,7 @@ def objective_costs(objective, vectors) -> list[float]:
         outcomes = result.outcomes
         for i, scenario in enumerate(scenarios):
             k = built[int(run_sets[i])]
-            per_case[k][chosen[i % len(chosen)]] = outcome_cost(
+            per_case[k][chosen[i % len(chosen)]] = cost_function(
                 scenario,
                 outcomes[i],
                 bool(result.collided[i]),
@@ -256,7 +301,7 @@ def objective_costs(objective, vectors) -> list[float]:
     return costs
 
 
-def batch_mapper(objective, probe_vector, executor=None):
+def batch_mapper(objective, probe_vector, executor, cost_function, stall_s: float):
     """A map-like ``mapper(function, vectors) -> costs`` for DE and CMA-ES that runs a
     whole generation on the batch engine (split over ``executor``'s workers, each part
     one task), and None with the reason when the tunable's controller cannot be
@@ -269,7 +314,7 @@ def batch_mapper(objective, probe_vector, executor=None):
         batch_controller(objective.tunable.build(objective.full(probe_vector)))
     except NotBatchable as exc:
         return None, f"{exc}: tuning on the pymunk engine"
-    task = functools.partial(objective_costs, objective)
+    task = functools.partial(objective_costs, objective, cost_function, stall_s)
 
     def mapper(_function, vectors):
         vectors = list(vectors)
@@ -283,11 +328,10 @@ def batch_mapper(objective, probe_vector, executor=None):
     return mapper, None
 
 
-def fit_measures(fit_cost, vectors) -> list[list[dict] | None]:
+def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
     """:meth:`app.paper_fit.FitCost.measure_all` of every vector on the batch engine:
     every candidate x s1-s3 in one batch (the paper's point robot, ideal perception,
     the fit's period, cap and stall rule); None for a vector that builds no system."""
-    from fuzzynav.app.paper_fit import SCENARIOS
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.world.batch import run_batch
@@ -303,14 +347,14 @@ def fit_measures(fit_cost, vectors) -> list[list[dict] | None]:
             continue
         built.append(k)
         controllers.append(FisController(system, name="paper"))
-        for name in SCENARIOS:
+        for name in scenario_names:
             scenario = dataclasses.replace(load_scenario(name), heading_rad=float(vector[-1]))
             if fit_cost.stall_s is not None:  # as app.paper_fit.run_paper_geometry
                 scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
             scenarios.append(scenario)
     if not built:
         return out
-    run_sets = np.repeat(np.arange(len(built)), len(SCENARIOS))
+    run_sets = np.repeat(np.arange(len(built)), len(scenario_names))
     result = run_batch(
         scenarios,
         batch_controller(controllers, run_sets),
@@ -325,7 +369,7 @@ def fit_measures(fit_cost, vectors) -> list[list[dict] | None]:
         m = result.metrics(i)
         n_obstacles = len(scenario.obstacles)
         measured = {
-            "scenario": SCENARIOS[i % len(SCENARIOS)],
+            "scenario": scenario_names[i % len(scenario_names)],
             "reached": m["reached"],
             "collided": m["collided"],
             "time_to_target_s": m["time_to_target_s"],
@@ -351,13 +395,12 @@ def fit_measures(fit_cost, vectors) -> list[list[dict] | None]:
     return out
 
 
-def fit_costs(fit_cost, vectors) -> list[float]:
+def fit_costs(fit_cost, run_cost, scenario_names, vectors) -> list[float]:
     """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine
-    (top level: a pool task)."""
-    from fuzzynav.app.paper_fit import run_cost
-
+    (``run_cost``, ``scenario_names``: app.paper_fit's, given by the caller so that this
+    module does not import it; top level: a pool task)."""
     costs = []
-    for measures in fit_measures(fit_cost, vectors):
+    for measures in fit_measures(fit_cost, scenario_names, vectors):
         if measures is None:
             costs.append(1e6)  # as FitCost: a candidate that cannot run
         else:
@@ -365,12 +408,12 @@ def fit_costs(fit_cost, vectors) -> list[float]:
     return costs
 
 
-def fit_mapper(fit_cost, pool_map=None, workers: int = 1):
+def fit_mapper(fit_cost, run_cost, scenario_names, pool_map=None, workers: int = 1):
     """A map-like ``mapper(function, vectors)`` for the fit's CMA-ES or DE: a whole
     generation as one batch (or one per worker through ``pool_map``)."""
     import functools
 
-    task = functools.partial(fit_costs, fit_cost)
+    task = functools.partial(fit_costs, fit_cost, run_cost, tuple(scenario_names))
 
     def mapper(_function, vectors):
         vectors = list(vectors)
@@ -381,3 +424,15 @@ def fit_mapper(fit_cost, pool_map=None, workers: int = 1):
         return [cost for part in pool_map(task, parts) for cost in part]
 
     return mapper
+
+
+def add_engine_option(parser) -> None:
+    """``--engine batch|pymunk`` (docs/experiments.md)."""
+    parser.add_argument(
+        "--engine",
+        choices=("batch", "pymunk"),
+        default="batch",
+        help="batch: thousands of runs at once as numpy arrays (world/batch.py; paper, "
+        "baseline and p); pymunk: one world at a time, the reference (default batch; "
+        "controllers the batch engine cannot drive run on pymunk, said on stderr)",
+    )

@@ -17,6 +17,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+# The rows of both engines come from one function (app/batch_runs.py).
+from fuzzynav.app.batch_runs import layout_row, run_benchmark
+
 SAFE_CLEARANCE_M = 0.25
 
 # Paper Table 4 (notes section 2): method of ref. [19] | proposed, for S1 / S2 / S3.
@@ -95,6 +98,17 @@ def run_layout(job: LayoutJob) -> dict:
     )
 
 
+def run_task(item) -> list[dict]:
+    """One executor task: ``("batch", jobs)`` on the batch engine, or ``("pymunk",
+    job)`` on the pymunk engine; a list of rows either way (top level)."""
+    from fuzzynav.app.batch_runs import run_layout_batch
+
+    kind, payload = item
+    if kind == "batch":
+        return run_layout_batch(payload)
+    return [run_layout(payload)]
+
+
 def run_layout_row(
     family: str,
     seed: int,
@@ -128,63 +142,6 @@ def run_layout_row(
         family, seed, index, controller, perception, tuple(parts_off), tuple(options.items())
     )
     return layout_row(job, scenario, result.metrics, sim.model, sim.voltage_limit_v)
-
-
-def layout_row(job: LayoutJob, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:
-    """The row of ``job`` from its run's ``metrics`` (:func:`world.metrics.compute_metrics`
-    keys): one function for both engines (pymunk and :mod:`world.batch`)."""
-    from types import SimpleNamespace
-
-    from fuzzynav.app.resultlog import finite_or_none
-
-    m = metrics
-    options = dict(job.options)
-    straight = math.dist(scenario.start, scenario.target)
-    run = SimpleNamespace(scenario=scenario, metrics=m, geometry=options.get("geometry", "husky"))
-    row = {
-        "index": job.index,
-        "controller": job.controller,
-        "parts_off": list(job.parts_off),
-        "family": job.family,
-        "seed": job.seed,
-        "perception": job.perception,
-        **({"options": options} if options else {}),
-        "outcome": m["outcome"],
-        "reached": bool(m["reached"]),
-        "collided": bool(m["collided"]),
-        "success": bool(m["reached"] and not m["collided"]),
-        "path_length_m": m["path_length_m"],
-        "straight_line_m": straight,
-        "straight_ratio": m["path_length_m"] / straight,
-        "min_clearance_m": m["min_clearance_m"],
-        "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
-        "time_to_target_s": m["time_to_target_s"],
-        "n_obstacles": len(scenario.obstacles),
-        **run_benchmark(run, model, voltage_limit_v),
-    }
-    return finite_or_none(row)
-
-
-def run_benchmark(result, model, voltage_limit_v: float) -> dict:
-    """The benchmark metrics of a finished run (world/metrics.py): the shortest path
-    of its scenario keeping the clearance, for ``model``'s footprint width, and that
-    plant's top speed at ``voltage_limit_v``."""
-    from fuzzynav.world.metrics import benchmark_metrics, top_speed_mps
-    from fuzzynav.world.shortest_path import robot_shortest_path_m
-
-    sc = result.scenario
-    m = result.metrics
-    # the paper's geometry drives a point robot: the clearance alone inflates obstacles
-    point = getattr(result, "geometry", "husky") == "paper"
-    width_m = 0.0 if point else model.parameters.footprint_width_m
-    shortest = robot_shortest_path_m(sc.start, sc.target, sc.obstacles, width_m)
-    return benchmark_metrics(
-        success=bool(m["reached"] and not m["collided"]),
-        path_length_m=m["path_length_m"],
-        time_to_target_s=m["time_to_target_s"],
-        shortest_path_m=shortest,
-        top_speed_mps=top_speed_mps(model, voltage_limit_v),
-    )
 
 
 def _median(values):
@@ -259,7 +216,7 @@ def run_jobs(
     if progress:
         progress(len(found), len(jobs))
     if engine == "batch":
-        from fuzzynav.app.batch_runs import run_task, tasks
+        from fuzzynav.app.batch_runs import tasks
 
         items, fallbacks = tasks(todo, executor.workers)
         for message in fallbacks:
@@ -887,20 +844,9 @@ def add_study_output_options(parser) -> None:
     )
 
 
-def add_engine_option(parser) -> None:
-    """``--engine batch|pymunk`` (docs/experiments.md)."""
-    parser.add_argument(
-        "--engine",
-        choices=("batch", "pymunk"),
-        default="batch",
-        help="batch: thousands of runs at once as numpy arrays (world/batch.py; paper, "
-        "baseline and p); pymunk: one world at a time, the reference (default batch; "
-        "controllers the batch engine cannot drive run on pymunk, said on stderr)",
-    )
-
-
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
+    from fuzzynav.app.batch_runs import add_engine_option
     from fuzzynav.app.cli import add_geometry_option, add_off_option, integer_in, seed_type
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names

@@ -269,10 +269,10 @@ def fit(
             from fuzzynav.app.batch_runs import fit_mapper
 
             if workers == 1:
-                mapper = fit_mapper(cost)
+                mapper = fit_mapper(cost, run_cost, SCENARIOS)
                 return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, mapper, report)
             with multiprocessing.get_context("spawn").Pool(workers) as pool:
-                mapper = fit_mapper(cost, pool.map, workers)
+                mapper = fit_mapper(cost, run_cost, SCENARIOS, pool.map, workers)
                 return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, mapper, report)
         if workers == 1:
             return cmaes(
@@ -303,7 +303,7 @@ def fit(
     if engine == "batch":
         from fuzzynav.app.batch_runs import fit_mapper
 
-        batched = fit_mapper(cost)  # a generation as one batch, in this process
+        batched = fit_mapper(cost, run_cost, SCENARIOS)  # a generation as one batch, here
     result = differential_evolution(
         cost,
         bounds,
@@ -509,7 +509,7 @@ def add_commands(subparsers) -> None:
         help="write the best vector so far to this file after every generation (--x0 reads it)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
-    from fuzzynav.app.experiments import add_engine_option
+    from fuzzynav.app.batch_runs import add_engine_option
 
     add_engine_option(p)
     p.set_defaults(func=cmd_fit_paper)

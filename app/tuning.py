@@ -388,7 +388,8 @@ def tune(
     if engine == "batch" and method in ("de", "cmaes"):
         from fuzzynav.app.batch_runs import batch_mapper
 
-        batched, reason = batch_mapper(objective, start, executor)
+        stall_s = getattr(tunable, "stall_cutoff_s", STALL_S)
+        batched, reason = batch_mapper(objective, start, executor, outcome_cost, stall_s)
         if batched is None and on_fallback is not None:
             on_fallback(reason)
 
@@ -562,7 +563,7 @@ def add_commands(subparsers) -> None:
         help="population = popsize x parameters (default 4)",
     )
     add_executor_options(p)
-    from fuzzynav.app.experiments import add_engine_option
+    from fuzzynav.app.batch_runs import add_engine_option
 
     add_engine_option(p)
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")

@@ -120,7 +120,7 @@ def layouts_runs(n: int, sample: int, perception: str) -> dict:
 
 def tuning_generation(candidates: int = 64) -> dict:
     from fuzzynav.app.batch_runs import objective_costs
-    from fuzzynav.app.tuning import Objective, build_cases
+    from fuzzynav.app.tuning import STALL_S, Objective, build_cases, outcome_cost
     from fuzzynav.controller.tuning import tunable
 
     t = tunable("paper")
@@ -133,7 +133,7 @@ def tuning_generation(candidates: int = 64) -> dict:
         for _ in range(candidates - 1)
     ]
     t0 = time.process_time()
-    batch = objective_costs(objective, vectors)
+    batch = objective_costs(objective, outcome_cost, STALL_S, vectors)
     batch_cpu = time.process_time() - t0
     t0 = time.process_time()
     pymunk = [objective(v) for v in vectors]

@@ -331,8 +331,8 @@ def test_sweep_engine_option_and_the_fallback_message(capsys):
 
 def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     from fuzzynav.app.batch_runs import fit_costs, objective_costs
-    from fuzzynav.app.paper_fit import FitCost
-    from fuzzynav.app.tuning import Case, Objective
+    from fuzzynav.app.paper_fit import SCENARIOS, FitCost, run_cost
+    from fuzzynav.app.tuning import STALL_S, Case, Objective, outcome_cost
     from fuzzynav.controller.tuning import tunable
     from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 
@@ -343,10 +343,11 @@ def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     cases = [Case(sc, "ideal", "tiny"), Case(sc, "ultrasonic", "tiny/u")]
     objective = Objective(t, cases, control_period_s=0.1)
     _, vectors = _candidates(3, seed=5)
-    batch = objective_costs(objective, vectors)
+    batch = objective_costs(objective, outcome_cost, STALL_S, vectors)
     assert len(set(batch)) == 3  # the candidates' costs differ
     assert np.allclose(batch, [objective(v) for v in vectors], rtol=0, atol=1e-9)
     # the fit: the paper's point robot on s1-s3 with the stall rule, at a coarse period
     fit = FitCost(control_period_s=0.1)
     vector = np.append(fit.tunable.initial_vector(), 0.3)
-    assert fit_costs(fit, [vector]) == pytest.approx([fit(vector)], rel=1e-9)
+    batch = fit_costs(fit, run_cost, SCENARIOS, [vector])
+    assert batch == pytest.approx([fit(vector)], rel=1e-9)
