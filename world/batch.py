@@ -23,9 +23,16 @@ one array. It is :class:`world.simulation.Simulation` without pymunk:
   so 10,000 runs fit in memory): every number :func:`world.metrics.compute_metrics`
   gives that a sweep row carries.
 
-Only the ray casts and the collision tests are computed differently (closed forms
-instead of Chipmunk's queries). A run that ends is dropped from the arrays: it costs
-nothing after its last step.
+What is shared and what is not: the plant step is one function for both engines
+(:func:`world.husky.step_product`), so are the constants (sensor model, sweep, cutoff,
+jump threshold) and, in ``app``, the rows and the tuning and fit costs; the inputs, the
+motion, the disturbance and the metrics are the pymunk engine's formulas rewritten
+operation for operation for arrays (the pymunk engine's own float code is tuned for one
+run and stays as it is); the ray casts and the collision tests are closed forms instead
+of Chipmunk's queries. In practice a run's trajectory is the pymunk engine's bit for bit
+(tests/test_batch.py, bench/bench_batch.py --crosscheck); the one known source of
+last-bit differences is ``math.hypot`` there against numpy's ``hypot`` here. A run
+that ends is dropped from the arrays: it costs nothing after its last step.
 
 The world knows nothing of the controller: it calls ``controller.decide(inputs, runs,
 ranges_m)`` (:class:`BatchController`) with the active runs' inputs (n, 4), their
