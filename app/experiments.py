@@ -28,6 +28,9 @@ from fuzzynav.app.args import (
     seed_type,
 )
 
+# The rows of both engines come from one function (app/batch_runs.py).
+from fuzzynav.app.batch_runs import layout_row, run_benchmark
+
 SAFE_CLEARANCE_M = 0.25
 
 # Paper Table 4 (notes section 2): method of ref. [19] | proposed, for S1 / S2 / S3.
@@ -106,6 +109,17 @@ def run_layout(job: LayoutJob) -> dict:
     )
 
 
+def run_task(item) -> list[dict]:
+    """One executor task: ``("batch", jobs)`` on the batch engine, or ``("pymunk",
+    job)`` on the pymunk engine; a list of rows either way (top level)."""
+    from fuzzynav.app.batch_runs import run_layout_batch
+
+    kind, payload = item
+    if kind == "batch":
+        return run_layout_batch(payload)
+    return [run_layout(payload)]
+
+
 def run_layout_row(
     family: str,
     seed: int,
@@ -127,7 +141,6 @@ def run_layout_row(
     :func:`world.metrics.benchmark_metrics` (shortest_path_m, path_ratio,
     optimal_time_s, time_ratio, score). Non-finite numbers are None.
     """
-    from fuzzynav.app.resultlog import finite_or_none
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.layouts import generate_layout
 
@@ -136,52 +149,10 @@ def run_layout_row(
     if parts_off:
         sim.controller.set_parts_off(list(parts_off))
     result = sim.run()
-    m = result.metrics
-    straight = math.dist(scenario.start, scenario.target)
-    row = {
-        "index": index,
-        "controller": controller,
-        "parts_off": list(parts_off),
-        "family": family,
-        "seed": seed,
-        "perception": perception,
-        **({"options": dict(options)} if options else {}),
-        "outcome": result.outcome,
-        "reached": bool(m["reached"]),
-        "collided": bool(m["collided"]),
-        "success": bool(m["reached"] and not m["collided"]),
-        "path_length_m": m["path_length_m"],
-        "straight_line_m": straight,
-        "straight_ratio": m["path_length_m"] / straight,
-        "min_clearance_m": m["min_clearance_m"],
-        "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
-        "time_to_target_s": m["time_to_target_s"],
-        "n_obstacles": len(scenario.obstacles),
-        **run_benchmark(result, sim.model, sim.voltage_limit_v),
-    }
-    return finite_or_none(row)
-
-
-def run_benchmark(result, model, voltage_limit_v: float) -> dict:
-    """The benchmark metrics of a finished run (world/metrics.py): the shortest path
-    of its scenario keeping the clearance, for ``model``'s footprint width, and that
-    plant's top speed at ``voltage_limit_v``."""
-    from fuzzynav.world.metrics import benchmark_metrics, top_speed_mps
-    from fuzzynav.world.shortest_path import robot_shortest_path_m
-
-    sc = result.scenario
-    m = result.metrics
-    # the paper's geometry drives a point robot: the clearance alone inflates obstacles
-    point = getattr(result, "geometry", "husky") == "paper"
-    width_m = 0.0 if point else model.parameters.footprint_width_m
-    shortest = robot_shortest_path_m(sc.start, sc.target, sc.obstacles, width_m)
-    return benchmark_metrics(
-        success=bool(m["reached"] and not m["collided"]),
-        path_length_m=m["path_length_m"],
-        time_to_target_s=m["time_to_target_s"],
-        shortest_path_m=shortest,
-        top_speed_mps=top_speed_mps(model, voltage_limit_v),
+    job = LayoutJob(
+        family, seed, index, controller, perception, tuple(parts_off), tuple(options.items())
     )
+    return layout_row(job, scenario, result.metrics, sim.model, sim.voltage_limit_v)
 
 
 def _median(values):
@@ -229,14 +200,21 @@ def sweep_jobs(
     ]
 
 
-def run_jobs(jobs, executor=None, *, log=None, progress=None) -> list[dict]:
+def run_jobs(
+    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None
+) -> list[dict]:
     """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
 
     ``executor``: an :class:`app.executor.Executor` (default: serial). ``log``: an open
     :class:`app.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
     new row is written to it as it arrives, and rows of other studies are refused.
-    ``progress(done, total)`` after each row (and once at the start).
+    ``progress(done, total)`` after each row (and once at the start). ``engine``:
+    ``pymunk`` (one task per run) or ``batch`` (:mod:`app.batch_runs`: batches of runs
+    as tasks; controllers it cannot drive run on pymunk, and ``on_fallback(message)``
+    is told so).
     """
+    if engine not in ("pymunk", "batch"):
+        raise ValueError(f"engine = {engine!r}: must be pymunk or batch")
     from fuzzynav.app.executor import SerialExecutor
 
     executor = executor or SerialExecutor()
@@ -248,12 +226,22 @@ def run_jobs(jobs, executor=None, *, log=None, progress=None) -> list[dict]:
     todo = [job for job, k in zip(jobs, keys) if k not in found]
     if progress:
         progress(len(found), len(jobs))
-    results = executor.imap_unordered(run_layout, todo)
+    if engine == "batch":
+        from fuzzynav.app.batch_runs import tasks
+
+        items, fallbacks = tasks(todo, executor.workers)
+        for message in fallbacks:
+            if on_fallback is not None:
+                on_fallback(message)
+        results = executor.imap_unordered(run_task, items)
+    else:
+        results = executor.imap_unordered(run_layout, todo)
     try:
-        for row in results:
-            if log is not None:
-                log.write(row)
-            found[row_key(row)] = row
+        for batch in results:
+            for row in batch if engine == "batch" else [batch]:
+                if log is not None:
+                    log.write(row)
+                found[row_key(row)] = row
             if progress:
                 progress(len(found), len(jobs))
     finally:
@@ -311,17 +299,18 @@ def sweep(
     progress=None,
     parts_off: tuple[str, ...] = (),
     options: dict | None = None,
+    engine: str = "pymunk",
 ) -> dict:
     """Run ``n`` layouts; the summary dict ``sweep --json`` prints (with per-run rows).
 
     ``parts_off``: fuzzynav's parts to switch off (``assets/rules/fuzzynav_parts.toml``);
     ``options``: keyword options of :func:`app.runs.build_simulation` for every run;
-    ``executor``, ``log``, ``progress``: as :func:`run_jobs`.
+    ``executor``, ``log``, ``progress``, ``engine``: as :func:`run_jobs`.
     """
     parts_off = check_sweep(controller, n, family, parts_off)
     start = time.perf_counter()
     jobs = sweep_jobs(controller, n, seed, family, perception, parts_off, options)
-    rows = run_jobs(jobs, executor, log=log, progress=progress)
+    rows = run_jobs(jobs, executor, log=log, progress=progress, engine=engine)
     return summarize(rows, wall_time_s=time.perf_counter() - start)
 
 
@@ -463,7 +452,14 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
                 def progress(done, total):
                     bar.update(task, completed=done, total=total)
 
-                rows = run_jobs(jobs, executor, log=log, progress=progress)
+                rows = run_jobs(
+                    jobs,
+                    executor,
+                    log=log,
+                    progress=progress,
+                    engine=getattr(args, "engine", "pymunk"),
+                    on_fallback=lambda message: print(f"fuzzynav: {message}", file=sys.stderr),
+                )
     except KeyboardInterrupt:
         if log is not None:
             log.close()
@@ -651,6 +647,7 @@ def compare(
     executor=None,
     sweep_rows=None,
     options: dict | None = None,
+    engine: str = "pymunk",
 ) -> dict:
     """Runs of each controller on s1-s3 (and optionally a sweep of each); the
     ``compare --json`` object. ``executor``: where the runs go (default: serial);
@@ -672,7 +669,7 @@ def compare(
     if sweep_n > 0:
         jobs = compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, options)
         if sweep_rows is None:
-            sweep_rows = run_jobs(jobs, executor)
+            sweep_rows = run_jobs(jobs, executor, engine=engine)
         for k in range(len(controllers)):
             s = summarize(sweep_rows[k * sweep_n : (k + 1) * sweep_n])
             s.pop("runs")
@@ -737,6 +734,7 @@ def cmd_compare(args) -> int:
             executor=executor,
             sweep_rows=sweep_rows,
             options=options,
+            engine=args.engine,
         )
     if args.json:
         print_json(out)
@@ -854,6 +852,7 @@ def add_study_output_options(parser) -> None:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app import tuning
+    from fuzzynav.app.batch_runs import add_engine_option
     from fuzzynav.app.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
@@ -883,6 +882,7 @@ def add_commands(subparsers) -> None:
         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
     )
     add_executor_options(p)
+    add_engine_option(p)
     add_study_output_options(p)
     p.add_argument(
         "--beside",
@@ -934,6 +934,7 @@ def add_commands(subparsers) -> None:
     )
     c.add_argument("--family", default="standard", choices=FAMILIES, help="family of that sweep")
     add_executor_options(c)
+    add_engine_option(c)
     add_study_output_options(c)
     c.add_argument("--json", action="store_true", help="print one JSON object")
     c.set_defaults(func=cmd_compare)

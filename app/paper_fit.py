@@ -231,12 +231,15 @@ def fit(
     radius=None,
     method: str = "cmaes",
     sigma0: float = 0.15,
+    engine: str = "pymunk",
 ):
     """Fit the partition parameters and the initial heading; returns (x, cost, nit, nfev).
 
     ``method="cmaes"`` (default): :func:`cmaes` from ``x0`` with step ``sigma0`` (a
     fraction of each bound's span), ``popsize`` candidates a generation. ``"de"``: scipy's
-    differential evolution, ``popsize`` x 23 candidates a generation."""
+    differential evolution, ``popsize`` x 23 candidates a generation. ``engine="batch"``:
+    each generation's candidates x s1-s3 run as one batch (one per worker),
+    :func:`app.batch_runs.fit_mapper`."""
     import multiprocessing
 
     from scipy.optimize import differential_evolution
@@ -263,6 +266,15 @@ def fit(
 
         from fuzzynav.app.cmaes import cmaes
 
+        if engine == "batch":
+            from fuzzynav.app.batch_runs import fit_mapper
+
+            if workers == 1:
+                mapper = fit_mapper(cost, run_cost, SCENARIOS)
+                return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, mapper, report)
+            with multiprocessing.get_context("spawn").Pool(workers) as pool:
+                mapper = fit_mapper(cost, run_cost, SCENARIOS, pool.map, workers)
+                return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, mapper, report)
         if workers == 1:
             return cmaes(
                 cost,
@@ -288,6 +300,11 @@ def fit(
         if on_generation is not None:
             on_generation(generation[0], float(intermediate_result.fun))
 
+    batched = None
+    if engine == "batch":
+        from fuzzynav.app.batch_runs import fit_mapper
+
+        batched = fit_mapper(cost, run_cost, SCENARIOS)  # a generation as one batch, here
     result = differential_evolution(
         cost,
         bounds,
@@ -295,8 +312,8 @@ def fit(
         maxiter=maxiter,
         popsize=popsize,
         seed=seed,
-        workers=workers,
-        updating="deferred" if workers != 1 else "immediate",
+        workers=workers if batched is None else batched,
+        updating="deferred" if workers != 1 or batched is not None else "immediate",
         polish=False,
         tol=0,
         callback=callback,
@@ -390,6 +407,7 @@ def cmd_fit_paper(args) -> int:
         radius=args.radius,
         method=args.method,
         sigma0=args.sigma,
+        engine=getattr(args, "engine", "pymunk"),
     )
     elapsed = time.perf_counter() - started
     command = (
@@ -490,4 +508,7 @@ def add_commands(subparsers) -> None:
         help="write the best vector so far to this file after every generation (--x0 reads it)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    from fuzzynav.app.batch_runs import add_engine_option
+
+    add_engine_option(p)
     p.set_defaults(func=cmd_fit_paper)

@@ -91,24 +91,51 @@ COVERAGE_SECTOR_RAD = 1.62
 
 def run_cost(result, clearance_weight: float = CLEARANCE_WEIGHT) -> float:
     """The cost of one finished run (module docstring)."""
-    sc = result.scenario
-    start, target = np.asarray(sc.start, float), np.asarray(sc.target, float)
-    straight = max(float(np.linalg.norm(target - start)), 1e-6)
-    m = result.metrics
-    if result.outcome == "reached":
-        cost = m["path_length_m"] / straight + 0.1 * m["time_to_target_s"] / (straight / 0.5)
-    elif len(result.log) == 0:
-        cost = COLLISION_COST + 10.0 if result.collided else TIMEOUT_COST + TIMEOUT_SLOPE
+    if result.outcome == "reached" or len(result.log) == 0:
+        nearest = final = None  # a reached run's cost reads no distance
     else:
         to_target = np.linalg.norm(result.log.target_xy - result.log.pose[:, :2], axis=1)
-        if result.collided:
-            cost = COLLISION_COST + 5.0 * min(float(to_target[-1]) / straight, 2.0)
-        else:
-            cost = TIMEOUT_COST + TIMEOUT_SLOPE * min(float(to_target.min()) / straight, 1.0)
+        nearest, final = float(to_target.min()), float(to_target[-1])
+    return outcome_cost(
+        result.scenario,
+        result.outcome,
+        result.collided,
+        result.metrics,
+        nearest,
+        final,
+        getattr(result, "perception", "ideal"),
+        clearance_weight,
+    )
+
+
+def outcome_cost(
+    scenario,
+    outcome: str,
+    collided: bool,
+    m: dict,
+    nearest_m: float | None,
+    final_m: float | None,
+    perception: str,
+    clearance_weight: float = CLEARANCE_WEIGHT,
+) -> float:
+    """:func:`run_cost` from a run's numbers (both engines call it): its outcome, its
+    metrics ``m``, and its least and last logged distances to the target (m; None: an
+    empty log)."""
+    sc = scenario
+    start, target = np.asarray(sc.start, float), np.asarray(sc.target, float)
+    straight = max(float(np.linalg.norm(target - start)), 1e-6)
+    if outcome == "reached":
+        cost = m["path_length_m"] / straight + 0.1 * m["time_to_target_s"] / (straight / 0.5)
+    elif nearest_m is None:
+        cost = COLLISION_COST + 10.0 if collided else TIMEOUT_COST + TIMEOUT_SLOPE
+    elif collided:
+        cost = COLLISION_COST + 5.0 * min(final_m / straight, 2.0)
+    else:
+        cost = TIMEOUT_COST + TIMEOUT_SLOPE * min(nearest_m / straight, 1.0)
     clearance = m.get("min_clearance_m")
     if clearance is not None and math.isfinite(clearance):
         cost += clearance_weight * max(0.0, SAFE_CLEARANCE_M + CLEARANCE_MARGIN_M - clearance)
-    if getattr(result, "perception", "ideal") == "ideal":
+    if perception == "ideal":
         cost += CHATTER_WEIGHT * max(0, m.get("voltage_jumps", 0) - CHATTER_FREE_JUMPS)
     return float(cost)
 
@@ -203,14 +230,18 @@ class Objective:
         except ValueError:  # an invalid shape (should not happen by construction)
             return 1e3
         cost = float(np.mean([run_cost(r, self.clearance_weight) for r in results]))
+        return cost + self.penalty(controller)
+
+    def penalty(self, controller) -> float:
+        """The cost of the candidate's holes (tunables that penalise them), else 0."""
         if getattr(self.tunable, "holes_penalised", False):
             from fuzzynav.controller.coverage import coverage_shortfall
 
             shortfall = coverage_shortfall(
                 controller.fis, COVERAGE_FLOOR, obstacle_sector_rad=COVERAGE_SECTOR_RAD
             )
-            cost += COVERAGE_WEIGHT * shortfall
-        return cost
+            return COVERAGE_WEIGHT * shortfall
+        return 0.0
 
 
 def build_cases(
@@ -320,6 +351,8 @@ def tune(
     clearance_weight: float = CLEARANCE_WEIGHT,
     on_evaluation=None,
     sigma0: float = 0.15,
+    engine: str = "pymunk",
+    on_fallback=None,
 ):
     """Minimise the cost (module docstring); returns scipy's OptimizeResult with ``.x`` the
     tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
@@ -327,7 +360,10 @@ def tune(
     generation or local-search iteration; ``on_evaluation(count, best cost so far)`` after
     every candidate of a local search (one process: Powell's iterations are long).
     ``executor`` (:mod:`app.executor`): where DE evaluates its population (a local
-    search is sequential and runs here); without one, ``workers > 1`` is a local pool."""
+    search is sequential and runs here); without one, ``workers > 1`` is a local pool.
+    ``engine="batch"``: DE and CMA-ES run each generation's candidates x cases as
+    batches (:func:`app.batch_runs.batch_mapper`); a tunable whose controller cannot be
+    batched uses the pymunk engine, and ``on_fallback(message)`` is told."""
     from scipy.optimize import Bounds, OptimizeResult, differential_evolution, minimize
 
     all_bounds = np.asarray(tunable.bounds(), float)
@@ -350,6 +386,14 @@ def tune(
     margin = 1e-9 * (hi - lo)
     start = np.clip(x0[sel], lo + margin, hi - margin)
     generation = [0]
+    batched = None
+    if engine == "batch" and method in ("de", "cmaes"):
+        from fuzzynav.app.batch_runs import batch_mapper
+
+        stall_s = getattr(tunable, "stall_cutoff_s", STALL_S)
+        batched, reason = batch_mapper(objective, start, executor, outcome_cost, stall_s)
+        if batched is None and on_fallback is not None:
+            on_fallback(reason)
 
     def callback(intermediate_result):
         generation[0] += 1
@@ -370,7 +414,9 @@ def tune(
             tol=0.0,
             callback=callback,
         )
-        if executor is None and workers > 1:
+        if batched is not None:
+            result = differential_evolution(objective, workers=batched, **kwargs)
+        elif executor is None and workers > 1:
             from fuzzynav.app.executor import LocalExecutor
 
             with LocalExecutor(workers) as pool:
@@ -406,7 +452,9 @@ def tune(
             if on_generation is not None:
                 on_generation(k, best_f, objective.full(best_x))
 
-        if executor is not None and executor.kind != "serial":
+        if batched is not None:
+            mapper = batched
+        elif executor is not None and executor.kind != "serial":
             mapper = executor.map
         else:
 
@@ -418,7 +466,7 @@ def tune(
         )
         # CMA-ES returns its best candidate, never the start itself: a polish from a
         # sharp optimum could otherwise hand back something worse than it was given.
-        start_cost = float(objective(start))
+        start_cost = float(objective(start) if batched is None else batched(None, [start])[0])
         if start_cost <= fun:
             x, fun = start.copy(), start_cost
         result = OptimizeResult(x=x, fun=fun, nit=nit, nfev=nfev + 1)
@@ -514,6 +562,9 @@ def add_commands(subparsers) -> None:
         help="population = popsize x parameters (default 4)",
     )
     add_executor_options(p)
+    from fuzzynav.app.batch_runs import add_engine_option
+
+    add_engine_option(p)
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument(
         "--method",
@@ -695,6 +746,8 @@ def cmd_tune(args) -> int:
             clearance_weight=args.clearance_weight,
             on_evaluation=on_evaluation,
             sigma0=args.sigma,
+            engine=getattr(args, "engine", "pymunk"),
+            on_fallback=lambda message: console.print(f"fuzzynav: {message}"),
         )
     elapsed = time.perf_counter() - start
     header = (

@@ -203,9 +203,11 @@ def test_keyboard_interrupt_after_k_rows_keeps_them_and_resume_completes(
     tmp_path, capsys, monkeypatch
 ):
     """Ctrl-C injected after 2 finished runs: exit 130, the 2 rows kept, a message; then
-    --resume runs only the other 2 and ends equal to an uninterrupted sweep."""
+    --resume runs only the other 2 and ends equal to an uninterrupted sweep. (The pymunk
+    engine: the interrupt is injected into its per-run task; the batch engine's resume is
+    tests/test_batch.py's.)"""
     out = tmp_path / "runs.jsonl"
-    assert main(_sweep(tmp_path, "--executor", "serial")) == 0
+    assert main(_sweep(tmp_path, "--engine", "pymunk", "--executor", "serial")) == 0
     uninterrupted = json.loads(capsys.readouterr().out)["runs"]
     real = experiments.run_layout
     calls = []
@@ -217,14 +219,31 @@ def test_keyboard_interrupt_after_k_rows_keeps_them_and_resume_completes(
         return real(job)
 
     monkeypatch.setattr(experiments, "run_layout", interrupted_after_two)
-    assert main(_sweep(tmp_path, "--executor", "serial", "--out", str(out))) == 130
+    assert (
+        main(_sweep(tmp_path, "--engine", "pymunk", "--executor", "serial", "--out", str(out)))
+        == 130
+    )
     err = capsys.readouterr().err
     assert f"interrupted: 2 of 4 runs are in {out}" in err and "--resume" in err
     assert [r["index"] for r in _lines(out)] == [0, 1]
     monkeypatch.setattr(experiments, "run_layout", real)
     ran = []
     monkeypatch.setattr(experiments, "run_layout", lambda job: ran.append(job.index) or real(job))
-    assert main(_sweep(tmp_path, "--executor", "serial", "--out", str(out), "--resume")) == 0
+    assert (
+        main(
+            _sweep(
+                tmp_path,
+                "--engine",
+                "pymunk",
+                "--executor",
+                "serial",
+                "--out",
+                str(out),
+                "--resume",
+            )
+        )
+        == 0
+    )
     assert ran == [2, 3]
     assert json.loads(capsys.readouterr().out)["runs"] == uninterrupted
     assert [r["index"] for r in _lines(out)] == [0, 1, 2, 3]

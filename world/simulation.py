@@ -40,6 +40,7 @@ import numpy as np
 
 from fuzzynav.world.arena import Arena, Collision
 from fuzzynav.world.husky import N_STATES, HuskyModel
+from fuzzynav.world.husky import step_product as _step_product
 from fuzzynav.world.metrics import compute_metrics
 from fuzzynav.world.perception import Perception, check_geometry
 from fuzzynav.world.scenario import Scenario
@@ -342,6 +343,7 @@ class Simulation:
         self._pending: dict | None = None
         self._plant = (None, None, None)  # (model, dt, step matrix or None)
         self._z = np.empty(N_STATES + 2)  # [x; u] for the plant's step product
+        self._z_row = self._z[None, :]  # the same memory as one row
 
     @property
     def time_s(self) -> float:
@@ -481,7 +483,8 @@ class Simulation:
     ) -> tuple[float, float]:
         """``HuskyModel.step`` on floats: sets ``self.x``, returns the step-mean forward
         speed and yaw rate. The same (12 x 8) product with the same ``[x; u]`` as
-        ``HuskyModel.step``, so the same numbers, without its per-call overheads."""
+        ``HuskyModel.step`` and the batch engine (``world.husky.step_product``), so the
+        same numbers, without its per-call overheads."""
         model = self.model
         cached_model, cached_dt, matrix = self._plant
         if model is not cached_model or dt != cached_dt:
@@ -492,7 +495,8 @@ class Simulation:
             return float(x_mean[2]), float(x_mean[3])
         z = self._z
         _PACK_XU(z, 0, *x_list, v_left, v_right)  # z = [x; u], without building an array
-        result = np.dot(matrix, z)
+        # the batch engine's product too (world.husky.step_product): the same bits
+        result = _step_product(matrix, self._z_row)[0]
         self.x = result[:N_STATES]
         mean = result[N_STATES + 2 : N_STATES + 4].tolist()
         return mean[0], mean[1]

@@ -1,0 +1,438 @@
+"""Studies on the lockstep batch engine (:mod:`world.batch`): sweeps' rows, executor
+tasks, and the Python entry point a notebook calls.
+
+``--engine batch`` (the default of ``sweep``, ``compare``, ``tune`` and ``fit-paper``)
+puts a study's runs into batches of up to :data:`MAX_BATCH` runs; each batch is one
+executor task (:func:`run_task`), so batches spread over a local pool or a Dask
+cluster as single runs do. A row depends only on its job: the batch engine computes
+every run's numbers row by row (no operation mixes runs), so a run gives the same bits
+whatever batch it is in, and ``--resume`` and any number of workers give the same
+rows (tests/test_batch.py).
+
+Controllers the batch engine cannot drive (:data:`controller.batch.BATCHABLE` lists
+the ones it can) run on the pymunk engine, one task per run, and the command says so.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+ENGINES = ("batch", "pymunk")
+#: Runs per batch task at most: a batch's arrays stay in the cache's neighbourhood, and
+#: Ctrl-C loses at most one batch per worker.
+MAX_BATCH = 1000
+#: Runs per batch task at least (when there are that many): below it, a step's fixed
+#: cost (a few hundred numpy calls) outweighs the runs it advances.
+MIN_BATCH = 100
+#: The options of app.runs.build_simulation a batch takes.
+_RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m")
+
+
+def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
+    """Why ``controller`` (a registry name) cannot run on the batch engine, or None."""
+    from fuzzynav.controller.batch import BATCHABLE
+
+    options = dict(options or {})
+    if controller not in BATCHABLE:
+        return (
+            f"controller {controller!r} cannot be batched (the batch engine drives "
+            f"{', '.join(BATCHABLE)}: stateless controllers; fuzzynav's navigator keeps a "
+            "memory and plans)"
+        )
+    if parts_off:
+        return f"parts_off {list(parts_off)}: only fuzzynav has parts to switch off"
+    unknown = sorted(set(options) - set(_RUN_OPTIONS))
+    if unknown:
+        return f"options {unknown}: the batch engine takes {', '.join(_RUN_OPTIONS)}"
+    return None
+
+
+def _scenario(job):
+    from fuzzynav.world.layouts import generate_layout
+
+    scenario = generate_layout(job.family, job.seed, job.index)
+    if dict(job.options).get("geometry") == "paper" and scenario.paper_heading_rad is not None:
+        # as app.runs.build_simulation: the paper's geometry starts at its fitted heading
+        scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
+    return scenario
+
+
+def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:
+    """The row of ``job`` from its run's ``metrics`` (:func:`world.metrics.compute_metrics`
+    keys): one function for both engines (pymunk and :mod:`world.batch`)."""
+    from types import SimpleNamespace
+
+    from fuzzynav.app.resultlog import finite_or_none
+
+    m = metrics
+    options = dict(job.options)
+    straight = math.dist(scenario.start, scenario.target)
+    run = SimpleNamespace(scenario=scenario, metrics=m, geometry=options.get("geometry", "husky"))
+    row = {
+        "index": job.index,
+        "controller": job.controller,
+        "parts_off": list(job.parts_off),
+        "family": job.family,
+        "seed": job.seed,
+        "perception": job.perception,
+        **({"options": options} if options else {}),
+        "outcome": m["outcome"],
+        "reached": bool(m["reached"]),
+        "collided": bool(m["collided"]),
+        "success": bool(m["reached"] and not m["collided"]),
+        "path_length_m": m["path_length_m"],
+        "straight_line_m": straight,
+        "straight_ratio": m["path_length_m"] / straight,
+        "min_clearance_m": m["min_clearance_m"],
+        "min_safety_distance_m": m.get("min_safety_distance_m", m["min_clearance_m"]),
+        "time_to_target_s": m["time_to_target_s"],
+        "n_obstacles": len(scenario.obstacles),
+        **run_benchmark(run, model, voltage_limit_v),
+    }
+    return finite_or_none(row)
+
+
+def run_benchmark(result, model, voltage_limit_v: float) -> dict:
+    """The benchmark metrics of a finished run (world/metrics.py): the shortest path
+    of its scenario keeping the clearance, for ``model``'s footprint width, and that
+    plant's top speed at ``voltage_limit_v``."""
+    from fuzzynav.world.metrics import benchmark_metrics, top_speed_mps
+    from fuzzynav.world.shortest_path import robot_shortest_path_m
+
+    sc = result.scenario
+    m = result.metrics
+    # the paper's geometry drives a point robot: the clearance alone inflates obstacles
+    point = getattr(result, "geometry", "husky") == "paper"
+    width_m = 0.0 if point else model.parameters.footprint_width_m
+    shortest = robot_shortest_path_m(sc.start, sc.target, sc.obstacles, width_m)
+    return benchmark_metrics(
+        success=bool(m["reached"] and not m["collided"]),
+        path_length_m=m["path_length_m"],
+        time_to_target_s=m["time_to_target_s"],
+        shortest_path_m=shortest,
+        top_speed_mps=top_speed_mps(model, voltage_limit_v),
+    )
+
+
+def run_layout_batch(jobs: Sequence) -> list[dict]:
+    """The rows of ``jobs`` (:class:`app.experiments.LayoutJob`, one controller,
+    perception and options), run together on the batch engine; in the jobs' order.
+    Top level: what an executor sends to a worker."""
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.husky import HuskyModel
+    from fuzzynav.world.sensors import SensorConfig
+
+    jobs = list(jobs)
+    first = jobs[0]
+    study = (first.controller, first.perception, first.parts_off, first.options)
+    for job in jobs:
+        if (job.controller, job.perception, job.parts_off, job.options) != study:
+            raise ValueError(f"one batch runs one study: {job} differs from {first}")
+    reason = not_batchable_reason(first.controller, first.parts_off, dict(first.options))
+    if reason is not None:
+        raise ValueError(reason)
+    options = dict(first.options)
+    geometry = options.get("geometry", "husky")
+    scenarios = [_scenario(job) for job in jobs]
+    model = HuskyModel.default()
+    result = run_batch(
+        scenarios,
+        batch_controller(make_controller(first.controller, geometry=geometry)),
+        perception=first.perception,
+        geometry=geometry,
+        seeds=[job.seed for job in jobs],
+        model=model,
+        control_period_s=options.get("control_period_s", 0.02),
+        sensor_config=SensorConfig(noise_std_m=options.get("sensor_noise_std_m", 0.0)),
+    )
+    return [
+        layout_row(job, scenario, result.metrics(i), model, 12.0)
+        for i, (job, scenario) in enumerate(zip(jobs, scenarios))
+    ]
+
+
+def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
+    """The executor items of ``jobs`` on the batch engine, and what falls back.
+
+    Jobs of one study (controller, perception, parts off, options) are cut into batches
+    of :data:`MIN_BATCH` to :data:`MAX_BATCH` runs, about two per worker; jobs whose
+    controller cannot be batched become one pymunk task each. Returns (items, one
+    message per study that fell back to the pymunk engine).
+    """
+    studies: dict[tuple, list] = {}
+    for job in jobs:
+        studies.setdefault((job.controller, job.perception, job.parts_off, job.options), []).append(
+            job
+        )
+    items, fallbacks = [], []
+    for (controller, _, parts_off, options), group in studies.items():
+        reason = not_batchable_reason(controller, parts_off, dict(options))
+        if reason is not None:
+            fallbacks.append(f"{reason}: its {len(group)} runs use the pymunk engine")
+            items += [("pymunk", job) for job in group]
+            continue
+        size = math.ceil(len(group) / (2 * max(1, workers)))
+        size = max(min(MIN_BATCH, len(group)), min(MAX_BATCH, size))
+        size = math.ceil(len(group) / math.ceil(len(group) / size))  # even batches
+        items += [("batch", tuple(group[k : k + size])) for k in range(0, len(group), size)]
+    return items, fallbacks
+
+
+def run_layouts(
+    family: str = "standard",
+    n: int = 100,
+    seed: int = 1,
+    *,
+    controller="paper",
+    perception: str = "ideal",
+    geometry: str = "husky",
+    indices: Sequence[int] | None = None,
+    **run_options,
+):
+    """Run layouts of a family on the batch engine: the Python entry point (a notebook's).
+
+    Parameters
+    ----------
+    family, seed : str, int
+        The layouts (:mod:`world.layouts`).
+    n : int
+        Layouts 0 .. n-1 (ignored when ``indices`` is given).
+    controller : str, controller, or sequence of controllers
+        A registry name (``paper``, ``baseline``, ``p``), a controller object, or one
+        controller per run (a tuning generation: one structure, per-run parameters).
+    perception, geometry : str
+        As :class:`world.simulation.Simulation`.
+    indices : sequence of int, optional
+        The layout indices to run.
+    **run_options
+        Further keywords of :func:`world.batch.run_batch` (``control_period_s``,
+        ``seeds``, ``sensor_config``, ``record_poses``, ``max_duration_s``...).
+
+    Returns
+    -------
+    world.batch.BatchResult
+        Arrays (N,): ``outcome`` (indices into ``OUTCOMES``; ``.outcomes`` as words),
+        ``collided``, ``path_length_m``, ``min_clearance_m``, ``time_to_target_s``...;
+        ``metrics(i)`` for one run as a dict.
+    """
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.layouts import generate_layout
+
+    indices = list(range(n)) if indices is None else [int(i) for i in indices]
+    scenarios = [generate_layout(family, seed, i) for i in indices]
+    if geometry == "paper":
+        scenarios = [
+            dataclasses.replace(s, heading_rad=s.paper_heading_rad)
+            if s.paper_heading_rad is not None
+            else s
+            for s in scenarios
+        ]
+    if isinstance(controller, str):
+        ctrl = batch_controller(make_controller(controller, geometry=geometry))
+    elif isinstance(controller, (list, tuple)):
+        if len(controller) != len(scenarios):
+            raise ValueError(f"controller: {len(controller)} controllers for {len(scenarios)} runs")
+        ctrl = batch_controller(list(controller), np.arange(len(controller)))
+    else:
+        ctrl = batch_controller(controller)
+    run_options.setdefault("seeds", seed)
+    return run_batch(scenarios, ctrl, perception=perception, geometry=geometry, **run_options)
+
+
+def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[float]:
+    """:class:`app.tuning.Objective`'s cost of every vector, all candidates x cases on
+    the batch engine (one batch per perception mode); the same per-run cost
+    (``cost_function``: :func:`app.tuning.outcome_cost`, given by the caller so that this
+    module does not import app.tuning) and holes penalty, tuning's stall rule after
+    ``stall_s`` s. Top level: an executor task."""
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.world.batch import run_batch
+
+    vectors = [np.asarray(v, dtype=float) for v in vectors]
+    costs = [0.0] * len(vectors)
+    built, controllers = [], []
+    for k, vector in enumerate(vectors):
+        try:
+            controller = objective.tunable.build(objective.full(vector))
+        except ValueError:  # an invalid shape, as Objective.__call__ prices it
+            costs[k] = 1e3
+            continue
+        built.append(k)
+        controllers.append(controller)
+    if not built:
+        return costs
+    # per candidate, its runs' costs in the cases' order (as Objective.__call__ averages)
+    per_case = {k: [0.0] * len(objective.cases) for k in built}
+    for perception in dict.fromkeys(c.perception for c in objective.cases):
+        chosen = [j for j, c in enumerate(objective.cases) if c.perception == perception]
+        scenarios = [objective.cases[j].scenario for _ in built for j in chosen]
+        run_sets = np.repeat(np.arange(len(built)), len(chosen))
+        result = run_batch(
+            scenarios,
+            batch_controller(controllers, run_sets),
+            perception=perception,
+            control_period_s=objective.control_period_s,
+            seeds=0,
+            stall_s=stall_s,
+        )
+        outcomes = result.outcomes
+        for i, scenario in enumerate(scenarios):
+            k = built[int(run_sets[i])]
+            per_case[k][chosen[i % len(chosen)]] = cost_function(
+                scenario,
+                outcomes[i],
+                bool(result.collided[i]),
+                result.metrics(i),
+                float(result.min_target_distance_m[i]),
+                float(result.final_target_distance_m[i]),
+                perception,
+                objective.clearance_weight,
+            )
+    for k, controller in zip(built, controllers):
+        costs[k] = float(np.mean(per_case[k])) + objective.penalty(controller)
+    return costs
+
+
+def batch_mapper(objective, probe_vector, executor, cost_function, stall_s: float):
+    """A map-like ``mapper(function, vectors) -> costs`` for DE and CMA-ES that runs a
+    whole generation on the batch engine (split over ``executor``'s workers, each part
+    one task), and None with the reason when the tunable's controller cannot be
+    batched. ``probe_vector`` is built once to ask."""
+    import functools
+
+    from fuzzynav.controller.batch import NotBatchable, batch_controller
+
+    try:
+        batch_controller(objective.tunable.build(objective.full(probe_vector)))
+    except NotBatchable as exc:
+        return None, f"{exc}: tuning on the pymunk engine"
+    task = functools.partial(objective_costs, objective, cost_function, stall_s)
+
+    def mapper(_function, vectors):
+        vectors = list(vectors)
+        workers = 1 if executor is None or executor.kind == "serial" else executor.workers
+        if workers <= 1 or len(vectors) < 2:
+            return task(vectors)
+        size = math.ceil(len(vectors) / workers)
+        parts = [vectors[k : k + size] for k in range(0, len(vectors), size)]
+        return [cost for part in executor.map(task, parts) for cost in part]
+
+    return mapper, None
+
+
+def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
+    """:meth:`app.paper_fit.FitCost.measure_all` of every vector on the batch engine:
+    every candidate x s1-s3 in one batch (the paper's point robot, ideal perception,
+    the fit's period, cap and stall rule); None for a vector that builds no system."""
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.fis_controller import FisController
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.scenario import load_scenario
+
+    out: list = [None] * len(vectors)
+    built, controllers, scenarios = [], [], []
+    for k, vector in enumerate(vectors):
+        vector = np.asarray(vector, dtype=float)
+        try:
+            system = fit_cost.tunable.system(vector[:-1])
+        except ValueError:
+            continue
+        built.append(k)
+        controllers.append(FisController(system, name="paper"))
+        for name in scenario_names:
+            scenario = dataclasses.replace(load_scenario(name), heading_rad=float(vector[-1]))
+            if fit_cost.stall_s is not None:  # as app.paper_fit.run_paper_geometry
+                scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
+            scenarios.append(scenario)
+    if not built:
+        return out
+    run_sets = np.repeat(np.arange(len(built)), len(scenario_names))
+    result = run_batch(
+        scenarios,
+        batch_controller(controllers, run_sets),
+        perception="ideal",
+        geometry="paper",
+        control_period_s=fit_cost.control_period_s,
+        model=fit_cost.model,
+        stall_s=fit_cost.stall_s,
+        trace=True,
+    )
+    for i, scenario in enumerate(scenarios):
+        m = result.metrics(i)
+        n_obstacles = len(scenario.obstacles)
+        measured = {
+            "scenario": scenario_names[i % len(scenario_names)],
+            "reached": m["reached"],
+            "collided": m["collided"],
+            "time_to_target_s": m["time_to_target_s"],
+            "path_length_m": m["path_length_m"],
+            "mad_m": m["mad_m"],
+            "rmse_m": m["rmse_m"],
+            "min_center_distance_m": m["min_center_distance_m"],
+            "passes": [
+                (
+                    float(result.closest_center_time_s[i, j]),
+                    float(result.closest_center_distance_m[i, j]),
+                )
+                for j in range(n_obstacles)
+            ],
+            "chatter_steps": m["voltage_jumps"],
+            "final_phi_t_rad": float(result.final_phi_t_rad[i]),
+            "final_distance_m": float(result.final_target_distance_m[i]),
+            "closest_to_target_m": float(result.min_target_distance_m[i]),
+            "max_voltage_v": tuple(float(v) for v in result.max_voltage_v[i]),
+        }
+        k = built[int(run_sets[i])]
+        out[k] = (out[k] or []) + [measured]
+    return out
+
+
+def fit_costs(fit_cost, run_cost, scenario_names, vectors) -> list[float]:
+    """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine
+    (``run_cost``, ``scenario_names``: app.paper_fit's, given by the caller so that this
+    module does not import it; top level: a pool task)."""
+    costs = []
+    for measures in fit_measures(fit_cost, scenario_names, vectors):
+        if measures is None:
+            costs.append(1e6)  # as FitCost: a candidate that cannot run
+        else:
+            costs.append(sum(run_cost(m, fit_cost.paper) for m in measures))
+    return costs
+
+
+def fit_mapper(fit_cost, run_cost, scenario_names, pool_map=None, workers: int = 1):
+    """A map-like ``mapper(function, vectors)`` for the fit's CMA-ES or DE: a whole
+    generation as one batch (or one per worker through ``pool_map``)."""
+    import functools
+
+    task = functools.partial(fit_costs, fit_cost, run_cost, tuple(scenario_names))
+
+    def mapper(_function, vectors):
+        vectors = list(vectors)
+        if pool_map is None or workers <= 1 or len(vectors) < 2:
+            return task(vectors)
+        size = math.ceil(len(vectors) / workers)
+        parts = [vectors[k : k + size] for k in range(0, len(vectors), size)]
+        return [cost for part in pool_map(task, parts) for cost in part]
+
+    return mapper
+
+
+def add_engine_option(parser) -> None:
+    """``--engine batch|pymunk`` (docs/experiments.md)."""
+    parser.add_argument(
+        "--engine",
+        choices=("batch", "pymunk"),
+        default="batch",
+        help="batch: thousands of runs at once as numpy arrays (world/batch.py; paper, "
+        "baseline and p); pymunk: one world at a time, the reference (default batch; "
+        "controllers the batch engine cannot drive run on pymunk, said on stderr)",
+    )
