@@ -202,20 +202,23 @@ class LocalExecutor(Executor):
             )
         self._pool = None
 
-    def _get_pool(self):
+    def _get_pool(self, tasks: int | None = None):
         if self._pool is None:
             context = multiprocessing.get_context(self.start_method)
             if self.start_method == "forkserver":
                 context.set_forkserver_preload(list(WORKER_PRELOAD))
+            # never more processes than the first use has tasks for (tune maps the same
+            # number every generation)
+            processes = self.workers if tasks is None else max(1, min(self.workers, tasks))
             with _single_threaded_children():  # the fork server and workers start here
-                self._pool = context.Pool(self.workers, initializer=_worker_init)
+                self._pool = context.Pool(processes, initializer=_worker_init)
         return self._pool
 
     def _chunked(self, function, items, size):
         if not items:
             return
-        pool = self._get_pool()
         packed = [(function, start, chunk) for start, chunk in _chunks(items, size)]
+        pool = self._get_pool(len(packed))
         try:
             yield from pool.imap_unordered(_pool_task, packed)
         except BaseException:
@@ -299,9 +302,15 @@ class DaskExecutor(Executor):
             self._cluster = None
 
 
+#: The most worker processes (or, with a scheduler, chunks in flight per round) one
+#: command asks for: each process holds ~100 MB, and 150 of them on a laptop are a
+#: typing slip, not a plan.
+MAX_WORKERS = 256
+
+
 def _check_workers(workers) -> int:
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
+        raise ValueError(f"workers = {workers!r}: must be an integer from 1 to {MAX_WORKERS}")
     return workers
 
 
@@ -341,7 +350,7 @@ def add_executor_options(parser) -> None:
     )
     parser.add_argument(
         "--workers",
-        type=integer_in(1),
+        type=integer_in(1, MAX_WORKERS),
         default=None,
         metavar="N",
         help=f"worker processes (default: the CPUs this process may use, here "
@@ -356,12 +365,16 @@ def add_executor_options(parser) -> None:
     )
 
 
-def executor_from_args(args) -> Executor:
+def executor_from_args(args, jobs: int | None = None) -> Executor:
     """The executor the parsed ``--executor/--workers/--scheduler`` ask for; bad values
-    are a UsageError (exit status 2)."""
+    are a UsageError (exit status 2). ``jobs``: how many items it will run; never more
+    worker processes are started on this machine (``--workers 150 --n 1`` starts one)."""
     from fuzzynav.app.cli import UsageError
 
+    workers = args.workers
+    if jobs is not None and args.scheduler is None and args.executor != "serial":
+        workers = max(1, min(workers if workers is not None else available_cpus(), jobs))
     try:
-        return make_executor(args.executor, args.workers, args.scheduler)
+        return make_executor(args.executor, workers, args.scheduler)
     except ValueError as exc:
         raise UsageError(str(exc)) from None

@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.safe_files import atomic_output, write_text_atomically
+
 SAFE_DISTANCE_M = 0.25
 FORMATS = ("png", "svg")
 RUN_FIGURES = ("trajectory", "distances", "angles", "obstacle_angles", "voltages")
@@ -100,7 +102,9 @@ def _save(fig, out_dir: Path, name: str, formats=FORMATS) -> list[Path]:
     paths = []
     for ext in formats:
         path = out_dir / f"{name}.{ext}"
-        fig.savefig(path, dpi=DPI, format=ext, metadata=_metadata(ext))
+        # whole or not at all: a full disk left a truncated PNG over the good one
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, format=ext, metadata=_metadata(ext))
         paths.append(path)
         # The layout is done (it is the costly part of a save): keep it for the others.
         fig.set_layout_engine("none")
@@ -640,7 +644,8 @@ def write_membership_overview(
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=90, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path
 
@@ -980,7 +985,7 @@ def write_figure_index(entries, root) -> Path:
             f"| {number} | {e.what} | {e.scenario} | {e.controller} | {e.geometry} | {links} |"
         )
     path = root / "index.md"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text_atomically(path, "\n".join(lines) + "\n")
     return path
 
 

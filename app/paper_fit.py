@@ -18,12 +18,12 @@ import dataclasses
 import math
 import re
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from fuzzynav.resources import asset_path
+from fuzzynav.safe_files import write_text_atomically
 
 RESULTS_PATH = asset_path("paper", "results.toml")
 SCENARIOS = ("s1", "s2", "s3")
@@ -39,8 +39,9 @@ CHATTER_FREE_STEPS = 10
 
 def paper_results(path: str | Path = RESULTS_PATH) -> dict:
     """The paper's numbers: ``{"table4": {s: {...}}, "events": {s: [...]}}``."""
-    with Path(path).open("rb") as fh:
-        return tomllib.load(fh)
+    from fuzzynav.resources import loads_user_toml, read_user_text
+
+    return loads_user_toml(read_user_text(path, "results file"), str(path))
 
 
 def closest_approaches(time_s, center_distance_m) -> list[tuple[float, float]]:
@@ -212,9 +213,8 @@ def _write_checkpoint(path, names, x, cost, generation) -> None:
     values = dict(zip(names, [float(v) for v in x[:-1]]))
     values["initial_heading_rad"] = float(x[-1])
     line = ", ".join(f"{k}={v!r}" for k, v in values.items())
-    Path(path).write_text(
-        f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n",
-        encoding="utf-8",
+    write_text_atomically(
+        path, f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n"
     )
 
 
@@ -341,8 +341,9 @@ def _row(scenario, quantity, paper_value, fitted):
 def read_fitted(path: str | Path) -> tuple[np.ndarray, float]:
     """(partition vector, initial heading) from a fitted file's 'tuned vector:' line."""
     from fuzzynav.controller.paper_partition import PARTITION_PARAMETERS
+    from fuzzynav.resources import read_user_text
 
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
+    for line in read_user_text(path, "fitted rule base").splitlines():
         if line.startswith("# tuned vector:"):
             values = dict(re.findall(r"([\w.]+)=(?:np\.float64\()?([-+0-9.eE]+)", line))
             try:
@@ -411,7 +412,7 @@ def cmd_fit_paper(args) -> int:
     [path] = tunable.save(vector, out, header=header)
     text = path.read_text(encoding="utf-8")
     text = text.replace("\n\n[system]", f", initial_heading_rad={heading!r}\n\n[system]", 1)
-    path.write_text(text, encoding="utf-8")
+    write_text_atomically(path, text)
     summary = {
         "out": str(path),
         "cost": best,

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.safe_files import write_text_atomically
 from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
@@ -265,8 +266,8 @@ def write_report(
         "controllers": list(controllers),
         "rows": rows,
     }
-    (out / "table4.json").write_text(json.dumps(table, indent=2), encoding="utf-8")
-    (out / "table4.md").write_text(_markdown(rows, perception), encoding="utf-8")
+    write_text_atomically(out / "table4.json", json.dumps(table, indent=2))
+    write_text_atomically(out / "table4.md", _markdown(rows, perception))
     if readme_images is not None:
         _copy_readme_images(out, fig_dir, Path(readme_images), controllers, geometries)
     return table

@@ -62,6 +62,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.resources import escape_controls
+from fuzzynav.safe_files import write_text_atomically
+
 SAFE_CLEARANCE_M = 0.25
 CLEARANCE_MARGIN_M = 0.05
 
@@ -270,7 +273,10 @@ def reproduce_command(args) -> str:
 def read_vector(path: Path, names: list[str]) -> np.ndarray:
     """A starting vector from a rule base's ``tuned vector:`` header line (by name) or
     from a ``--checkpoint`` file (whitespace-separated numbers, in order)."""
-    text = Path(path).read_text(encoding="utf-8")
+    from fuzzynav.resources import read_user_text
+
+    # the one safe reader: a FIFO given as --x0 hung here, /dev/zero filled the memory
+    text = read_user_text(path, "starting vector (rule base or checkpoint)")
     for line in text.splitlines():
         if line.startswith("# tuned vector:"):
             pairs = dict(item.strip().split("=") for item in line.split(":", 1)[1].split(","))
@@ -673,7 +679,16 @@ def cmd_tune(args) -> int:
         def on_generation(gen, best, x):
             history.append(best)
             if args.checkpoint is not None:  # best so far, in case the run must be cut short
-                args.checkpoint.write_text(" ".join(repr(float(v)) for v in x) + "\n")
+                try:  # whole or not at all: the last good checkpoint survives a full disk
+                    write_text_atomically(
+                        args.checkpoint, " ".join(repr(float(v)) for v in x) + "\n"
+                    )
+                except OSError as exc:  # a checkpoint is insurance: the tuning goes on
+                    console.print(
+                        f"fuzzynav: warning: --checkpoint {escape_controls(str(args.checkpoint))}"
+                        f" not written at {step} {gen} ({exc.strerror or exc}); the one "
+                        "before is unchanged; tuning goes on"
+                    )
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
                 console.print(
@@ -712,7 +727,7 @@ def cmd_tune(args) -> int:
             if path.suffix == ".toml":
                 text = path.read_text(encoding="utf-8")
                 note = "".join(f"# {line}\n" for line in header.splitlines())
-                path.write_text(note + text, encoding="utf-8")
+                write_text_atomically(path, note + text)
     out = {
         "controller": t.name,
         "cost": float(result.fun),
