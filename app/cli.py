@@ -102,6 +102,23 @@ def scenario_label(name_or_path: str) -> str:
     return path.stem if path.parent.name == "scenarios" and path.exists() else str(name_or_path)
 
 
+def run_inputs(args) -> list[Path]:
+    """The files a ``run`` reads (its scenario file, its ``--fis``): no output of the run
+    may be one of them."""
+    from fuzzynav.world.scenario import resolve_scenario_path
+
+    found = []
+    scenario = getattr(args, "scenario", None)
+    if scenario is not None:
+        try:
+            found.append(resolve_scenario_path(scenario))
+        except (OSError, ValueError):
+            pass
+    if getattr(args, "fis", None) is not None:
+        found.append(Path(args.fis))
+    return found
+
+
 def add_run_options(parser: argparse.ArgumentParser) -> None:
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.perception import PERCEPTION_MODES

@@ -72,7 +72,10 @@ OBSTACLE_COLORS = [
 def check_writable_dir(path, option: str = "--figures") -> Path:
     """Create ``path`` if needed and make sure files can be written in it; ValueError
     with the reason otherwise."""
+    from fuzzynav.safe_files import refuse_installed
+
     path = Path(path)
+    refuse_installed(path, option)  # never among the shipped rule bases and scenarios
     if path.exists() and not path.is_dir():
         raise ValueError(f"{option} {path}: exists and is not a directory")
     try:

@@ -367,6 +367,11 @@ def cmd_fit_paper(args) -> int:
     out = args.out if args.out is not None else Path.cwd() / "paper_table4.toml"
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: folder {out.parent} does not exist")
+    from fuzzynav.app.tuning import check_output_file
+
+    check_output_file(out, "--out", [args.x0])  # not its --x0, nor a shipped rule base
+    if args.checkpoint is not None:
+        check_output_file(args.checkpoint, "--checkpoint", [out])
     x0 = None
     if args.x0 is not None:
         vector, heading = read_fitted(args.x0)

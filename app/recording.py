@@ -1546,9 +1546,16 @@ def write_recording_bytes(path, data: bytes) -> Path:
     renamed over ``path`` only when complete (:mod:`app.safe_files`). A full disk or an
     unwritable folder raises :class:`RecordingError` and leaves ``path`` as it was; an
     interrupt (Ctrl-C) removes the temporary file and propagates."""
-    from fuzzynav.app.safe_files import commit, discard, temporary_beside
+    from fuzzynav.safe_files import commit, discard, is_stream_target, temporary_beside
 
     path = Path(path)
+    if is_stream_target(path):  # never renamed over: written as it goes (issue 26)
+        from fuzzynav.safe_files import write_bytes_atomically
+
+        try:
+            return write_bytes_atomically(path, data)
+        except OSError as exc:
+            raise _not_written(path, exc.strerror or str(exc)) from None
     try:
         tmp = temporary_beside(path)
     except OSError as exc:
@@ -1609,7 +1616,10 @@ def record_run(
     log = result.log
     import rerun as rr
 
-    check_writable_file(path)
+    from fuzzynav.safe_files import is_stream_target
+
+    if not is_stream_target(path):  # a pipe or a terminal is written as a stream
+        check_writable_file(path)
     # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
     # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
     rec = rr.RecordingStream(application_id(scenario, controller))
@@ -1930,9 +1940,10 @@ def run_hook(args, sim):
     path = getattr(args, "rrd", None)
     if path is None:
         return None
-    from fuzzynav.app.safe_files import partial_path
+    from fuzzynav.app.cli import run_inputs
+    from fuzzynav.safe_files import check_output_path, partial_path
 
-    check_writable_file(path)
+    check_output_path(path, "--rrd", run_inputs(args))  # not an input, nor a shipped file
     argv = command_line()
 
     def write(result, interrupted: bool) -> None:

@@ -434,16 +434,22 @@ def tune(
     return result
 
 
-def check_output_file(path: Path, option: str) -> Path:
+def check_output_file(path: Path, option: str, inputs=()) -> Path:
     """Refuse (UsageError) an output path that cannot be written: a directory, a
     missing or read-only folder. Creates nothing that stays."""
     import tempfile
 
     from fuzzynav.app.cli import UsageError
+    from fuzzynav.safe_files import check_output_path
 
     path = Path(path)
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a directory, not a file")
+    try:  # not the --x0 it starts from, nor a shipped rule base, nor a device
+        check_output_path(path, option, inputs, stream_ok=False)
+    except ValueError as exc:
+        if "does not exist" not in str(exc) and "cannot write there" not in str(exc):
+            raise UsageError(str(exc)) from None
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"{option} {path}: folder {parent} does not exist")
@@ -615,9 +621,9 @@ def cmd_tune(args) -> int:
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"
     # Before the tuning: an hour of tuning must not end in "cannot write there".
-    check_output_file(args.out, "--out")
+    check_output_file(args.out, "--out", [args.x0])
     if args.checkpoint is not None:
-        check_output_file(args.checkpoint, "--checkpoint")
+        check_output_file(args.checkpoint, "--checkpoint", [args.out])
     for name in ("clearance_weight", "radius"):
         value = getattr(args, name)
         if value is not None and not math.isfinite(value):  # called from code, not argparse

@@ -36,11 +36,13 @@ __all__ = [
     "commit",
     "discard",
     "write_bytes_atomically",
+    "write_chunks_atomically",
     "write_text_atomically",
     "atomic_output",
     "check_writable_file",
     "check_output_path",
     "installed_package_dir",
+    "refuse_installed",
     "is_stream_target",
 ]
 
@@ -148,20 +150,34 @@ def _write_stream(path, chunks: Iterable[bytes]) -> Path:
     return Path(path)
 
 
-def write_bytes_atomically(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` whole or not at all (OSError on failure; the old file
-    stays); a pipe or a terminal gets it through a stream."""
-    if is_stream_target(path):
-        return _write_stream(path, [data])
-    _refuse_non_regular(_target(path))
-    tmp = temporary_beside(path)
+def write_chunks_atomically(path, chunks: Iterable[bytes]) -> Path:
+    """Write the ``chunks`` to ``path`` one after the other (a long file is never whole
+    in memory), whole or not at all: OSError on failure, naming ``path``, and the old
+    file stays. A pipe or a terminal gets them through a stream."""
     try:
-        with open(tmp, "wb") as stream:
-            stream.write(data)
-        return commit(tmp, path)
-    except BaseException:
-        discard(tmp, path)
-        raise
+        if is_stream_target(path):
+            return _write_stream(path, chunks)
+        _refuse_non_regular(_target(path))
+        tmp = temporary_beside(path)
+        try:
+            with open(tmp, "wb") as stream:
+                for chunk in chunks:
+                    stream.write(chunk)
+            return commit(tmp, path)
+        except BaseException:
+            discard(tmp, path)
+            raise
+    except OSError as exc:
+        if exc.filename is not None and Path(exc.filename) == Path(path):
+            raise
+        # a write error names no file (or the temporary one): name the user's
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+
+
+def write_bytes_atomically(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole or not at all (OSError naming ``path`` on
+    failure; the old file stays); a pipe or a terminal gets it through a stream."""
+    return write_chunks_atomically(path, [data])
 
 
 def write_text_atomically(path, text: str) -> Path:
@@ -209,6 +225,21 @@ def _assets_dir() -> Path | None:
         return None
 
 
+def refuse_installed(path, option: str) -> None:
+    """ValueError when ``path`` (links followed) is inside the installed package: its
+    shipped rule bases and scenarios are what every later run reads."""
+    from fuzzynav.resources import escape_controls
+
+    target = _target(path)
+    for root in {installed_package_dir(), _assets_dir()} - {None}:
+        if target == root or root in target.parents:
+            raise ValueError(
+                f"{option} {escape_controls(str(path))}: is inside the installed fuzzynav "
+                f"package ({root}); its shipped files are never written over: give a path "
+                "of your own"
+            )
+
+
 def check_output_path(path, option: str, inputs: Iterable = (), *, stream_ok: bool = True):
     """Raise ValueError (naming ``option``, the path and why) when ``path`` must not be
     written: one of the run's ``inputs`` (the same file, through links too), a file
@@ -219,12 +250,7 @@ def check_output_path(path, option: str, inputs: Iterable = (), *, stream_ok: bo
     path = Path(path)
     shown = escape_controls(str(path))
     target = _target(path)
-    for root in {installed_package_dir(), _assets_dir()} - {None}:
-        if target == root or root in target.parents:
-            raise ValueError(
-                f"{option} {shown}: is inside the installed fuzzynav package ({root}); "
-                "its shipped files are never written over: give a path of your own"
-            )
+    refuse_installed(path, option)
     for source in inputs:
         if source is None:
             continue
