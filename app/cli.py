@@ -12,8 +12,8 @@ Further sub-commands and ``run`` options come from the modules in
 
 Exit status: 0 when a run completed, whatever its outcome; 2 for bad input or a file
 that could not be read or written (a read-only folder, a full disk), with the error on
-stderr and no traceback; 130 after Ctrl-C (what was interrupted is said); 141 when the
-reader of stdout went away.
+stderr and no traceback; 130 after Ctrl-C (what was interrupted is said); 143 after
+SIGTERM (handled as Ctrl-C); 141 when the reader of stdout went away.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ try:  # a Ctrl-C while even these load ends quietly, as one in main() does
     import math
     import os
     import shlex
+    import signal
     import textwrap
     from pathlib import Path
 except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
@@ -37,6 +38,20 @@ except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # 128 + SIGTERM: `kill PID` ends a command as Ctrl-C does
+
+
+class _Terminated:
+    """Whether SIGTERM arrived during :func:`main` (it is then raised as Ctrl-C)."""
+
+    received = False
+
+
+def _on_sigterm(signum, frame):
+    # SIGTERM is handled as Ctrl-C everywhere (issue 26): every command's Ctrl-C path
+    # says what was kept and removes its temporary files; only the exit status differs.
+    _Terminated.received = True
+    raise KeyboardInterrupt
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
 
 
@@ -458,7 +473,24 @@ def describe_os_error(exc: OSError) -> str:
 
 def main(argv=None) -> int:
     """The command line; returns the exit status (see the module docstring). Ctrl-C at
-    any moment, from loading the libraries on, ends with a line, never a traceback."""
+    any moment, from loading the libraries on, ends with a line, never a traceback.
+    SIGTERM is the same as Ctrl-C, with exit status 143."""
+    _Terminated.received = False
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signals to whoever owns them
+        previous = None
+    try:
+        code = _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+    if code == EXIT_INTERRUPTED and _Terminated.received:
+        return EXIT_TERMINATED
+    return code
+
+
+def _main(argv) -> int:
     try:
         parser = build_parser()
         try:
@@ -467,7 +499,8 @@ def main(argv=None) -> int:
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         return _dispatch(args)
     except KeyboardInterrupt:
-        print("fuzzynav: interrupted", file=sys.stderr)
+        what = " (SIGTERM)" if _Terminated.received else ""
+        print(f"fuzzynav: interrupted{what}", file=sys.stderr)
         return EXIT_INTERRUPTED
 
 
