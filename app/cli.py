@@ -52,6 +52,8 @@ def _on_sigterm(signum, frame):
     # says what was kept and removes its temporary files; only the exit status differs.
     _Terminated.received = True
     raise KeyboardInterrupt
+
+
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
 
 
