@@ -64,7 +64,7 @@ def trace_rows(log):
 
 #: Rows encoded at a time: the text of a 2,000,000-step trace (about 400 MB) never sits
 #: in memory whole, only this many rows of it.
-TRACE_CHUNK_ROWS = 4096
+TRACE_CHUNK_ROWS = 256
 
 
 def _trace_chunks(log):

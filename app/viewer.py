@@ -676,6 +676,12 @@ class ViewerApp:
             )
         except ScenarioError as exc:
             raise ViewerError(str(exc)) from None
+        from fuzzynav.world.simulation import check_run_size
+
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
+            check_run_size(scenario.duration_s, self.sim.control_period_s, len(scenario.obstacles))
+        except ValueError as exc:
+            raise ViewerError(f"{label}: {exc}") from None
         self.uploaded_scenarios[label] = scenario
         self.load_scenario(label)
         return label

@@ -1,0 +1,113 @@
+"""Issue 26, memory, bindings and what reaches the terminal: a legal scenario that would
+exhaust the machine is refused before its first step (never run to find out), traces
+stream, .fis variables bind by name, bad option values and schedulers are one line,
+and control characters never reach the terminal. Each test failed before the issue."""
+
+from __future__ import annotations
+
+import math
+import time
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from fuzzynav.app.cli import main
+
+HEAD = 'name = "big"\nduration_s = {duration}\n[robot]\nstart = [0.0, 0.0]\n[target]\nposition = [10.0, 0.0]\n'
+
+
+def run_cli(capsys, *argv):
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err
+    return code, captured.err
+
+
+def many_obstacles(n: int, duration_s: float, moving: bool = False) -> str:
+    """A legal scenario: ``n`` obstacles on a grid far from the start and the target."""
+    side = math.ceil(math.sqrt(n))
+    rows = []
+    for k in range(n):
+        x, y = 20.0 + (k % side), 20.0 + (k // side)
+        speed = "velocity = [0.1, 0.0]\n" if moving else ""
+        rows.append(f"[[obstacles]]\nposition = [{x}, {y}]\nradius_m = 0.2\n{speed}")
+    return HEAD.format(duration=duration_s) + "".join(rows)
+
+
+# --------------------------------------------------------------------------- item 5
+
+
+@pytest.mark.parametrize("moving", [False, True])
+def test_a_legal_scenario_that_would_exhaust_memory_is_refused_before_its_first_step(
+    capsys, tmp_path, monkeypatch, moving
+):
+    """1,000 obstacles and 3,600 s reached 9.7 GB in 15 s and kept growing."""
+    from fuzzynav.world.simulation import MEMORY_BUDGET_BYTES, Simulation
+
+    def never(self):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(Simulation, "step", never)
+    path = tmp_path / "big.toml"
+    path.write_text(many_obstacles(1000, 3600.0, moving))
+    start = time.perf_counter()
+    code, err = run_cli(capsys, "run", path, "--controller", "p")
+    assert code == 2 and "180000 steps" in err and "x 1000 obstacles" in err
+    assert f"the {MEMORY_BUDGET_BYTES / 1024**3:g} GiB one run may use" in err
+    assert time.perf_counter() - start < 20
+
+
+def test_the_budget_is_the_log_s_size_and_ordinary_runs_pass():
+    from fuzzynav.world.simulation import MEMORY_BUDGET_BYTES, check_run_size, log_bytes
+
+    assert check_run_size(60.0, 0.02, 10) == pytest.approx(3000)
+    assert check_run_size(3600.0, 0.002, 3) == pytest.approx(1_800_000)  # an hour at 2 ms
+    assert log_bytes(180_000, 1000) > MEMORY_BUDGET_BYTES
+    with pytest.raises(ValueError, match="GiB"):
+        check_run_size(444.0 * 2, 0.02, 1000)
+
+
+def test_the_viewer_refuses_the_same_upload(tmp_path):
+    from fuzzynav.app.viewer import ViewerApp, ViewerError
+
+    app = ViewerApp("s1", "p")
+    with pytest.raises(ViewerError, match="GiB one run may use"):
+        app.upload_scenario(many_obstacles(1000, 3600.0).encode(), "big.toml")
+    assert app.uploaded_scenarios == {}  # the running world is left as it was
+
+
+class _FakeLog:
+    """A long run's log (what write_trace reads), without running it."""
+
+    def __init__(self, n: int):
+        rng = np.random.default_rng(0)
+        self.time_s = np.arange(n) * 0.001
+        self.pose = rng.normal(size=(n, 3))
+        self.inputs = rng.normal(size=(n, 4))
+        self.voltages_v = rng.normal(size=(n, 2))
+        self.controller_output_v = rng.normal(size=(n, 2))
+        self.disturbance = np.zeros(n)
+
+    def __len__(self):
+        return len(self.time_s)
+
+
+def test_the_trace_streams_its_rows(tmp_path):
+    """The trace was built whole in memory (a string of ~0.4 GB for a long run), then
+    written: its peak now is a chunk's, whatever the length."""
+    from fuzzynav.app.trace import TRACE_CHUNK_ROWS, write_trace
+
+    peaks = {}
+    for n in (5_000, 20_000):
+        log = _FakeLog(n)
+        tracemalloc.start()
+        write_trace(log, tmp_path / f"t{n}.csv")
+        peaks[n] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        lines = (tmp_path / f"t{n}.csv").read_text().splitlines()
+        assert len(lines) == n + 1 and float(lines[-1].split(",")[1]) == log.pose[-1, 0]
+    size = (tmp_path / "t20000.csv").stat().st_size
+    assert peaks[20_000] < size / 3  # far from the whole text
+    assert peaks[20_000] < 1.5 * peaks[5_000]  # independent of the length
+    assert TRACE_CHUNK_ROWS <= 4096
