@@ -264,6 +264,14 @@ def cmd_run(args) -> int:
         geometry=args.geometry,
     )
     label = args.fis.name if args.fis else args.controller
+    if getattr(sim.controller, "bound_by_name", False):
+        from fuzzynav.resources import escape_controls
+
+        print(
+            f"fuzzynav: {escape_controls(str(args.fis))}: its variables are in another order; "
+            "bound by name (d_t, d_o, phi_t, phi_o; left, right)",
+            file=sys.stderr,
+        )
     parts_off = switch_parts_off(sim.controller, args.off, label)
     if parts_off:
         label = f"{label} without {', '.join(parts_off)}"

@@ -111,3 +111,46 @@ def test_the_trace_streams_its_rows(tmp_path):
     assert peaks[20_000] < size / 3  # far from the whole text
     assert peaks[20_000] < 1.5 * peaks[5_000]  # independent of the length
     assert TRACE_CHUNK_ROWS <= 4096
+
+
+# --------------------------------------------------------------------------- item 10
+
+
+def _paper_fis():
+    from fuzzynav.controller.paper import paper_controller
+
+    return paper_controller().fis
+
+
+@pytest.mark.parametrize(
+    "inputs, outputs",
+    [((2, 1, 0, 3), None), (None, (1, 0)), ((3, 2, 1, 0), (1, 0))],
+)
+def test_fis_variables_are_bound_by_name(tmp_path, inputs, outputs):
+    """A file whose Input1 is phi_t and Input3 d_t (or whose outputs are swapped)
+    drove the robot as if the names were in order."""
+    from fuzzynav.controller.fis import dumps_fis
+    from fuzzynav.controller.fis_controller import FisController, reordered
+
+    fis = _paper_fis()
+    shuffled = reordered(fis, inputs, outputs)
+    path = tmp_path / "shuffled.fis"
+    path.write_text(dumps_fis(shuffled))
+    controller = FisController.from_fis(path)
+    assert controller.bound_by_name
+    assert [v.name for v in controller.fis.inputs] == ["d_t", "d_o", "phi_t", "phi_o"]
+    rng = np.random.default_rng(1)
+    for x in rng.uniform([0, 0, -3, -3], [10, 5, 3, 3], size=(20, 4)):
+        assert np.array_equal(controller(x), FisController(fis)(x))
+
+
+def test_fis_names_partly_the_robot_s_are_refused_and_named(tmp_path, capsys):
+    """Three of the robot's names and one other: neither binding is safe."""
+    from fuzzynav.controller.fis import dumps_fis
+
+    text = dumps_fis(_paper_fis()).replace("Name='d_o'", "Name='distance'", 1)
+    path = tmp_path / "half.fis"
+    path.write_text(text)
+    code, err = run_cli(capsys, "run", "s1", "--fis", path)
+    assert code == 2 and "inputs named 'd_t', 'distance', 'phi_t', 'phi_o'" in err
+    assert "bound neither by name nor by position" in err
