@@ -312,6 +312,10 @@ def cmd_report(args) -> int:
         if args.controllers
         else [c for c in DEFAULT_CONTROLLERS if c in offered]
     )
+    if args.controllers is not None and not wanted:  # `--controllers ,` wrote an empty table
+        raise UsageError(
+            f"--controllers {args.controllers!r}: names no controller (have {', '.join(offered)})"
+        )
     for name in wanted:
         if name not in offered:
             raise UsageError(

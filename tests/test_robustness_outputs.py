@@ -257,3 +257,28 @@ def test_cmaes_refuses_a_bad_sigma_from_code():
 
     with pytest.raises(ValueError, match="sigma0 = nan"):
         cmaes(lambda x: 0.0, [(0, 1)], [0.5], float("nan"), 1, 4, 0, map)
+
+
+def test_report_with_no_controller_named_keeps_the_old_table(capsys, tmp_path):
+    """``report DIR --controllers ,`` wrote an empty table over the earlier one, exit 0."""
+    table = tmp_path / "table4.json"
+    table.write_text('{"an": "earlier table"}')
+    for value in (",", " , ,"):
+        code, err = run_cli(capsys, "report", tmp_path, "--controllers", value)
+        assert code == 2 and "names no controller" in err
+    assert table.read_text() == '{"an": "earlier table"}'
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["table4.json"]
+
+
+def test_the_paper_geometry_checks_the_start_against_a_point_robot(capsys, tmp_path):
+    """An obstacle 0.45 m ahead overlaps the Husky's 0.99 m footprint but not the paper's
+    point robot: ``--geometry paper`` refused it."""
+    path = tmp_path / "near.toml"
+    path.write_text(
+        'name = "near"\nduration_s = 2.0\n[robot]\nstart = [0.0, 0.0]\n'
+        "[target]\nposition = [3.0, 2.0]\n[[obstacles]]\nposition = [0.45, 0.0]\nradius_m = 0.1\n"
+    )
+    code, err = run_cli(capsys, "run", path, "--controller", "p", "--geometry", "paper", "--json")
+    assert code == 0, err
+    code, err = run_cli(capsys, "run", path, "--controller", "p")
+    assert code == 2 and "overlaps the robot's footprint at its start" in err
