@@ -265,10 +265,7 @@ class DaskExecutor(Executor):
             )
             self.client = Client(self._cluster)
         else:
-            try:
-                self.client = Client(scheduler, timeout="10s")
-            except OSError as exc:
-                raise ValueError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+            self.client = _connect(Client, scheduler)
             threads = sum(self.client.nthreads().values())
             if threads == 0:
                 self.client.close()
@@ -306,6 +303,67 @@ class DaskExecutor(Executor):
 #: command asks for: each process holds ~100 MB, and 150 of them on a laptop are a
 #: typing slip, not a plan.
 MAX_WORKERS = 256
+
+
+#: How long joining a cluster may take, handshake included: a server that accepts and
+#: never answers hung for 40 s despite Dask's own 10 s timeout (it applies per attempt).
+CONNECT_TIMEOUT_S = 10.0
+#: The address forms --scheduler takes: plain TCP. (``tls://`` needs certificates this
+#: command line has no options for; ``ucx://`` needs ucx-py; both gave TypeErrors.)
+SCHEDULER_SCHEMES = ("tcp://",)
+
+
+def check_scheduler_address(scheduler: str) -> str:
+    """``scheduler`` if it is ``tcp://HOST:PORT`` (or ``HOST:PORT``), else ValueError
+    with the address shown escaped."""
+    from fuzzynav.resources import shorten
+
+    shown = shorten(str(scheduler), 200)
+    text = str(scheduler)
+    if "://" in text and not text.startswith(SCHEDULER_SCHEMES):
+        raise ValueError(
+            f"--scheduler {shown}: only tcp://HOST:PORT addresses are supported "
+            f"(not {shorten(text.split('://', 1)[0], 20)}://)"
+        )
+    rest = text.split("://", 1)[-1]
+    host, sep, port = rest.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"--scheduler {shown}: must be tcp://HOST:PORT (a port from 1 to 65535)")
+    return text
+
+
+def _connect(client_class, scheduler: str):
+    """A client of the cluster at ``scheduler``, or ValueError within
+    :data:`CONNECT_TIMEOUT_S` (plus a second): whatever the server does (refuses,
+    answers garbage, never answers), one line, never a traceback or a hang."""
+    import threading
+
+    from fuzzynav.resources import shorten
+
+    shown = shorten(str(check_scheduler_address(scheduler)), 200)
+    outcome: dict = {}
+
+    def connect():
+        try:
+            outcome["client"] = client_class(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+        except BaseException as exc:  # noqa: BLE001 - reported in the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=connect, name="fuzzynav-dask-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT_S + 1.0)
+    if thread.is_alive():  # the thread is left to Dask's own timeouts; nothing waits on it
+        raise ValueError(
+            f"--scheduler {shown}: no answer within {CONNECT_TIMEOUT_S:g} s (is it a Dask "
+            "scheduler?)"
+        )
+    if "error" in outcome:
+        exc = outcome["error"]
+        if isinstance(exc, KeyboardInterrupt):
+            raise exc
+        reason = shorten(f"{type(exc).__name__}: {exc}", 200)
+        raise ValueError(f"--scheduler {shown}: cannot connect ({reason})") from None
+    return outcome["client"]
 
 
 def _check_workers(workers) -> int:

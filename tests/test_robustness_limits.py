@@ -154,3 +154,68 @@ def test_fis_names_partly_the_robot_s_are_refused_and_named(tmp_path, capsys):
     code, err = run_cli(capsys, "run", "s1", "--fis", path)
     assert code == 2 and "inputs named 'd_t', 'distance', 'phi_t', 'phi_o'" in err
     assert "bound neither by name nor by position" in err
+
+
+# --------------------------------------------------------------------------- item 12
+
+
+class _Server:
+    """A TCP server on 127.0.0.1 that answers each connection with ``reply`` (None:
+    accepts and never answers)."""
+
+    def __init__(self, reply):
+        import socket
+        import threading
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.port = self.sock.getsockname()[1]
+        self.reply = reply
+        self.open = []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.open.append(conn)
+            if self.reply is not None:
+                conn.sendall(self.reply)
+                conn.close()
+
+    def close(self):
+        self.sock.close()
+        for conn in self.open:
+            conn.close()
+
+
+def _dask(capsys, scheduler):
+    pytest.importorskip("distributed")
+    return run_cli(capsys, "sweep", "--n", "1", "--executor", "dask", "--scheduler", scheduler)
+
+
+@pytest.mark.parametrize("scheduler", ["ucx://127.0.0.1:8786", "tls://127.0.0.1:8786"])
+def test_unsupported_scheduler_schemes_are_one_line(capsys, scheduler):
+    """TypeError tracebacks before."""
+    code, err = _dask(capsys, scheduler)
+    assert code == 2 and "only tcp://HOST:PORT addresses are supported" in err
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("reply", [b"x", None])
+def test_a_server_that_is_no_scheduler_is_refused_in_time(capsys, reply):
+    """One byte gave struct.error; silence hung for 40 s despite the 10 s timeout."""
+    from fuzzynav.app.executor import CONNECT_TIMEOUT_S
+
+    server = _Server(reply)
+    try:
+        start = time.perf_counter()
+        code, err = _dask(capsys, f"tcp://127.0.0.1:{server.port}")
+        took = time.perf_counter() - start
+    finally:
+        server.close()
+    assert code == 2 and f"--scheduler tcp://127.0.0.1:{server.port}" in err
+    assert took < CONNECT_TIMEOUT_S + 5
