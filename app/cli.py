@@ -263,7 +263,9 @@ def cmd_run(args) -> int:
         sensor_noise_std_m=args.noise,
         geometry=args.geometry,
     )
-    label = args.fis.name if args.fis else args.controller
+    from fuzzynav.resources import escape_controls
+
+    label = escape_controls(args.fis.name) if args.fis else args.controller
     if getattr(sim.controller, "bound_by_name", False):
         from fuzzynav.resources import escape_controls
 
@@ -283,7 +285,7 @@ def cmd_run(args) -> int:
         _finish_hooks(hooks, sim.result(), interrupted=True)
         raise
     _finish_hooks(hooks, result, interrupted=False)
-    row = summary(result, label, scenario_label(args.scenario))
+    row = summary(result, label, escape_controls(scenario_label(args.scenario)))
     if args.json:
         print_json(row)
         return 0
@@ -314,7 +316,7 @@ def _finish_hooks(hooks, result, interrupted: bool) -> None:
             if failure is None:
                 failure = exc
             else:
-                print(f"fuzzynav: error: {exc}", file=sys.stderr)
+                print(f"fuzzynav: error: {_escaped(exc)}", file=sys.stderr)
     if failure is not None:
         raise failure
 
@@ -473,6 +475,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _escaped(message) -> str:
+    """An error message with every control character escaped: file names, addresses
+    and values in it come from the user, and none may drive the terminal (issue 26)."""
+    from fuzzynav.resources import escape_controls
+
+    return escape_controls(str(message))
+
+
 def describe_os_error(exc: OSError) -> str:
     """An OSError as one line: what, which file, why (``cannot write out/a.png: No
     space left on device``)."""
@@ -518,7 +528,7 @@ def _dispatch(args) -> int:
     try:
         return args.func(args) or 0
     except (UsageError, ValueError) as exc:  # ScenarioError, FisFormatError are ValueErrors
-        print(f"fuzzynav: error: {exc}", file=sys.stderr)
+        print(f"fuzzynav: error: {_escaped(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
         # The reader left early (`fuzzynav run s1 --json | head -3`): not an error of
@@ -526,7 +536,7 @@ def _dispatch(args) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except OSError as exc:  # a read-only folder, a full disk, a file that vanished
-        print(f"fuzzynav: error: {describe_os_error(exc)}", file=sys.stderr)
+        print(f"fuzzynav: error: {_escaped(describe_os_error(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except MemoryError:
         print(

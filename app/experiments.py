@@ -18,6 +18,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from fuzzynav.resources import escape_controls
+
 SAFE_CLEARANCE_M = 0.25
 
 # Paper Table 4 (notes section 2): method of ref. [19] | proposed, for S1 / S2 / S3.
@@ -757,7 +759,7 @@ def cmd_sweep(args) -> int:
             table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
     Console().print(table)
     if args.out is not None:
-        print(f"every run: {args.out}")
+        print(f"every run: {escape_controls(str(args.out))}")
     if failures:
         listing = Table(
             title=f"{len(failures)} failed run(s) of {args.controller}: "
@@ -773,9 +775,9 @@ def cmd_sweep(args) -> int:
                 Path(f["recording"]).name,
             )
         Console().print(listing)
-        print(f"open one with: rerun {failures[0]['recording']}")
+        print(f"open one with: rerun {escape_controls(failures[0]['recording'])}")
     elif failures is not None:
-        print(f"no failed runs: nothing written to {args.failures}")
+        print(f"no failed runs: nothing written to {escape_controls(str(args.failures))}")
     return 0
 
 

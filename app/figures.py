@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import atomic_output, write_text_atomically
 
 SAFE_DISTANCE_M = 0.25
@@ -1024,11 +1025,13 @@ def run_hook(args, sim):
             )
         except OSError as exc:  # a full disk, a folder removed meanwhile
             raise ValueError(
-                f"--figures {out_dir}: the figures were not written ({exc.strerror or exc})"
+                f"--figures {escape_controls(str(out_dir))}: the figures were not written "
+                f"({exc.strerror or exc})"
             ) from None
         what = "partial run, " if interrupted else ""
         print(
-            f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to {out_dir}",
+            f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to "
+            f"{escape_controls(str(out_dir))}",
             file=sys.stderr,
         )
 

@@ -86,7 +86,9 @@ def cmd_fis_export(args) -> int:
     target = args.path if args.path is not None else default_export_path(args.controller)
     for path in export_fis(target, args.controller, args.geometry):
         # Read back: what is printed is what the file holds.
-        print(f"wrote {path} ({_signature(read_fis(path))})")
+        from fuzzynav.resources import escape_controls
+
+        print(f"wrote {escape_controls(str(path))} ({_signature(read_fis(path))})")
     return 0
 
 

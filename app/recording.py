@@ -1946,9 +1946,12 @@ def run_hook(args, sim):
     check_output_path(path, "--rrd", run_inputs(args))  # not an input, nor a shipped file
     argv = command_line()
 
+    from fuzzynav.resources import escape_controls
+
     def write(result, interrupted: bool) -> None:
         extra = {"command line": "`" + argv + "`"}
         target = Path(path)
+        shown, shown_path = escape_controls(str(target)), escape_controls(str(path))
         if interrupted:
             extra["interrupted"] = (
                 f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)"
@@ -1968,20 +1971,21 @@ def run_hook(args, sim):
             )
         except KeyboardInterrupt:
             print(
-                f"fuzzynav: interrupted while writing the recording: {target} not written "
+                f"fuzzynav: interrupted while writing the recording: {shown} not written "
                 f"({'the old file is unchanged' if target.exists() else 'no file made'})",
                 file=sys.stderr,
             )
             raise
         if interrupted:
+            shown = escape_controls(str(target))
             print(
-                f"fuzzynav: the run was interrupted: its recording so far is in {target} "
-                f"(marked interrupted; {path} is unchanged)",
+                f"fuzzynav: the run was interrupted: its recording so far is in {shown} "
+                f"(marked interrupted; {shown_path} is unchanged)",
                 file=sys.stderr,
             )
         else:
             print(
-                f"fuzzynav: recording written to {target} (open it with: rerun {target})",
+                f"fuzzynav: recording written to {shown} (open it with: rerun {shown})",
                 file=sys.stderr,
             )
 

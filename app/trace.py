@@ -22,6 +22,7 @@ import math
 import sys
 from pathlib import Path
 
+from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import check_output_path, write_chunks_atomically
 
 TRACE_COLUMNS = (
@@ -110,6 +111,6 @@ def run_hook(args, sim):
     def write(result, interrupted: bool) -> None:
         write_trace(result.log, path)
         note = " (interrupted run)" if interrupted else ""
-        print(f"fuzzynav: trace written to {path}{note}", file=sys.stderr)
+        print(f"fuzzynav: trace written to {escape_controls(str(path))}{note}", file=sys.stderr)
 
     return write

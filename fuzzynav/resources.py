@@ -82,14 +82,21 @@ def shown(value) -> str:
     return shorten(text)
 
 
+#: The Unicode bidirectional controls (embeddings, overrides, isolates, marks): a name
+#: holding U+202E prints the rest of the line reversed ("Trojan Source").
+_BIDI_CONTROLS = frozenset((0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F), *range(0x2066, 0x206A)))
+
+
 def escape_controls(text: str, keep: str = "") -> str:
-    r"""``text`` with every control character (C0, DEL, C1, and the line/paragraph
-    separators) written as a visible escape (ESC as ``\x1b``), except those in
+    r"""``text`` with every control character (C0, DEL, C1, the line/paragraph
+    separators and the bidirectional controls) written as a visible escape (ESC as ``\x1b``), except those in
     ``keep``, so that a name from a file cannot drive the terminal."""
     out = []
     for ch in text:
         o = ord(ch)
-        if ch not in keep and (o < 0x20 or 0x7F <= o < 0xA0 or o in (0x2028, 0x2029)):
+        if ch not in keep and (
+            o < 0x20 or 0x7F <= o < 0xA0 or o in (0x2028, 0x2029) or o in _BIDI_CONTROLS
+        ):
             out.append(f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}")
         else:
             out.append(ch)

@@ -219,3 +219,51 @@ def test_a_server_that_is_no_scheduler_is_refused_in_time(capsys, reply):
         server.close()
     assert code == 2 and f"--scheduler tcp://127.0.0.1:{server.port}" in err
     assert took < CONNECT_TIMEOUT_S + 5
+
+
+# --------------------------------------------------------------------------- item 13
+
+ESC = "\x1b[2J"
+RLO = "\u202e"
+
+
+def _no_raw_controls(text: str) -> None:
+    assert "\x1b" not in text and RLO not in text
+
+
+def test_control_characters_in_paths_never_reach_the_terminal(capsys, tmp_path):
+    """An ESC sequence in a scenario, --fis, --out, --rrd, --trace or --scheduler name
+    went to the terminal raw."""
+    scenario = tmp_path / f"sc{ESC}{RLO}.toml"
+    scenario.write_text(HEAD.format(duration=2.0))
+    trace = tmp_path / f"t{ESC}.csv"
+    code = main(["run", str(scenario), "--controller", "p", "--trace", str(trace)])
+    captured = capsys.readouterr()
+    assert code == 0 and trace.exists()
+    _no_raw_controls(captured.out + captured.err)
+    assert "\\x1b[2J" in captured.err
+    for argv in (
+        ["run", "s1", "--fis", str(tmp_path / f"no{ESC}.fis")],
+        ["run", str(tmp_path / f"missing{ESC}.toml")],
+        ["run", "s1", "--rrd", str(tmp_path / f"no{ESC}" / "a.rrd")],
+        ["run", "s1", "--trace", str(tmp_path / f"no{ESC}" / "a.csv")],
+        ["sweep", "--n", "1", "--out", str(tmp_path / f"no{ESC}" / "a.jsonl")],
+        ["sweep", "--n", "1", "--executor", "dask", "--scheduler", f"tcp://h{ESC}st:1x"],
+        ["sweep", "--n", "1", "--scheduler", f"tcp://{ESC}:1"],
+    ):
+        code = main(argv)
+        captured = capsys.readouterr()
+        assert code == 2, argv
+        _no_raw_controls(captured.out + captured.err)
+        assert "\\x1b" in captured.err, argv
+
+
+def test_bidi_overrides_in_a_scenario_name_are_escaped(capsys, tmp_path):
+    """A name holding U+202E printed the rest of the line reversed."""
+    scenario = tmp_path / "bidi.toml"
+    scenario.write_text(HEAD.format(duration=2.0).replace('"big"', f'"evil{RLO}txt.exe"'))
+    code = main(["run", str(scenario), "--controller", "p"])
+    captured = capsys.readouterr()
+    assert code == 0
+    _no_raw_controls(captured.out + captured.err)
+    assert "evil\\u202etxt.exe" in captured.out
