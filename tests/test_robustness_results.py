@@ -13,7 +13,7 @@ import pytest
 
 from fuzzynav.app import experiments
 from fuzzynav.app.cli import main
-from fuzzynav.app.experiments import check_row, row_key, study_fingerprint
+from fuzzynav.app.experiments import row_key
 from fuzzynav.app.resultlog import ResultLog, ResultLogError
 
 
@@ -154,6 +154,8 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
     code, err, _ = run_cli(capsys, *sweep_argv(out, "--resume"))
     assert code == 2 and "line 1: a row of another study" in err and "0123456789abcdef" in err
     # what the fingerprint is made of: the version and the rule bases change it
+    from fuzzynav.app.experiments import study_fingerprint
+
     base = study_fingerprint("paper", (), "standard", 1, "ideal", {})
     import fuzzynav
 
@@ -170,6 +172,8 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
 
 def test_failures_with_an_edited_outcome_is_bad_input_not_a_crash(capsys, tmp_path, good_rows):
     """A row whose outcome differs from the rerun raised RuntimeError (a traceback)."""
+    from fuzzynav.app.experiments import check_row
+
     row = json.loads(good_rows[0])
     row.update(outcome="timeout", reached=False, collided=False, success=False)
     if json.loads(good_rows[0])["outcome"] == "timeout":
@@ -268,7 +272,7 @@ def test_a_second_run_on_a_locked_results_file_refuses_with_the_pid(capsys, tmp_
     """Two --resume runs on one file wrote every row twice."""
     out = tmp_path / "runs.jsonl"
     out.write_text(good_rows[0])
-    first = ResultLog(out, resume=True, key=row_key, check_row=check_row).open()
+    first = ResultLog(out, resume=True, key=row_key).open()
     try:
         code, err, _ = run_cli(capsys, *sweep_argv(out, "--resume"))
         assert code == 2 and f"process {os.getpid()} is writing it" in err
@@ -283,7 +287,7 @@ def test_the_lock_is_taken_before_the_workers_start(tmp_path, good_rows):
     """Two runs started together: only one gets the file."""
     out = tmp_path / "runs.jsonl"
     out.write_text(good_rows[0])
-    logs = [ResultLog(out, resume=True, key=row_key, check_row=check_row) for _ in range(2)]
+    logs = [ResultLog(out, resume=True, key=row_key) for _ in range(2)]
     outcomes = []
 
     def take(log):
