@@ -15,12 +15,11 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 
 from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.controller.rulebase import read_toml
-from fuzzynav.safe_files import write_text_atomically
+from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
 from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
@@ -273,6 +272,13 @@ def write_report(
     return table
 
 
+def _copy(source: Path, target: Path) -> None:
+    """Copy a file through the one atomic writer (the target whole or not at all)."""
+    from fuzzynav.resources import read_user_bytes
+
+    write_bytes_atomically(target, read_user_bytes(source, "figure", 64 * 1024 * 1024))
+
+
 def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geometries):
     """The docs' pictures under the names they use: the husky geometry's trajectories
     (``s1_paper_trajectory.png``), its Fig. 27 (``comparison.png``), the paper
@@ -286,11 +292,11 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
             for name in controllers:
                 source = husky / f"{paper_figure_stem(scenario, 'trajectory', name)}.png"
                 if source.exists():
-                    shutil.copy2(source, images / f"{scenario}_{name}_trajectory.png")
+                    _copy(source, images / f"{scenario}_{name}_trajectory.png")
         if (husky / "fig27_comparison.png").exists():
-            shutil.copy2(husky / "fig27_comparison.png", images / "comparison.png")
+            _copy(husky / "fig27_comparison.png", images / "comparison.png")
     # the README's table lives beside its images' folder (docs/table4.md)
-    shutil.copy2(out / "table4.md", images.parent / "table4.md")
+    _copy(out / "table4.md", images.parent / "table4.md")
     if "paper" in controllers:
         from fuzzynav.app.figures import write_membership_overview
         from fuzzynav.controller.paper import PAPER_RULES
