@@ -213,9 +213,20 @@ def _write_checkpoint(path, names, x, cost, generation) -> None:
     values = dict(zip(names, [float(v) for v in x[:-1]]))
     values["initial_heading_rad"] = float(x[-1])
     line = ", ".join(f"{k}={v!r}" for k, v in values.items())
-    write_text_atomically(
-        path, f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n"
-    )
+    try:  # whole or not at all; a checkpoint is insurance: the fit goes on without it
+        write_text_atomically(
+            path, f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n"
+        )
+    except OSError as exc:
+        import sys
+
+        from fuzzynav.resources import escape_controls
+
+        print(
+            f"fuzzynav: warning: --checkpoint {escape_controls(str(path))} not written at "
+            f"generation {generation} ({exc.strerror or exc}); the one before is unchanged",
+            file=sys.stderr,
+        )
 
 
 def fit(
