@@ -287,3 +287,22 @@ def test_the_paper_geometry_checks_the_start_against_a_point_robot(capsys, tmp_p
     assert code == 0, err
     code, err = run_cli(capsys, "run", path, "--controller", "p")
     assert code == 2 and "overlaps the robot's footprint at its start" in err
+
+
+def test_a_fit_paper_checkpoint_on_a_full_disk_warns_and_keeps_the_old_one(
+    capsys, monkeypatch, tmp_path
+):
+    import fuzzynav.safe_files as safe_files
+    from fuzzynav.app.paper_fit import _write_checkpoint
+
+    checkpoint = tmp_path / "ck.txt"
+    checkpoint.write_text("an old checkpoint\n")
+
+    def full(tmp, path):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(safe_files, "commit", full)
+    _write_checkpoint(checkpoint, ["a"], [1.0, 0.5], 2.0, 3)
+    assert "not written at generation 3" in capsys.readouterr().err
+    assert checkpoint.read_text() == "an old checkpoint\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["ck.txt"]
