@@ -62,13 +62,14 @@ class LayoutJob:
 
     def key(self) -> tuple:
         return (
-            self.controller,
-            tuple(self.parts_off),
-            self.family,
-            self.seed,
-            self.perception,
-            json.dumps(dict(self.options), sort_keys=True),
-            self.fingerprint(),
+            *_study_key(
+                self.controller,
+                tuple(self.parts_off),
+                self.family,
+                self.seed,
+                self.perception,
+                self.options,
+            ),
             self.index,
         )
 
@@ -77,6 +78,21 @@ class LayoutJob:
         return study_fingerprint(
             self.controller, self.parts_off, self.family, self.seed, self.perception, self.options
         )
+
+
+@functools.lru_cache(maxsize=256)
+def _study_key(controller, parts_off, family, seed, perception, options) -> tuple:
+    # the part of a job's key its whole study shares: made once, not once a job (a
+    # sweep of 100,000 layouts took seconds to key before its first run)
+    return (
+        controller,
+        parts_off,
+        family,
+        seed,
+        perception,
+        json.dumps(dict(options), sort_keys=True),
+        study_fingerprint(controller, parts_off, family, seed, perception, options),
+    )
 
 
 #: The largest number of layouts one sweep (or compare's sweep, per controller) runs:
