@@ -76,7 +76,10 @@ def test_no_output_lands_in_the_installed_package(capsys, tiny, option):
     assert code == 2 and "is inside the installed fuzzynav package" in err
     code, err = run_cli(capsys, "report", asset_path("report"), "--controllers", "p")
     assert code == 2 and "is inside the installed fuzzynav package" in err
+    code, err = run_cli(capsys, "sweep", "--n", "1", "--out", asset_path("x.jsonl"))
+    assert code == 2 and "is inside the installed fuzzynav package" in err
     assert not asset_path("x.rrd").exists() and not asset_path("report").exists()
+    assert not asset_path("x.jsonl").exists()
 
 
 def test_an_output_through_a_link_replaces_the_file_and_keeps_the_link(capsys, tiny, tmp_path):
