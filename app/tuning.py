@@ -436,7 +436,8 @@ def tune(
 
 def check_output_file(path: Path, option: str, inputs=()) -> Path:
     """Refuse (UsageError) an output path that cannot be written: a directory, a
-    missing or read-only folder. Creates nothing that stays."""
+    missing or read-only folder, a device or pipe, a file inside the installed package,
+    or one of ``inputs`` (the files the command reads). Creates nothing that stays."""
     import tempfile
 
     from fuzzynav.app.cli import UsageError
