@@ -286,8 +286,14 @@ def cmd_run(args) -> int:
         raise
     _finish_hooks(hooks, result, interrupted=False)
     row = summary(result, label, escape_controls(scenario_label(args.scenario)))
+    # `--rrd /dev/stdout | rerun -`: the recording has the standard output; the table
+    # goes to stderr then, so that nothing is appended to the recording's bytes
+    to_stderr = _stdout_is_an_output(args)
     if args.json:
-        print_json(row)
+        if to_stderr:
+            print(json.dumps(row, indent=2, default=_json_default), file=sys.stderr)
+        else:
+            print_json(row)
         return 0
     table = Table(
         title=f"{result.scenario.name} — {label}, {args.perception} perception, "
@@ -299,8 +305,28 @@ def cmd_run(args) -> int:
         if isinstance(value, float):
             value = f"{value:.4f}"
         table.add_row(key, str(value))
-    Console().print(table)
+    Console(stderr=to_stderr).print(table)
     return 0
+
+
+def _stdout_is_an_output(args) -> bool:
+    """Whether ``--rrd`` or ``--trace`` names this process's standard output (e.g.
+    ``/dev/stdout`` or ``/dev/fd/1``)."""
+    try:
+        out = os.fstat(sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # no real stdout (a test's capture)
+        return False
+    for option in ("rrd", "trace"):
+        path = getattr(args, option, None)
+        if path is None:
+            continue
+        try:
+            info = os.stat(path)
+        except OSError:
+            continue
+        if (info.st_dev, info.st_ino) == (out.st_dev, out.st_ino):
+            return True
+    return False
 
 
 def _finish_hooks(hooks, result, interrupted: bool) -> None:

@@ -311,3 +311,23 @@ def test_a_fit_paper_checkpoint_on_a_full_disk_warns_and_keeps_the_old_one(
     assert "not written at generation 3" in capsys.readouterr().err
     assert checkpoint.read_text() == "an old checkpoint\n"
     assert [p.name for p in tmp_path.iterdir()] == ["ck.txt"]
+
+
+def test_a_recording_to_stdout_through_a_pipe_is_the_recording_alone(tmp_path, tiny):
+    """``run --rrd /dev/stdout | ...`` wrote the run's table after the recording's bytes
+    (and, as root into a file, renamed the recording over the /dev/stdout link)."""
+    import subprocess
+    import sys
+
+    reader = pytest.importorskip("rerun.chunk").RrdReader
+    child = subprocess.run(
+        [sys.executable, "-m", "fuzzynav", "run", str(tiny), "--controller", "p"]
+        + ["--rrd", "/dev/stdout"],
+        capture_output=True,
+        timeout=120,
+    )
+    assert child.returncode == 0, child.stderr
+    assert b"min_clearance_m" in child.stderr and b"min_clearance_m" not in child.stdout
+    got = tmp_path / "piped.rrd"
+    got.write_bytes(child.stdout)
+    assert reader(got).recordings()
