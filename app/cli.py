@@ -295,16 +295,22 @@ def cmd_run(args) -> int:
         else:
             print_json(row)
         return 0
+    from rich.markup import escape as markup
+
+    # names from files are text, never rich markup ("[link=...]" would make rich send
+    # the terminal a hyperlink escape sequence)
     table = Table(
-        title=f"{result.scenario.name} — {label}, {args.perception} perception, "
-        f"{args.geometry} geometry"
+        title=markup(
+            f"{result.scenario.name} — {label}, {args.perception} perception, "
+            f"{args.geometry} geometry"
+        )
     )
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, value in row.items():
         if isinstance(value, float):
             value = f"{value:.4f}"
-        table.add_row(key, str(value))
+        table.add_row(key, markup(str(value)))
     Console(stderr=to_stderr).print(table)
     return 0
 

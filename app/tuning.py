@@ -691,10 +691,15 @@ def cmd_tune(args) -> int:
                         args.checkpoint, " ".join(repr(float(v)) for v in x) + "\n"
                     )
                 except OSError as exc:  # a checkpoint is insurance: the tuning goes on
+                    from rich.markup import escape as markup
+
                     console.print(
-                        f"fuzzynav: warning: --checkpoint {escape_controls(str(args.checkpoint))}"
-                        f" not written at {step} {gen} ({exc.strerror or exc}); the one "
-                        "before is unchanged; tuning goes on"
+                        markup(
+                            f"fuzzynav: warning: --checkpoint "
+                            f"{escape_controls(str(args.checkpoint))} not written at {step} "
+                            f"{gen} ({exc.strerror or exc}); the one before is unchanged; "
+                            "tuning goes on"
+                        )
                     )
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:

@@ -264,9 +264,12 @@ def test_control_characters_in_paths_never_reach_the_terminal(capsys, tmp_path):
 def test_bidi_overrides_in_a_scenario_name_are_escaped(capsys, tmp_path):
     """A name holding U+202E printed the rest of the line reversed."""
     scenario = tmp_path / "bidi.toml"
-    scenario.write_text(HEAD.format(duration=2.0).replace('"big"', f'"evil{RLO}txt.exe"'))
+    scenario.write_text(
+        HEAD.format(duration=2.0).replace('"big"', f'"evil{RLO}txt.exe [link=http://x]y[/link]"')
+    )
     code = main(["run", str(scenario), "--controller", "p"])
     captured = capsys.readouterr()
     assert code == 0
     _no_raw_controls(captured.out + captured.err)
     assert "evil\\u202etxt.exe" in captured.out
+    assert "[link=http://x]y[/link]" in captured.out  # text, not rich markup
