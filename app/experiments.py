@@ -1039,7 +1039,9 @@ def cmd_compare(args) -> int:
             )
         console.print(st)
         if args.out is not None:
-            console.print(f"every sweep run: {args.out}")
+            from rich.markup import escape as markup
+
+            console.print(markup(f"every sweep run: {escape_controls(str(args.out))}"))
     return 0
 
 

@@ -439,7 +439,16 @@ def cmd_fit_paper(args) -> int:
     if args.json:
         print_json(summary)
     else:
-        console.print(f"wrote {path} (cost {best:.4f}, heading {heading:.4f} rad, {elapsed:.0f} s)")
+        from rich.markup import escape as markup
+
+        from fuzzynav.resources import escape_controls
+
+        console.print(
+            markup(
+                f"wrote {escape_controls(str(path))} (cost {best:.4f}, heading {heading:.4f} "
+                f"rad, {elapsed:.0f} s)"
+            )
+        )
     return 0
 
 

@@ -754,9 +754,17 @@ def cmd_tune(args) -> int:
     if args.json:
         print_json(out)
     else:
+        from rich.markup import escape as markup
+
+        # the paths and the command hold the user's file names: text, escaped
         Console().print(
-            f"best cost {result.fun:.4f} after {result.nit} {step}s "
-            f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
-            f"{', '.join(map(str, paths))}\nreproduce with:\n  {command}"
+            markup(
+                escape_controls(
+                    f"best cost {result.fun:.4f} after {result.nit} {step}s "
+                    f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
+                    f"{', '.join(map(str, paths))}",
+                )
+                + f"\nreproduce with:\n  {escape_controls(command)}"
+            )
         )
     return 0
