@@ -14,6 +14,7 @@ import argparse
 import json
 import math
 import shlex
+from pathlib import Path
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -139,3 +140,20 @@ def describe_os_error(exc: OSError) -> str:
     reason = exc.strerror or str(exc) or type(exc).__name__
     name = exc.filename if exc.filename is not None else None
     return f"{name}: {reason}" if name is not None else reason
+
+
+def run_inputs(args) -> list[Path]:
+    """The files a ``run`` reads (its scenario file, its ``--fis``): no output of the run
+    may be one of them."""
+    from fuzzynav.world.scenario import resolve_scenario_path
+
+    found = []
+    scenario = getattr(args, "scenario", None)
+    if scenario is not None:
+        try:
+            found.append(resolve_scenario_path(scenario))
+        except (OSError, ValueError):
+            pass
+    if getattr(args, "fis", None) is not None:
+        found.append(Path(args.fis))
+    return found

@@ -80,6 +80,9 @@ def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> d
         "seed": job.seed,
         "perception": job.perception,
         **({"options": options} if options else {}),
+        # what made it, computed where it ran: a worker with another version or rule
+        # base gives rows the study refuses (experiments.run_jobs)
+        "fingerprint": job.fingerprint(),
         "outcome": m["outcome"],
         "reached": bool(m["reached"]),
         "collided": bool(m["collided"]),

@@ -12,8 +12,8 @@ Further sub-commands and ``run`` options come from the modules in
 
 Exit status: 0 when a run completed, whatever its outcome; 2 for bad input or a file
 that could not be read or written (a read-only folder, a full disk), with the error on
-stderr and no traceback; 130 after Ctrl-C (what was interrupted is said); 141 when the
-reader of stdout went away.
+stderr and no traceback; 130 after Ctrl-C (what was interrupted is said); 143 after
+SIGTERM (handled as Ctrl-C); 141 when the reader of stdout went away.
 """
 
 from __future__ import annotations
@@ -22,7 +22,9 @@ import sys
 
 try:  # a Ctrl-C while even these load ends quietly, as one in main() does
     import argparse
+    import json
     import os
+    import signal
     import textwrap
     from pathlib import Path
 
@@ -32,6 +34,7 @@ try:  # a Ctrl-C while even these load ends quietly, as one in main() does
         EXIT_BROKEN_PIPE,
         EXIT_INTERRUPTED,
         UsageError,
+        _json_default,
         add_geometry_option,
         add_off_option,
         describe_os_error,
@@ -40,6 +43,7 @@ try:  # a Ctrl-C while even these load ends quietly, as one in main() does
         off_flag,
         parse_off,
         print_json,
+        run_inputs,
         scenario_help,
         scenario_label,
         seed_type,
@@ -56,6 +60,7 @@ __all__ = [  # what other modules and the tests used to import from here, still 
     "EXIT_BAD_INPUT",
     "EXIT_BROKEN_PIPE",
     "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
     "UsageError",
     "add_geometry_option",
     "add_off_option",
@@ -67,11 +72,27 @@ __all__ = [  # what other modules and the tests used to import from here, still 
     "off_flag",
     "parse_off",
     "print_json",
+    "run_inputs",
     "scenario_help",
     "scenario_label",
     "seed_type",
     "switch_parts_off",
 ]
+
+EXIT_TERMINATED = 143  # 128 + SIGTERM: `kill PID` ends a command as Ctrl-C does
+
+
+class _Terminated:
+    """Whether SIGTERM arrived during :func:`main` (it is then raised as Ctrl-C)."""
+
+    received = False
+
+
+def _on_sigterm(signum, frame):
+    # SIGTERM is handled as Ctrl-C everywhere (issue 26): every command's Ctrl-C path
+    # says what was kept and removes its temporary files; only the exit status differs.
+    _Terminated.received = True
+    raise KeyboardInterrupt
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
@@ -157,7 +178,17 @@ def cmd_run(args) -> int:
         sensor_noise_std_m=args.noise,
         geometry=args.geometry,
     )
-    label = args.fis.name if args.fis else args.controller
+    from fuzzynav.resources import escape_controls
+
+    label = escape_controls(args.fis.name) if args.fis else args.controller
+    if getattr(sim.controller, "bound_by_name", False):
+        from fuzzynav.resources import escape_controls
+
+        print(
+            f"fuzzynav: {escape_controls(str(args.fis))}: its variables are in another order; "
+            "bound by name (d_t, d_o, phi_t, phi_o; left, right)",
+            file=sys.stderr,
+        )
     parts_off = switch_parts_off(sim.controller, args.off, label)
     if parts_off:
         label = f"{label} without {', '.join(parts_off)}"
@@ -169,22 +200,54 @@ def cmd_run(args) -> int:
         _finish_hooks(hooks, sim.result(), interrupted=True)
         raise
     _finish_hooks(hooks, result, interrupted=False)
-    row = summary(result, label, scenario_label(args.scenario))
+    row = summary(result, label, escape_controls(scenario_label(args.scenario)))
+    # `--rrd /dev/stdout | rerun -`: the recording has the standard output; the table
+    # goes to stderr then, so that nothing is appended to the recording's bytes
+    to_stderr = _stdout_is_an_output(args)
     if args.json:
-        print_json(row)
+        if to_stderr:
+            print(json.dumps(row, indent=2, default=_json_default), file=sys.stderr)
+        else:
+            print_json(row)
         return 0
+    from rich.markup import escape as markup
+
+    # names from files are text, never rich markup ("[link=...]" would make rich send
+    # the terminal a hyperlink escape sequence)
     table = Table(
-        title=f"{result.scenario.name} — {label}, {args.perception} perception, "
-        f"{args.geometry} geometry"
+        title=markup(
+            f"{result.scenario.name} — {label}, {args.perception} perception, "
+            f"{args.geometry} geometry"
+        )
     )
     table.add_column("metric")
     table.add_column("value", justify="right")
     for key, value in row.items():
         if isinstance(value, float):
             value = f"{value:.4f}"
-        table.add_row(key, str(value))
-    Console().print(table)
+        table.add_row(key, markup(str(value)))
+    Console(stderr=to_stderr).print(table)
     return 0
+
+
+def _stdout_is_an_output(args) -> bool:
+    """Whether ``--rrd`` or ``--trace`` names this process's standard output (e.g.
+    ``/dev/stdout`` or ``/dev/fd/1``)."""
+    try:
+        out = os.fstat(sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # no real stdout (a test's capture)
+        return False
+    for option in ("rrd", "trace"):
+        path = getattr(args, option, None)
+        if path is None:
+            continue
+        try:
+            info = os.stat(path)
+        except OSError:
+            continue
+        if (info.st_dev, info.st_ino) == (out.st_dev, out.st_ino):
+            return True
+    return False
 
 
 def _finish_hooks(hooks, result, interrupted: bool) -> None:
@@ -200,7 +263,7 @@ def _finish_hooks(hooks, result, interrupted: bool) -> None:
             if failure is None:
                 failure = exc
             else:
-                print(f"fuzzynav: error: {exc}", file=sys.stderr)
+                print(f"fuzzynav: error: {_escaped(exc)}", file=sys.stderr)
     if failure is not None:
         raise failure
 
@@ -352,9 +415,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _escaped(message) -> str:
+    """An error message with every control character escaped: file names, addresses
+    and values in it come from the user, and none may drive the terminal (issue 26)."""
+    from fuzzynav.resources import escape_controls
+
+    return escape_controls(str(message))
+
+
 def main(argv=None) -> int:
     """The command line; returns the exit status (see the module docstring). Ctrl-C at
-    any moment, from loading the libraries on, ends with a line, never a traceback."""
+    any moment, from loading the libraries on, ends with a line, never a traceback.
+    SIGTERM is the same as Ctrl-C, with exit status 143."""
+    _Terminated.received = False
+    try:
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: leave signals to whoever owns them
+        previous = None
+    try:
+        code = _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+    if code == EXIT_INTERRUPTED and _Terminated.received:
+        return EXIT_TERMINATED
+    return code
+
+
+def _main(argv) -> int:
     try:
         parser = build_parser()
         try:
@@ -363,7 +451,8 @@ def main(argv=None) -> int:
             return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
         return _dispatch(args)
     except KeyboardInterrupt:
-        print("fuzzynav: interrupted", file=sys.stderr)
+        what = " (SIGTERM)" if _Terminated.received else ""
+        print(f"fuzzynav: interrupted{what}", file=sys.stderr)
         return EXIT_INTERRUPTED
 
 
@@ -371,7 +460,7 @@ def _dispatch(args) -> int:
     try:
         return args.func(args) or 0
     except (UsageError, ValueError) as exc:  # ScenarioError, FisFormatError are ValueErrors
-        print(f"fuzzynav: error: {exc}", file=sys.stderr)
+        print(f"fuzzynav: error: {_escaped(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
         # The reader left early (`fuzzynav run s1 --json | head -3`): not an error of
@@ -379,7 +468,7 @@ def _dispatch(args) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
     except OSError as exc:  # a read-only folder, a full disk, a file that vanished
-        print(f"fuzzynav: error: {describe_os_error(exc)}", file=sys.stderr)
+        print(f"fuzzynav: error: {_escaped(describe_os_error(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except MemoryError:
         print(

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from fuzzynav.app.args import float_in
+
 
 def cmaes(
     cost,
@@ -30,7 +32,17 @@ def cmaes(
     at its projection plus a quadratic penalty, so the search stays in it. Seeded: the
     same arguments give the same result. ``pool_map(f, xs)`` evaluates a population
     (in order), e.g. a multiprocessing pool's map. Returns (best x, best cost, generations,
-    evaluations)."""
+    evaluations).
+
+    Raises
+    ------
+    ValueError
+        ``sigma0`` outside :data:`SIGMA_RANGE` (NaN included).
+    """
+    if not (isinstance(sigma0, int | float) and SIGMA_RANGE[0] <= sigma0 <= SIGMA_RANGE[1]):
+        raise ValueError(
+            f"sigma0 = {sigma0!r}: must be a number from {SIGMA_RANGE[0]:g} to {SIGMA_RANGE[1]:g}"
+        )
     rng = np.random.default_rng(seed)
     lo, hi = np.array(bounds, dtype=float).T
     span = hi - lo
@@ -86,11 +98,19 @@ def cmaes(
     return best_x, best_f, maxiter, evaluations
 
 
+#: The first step CMA-ES accepts, as a fraction of each bound's span: below it the
+#: search never moves, above it every candidate lands on a bound.
+SIGMA_RANGE = (1e-6, 1.0)
+
+
 def add_sigma_option(parser) -> None:
     """``--sigma``: CMA-ES's first step, for the commands that offer it."""
+
     parser.add_argument(
         "--sigma",
-        type=float,
+        # a fraction of the span: 0, a negative step or NaN ran every generation at cost
+        # inf and wrote its file (issue 26)
+        type=float_in(SIGMA_RANGE[0], SIGMA_RANGE[1]),
         default=0.15,
         metavar="FRACTION",
         help="cmaes: the first step, a fraction of each bound's span (default 0.15)",

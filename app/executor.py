@@ -204,20 +204,23 @@ class LocalExecutor(Executor):
             )
         self._pool = None
 
-    def _get_pool(self):
+    def _get_pool(self, tasks: int | None = None):
         if self._pool is None:
             context = multiprocessing.get_context(self.start_method)
             if self.start_method == "forkserver":
                 context.set_forkserver_preload(list(WORKER_PRELOAD))
+            # never more processes than the first use has tasks for (tune maps the same
+            # number every generation)
+            processes = self.workers if tasks is None else max(1, min(self.workers, tasks))
             with _single_threaded_children():  # the fork server and workers start here
-                self._pool = context.Pool(self.workers, initializer=_worker_init)
+                self._pool = context.Pool(processes, initializer=_worker_init)
         return self._pool
 
     def _chunked(self, function, items, size):
         if not items:
             return
-        pool = self._get_pool()
         packed = [(function, start, chunk) for start, chunk in _chunks(items, size)]
+        pool = self._get_pool(len(packed))
         try:
             yield from pool.imap_unordered(_pool_task, packed)
         except BaseException:
@@ -264,10 +267,7 @@ class DaskExecutor(Executor):
             )
             self.client = Client(self._cluster)
         else:
-            try:
-                self.client = Client(scheduler, timeout="10s")
-            except OSError as exc:
-                raise ValueError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
+            self.client = _connect(Client, scheduler)
             threads = sum(self.client.nthreads().values())
             if threads == 0:
                 self.client.close()
@@ -301,9 +301,76 @@ class DaskExecutor(Executor):
             self._cluster = None
 
 
+#: The most worker processes (or, with a scheduler, chunks in flight per round) one
+#: command asks for: each process holds ~100 MB, and 150 of them on a laptop are a
+#: typing slip, not a plan.
+MAX_WORKERS = 256
+
+
+#: How long joining a cluster may take, handshake included: a server that accepts and
+#: never answers hung for 40 s despite Dask's own 10 s timeout (it applies per attempt).
+CONNECT_TIMEOUT_S = 10.0
+#: The address forms --scheduler takes: plain TCP. (``tls://`` needs certificates this
+#: command line has no options for; ``ucx://`` needs ucx-py; both gave TypeErrors.)
+SCHEDULER_SCHEMES = ("tcp://",)
+
+
+def check_scheduler_address(scheduler: str) -> str:
+    """``scheduler`` if it is ``tcp://HOST:PORT`` (or ``HOST:PORT``), else ValueError
+    with the address shown escaped."""
+    from fuzzynav.resources import shorten
+
+    shown = shorten(str(scheduler), 200)
+    text = str(scheduler)
+    if "://" in text and not text.startswith(SCHEDULER_SCHEMES):
+        raise ValueError(
+            f"--scheduler {shown}: only tcp://HOST:PORT addresses are supported "
+            f"(not {shorten(text.split('://', 1)[0], 20)}://)"
+        )
+    rest = text.split("://", 1)[-1]
+    host, sep, port = rest.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"--scheduler {shown}: must be tcp://HOST:PORT (a port from 1 to 65535)")
+    return text
+
+
+def _connect(client_class, scheduler: str):
+    """A client of the cluster at ``scheduler``, or ValueError within
+    :data:`CONNECT_TIMEOUT_S` (plus a second): whatever the server does (refuses,
+    answers garbage, never answers), one line, never a traceback or a hang."""
+    import threading
+
+    from fuzzynav.resources import shorten
+
+    shown = shorten(str(check_scheduler_address(scheduler)), 200)
+    outcome: dict = {}
+
+    def connect():
+        try:
+            outcome["client"] = client_class(scheduler, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+        except BaseException as exc:  # noqa: BLE001 - reported in the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=connect, name="fuzzynav-dask-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_TIMEOUT_S + 1.0)
+    if thread.is_alive():  # the thread is left to Dask's own timeouts; nothing waits on it
+        raise ValueError(
+            f"--scheduler {shown}: no answer within {CONNECT_TIMEOUT_S:g} s (is it a Dask "
+            "scheduler?)"
+        )
+    if "error" in outcome:
+        exc = outcome["error"]
+        if isinstance(exc, KeyboardInterrupt):
+            raise exc
+        reason = shorten(f"{type(exc).__name__}: {exc}", 200)
+        raise ValueError(f"--scheduler {shown}: cannot connect ({reason})") from None
+    return outcome["client"]
+
+
 def _check_workers(workers) -> int:
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ValueError(f"workers = {workers!r}: must be an integer >= 1")
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= MAX_WORKERS:
+        raise ValueError(f"workers = {workers!r}: must be an integer from 1 to {MAX_WORKERS}")
     return workers
 
 
@@ -342,7 +409,7 @@ def add_executor_options(parser) -> None:
     )
     parser.add_argument(
         "--workers",
-        type=integer_in(1),
+        type=integer_in(1, MAX_WORKERS),
         default=None,
         metavar="N",
         help=f"worker processes (default: the CPUs this process may use, here "
@@ -357,11 +424,15 @@ def add_executor_options(parser) -> None:
     )
 
 
-def executor_from_args(args) -> Executor:
+def executor_from_args(args, jobs: int | None = None) -> Executor:
     """The executor the parsed ``--executor/--workers/--scheduler`` ask for; bad values
-    are a UsageError (exit status 2)."""
+    are a UsageError (exit status 2). ``jobs``: how many items it will run; never more
+    worker processes are started on this machine (``--workers 150 --n 1`` starts one)."""
 
+    workers = args.workers
+    if jobs is not None and args.scheduler is None and args.executor != "serial":
+        workers = max(1, min(workers if workers is not None else available_cpus(), jobs))
     try:
-        return make_executor(args.executor, args.workers, args.scheduler)
+        return make_executor(args.executor, workers, args.scheduler)
     except ValueError as exc:
         raise UsageError(str(exc)) from None

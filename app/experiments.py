@@ -10,6 +10,7 @@ A sweep run "succeeds" when the target is reached without a collision; the stric
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import statistics
@@ -30,6 +31,7 @@ from fuzzynav.app.args import (
 
 # The rows of both engines come from one function (app/batch_runs.py).
 from fuzzynav.app.batch_runs import layout_row, run_benchmark
+from fuzzynav.resources import escape_controls
 
 SAFE_CLEARANCE_M = 0.25
 
@@ -73,14 +75,100 @@ class LayoutJob:
 
     def key(self) -> tuple:
         return (
-            self.controller,
-            tuple(self.parts_off),
-            self.family,
-            self.seed,
-            self.perception,
-            json.dumps(dict(self.options), sort_keys=True),
+            *_study_key(
+                self.controller,
+                tuple(self.parts_off),
+                self.family,
+                self.seed,
+                self.perception,
+                self.options,
+            ),
             self.index,
         )
+
+    def fingerprint(self) -> str:
+        """:func:`study_fingerprint` of this job's study."""
+        return study_fingerprint(
+            self.controller, self.parts_off, self.family, self.seed, self.perception, self.options
+        )
+
+
+@functools.lru_cache(maxsize=256)
+def _study_key(controller, parts_off, family, seed, perception, options) -> tuple:
+    # the part of a job's key its whole study shares: made once, not once a job (a
+    # sweep of 100,000 layouts took seconds to key before its first run)
+    return (
+        controller,
+        parts_off,
+        family,
+        seed,
+        perception,
+        json.dumps(dict(options), sort_keys=True),
+        study_fingerprint(controller, parts_off, family, seed, perception, options),
+    )
+
+
+#: The largest number of layouts one sweep (or compare's sweep, per controller) runs:
+#: 100,000 runs are hours on a machine and a few hundred MB of rows; past it a typing
+#: slip (``--n 100000000``) would build gigabytes of jobs before the first run.
+MAX_LAYOUTS = 100_000
+
+
+def _rules_digest(controller: str) -> str:
+    """SHA-256 of what a controller's runs are made with besides the code: its shipped
+    rule bases (``assets/rules/<controller>*.toml``) and the robot (``husky.toml``)."""
+    import hashlib
+
+    from fuzzynav.resources import MAX_INPUT_BYTES, asset_path, read_user_bytes
+
+    digest = hashlib.sha256()
+    rules = asset_path("rules")
+    files = sorted(
+        p for p in rules.glob("*.toml") if p.name.split("_")[0].split(".")[0] == controller
+    )
+    for path in [*files, asset_path("husky.toml")]:
+        digest.update(path.name.encode() + b"\0")
+        digest.update(read_user_bytes(path, "shipped file", MAX_INPUT_BYTES))
+    return digest.hexdigest()
+
+
+_DIGESTS: dict[str, str] = {}
+
+
+def study_fingerprint(controller, parts_off, family, seed, perception, options) -> str:
+    """What made a row, as 16 hex digits: the fuzzynav version, the controller and the
+    digest of its rule bases and robot, the parts off, the perception, the options
+    (geometry, engine...), the seed and the family. ``--resume`` keeps only rows with
+    the fingerprint of the study it runs: a row of another version or rule base is
+    never merged in."""
+    return _fingerprint(
+        controller, tuple(parts_off), family, seed, perception, tuple(sorted(dict(options).items()))
+    )
+
+
+@functools.lru_cache(maxsize=256)
+def _fingerprint(controller, parts_off, family, seed, perception, options) -> str:
+    # cached: every job's key asks for it (a sweep of 100,000 layouts once, not 100,000 times)
+    import hashlib
+
+    from fuzzynav import __version__
+
+    if controller not in _DIGESTS:
+        _DIGESTS[controller] = _rules_digest(controller)
+    what = json.dumps(
+        [
+            __version__,
+            controller,
+            _DIGESTS[controller],
+            list(parts_off),
+            family,
+            seed,
+            perception,
+            dict(options),
+        ],
+        sort_keys=True,
+    )
+    return hashlib.sha256(what.encode()).hexdigest()[:16]
 
 
 def row_key(row: dict) -> tuple:
@@ -92,7 +180,110 @@ def row_key(row: dict) -> tuple:
         row["seed"],
         row["perception"],
         json.dumps(row.get("options", {}), sort_keys=True),
+        row["fingerprint"],
         row["index"],
+    )
+
+
+_ROW_NUMBERS = (
+    "path_length_m",
+    "straight_line_m",
+    "straight_ratio",
+    "min_clearance_m",
+    "min_safety_distance_m",
+    "time_to_target_s",
+    "shortest_path_m",
+    "path_ratio",
+    "optimal_time_s",
+    "time_ratio",
+    "score",
+)
+
+
+def check_row(row: dict) -> None:
+    """Raise ValueError naming the field and its value unless ``row`` is a row as
+    :func:`run_layout_row` writes it: every field there, of its type and in its range,
+    and consistent (success = reached without collision). What ``--resume`` reads
+    back is checked with it before it is trusted."""
+    from fuzzynav.resources import shown
+    from fuzzynav.world.scenario import MAX_OBSTACLES
+    from fuzzynav.world.simulation import OUTCOMES
+
+    def bad(name, why):
+        return ValueError(f"{name} = {shown(row.get(name))}: {why}")
+
+    def integer(name, low, high):
+        value = row[name]
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise bad(name, f"must be an integer from {low} to {high}")
+
+    def text(name):
+        value = row[name]
+        if not isinstance(value, str) or not 0 < len(value) <= 200:
+            raise bad(name, "must be a name (a string of 1 to 200 characters)")
+
+    for name in ("index", "controller", "parts_off", "family", "seed", "perception"):
+        if name not in row:
+            raise ValueError(f"{name} missing")
+    integer("index", 0, MAX_LAYOUTS - 1)
+    integer("seed", 0, 2**63 - 1)
+    for name in ("controller", "family", "perception"):
+        text(name)
+    parts = row["parts_off"]
+    if not isinstance(parts, list) or not all(isinstance(p, str) for p in parts):
+        raise bad("parts_off", "must be a list of part names")
+    if "options" in row and not (
+        isinstance(row["options"], dict)
+        and all(isinstance(v, str | int | float | bool) for v in row["options"].values())
+    ):
+        raise bad("options", "must be an object of option names and plain values")
+    fingerprint = row.get("fingerprint")
+    if not (isinstance(fingerprint, str) and len(fingerprint) == 16):
+        raise bad(
+            "fingerprint",
+            "missing or malformed: written by another fuzzynav version (before issue 26)",
+        )
+    for name in ("outcome", "reached", "collided", "success", "n_obstacles", *_ROW_NUMBERS):
+        if name not in row:
+            raise ValueError(f"{name} missing")
+    if row["outcome"] not in OUTCOMES:
+        raise bad("outcome", f"must be one of {', '.join(OUTCOMES)}")
+    for name in ("reached", "collided", "success"):
+        if not isinstance(row[name], bool):
+            raise bad(name, "must be true or false")
+    if row["success"] != (row["reached"] and not row["collided"]):
+        raise bad("success", "must be reached and not collided")
+    if (row["outcome"] == "reached") != row["reached"]:
+        raise bad("reached", f"does not match outcome {row['outcome']!r}")
+    if row["outcome"] == "collided" and not row["collided"]:
+        raise bad("collided", "does not match outcome 'collided'")
+    integer("n_obstacles", 0, MAX_OBSTACLES)
+    for name in _ROW_NUMBERS:
+        value = row[name]
+        if value is None:
+            continue
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise bad(name, "must be a finite number or null")
+    if row["straight_line_m"] is None or row["straight_line_m"] <= 0:
+        raise bad("straight_line_m", "must be a distance > 0")
+    for name in ("path_length_m", "shortest_path_m", "optimal_time_s", "time_to_target_s"):
+        if row[name] is not None and row[name] < 0:
+            raise bad(name, "must be >= 0")
+    if row["score"] is not None and not 0 <= row["score"] <= 1:
+        raise bad("score", "must be from 0 to 1")
+
+
+def describe_row(row: dict) -> str:
+    """What a row of a results file is, for a refusal: its study's options, and whether
+    it is the fingerprint alone that differs."""
+    return ", ".join(
+        f"{name} {row.get(name)!r}"
+        for name in ("controller", "family", "seed", "perception", "index", "fingerprint")
+        if name in row
     )
 
 
@@ -170,8 +361,8 @@ def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     from fuzzynav.controller.registry import controller_names, make_controller
     from fuzzynav.world.layouts import FAMILIES
 
-    if n < 1:
-        raise ValueError(f"n = {n}: must be >= 1")
+    if not 1 <= n <= MAX_LAYOUTS:
+        raise ValueError(f"n = {n}: must be from 1 to {MAX_LAYOUTS}")
     if family not in FAMILIES:
         raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
     if controller not in controller_names():
@@ -226,6 +417,7 @@ def run_jobs(
     todo = [job for job, k in zip(jobs, keys) if k not in found]
     if progress:
         progress(len(found), len(jobs))
+    wanted = set(keys)
     if engine == "batch":
         from fuzzynav.app.batch_runs import tasks
 
@@ -239,6 +431,12 @@ def run_jobs(
     try:
         for batch in results:
             for row in batch if engine == "batch" else [batch]:
+                if row_key(row) not in wanted:  # made by a worker with other code or rules
+                    raise ValueError(
+                        f"a worker's row is not of this study ({describe_row(row)}, this "
+                        f"study's fingerprint {todo[0].fingerprint()}): every worker needs "
+                        "the same fuzzynav version and rule bases as this machine"
+                    )
                 if log is not None:
                     log.write(row)
                 found[row_key(row)] = row
@@ -319,7 +517,7 @@ def failed_runs(out: dict) -> list[dict]:
     return [r for r in out["runs"] if not (r["reached"] and not r["collided"])]
 
 
-def write_failures(out: dict, directory, progress=None) -> list[dict]:
+def write_failures(out: dict, directory, progress=None, source: str = "") -> list[dict]:
     """For every failed run of the sweep ``out``: its layout as a scenario file and a
     rerun recording of the run, in ``directory`` (which must exist).
 
@@ -330,6 +528,7 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
     """
     from fuzzynav.app.recording import record_run
     from fuzzynav.app.runs import build_simulation
+    from fuzzynav.safe_files import write_text_atomically
     from fuzzynav.world.layouts import generate_layout
     from fuzzynav.world.scenario import load_scenario
 
@@ -347,11 +546,11 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
             f"fuzzynav run {scenario_file} --controller {controller}{off} "
             f"--perception {perception} --seed {seed}"
         )
-        scenario_file.write_text(
+        write_text_atomically(
+            scenario_file,
             f"# {family} layout #{run['index']} of seed {seed}, written by `fuzzynav sweep "
             f"--failures`: {controller} ({perception} perception) ended '{run['outcome']}'.\n"
             f"# Again: {command}\n\n" + generate_layout(family, seed, run["index"]).to_toml(),
-            encoding="utf-8",
         )
         sim = build_simulation(
             load_scenario(scenario_file), controller, perception=perception, seed=seed, **options
@@ -360,9 +559,13 @@ def write_failures(out: dict, directory, progress=None) -> list[dict]:
             sim.controller.set_parts_off(parts_off)
         result = sim.run()
         if (result.outcome, result.metrics["collided"]) != (run["outcome"], run["collided"]):
-            raise RuntimeError(
+            # Rows run here are deterministic; one that disagrees was read back from
+            # --out and edited, or made elsewhere: bad input, not a crash (issue 26)
+            raise ValueError(
                 f"{scenario_file}: the run ended '{result.outcome}' when driven "
-                f"again, '{run['outcome']}' in the sweep"
+                f"again, '{run['outcome']}' in the sweep's row"
+                + (f" ({source})" if source else "")
+                + ": that row does not hold this run's result"
             )
         recording = directory / f"{stem}_{controller}_{perception}.rrd"
         record_run(
@@ -437,15 +640,22 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
     out = getattr(args, "out", None)
     if getattr(args, "resume", False) and out is None:
         raise UsageError("--resume: give the --out PATH.jsonl to resume")
-    log = ResultLog(out, resume=args.resume, key=row_key) if out is not None else None
-    if log is not None:
-        log.check_belongs(job.key() for job in jobs)  # before a worker starts
+    log = None
+    if out is not None:
+        from fuzzynav.safe_files import check_output_path
+
+        # never the installed package's files, a device, a pipe or /dev/zero
+        check_output_path(out, "--out", stream_ok=False)
+        log = ResultLog(out, resume=args.resume, key=row_key, check_row=check_row)
+        log.check_belongs((job.key() for job in jobs), describe_row)  # before a worker starts
     start = time.perf_counter()
     try:
         with contextlib.ExitStack() as stack:
-            executor = stack.enter_context(executor_from_args(args))
             if log is not None:
+                # locked before the workers start: a second run on this file refuses
+                # here, naming this one's process id
                 stack.enter_context(log)
+            executor = stack.enter_context(executor_from_args(args, jobs=len(jobs)))
             with _progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
                 task = bar.add_task("runs", total=len(jobs))
 
@@ -464,10 +674,10 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
         if log is not None:
             log.close()
             # read back: Ctrl-C may land after a row reached the file, before it was counted
-            on_file = ResultLog(log.path, resume=True, key=row_key).rows
+            on_file = ResultLog(log.path, resume=True, key=row_key, check_row=check_row).rows
             kept = sum(1 for job in jobs if job.key() in on_file)
             print(
-                f"fuzzynav: interrupted: {kept} of {len(jobs)} runs are in {log.path}; "
+                f"fuzzynav: interrupted: {kept} of {len(jobs)} runs are in {log.shown}; "
                 f"the same command with --resume runs the other {len(jobs) - kept}",
                 file=sys.stderr,
             )
@@ -479,7 +689,7 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
             )
         raise StudyInterrupted from None
     if log is not None and log.dropped_partial_line and not quiet:
-        print(f"{log.path}: an unfinished last line was dropped and run again", file=sys.stderr)
+        print(f"{log.shown}: an unfinished last line was dropped and run again", file=sys.stderr)
     return rows, time.perf_counter() - start
 
 
@@ -534,7 +744,12 @@ def cmd_sweep(args) -> int:
     out = summarize(rows[: args.n], wall_time_s=wall_time_s)
     other = summarize(rows[args.n :], wall_time_s=wall_time_s) if with_beside else None
     failures = (
-        _write_failures_with_bar(out, args.failures, args.json)
+        _write_failures_with_bar(
+            out,
+            args.failures,
+            args.json,
+            f"rows read back from --out {args.out}" if args.resume else "",
+        )
         if args.failures is not None
         else None
     )
@@ -557,7 +772,7 @@ def cmd_sweep(args) -> int:
             table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
     Console().print(table)
     if args.out is not None:
-        print(f"every run: {args.out}")
+        print(f"every run: {escape_controls(str(args.out))}")
     if failures:
         listing = Table(
             title=f"{len(failures)} failed run(s) of {args.controller}: "
@@ -573,13 +788,13 @@ def cmd_sweep(args) -> int:
                 Path(f["recording"]).name,
             )
         Console().print(listing)
-        print(f"open one with: rerun {failures[0]['recording']}")
+        print(f"open one with: rerun {escape_controls(failures[0]['recording'])}")
     elif failures is not None:
-        print(f"no failed runs: nothing written to {args.failures}")
+        print(f"no failed runs: nothing written to {escape_controls(str(args.failures))}")
     return 0
 
 
-def _write_failures_with_bar(out, directory, quiet):
+def _write_failures_with_bar(out, directory, quiet, source=""):
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
@@ -593,7 +808,7 @@ def _write_failures_with_bar(out, directory, quiet):
     ) as bar:
         task = bar.add_task("failures", total=n)
         return write_failures(
-            out, directory, progress=lambda done: bar.update(task, completed=done)
+            out, directory, progress=lambda done: bar.update(task, completed=done), source=source
         )
 
 
@@ -822,7 +1037,9 @@ def cmd_compare(args) -> int:
             )
         console.print(st)
         if args.out is not None:
-            console.print(f"every sweep run: {args.out}")
+            from rich.markup import escape as markup
+
+            console.print(markup(f"every sweep run: {escape_controls(str(args.out))}"))
     return 0
 
 
@@ -864,7 +1081,12 @@ def add_commands(subparsers) -> None:
         "sweep", help="run a controller on seeded random layouts; success rate"
     )
     add_geometry_option(p)
-    p.add_argument("--n", type=integer_in(1), default=200, help="number of layouts (default 200)")
+    p.add_argument(
+        "--n",
+        type=integer_in(1, MAX_LAYOUTS),
+        default=200,
+        help=f"number of layouts (default 200, at most {MAX_LAYOUTS})",
+    )
     p.add_argument("--seed", type=seed_type, default=1, help="layout seed (default 1)")
     p.add_argument(
         "--family", default="standard", choices=FAMILIES, help="layout family (default standard)"
@@ -922,9 +1144,10 @@ def add_commands(subparsers) -> None:
     )
     c.add_argument(
         "--sweep-n",
-        type=int,
+        type=integer_in(0, MAX_LAYOUTS),
         default=100,
-        help="also sweep N random layouts per controller (default 100; 0: none)",
+        help=f"also sweep N random layouts per controller (default 100; 0: none; at most "
+        f"{MAX_LAYOUTS})",
     )
     c.add_argument(
         "--sweep-seed",

@@ -37,6 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.resources import escape_controls
+from fuzzynav.safe_files import atomic_output, write_text_atomically
+
 SAFE_DISTANCE_M = 0.25
 FORMATS = ("png", "svg")
 RUN_FIGURES = ("trajectory", "distances", "angles", "obstacle_angles", "voltages")
@@ -70,7 +73,10 @@ OBSTACLE_COLORS = [
 def check_writable_dir(path, option: str = "--figures") -> Path:
     """Create ``path`` if needed and make sure files can be written in it; ValueError
     with the reason otherwise."""
+    from fuzzynav.safe_files import refuse_installed
+
     path = Path(path)
+    refuse_installed(path, option)  # never among the shipped rule bases and scenarios
     if path.exists() and not path.is_dir():
         raise ValueError(f"{option} {path}: exists and is not a directory")
     try:
@@ -100,7 +106,9 @@ def _save(fig, out_dir: Path, name: str, formats=FORMATS) -> list[Path]:
     paths = []
     for ext in formats:
         path = out_dir / f"{name}.{ext}"
-        fig.savefig(path, dpi=DPI, format=ext, metadata=_metadata(ext))
+        # whole or not at all: a full disk left a truncated PNG over the good one
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, format=ext, metadata=_metadata(ext))
         paths.append(path)
         # The layout is done (it is the costly part of a save): keep it for the others.
         fig.set_layout_engine("none")
@@ -640,7 +648,8 @@ def write_membership_overview(
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=90, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path
 
@@ -980,7 +989,7 @@ def write_figure_index(entries, root) -> Path:
             f"| {number} | {e.what} | {e.scenario} | {e.controller} | {e.geometry} | {links} |"
         )
     path = root / "index.md"
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text_atomically(path, "\n".join(lines) + "\n")
     return path
 
 
@@ -1016,11 +1025,13 @@ def run_hook(args, sim):
             )
         except OSError as exc:  # a full disk, a folder removed meanwhile
             raise ValueError(
-                f"--figures {out_dir}: the figures were not written ({exc.strerror or exc})"
+                f"--figures {escape_controls(str(out_dir))}: the figures were not written "
+                f"({exc.strerror or exc})"
             ) from None
         what = "partial run, " if interrupted else ""
         print(
-            f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to {out_dir}",
+            f"fuzzynav: {len(paths)} figure files ({what}PNG and SVG) written to "
+            f"{escape_controls(str(out_dir))}",
             file=sys.stderr,
         )
 

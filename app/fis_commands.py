@@ -63,8 +63,9 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
 def _write(system, path: Path) -> None:
     """Write one .fis whole or not at all (:mod:`app.safe_files`): a full disk or a
     read-only folder leaves any old file as it was, and says so (ValueError)."""
-    from fuzzynav.app.safe_files import write_text_atomically
+    from fuzzynav.app.safe_files import refuse_installed, write_text_atomically
 
+    refuse_installed(path, "fis export")  # never over a shipped file
     try:
         write_text_atomically(path, dumps_fis(system))
     except OSError as exc:
@@ -85,7 +86,9 @@ def cmd_fis_export(args) -> int:
     target = args.path if args.path is not None else default_export_path(args.controller)
     for path in export_fis(target, args.controller, args.geometry):
         # Read back: what is printed is what the file holds.
-        print(f"wrote {path} ({_signature(read_fis(path))})")
+        from fuzzynav.resources import escape_controls
+
+        print(f"wrote {escape_controls(str(path))} ({_signature(read_fis(path))})")
     return 0
 
 

@@ -18,13 +18,13 @@ import dataclasses
 import math
 import re
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
 from fuzzynav.app.args import UsageError, integer_in, print_json, seed_type
 from fuzzynav.resources import asset_path
+from fuzzynav.safe_files import write_text_atomically
 
 RESULTS_PATH = asset_path("paper", "results.toml")
 SCENARIOS = ("s1", "s2", "s3")
@@ -40,8 +40,9 @@ CHATTER_FREE_STEPS = 10
 
 def paper_results(path: str | Path = RESULTS_PATH) -> dict:
     """The paper's numbers: ``{"table4": {s: {...}}, "events": {s: [...]}}``."""
-    with Path(path).open("rb") as fh:
-        return tomllib.load(fh)
+    from fuzzynav.resources import loads_user_toml, read_user_text
+
+    return loads_user_toml(read_user_text(path, "results file"), str(path))
 
 
 def closest_approaches(time_s, center_distance_m) -> list[tuple[float, float]]:
@@ -213,10 +214,20 @@ def _write_checkpoint(path, names, x, cost, generation) -> None:
     values = dict(zip(names, [float(v) for v in x[:-1]]))
     values["initial_heading_rad"] = float(x[-1])
     line = ", ".join(f"{k}={v!r}" for k, v in values.items())
-    Path(path).write_text(
-        f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n",
-        encoding="utf-8",
-    )
+    try:  # whole or not at all; a checkpoint is insurance: the fit goes on without it
+        write_text_atomically(
+            path, f"# generation {generation}, cost {float(cost)!r}\n# tuned vector: {line}\n"
+        )
+    except OSError as exc:
+        import sys
+
+        from fuzzynav.resources import escape_controls
+
+        print(
+            f"fuzzynav: warning: --checkpoint {escape_controls(str(path))} not written at "
+            f"generation {generation} ({exc.strerror or exc}); the one before is unchanged",
+            file=sys.stderr,
+        )
 
 
 def fit(
@@ -359,8 +370,9 @@ def _row(scenario, quantity, paper_value, fitted):
 def read_fitted(path: str | Path) -> tuple[np.ndarray, float]:
     """(partition vector, initial heading) from a fitted file's 'tuned vector:' line."""
     from fuzzynav.controller.paper_partition import PARTITION_PARAMETERS
+    from fuzzynav.resources import read_user_text
 
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
+    for line in read_user_text(path, "fitted rule base").splitlines():
         if line.startswith("# tuned vector:"):
             values = dict(re.findall(r"([\w.]+)=(?:np\.float64\()?([-+0-9.eE]+)", line))
             try:
@@ -383,6 +395,11 @@ def cmd_fit_paper(args) -> int:
     out = args.out if args.out is not None else Path.cwd() / "paper_table4.toml"
     if not out.parent.is_dir():
         raise UsageError(f"--out {out}: folder {out.parent} does not exist")
+    from fuzzynav.app.tuning import check_output_file
+
+    check_output_file(out, "--out", [args.x0])  # not its --x0, nor a shipped rule base
+    if args.checkpoint is not None:
+        check_output_file(args.checkpoint, "--checkpoint", [out])
     x0 = None
     if args.x0 is not None:
         vector, heading = read_fitted(args.x0)
@@ -429,7 +446,7 @@ def cmd_fit_paper(args) -> int:
     [path] = tunable.save(vector, out, header=header)
     text = path.read_text(encoding="utf-8")
     text = text.replace("\n\n[system]", f", initial_heading_rad={heading!r}\n\n[system]", 1)
-    path.write_text(text, encoding="utf-8")
+    write_text_atomically(path, text)
     summary = {
         "out": str(path),
         "cost": best,
@@ -440,7 +457,16 @@ def cmd_fit_paper(args) -> int:
     if args.json:
         print_json(summary)
     else:
-        console.print(f"wrote {path} (cost {best:.4f}, heading {heading:.4f} rad, {elapsed:.0f} s)")
+        from rich.markup import escape as markup
+
+        from fuzzynav.resources import escape_controls
+
+        console.print(
+            markup(
+                f"wrote {escape_controls(str(path))} (cost {best:.4f}, heading {heading:.4f} "
+                f"rad, {elapsed:.0f} s)"
+            )
+        )
     return 0
 
 

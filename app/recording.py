@@ -1546,9 +1546,16 @@ def write_recording_bytes(path, data: bytes) -> Path:
     renamed over ``path`` only when complete (:mod:`app.safe_files`). A full disk or an
     unwritable folder raises :class:`RecordingError` and leaves ``path`` as it was; an
     interrupt (Ctrl-C) removes the temporary file and propagates."""
-    from fuzzynav.app.safe_files import commit, discard, temporary_beside
+    from fuzzynav.safe_files import commit, discard, is_stream_target, temporary_beside
 
     path = Path(path)
+    if is_stream_target(path):  # never renamed over: written as it goes (issue 26)
+        from fuzzynav.safe_files import write_bytes_atomically
+
+        try:
+            return write_bytes_atomically(path, data)
+        except OSError as exc:
+            raise _not_written(path, exc.strerror or str(exc)) from None
     try:
         tmp = temporary_beside(path)
     except OSError as exc:
@@ -1609,7 +1616,10 @@ def record_run(
     log = result.log
     import rerun as rr
 
-    check_writable_file(path)
+    from fuzzynav.safe_files import is_stream_target
+
+    if not is_stream_target(path):  # a pipe or a terminal is written as a stream
+        check_writable_file(path)
     # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
     # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
     rec = rr.RecordingStream(application_id(scenario, controller))
@@ -1930,14 +1940,18 @@ def run_hook(args, sim):
     path = getattr(args, "rrd", None)
     if path is None:
         return None
-    from fuzzynav.app.safe_files import partial_path
+    from fuzzynav.app.args import run_inputs
+    from fuzzynav.safe_files import check_output_path, partial_path
 
-    check_writable_file(path)
+    check_output_path(path, "--rrd", run_inputs(args))  # not an input, nor a shipped file
     argv = command_line()
+
+    from fuzzynav.resources import escape_controls
 
     def write(result, interrupted: bool) -> None:
         extra = {"command line": "`" + argv + "`"}
         target = Path(path)
+        shown, shown_path = escape_controls(str(target)), escape_controls(str(path))
         if interrupted:
             extra["interrupted"] = (
                 f"yes (Ctrl-C at t = {result.log.time_s[-1]:.2f} s)"
@@ -1957,20 +1971,21 @@ def run_hook(args, sim):
             )
         except KeyboardInterrupt:
             print(
-                f"fuzzynav: interrupted while writing the recording: {target} not written "
+                f"fuzzynav: interrupted while writing the recording: {shown} not written "
                 f"({'the old file is unchanged' if target.exists() else 'no file made'})",
                 file=sys.stderr,
             )
             raise
         if interrupted:
+            shown = escape_controls(str(target))
             print(
-                f"fuzzynav: the run was interrupted: its recording so far is in {target} "
-                f"(marked interrupted; {path} is unchanged)",
+                f"fuzzynav: the run was interrupted: its recording so far is in {shown} "
+                f"(marked interrupted; {shown_path} is unchanged)",
                 file=sys.stderr,
             )
         else:
             print(
-                f"fuzzynav: recording written to {target} (open it with: rerun {target})",
+                f"fuzzynav: recording written to {shown} (open it with: rerun {shown})",
                 file=sys.stderr,
             )
 

@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError
 from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.controller.rulebase import read_toml
+from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
 from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
@@ -266,11 +266,18 @@ def write_report(
         "controllers": list(controllers),
         "rows": rows,
     }
-    (out / "table4.json").write_text(json.dumps(table, indent=2), encoding="utf-8")
-    (out / "table4.md").write_text(_markdown(rows, perception), encoding="utf-8")
+    write_text_atomically(out / "table4.json", json.dumps(table, indent=2))
+    write_text_atomically(out / "table4.md", _markdown(rows, perception))
     if readme_images is not None:
         _copy_readme_images(out, fig_dir, Path(readme_images), controllers, geometries)
     return table
+
+
+def _copy(source: Path, target: Path) -> None:
+    """Copy a file through the one atomic writer (the target whole or not at all)."""
+    from fuzzynav.resources import read_user_bytes
+
+    write_bytes_atomically(target, read_user_bytes(source, "figure", 64 * 1024 * 1024))
 
 
 def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geometries):
@@ -286,11 +293,11 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
             for name in controllers:
                 source = husky / f"{paper_figure_stem(scenario, 'trajectory', name)}.png"
                 if source.exists():
-                    shutil.copy2(source, images / f"{scenario}_{name}_trajectory.png")
+                    _copy(source, images / f"{scenario}_{name}_trajectory.png")
         if (husky / "fig27_comparison.png").exists():
-            shutil.copy2(husky / "fig27_comparison.png", images / "comparison.png")
+            _copy(husky / "fig27_comparison.png", images / "comparison.png")
     # the README's table lives beside its images' folder (docs/table4.md)
-    shutil.copy2(out / "table4.md", images.parent / "table4.md")
+    _copy(out / "table4.md", images.parent / "table4.md")
     if "paper" in controllers:
         from fuzzynav.app.figures import write_membership_overview
         from fuzzynav.controller.paper import PAPER_RULES
@@ -311,6 +318,10 @@ def cmd_report(args) -> int:
         if args.controllers
         else [c for c in DEFAULT_CONTROLLERS if c in offered]
     )
+    if args.controllers is not None and not wanted:  # `--controllers ,` wrote an empty table
+        raise UsageError(
+            f"--controllers {args.controllers!r}: names no controller (have {', '.join(offered)})"
+        )
     for name in wanted:
         if name not in offered:
             raise UsageError(

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
 from fuzzynav.world.perception import check_geometry
-from fuzzynav.world.scenario import Scenario, load_scenario
+from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M, Scenario, load_scenario
 from fuzzynav.world.sensors import SensorConfig
 from fuzzynav.world.simulation import Simulation, SimulationResult
 
@@ -52,7 +52,10 @@ def build_simulation(
     ``--controller paper`` drives with the rule base fitted in that geometry."""
     check_geometry(geometry, perception)
     if not isinstance(scenario, Scenario):
-        scenario = load_scenario(scenario)
+        # the start is checked against the robot that drives: the paper's geometry is a
+        # point robot, so a layout valid for it is not refused for the Husky's footprint
+        footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
+        scenario = load_scenario(scenario, footprint_m=footprint)
     if geometry == "paper" and scenario.paper_heading_rad is not None:
         scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
     ctrl = (

@@ -33,6 +33,9 @@ def _check_rrd(path):
             "--rrd: live recording needs app/recording.py and rerun-sdk, "
             "which are not available in this installation"
         ) from None
+    from fuzzynav.safe_files import refuse_installed
+
+    refuse_installed(path, "--rrd")  # never among the shipped rule bases and scenarios
     return check_writable_file(path)
 
 

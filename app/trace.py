@@ -22,7 +22,8 @@ import math
 import sys
 from pathlib import Path
 
-from fuzzynav.app.safe_files import check_writable_file, write_text_atomically
+from fuzzynav.resources import escape_controls
+from fuzzynav.safe_files import check_output_path, write_chunks_atomically
 
 TRACE_COLUMNS = (
     "time_s",
@@ -62,14 +63,29 @@ def trace_rows(log):
         ]
 
 
-def write_trace(log, path: str | Path) -> Path:
-    """Write the trace to ``path`` whole or not at all (an existing file is replaced
-    only by a complete one)."""
+#: Rows encoded at a time: the text of a 2,000,000-step trace (about 400 MB) never sits
+#: in memory whole, only this many rows of it.
+TRACE_CHUNK_ROWS = 256
+
+
+def _trace_chunks(log):
     buffer = io.StringIO(newline="")
     writer = csv.writer(buffer)
     writer.writerow(TRACE_COLUMNS)
-    writer.writerows(trace_rows(log))
-    return write_text_atomically(path, buffer.getvalue())
+    for k, row in enumerate(trace_rows(log), start=1):
+        writer.writerow(row)
+        if k % TRACE_CHUNK_ROWS == 0:
+            yield buffer.getvalue().encode("utf-8")
+            buffer.seek(0)
+            buffer.truncate()
+    yield buffer.getvalue().encode("utf-8")
+
+
+def write_trace(log, path: str | Path) -> Path:
+    """Write the trace to ``path`` whole or not at all (an existing file is replaced
+    only by a complete one), a few thousand rows at a time; a pipe gets it as a
+    stream. OSError naming ``path`` on failure."""
+    return write_chunks_atomically(path, _trace_chunks(log))
 
 
 def add_run_options(parser) -> None:
@@ -86,11 +102,15 @@ def run_hook(args, sim):
     path = getattr(args, "trace", None)
     if path is None:
         return None
-    check_writable_file(path, "--trace")  # before the run, not after it
+    from fuzzynav.app.args import run_inputs
+
+    # before the run, not after it; never over the run's scenario or .fis, nor a file
+    # of the installed package
+    check_output_path(path, "--trace", run_inputs(args))
 
     def write(result, interrupted: bool) -> None:
         write_trace(result.log, path)
         note = " (interrupted run)" if interrupted else ""
-        print(f"fuzzynav: trace written to {path}{note}", file=sys.stderr)
+        print(f"fuzzynav: trace written to {escape_controls(str(path))}{note}", file=sys.stderr)
 
     return write

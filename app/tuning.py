@@ -63,6 +63,8 @@ from pathlib import Path
 import numpy as np
 
 from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
+from fuzzynav.resources import escape_controls
+from fuzzynav.safe_files import write_text_atomically
 
 SAFE_CLEARANCE_M = 0.25
 CLEARANCE_MARGIN_M = 0.05
@@ -303,7 +305,10 @@ def reproduce_command(args) -> str:
 def read_vector(path: Path, names: list[str]) -> np.ndarray:
     """A starting vector from a rule base's ``tuned vector:`` header line (by name) or
     from a ``--checkpoint`` file (whitespace-separated numbers, in order)."""
-    text = Path(path).read_text(encoding="utf-8")
+    from fuzzynav.resources import read_user_text
+
+    # the one safe reader: a FIFO given as --x0 hung here, /dev/zero filled the memory
+    text = read_user_text(path, "starting vector (rule base or checkpoint)")
     for line in text.splitlines():
         if line.startswith("# tuned vector:"):
             pairs = dict(item.strip().split("=") for item in line.split(":", 1)[1].split(","))
@@ -478,14 +483,22 @@ def tune(
     return result
 
 
-def check_output_file(path: Path, option: str) -> Path:
+def check_output_file(path: Path, option: str, inputs=()) -> Path:
     """Refuse (UsageError) an output path that cannot be written: a directory, a
-    missing or read-only folder. Creates nothing that stays."""
+    missing or read-only folder, a device or pipe, a file inside the installed package,
+    or one of ``inputs`` (the files the command reads). Creates nothing that stays."""
     import tempfile
+
+    from fuzzynav.safe_files import check_output_path
 
     path = Path(path)
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a directory, not a file")
+    try:  # not the --x0 it starts from, nor a shipped rule base, nor a device
+        check_output_path(path, option, inputs, stream_ok=False)
+    except ValueError as exc:
+        if "does not exist" not in str(exc) and "cannot write there" not in str(exc):
+            raise UsageError(str(exc)) from None
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise UsageError(f"{option} {path}: folder {parent} does not exist")
@@ -658,9 +671,9 @@ def cmd_tune(args) -> int:
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"
     # Before the tuning: an hour of tuning must not end in "cannot write there".
-    check_output_file(args.out, "--out")
+    check_output_file(args.out, "--out", [args.x0])
     if args.checkpoint is not None:
-        check_output_file(args.checkpoint, "--checkpoint")
+        check_output_file(args.checkpoint, "--checkpoint", [args.out])
     for name in ("clearance_weight", "radius"):
         value = getattr(args, name)
         if value is not None and not math.isfinite(value):  # called from code, not argparse
@@ -722,7 +735,21 @@ def cmd_tune(args) -> int:
         def on_generation(gen, best, x):
             history.append(best)
             if args.checkpoint is not None:  # best so far, in case the run must be cut short
-                args.checkpoint.write_text(" ".join(repr(float(v)) for v in x) + "\n")
+                try:  # whole or not at all: the last good checkpoint survives a full disk
+                    write_text_atomically(
+                        args.checkpoint, " ".join(repr(float(v)) for v in x) + "\n"
+                    )
+                except OSError as exc:  # a checkpoint is insurance: the tuning goes on
+                    from rich.markup import escape as markup
+
+                    console.print(
+                        markup(
+                            f"fuzzynav: warning: --checkpoint "
+                            f"{escape_controls(str(args.checkpoint))} not written at {step} "
+                            f"{gen} ({exc.strerror or exc}); the one before is unchanged; "
+                            "tuning goes on"
+                        )
+                    )
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
                 console.print(
@@ -763,7 +790,7 @@ def cmd_tune(args) -> int:
             if path.suffix == ".toml":
                 text = path.read_text(encoding="utf-8")
                 note = "".join(f"# {line}\n" for line in header.splitlines())
-                path.write_text(note + text, encoding="utf-8")
+                write_text_atomically(path, note + text)
     out = {
         "controller": t.name,
         "cost": float(result.fun),
@@ -778,9 +805,17 @@ def cmd_tune(args) -> int:
     if args.json:
         print_json(out)
     else:
+        from rich.markup import escape as markup
+
+        # the paths and the command hold the user's file names: text, escaped
         Console().print(
-            f"best cost {result.fun:.4f} after {result.nit} {step}s "
-            f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
-            f"{', '.join(map(str, paths))}\nreproduce with:\n  {command}"
+            markup(
+                escape_controls(
+                    f"best cost {result.fun:.4f} after {result.nit} {step}s "
+                    f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
+                    f"{', '.join(map(str, paths))}",
+                )
+                + f"\nreproduce with:\n  {escape_controls(command)}"
+            )
         )
     return 0

@@ -360,21 +360,36 @@ class ViewerApp:
             if self._recorder is None:
                 from fuzzynav.app.recording import LiveRecorder
 
-                k = len(self.recorded_files) + 1
-                path = (
-                    self.rrd_path
-                    if k == 1
-                    else self.rrd_path.with_name(
-                        f"{self.rrd_path.stem}-run{k}{self.rrd_path.suffix or '.rrd'}"
-                    )
-                )
-                self._recorder = LiveRecorder(path)
+                path = self._next_recording_path()
+                try:
+                    self._recorder = LiveRecorder(path)
+                except BaseException:
+                    if path != self.rrd_path and path.exists() and path.stat().st_size == 0:
+                        path.unlink()  # our reservation, never written
+                    raise
                 self.recorded_files.append(path)
             self._recorder.update(self.sim)
         except Exception as exc:  # a full disk must not stop the simulation
             self._recorder = None
             self.rrd_path = None
             self._notice(f"Recording stopped: {exc}", "warning")
+
+    def _next_recording_path(self) -> Path:
+        """The file of the next run: ``--rrd`` itself first, then ``<stem>-runK.rrd``
+        with the first K whose file does not exist, reserved at once (created empty,
+        exclusively), so that a second ``serve --rrd`` on the same path never takes,
+        nor overwrites, this one's runs (issue 26)."""
+        if not self.recorded_files:
+            return self.rrd_path
+        suffix = self.rrd_path.suffix or ".rrd"
+        k = len(self.recorded_files) + 1
+        while True:
+            path = self.rrd_path.with_name(f"{self.rrd_path.stem}-run{k}{suffix}")
+            try:
+                os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+                return path
+            except FileExistsError:
+                k += 1
 
     def _close_recorder_locked(self) -> None:
         recorder, self._recorder = self._recorder, None
@@ -676,6 +691,12 @@ class ViewerApp:
             )
         except ScenarioError as exc:
             raise ViewerError(str(exc)) from None
+        from fuzzynav.world.simulation import check_run_size
+
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
+            check_run_size(scenario.duration_s, self.sim.control_period_s, len(scenario.obstacles))
+        except ValueError as exc:
+            raise ViewerError(f"{label}: {exc}") from None
         self.uploaded_scenarios[label] = scenario
         self.load_scenario(label)
         return label

@@ -28,9 +28,11 @@ def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
     """(vector, exact): the parametrisation of the shipped system if its file records
     it and it rebuilds that system (to 1e-4), else the tuner's starting vector."""
     names = tunable.parameter_names()
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError:
+    from fuzzynav.resources import read_user_text
+
+    try:  # the one safe reader (regular file, size cap), as for every file read
+        text = read_user_text(path, "rule base file")
+    except ValueError:  # InputError: missing, unreadable, not a regular file
         text = ""
     match = VECTOR_LINE.search(text)
     if match:

@@ -28,6 +28,7 @@ from fuzzynav.app.viewer import (
     ViewerApp,
     ViewerError,
 )
+from fuzzynav.resources import shorten
 from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 
 FRAME_HZ = 30.0
@@ -181,6 +182,18 @@ def _fmt(value, unit: str = "", digits: int = 2) -> str:
     return str(value)
 
 
+def _xy(position) -> np.ndarray:
+    """The first two numbers of a position a client sent, or ViewerError (an empty or
+    malformed position froze the dragged thing's drawing)."""
+    try:
+        xy = np.array([float(v) for v in list(position)[:2]], dtype=float)
+    except (TypeError, ValueError):
+        xy = np.zeros(0)
+    if xy.shape != (2,):
+        raise ViewerError(f"position {shorten(repr(position), 60)}: must be two numbers")
+    return xy
+
+
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
@@ -195,6 +208,13 @@ class ViewerServer:
         with guarded_server_start(host):  # only its own page may connect (app/origin_guard.py)
             self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
         self.port = self.server.get_port()
+        from fuzzynav.app.viewer import MAX_UPLOAD_BYTES
+        from fuzzynav.app.viewer_guards import install_message_guards
+
+        # only a component's value, finite numbers, uploads refused at their declared size
+        install_message_guards(
+            self.server, MAX_UPLOAD_BYTES, lambda text: app._notice(text, "warning")
+        )
         self._stop = threading.Event()
         self._camera_fits: dict[int, float] = {}
         self._dragging: set[str] = set()
@@ -906,19 +926,23 @@ class ViewerServer:
         async def on_drag(event) -> None:
             if event.client is None:
                 return
-            if event.phase == "start" or "xy" not in grab:
-                self._dragging.add(name)
-                grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
-                grab["xy"] = np.array(gizmo.position[:2], dtype=float)
-            x, y = grab["xy"] + np.asarray(event.end_position[:2], dtype=float) - grab["from"]
             try:
+                if event.phase == "start" or "xy" not in grab:
+                    self._dragging.add(name)
+                    grab["from"] = _xy(event.start_position)  # copies
+                    grab["xy"] = np.array(gizmo.position[:2], dtype=float)
+                x, y = grab["xy"] + _xy(event.end_position) - grab["from"]
                 if obstacle_id is None:
                     app.move_target((x, y))
                 else:
                     app.move_obstacle(obstacle_id, (x, y))
                 gizmo.position = (x, y, float(gizmo.position[2]))
-            except ViewerError as exc:
+            except ViewerError as exc:  # a malformed or refused position (issue 26)
                 app._notice(str(exc), "warning")
+                self._snap_back(gizmo, obstacle_id)
+                grab.clear()
+                self._dragging.discard(name)  # or its drawing stays frozen
+                return
             if event.phase == "end":
                 grab.clear()
                 self._dragging.discard(name)
@@ -934,19 +958,35 @@ class ViewerServer:
                 return
             if event.phase == "start":
                 self._dragging.add(name)
-            x, y = (float(v) for v in event.target.position[:2])
             try:
+                x, y = _xy(event.target.position)
                 if obstacle_id is None:
                     app.move_target((x, y))
                 else:
                     app.move_obstacle(obstacle_id, (x, y))
             except ViewerError as exc:
+                # refused (1e300, NaN, no position): drawn back where it is, and no
+                # longer held as dragged, or its drawing stays frozen (issue 26)
                 app._notice(str(exc), "warning")
+                self._snap_back(event.target, obstacle_id)
+                self._dragging.discard(name)
+                return
             if event.phase == "end":
                 self._dragging.discard(name)
                 app.check_target()
 
         return on_update
+
+    def _snap_back(self, gizmo, obstacle_id: int | None) -> None:
+        """Draw a handle where its target or obstacle is (after a refused drag)."""
+        snap = self.app.snapshot()
+        if obstacle_id is None:
+            xy = snap.target
+        else:
+            xy = next((o.xy for o in snap.obstacles if o.id == obstacle_id), None)
+        if xy is not None:
+            z = float(gizmo.position[2]) if len(gizmo.position) > 2 else 0.0
+            gizmo.position = (float(xy[0]), float(xy[1]), z if math.isfinite(z) else 0.0)
 
     # -- the render loop ---------------------------------------------------------------
 

@@ -414,4 +414,6 @@ def dumps_fis(system: FuzzySystem) -> str:
 
 def write_fis(system: FuzzySystem, path) -> None:
     """Write a MATLAB .fis file."""
-    Path(path).write_text(dumps_fis(system), encoding="utf-8")
+    from fuzzynav.safe_files import write_text_atomically
+
+    write_text_atomically(path, dumps_fis(system))

@@ -16,6 +16,63 @@ from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.rulebase import read_toml
 
 N_INPUTS, N_OUTPUTS = 4, 2
+#: The controller's inputs and outputs, in the order the loop passes and takes them.
+INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
+OUTPUT_NAMES = ("left", "right")
+
+
+def binding(names, expected, what: str, source: str) -> tuple[int, ...] | None:
+    """How a system's variables (``names``) bind to the controller's (``expected``):
+    None when by position (in order, or names that are none of the expected ones,
+    e.g. MATLAB's ``input1``); the index of each expected variable among ``names``
+    when those are exactly the expected names in another order (bound by name).
+
+    Raises
+    ------
+    ValueError
+        Some of the names are the controller's but not all of them, or one twice: the
+        file cannot be bound either way, and binding by position would drive the robot
+        with a wrong input (issue 26).
+    """
+    names = tuple(names)
+    if names == tuple(expected):
+        return None
+    known = [n for n in names if n in expected]
+    if not known:
+        return None
+    if sorted(names) == sorted(expected):
+        return tuple(names.index(n) for n in expected)
+    raise ValueError(
+        f"{source}: {what} named {', '.join(map(repr, names))}: some are the robot's "
+        f"({', '.join(expected)}) and some are not (or one is there twice), so they can be "
+        f"bound neither by name nor by position; name them {', '.join(expected)} (in any "
+        "order), or none of them so"
+    )
+
+
+def reordered(fis: FuzzySystem, inputs=None, outputs=None) -> FuzzySystem:
+    """The same system with its inputs (outputs) in the order ``inputs`` (``outputs``)
+    gives: new variable k is old variable ``inputs[k]``; each rule's terms follow."""
+    import dataclasses
+
+    inputs = tuple(range(fis.n_inputs)) if inputs is None else tuple(inputs)
+    outputs = tuple(range(fis.n_outputs)) if outputs is None else tuple(outputs)
+    rules = [
+        dataclasses.replace(
+            rule,
+            antecedent=tuple(rule.antecedent[k] for k in inputs),
+            consequent=tuple(rule.consequent[k] for k in outputs),
+        )
+        for rule in fis.rules
+    ]
+    return FuzzySystem(
+        [fis.inputs[k] for k in inputs],
+        [fis.outputs[k] for k in outputs],
+        rules,
+        name=fis.name,
+        description=fis.description,
+        n_points=fis.n_points,
+    )
 
 
 class FisController:
@@ -37,6 +94,14 @@ class FisController:
                 f"{fis.n_outputs} outputs; the robot needs {N_INPUTS} inputs "
                 f"(d_t, d_o, phi_t, phi_o) and {N_OUTPUTS} outputs (left, right voltage)"
             )
+        # A file's Input1 named phi_t is phi_t, wherever it stands (issue 26): the system
+        # is reordered into the loop's order once, so that everything that reads it
+        # (the viewer's panel, the recordings' firing strengths) sees the same order.
+        inputs = binding([v.name for v in fis.inputs], INPUT_NAMES, "inputs", source)
+        outputs = binding([v.name for v in fis.outputs], OUTPUT_NAMES, "outputs", source)
+        self.bound_by_name = inputs is not None or outputs is not None
+        if self.bound_by_name:
+            fis = reordered(fis, inputs, outputs)
         self.fis = fis
         self.name = name or fis.name
         self.source = source

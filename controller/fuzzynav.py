@@ -1136,7 +1136,9 @@ def params_toml(params: dict) -> str:
 
 def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:
     path = Path(path)
-    path.write_text(params_toml(params), encoding="utf-8")
+    from fuzzynav.safe_files import write_text_atomically
+
+    write_text_atomically(path, params_toml(params))
     return path
 
 

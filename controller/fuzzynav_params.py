@@ -7,7 +7,6 @@ controller, which uses the parts table, import in one direction only.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 
 from fuzzynav.resources import asset_path
@@ -90,8 +89,9 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
     params = dict(CRISP_DEFAULTS)
     path = Path(path)
     if path.exists():
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
+        from fuzzynav.resources import loads_user_toml, read_user_text
+
+        data = loads_user_toml(read_user_text(path, "parameter file"), str(path))
         crisp = data.get("crisp", {})
         unknown = set(crisp) - set(CRISP_DEFAULTS)
         if unknown:

@@ -10,7 +10,6 @@ each part buys) all use this file, so that they switch the same things.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,11 +36,9 @@ def load_parts(path: str | Path = PARTS_PATH) -> tuple[Part, ...]:
     that switching one part back on cannot switch another back on). A bad file raises
     ``ValueError`` naming the file, the key and the value."""
     path = Path(path)
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    from fuzzynav.resources import loads_user_toml, read_user_text
+
+    data = loads_user_toml(read_user_text(path, "parts file"), str(path))
     unknown = sorted(set(data) - {"part"})
     if unknown:
         raise ValueError(f"{path}: unknown key(s) {unknown} (allowed: part)")

@@ -163,7 +163,9 @@ class TableOneTunable:
         lines += [f"# {line}" if line else "#" for line in header.splitlines()]
         lines += [f"# tuned vector: {names}", ""]
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text("\n".join(lines) + "\n" + dumps_toml(fis), encoding="utf-8")
+        from fuzzynav.safe_files import write_text_atomically
+
+        write_text_atomically(path, "\n".join(lines) + "\n" + dumps_toml(fis))
         return [path]
 
 

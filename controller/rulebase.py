@@ -420,4 +420,6 @@ def dumps_toml(system: FuzzySystem) -> str:
 
 
 def write_toml(system: FuzzySystem, path) -> None:
-    Path(path).write_text(dumps_toml(system), encoding="utf-8")
+    from fuzzynav.safe_files import write_text_atomically
+
+    write_text_atomically(path, dumps_toml(system))

@@ -82,14 +82,21 @@ def shown(value) -> str:
     return shorten(text)
 
 
+#: The Unicode bidirectional controls (embeddings, overrides, isolates, marks): a name
+#: holding U+202E prints the rest of the line reversed ("Trojan Source").
+_BIDI_CONTROLS = frozenset((0x061C, 0x200E, 0x200F, *range(0x202A, 0x202F), *range(0x2066, 0x206A)))
+
+
 def escape_controls(text: str, keep: str = "") -> str:
-    r"""``text`` with every control character (C0, DEL, C1, and the line/paragraph
-    separators) written as a visible escape (ESC as ``\x1b``), except those in
+    r"""``text`` with every control character (C0, DEL, C1, the line/paragraph
+    separators and the bidirectional controls) written as a visible escape (ESC as ``\x1b``), except those in
     ``keep``, so that a name from a file cannot drive the terminal."""
     out = []
     for ch in text:
         o = ord(ch)
-        if ch not in keep and (o < 0x20 or 0x7F <= o < 0xA0 or o in (0x2028, 0x2029)):
+        if ch not in keep and (
+            o < 0x20 or 0x7F <= o < 0xA0 or o in (0x2028, 0x2029) or o in _BIDI_CONTROLS
+        ):
             out.append(f"\\x{o:02x}" if o < 0x100 else f"\\u{o:04x}")
         else:
             out.append(ch)
@@ -97,26 +104,54 @@ def escape_controls(text: str, keep: str = "") -> str:
 
 
 def read_user_text(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES) -> str:
-    """The text of a user's file, or :class:`InputError` saying what the path is.
+    """The text of a user's file (:func:`read_user_bytes`, decoded): a UTF-8 byte-order
+    mark is dropped; text that is not UTF-8 is refused."""
+    return decode_user_bytes(read_user_bytes(path, what, max_bytes), str(path))
+
+
+def read_user_bytes(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of a user's file, or :class:`InputError` saying what the path is: the
+    project's one reader of the files a user names (issue 26).
 
     A directory, a FIFO, a device or a socket is named as such (a FIFO is never opened:
-    that would wait for a writer); a missing file, one that cannot be read (permission)
-    or one over ``max_bytes`` is refused with the reason. A UTF-8 byte-order mark is
-    dropped; text that is not UTF-8 is refused.
+    that would wait for a writer; ``/dev/zero`` is never read: it never ends); a missing
+    file, one that cannot be read (permission) or one over ``max_bytes`` is refused with
+    the reason. The file is checked again once open (it may have been swapped), and
+    never more than ``max_bytes + 1`` bytes are read.
     """
     import os
-    import stat
 
     path = Path(path)
+    shown_path = escape_controls(str(path))
     try:
         info = path.stat()
     except FileNotFoundError:
-        raise InputError(path, f"cannot read: no such {what}") from None
+        raise InputError(shown_path, f"cannot read: no such {what}") from None
     except OSError as exc:
-        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    mode = info.st_mode
+        raise InputError(shown_path, f"cannot read: {exc.strerror or exc}") from None
+    _refuse_irregular(shown_path, info.st_mode, what)
+    if info.st_size > max_bytes:
+        raise InputError(
+            shown_path,
+            f"{info.st_size} bytes is more than a {what} may be (at most {max_bytes} bytes)",
+        )
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as stream:
+            _refuse_irregular(shown_path, os.fstat(stream.fileno()).st_mode, what)
+            data = stream.read(max_bytes + 1)
+    except OSError as exc:
+        raise InputError(shown_path, f"cannot read: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise InputError(shown_path, f"more than a {what} may be (at most {max_bytes} bytes)")
+    return data
+
+
+def _refuse_irregular(source: str, mode: int, what: str) -> None:
+    import stat
+
     if stat.S_ISDIR(mode):
-        raise InputError(path, f"is a directory, not a {what}")
+        raise InputError(source, f"is a directory, not a {what}")
     if not stat.S_ISREG(mode):
         kind = (
             "a FIFO (named pipe)"
@@ -127,20 +162,7 @@ def read_user_text(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES) -
             if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
             else "not a regular file"
         )
-        raise InputError(path, f"is {kind}, not a {what}")
-    if info.st_size > max_bytes:
-        raise InputError(
-            path, f"{info.st_size} bytes is more than a {what} may be (at most {max_bytes} bytes)"
-        )
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-        with os.fdopen(fd, "rb") as stream:
-            data = stream.read(max_bytes + 1)
-    except OSError as exc:
-        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    if len(data) > max_bytes:
-        raise InputError(path, f"more than a {what} may be (at most {max_bytes} bytes)")
-    return decode_user_bytes(data, str(path))
+        raise InputError(source, f"is {kind}, not a {what}")
 
 
 def decode_user_bytes(data: bytes, source: str) -> str:

@@ -76,7 +76,7 @@ def test_bad_input_exits_2_with_message(capsys, argv, needle):
     "argv, needle",
     [
         (["run", "s1", "--seed", "-3"], "argument --seed: '-3': must be an integer >= 0"),
-        (["sweep", "--n", "0"], "argument --n: '0': must be an integer >= 1"),
+        (["sweep", "--n", "0"], "argument --n: '0': must be an integer from 1 to 100000"),
         (["sweep", "--seed", "x"], "argument --seed: 'x': must be an integer >= 0"),
         (["compare", "--sweep-seed", "-1"], "argument --sweep-seed: '-1'"),
         (

@@ -56,6 +56,47 @@ MAX_CONTROL_PERIOD_S = 1.0
 #: floats a step plus 4 per obstacle, and grows by doubling, so 2 million steps of a
 #: run with a few obstacles stay under 1.5 GB (an hour at 2 ms; 1e-5 s asked 4.3 GB).
 MAX_STEPS = 2_000_000
+#: The memory one run's log may take (issue 26): a legal scenario of 1000 obstacles and
+#: 3600 s reached 9.7 GB. Checked before the first step with :func:`log_bytes`.
+MEMORY_BUDGET_BYTES = 2 * 1024**3
+#: Floats the log keeps a step, besides those of the obstacles.
+LOG_FLOATS_PER_STEP = 24
+#: Floats the log keeps per obstacle and step: x, y, centre distance, clearance.
+LOG_FLOATS_PER_OBSTACLE = 4
+#: The log's peak over its final size: its arrays grow by doubling (up to 2x), and the
+#: result takes a copy of the obstacle columns.
+LOG_PEAK_FACTOR = 3
+
+
+def log_bytes(steps: float, n_obstacles: int) -> float:
+    """The peak memory [bytes] of the log of a run of ``steps`` steps among
+    ``n_obstacles`` obstacles (float64 columns, growth by doubling and the result's
+    copy included)."""
+    floats = LOG_FLOATS_PER_STEP + LOG_FLOATS_PER_OBSTACLE * n_obstacles
+    return LOG_PEAK_FACTOR * 8.0 * floats * steps
+
+
+def check_run_size(duration_s: float, control_period_s: float, n_obstacles: int) -> float:
+    """The steps of a run, or ValueError with the numbers when it would take more than
+    :data:`MAX_STEPS` steps or its log more than :data:`MEMORY_BUDGET_BYTES`."""
+    steps = duration_s / control_period_s
+    if steps > MAX_STEPS:
+        raise ValueError(
+            f"control_period_s = {control_period_s!r} with duration_s = "
+            f"{duration_s!r}: {steps:.3g} steps, more than one run may "
+            f"take ({MAX_STEPS}); use a longer period or a shorter scenario"
+        )
+    need = log_bytes(steps, n_obstacles)
+    if need > MEMORY_BUDGET_BYTES:
+        raise ValueError(
+            f"{steps:.0f} steps ({duration_s:g} s at {control_period_s:g} s) x {n_obstacles} "
+            f"obstacles: the run's log would take about {need / 1024**3:.1f} GiB, more than "
+            f"the {MEMORY_BUDGET_BYTES / 1024**3:g} GiB one run may use; use a shorter "
+            "duration, a longer period or fewer obstacles"
+        )
+    return steps
+
+
 _FLOAT64 = np.dtype(np.float64)
 _PACK_XU = struct.Struct(f"{N_STATES + 2}d").pack_into
 _pack_into = struct.pack_into
@@ -551,16 +592,15 @@ class Simulation:
         ------
         ValueError
             Before the first step, when the run would take more than :data:`MAX_STEPS`
-            steps (its duration over the control period): its log would not fit in
+            steps (its duration over the control period) or its log more than
+            :data:`MEMORY_BUDGET_BYTES` (:func:`check_run_size`): it would not fit in
             memory. (Stepping by hand, as the viewer does, has no such bound.)
         """
-        steps = (self.scenario.duration_s - self.time_s) / self.control_period_s
-        if steps > MAX_STEPS:
-            raise ValueError(
-                f"control_period_s = {self.control_period_s!r} with duration_s = "
-                f"{self.scenario.duration_s!r}: {steps:.3g} steps, more than one run may "
-                f"take ({MAX_STEPS}); use a longer period or a shorter scenario"
-            )
+        check_run_size(
+            self.scenario.duration_s - self.time_s,
+            self.control_period_s,
+            len(self.scenario.obstacles),
+        )
         every = max(1, int(1.0 / self.control_period_s))
         steps = 0
         while self.outcome is None:  # not self.done

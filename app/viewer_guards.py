@@ -1,0 +1,107 @@
+"""What the viewer's server takes from a browser: checked before viser acts on it.
+
+A raw websocket client can send any message a browser could, with any values (issue
+26). viser trusts them; these guards sit in front of its handlers:
+
+- a GUI update may set a component's ``value`` only (an ``update_cb`` key replaced
+  the scenario dropdown's callbacks for every client), and a number never becomes NaN
+  or infinite (an editor slider stayed NaN);
+- an upload declared larger than the viewer takes is refused at its first message (a
+  declared 1 TB followed by 400 MB of parts grew the server by 500 MB before the size
+  was refused), and one whose parts pass their declared size is dropped.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable
+
+__all__ = ["install_message_guards", "ALLOWED_GUI_PROPS"]
+
+#: The only property of a GUI component a client may change.
+ALLOWED_GUI_PROPS = frozenset({"value"})
+
+
+def _finite(value) -> bool:
+    """Whether a value holds no NaN or infinity (a number, or a tuple of them)."""
+    if isinstance(value, bool):
+        return True
+    if isinstance(value, int | float):
+        return math.isfinite(value)
+    if isinstance(value, list | tuple):
+        return all(_finite(v) for v in value)
+    return True
+
+
+def _wrap(interface, message_cls, make_guard) -> None:
+    """Put a guard in front of each handler ``interface`` has for ``message_cls``."""
+    handlers = interface._incoming_handlers.get(message_cls, [])
+    for k, handler in enumerate(list(handlers)):
+        handlers[k] = make_guard(handler)
+
+
+def install_message_guards(
+    server, max_upload_bytes: int, on_refused: Callable[[str], None] | None = None
+) -> None:
+    """Guard the GUI and upload messages of a ``viser.ViserServer`` (module doc).
+    ``on_refused(text)`` is told of each refusal (the viewer shows it)."""
+    from viser import _messages
+
+    gui = server.gui
+    interface = gui._websock_interface
+    say = on_refused or (lambda text: None)
+
+    def gui_guard(handler):
+        async def guarded(client_id, message):
+            handle = gui._gui_input_handle_from_uuid.get(message.uuid)
+            updates = message.updates if isinstance(message.updates, dict) else {}
+            kept = {k: v for k, v in updates.items() if k in ALLOWED_GUI_PROPS}
+            if not kept:
+                return
+            if "value" in kept and handle is not None:
+                current = handle._impl.value
+                numeric = isinstance(current, int | float | tuple) and not isinstance(current, bool)
+                if numeric and not _finite(kept["value"]):
+                    say(f"refused a value that is not a finite number: {kept['value']!r}")
+                    return
+            message.updates = kept
+            result = handler(client_id, message)
+            if inspect.isawaitable(result):
+                await result
+
+        return guarded
+
+    def start_guard(handler):
+        def guarded(client_id, message):
+            size, parts = message.size_bytes, message.part_count
+            if not (
+                isinstance(size, int)
+                and isinstance(parts, int)
+                and 0 <= size <= max_upload_bytes
+                and 0 <= parts <= max(1, size)
+            ):
+                say(
+                    f"upload refused: {size!r} bytes declared, at most {max_upload_bytes} are taken"
+                )
+                return  # never registered: its parts are dropped as they come
+            return handler(client_id, message)
+
+        return guarded
+
+    def part_guard(handler):
+        def guarded(client_id, message):
+            state = gui._current_file_upload_states.get(message.transfer_uuid)
+            if state is not None:
+                content = message.content if isinstance(message.content, bytes) else b""
+                if state["transferred_bytes"] + len(content) > state["total_bytes"]:
+                    gui._current_file_upload_states.pop(message.transfer_uuid, None)
+                    say("upload refused: more bytes than it declared")
+                    return
+            return handler(client_id, message)
+
+        return guarded
+
+    _wrap(interface, _messages.GuiUpdateMessage, gui_guard)
+    _wrap(interface, _messages.FileTransferStartUpload, start_guard)
+    _wrap(interface, _messages.FileTransferPart, part_guard)

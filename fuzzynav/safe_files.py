@@ -1,0 +1,302 @@
+"""Writing output files whole or not at all, and never over what must not be written.
+
+The one writer of the project (issue 26): every file fuzzynav writes (recordings,
+traces, figures, rule bases, checkpoints, ``.fis`` exports, reports) goes through
+:func:`write_bytes_atomically`, :func:`write_text_atomically` or :func:`atomic_output`.
+
+A file is written to a temporary file beside its target (same folder, so the rename is
+atomic on every local file system), flushed to disk and renamed over the target only
+when complete. On a failure (a full disk, a read-only folder) or an interrupt, the old
+file at the target stays as it was; the partial one is removed, or, when the caller
+asks for it, kept under a name that says it is partial (``run.rrd`` ->
+``run.partial.rrd``).
+
+A symbolic link is followed: the file it points at is replaced, the link stays (a
+rename over the link would replace the link itself, e.g. ``/dev/stdout``). A target
+that is not a regular file is never renamed over: a pipe (FIFO) or a terminal is
+written through a stream, anything else (a device, a socket, a directory) is refused.
+
+This module sits at the package's root (beside :mod:`fuzzynav.resources`) so that the
+controller's own savers use it too; ``fuzzynav.app.safe_files`` is the same module.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import stat
+import tempfile
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+__all__ = [
+    "partial_path",
+    "temporary_beside",
+    "commit",
+    "discard",
+    "write_bytes_atomically",
+    "write_chunks_atomically",
+    "write_text_atomically",
+    "atomic_output",
+    "check_writable_file",
+    "check_output_path",
+    "installed_package_dir",
+    "refuse_installed",
+    "is_stream_target",
+]
+
+
+def partial_path(path: Path) -> Path:
+    """Where a partial file for ``path`` is kept: ``run.rrd`` -> ``run.partial.rrd``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.partial{path.suffix}")
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _target(path) -> Path:
+    """The file a write to ``path`` lands in: symbolic links followed (the link stays)."""
+    return Path(os.path.realpath(path))
+
+
+def temporary_beside(path: Path) -> Path:
+    """A new empty file in the folder of ``path`` (of the file a link points at),
+    hidden, named after it (OSError if the folder cannot be written)."""
+    path = _target(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".writing", dir=path.parent)
+    os.close(fd)
+    # mkstemp makes the file private (0600); the finished file gets the usual mode.
+    os.chmod(tmp, 0o666 & ~_umask())
+    return Path(tmp)
+
+
+def _refuse_non_regular(path: Path) -> None:
+    """OSError unless ``path`` (links followed) is a regular file or does not exist:
+    a rename must never replace a device, a pipe or a folder."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return
+    if not stat.S_ISREG(mode):
+        raise OSError(errno.EINVAL, "not a regular file: nothing was renamed over it", str(path))
+
+
+def commit(tmp: Path, path: Path) -> Path:
+    """Flush ``tmp`` to disk and rename it over ``path`` (the file a link points at);
+    OSError on failure, with ``tmp`` still there for the caller to discard."""
+    fd = os.open(tmp, os.O_RDONLY)
+    try:
+        os.fsync(fd)  # a full disk shows here at the latest, before the old file goes
+    finally:
+        os.close(fd)
+    target = _target(path)
+    _refuse_non_regular(target)  # checked again: it may have changed since the start
+    os.replace(tmp, target)
+    return Path(path)
+
+
+def discard(tmp: Path, path: Path, keep_partial: bool = False) -> Path | None:
+    """Remove a temporary file that will not be committed, or with ``keep_partial``
+    rename it to :func:`partial_path` (``path``); returns where it is kept, or None."""
+    try:
+        if keep_partial and Path(tmp).exists() and Path(tmp).stat().st_size > 0:
+            kept = partial_path(path)
+            os.replace(tmp, kept)
+            return kept
+        os.unlink(tmp)
+    except OSError:
+        pass
+    return None
+
+
+def is_stream_target(path) -> bool:
+    """Whether ``path`` (links followed) is a pipe or a terminal: written through a
+    stream, as it comes, never replaced."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return False
+    if stat.S_ISFIFO(mode):
+        return True
+    if stat.S_ISCHR(mode):
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+        except OSError:
+            return False
+        try:
+            return os.isatty(fd)
+        finally:
+            os.close(fd)
+    return False
+
+
+def _write_stream(path, chunks: Iterable[bytes]) -> Path:
+    # Non-blocking open: a FIFO nobody reads fails at once (ENXIO) instead of hanging.
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            raise OSError(errno.ENXIO, "a pipe that nobody reads", str(path)) from None
+        raise
+    os.set_blocking(fd, True)
+    with os.fdopen(fd, "wb") as stream:
+        for chunk in chunks:
+            stream.write(chunk)
+    return Path(path)
+
+
+def write_chunks_atomically(path, chunks: Iterable[bytes]) -> Path:
+    """Write the ``chunks`` to ``path`` one after the other (a long file is never whole
+    in memory), whole or not at all: OSError on failure, naming ``path``, and the old
+    file stays. A pipe or a terminal gets them through a stream."""
+    try:
+        if is_stream_target(path):
+            return _write_stream(path, chunks)
+        _refuse_non_regular(_target(path))
+        tmp = temporary_beside(path)
+        try:
+            with open(tmp, "wb") as stream:
+                for chunk in chunks:
+                    stream.write(chunk)
+            return commit(tmp, path)
+        except BaseException:
+            discard(tmp, path)
+            raise
+    except OSError as exc:
+        if exc.filename is not None and Path(exc.filename) == Path(path):
+            raise
+        # a write error names no file (or the temporary one): name the user's
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
+
+
+def write_bytes_atomically(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole or not at all (OSError naming ``path`` on
+    failure; the old file stays); a pipe or a terminal gets it through a stream."""
+    return write_chunks_atomically(path, [data])
+
+
+def write_text_atomically(path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all (OSError on failure; the
+    old file stays)."""
+    return write_bytes_atomically(path, text.encode("utf-8"))
+
+
+@contextlib.contextmanager
+def atomic_output(path) -> Iterator[Path]:
+    """Within: a temporary path beside ``path`` to write (e.g. by a library that takes
+    a file name, or in pieces so that a long file never sits in memory); on a normal
+    exit it is renamed over ``path``, on any exception removed and ``path`` left as it
+    was.
+
+    Examples
+    --------
+    >>> with atomic_output("out.png") as tmp:  # doctest: +SKIP
+    ...     figure.savefig(tmp, format="png")
+    """
+    _refuse_non_regular(_target(path))
+    tmp = temporary_beside(path)
+    try:
+        yield tmp
+        commit(tmp, path)
+    except BaseException:
+        discard(tmp, path)
+        raise
+
+
+def installed_package_dir() -> Path:
+    """The folder of the installed ``fuzzynav`` package (its shipped rule bases and
+    scenarios): no command writes there."""
+    import fuzzynav
+
+    return Path(os.path.realpath(Path(fuzzynav.__file__).parent))
+
+
+def _assets_dir() -> Path | None:
+    try:
+        from fuzzynav.resources import assets_dir
+
+        return Path(os.path.realpath(assets_dir()))
+    except Exception:  # noqa: BLE001 - a zipped install has no folder to protect
+        return None
+
+
+def refuse_installed(path, option: str) -> None:
+    """ValueError when ``path`` (links followed) is inside the installed package: its
+    shipped rule bases and scenarios are what every later run reads."""
+    from fuzzynav.resources import escape_controls
+
+    target = _target(path)
+    for root in {installed_package_dir(), _assets_dir()} - {None}:
+        if target == root or root in target.parents:
+            raise ValueError(
+                f"{option} {escape_controls(str(path))}: is inside the installed fuzzynav "
+                f"package ({root}); its shipped files are never written over: give a path "
+                "of your own"
+            )
+
+
+def check_output_path(path, option: str, inputs: Iterable = (), *, stream_ok: bool = True):
+    """Raise ValueError (naming ``option``, the path and why) when ``path`` must not be
+    written: one of the run's ``inputs`` (the same file, through links too), a file
+    inside the installed package (its rule bases and scenarios), or a target that is
+    not a regular file (a pipe or terminal is accepted with ``stream_ok``)."""
+    from fuzzynav.resources import escape_controls
+
+    path = Path(path)
+    shown = escape_controls(str(path))
+    target = _target(path)
+    refuse_installed(path, option)
+    for source in inputs:
+        if source is None:
+            continue
+        try:
+            same = os.path.exists(source) and (
+                _target(source) == target or (target.exists() and os.path.samefile(source, target))
+            )
+        except OSError:
+            same = False
+        if same:
+            raise ValueError(
+                f"{option} {shown}: is one of this run's inputs "
+                f"({escape_controls(str(source))}); it would be overwritten: give another path"
+            )
+    if stream_ok and is_stream_target(path):
+        return path
+    return check_writable_file(path, option)
+
+
+def check_writable_file(path, option: str = "--rrd") -> Path:
+    """Raise ValueError (with ``option``, the path and the reason) unless a file can be
+    written at ``path`` whole: a regular file or none (links followed), in a folder
+    where a file can be made (files are written beside the target and renamed over
+    it, as :func:`write_text_atomically` does). Creates nothing that stays."""
+    from fuzzynav.resources import escape_controls
+
+    path = Path(path)
+    shown = escape_controls(str(path))
+    if path.is_dir():
+        raise ValueError(f"{option} {shown}: is a directory, not a file")
+    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
+        raise ValueError(
+            f"{option} {shown}: is not a regular file (a device or a pipe); "
+            "the file is written whole, then renamed into place"
+        )
+    target = _target(path)
+    parent = target.parent
+    if not parent.exists():
+        raise ValueError(
+            f"{option} {shown}: directory {escape_controls(str(parent))} does not exist"
+        )
+    if not parent.is_dir():
+        raise ValueError(f"{option} {shown}: {escape_controls(str(parent))} is not a directory")
+    try:
+        probe = temporary_beside(path)
+    except OSError as exc:
+        raise ValueError(f"{option} {shown}: cannot write there ({exc.strerror or exc})") from None
+    discard(probe, path)
+    return path

@@ -1,0 +1,118 @@
+"""Issue 26, viewer: what a raw websocket client sends is checked before viser acts on
+it, a refused drag is drawn back, and live recordings never collide. The messages are
+handed to the server's own handlers, as its websocket would. Each test failed before."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from types import SimpleNamespace
+
+import pytest
+
+from fuzzynav.app.viewer import MAX_UPLOAD_BYTES, ViewerApp
+
+viser_messages = pytest.importorskip("viser._messages")
+
+
+@pytest.fixture
+def served():
+    from fuzzynav.app.viewer_ui import ViewerServer
+
+    server = ViewerServer(ViewerApp("s1", "p"), port=0)
+    yield server
+    server.stop()
+
+
+def _deliver(server, message) -> None:
+    """Dispatch ``message`` as if a client had sent it."""
+    interface = server.server.gui._websock_interface
+    asyncio.run(interface._handle_incoming_message(1, message))
+
+
+def test_a_gui_update_sets_only_the_value(served):
+    """The key update_cb replaced the scenario dropdown's callbacks for every client."""
+    impl = served.scenario_dd._impl
+    callbacks = list(impl.update_cb)
+    assert callbacks
+    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"update_cb": []}))
+    assert impl.update_cb == callbacks
+    # a value is still taken
+    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": "s2"}))
+    assert impl.value == "s2"
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_a_slider_never_becomes_nan(served, value):
+    """An editor slider set to NaN stayed NaN."""
+    impl = served.noise._impl
+    before = impl.value
+    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": value}))
+    assert impl.value == before and math.isfinite(impl.value)
+
+
+def test_an_upload_is_refused_at_its_declared_size(served):
+    """Declared 1 TB, then 400 MB of parts: the server grew by 500 MB before refusing."""
+    gui = served.server.gui
+    uuid = served.scenario_upload._impl.uuid
+    start = viser_messages.FileTransferStartUpload(
+        uuid, "t1", "big.toml", "text/plain", part_count=10_000_000, size_bytes=10**12
+    )
+    _deliver(served, start)
+    assert "t1" not in gui._current_file_upload_states
+    part = viser_messages.FileTransferPart(uuid, "t1", 0, b"x" * 1024)
+    _deliver(served, part)
+    assert "t1" not in gui._current_file_upload_states
+    # declared small, sent large: dropped at the part that passes the declared size
+    small = viser_messages.FileTransferStartUpload(
+        uuid, "t2", "s.toml", "text/plain", part_count=2, size_bytes=10
+    )
+    _deliver(served, small)
+    assert "t2" in gui._current_file_upload_states
+    _deliver(served, viser_messages.FileTransferPart(uuid, "t2", 0, b"x" * (MAX_UPLOAD_BYTES)))
+    assert "t2" not in gui._current_file_upload_states
+
+
+def _event(position, phase="update"):
+    return SimpleNamespace(client=object(), phase=phase, target=SimpleNamespace(position=position))
+
+
+@pytest.mark.parametrize("position", [(1e300, 0.0, 0.0), (math.nan, 1.0, 0.0)])
+def test_a_refused_drag_is_drawn_back(served, position):
+    """A handle dragged to 1e300 or NaN was refused but stayed drawn there."""
+    target = tuple(served.app.snapshot().target)
+    on_update = served._make_drag_callback("/target", None)
+    event = _event(position, "start")
+    asyncio.run(on_update(event))
+    assert tuple(event.target.position[:2]) == target
+    assert "/target" not in served._dragging
+
+
+def test_a_drag_without_a_position_does_not_freeze_the_target(served):
+    """An empty position raised in the callback and left the target held as dragged:
+    its drawing froze for as long as the server ran."""
+    on_update = served._make_drag_callback("/target", None)
+    asyncio.run(on_update(_event((), "start")))
+    assert "/target" not in served._dragging
+    asyncio.run(on_update(_event(("a", "b"))))
+    assert "/target" not in served._dragging
+
+
+def test_live_recordings_never_take_another_servers_file(tmp_path):
+    """A second serve --rrd on the same path overwrote the first's -run2.rrd."""
+    pytest.importorskip("fuzzynav.app.recording")
+    path = tmp_path / "session.rrd"
+    other = tmp_path / "session-run2.rrd"
+    other.write_bytes(b"the other server's second run")
+    app = ViewerApp("s1", "p", rrd_path=path)
+    try:
+        for _ in range(2):
+            with app.lock:
+                for _ in range(5):
+                    app._step_locked()
+            app.reset()
+    finally:
+        app.stop()
+    assert app.recorded_files == [path, tmp_path / "session-run3.rrd"]
+    assert other.read_bytes() == b"the other server's second run"
+    assert all(p.stat().st_size > 1000 for p in app.recorded_files)
