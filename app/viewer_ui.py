@@ -38,6 +38,7 @@ PLOT_POINTS = 120
 TRAIL_CHUNK = 16  # trail points per scene node: a frame re-sends at most this many
 SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
+FIT_WINDOW_S = 20.0  # a new tab's camera follows its canvas's shape for this long
 GHOST_GREY = (148, 163, 184)
 
 # Colours (RGB 0-255).
@@ -215,6 +216,7 @@ class ViewerServer:
         self._start_xy = tuple(app.sim.scenario.start)
         self.view_3d = False
         self._fitting_until: dict[int, float] = {}
+        self._fit_window: dict[int, float] = {}
         self.show_handles = False
         self.presentation = False
         self._ghost_drawn = -1
@@ -231,6 +233,7 @@ class ViewerServer:
         self._build_gui()
         self._build_static_scene()
         self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(self._on_disconnect)
         app.start()
         self._thread = threading.Thread(
             target=self._render_loop, name="fuzzynav-render", daemon=True
@@ -263,14 +266,30 @@ class ViewerServer:
     def _on_connect(self, client: viser.ClientHandle) -> None:
         """Frame the arena for this tab, and again whenever its canvas changes shape in
         its first seconds (it starts as wide as the window and narrows when the side
-        panels dock, which takes a while on a slow machine)."""
-        client.camera.on_update(lambda camera: self._keep_top_down(client))
-        deadline = time.monotonic() + 20.0
-        while time.monotonic() < deadline and not self._stop.is_set():
-            if client.client_id not in self.server.get_clients():
-                return
+        panels dock, which takes a while on a slow machine).
+
+        Nothing waits here: viser runs this on one of its 32 worker threads, which
+        every button and dropdown of every tab shares; a tab that held one for its
+        first seconds stalled a whole class joining at once. The canvas reports each
+        change of shape as a camera message (:meth:`_on_camera`), which refits it.
+        """
+        self._open_fit_window(client, FIT_WINDOW_S)
+        client.camera.on_update(lambda camera: self._on_camera(client))
+        self._fit_camera(client, force=False)
+
+    def _on_disconnect(self, client: viser.ClientHandle) -> None:
+        for table in (self._camera_fits, self._fitting_until, self._fit_window):
+            table.pop(client.client_id, None)
+
+    def _open_fit_window(self, client, seconds: float) -> None:
+        """Refit this tab's camera whenever its canvas changes shape in the next
+        ``seconds`` (a tab connecting, the panels widening in presentation mode)."""
+        self._fit_window[client.client_id] = time.monotonic() + seconds
+
+    def _on_camera(self, client) -> None:
+        if time.monotonic() < self._fit_window.get(client.client_id, 0.0):
             self._fit_camera(client, force=False)
-            time.sleep(0.2)
+        self._keep_top_down(client)
 
     def _keep_top_down(self, client) -> None:
         """Unless the 3D view is switched on, a camera tilted (a drag on the ground
