@@ -35,7 +35,8 @@ HUSKY_FOOTPRINT_M = (0.99, 0.67)  # drawn; the world's own footprint is the aren
 PANEL_HZ = 4.0  # the status line and the inference view
 PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
 PLOT_POINTS = 120
-TRAIL_CHUNK = 16  # trail points per scene node: a frame re-sends at most this many
+TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this many
+BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
 SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
 FIT_WINDOW_S = 20.0  # a new tab's camera follows its canvas's shape for this long
@@ -695,6 +696,13 @@ class ViewerServer:
         self._inference_tab = panel.add_tab("Inference", viser.Icon.BRAIN)
         with self._inference_tab:
             self.defs_html = gui.add_html("", order=0.0)
+            self.firing_only_cb = gui.add_checkbox(
+                "Firing rules only",
+                False,
+                hint="Show only the rules whose strength is above zero",
+                order=0.5,
+            )
+            self.firing_only_cb.on_update(self._guarded(lambda e: self._redraw_inference()))
             self.inference_html = gui.add_html("", order=1.0)
         self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
         with self._surface_tab:
@@ -841,6 +849,10 @@ class ViewerServer:
         if not self.view_3d:
             for client in self.server.get_clients().values():
                 self._fit_camera(client, force=True)
+
+    def _redraw_inference(self) -> None:
+        self._last_inference = None
+        self.app._bump()
 
     def _on_presentation(self, event) -> None:
         self.presentation = bool(self.presentation_cb.value)
@@ -1046,11 +1058,13 @@ class ViewerServer:
         self.robot.position = (x, y, 0.0)
         self.robot.wxyz = yaw_wxyz(heading)
 
-        ranges = tuple(np.round(snap.ranges_m, 3))
+        # Drawn to BEAM_STEP_M (a pixel or two at the arena's scale): a beam is re-sent
+        # when its reading moves by that much, not at every millimetre.
+        ranges = tuple(np.round(snap.ranges_m / BEAM_STEP_M) * BEAM_STEP_M)
         if ranges != self._last_ranges:
             self._last_ranges = ranges
             for handle, echo in ((self.beams, True), (self.free_beams, False)):
-                points, colours = self._beam_segments(snap, echo)
+                points, colours = self._beam_segments(snap, echo, ranges)
                 handle.points = points
                 handle.colors = colours
         alert = snap.nearest_clearance_m < SAFE_DISTANCE_M
@@ -1115,12 +1129,12 @@ class ViewerServer:
                 dtype=np.float32,
             )
 
-    def _beam_segments(self, snap: Snapshot, echo: bool):
+    def _beam_segments(self, snap: Snapshot, echo: bool, ranges=None):
         """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
         mounts = self.app.sim.sensors.config.mounts
         half = 0.5 * snap.beam_width_rad
         segments, colours = [], []
-        for mount, reading in zip(mounts, snap.ranges_m):
+        for mount, reading in zip(mounts, snap.ranges_m if ranges is None else ranges):
             if math.isfinite(reading) != echo:
                 continue
             reach = float(reading) if math.isfinite(reading) else snap.max_range_m
@@ -1420,15 +1434,29 @@ class ViewerServer:
         self.plot_angle.data = (t, rows[:, 3], rows[:, 4])
         self.plot_voltage.data = (t, rows[:, 5], rows[:, 6])
 
-    def _system_uid(self, fis) -> str:
+    def _system_uid(self, fis, labels, output_labels) -> str:
         """An id prefix for this system's SVG definitions (new when the system changes)."""
         key = id(fis)
         if key != self._system_key:
             self._system_key = key
             self._system_count += 1
             self._uid = f"fz{self._system_count}"
-            self.defs_html.content = views.defs_html(fis, self._uid)
+            self.defs_html.content = views.defs_html(fis, self._uid, labels, output_labels)
         return self._uid
+
+    @staticmethod
+    def _output_weights(info) -> dict | None:
+        """fuzzynav's blocks: the weight its arbitration gives each output now (alpha to
+        the avoidance block, 1 - alpha to the goal block); None for a plain system."""
+        state = info.get("state") or {}
+        try:
+            alpha = float(state["avoidance weight alpha"])
+        except (KeyError, TypeError, ValueError):
+            return None
+        return {
+            name: (alpha if name.startswith("avoid") else 1.0 - alpha)
+            for name in info["output_names"]
+        }
 
     def _draw_inference(self, snap: Snapshot) -> None:
         info = self.app.teaching()
@@ -1448,19 +1476,33 @@ class ViewerServer:
             )
             return
         fis = info["fis"]
-        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.presentation)
+        only_firing = bool(self.firing_only_cb.value)
+        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.presentation, only_firing)
         if key == self._last_inference:
             return
         self._last_inference = key
-        uid = self._system_uid(fis)
         labels = list(info["input_names"])
+        notes = {}
         if info.get("state") is not None and "phi_t" in labels:
             # fuzzynav's goal block is fed the planner's bearing, not the target's.
-            labels[labels.index("phi_t")] = "phi_plan (planned bearing)"
+            labels[labels.index("phi_t")] = "phi_plan"
+            notes["phi_plan"] = (
+                "the bearing fuzzynav's planner steers to, fed to its goal block "
+                "(not the target bearing φ_t of the status line)"
+            )
+        uid = self._system_uid(fis, labels, info["output_names"])
         inf = views.infer(fis, info["inputs"], labels, info["output_names"])
         self._set_html(
             self.inference_html,
-            views.inference_html(inf, uid=uid, large=self.presentation, crisp=info["state"]),
+            views.inference_html(
+                inf,
+                uid=uid,
+                large=self.presentation,
+                crisp=info["state"],
+                only_firing=only_firing,
+                weights=self._output_weights(info),
+                notes=notes,
+            ),
         )
 
     # -- control surfaces ---------------------------------------------------------------

@@ -390,7 +390,8 @@ def test_inference_view_shows_every_rule_the_inputs_and_the_outputs(served, page
         assert f"rule {best + 1} at" in text
     else:
         assert "No rule fires: fallback" in text
-    assert view.locator(".fz-rule-scroll").evaluate("e => e.scrollHeight > e.clientHeight")
+    # all 40 rows are there (the panel scrolls to them)
+    assert view.locator(".fz-hit [data-rule]").count() == 40
     # each input plot has the value as a red line and each term's degree
     for name in ("d_t", "d_o", "phi_t", "phi_o"):
         assert f"{name} =" in text
@@ -688,3 +689,124 @@ def test_geometry_control_shows_the_paper_point_robot(served, page):
         app.set_geometry("husky")
     assert app.wait_for(lambda a: served.geometry_dd.value == "husky", timeout=10)
     assert all(node.visible for node in served._husky_nodes)
+
+
+# -- issue 27: a viewer for a whole class -----------------------------------------------
+
+# Whether an element's centre is on screen: inside the window and every ancestor that
+# clips (a scrolling panel), and not covered by another element (a sticky header).
+JS_SHOWN = """
+(selector) => {
+  const e = document.querySelector(selector);  // looked up and judged in one go (redrawn)
+  if (!e) return false;
+  const r = e.getBoundingClientRect();
+  const x = r.left + Math.min(r.width / 2, 60), y = r.top + r.height / 2;
+  if (x < 0 || y < 0 || x > innerWidth || y > innerHeight) return false;
+  for (let a = e.parentElement; a; a = a.parentElement) {
+    const cs = getComputedStyle(a);
+    if (cs.overflowY === 'visible' && cs.overflowX === 'visible') continue;
+    const b = a.getBoundingClientRect();
+    if (y < b.top || y > b.bottom || x < b.left || x > b.right) return false;
+  }
+  const hit = document.elementFromPoint(x, y);
+  return !!hit && (hit === e || e.contains(hit) || hit.contains(e) ||
+                   hit.closest('svg') === e.closest('svg'));
+}
+"""
+
+
+ROW = ".fz-hit [data-rule='{}']"  # the row of a rule (its hover area)
+
+
+def test_the_rules_stay_where_they_were_scrolled_while_the_robot_drives(served, page):
+    """Defect 1: the rules box was rebuilt four times a second and jumped back to its
+    top, so rules 25-40 and the aggregated row were out of reach while driving, and the
+    column headers scrolled away. Now the panel scrolls: rule 40 stays in view for
+    seconds of driving, with the headers and the aggregated row pinned around it (in a
+    window short enough that all of it cannot be seen at once)."""
+    app = served.app
+    app.set_controller("paper")
+    step(app, 5)
+    page.set_viewport_size({"width": 1280, "height": 640})
+    try:
+        open_tab(page, "Inference")
+        page.wait_for_function("() => document.querySelectorAll('.fz-hit rect').length == 40")
+        app.play()
+        assert app.wait_for(lambda a: a.sim.time_s > 0.5, timeout=15)
+        page.evaluate(
+            "(s) => document.querySelector(s).scrollIntoView({block: 'center'})", ROW.format(40)
+        )
+        t0 = app.sim.time_s
+        for _ in range(10):  # 2.5 s of driving: about ten redraws of the view
+            page.wait_for_timeout(250)
+            assert page.evaluate(JS_SHOWN, ROW.format(40)), "rule 40 scrolled out of view"
+            assert page.evaluate(JS_SHOWN, ".fz-rule-head .fz-col-name"), "headers gone"
+            assert page.evaluate(JS_SHOWN, ".fz-rule-agg .fz-centroid"), "aggregate gone"
+        assert app.sim.time_s > t0 + 1.0 and app.playing
+        app.pause()
+        # the headers are pinned at the top of the panel, over rule 1 scrolled beneath
+        assert not page.evaluate(JS_SHOWN, ROW.format(1))
+    finally:
+        app.pause()
+        page.set_viewport_size(VIEWPORT)
+        page.wait_for_timeout(500)
+
+
+def test_firing_rules_only_and_the_pinned_aggregate(served, page):
+    """The filter shows exactly the rules whose strength is above zero; the aggregated
+    row and the centroids stay pinned under them."""
+    app = served.app
+    app.set_controller("paper")
+    step(app, 40)
+    open_tab(page, "Inference")
+    info = app.teaching()
+    firing = sorted(int(r) + 1 for r in np.flatnonzero(info["strengths"] > 0))
+    assert 0 < len(firing) < 40
+    page.get_by_role("checkbox", name="Firing rules only").click()
+    page.wait_for_function(
+        "(n) => document.querySelectorAll('.fz-hit rect').length == n", arg=len(firing)
+    )
+    shown = page.evaluate(
+        "() => [...document.querySelectorAll('.fz-hit rect')].map(e => +e.dataset.rule)"
+    )
+    assert shown == firing
+    assert page.locator(".fz-firing").count() == len(firing)
+    assert page.locator(".fz-rule-agg .fz-centroid").count() == 2
+    page.get_by_role("checkbox", name="Firing rules only").click()
+    page.wait_for_function("() => document.querySelectorAll('.fz-hit rect').length == 40")
+
+
+def test_hovering_a_rule_row_reads_the_rule_as_a_sentence(served, page):
+    """Defect 8: docs/viewer.md promised "hover a row to read the rule as a sentence";
+    rows had no tooltip. Now the sentence shows while the pointer is on the row."""
+    app = served.app
+    app.set_controller("paper")
+    step(app, 10)
+    open_tab(page, "Inference")
+    page.wait_for_function("() => document.querySelectorAll('.fz-hit rect').length == 40")
+    fis = app.fuzzy_system()
+    for n in (3, 12):
+        page.evaluate(
+            "(n) => document.querySelector(`.fz-hit [data-rule='${n}']`)"
+            ".scrollIntoView({block: 'center'})",
+            n,
+        )
+        box = page.locator(ROW.format(n)).bounding_box()
+        page.mouse.move(box["x"] + 0.6 * box["width"], box["y"] + 0.5 * box["height"])
+        sentence = page.locator(".fz-sentence:visible")
+        sentence.wait_for(timeout=10_000)
+        text = sentence.inner_text()
+        rule = fis.rules[n - 1]
+        assert text.startswith(f"Rule {n}: if ")
+        for i, k in enumerate(rule.antecedent):
+            if k is not None:
+                assert f"{fis.input_names[i]} is {fis.inputs[i].terms[k].name}" in text
+        for j, k in enumerate(rule.consequent):
+            if k is not None:
+                assert f"{fis.output_names[j]} is {fis.outputs[j].terms[k].name}" in text
+    page.mouse.move(5, 790)  # off the rows: the sentence goes
+    page.wait_for_function(
+        "() => !document.querySelector('.fz-sentence:not([style*=none])') ||"
+        " [...document.querySelectorAll('.fz-sentence')].every("
+        "e => getComputedStyle(e).display === 'none')"
+    )
