@@ -201,6 +201,11 @@ class Snapshot:
     ghost: Ghost | None = None
     ghost_id: int = 0
     run_label: str = ""
+    # The disturbance switched on (in words, "" when off), and whether it was added to
+    # the inputs the controller was last given (inside its time window).
+    disturbance_text: str = ""
+    inputs_disturbed: bool = False
+    obstacle_numbers: dict = field(default_factory=dict)  # id -> the number shown
     extra: dict = field(default_factory=dict)
 
 
@@ -260,6 +265,7 @@ class ViewerApp:
         self.ghost_id = 0
         self._trail = None
         self.run_label = ""
+        self._run_changes: list = []
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
 
         if geometry not in GEOMETRIES:
@@ -553,13 +559,52 @@ class ViewerApp:
                     if "footprint" in exc.reason
                     else "the run goes ahead"
                 )
-                self._notice(f"Note: {exc.key} {exc.reason}; {consequence}.", "warning")
+                self._notice(
+                    self.plain_names(f"Note: {exc.key} {exc.reason}; {consequence}."), "warning"
+                )
+
+    def _settings(self) -> list[str]:
+        """What drives the run now, in words: controller (and fuzzynav's parts off),
+        perception, disturbance, sensor noise."""
+        controller = self.controller_label
+        if self.parts_off and hasattr(self.controller.inner, "set_parts_off"):
+            controller += " without " + " and ".join(self.parts_off)
+        parts = [controller, self.sim.perception.mode]
+        if self.disturbance_on:
+            parts.append(self.disturbance_text())
+        if self.noise_std_m > 0:
+            parts.append(f"noise σ {self.noise_std_m:.2f} m")
+        return parts
+
+    def disturbance_text(self) -> str:
+        d = self.disturbance_in_use()
+        window = (
+            ""
+            if d.start_s <= 0 and not math.isfinite(d.stop_s)
+            else f" for {d.start_s:g}-{d.stop_s:g} s"
+        )
+        return f"disturbed by {d.amplitude:g}·sin({d.angular_frequency_rad_s:g}t){window}"
 
     def _run_label(self) -> str:
-        parts = [self.scenario_label, self.controller_label, self.sim.perception.mode]
-        if self.parts_off and hasattr(self.controller.inner, "set_parts_off"):
-            parts.append("without " + " and ".join(self.parts_off))
-        return " · ".join(parts)
+        return " · ".join([self.scenario_label, *self._settings()])
+
+    def _note_change_locked(self) -> None:
+        """After a change of what drives (controller, parts, perception, disturbance,
+        noise): a run not started yet is labelled afresh; a run under way keeps what it
+        started with, and the change is added with its time ("from 3.2 s: ...")."""
+        settings = self._settings()
+        if self.sim.time_s <= 0.0 or not self._run_changes:
+            self._run_changes = [(0.0, settings)]
+            self.run_label = self._run_label()
+            return
+        if settings == self._run_changes[-1][1]:
+            return
+        self._run_changes.append((self.sim.time_s, settings))
+        first = self._run_changes[0][1]
+        later = [f"from {t:.1f} s: {' · '.join(p)}" for t, p in self._run_changes[1:]]
+        if len(later) > 3:
+            later = later[:1] + ["…"] + later[-2:]
+        self.run_label = " · ".join([self.scenario_label, *first]) + "; " + "; ".join(later)
 
     def _partial_metrics(self) -> dict:
         """What can be said of a run stopped before its end: its time and path so far."""
@@ -598,7 +643,7 @@ class ViewerApp:
             # The run that ends here stays on screen as a ghost, its numbers beside the next.
             self.ghost = Ghost(
                 trail=np.array(self._trail, dtype=float),
-                label=self._run_label(),
+                label=self.run_label,
                 metrics=dict(self.metrics) if self.metrics else self._partial_metrics(),
             )
             self.ghost_id += 1
@@ -620,8 +665,18 @@ class ViewerApp:
         self._signals = _Ring(capacity, 7)
         self.controller.last_inputs = np.full(4, np.nan)
         self.controller.last_output = np.full(2, np.nan)
+        if self.noise_std_m == 0.0:
+            # What the controller will read at the start, shown before the first step
+            # (not with sensor noise: a read would draw from the run's noise stream).
+            try:
+                self.controller.last_inputs = np.asarray(self.sim.sense()[0], dtype=float)
+                self._answer_again_locked()
+            except Exception:
+                self.controller.last_inputs = np.full(4, np.nan)
+                self.controller.last_output = np.full(2, np.nan)
         self.metrics = None
         self.run_label = self._run_label()
+        self._run_changes = [(0.0, self._settings())]
         self.run_id += 1
         self.layout_id += 1
         self._anchor()
@@ -655,10 +710,14 @@ class ViewerApp:
             )
         with self.lock:
             self.playing = False
+            other = name != self.scenario_label
             self.base_scenario = scenario
             self.scenario_label = name
             self.disturbance_on = scenario.disturbance is not None
             self._reset_locked(scenario)
+            if other:  # the last run's trail and numbers belong to another arena
+                self.ghost = None
+                self.ghost_id += 1
             self._notice(f"Loaded {scenario.name}.", "info")
 
     def upload_scenario(self, content: bytes, filename: str = "scenario.toml") -> str:
@@ -706,6 +765,21 @@ class ViewerApp:
             raise ViewerError(f"position {xy!r}: must be finite and within 1 km")
         return x, y
 
+    def obstacle_number(self, obstacle_id: int) -> int:
+        """The number the page gives an obstacle (its label in the arena, its name in
+        messages): its place in the layout, from 1 (``obstacles[k]`` of the scenario
+        file is obstacle k + 1)."""
+        with self.lock:
+            for k, (i, _) in enumerate(self._layout):
+                if i == obstacle_id:
+                    return k + 1
+        return obstacle_id + 1
+
+    @staticmethod
+    def plain_names(text: str) -> str:
+        """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1."""
+        return re.sub(r"obstacles\[(\d+)\]", lambda m: f"obstacle {int(m.group(1)) + 1}", text)
+
     def check_target(self) -> str | None:
         """After an edit (a drag ended, an obstacle added): tell the user when the target
         can no longer be reached, and when it can again. Returns the warning, if any."""
@@ -718,15 +792,22 @@ class ViewerApp:
                 0.5 * self.sim.arena.footprint_m[1],
             )
             if blocked is not None:
-                text = f"The target {blocked[1]}: the robot cannot get there."
+                text = self.plain_names(f"The target {blocked[1]}: the robot cannot get there.")
                 self._target_warning = text
                 self._notice(text, "warning")
                 return text
-            on_robot = self.obstacles_on_robot()
+            # A finished run restarts from the start on Play: judge the start, not where
+            # the last run stopped (it may have stopped against that very obstacle).
+            finished = self.sim.done
+            on_robot = self.obstacles_on_robot(at_start=finished)
             if on_robot:
+                names = ", ".join(str(self.obstacle_number(i)) for i in on_robot)
                 text = (
-                    f"Obstacle {', '.join(str(i) for i in on_robot)} is on the robot: "
-                    "Play will end in a collision at once. Drag it off the robot."
+                    f"Obstacle {names} is on the robot's start: the next run will end in a "
+                    "collision at once. Drag it off the start."
+                    if finished
+                    else f"Obstacle {names} is on the robot: Play will end in a collision "
+                    "at once. Drag it off the robot."
                 )
                 self._target_warning = text
                 self._notice(text, "warning")
@@ -736,15 +817,35 @@ class ViewerApp:
                 self._notice("The target can be reached again.", "info")
             return None
 
-    def obstacles_on_robot(self) -> list[int]:
-        """Ids of the obstacles that overlap the robot's footprint where it stands."""
+    def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
+        """Ids of the obstacles that overlap the robot's footprint where it stands (or,
+        ``at_start``, where the next run starts, with the obstacles of the layout)."""
         with self.lock:
             arena = self.sim.arena
+            if at_start:
+                return self._obstacles_on_start_locked()
             clearances = arena.clearances()
             if self.geometry == "paper":  # the 25 cm are judged centre to centre there
                 clearances = clearances + np.array(arena._scene().radii, dtype=float)
             ids = list(arena.obstacles)
             return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
+
+    def _obstacles_on_start_locked(self) -> list[int]:
+        sc = self.sim.scenario
+        x, y = sc.start
+        heading = sc.heading_rad
+        length, width = self.sim.arena.footprint_m
+        c, s = math.cos(heading), math.sin(heading)
+        out = []
+        for obstacle_id, spec in self._layout:
+            dx, dy = spec.position[0] - x, spec.position[1] - y
+            lx, ly = c * dx + s * dy, -s * dx + c * dy
+            gap = math.hypot(max(abs(lx) - 0.5 * length, 0.0), max(abs(ly) - 0.5 * width, 0.0))
+            if self.geometry != "paper":
+                gap -= spec.radius_m
+            if gap <= 0.0:
+                out.append(obstacle_id)
+        return out
 
     # -- the paper controller's membership editor ----------------------------------
 
@@ -795,7 +896,7 @@ class ViewerApp:
         with self.lock:
             arena = self.sim.arena
             if obstacle_id not in arena.obstacles:
-                raise ViewerError(f"obstacle {obstacle_id} does not exist (any more)")
+                raise ViewerError("that obstacle does not exist (any more)")
             before = arena.obstacles[obstacle_id].position_at(arena.time_s)
             arena.move_obstacle(obstacle_id, (x, y))
             # The layout (what a reset restarts from) shifts that obstacle's whole path.
@@ -856,7 +957,7 @@ class ViewerApp:
                     raise ViewerError("there is no obstacle to remove")
                 obstacle_id = max(arena.obstacles)
             if obstacle_id not in arena.obstacles:
-                raise ViewerError(f"obstacle {obstacle_id} does not exist (any more)")
+                raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
             self._layout = [(i, s) for i, s in self._layout if i != obstacle_id]
             self.layout_id += 1
@@ -904,6 +1005,7 @@ class ViewerApp:
             self.controller.name = label
             self.controller_label = label
             self._restart_if_finished_locked()
+            self._note_change_locked()
             self._answer_again_locked()
             if not quiet:
                 self._notice(f"Controller: {label}.", "info")
@@ -980,6 +1082,7 @@ class ViewerApp:
             if hasattr(inner, "set_parts_off"):
                 inner.set_parts_off(self.parts_off)
                 self._restart_if_finished_locked()
+                self._note_change_locked()
                 self._notice(f"fuzzynav: {name} {'on' if on else 'off'}.", "info")
             else:
                 self._notice(
@@ -1027,12 +1130,14 @@ class ViewerApp:
         with self.lock:
             self.sim.perception = Perception(mode, self.sim.sensors, geometry=self.geometry)
             self._restart_if_finished_locked()
+            self._note_change_locked()
             self._bump()
 
     def set_disturbance(self, on: bool) -> None:
         with self.lock:
             self.disturbance_on = bool(on)
             self._apply_disturbance_locked()
+            self._note_change_locked()
             self._bump()
 
     def disturbance_in_use(self) -> Disturbance:
@@ -1059,6 +1164,7 @@ class ViewerApp:
             sim.sensors = sensors
             sim.perception = Perception(sim.perception.mode, sensors, geometry=self.geometry)
             self.noise_std_m = std_m
+            self._note_change_locked()
             self._bump()
 
     # -- reading -----------------------------------------------------------------------
@@ -1120,7 +1226,17 @@ class ViewerApp:
                 ghost=self.ghost,
                 ghost_id=self.ghost_id,
                 run_label=self.run_label,
+                disturbance_text=self.disturbance_text() if self.disturbance_on else "",
+                inputs_disturbed=self._inputs_disturbed_locked(),
+                obstacle_numbers={i: k + 1 for k, (i, _) in enumerate(self._layout)},
             )
+
+    def _inputs_disturbed_locked(self) -> bool:
+        d = self.sim.disturbance
+        if d is None or not np.isfinite(self.controller.last_inputs[0]):
+            return False
+        t = self.sim.time_s - self.sim.control_period_s  # when the last inputs were read
+        return d.start_s <= t < d.stop_s
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:
         """(run id, trail points from index ``start`` on)."""

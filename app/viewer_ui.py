@@ -1184,20 +1184,40 @@ class ViewerServer:
                     position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01),
                 )
                 body.on_drag("left")(self._make_body_drag(name, ob.id, handle))
-                if not ob.is_static:
-                    scene.add_label(
-                        f"{name}/label",
-                        "moving",
-                        position=(ob.radius_m + 0.1, 0.0, 0.0),
-                        anchor="center-left",
-                        font_screen_scale=0.8,
-                    )
+                number = snap.obstacle_numbers.get(ob.id, ob.id + 1)
+                label = scene.add_label(
+                    f"{name}/label",
+                    self._obstacle_label(number, ob.is_static),
+                    position=(ob.radius_m + 0.08, 0.0, 0.0),
+                    anchor="center-left",
+                    font_screen_scale=self._label_scale(0.8),
+                )
                 handle.on_update(self._make_drag_callback(name, ob.id))
-                node = {"handle": handle, "name": name, "static": ob.is_static, "xy": ob.xy}
+                node = {
+                    "handle": handle,
+                    "name": name,
+                    "static": ob.is_static,
+                    "xy": ob.xy,
+                    "label": label,
+                    "number": number,
+                }
                 self._obstacle_nodes[key] = node
+            number = snap.obstacle_numbers.get(ob.id, ob.id + 1)
+            if node["number"] != number:  # an obstacle before it was removed
+                node["number"] = number
+                node["label"].text = self._obstacle_label(number, ob.is_static)
             elif node["xy"] != ob.xy and node["name"] not in self._dragging:
                 node["handle"].position = (ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01)
                 node["xy"] = ob.xy
+
+    @staticmethod
+    def _obstacle_label(number: int, static: bool) -> str:
+        """What the arena calls an obstacle: the number the messages use."""
+        return f"obstacle {number}" + ("" if static else " (moving)")
+
+    def _label_scale(self, scale: float) -> float:
+        """Arena labels are larger in presentation mode."""
+        return scale * (1.6 if self.presentation else 1.0)
 
     def _draw_trail(self) -> None:
         run_id, new = self.app.trail_since(self._trail_index)
@@ -1315,22 +1335,38 @@ class ViewerServer:
         }.get(state, "#64748b")
         d_t, d_o, phi_t, phi_o = snap.inputs
         v_l, v_r = snap.voltages_v
+        # A disturbed input is marked (the disturbance is added to every input).
+        mark = (
+            "<sup title='includes the disturbance' style='color:#b45309'>~</sup>"
+            if snap.inputs_disturbed
+            else ""
+        )
+        extras = ""
+        if snap.disturbance_text:
+            extras += f" · <span style='color:#b45309'>{html.escape(snap.disturbance_text)}</span>"
+        if snap.noise_std_m > 0:
+            extras += f" · noise σ {snap.noise_std_m:.2f} m"
+        if snap.layout_edited:
+            extras += " · layout edited"
+        big = self.presentation
         return (
             "<div class='fz-status' style='font-family:system-ui,sans-serif;line-height:1.35;"
-            "padding:0 8px'>"
+            f"padding:0 8px;font-size:{'1.3em' if big else '1em'}'>"
             f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
-            f"<span style='font-size:1.6em;font-weight:600;font-variant-numeric:tabular-nums'>"
-            f"t = {snap.time_s:6.2f} s</span>"
-            f"<span style='font-weight:600;color:{colour}'>● {state}</span></div>"
+            f"<span class='fz-time' style='font-size:1.6em;font-weight:600;"
+            "font-variant-numeric:tabular-nums;white-space:nowrap'>"
+            f"t = {snap.time_s:.2f} s</span>"
+            f"<span style='font-weight:600;color:{colour};white-space:nowrap'>● {state}</span></div>"
             f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
-            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception} · ×{snap.speed:g}"
-            f"{' · layout edited' if snap.layout_edited else ''}</div>"
+            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception}"
+            f" · ×{snap.speed:g}{extras}</div>"
             "<table style='width:100%;font-size:0.85em;margin-top:4px;"
-            "font-variant-numeric:tabular-nums'><tr>"
-            f"<td>d<sub>t</sub> {_fmt(d_t, 'm')}</td><td>d<sub>o</sub> "
-            f"{_fmt(d_o, 'm') if math.isfinite(d_o) else 'none'}</td>"
+            "font-variant-numeric:tabular-nums;white-space:nowrap'><tr>"
+            f"<td>d<sub>t</sub> {_fmt(d_t, 'm')}{mark}</td><td>d<sub>o</sub> "
+            f"{_fmt(d_o, 'm') + mark if math.isfinite(d_o) else 'none'}</td>"
             f"<td>V<sub>L</sub> {_fmt(v_l, 'V', 1)}</td></tr><tr>"
-            f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
+            f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}{mark}</td><td>φ<sub>o</sub> "
+            f"{_fmt(phi_o, 'rad') + mark if math.isfinite(phi_o) else 'none'}</td>"
             f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table></div>"
         )
 

@@ -469,7 +469,7 @@ def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
     assert app.check_target() is None
     app.move_target((4.1, 4.0))
     warning = app.check_target()
-    assert warning is not None and "inside static obstacle obstacles[0]" in warning
+    assert warning is not None and "inside static obstacle obstacle 1 " in warning
     assert app.snapshot().message == warning and app.snapshot().message_level == "warning"
     app.move_target((4.0, 4.3))  # 0.1 m off its surface: outside, still out of reach
     assert "cannot be reached" in app.check_target()
@@ -620,3 +620,140 @@ def test_geometry_switch_restarts_as_the_paper_point_robot(app):
     assert snap.pose[2] == 0.0
     with pytest.raises(ViewerError):
         app.set_geometry("round")
+
+
+# -- issue 27: the defects a class found ----------------------------------------------------
+
+
+def run_to_end(a: ViewerApp) -> None:
+    while not a.sim.done:
+        a.step_once()
+
+
+def test_the_previous_run_keeps_the_label_of_what_drove_it(served):
+    """Defect 3: after paper ran to the end, switching to fuzzynav labelled the grey
+    trail "fuzzynav"; a part switched or an Editor edit did the same; and "This run"
+    kept its starting label after a switch mid-run."""
+    a = served.app
+    a.set_controller("paper")
+    a.set_speed(10.0)
+    run_to_end(a)
+    a.set_controller("fuzzynav")  # after the end: the run restarts, paper's is the ghost
+    assert a.ghost.label == "s1 · paper · ideal", a.ghost.label
+    assert a.run_label == "s1 · fuzzynav · ideal"
+    # the Result panel says so
+    deadline = time.monotonic() + 10
+    while "Previous run (grey trail): s1 · paper · ideal" not in served.result.content:
+        assert time.monotonic() < deadline, served.result.content
+        time.sleep(0.05)
+    # a part switched after the end: the ghost is the run with the part on
+    run_to_end(a)
+    a.set_part("edge following", False)
+    assert a.ghost.label == "s1 · fuzzynav · ideal", a.ghost.label
+    assert a.run_label == "s1 · fuzzynav without edge following · ideal"
+    a.set_part("edge following", True)
+    # an Editor edit after the end: the ghost is the shipped paper's run
+    a.set_controller("paper")
+    run_to_end(a)
+    a.set_membership_parameter("d_t.w1", a.editor().value("d_t.w1") + 0.3)
+    assert a.ghost.label == "s1 · paper · ideal" and a.run_label == "s1 · paper (edited) · ideal"
+    # a switch mid-run is part of this run's label, with its time
+    for _ in range(100):
+        a.step_once()
+    a.set_controller("p")
+    assert a.run_label == "s1 · paper (edited) · ideal; from 2.0 s: p · ideal", a.run_label
+    a.reset()
+    assert a.ghost.label == "s1 · paper (edited) · ideal; from 2.0 s: p · ideal"
+
+
+def test_a_scenario_change_drops_the_previous_run(served):
+    """Defect 4: after loading another scenario, s1's ghost was drawn in the new arena
+    and its numbers compared with the new scenario's."""
+    a = served.app
+    for _ in range(200):
+        a.step_once()
+    a.reset()
+    assert a.ghost is not None
+    a.restore_layout()  # the same scenario: the ghost stays
+    assert a.ghost is not None
+    deadline = time.monotonic() + 10
+    while not served.ghost_node.visible:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    a.load_scenario("crossing")
+    assert a.ghost is None and a.snapshot().ghost is None
+    deadline = time.monotonic() + 10
+    while served.ghost_node.visible or "previous" in served.result.content:
+        assert time.monotonic() < deadline, served.result.content
+        time.sleep(0.05)
+
+
+def test_disturbance_and_noise_are_said_and_a_disturbed_input_is_marked(served):
+    """Defect 9: neither the status line nor the run label said that the inputs were
+    disturbed or noisy, and a disturbed value ("d_o -0.50 m") carried no mark."""
+    a = served.app
+    a.set_disturbance(True)
+    a.set_noise(0.05)
+    for _ in range(60):
+        a.step_once()
+    snap = a.snapshot()
+    assert snap.inputs_disturbed
+    status = served._status_html(snap)
+    assert "disturbed by 1·sin(2t)" in status and "noise σ 0.05 m" in status
+    assert status.count("includes the disturbance") >= 2  # d_t and phi_t at least
+    assert "from 0.0 s" not in a.run_label
+    assert a.run_label == "s1 · p · ideal · disturbed by 1·sin(2t) · noise σ 0.05 m", a.run_label
+    a.set_disturbance(False)
+    a.step_once()
+    snap = a.snapshot()
+    assert not snap.inputs_disturbed
+    assert "includes the disturbance" not in served._status_html(snap)
+    assert "from 1.2 s: p · ideal · noise σ 0.05 m" in a.run_label, a.run_label
+    a.set_noise(0.0)
+    # s3's disturbance acts from 25 to 35 s only: before it, no mark
+    a.load_scenario("s3")
+    a.step_once()
+    snap = a.snapshot()
+    assert "disturbed by 1·sin(2t) for 25-35 s" in served._status_html(snap)
+    assert not snap.inputs_disturbed
+
+
+def test_after_a_collision_a_drag_is_judged_against_the_start(app):
+    """Defect 10: after a run ended in a collision, ending a drag warned "Obstacle 1 is
+    on the robot: Play will end in a collision at once", though Play restarts from the
+    start. Obstacles are named as the arena labels them (obstacle k+1, defect 11)."""
+    app.add_obstacle((1.5, 0.0), 0.3)  # in the robot's way
+    run_to_end(app)
+    assert app.sim.outcome == "collided"
+    assert app.obstacles_on_robot()  # it stands against the obstacle ...
+    ox = app.sim.arena.obstacles[max(app.sim.arena.obstacles)]
+    app.move_obstacle(ox.id, (1.5, 0.1))  # ... and a drag ends there
+    assert app.check_target() is None, app.message
+    assert "on the robot" not in app.message
+    # dropped on the start, it is said, with the number the arena shows
+    app.move_obstacle(ox.id, (0.2, 0.0))
+    warning = app.check_target()
+    number = app.obstacle_number(ox.id)
+    assert number == len(app.sim.arena.obstacles)  # the last of the layout
+    assert warning == (
+        f"Obstacle {number} is on the robot's start: the next run will end in a collision "
+        "at once. Drag it off the start."
+    )
+    app.play()  # and so it does
+    assert app.wait_for(lambda a: a.sim.done, timeout=10)
+    assert app.sim.outcome == "collided" and app.sim.time_s < 0.2
+
+
+def test_obstacles_have_one_name_everywhere(app):
+    """Defect 11: "Obstacle 0" in one message, "obstacles[1]" in another, and the arena
+    labelled neither. Now the k-th obstacle of the layout is "obstacle k" everywhere."""
+    app.move_target((4.1, 4.0))  # s1's first obstacle (obstacles[0] in the file)
+    assert "inside static obstacle obstacle 1 " in app.check_target()
+    assert app.snapshot().obstacle_numbers == {
+        i: k + 1 for k, i in enumerate(app.sim.arena.obstacles)
+    }
+    first = min(app.sim.arena.obstacles)
+    x, y, _ = app.sim.arena.pose
+    app.move_target((8.0, 8.0))
+    app.move_obstacle(first, (x, y))
+    assert app.check_target().startswith("Obstacle 1 is on the robot:")
