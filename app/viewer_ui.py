@@ -937,23 +937,28 @@ class ViewerServer:
         async def on_drag(event) -> None:
             if event.client is None:
                 return
-            if event.phase == "start" or "xy" not in grab:
-                self._dragging.add(name)
-                grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
-                grab["xy"] = np.array(gizmo.position[:2], dtype=float)
-            x, y = grab["xy"] + np.asarray(event.end_position[:2], dtype=float) - grab["from"]
             try:
-                if obstacle_id is None:
-                    app.move_target((x, y))
-                else:
-                    app.move_obstacle(obstacle_id, (x, y))
-                gizmo.position = (x, y, float(gizmo.position[2]))
-            except ViewerError as exc:
-                app._notice(str(exc), "warning")
-            if event.phase == "end":
-                grab.clear()
-                self._dragging.discard(name)
-                app.check_target()
+                if event.phase == "start" or "xy" not in grab:
+                    self._dragging.add(name)
+                    grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
+                    grab["xy"] = np.array(gizmo.position[:2], dtype=float)
+                x, y = grab["xy"] + np.asarray(event.end_position[:2], dtype=float) - grab["from"]
+                try:
+                    if obstacle_id is None:
+                        app.move_target((x, y))
+                    else:
+                        app.move_obstacle(obstacle_id, (x, y))
+                except ViewerError as exc:
+                    app._notice(str(exc), "warning")
+                # Another tab may have reset the run meanwhile: this node is then gone
+                # (the new run's node follows the world), and the drag goes on.
+                if not gizmo._impl.removed:
+                    gizmo.position = (x, y, float(gizmo.position[2]))
+            finally:
+                if event.phase == "end":  # whatever happened above, the drag ends here
+                    grab.clear()
+                    self._dragging.discard(name)
+                    app.check_target()
 
         return on_drag
 

@@ -757,3 +757,45 @@ def test_obstacles_have_one_name_everywhere(app):
     app.move_target((8.0, 8.0))
     app.move_obstacle(first, (x, y))
     assert app.check_target().startswith("Obstacle 1 is on the robot:")
+
+
+def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
+    """Defect 5: a drag in one tab while another pressed Reset logged, at every further
+    drag message, "RuntimeError: Cannot assign to 'position' on a removed
+    TransformControlsHandle", and the end-of-drag check was skipped. The drag callback
+    is the server's own, fed the events viser gives it."""
+    import asyncio
+    from types import SimpleNamespace
+
+    a = served.app
+    first = min(a.sim.arena.obstacles)
+    key = (a.run_id, first)
+    deadline = time.monotonic() + 10
+    while key not in served._obstacle_nodes:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    node = served._obstacle_nodes[key]
+    on_drag = served._make_body_drag(node["name"], first, node["handle"])
+    ox, oy = a.sim.arena.obstacles[first].position_at(0.0)
+
+    def event(phase, to):
+        return SimpleNamespace(
+            client=object(), phase=phase, start_position=(ox, oy, 0.5), end_position=to
+        )
+
+    asyncio.run(on_drag(event("start", (ox, oy, 0.5))))
+    asyncio.run(on_drag(event("update", (ox - 0.5, oy, 0.5))))
+    a.reset()  # another tab
+    deadline = time.monotonic() + 10
+    while not node["handle"]._impl.removed:  # the render loop drew the new run
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    x, y, _ = a.sim.arena.pose
+    asyncio.run(on_drag(event("update", (ox - 1.0, oy, 0.5))))
+    asyncio.run(on_drag(event("end", (x, y, 0.5))))  # dropped on the robot
+    assert a.sim.arena.obstacles[first].position_at(0.0) == pytest.approx((x, y))
+    # the end-of-drag check ran
+    assert a.message.startswith("Obstacle 1 is on the robot:"), a.message
+    assert node["name"] not in served._dragging
+    err = capfd.readouterr().err
+    assert "Cannot assign" not in err and "Traceback" not in err, err
