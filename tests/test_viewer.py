@@ -799,3 +799,23 @@ def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
     assert node["name"] not in served._dragging
     err = capfd.readouterr().err
     assert "Cannot assign" not in err and "Traceback" not in err, err
+
+
+def test_a_fallback_is_alarmed_about_only_when_its_output_counts():
+    """Defect 6: fuzzynav's avoidance outputs fall back whenever nothing is near; that
+    is worth a red line only when the arbitration gives them weight."""
+    from fuzzynav.app import viewer_views as views
+
+    a = ViewerApp("s1", "fuzzynav")
+    for _ in range(5):
+        a.step_once()
+    info = a.teaching()
+    inf = views.infer(info["fis"], info["inputs"], None, info["output_names"])
+    assert inf.fallback == [False, False, True, True]
+    idle = {"goal_speed": 1.0, "goal_turn": 1.0, "avoid_speed": 0.0, "avoid_turn": 0.0}
+    text = views.inference_html(inf, weights=idle)
+    assert "fz-fallback" not in text and "does not steer" in text and ">unused<" in text
+    weighed = dict(idle, avoid_speed=0.3, avoid_turn=0.3)
+    text = views.inference_html(inf, weights=weighed)
+    assert "No rule concludes on avoid_speed, avoid_turn: fallback" in text
+    assert ">fallback<" in text

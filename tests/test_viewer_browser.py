@@ -810,3 +810,43 @@ def test_hovering_a_rule_row_reads_the_rule_as_a_sentence(served, page):
         " [...document.querySelectorAll('.fz-sentence')].every("
         "e => getComputedStyle(e).display === 'none')"
     )
+
+
+# Pairs of text elements in one SVG whose boxes overlap (titles running into each other).
+JS_OVERLAPS = """
+(selector) => {
+  const out = [];
+  for (const svg of document.querySelectorAll(selector)) {
+    const texts = [...svg.querySelectorAll('text')].map(t => [t.textContent, t.getBoundingClientRect()]);
+    for (let i = 0; i < texts.length; i++) for (let j = i + 1; j < texts.length; j++) {
+      const [a, ra] = texts[i], [b, rb] = texts[j];
+      const w = Math.min(ra.right, rb.right) - Math.max(ra.left, rb.left);
+      const h = Math.min(ra.bottom, rb.bottom) - Math.max(ra.top, rb.top);
+      if (w > 1 && h > 1) out.push(a + ' | ' + b);
+    }
+    const box = svg.getBoundingClientRect();
+    for (const [a, r] of texts) if (r.right > box.right + 1) out.push(a + ' | (the edge)');
+  }
+  return out;
+}
+"""
+
+
+def test_fuzzynavs_view_has_no_overlapping_titles_and_no_false_alarm(served, page):
+    """Defect 6: "phi_plan (planned bearing)" ran into "d_t = ..." above the input
+    plots, and in normal driving a red "No rule concludes on avoid_speed ...: fallback"
+    alarmed for nothing (the avoidance block's weight alpha was 0: it did not steer)."""
+    app = served.app
+    app.set_controller("fuzzynav")
+    step(app, 20)
+    info = app.teaching()
+    assert info["state"]["avoidance weight alpha"] == "0.00"
+    open_tab(page, "Inference")
+    page.wait_for_function(
+        "() => document.querySelectorAll('.fz-rules').length == 2", timeout=15_000
+    )
+    assert page.evaluate(JS_OVERLAPS, ".fz-inference svg") == []
+    text = page.locator(".fz-inference").inner_text()
+    assert "phi_plan = " in text and "planner steers to" in text
+    assert page.locator(".fz-inference .fz-fallback").count() == 0
+    assert "does not steer" in page.locator(".fz-idle").inner_text()
