@@ -850,3 +850,71 @@ def test_fuzzynavs_view_has_no_overlapping_titles_and_no_false_alarm(served, pag
     assert "phi_plan = " in text and "planner steers to" in text
     assert page.locator(".fz-inference .fz-fallback").count() == 0
     assert "does not steer" in page.locator(".fz-idle").inner_text()
+
+
+JS_ON_CANVAS = """
+(names) => {
+  const m = window.__viserMutable, cam = m.camera, r = m.canvas.getBoundingClientRect();
+  const V = cam.position.constructor;
+  cam.updateMatrixWorld();
+  const out = [];
+  for (const name of names) {
+    const node = m.nodeRefFromName[name];
+    if (!node) { out.push(name + ': missing'); continue; }
+    node.updateMatrixWorld(true);
+    const p = new V(); node.getWorldPosition(p);
+    const v = p.project(cam);
+    const x = r.left + (v.x + 1) / 2 * r.width, y = r.top + (1 - v.y) / 2 * r.height;
+    if (x < r.left + 5 || x > r.right - 5 || y < r.top + 5 || y > r.bottom - 5)
+      out.push(`${name} at (${x.toFixed(0)}, ${y.toFixed(0)}) off the canvas ${r.left.toFixed(0)}-${r.right.toFixed(0)}`);
+  }
+  return out;
+}
+"""
+
+
+def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
+    """Defect 7: presentation mode widened the left panel over the arena without
+    refitting the camera; the right panel, the status line and the arena's labels
+    stayed small. Now all of the arena stays on the narrower canvas, and they grow."""
+    app = served.app
+    names = ["/target", "/start"] + [obstacle_node(app, i) for i in app.sim.arena.obstacles]
+    page.wait_for_function(f"(n) => ({JS_ON_CANVAS})(n).length == 0", arg=names, timeout=15_000)
+
+    def sizes():
+        return page.evaluate(
+            "() => ({status: parseFloat(getComputedStyle(document.querySelector('.fz-status span')).fontSize),"
+            " right: document.querySelector('.fz-status').getBoundingClientRect().width,"
+            " canvas: window.__viserMutable.canvas.getBoundingClientRect().width})"
+        )
+
+    before = sizes()
+    # as for a tab open for minutes: its first seconds' refitting is long over
+    served._fit_window.clear()
+    page.get_by_text("View", exact=True).click()
+    box = page.get_by_role("checkbox", name="Presentation mode (large type)")
+    box.click()
+    try:
+        page.wait_for_function(
+            "(w) => window.__viserMutable.canvas.getBoundingClientRect().width < w - 200",
+            arg=before["canvas"],
+            timeout=15_000,
+        )
+        # the camera follows the canvas's new shape
+        page.wait_for_function(f"(n) => ({JS_ON_CANVAS})(n).length == 0", arg=names, timeout=15_000)
+        page.wait_for_timeout(1000)
+        assert page.evaluate(JS_ON_CANVAS, names) == []
+        after = sizes()
+        assert after["status"] > 1.2 * before["status"], (before, after)
+        assert after["right"] > before["right"] + 50, (before, after)
+        assert served.target_label.font_screen_scale > 1.2
+        assert all(n["label"].font_screen_scale > 1.2 for n in served._obstacle_nodes.values())
+    finally:
+        box.click()
+    page.wait_for_function(
+        "(w) => window.__viserMutable.canvas.getBoundingClientRect().width > w - 20",
+        arg=before["canvas"],
+        timeout=15_000,
+    )
+    page.wait_for_function(f"(n) => ({JS_ON_CANVAS})(n).length == 0", arg=names, timeout=15_000)
+    page.get_by_text("View", exact=True).click()
