@@ -39,6 +39,8 @@ TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this ma
 BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
 SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
+NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
+PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
 FIT_WINDOW_S = 20.0  # a new tab's camera follows its canvas's shape for this long
 GHOST_GREY = (148, 163, 184)
 
@@ -446,12 +448,12 @@ class ViewerServer:
                 cast_shadow=False,
             )
             ring.on_drag("left")(self._make_body_drag("/target", None, self.target))
-        scene.add_label(
+        self.target_label = scene.add_label(
             "/target/label",
             "target",
             position=(0.45, 0.45, 0.0),
             anchor="bottom-left",
-            font_screen_scale=0.9,
+            font_screen_scale=self._label_scale(0.9),
         )
         self.target.on_update(self._make_drag_callback("/target", None))
         self.ideal = scene.add_line_segments(
@@ -521,7 +523,7 @@ class ViewerServer:
                 f"{x}" + (" m" if x == x1 else ""),
                 position=(x, y0 - 0.25, 0.0),
                 anchor="top-center",
-                font_screen_scale=0.75,
+                font_screen_scale=self._label_scale(0.75),
             )
         for y in range(y0, y1 + 1, step):
             scene.add_label(
@@ -529,7 +531,7 @@ class ViewerServer:
                 f"{y}" + (" m" if y == y1 else ""),
                 position=(x0 - 0.25, y, 0.0),
                 anchor="center-right",
-                font_screen_scale=0.75,
+                font_screen_scale=self._label_scale(0.75),
             )
         cam = self.server.initial_camera
         # A new tab's canvas aspect is not known yet ("Reset view" also comes here):
@@ -743,10 +745,10 @@ class ViewerServer:
                 order=2.0,
             )
         panel.dock_left()
-        panel.set_width(400)
+        panel.set_width(NORMAL_WIDTHS[0])
         main = gui.main_panel
         main.dock_right()
-        main.set_width(330)
+        main.set_width(NORMAL_WIDTHS[1])
 
     def _build_editor(self) -> None:
         """Sliders for the paper controller's membership parameters (the tuner's
@@ -855,9 +857,23 @@ class ViewerServer:
         self.app._bump()
 
     def _on_presentation(self, event) -> None:
+        """Large type for a projector: a wide inference panel, a wider control panel,
+        the status line and the arena's labels larger, and every tab's camera refitted
+        to its narrower canvas (the new shape arrives as a camera message)."""
         self.presentation = bool(self.presentation_cb.value)
-        self.left_panel.set_width(720 if self.presentation else 400)
+        for client in self.server.get_clients().values():  # before the canvases change
+            self._open_fit_window(client, 10.0)
+        left, right = PRESENTATION_WIDTHS if self.presentation else NORMAL_WIDTHS
+        self.left_panel.set_width(left)
+        self.server.gui.main_panel.set_width(right)
+        with self.server.atomic():
+            if self._bounds is not None:
+                self._frame_arena(self._bounds)  # the metre marks, at the new size
+            self.target_label.font_screen_scale = self._label_scale(0.9)
+            for node in self._obstacle_nodes.values():
+                node["label"].font_screen_scale = self._label_scale(0.8)
         self._last_inference = None  # redraw with the new type size
+        self._last_metrics_run = -1
         self.app._bump()
 
     def _on_editor_button(self, event) -> None:
@@ -1453,7 +1469,8 @@ class ViewerServer:
             "MAD and RMSE are distances from the straight start–target line.</div>"
         )
         return (
-            "<table style='width:100%;font-size:0.85em;font-variant-numeric:tabular-nums'>"
+            "<table style='width:100%;font-size:"
+            f"{'1.1em' if self.presentation else '0.85em'};font-variant-numeric:tabular-nums'>"
             + head
             + "".join(body)
             + "</table>"
