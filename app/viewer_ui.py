@@ -41,7 +41,40 @@ SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
 NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
 PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
-FIT_WINDOW_S = 20.0  # a new tab's camera follows its canvas's shape for this long
+FIT_WINDOW_S = 20.0
+EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
+# What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
+# and the paper geometry's partition layout, controller/paper_partition.py).
+EDITOR_LABELS = {
+    "d_t.a0": "VS full to, S starts (m)",
+    "d_t.w1": "S peak after that (m)",
+    "d_t.w2": "M centre after S (m)",
+    "d_t.w3": "L peak after M (m)",
+    "d_t.w4": "VL full after L (m)",
+    "d_t.c0": "first centre (m)",
+    "d_o.b0": "near full to (m)",
+    "d_o.w1": "medium centre after (m)",
+    "d_o.w2": "far full after that (m)",
+    "phi_t.peak": "P, N peak (rad)",
+    "phi_t.width": "VP, VN full after (rad)",
+    "phi_t.zero": "Z half-width (rad)",
+    "phi_t.foot": "P starts at (× peak)",
+    "phi_o.peak": "P, N peak (rad)",
+    "phi_o.width": "VP, VN peak after (rad)",
+    "phi_o.zero": "Z half-width (rad)",
+    "phi_o.foot": "P starts at (× peak)",
+    "phi_o.tail": "VP, VN end after (rad)",
+    "v.vs_end": "VS full to (V)",
+    "v.vs_ramp": "VS falls over (V)",
+    "v.s_offset": "S centre after VS (V)",
+    "v.m_offset": "M centre after S (V)",
+    "v.l_offset": "L centre after M (V)",
+    "v.s_half": "S half-width (V)",
+    "v.m_half": "M half-width (V)",
+    "v.l_half": "L half-width (V)",
+    "v.vl_offset": "VL starts after L (V)",
+    "v.vl_ramp": "VL rises over (V)",
+}  # a new tab's camera follows its canvas's shape for this long
 GHOST_GREY = (148, 163, 184)
 
 # Colours (RGB 0-255).
@@ -455,6 +488,14 @@ class ViewerServer:
             anchor="bottom-left",
             font_screen_scale=self._label_scale(0.9),
         )
+        # A first hint on the arena itself, gone after the first drag (in any tab).
+        self.drag_hint = scene.add_label(
+            "/target/hint",
+            "drag the target or an obstacle",
+            position=(0.45, -0.45, 0.0),
+            anchor="top-left",
+            font_screen_scale=self._label_scale(0.85),
+        )
         self.target.on_update(self._make_drag_callback("/target", None))
         self.ideal = scene.add_line_segments(
             "/ideal_line", np.zeros((1, 2, 3), np.float32), (150, 150, 150), thickness=0.02
@@ -584,6 +625,12 @@ class ViewerServer:
         self.speed.on_click(self._guarded(lambda e: app.set_speed(float(self.speed.value))))
         # Messages below the buttons, so that one appearing never moves them.
         self.message_html = gui.add_html("")
+        # Above the fold at 1280 x 800 (it was the last thing in the panel).
+        gui.add_html(
+            "<div class='fz-drag-hint' style='font-size:0.8em;color:#475569;padding:0 8px'>"
+            "Drag the <b>target</b> or an <b>obstacle</b> by its body; the robot reacts at "
+            "once. Scroll to zoom, right-drag to pan.</div>"
+        )
 
         with gui.add_folder("Scenario"):
             self.scenario_dd = gui.add_dropdown(
@@ -688,10 +735,6 @@ class ViewerServer:
             gui.add_html(colour_key_html())
         with gui.add_folder("Result"):
             self.result = gui.add_html(self._RESULT_PENDING)
-        gui.add_markdown(
-            "<small>Drag the **target** or an **obstacle** by its body; the robot reacts at "
-            "once. Scroll to zoom, right-drag to pan.</small>"
-        )
 
         panel = gui.add_panel()
         self.left_panel = panel
@@ -765,8 +808,8 @@ class ViewerServer:
         gui.add_html(
             "<div style='font-size:0.85em;padding:0 6px'>Move a slider and the robot drives "
             "with the edited <b>paper</b> controller at once (the run goes on). Each number "
-            "is a position or a width of the tuner's parametrisation "
-            f"(controller/paper.py), so the terms stay in order. {note}</div>"
+            "places a term (where it starts, peaks or ends) or a gap after the term before "
+            f"it, so the terms stay in order whatever you do. {note}</div>"
         )
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Reset to shipped")
@@ -782,11 +825,12 @@ class ViewerServer:
                 for name in names:
                     lo, hi = editor.bounds[name]
                     slider = gui.add_slider(
-                        name.split(".", 1)[1],
+                        EDITOR_LABELS.get(name, name.split(".", 1)[1]),
                         lo,
                         hi,
-                        step=round((hi - lo) / 200, 4),
-                        initial_value=editor.value(name),
+                        step=EDITOR_STEP,
+                        initial_value=round(editor.value(name), 2),
+                        hint=f"{name} in the tuner's terms; {lo:g} to {hi:g}",
                     )
                     slider.on_update(
                         self._guarded(
@@ -886,7 +930,7 @@ class ViewerServer:
         self.app.reset_membership_editor()
         editor = self.app.editor()
         for name, slider in self.editor_sliders.items():
-            slider.value = editor.value(name)
+            slider.value = round(editor.value(name), 2)
 
     def _guarded(self, func):
         """Run a GUI callback; a refused action becomes a message in the page."""
@@ -942,6 +986,11 @@ class ViewerServer:
         self.scenario_dd.options = self.app.scenario_options()
         self.scenario_dd.value = label
 
+    def _first_drag(self) -> None:
+        """The arena's drag hint has done its job."""
+        if self.drag_hint.visible:
+            self.drag_hint.visible = False
+
     def _make_body_drag(self, name: str, obstacle_id: int | None, gizmo):
         """Drag the target or an obstacle by its body: it follows the pointer on the
         horizontal plane through the point grabbed."""
@@ -954,6 +1003,7 @@ class ViewerServer:
             if event.client is None:
                 return
             try:
+                self._first_drag()
                 if event.phase == "start" or "xy" not in grab:
                     self._dragging.add(name)
                     grab["from"] = np.array(event.start_position[:2], dtype=float)  # copies
@@ -986,6 +1036,7 @@ class ViewerServer:
                 return
             if event.phase == "start":
                 self._dragging.add(name)
+                self._first_drag()
             x, y = (float(v) for v in event.target.position[:2])
             try:
                 if obstacle_id is None:
@@ -1334,7 +1385,7 @@ class ViewerServer:
         if self.app.paper_edit is not None:
             editor = self.app.paper_edit
             for name, slider in self.editor_sliders.items():
-                value = editor.value(name)
+                value = round(editor.value(name), 2)  # as the slider shows it
                 if abs(slider.value - value) > 1e-9:
                     slider.value = value
 
@@ -1432,7 +1483,7 @@ class ViewerServer:
             )
             paper_cell = (
                 (
-                    f"<td style='text-align:right;color:#64748b'>"
+                    f"<td style='text-align:right;color:#64748b;white-space:nowrap'>"
                     f"{_fmt(paper.get(key), unit, 3) if key else ''}</td>"
                 )
                 if paper
@@ -1450,11 +1501,12 @@ class ViewerServer:
                     }.get(label, "")
                 )
                 ghost_cell = (
-                    "<td style='text-align:right;color:#64748b'>"
+                    "<td style='text-align:right;color:#64748b;white-space:nowrap'>"
                     f"{html.escape(str(g)) if label == 'Outcome' and g else _fmt(g, unit, 3)}</td>"
                 )
             body.append(
-                f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{ghost_cell}"
+                f"<tr><td>{label}</td><td style='text-align:right;white-space:nowrap'>{shown}</td>"
+                f"{ghost_cell}"
                 f"{paper_cell}</tr>"
             )
         note = (
@@ -1659,7 +1711,8 @@ class ViewerServer:
                 left, right = out[..., 0], out[..., 1]
                 fields = [
                     ("speed = (left + right) / 2 (V)", 0.5 * (left + right)),
-                    ("turn = right − left (V, + = to the left)", right - left),
+                    # as fuzzynav's command has it: left = speed - turn, right = speed + turn
+                    ("turn = (right − left) / 2 (V, + = to the left)", 0.5 * (right - left)),
                 ]
             else:
                 fields = [(f"{fis.output_names[k]}", out[..., k]) for k in range(2)]
