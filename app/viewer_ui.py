@@ -492,8 +492,8 @@ class ViewerServer:
         self.drag_hint = scene.add_label(
             "/target/hint",
             "drag the target or an obstacle",
-            position=(0.45, -0.45, 0.0),
-            anchor="top-left",
+            position=(-0.4, -0.45, 0.0),
+            anchor="top-right",
             font_screen_scale=self._label_scale(0.85),
         )
         self.target.on_update(self._make_drag_callback("/target", None))
