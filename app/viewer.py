@@ -206,6 +206,8 @@ class Snapshot:
     disturbance_text: str = ""
     inputs_disturbed: bool = False
     obstacle_numbers: dict = field(default_factory=dict)  # id -> the number shown
+    what_if: np.ndarray | None = None  # the inputs tried in what-if mode, or None
+    input_pose: tuple | None = None  # the pose the inputs were read at
     extra: dict = field(default_factory=dict)
 
 
@@ -267,6 +269,8 @@ class ViewerApp:
         self.run_label = ""
         self._run_changes: list = []
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
+        self.what_if: np.ndarray | None = None  # what-if mode: the inputs tried
+        self._resume_after_what_if = False
 
         if geometry not in GEOMETRIES:
             raise ViewerError(f"geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}")
@@ -432,6 +436,7 @@ class ViewerApp:
 
     def _step_locked(self) -> None:
         sim = self.sim
+        self._input_pose = tuple(sim.arena.pose)  # where the controller reads its inputs
         try:
             outcome = sim.step()
         except Exception as exc:  # a controller that fails must not kill the thread
@@ -517,6 +522,7 @@ class ViewerApp:
 
     def play(self) -> None:
         with self.lock:
+            self.what_if = None  # Play leaves what-if mode
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
             self.playing = True
@@ -538,6 +544,7 @@ class ViewerApp:
     def step_once(self) -> None:
         """Pause and advance exactly one control period."""
         with self.lock:
+            self.what_if = None
             self.playing = False
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
@@ -649,6 +656,7 @@ class ViewerApp:
             self.ghost_id += 1
         # A new run: what was said about the last one (its outcome) no longer holds.
         self.message, self.message_level = "", "info"
+        self.what_if = None
         if self.geometry == "paper" and scenario.paper_heading_rad is not None:
             # s1-s3 start, in the paper's geometry, at the fitted initial heading.
             scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
@@ -674,6 +682,7 @@ class ViewerApp:
             except Exception:
                 self.controller.last_inputs = np.full(4, np.nan)
                 self.controller.last_output = np.full(2, np.nan)
+        self._input_pose = tuple(self.sim.arena.pose)
         self.metrics = None
         self.run_label = self._run_label()
         self._run_changes = [(0.0, self._settings())]
@@ -1004,6 +1013,8 @@ class ViewerApp:
             self.controller.inner = inner
             self.controller.name = label
             self.controller_label = label
+            if self.what_if is not None and self.what_if_system() is None:
+                self.what_if = None  # nothing to try inputs on
             self._restart_if_finished_locked()
             self._note_change_locked()
             self._answer_again_locked()
@@ -1229,6 +1240,8 @@ class ViewerApp:
                 disturbance_text=self.disturbance_text() if self.disturbance_on else "",
                 inputs_disturbed=self._inputs_disturbed_locked(),
                 obstacle_numbers={i: k + 1 for k, (i, _) in enumerate(self._layout)},
+                what_if=None if self.what_if is None else self.what_if.copy(),
+                input_pose=self._input_pose,
             )
 
     def _inputs_disturbed_locked(self) -> bool:
@@ -1272,6 +1285,72 @@ class ViewerApp:
             fis = getattr(inner, "merged", None)
         return fis
 
+    # -- what-if mode ------------------------------------------------------------------
+
+    def what_if_system(self):
+        """The rule base what-if mode works on: a plain system over the four inputs
+        (paper, an edited or uploaded one); None for fuzzynav (its blocks read sectors
+        and a planned bearing) and for controllers without rules."""
+        inner = self.controller.inner
+        fis = getattr(inner, "fis", None)
+        if fis is None or hasattr(inner, "teaching_view") or fis.n_inputs != 4:
+            return None
+        return fis
+
+    def start_what_if(self) -> None:
+        """Pause and try inputs by hand: the whole inference follows the inputs set
+        with :meth:`set_what_if_input`; the robot does not move. :meth:`stop_what_if`
+        (or Play, or Step) leaves it, and a run that was playing plays on."""
+        with self.lock:
+            if self.what_if_system() is None:
+                raise ViewerError(
+                    f"what-if mode needs a rule base over the four inputs (paper, an edited "
+                    f"or uploaded .fis); {self.controller_label} has none"
+                )
+            if self.what_if is not None:
+                return
+            self._resume_after_what_if = self.playing
+            self.playing = False
+            x = self.controller.last_inputs.copy()
+            if not np.isfinite(x[0]):
+                x = np.asarray(self.sim.sense()[0], dtype=float)
+            self.what_if = x
+            self._bump()
+
+    def set_what_if_input(self, index: int, value) -> None:
+        """Set input ``index`` (0-3: d_t, d_o, phi_t, phi_o) in what-if mode; NaN is
+        "not sensed" (d_o, phi_o)."""
+        with self.lock:
+            if self.what_if is None:
+                raise ViewerError("what-if mode is off: switch it on first")
+            fis = self.what_if_system()
+            if fis is None:
+                raise ViewerError("this controller has no rule base over the four inputs")
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ViewerError(f"{value!r}: must be a number") from None
+            name = fis.input_names[index]
+            if math.isnan(value):
+                if index in (0, 2):
+                    raise ViewerError(f"{name} is always known: give a number")
+            else:
+                lo, hi = fis.inputs[index].range
+                if not (math.isfinite(value) and lo <= value <= hi):
+                    raise ViewerError(f"{name} = {value!r}: must be between {lo:g} and {hi:g}")
+            self.what_if[index] = value
+            self._bump()
+
+    def stop_what_if(self) -> None:
+        with self.lock:
+            if self.what_if is None:
+                return
+            self.what_if = None
+            resume = self._resume_after_what_if
+            self._bump()
+        if resume:
+            self.play()
+
     def teaching(self) -> dict | None:
         """The rule base at the last controller inputs: firing strengths and aggregation.
 
@@ -1289,6 +1368,9 @@ class ViewerApp:
                 fis, x, state = seen
         if view is None:
             fis = self.fuzzy_system()
+            what_if = self.what_if
+            if what_if is not None and fis is not None:
+                inputs = what_if.copy()
             if fis is None or not np.isfinite(inputs[0]):
                 return None
             x = inputs[: len(fis.input_names)]

@@ -90,6 +90,10 @@ NO_ECHO = (175, 175, 175)
 MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
 STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
+TARGET_INPUT = (13, 148, 136)  # d_t, phi_t on the robot (views.TARGET_INPUT)
+OBSTACLE_INPUT = (192, 38, 211)  # d_o, phi_o (views.OBSTACLE_INPUT)
+ARC_SEGMENTS = 8
+INPUT_SEGMENTS = ARC_SEGMENTS + 2  # a distance, a radius along the heading, an arc
 
 OBSTACLE_HEIGHT_M = 0.5
 # The target is drawn (and picked) above the obstacles: dropped on one, it is still
@@ -106,6 +110,8 @@ COLOUR_KEY = [
     ("#9333ea", "fuzzynav's echo memory (points it remembers)"),
     ("#16a34a", "fuzzynav's planned bearing (thick green line)"),
     ("#d97706", "safe-distance ring (red: an obstacle inside)"),
+    ("#0d9488", "d_t (line to the target) and phi_t (arc from the heading)"),
+    ("#c026d3", "d_o (from the footprint's edge) and phi_o (arc from the heading)"),
     ("#606f88", "static obstacle"),
     ("#ea580c", "moving obstacle"),
     ("#dc2626", "target (drag it)"),
@@ -519,6 +525,21 @@ class ViewerServer:
             thickness=0.06,
             visible=False,
         )
+        # The controller's inputs drawn on the robot, in the term plots' colours: d_t as
+        # the line to the target, phi_t as the arc from the heading to it; d_o as the gap
+        # from the footprint's edge along phi_o, phi_o as its arc. A fixed number of
+        # segments each: an update sends only their points, at the panels' rate.
+        self.input_nodes = {
+            kind: scene.add_line_segments(
+                f"/inputs/{kind}",
+                np.zeros((INPUT_SEGMENTS, 2, 3), np.float32),
+                colour,
+                thickness=0.04,
+                visible=False,
+            )
+            for kind, colour in (("target", TARGET_INPUT), ("obstacle", OBSTACLE_INPUT))
+        }
+        self._inputs_drawn = None
         self.ghost_node = scene.add_line_segments(
             "/ghost/trail",
             np.zeros((1, 2, 3), np.float32),
@@ -748,6 +769,7 @@ class ViewerServer:
                 order=0.5,
             )
             self.firing_only_cb.on_update(self._guarded(lambda e: self._redraw_inference()))
+            self._build_what_if()
             self.inference_html = gui.add_html("", order=1.0)
         self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
         with self._surface_tab:
@@ -895,6 +917,50 @@ class ViewerServer:
         if not self.view_3d:
             for client in self.server.get_clients().values():
                 self._fit_camera(client, force=True)
+
+    def _build_what_if(self) -> None:
+        """What-if mode: pause, type an input's value, and the whole inference (rules,
+        clipped sets, aggregate, centroids, the surface's dot) follows; the robot stays."""
+        gui = self.server.gui
+        with gui.add_folder("What-if", expand_by_default=False, order=0.6):
+            self.what_if_cb = gui.add_checkbox(
+                "What-if mode",
+                False,
+                hint="Pause and try inputs by hand; untick to go on where the run was",
+            )
+            self.what_if_cb.on_update(self._guarded(self._on_what_if))
+            self.what_if_boxes = []
+            for k, (name, lo, hi, unit) in enumerate(
+                (
+                    ("d_t", 0.0, 20.0, "m"),
+                    ("d_o", 0.0, 10.0, "m"),
+                    ("phi_t", -math.pi, math.pi, "rad"),
+                    ("phi_o", -math.pi, math.pi, "rad"),
+                )
+            ):
+                box = gui.add_number(
+                    f"{name} ({unit})",
+                    initial_value=0.0,
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.01,
+                    disabled=True,
+                    hint="type a value (d_o, phi_o: none sensed until you do)",
+                )
+                box.on_update(
+                    self._guarded(lambda e, k=k: self.app.set_what_if_input(k, e.target.value))
+                )
+                self.what_if_boxes.append(box)
+
+    def _on_what_if(self, event) -> None:
+        if self.what_if_cb.value:
+            try:
+                self.app.start_what_if()
+            except ViewerError:
+                self.what_if_cb.value = False
+                raise
+        else:
+            self.app.stop_what_if()
 
     def _redraw_inference(self) -> None:
         self._last_inference = None
@@ -1159,6 +1225,57 @@ class ViewerServer:
         self._draw_trail()
         self._draw_ghost(snap)
 
+    @staticmethod
+    def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
+        """(INPUT_SEGMENTS, 2, 3): a distance along ``bearing`` (from ``start`` m off the
+        centre), the heading's radius and the arc from the heading to ``bearing``."""
+        x, y, heading = pose
+        z = 0.5
+        a = heading + bearing
+        seg = np.zeros((INPUT_SEGMENTS, 2, 3), np.float32)
+        seg[:, :, 2] = z
+        seg[0, 0, :2] = (x + start * math.cos(a), y + start * math.sin(a))
+        seg[0, 1, :2] = (x + (start + distance) * math.cos(a), y + (start + distance) * math.sin(a))
+        seg[1, 0, :2] = (x, y)
+        seg[1, 1, :2] = (x + radius * math.cos(heading), y + radius * math.sin(heading))
+        angles = heading + np.linspace(0.0, bearing, ARC_SEGMENTS + 1)
+        arc = np.column_stack([x + radius * np.cos(angles), y + radius * np.sin(angles)])
+        seg[2:, 0, :2] = arc[:-1]
+        seg[2:, 1, :2] = arc[1:]
+        return seg
+
+    @staticmethod
+    def footprint_exit(footprint_m, bearing: float) -> float:
+        """How far from the centre a ray at ``bearing`` (robot frame) leaves the
+        footprint (0 for the paper's point robot)."""
+        half_l, half_w = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
+        c, s = abs(math.cos(bearing)), abs(math.sin(bearing))
+        return min(half_l / c if c > 1e-9 else math.inf, half_w / s if s > 1e-9 else math.inf)
+
+    def _draw_inputs(self, snap: Snapshot) -> None:
+        """The inputs the controller was given, on the robot (at the panels' rate, from
+        the same snapshot as the term plots: the same numbers)."""
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
+        pose = snap.input_pose or snap.pose  # where they were read (a step ago)
+        key = (tuple(np.round(pose, 3)), tuple(np.round((d_t, d_o, phi_t, phi_o), 3)))
+        if key == self._inputs_drawn:
+            return
+        self._inputs_drawn = key
+        shown = {
+            "target": math.isfinite(d_t) and math.isfinite(phi_t),
+            "obstacle": math.isfinite(d_o) and math.isfinite(phi_o),
+        }
+        if shown["target"]:
+            self.input_nodes["target"].points = self.input_segments(pose, d_t, phi_t, 1.1)
+        if shown["obstacle"]:
+            start = self.footprint_exit(snap.footprint_m, phi_o)
+            self.input_nodes["obstacle"].points = self.input_segments(
+                pose, max(d_o, 0.0), phi_o, 0.8, start
+            )
+        for kind, node in self.input_nodes.items():
+            if node.visible != shown[kind]:
+                node.visible = shown[kind]
+
     def _draw_ghost(self, snap: Snapshot) -> None:
         if snap.ghost_id == self._ghost_drawn:
             return
@@ -1332,6 +1449,8 @@ class ViewerServer:
             self._draw_plots()
         self._draw_inference(snap)
         self._draw_surface(snap)
+        with self.server.atomic():
+            self._draw_inputs(snap)
         key = (snap.run_id, snap.metrics is not None, snap.ghost_id)
         if self._last_metrics_run != key:
             self._last_metrics_run = key
@@ -1382,6 +1501,14 @@ class ViewerServer:
         for name, box in self.part_boxes.items():
             if box.value != (name not in snap.parts_off):
                 box.value = name not in snap.parts_off
+        on = snap.what_if is not None
+        if self.what_if_cb.value != on:
+            self.what_if_cb.value = on
+        for k, box in enumerate(self.what_if_boxes):
+            if box.disabled == on:
+                box.disabled = not on
+            if on and math.isfinite(snap.what_if[k]) and abs(box.value - snap.what_if[k]) > 5e-3:
+                box.value = round(float(snap.what_if[k]), 2)
         if self.app.paper_edit is not None:
             editor = self.app.paper_edit
             for name, slider in self.editor_sliders.items():
@@ -1391,7 +1518,9 @@ class ViewerServer:
 
     def _status_html(self, snap: Snapshot) -> str:
         state = (
-            "running"
+            "what-if (paused)"
+            if snap.what_if is not None
+            else "running"
             if snap.playing
             else {
                 "reached": "reached the target",
@@ -1678,7 +1807,7 @@ class ViewerServer:
             self._surface_planes = self._surface_planes_for(inner)
             self.surface_html.content = self._surface_html(snap)
         markers = {}
-        d_t, d_o, phi_t, phi_o = snap.inputs
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
         for p, plane in enumerate(self._surface_planes):
             title, fis, xi, yi, x_range, y_range, held, kind = plane
             if kind == "block":

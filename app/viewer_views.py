@@ -31,6 +31,23 @@ NUM_W = 46.0  # width of the rule-number column
 CURVE_POINTS = 21  # samples of a membership function in a rule cell
 
 INPUT_LINE = "#dc2626"
+# The paper's four inputs each have a colour, the same in the term plots, in the rule
+# grid and on the arena (where d_t, phi_t, d_o and phi_o are drawn on the robot): the
+# target's pair teal, the obstacle's pair magenta.
+TARGET_INPUT = "#0d9488"
+OBSTACLE_INPUT = "#c026d3"
+INPUT_COLOURS = {
+    "d_t": TARGET_INPUT,
+    "phi_t": TARGET_INPUT,
+    "d_o": OBSTACLE_INPUT,
+    "phi_o": OBSTACLE_INPUT,
+}
+
+
+def input_colour(name: str) -> str:
+    return INPUT_COLOURS.get(name, INPUT_LINE)
+
+
 ANTECEDENT_FILL = "#f59e0b"
 CONSEQUENT_FILL = "#2563eb"
 FIRING_ROW = "#fef3c7"
@@ -255,8 +272,10 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
         y0 = 14 + (slot // cols) * (h + gap)
         value = float(inf.inputs[i])
         label = inf.input_labels[i]
+        colour = input_colour(label)
         parts.append(
-            f"<text x='{x0:.0f}' y='{y0 - 3:.0f}' font-size='10' font-weight='600'>"
+            f"<text x='{x0:.0f}' y='{y0 - 3:.0f}' font-size='10' font-weight='600'"
+            f" fill='{colour if colour != INPUT_LINE else '#0f172a'}'>"
             f"{html.escape(label)} = {html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
         )
         parts.append(
@@ -279,7 +298,7 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
         if xline is not None:
             parts.append(
                 f"<line x1='{xline:.1f}' x2='{xline:.1f}' y1='{y0:.0f}' y2='{y0 + h:.0f}' "
-                f"stroke='{INPUT_LINE}' stroke-width='1.8'/>"
+                f"stroke='{input_colour(label)}' stroke-width='1.8'/>"
             )
         # The terms' degrees under the plot, in the curves' colours (two lines if need be).
         tx, ty = x0, y0 + h + 11
@@ -343,7 +362,8 @@ def rules_head_svg(inf: Inference, ins, outs) -> str:
         parts.append(
             f"<text x='{col_x(c) + 2:.0f}' y='11' font-size='9.5' font-weight='600'"
             f" class='fz-col-name'>{html.escape(inf.input_labels[i])}</text>"
-            f"<text x='{col_x(c) + 2:.0f}' y='22' font-size='8.5' fill='{INPUT_LINE}'>"
+            f"<text x='{col_x(c) + 2:.0f}' y='22' font-size='8.5'"
+            f" fill='{input_colour(inf.input_labels[i])}'>"
             f"{html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
         )
     for c, j in enumerate(outs, start=len(ins)):
@@ -470,7 +490,8 @@ def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=N
         if xline is not None:
             parts.append(
                 f"<line class='fz-input-line' x1='{xline:.1f}' x2='{xline:.1f}' y1='0' "
-                f"y2='{bottom:.0f}' stroke='{INPUT_LINE}' stroke-width='1.2'/>"
+                f"y2='{bottom:.0f}' stroke='{input_colour(inf.input_labels[i])}'"
+                " stroke-width='1.2'/>"
             )
     # Hover areas, one per row, on top (transparent).
     parts.append(

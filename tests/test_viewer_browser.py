@@ -979,3 +979,98 @@ def test_the_small_things_a_class_noticed(served, page):
         " document.querySelector('.fz-surface').innerText.includes('turn = (right − left) / 2')",
         timeout=15_000,
     )
+
+
+def test_what_if_mode_follows_typed_inputs_without_moving_the_robot(served, page):
+    """What-if mode: the run pauses; an input typed in the page drives the whole
+    inference (the firing rules, the centroids: the engine's own numbers at those
+    inputs) and the surface's dot; the robot stays; leaving it, the run plays on."""
+    app = served.app
+    app.set_controller("paper")
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 1.0, timeout=15)
+    open_tab(page, "Inference")
+    page.get_by_text("What-if", exact=True).click()
+    page.get_by_role("checkbox", name="What-if mode").click()
+    assert app.wait_for(lambda a: a.what_if is not None and not a.playing, timeout=10)
+    pose, t = tuple(app.sim.arena.pose), app.sim.time_s
+    fis = app.fuzzy_system()
+    tried = np.array(app.what_if, dtype=float)
+    # the four boxes (d_t, d_o, phi_t, phi_o) are the visible number boxes of the tab
+    boxes = page.locator(".fz-inference >> xpath=ancestor::*[.//input][1]").locator(
+        "input[inputmode='decimal']:visible"
+    )
+    assert boxes.count() == 4
+    for name, value in (("phi_t", -1.2), ("d_o", 0.6), ("phi_o", 0.3)):
+        box = boxes.nth(["d_t", "d_o", "phi_t", "phi_o"].index(name))
+        box.fill(str(value))
+        box.press("Enter")
+        index = fis.input_names.index(name)
+        tried[index] = value
+        assert app.wait_for(lambda a, i=index, v=value: a.what_if[i] == v, timeout=10)
+    centroids = fis.aggregated(tried).output
+    strengths = fis.firing_strengths(tried[None, :])[0]
+    expected = ", ".join(f"{n} = {c:.2f}" for n, c in zip(fis.output_names, centroids))
+    page.wait_for_function(
+        "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
+        arg=f"Outputs (centroids): {expected}",
+        timeout=15_000,
+    )
+    assert page.locator(".fz-firing").count() == int(np.sum(strengths > 0))
+    assert "what-if" in page.locator(".fz-status").inner_text()
+    page.wait_for_timeout(600)
+    assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
+    # the surface's dot is at the tried (d_o, phi_o)
+    marker = served.marker_html.content
+    lo, hi = served._surface_planes[1][4]  # the (d_o, phi_o) plane's d_o range
+    fx = 100 * (0.6 - lo) / (hi - lo)
+    assert f"#fz-op10{{display:block!important;left:{fx:.1f}%" in marker, marker
+    # leaving it, the run goes on where it was
+    page.get_by_role("checkbox", name="What-if mode").click()
+    assert app.wait_for(lambda a: a.what_if is None and a.playing, timeout=10)
+    assert app.wait_for(lambda a: a.sim.time_s > t + 0.3, timeout=10)
+    app.pause()
+    page.get_by_text("What-if", exact=True).click()
+
+
+def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, page):
+    """d_t as the line to the target and phi_t as the arc from the heading, d_o from the
+    footprint's edge along phi_o and phi_o's arc, in the colours of their term plots:
+    the geometry and the inference are the same numbers."""
+    from fuzzynav.app import viewer_views as views
+    from fuzzynav.app.viewer_ui import OBSTACLE_INPUT, TARGET_INPUT
+
+    app = served.app
+    app.set_controller("paper")
+    for _ in range(800):  # until obstacle 1 is sensed
+        app.step_once()
+        if np.isfinite(app.controller.last_inputs[1]):
+            break
+    snap = app.snapshot()
+    d_t, d_o, phi_t, phi_o = snap.inputs
+    assert np.all(np.isfinite(snap.inputs))
+    open_tab(page, "Inference")
+    page.wait_for_function(f"() => ({JS_VISIBLE})('/inputs/obstacle')", timeout=15_000)
+    page.wait_for_function(f"() => ({JS_VISIBLE})('/inputs/target')", timeout=15_000)
+    target = served.input_nodes["target"].points
+    x, y, heading = snap.input_pose  # the inputs are read there, before the step
+    # the d_t line ends at the target; the phi_t arc ends on the bearing of the target
+    assert target[0, 1, :2] == pytest.approx(snap.target, abs=1e-3)
+    end = target[-1, 1, :2] - (x, y)
+    assert math.atan2(end[1], end[0]) == pytest.approx(heading + phi_t, abs=1e-3)
+    gap = served.input_nodes["obstacle"].points[0]
+    assert np.linalg.norm(gap[1, :2] - gap[0, :2]) == pytest.approx(d_o, abs=1e-3)
+    # on screen, in the plots' colours
+    pixels = canvas_pixels(page)
+    for rgb in (TARGET_INPUT, OBSTACLE_INPUT):
+        close = np.all(np.abs(pixels - np.array(rgb)) < 30, axis=-1)
+        assert close.sum() > 40, rgb
+    titles = page.evaluate(
+        "() => Object.fromEntries([...document.querySelectorAll('.fz-inference svg text')]"
+        ".filter(t => t.textContent.includes(' = ')).map(t => [t.textContent.split(' ')[0],"
+        " t.getAttribute('fill')]))"
+    )
+    assert titles["d_t"] == titles["phi_t"] == views.TARGET_INPUT
+    assert titles["d_o"] == titles["phi_o"] == views.OBSTACLE_INPUT
+    assert "#{:02x}{:02x}{:02x}".format(*TARGET_INPUT) == views.TARGET_INPUT
+    assert "#{:02x}{:02x}{:02x}".format(*OBSTACLE_INPUT) == views.OBSTACLE_INPUT
