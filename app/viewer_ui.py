@@ -42,6 +42,8 @@ TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
 NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
 PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
 FIT_WINDOW_S = 20.0
+SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
+SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
 # What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
 # and the paper geometry's partition layout, controller/paper_partition.py).
@@ -773,8 +775,9 @@ class ViewerServer:
             self.inference_html = gui.add_html("", order=1.0)
         self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
         with self._surface_tab:
-            self.surface_html = gui.add_html("", order=0.0)
-            self.marker_html = gui.add_html("", order=1.0)
+            self._build_surface_choice()
+            self.surface_html = gui.add_html("", order=1.0)
+            self.marker_html = gui.add_html("", order=2.0)
         self._editor_tab = panel.add_tab("Editor", viser.Icon.ADJUSTMENTS)
         with self._editor_tab:
             self._build_editor()
@@ -917,6 +920,81 @@ class ViewerServer:
         if not self.view_3d:
             for client in self.server.get_clients().values():
                 self._fit_camera(client, force=True)
+
+    def _build_surface_choice(self) -> None:
+        """The first surface's two axes and the values the other inputs are held at
+        (MATLAB's Surface Viewer); the second plane stays (d_o, phi_o)."""
+        gui = self.server.gui
+        self.surface_axes = (0, 2)
+        self.surface_held = [5.0, 1.0, 0.0, 0.0]
+        with gui.add_folder("Axes and held inputs", expand_by_default=False, order=0.0):
+            self.surface_x_dd = gui.add_dropdown("x axis", SURFACE_INPUTS, initial_value="d_t")
+            self.surface_y_dd = gui.add_dropdown("y axis", SURFACE_INPUTS, initial_value="phi_t")
+            self.surface_held_boxes = []
+            for k, name in enumerate(SURFACE_INPUTS):
+                lo, hi = SURFACE_RANGES[k]
+                box = gui.add_number(
+                    f"held {name}",
+                    initial_value=self.surface_held[k],
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.05,
+                    hint="the value this input is held at when it is not an axis",
+                )
+                box.on_update(self._guarded(lambda e: self._on_surface_choice()))
+                self.surface_held_boxes.append(box)
+            self.surface_no_obstacle_cb = gui.add_checkbox(
+                "no obstacle sensed",
+                True,
+                hint="d_o and phi_o held as 'none sensed' (when neither is an axis)",
+            )
+            for handle in (self.surface_x_dd, self.surface_y_dd, self.surface_no_obstacle_cb):
+                handle.on_update(self._guarded(lambda e: self._on_surface_choice()))
+
+    def _on_surface_choice(self) -> None:
+        x = SURFACE_INPUTS.index(self.surface_x_dd.value)
+        y = SURFACE_INPUTS.index(self.surface_y_dd.value)
+        if x == y:
+            raise ViewerError("choose two different inputs for the axes")
+        self.surface_axes = (x, y)
+        self.surface_held = [float(b.value) for b in self.surface_held_boxes]
+        self._surface_key = None  # recompute
+        self.app._bump()
+
+    def _custom_plane(self, fis):
+        xi, yi = self.surface_axes
+        held = np.array(self.surface_held, dtype=float)
+        no_obstacle = self.surface_no_obstacle_cb.value and not ({xi, yi} & {1, 3})
+        if no_obstacle:
+            held[1] = held[3] = np.nan
+        names = fis.input_names
+        others = [k for k in range(4) if k not in (xi, yi)]
+        said = []
+        for k in others:
+            if np.isnan(held[k]):
+                if "no obstacle sensed" not in said:
+                    said.append("no obstacle sensed")
+            else:
+                said.append(f"{names[k]} = {held[k]:g}")
+        ranges = [self._surface_range(fis, k) for k in range(4)]
+        return (
+            f"{names[xi]}, {names[yi]} with {', '.join(said)}",
+            fis,
+            xi,
+            yi,
+            ranges[xi],
+            ranges[yi],
+            held,
+            "wheels",
+        )
+
+    @staticmethod
+    def _surface_range(fis, k: int) -> tuple[float, float]:
+        lo, hi = fis.inputs[k].range
+        return (
+            max(SURFACE_RANGES[k][0], lo) if k in (0, 1) else SURFACE_RANGES[k][0],
+            min(SURFACE_RANGES[k][1], hi) if k in (0, 1) else SURFACE_RANGES[k][1],
+        )
 
     def _build_what_if(self) -> None:
         """What-if mode: pause, type an input's value, and the whole inference (rules,
@@ -1753,20 +1831,10 @@ class ViewerServer:
         if fis is not None and fis.n_inputs == 4 and not hasattr(inner, "teaching_view"):
             names = fis.input_names
             ranges = [tuple(v.range) for v in fis.inputs]
-            d_t_range = (0.0, min(ranges[0][1], 12.0))
             held = np.array([5.0, np.nan, 0.0, np.nan])
             d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
             return [
-                (
-                    f"{names[0]}, {names[2]} with no obstacle sensed",
-                    fis,
-                    0,
-                    2,
-                    d_t_range,
-                    (-math.pi, math.pi),
-                    held,
-                    "wheels",
-                ),
+                self._custom_plane(fis),
                 (
                     f"{names[1]}, {names[3]} with the target 5 m ahead",
                     fis,
@@ -1802,7 +1870,7 @@ class ViewerServer:
     def _draw_surface(self, snap: Snapshot) -> None:
         inner = self.app.controller.inner
         key = (id(getattr(inner, "fis", None)), id(inner))
-        if key != self._surface_key:
+        if self._surface_key is None or key != self._surface_key:
             self._surface_key = key
             self._surface_planes = self._surface_planes_for(inner)
             self.surface_html.content = self._surface_html(snap)
@@ -1814,10 +1882,9 @@ class ViewerServer:
                 info = self.app.teaching()
                 x = info["inputs"] if info is not None else np.full(2, np.nan)
                 vx, vy = float(x[xi]), float(x[yi])
-            elif xi == 0:
-                vx, vy = d_t, phi_t
             else:
-                vx, vy = d_o, phi_o
+                values = (d_t, d_o, phi_t, phi_o)
+                vx, vy = values[xi], values[yi]
             where = views.marker_fraction(vx, vy, x_range, y_range)
             for k in range(2):
                 markers[f"fz-op{p}{k}"] = where
@@ -1841,7 +1908,7 @@ class ViewerServer:
                 fields = [
                     ("speed = (left + right) / 2 (V)", 0.5 * (left + right)),
                     # as fuzzynav's command has it: left = speed - turn, right = speed + turn
-                    ("turn = (right − left) / 2 (V, + = to the left)", 0.5 * (right - left)),
+                    ("turn = (right − left) / 2 (V)", 0.5 * (right - left)),
                 ]
             else:
                 fields = [(f"{fis.output_names[k]}", out[..., k]) for k in range(2)]
@@ -1849,21 +1916,35 @@ class ViewerServer:
             for k, (label, values) in enumerate(fields):
                 limit = float(np.nanmax(np.abs(values))) or 1.0
                 png = base64.b64encode(views.surface_png(values, limit)).decode()
+                x_ticks = "".join(
+                    f"<span class='fz-xtick'>{v:.3g}</span>" for v in np.linspace(*x_range, 5)
+                )
+                y_ticks = "".join(
+                    f"<span class='fz-ytick'>{v:.2g}</span>"
+                    for v in np.linspace(y_range[1], y_range[0], 5)
+                )
                 cells.append(
                     "<div style='flex:1;min-width:0'>"
                     f"<div style='font-size:0.8em;font-weight:600'>{html.escape(label)}</div>"
-                    "<div style='position:relative'>"
+                    "<div style='display:flex;gap:2px'>"
+                    "<div style='display:flex;flex-direction:column;justify-content:space-between;"
+                    f"font-size:0.65em;color:#475569;text-align:right'>{y_ticks}</div>"
+                    "<div style='position:relative;flex:1;min-width:0'>"
                     f"<img src='data:image/png;base64,{png}' style='width:100%;display:block;"
                     "image-rendering:pixelated;border:1px solid #cbd5e1'/>"
                     f"<div id='fz-op{p}{k}' class='fz-op' style='position:absolute;display:none;"
                     "width:12px;height:12px;margin:-6px 0 0 -6px;border-radius:50%;"
-                    "border:2px solid #111;background:#facc15'></div></div>"
-                    f"<div style='font-size:0.7em;color:#475569;display:flex;"
-                    f"justify-content:space-between'><span>{x_range[0]:.1f}</span>"
-                    f"<span>{html.escape(fis.input_names[xi])} →</span><span>{x_range[1]:.1f}</span></div>"
-                    f"<div style='font-size:0.7em;color:#475569'>colour: −{limit:.1f} (blue) … "
-                    f"+{limit:.1f} (red); {html.escape(fis.input_names[yi])} from "
-                    f"{y_range[0]:.2f} (bottom) to {y_range[1]:.2f} (top)</div></div>"
+                    "border:2px solid #111;background:#facc15'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'>{x_ticks}</div></div></div>"
+                    f"<div style='font-size:0.7em;color:#475569;text-align:center'>"
+                    f"{html.escape(fis.input_names[xi])} → ; ↑ {html.escape(fis.input_names[yi])}"
+                    "</div>"
+                    "<div class='fz-colour-bar' style='height:8px;margin-top:2px;border:1px solid "
+                    "#cbd5e1;background:linear-gradient(to right,#2563eb,#ffffff,#dc2626)'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'><span>−{limit:.1f}</span><span>0</span>"
+                    f"<span>+{limit:.1f} V</span></div></div>"
                 )
             blocks.append(
                 f"<div style='font-weight:600;margin-top:6px'>{html.escape(title)}</div>"
@@ -1872,5 +1953,7 @@ class ViewerServer:
         return (
             "<div class='fz-surface' style='font-family:system-ui,sans-serif;font-size:0.9em;"
             "padding:0 6px'>The crisp outputs over two inputs, the others held; the yellow "
-            "dot is where the robot is now." + "".join(blocks) + "</div>"
+            "dot is where the robot is now. A positive turn turns to the left."
+            + "".join(blocks)
+            + "</div>"
         )

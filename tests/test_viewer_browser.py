@@ -976,7 +976,7 @@ def test_the_small_things_a_class_noticed(served, page):
     open_tab(page, "Surface")
     page.wait_for_function(
         "() => document.querySelector('.fz-surface') &&"
-        " document.querySelector('.fz-surface').innerText.includes('turn = (right − left) / 2')",
+        " document.querySelector('.fz-surface').innerText.includes('turn = (right − left) / 2 (V)')",
         timeout=15_000,
     )
 
@@ -1074,3 +1074,50 @@ def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, pag
     assert titles["d_o"] == titles["phi_o"] == views.OBSTACLE_INPUT
     assert "#{:02x}{:02x}{:02x}".format(*TARGET_INPUT) == views.TARGET_INPUT
     assert "#{:02x}{:02x}{:02x}".format(*OBSTACLE_INPUT) == views.OBSTACLE_INPUT
+
+
+def test_the_surface_takes_any_two_axes_and_held_values(served, page):
+    """MATLAB's Surface Viewer: both axes chosen, the other inputs held at values typed
+    in; the map is the engine's over that plane, with ticks and a colour bar."""
+    import base64
+
+    from fuzzynav.app import viewer_views as views
+
+    app = served.app
+    app.set_controller("paper")
+    step(app, 5)
+    open_tab(page, "Surface")
+    page.get_by_text("Axes and held inputs", exact=True).click()
+    for label, value in (("x axis", "phi_o"), ("y axis", "d_o")):
+        page.get_by_role("combobox", name=label).click()
+        page.get_by_role("option", name=value, exact=True).click()
+    # held d_t = 3 (the fourth number box of the folder: held d_t, d_o, phi_t, phi_o)
+    boxes = page.locator(".fz-surface >> xpath=ancestor::*[.//input][1]").locator(
+        "input[inputmode='decimal']:visible"
+    )
+    boxes.nth(0).fill("3")
+    boxes.nth(0).press("Enter")
+    page.wait_for_function(
+        "() => document.querySelector('.fz-surface') && document.querySelector('.fz-surface')"
+        ".innerText.includes('phi_o, d_o with d_t = 3, phi_t = 0')",
+        timeout=15_000,
+    )
+    title, fis, xi, yi, x_range, y_range, held, _ = served._surface_planes[0]
+    assert (xi, yi) == (3, 1) and held.tolist() == [3.0, 1.0, 0.0, 0.0]
+    # the first map is the engine's speed over that plane, computed here independently
+    n = 41
+    xs, ys = np.linspace(*x_range, n), np.linspace(*y_range, n)
+    X = np.zeros((n * n, 4))
+    X[:, 0], X[:, 2] = 3.0, 0.0
+    gy, gx = np.meshgrid(ys, xs, indexing="ij")
+    X[:, 3], X[:, 1] = gx.ravel(), gy.ravel()
+    out = fis.evaluate(X).reshape(n, n, 2)
+    speed = 0.5 * (out[..., 0] + out[..., 1])
+    png = views.surface_png(speed, float(np.nanmax(np.abs(speed))) or 1.0)
+    src = page.locator(".fz-surface img").first.get_attribute("src")
+    assert src == "data:image/png;base64," + base64.b64encode(png).decode()
+    # ticks along both axes and a colour bar under each map
+    ticks = page.locator(".fz-surface .fz-xtick").all_inner_texts()[:5]
+    assert ticks[0] == f"{x_range[0]:.3g}" and ticks[-1] == f"{x_range[1]:.3g}"
+    assert page.locator(".fz-surface .fz-ytick").first.inner_text() == f"{y_range[1]:.2g}"
+    assert page.locator(".fz-surface .fz-colour-bar").count() == 4
