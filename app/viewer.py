@@ -157,6 +157,21 @@ class Ghost:
 
 
 @dataclass
+class HistoryStep:
+    """A control step as the time slider shows it again."""
+
+    time_s: float
+    pose: tuple
+    input_pose: tuple
+    inputs: np.ndarray
+    output: np.ndarray
+    target: tuple
+    obstacles: dict  # id -> (x, y)
+    trail_length: int
+    block: tuple | None = None  # fuzzynav: (what its blocks were fed, its crisp parts)
+
+
+@dataclass
 class Snapshot:
     """What the scene needs to draw one frame (copied under the lock)."""
 
@@ -208,6 +223,8 @@ class Snapshot:
     obstacle_numbers: dict = field(default_factory=dict)  # id -> the number shown
     what_if: np.ndarray | None = None  # the inputs tried in what-if mode, or None
     input_pose: tuple | None = None  # the pose the inputs were read at
+    history: bool = False  # showing a recorded step (the time slider), not the live world
+    history_span: tuple = (0.0, 0.0)  # the recorded times of this run
     extra: dict = field(default_factory=dict)
 
 
@@ -270,6 +287,8 @@ class ViewerApp:
         self._run_changes: list = []
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
         self.what_if: np.ndarray | None = None  # what-if mode: the inputs tried
+        self.history_index: int | None = None  # the time slider's step, or None (live)
+        self._history: list[HistoryStep] = []
         self._resume_after_what_if = False
 
         if geometry not in GEOMETRIES:
@@ -453,10 +472,73 @@ class ViewerApp:
         limit = sim.voltage_limit_v
         applied = np.clip(c.last_output, -limit, limit)
         self._signals.append((sim.time_s - sim.control_period_s, *c.last_inputs, *applied))
+        self._record_history_locked()
         if outcome is not None:
             self.playing = False
             self._finish_locked()
         self._bump()
+
+    def _record_history_locked(self) -> None:
+        """One entry per control step, for the time slider: what the scene and the
+        inference view need to show that step again (fuzzynav's blocks: what they were
+        fed and its crisp parts)."""
+        sim, c = self.sim, self.controller
+        arena = sim.arena
+        view = getattr(c.inner, "teaching_view", None)
+        seen = view() if view is not None else None
+        self._history.append(
+            HistoryStep(
+                time_s=sim.time_s,
+                pose=tuple(arena.pose),
+                input_pose=self._input_pose,
+                inputs=c.last_inputs.copy(),
+                output=c.last_output.copy(),
+                target=tuple(float(v) for v in arena.target),
+                obstacles={
+                    o.id: tuple(o.position_at(arena.time_s)) for o in arena.obstacles.values()
+                },
+                trail_length=len(self._trail),
+                block=None if seen is None else (seen[1].copy(), dict(seen[2])),
+            )
+        )
+
+    # -- run history (the time slider) -----------------------------------------------
+
+    def history_times(self) -> tuple[float, float]:
+        """(first, last) time of the recorded steps of this run (0, 0 before any)."""
+        with self.lock:
+            if not self._history:
+                return 0.0, 0.0
+            return self._history[0].time_s, self._history[-1].time_s
+
+    def view_history(self, time_s) -> float | None:
+        """Show the run as it was at ``time_s`` (the recorded step nearest to it): the
+        scene, the inputs and the inference of that step; the run pauses there, and
+        Play, Step or :meth:`leave_history` go back to where it is. None leaves it.
+        Returns the time shown."""
+        if time_s is None:
+            self.leave_history()
+            return None
+        try:
+            time_s = float(time_s)
+        except (TypeError, ValueError):
+            raise ViewerError(f"time {time_s!r}: must be a number of seconds") from None
+        with self.lock:
+            if not self._history:
+                raise ViewerError("nothing recorded yet: press Play or Step first")
+            times = np.array([h.time_s for h in self._history])
+            k = int(np.argmin(np.abs(times - time_s)))
+            self.playing = False
+            self.what_if = None
+            self.history_index = k
+            self._bump()
+            return float(times[k])
+
+    def leave_history(self) -> None:
+        with self.lock:
+            if self.history_index is not None:
+                self.history_index = None
+                self._bump()
 
     def _finish_locked(self) -> None:
         self._close_recorder_locked()
@@ -522,7 +604,8 @@ class ViewerApp:
 
     def play(self) -> None:
         with self.lock:
-            self.what_if = None  # Play leaves what-if mode
+            self.what_if = None  # Play leaves what-if mode ...
+            self.history_index = None  # ... and the time slider's past
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
             self.playing = True
@@ -545,6 +628,7 @@ class ViewerApp:
         """Pause and advance exactly one control period."""
         with self.lock:
             self.what_if = None
+            self.history_index = None
             self.playing = False
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
@@ -657,6 +741,8 @@ class ViewerApp:
         # A new run: what was said about the last one (its outcome) no longer holds.
         self.message, self.message_level = "", "info"
         self.what_if = None
+        self.history_index = None
+        self._history = []
         if self.geometry == "paper" and scenario.paper_heading_rad is not None:
             # s1-s3 start, in the paper's geometry, at the fitted initial heading.
             scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
@@ -1182,6 +1268,31 @@ class ViewerApp:
 
     def snapshot(self) -> Snapshot:
         with self.lock:
+            snap = self._live_snapshot_locked()
+            snap.history_span = (
+                (self._history[0].time_s, self._history[-1].time_s) if self._history else (0.0, 0.0)
+            )
+            k = self.history_index
+            if k is None or k >= len(self._history):
+                return snap
+            h = self._history[k]
+            limit = self.sim.voltage_limit_v
+            snap.history = True
+            snap.time_s = h.time_s
+            snap.pose = h.pose
+            snap.input_pose = h.input_pose
+            snap.inputs = h.inputs.copy()
+            snap.voltages_v = np.clip(h.output, -limit, limit)
+            snap.target = h.target
+            snap.obstacles = [
+                ObstacleView(o.id, h.obstacles.get(o.id, o.xy), o.radius_m, o.is_static, o.velocity)
+                for o in snap.obstacles
+            ]
+            snap.memory_xy, snap.steer_heading_rad = None, math.nan
+            return snap
+
+    def _live_snapshot_locked(self) -> Snapshot:
+        with self.lock:  # (held already: an RLock)
             sim = self.sim
             arena = sim.arena
             t = arena.time_s
@@ -1309,6 +1420,7 @@ class ViewerApp:
                 )
             if self.what_if is not None:
                 return
+            self.history_index = None
             self._resume_after_what_if = self.playing
             self.playing = False
             x = self.controller.last_inputs.copy()
@@ -1360,6 +1472,15 @@ class ViewerApp:
         state = None
         with self.lock:
             inputs = self.controller.last_inputs.copy()
+            k = self.history_index
+            if k is not None and k < len(self._history):
+                step = self._history[k]
+                inputs = step.inputs.copy()
+                if view is not None:
+                    if step.block is None:
+                        return None
+                    x, state = step.block
+                    return self._teaching_of(self.fuzzy_system(), x, state)
             if view is not None:
                 # a controller whose blocks see more than the four inputs (fuzzynav)
                 seen = view()
@@ -1374,6 +1495,10 @@ class ViewerApp:
             if fis is None or not np.isfinite(inputs[0]):
                 return None
             x = inputs[: len(fis.input_names)]
+        return self._teaching_of(fis, x, state)
+
+    @staticmethod
+    def _teaching_of(fis, x, state) -> dict:
         strengths = np.asarray(fis.firing_strengths(np.asarray([x])))[0]
         grid, membership, centroids = fis.aggregated(x)
         return {

@@ -42,6 +42,7 @@ TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
 NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
 PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
 FIT_WINDOW_S = 20.0
+HISTORY_STEP_S = 0.02  # the time slider's step: one control period
 SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
 SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
@@ -646,6 +647,21 @@ class ViewerServer:
         # Speeds as choices: a linear slider gave 0.1-1x a tenth of its track.
         self.speed = gui.add_button_group("Speed ×", SPEED_CHOICES)
         self.speed.on_click(self._guarded(lambda e: app.set_speed(float(self.speed.value))))
+        # Back through the run: the scene, the inputs and the inference of any step.
+        self.history_slider = gui.add_slider(
+            "Run so far (s)",
+            0.0,
+            HISTORY_STEP_S,
+            HISTORY_STEP_S,
+            0.0,
+            hint="Drag back through this run: the robot, its inputs and the rules as they "
+            "were then (the run pauses; Live, Play or Step go back)",
+        )
+        self.history_slider.on_update(
+            self._guarded(lambda e: self.app.view_history(self.history_slider.value))
+        )
+        self.history_live = gui.add_button("Live", hint="Back to where the run is now")
+        self.history_live.on_click(self._guarded(lambda e: self.app.leave_history()))
         # Messages below the buttons, so that one appearing never moves them.
         self.message_html = gui.add_html("")
         # Above the fold at 1280 x 800 (it was the last thing in the panel).
@@ -1579,6 +1595,14 @@ class ViewerServer:
         for name, box in self.part_boxes.items():
             if box.value != (name not in snap.parts_off):
                 box.value = name not in snap.parts_off
+        top = max(round(snap.history_span[1], 2), HISTORY_STEP_S)
+        if abs(self.history_slider.max - top) > 1e-9:
+            self.history_slider.max = top
+        shown = min(round(snap.time_s, 2), top)
+        if abs(self.history_slider.value - shown) > 0.5 * HISTORY_STEP_S:
+            self.history_slider.value = shown
+        if self.history_live.disabled == snap.history:
+            self.history_live.disabled = not snap.history
         on = snap.what_if is not None
         if self.what_if_cb.value != on:
             self.what_if_cb.value = on
@@ -1598,6 +1622,8 @@ class ViewerServer:
         state = (
             "what-if (paused)"
             if snap.what_if is not None
+            else "looking back (paused)"
+            if snap.history
             else "running"
             if snap.playing
             else {

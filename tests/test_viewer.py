@@ -819,3 +819,32 @@ def test_a_fallback_is_alarmed_about_only_when_its_output_counts():
     text = views.inference_html(inf, weights=weighed)
     assert "No rule concludes on avoid_speed, avoid_turn: fallback" in text
     assert ">fallback<" in text
+
+
+def test_run_history_replays_a_step_and_play_goes_on_from_the_live_end():
+    """The time slider's model: a recorded step gives back that step's pose, inputs and
+    inference (fuzzynav: what its blocks were fed then); Play leaves it and the run goes
+    on from where it really is; a reset empties it."""
+    a = ViewerApp("s1", "fuzzynav")
+    seen = []
+    for _ in range(100):
+        a.step_once()
+        seen.append((a.sim.time_s, a.sim.arena.pose, a.teaching()["inputs"].copy()))
+    t, pose, block_inputs = seen[39]
+    assert a.view_history(t + 0.004) == pytest.approx(t)
+    snap = a.snapshot()
+    assert snap.history and snap.time_s == pytest.approx(t) and snap.pose == pose
+    assert np.array_equal(a.teaching()["inputs"], block_inputs)
+    assert a.sim.time_s == pytest.approx(2.0)
+    a.start()
+    try:
+        a.play()
+        assert a.history_index is None
+        assert a.wait_for(lambda x: x.sim.time_s > 2.2, timeout=10)
+        a.pause()
+    finally:
+        a.stop()
+    a.reset()
+    assert a.history_times() == (0.0, 0.0)
+    with pytest.raises(ViewerError, match="nothing recorded"):
+        a.view_history(1.0)

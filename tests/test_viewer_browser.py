@@ -1121,3 +1121,46 @@ def test_the_surface_takes_any_two_axes_and_held_values(served, page):
     assert ticks[0] == f"{x_range[0]:.3g}" and ticks[-1] == f"{x_range[1]:.3g}"
     assert page.locator(".fz-surface .fz-ytick").first.inner_text() == f"{y_range[1]:.2g}"
     assert page.locator(".fz-surface .fz-colour-bar").count() == 4
+
+
+def test_the_time_slider_shows_the_run_as_it_was(served, page):
+    """Run history: dragged back, the page shows the step of that time: the robot where
+    it was, the inputs it read then and the inference at them; Live goes back."""
+    app = served.app
+    app.set_controller("paper")
+    step(app, 150)  # 3 s
+    open_tab(page, "Inference")
+    page.wait_for_function(
+        "() => document.querySelector('.fz-status').innerText.includes('t = 3.00 s')",
+        timeout=15_000,
+    )
+    box = page.get_by_text("Run so far (s)").locator(
+        "xpath=ancestor::div[.//input[@inputmode='decimal']][1]//input[@inputmode='decimal']"
+    )
+    box.fill("1")
+    box.press("Enter")
+    assert app.wait_for(lambda a: a.history_index is not None, timeout=10)
+    then = app._history[app.history_index]
+    assert then.time_s == pytest.approx(1.0)
+    assert app.sim.time_s == pytest.approx(3.0)  # the world itself stays at 3 s
+    page.wait_for_function(
+        "() => document.querySelector('.fz-status').innerText.includes('t = 1.00 s')",
+        timeout=15_000,
+    )
+    assert "looking back" in page.locator(".fz-status").inner_text()
+    page.wait_for_function(
+        "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
+        arg=f"d_t = {then.inputs[0]:.2f} m",
+        timeout=15_000,
+    )
+    robot = page.evaluate(
+        "() => { const p = window.__viserMutable.nodeRefFromName['/robot'].position;"
+        " return [p.x, p.y]; }"
+    )
+    assert robot == pytest.approx(then.pose[:2], abs=1e-3)
+    page.get_by_role("button", name="Live").click()
+    assert app.wait_for(lambda a: a.history_index is None, timeout=10)
+    page.wait_for_function(
+        "() => document.querySelector('.fz-status').innerText.includes('t = 3.00 s')",
+        timeout=15_000,
+    )
