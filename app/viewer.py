@@ -534,6 +534,25 @@ class ViewerApp:
             self._bump()
             return float(times[k])
 
+    def firing_timeline(self):
+        """(times (n,), strengths (n, n_rules)) of this run's recorded steps, for the
+        rule-firing strip; None without a rule base or before the first step."""
+        with self.lock:
+            steps = list(self._history)
+            fis = self.fuzzy_system()
+            teaching = hasattr(self.controller.inner, "teaching_view")
+        if fis is None or not steps:
+            return None
+        if teaching:
+            rows = [h for h in steps if h.block is not None]
+            X = np.array([h.block[0] for h in rows], dtype=float)
+        else:
+            rows = [h for h in steps if np.isfinite(h.inputs[0])]
+            X = np.array([h.inputs[: fis.n_inputs] for h in rows], dtype=float)
+        if not rows or X.ndim != 2 or X.shape[1] != fis.n_inputs:
+            return None  # (recorded with another controller: nothing to show)
+        return np.array([h.time_s for h in rows]), np.asarray(fis.firing_strengths(X))
+
     def leave_history(self) -> None:
         with self.lock:
             if self.history_index is not None:

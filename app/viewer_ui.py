@@ -43,6 +43,7 @@ NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
 PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
 FIT_WINDOW_S = 20.0
 HISTORY_STEP_S = 0.02  # the time slider's step: one control period
+TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
 SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
 SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
@@ -273,6 +274,8 @@ class ViewerServer:
         self._surface_planes: list = []
         self._last_inference = None
         self._next_plot = 0.0
+        self._timeline_key = None
+        self._next_timeline = 0.0
 
         self.server.scene.set_up_direction("+z")
         self._build_gui()
@@ -788,6 +791,7 @@ class ViewerServer:
             )
             self.firing_only_cb.on_update(self._guarded(lambda e: self._redraw_inference()))
             self._build_what_if()
+            self.timeline_html = gui.add_html("", order=0.8)
             self.inference_html = gui.add_html("", order=1.0)
         self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
         with self._surface_tab:
@@ -1542,6 +1546,7 @@ class ViewerServer:
             self._next_plot = now + 1.0 / PLOT_HZ
             self._draw_plots()
         self._draw_inference(snap)
+        self._draw_timeline(snap)
         self._draw_surface(snap)
         with self.server.atomic():
             self._draw_inputs(snap)
@@ -1800,6 +1805,38 @@ class ViewerServer:
             name: (alpha if name.startswith("avoid") else 1.0 - alpha)
             for name in info["output_names"]
         }
+
+    def _draw_timeline(self, snap: Snapshot) -> None:
+        """The rule-firing strip of this run, with a cursor at the time shown (the live
+        end, or the time slider's step). Redrawn every TIMELINE_PERIOD_S while playing."""
+        import base64
+
+        now = time.perf_counter()
+        key = (snap.run_id, snap.controller_label, round(snap.time_s, 2))
+        if key == self._timeline_key or (snap.playing and now < self._next_timeline):
+            return
+        self._timeline_key = key
+        self._next_timeline = now + TIMELINE_PERIOD_S
+        line = self.app.firing_timeline()
+        if line is None:
+            self._set_html(self.timeline_html, "")
+            return
+        times, strengths = line
+        png = base64.b64encode(views.timeline_png(times, strengths)).decode()
+        t0, t1 = float(times[0]), float(times[-1])
+        where = 100.0 * (snap.time_s - t0) / (t1 - t0) if t1 > t0 else 100.0
+        self._set_html(
+            self.timeline_html,
+            "<div class='fz-timeline' style='font-family:system-ui,sans-serif;font-size:0.8em;"
+            "padding:0 6px'><b>Rules over this run</b> (a row per rule, rule 1 at the top; "
+            "orange: firing)<div style='position:relative'>"
+            f"<img src='data:image/png;base64,{png}' style='width:100%;height:60px;"
+            "display:block;image-rendering:pixelated;border:1px solid #cbd5e1'/>"
+            f"<div class='fz-timeline-cursor' style='position:absolute;top:0;bottom:0;"
+            f"left:{min(max(where, 0.0), 100.0):.1f}%;width:2px;background:#0f172a'></div></div>"
+            "<div style='display:flex;justify-content:space-between;color:#475569'>"
+            f"<span>{t0:.1f} s</span><span>{t1:.1f} s</span></div></div>",
+        )
 
     def _draw_inference(self, snap: Snapshot) -> None:
         info = self.app.teaching()

@@ -783,6 +783,27 @@ def surface_png(values: np.ndarray, limit: float, scale: int = 4) -> bytes:
     return buf.getvalue()
 
 
+def timeline_png(times, strengths, columns: int = 240, row_px: int = 3) -> bytes:
+    """The rule-firing strip: a row per rule (rule 1 at the top), time to the right,
+    each cell the strongest firing in its time bin (white 0 to orange 1)."""
+    from PIL import Image
+
+    n, n_rules = strengths.shape
+    cols = max(1, min(columns, n))
+    edges = np.linspace(0, n, cols + 1).astype(int)
+    binned = np.zeros((n_rules, cols))
+    for c in range(cols):
+        a, b = edges[c], max(edges[c + 1], edges[c] + 1)
+        binned[:, c] = strengths[a:b].max(axis=0)
+    level = np.clip(binned, 0.0, 1.0)[..., None]
+    white, orange = np.array([255.0, 255.0, 255.0]), np.array([234.0, 88.0, 12.0])
+    rgb = (white + level * (orange - white)).astype(np.uint8)
+    img = Image.fromarray(rgb, "RGB").resize((cols * 2, n_rules * row_px), Image.NEAREST)
+    buf = io.BytesIO()
+    img.save(buf, format="PNG", optimize=True)
+    return buf.getvalue()
+
+
 def marker_fraction(value_x, value_y, x_range, y_range) -> tuple[float, float] | None:
     """Where the operating point sits on a heatmap, as fractions (left, top), or None
     when it is off the plane (an input not sensed)."""

@@ -1158,6 +1158,19 @@ def test_the_time_slider_shows_the_run_as_it_was(served, page):
         " return [p.x, p.y]; }"
     )
     assert robot == pytest.approx(then.pose[:2], abs=1e-3)
+    # the rule-firing strip: the engine's strengths at every recorded step, a cursor at 1 s
+    import base64
+
+    from fuzzynav.app import viewer_views as views
+
+    fis = app.fuzzy_system()
+    X = np.array([h.inputs for h in app._history])
+    png = views.timeline_png(np.array([h.time_s for h in app._history]), fis.firing_strengths(X))
+    strip = page.locator(".fz-timeline img")
+    strip.wait_for(timeout=15_000)
+    assert strip.get_attribute("src") == "data:image/png;base64," + base64.b64encode(png).decode()
+    left = page.locator(".fz-timeline-cursor").evaluate("e => parseFloat(e.style.left)")
+    assert left == pytest.approx(100 * (1.0 - 0.02) / (3.0 - 0.02), abs=0.1)
     page.get_by_role("button", name="Live").click()
     assert app.wait_for(lambda a: a.history_index is None, timeout=10)
     page.wait_for_function(
