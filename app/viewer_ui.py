@@ -1078,6 +1078,7 @@ class ViewerServer:
             if self._bounds is not None:
                 self._frame_arena(self._bounds)  # the metre marks, at the new size
             self.target_label.font_screen_scale = self._label_scale(0.9)
+            self.drag_hint.font_screen_scale = self._label_scale(0.85)
             for node in self._obstacle_nodes.values():
                 node["label"].font_screen_scale = self._label_scale(0.8)
         self._last_inference = None  # redraw with the new type size
