@@ -486,6 +486,7 @@ class ViewerApp:
         arena = sim.arena
         view = getattr(c.inner, "teaching_view", None)
         seen = view() if view is not None else None
+        centres, _, ids = arena.obstacle_arrays()  # (cached by the arena for this step)
         self._history.append(
             HistoryStep(
                 time_s=sim.time_s,
@@ -494,9 +495,7 @@ class ViewerApp:
                 inputs=c.last_inputs.copy(),
                 output=c.last_output.copy(),
                 target=tuple(float(v) for v in arena.target),
-                obstacles={
-                    o.id: tuple(o.position_at(arena.time_s)) for o in arena.obstacles.values()
-                },
+                obstacles=dict(zip(ids, map(tuple, centres.tolist()))),
                 trail_length=len(self._trail),
                 block=None if seen is None else (seen[1].copy(), dict(seen[2])),
             )
