@@ -695,9 +695,27 @@ def test_geometry_control_shows_the_paper_point_robot(served, page):
 
 # Whether an element's centre is on screen: inside the window and every ancestor that
 # clips (a scrolling panel), and not covered by another element (a sticky header).
-JS_SHOWN = """
+# The first element found by one of "a || b || ...": a CSS selector, or "text:N" for a
+# rule grid's text that starts with N (a row number, as the viewer before issue 27 drew).
+JS_FIND = """
 (selector) => {
-  const e = document.querySelector(selector);  // looked up and judged in one go (redrawn)
+  for (const s of selector.split(' || ')) {
+    const e = s.startsWith('text:')
+      ? [...document.querySelectorAll('.fz-rules text')].find(
+          t => t.textContent.split(' ')[0] === s.slice(5))
+      : document.querySelector(s);
+    if (e) return e;
+  }
+  return null;
+}
+"""
+
+JS_SHOWN = (
+    """
+(selector) => {
+  const e = ("""
+    + JS_FIND
+    + """)(selector);  // looked up and judged in one go (the view is redrawn)
   if (!e) return false;
   const r = e.getBoundingClientRect();
   const x = r.left + Math.min(r.width / 2, 60), y = r.top + r.height / 2;
@@ -713,6 +731,7 @@ JS_SHOWN = """
                    hit.closest('svg') === e.closest('svg'));
 }
 """
+)
 
 
 ROW = ".fz-hit [data-rule='{}']"  # the row of a rule (its hover area)
@@ -727,21 +746,23 @@ def test_the_rules_stay_where_they_were_scrolled_while_the_robot_drives(served, 
     app = served.app
     app.set_controller("paper")
     step(app, 5)
+    # (the alternatives after || find the same things in the viewer before issue 27)
+    rule40 = ROW.format(40) + " || text:40"
+    head = ".fz-rule-head .fz-col-name || .fz-rules text[font-weight='600']"
+    aggregate = ".fz-rule-agg .fz-centroid || .fz-centroid"
     page.set_viewport_size({"width": 1280, "height": 640})
     try:
         open_tab(page, "Inference")
-        page.wait_for_function("() => document.querySelectorAll('.fz-hit rect').length == 40")
+        page.wait_for_function(f"(s) => !!({JS_FIND})(s)", arg=rule40, timeout=15_000)
         app.play()
         assert app.wait_for(lambda a: a.sim.time_s > 0.5, timeout=15)
-        page.evaluate(
-            "(s) => document.querySelector(s).scrollIntoView({block: 'center'})", ROW.format(40)
-        )
+        page.evaluate(f"(s) => ({JS_FIND})(s).scrollIntoView({{block: 'center'}})", rule40)
         t0 = app.sim.time_s
         for _ in range(10):  # 2.5 s of driving: about ten redraws of the view
             page.wait_for_timeout(250)
-            assert page.evaluate(JS_SHOWN, ROW.format(40)), "rule 40 scrolled out of view"
-            assert page.evaluate(JS_SHOWN, ".fz-rule-head .fz-col-name"), "headers gone"
-            assert page.evaluate(JS_SHOWN, ".fz-rule-agg .fz-centroid"), "aggregate gone"
+            assert page.evaluate(JS_SHOWN, rule40), "rule 40 scrolled out of view"
+            assert page.evaluate(JS_SHOWN, head), "headers gone"
+            assert page.evaluate(JS_SHOWN, aggregate), "aggregate gone"
         assert app.sim.time_s > t0 + 1.0 and app.playing
         app.pause()
         # the headers are pinned at the top of the panel, over rule 1 scrolled beneath
