@@ -1414,6 +1414,62 @@ class ViewerApp:
             fis = getattr(inner, "merged", None)
         return fis
 
+    # -- classroom mode: a teacher's settings pushed to every tab's world -------------
+
+    def settings(self) -> dict:
+        """What a teacher pushes to the class (``--classroom``): the scenario with its
+        layout as edited, the controller (by name, or its rule base when edited or
+        uploaded), the perception, geometry, disturbance, noise, parts and speed."""
+        with self.lock:
+            inner = self.controller.inner
+            fis = getattr(inner, "fis", None)
+            named = self.controller_label in self.controller_options() and not (
+                self.controller_label == EDITED_LABEL
+                or self.controller_label == self.uploaded_label
+            )
+            return {
+                "scenario_label": self.scenario_label,
+                "scenario": self._layout_scenario(),
+                "controller": self.controller_label,
+                "fis": None if named else fis,
+                "perception": self.sim.perception.mode,
+                "geometry": self.geometry,
+                "disturbance_on": self.disturbance_on,
+                "noise_std_m": self.noise_std_m,
+                "parts_off": self.parts_off,
+                "speed": self.speed,
+            }
+
+    def apply_settings(self, settings: dict) -> None:
+        """Take a teacher's :meth:`settings`: this world restarts in them, paused at t = 0."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        self.pause()
+        if settings["geometry"] != self.geometry:
+            self.set_geometry(settings["geometry"])
+        label = settings["scenario_label"]
+        with self.lock:
+            if label in scenario_names() and settings["scenario"] == load_scenario(label):
+                self.uploaded_scenarios.pop(label, None)  # the shipped file as it is
+            else:  # the teacher's layout (edited, or uploaded) under the teacher's name
+                self.uploaded_scenarios[label] = settings["scenario"]
+        self.load_scenario(label)
+        for name in [p.name for p in self.part_options()]:
+            if (name in settings["parts_off"]) != (name in self.parts_off):
+                self.set_part(name, name not in settings["parts_off"])
+        if settings["fis"] is not None:
+            self.uploaded_controller = FisController(settings["fis"], name=settings["controller"])
+            self.uploaded_label = settings["controller"]
+            self._install_controller(self.uploaded_controller, settings["controller"])
+        elif settings["controller"] != self.controller_label:
+            self.set_controller(settings["controller"])
+        if settings["perception"] != self.sim.perception.mode:
+            self.set_perception(settings["perception"])
+        self.set_disturbance(settings["disturbance_on"])
+        self.set_noise(settings["noise_std_m"])
+        self.set_speed(settings["speed"])
+        self._notice("The teacher set this world up.", "info")
+
     # -- what-if mode ------------------------------------------------------------------
 
     def what_if_system(self):

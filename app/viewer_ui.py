@@ -228,6 +228,38 @@ def _fmt(value, unit: str = "", digits: int = 2) -> str:
     return str(value)
 
 
+class ClientSurface:
+    """One tab's own scene and GUI (viser's client-scoped API), in the shape of the
+    server that :class:`ViewerServer` draws on: classroom mode gives every tab a world
+    of its own (:mod:`app.viewer_classroom`)."""
+
+    def __init__(self, server, client):
+        import types
+
+        self._server, self._client = server, client
+        self.scene, self.gui = client.scene, client.gui
+        self.initial_camera = types.SimpleNamespace()  # the tab's own camera is fitted
+
+    def get_clients(self) -> dict:
+        cid = self._client.client_id
+        return {cid: self._client} if cid in self._server.get_clients() else {}
+
+    def atomic(self):
+        return self._client.atomic()
+
+    def get_port(self) -> int:
+        return self._server.get_port()
+
+    def on_client_connect(self, callback) -> None:
+        callback(self._client)
+
+    def on_client_disconnect(self, callback) -> None:
+        pass  # the classroom server ends the tab's world
+
+    def stop(self) -> None:
+        pass  # the server is the classroom's
+
+
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
@@ -236,11 +268,16 @@ class ViewerServer:
         "paper's Table 4 metrics appear here when a run ends.</div>"
     )
 
-    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080, *, surface=None):
         self.app = app
         self.host = host
-        with guarded_server_start(host):  # only its own page may connect (app/origin_guard.py)
-            self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
+        if surface is None:
+            with guarded_server_start(host):  # only its own page may connect (origin_guard)
+                self.server = viser.ViserServer(
+                    host=host, port=port, label="fuzzynav", verbose=False
+                )
+        else:  # one tab's own world (classroom mode): its scene and GUI only
+            self.server = surface
         self.port = self.server.get_port()
         self._stop = threading.Event()
         self._camera_fits: dict[int, float] = {}

@@ -96,6 +96,7 @@ class ScriptedClients:
         finally:
             self.loop.call_soon_threadsafe(self.loop.stop)
             self.thread.join(timeout=10)
+            self.loop.close()
 
 
 @pytest.fixture
@@ -154,3 +155,130 @@ def test_forty_tabs_joining_at_once_do_not_stall_another_tabs_buttons(served, ca
         clients.close()
     err = capfd.readouterr().err
     assert "Traceback" not in err and "Error" not in err, err[-3000:]
+
+
+@pytest.fixture
+def classroom():
+    from fuzzynav.app.viewer_classroom import ClassroomServer
+
+    server = ClassroomServer(lambda: ViewerApp("s1", "p"), port=0, token="teach-me")
+    yield server
+    server.stop()
+
+
+def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(classroom, capfd):
+    """``--classroom``: every tab has its own world (Play in one does not move the
+    other's robot); a tab that types the teacher's token can push its scenario and
+    settings, and every other world takes them."""
+    clients = ScriptedClients(classroom.url)
+    try:
+        first, _ = clients.connect(1)[0], clients.connect(1)[0]
+        assert wait_until(lambda: len(classroom.sessions) == 2, 30)
+        (a, b) = (classroom.sessions[k] for k in sorted(classroom.sessions))
+        assert a.app is not b.app
+        clients.press(first, a.run_buttons, "Play")
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.5, timeout=10)
+        assert b.app.sim.time_s == 0.0 and not b.app.playing  # the other world stays
+        # the second tab drags its target: the first's stays
+        b.app.move_target((3.0, -2.0))
+        assert a.app.sim.arena.target.tolist() == [8.0, 8.0]
+        # a third tab, the teacher's: crossing with fuzzynav and noise, then push
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 3, 30)
+        t = classroom.sessions[max(classroom.sessions)]
+        assert not t.teacher_push.visible
+        clients.press(teacher, t.teacher_token_box, "wrong")
+        with pytest.raises(Exception, match="only the teacher"):
+            classroom.push_from(max(classroom.sessions))
+        clients.press(teacher, t.teacher_token_box, "teach-me")
+        assert wait_until(lambda: t.teacher_push.visible, 10)
+        clients.press(teacher, t.scenario_dd, "crossing")
+        clients.press(teacher, t.controller_dd, "fuzzynav")
+        assert t.app.wait_for(
+            lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
+        )
+        t.app.set_noise(0.05)
+        clients.press(teacher, t.teacher_push, True)
+        for view in (a, b):
+            assert view.app.wait_for(
+                lambda x: (
+                    x.scenario_label == "crossing"
+                    and x.controller_label == "fuzzynav"
+                    and x.noise_std_m == 0.05
+                    and x.sim.time_s == 0.0
+                ),
+                timeout=20,
+            ), (view.app.scenario_label, view.app.controller_label)
+        # still independent after the push
+        clients.press(first, a.run_buttons, "Step")
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.0, timeout=10)
+        assert b.app.sim.time_s == 0.0
+    finally:
+        clients.close()
+    assert wait_until(lambda: not classroom.sessions, 30)  # each world ends with its tab
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]
+
+
+def test_forty_tabs_joining_a_classroom_do_not_stall_the_tabs_already_there(classroom, capfd):
+    clients = ScriptedClients(classroom.url)
+    try:
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 1, 30)
+        (view,) = classroom.sessions.values()
+        view.app.play()
+        clients.connect(40)
+        assert wait_until(lambda: len(classroom.server.get_clients()) == 41, 30)
+        latency = 0.0
+        for value, speed in (("0.25", 0.25), ("3", 3.0)):
+            pressed = time.perf_counter()
+            clients.press(teacher, view.speed, value)
+            assert wait_until(lambda s=speed: view.app.speed == s, 10)
+            latency = max(latency, time.perf_counter() - pressed)
+            time.sleep(0.3)
+        built = len(classroom.sessions)
+        with capfd.disabled():
+            print(f"\nclassroom: button latency {latency:.3f} s while {built} of 41 worlds built")
+        assert latency < 1.0, latency
+        assert wait_until(lambda: len(classroom.sessions) == 41, 120)  # all get their world
+    finally:
+        clients.close()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]
+
+
+def test_serve_classroom_prints_the_token_and_refuses_rrd(tmp_path, capsys):
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from fuzzynav.app.cli import build_parser, main
+
+    assert build_parser().parse_args(["serve", "--classroom"]).classroom
+    assert not build_parser().parse_args(["demo"]).classroom
+    assert main(["serve", "--classroom", "--port", "0", "--rrd", str(tmp_path / "x.rrd")]) == 2
+    assert "--classroom" in capsys.readouterr().err
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fuzzynav.app.cli", "serve", "s2", "--classroom", "--port", "0"],
+        cwd=Path(__file__).resolve().parents[1],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+    )
+    try:
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any("fuzzynav viewer: http" in x for x in lines):
+            lines.append(proc.stdout.readline())
+            assert proc.poll() is None, "".join(lines)
+        text = "".join(lines)
+        assert "classroom mode" in text and "the teacher's token (Teacher folder): " in text
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0 and "stopped, port released" in out, out
