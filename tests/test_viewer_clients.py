@@ -173,30 +173,30 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
     clients = ScriptedClients(classroom.url)
     try:
         first, _ = clients.connect(1)[0], clients.connect(1)[0]
-        assert wait_until(lambda: len(classroom.sessions) == 2, 30)
+        assert wait_until(lambda: len(classroom.sessions) == 2, 30), classroom.sessions
         (a, b) = (classroom.sessions[k] for k in sorted(classroom.sessions))
         assert a.app is not b.app
         clients.press(first, a.run_buttons, "Play")
-        assert a.app.wait_for(lambda x: x.sim.time_s > 0.5, timeout=10)
-        assert b.app.sim.time_s == 0.0 and not b.app.playing  # the other world stays
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.5, timeout=10), a.app.sim.time_s
+        assert b.app.sim.time_s == 0.0 and not b.app.playing, b.app.sim.time_s  # it stays
         # the second tab drags its target: the first's stays
         b.app.move_target((3.0, -2.0))
         assert a.app.sim.arena.target.tolist() == [8.0, 8.0]
         # a third tab, the teacher's: crossing with fuzzynav and noise, then push
         (teacher,) = clients.connect(1)
-        assert wait_until(lambda: len(classroom.sessions) == 3, 30)
+        assert wait_until(lambda: len(classroom.sessions) == 3, 30), classroom.sessions
         t = classroom.sessions[max(classroom.sessions)]
         assert not t.teacher_push.visible
         clients.press(teacher, t.teacher_token_box, "wrong")
         with pytest.raises(Exception, match="only the teacher"):
             classroom.push_from(max(classroom.sessions))
         clients.press(teacher, t.teacher_token_box, "teach-me")
-        assert wait_until(lambda: t.teacher_push.visible, 10)
+        assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
         clients.press(teacher, t.scenario_dd, "crossing")
         clients.press(teacher, t.controller_dd, "fuzzynav")
         assert t.app.wait_for(
             lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
-        )
+        ), (t.app.scenario_label, t.app.controller_label, t.app.message)
         t.app.set_noise(0.05)
         clients.press(teacher, t.teacher_push, True)
         for view in (a, b):
@@ -211,11 +211,11 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
             ), (view.app.scenario_label, view.app.controller_label)
         # still independent after the push
         clients.press(first, a.run_buttons, "Step")
-        assert a.app.wait_for(lambda x: x.sim.time_s > 0.0, timeout=10)
-        assert b.app.sim.time_s == 0.0
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.0, timeout=10), a.app.message
+        assert b.app.sim.time_s == 0.0, b.app.sim.time_s
     finally:
         clients.close()
-    assert wait_until(lambda: not classroom.sessions, 30)  # each world ends with its tab
+    assert wait_until(lambda: not classroom.sessions, 30), classroom.sessions  # ends with its tab
     err = capfd.readouterr().err
     assert "Traceback" not in err, err[-3000:]
 
