@@ -43,7 +43,14 @@ class ClassroomServer:
         )
         self._builder.start()
         self.server.on_client_connect(lambda client: self._queue.put(("connect", client)))
-        self.server.on_client_disconnect(lambda client: self._queue.put(("disconnect", client)))
+        self.server.on_client_disconnect(self._on_disconnect)
+
+    def _on_disconnect(self, client) -> None:
+        with self._lock:
+            view = self.sessions.get(client.client_id)
+        if view is not None:
+            view._stop.set()  # no more frames for a closed tab; its world ends below
+        self._queue.put(("disconnect", client))
 
     @property
     def url(self) -> str:
