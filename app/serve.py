@@ -82,15 +82,35 @@ def serve(
     open_message: bool = True,
     block: bool = True,
     geometry: str = "husky",
+    classroom: bool = False,
 ):
     """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
-    otherwise it returns the running :class:`app.viewer_ui.ViewerServer`."""
+    otherwise it returns the running :class:`app.viewer_ui.ViewerServer` (or, with
+    ``classroom``, the :class:`app.viewer_classroom.ClassroomServer`: a world per tab)."""
     from fuzzynav.app.viewer_ui import ViewerServer
 
+    if classroom and rrd is not None:
+        from fuzzynav.app.cli import UsageError
+
+        raise UsageError("--rrd records one world: it cannot be used with --classroom")
     rrd = _check_rrd(rrd)
     check_host(host)
-    app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)
-    server = ViewerServer(app, host=host, port=port)
+    app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)  # checks them
+    if classroom:
+        from fuzzynav.app.viewer_classroom import ClassroomServer
+
+        app = None
+        server = ClassroomServer(
+            lambda: ViewerApp(scenario, controller, geometry=geometry), host=host, port=port
+        )
+        if open_message:
+            print(
+                "fuzzynav viewer: classroom mode, every tab drives a world of its own; "
+                f"the teacher's token (Teacher folder): {server.token}",
+                flush=True,
+            )
+    else:
+        server = ViewerServer(app, host=host, port=port)
     if not block:
         _print_url(server, host, open_message)
         return server
@@ -113,7 +133,7 @@ def serve(
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
         server.stop()
-        files = ", ".join(str(p) for p in app.recorded_files)
+        files = ", ".join(str(p) for p in app.recorded_files) if app is not None else ""
         print(
             "fuzzynav viewer: stopped, port released" + (f"; recorded {files}" if files else ""),
             flush=True,
@@ -129,6 +149,7 @@ def cmd_serve(args) -> int:
         rrd=args.rrd,
         controller=getattr(args, "controller", None),
         geometry=getattr(args, "geometry", "husky"),
+        classroom=getattr(args, "classroom", False),
     )
     return 0
 
@@ -174,6 +195,12 @@ def add_commands(subparsers) -> None:
                 help="controller to start with (default: paper)",
             )
             add_geometry_option(parser)
+            parser.add_argument(
+                "--classroom",
+                action="store_true",
+                help="every tab drives a world of its own; a teacher's tab (with the "
+                "token printed at start) can push its setup to all",
+            )
         else:
             parser.set_defaults(
                 scenario="s1",
@@ -182,5 +209,6 @@ def add_commands(subparsers) -> None:
                 rrd=None,
                 controller=None,
                 geometry="husky",
+                classroom=False,
             )
         parser.set_defaults(func=cmd_serve)

@@ -157,6 +157,21 @@ class Ghost:
 
 
 @dataclass
+class HistoryStep:
+    """A control step as the time slider shows it again."""
+
+    time_s: float
+    pose: tuple
+    input_pose: tuple
+    inputs: np.ndarray
+    output: np.ndarray
+    target: tuple
+    obstacles: dict  # id -> (x, y)
+    trail_length: int
+    block: tuple | None = None  # fuzzynav: (what its blocks were fed, its crisp parts)
+
+
+@dataclass
 class Snapshot:
     """What the scene needs to draw one frame (copied under the lock)."""
 
@@ -201,6 +216,15 @@ class Snapshot:
     ghost: Ghost | None = None
     ghost_id: int = 0
     run_label: str = ""
+    # The disturbance switched on (in words, "" when off), and whether it was added to
+    # the inputs the controller was last given (inside its time window).
+    disturbance_text: str = ""
+    inputs_disturbed: bool = False
+    obstacle_numbers: dict = field(default_factory=dict)  # id -> the number shown
+    what_if: np.ndarray | None = None  # the inputs tried in what-if mode, or None
+    input_pose: tuple | None = None  # the pose the inputs were read at
+    history: bool = False  # showing a recorded step (the time slider), not the live world
+    history_span: tuple = (0.0, 0.0)  # the recorded times of this run
     extra: dict = field(default_factory=dict)
 
 
@@ -260,7 +284,12 @@ class ViewerApp:
         self.ghost_id = 0
         self._trail = None
         self.run_label = ""
+        self._run_changes: list = []
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
+        self.what_if: np.ndarray | None = None  # what-if mode: the inputs tried
+        self.history_index: int | None = None  # the time slider's step, or None (live)
+        self._history: list[HistoryStep] = []
+        self._resume_after_what_if = False
 
         if geometry not in GEOMETRIES:
             raise ViewerError(f"geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}")
@@ -441,6 +470,7 @@ class ViewerApp:
 
     def _step_locked(self) -> None:
         sim = self.sim
+        self._input_pose = tuple(sim.arena.pose)  # where the controller reads its inputs
         try:
             outcome = sim.step()
         except Exception as exc:  # a controller that fails must not kill the thread
@@ -457,10 +487,91 @@ class ViewerApp:
         limit = sim.voltage_limit_v
         applied = np.clip(c.last_output, -limit, limit)
         self._signals.append((sim.time_s - sim.control_period_s, *c.last_inputs, *applied))
+        self._record_history_locked()
         if outcome is not None:
             self.playing = False
             self._finish_locked()
         self._bump()
+
+    def _record_history_locked(self) -> None:
+        """One entry per control step, for the time slider: what the scene and the
+        inference view need to show that step again (fuzzynav's blocks: what they were
+        fed and its crisp parts)."""
+        sim, c = self.sim, self.controller
+        arena = sim.arena
+        view = getattr(c.inner, "teaching_view", None)
+        seen = view() if view is not None else None
+        centres, _, ids = arena.obstacle_arrays()  # (cached by the arena for this step)
+        self._history.append(
+            HistoryStep(
+                time_s=sim.time_s,
+                pose=tuple(arena.pose),
+                input_pose=self._input_pose,
+                inputs=c.last_inputs.copy(),
+                output=c.last_output.copy(),
+                target=tuple(float(v) for v in arena.target),
+                obstacles=dict(zip(ids, map(tuple, centres.tolist()))),
+                trail_length=len(self._trail),
+                block=None if seen is None else (seen[1].copy(), dict(seen[2])),
+            )
+        )
+
+    # -- run history (the time slider) -----------------------------------------------
+
+    def history_times(self) -> tuple[float, float]:
+        """(first, last) time of the recorded steps of this run (0, 0 before any)."""
+        with self.lock:
+            if not self._history:
+                return 0.0, 0.0
+            return self._history[0].time_s, self._history[-1].time_s
+
+    def view_history(self, time_s) -> float | None:
+        """Show the run as it was at ``time_s`` (the recorded step nearest to it): the
+        scene, the inputs and the inference of that step; the run pauses there, and
+        Play, Step or :meth:`leave_history` go back to where it is. None leaves it.
+        Returns the time shown."""
+        if time_s is None:
+            self.leave_history()
+            return None
+        try:
+            time_s = float(time_s)
+        except (TypeError, ValueError):
+            raise ViewerError(f"time {time_s!r}: must be a number of seconds") from None
+        with self.lock:
+            if not self._history:
+                raise ViewerError("nothing recorded yet: press Play or Step first")
+            times = np.array([h.time_s for h in self._history])
+            k = int(np.argmin(np.abs(times - time_s)))
+            self.playing = False
+            self.what_if = None
+            self.history_index = k
+            self._bump()
+            return float(times[k])
+
+    def firing_timeline(self):
+        """(times (n,), strengths (n, n_rules)) of this run's recorded steps, for the
+        rule-firing strip; None without a rule base or before the first step."""
+        with self.lock:
+            steps = list(self._history)
+            fis = self.fuzzy_system()
+            teaching = hasattr(self.controller.inner, "teaching_view")
+        if fis is None or not steps:
+            return None
+        if teaching:
+            rows = [h for h in steps if h.block is not None]
+            X = np.array([h.block[0] for h in rows], dtype=float)
+        else:
+            rows = [h for h in steps if np.isfinite(h.inputs[0])]
+            X = np.array([h.inputs[: fis.n_inputs] for h in rows], dtype=float)
+        if not rows or X.ndim != 2 or X.shape[1] != fis.n_inputs:
+            return None  # (recorded with another controller: nothing to show)
+        return np.array([h.time_s for h in rows]), np.asarray(fis.firing_strengths(X))
+
+    def leave_history(self) -> None:
+        with self.lock:
+            if self.history_index is not None:
+                self.history_index = None
+                self._bump()
 
     def _finish_locked(self) -> None:
         self._close_recorder_locked()
@@ -526,6 +637,8 @@ class ViewerApp:
 
     def play(self) -> None:
         with self.lock:
+            self.what_if = None  # Play leaves what-if mode ...
+            self.history_index = None  # ... and the time slider's past
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
             self.playing = True
@@ -547,6 +660,8 @@ class ViewerApp:
     def step_once(self) -> None:
         """Pause and advance exactly one control period."""
         with self.lock:
+            self.what_if = None
+            self.history_index = None
             self.playing = False
             if self.sim.done:
                 self._reset_locked(self._layout_scenario())
@@ -568,13 +683,52 @@ class ViewerApp:
                     if "footprint" in exc.reason
                     else "the run goes ahead"
                 )
-                self._notice(f"Note: {exc.key} {exc.reason}; {consequence}.", "warning")
+                self._notice(
+                    self.plain_names(f"Note: {exc.key} {exc.reason}; {consequence}."), "warning"
+                )
+
+    def _settings(self) -> list[str]:
+        """What drives the run now, in words: controller (and fuzzynav's parts off),
+        perception, disturbance, sensor noise."""
+        controller = self.controller_label
+        if self.parts_off and hasattr(self.controller.inner, "set_parts_off"):
+            controller += " without " + " and ".join(self.parts_off)
+        parts = [controller, self.sim.perception.mode]
+        if self.disturbance_on:
+            parts.append(self.disturbance_text())
+        if self.noise_std_m > 0:
+            parts.append(f"noise σ {self.noise_std_m:.2f} m")
+        return parts
+
+    def disturbance_text(self) -> str:
+        d = self.disturbance_in_use()
+        window = (
+            ""
+            if d.start_s <= 0 and not math.isfinite(d.stop_s)
+            else f" for {d.start_s:g}-{d.stop_s:g} s"
+        )
+        return f"disturbed by {d.amplitude:g}·sin({d.angular_frequency_rad_s:g}t){window}"
 
     def _run_label(self) -> str:
-        parts = [self.scenario_label, self.controller_label, self.sim.perception.mode]
-        if self.parts_off and hasattr(self.controller.inner, "set_parts_off"):
-            parts.append("without " + " and ".join(self.parts_off))
-        return " · ".join(parts)
+        return " · ".join([self.scenario_label, *self._settings()])
+
+    def _note_change_locked(self) -> None:
+        """After a change of what drives (controller, parts, perception, disturbance,
+        noise): a run not started yet is labelled afresh; a run under way keeps what it
+        started with, and the change is added with its time ("from 3.2 s: ...")."""
+        settings = self._settings()
+        if self.sim.time_s <= 0.0 or not self._run_changes:
+            self._run_changes = [(0.0, settings)]
+            self.run_label = self._run_label()
+            return
+        if settings == self._run_changes[-1][1]:
+            return
+        self._run_changes.append((self.sim.time_s, settings))
+        first = self._run_changes[0][1]
+        later = [f"from {t:.1f} s: {' · '.join(p)}" for t, p in self._run_changes[1:]]
+        if len(later) > 3:
+            later = later[:1] + ["…"] + later[-2:]
+        self.run_label = " · ".join([self.scenario_label, *first]) + "; " + "; ".join(later)
 
     def _partial_metrics(self) -> dict:
         """What can be said of a run stopped before its end: its time and path so far."""
@@ -613,12 +767,15 @@ class ViewerApp:
             # The run that ends here stays on screen as a ghost, its numbers beside the next.
             self.ghost = Ghost(
                 trail=np.array(self._trail, dtype=float),
-                label=self._run_label(),
+                label=self.run_label,
                 metrics=dict(self.metrics) if self.metrics else self._partial_metrics(),
             )
             self.ghost_id += 1
         # A new run: what was said about the last one (its outcome) no longer holds.
         self.message, self.message_level = "", "info"
+        self.what_if = None
+        self.history_index = None
+        self._history = []
         if self.geometry == "paper" and scenario.paper_heading_rad is not None:
             # s1-s3 start, in the paper's geometry, at the fitted initial heading.
             scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
@@ -635,8 +792,19 @@ class ViewerApp:
         self._signals = _Ring(capacity, 7)
         self.controller.last_inputs = np.full(4, np.nan)
         self.controller.last_output = np.full(2, np.nan)
+        if self.noise_std_m == 0.0:
+            # What the controller will read at the start, shown before the first step
+            # (not with sensor noise: a read would draw from the run's noise stream).
+            try:
+                self.controller.last_inputs = np.asarray(self.sim.sense()[0], dtype=float)
+                self._answer_again_locked()
+            except Exception:
+                self.controller.last_inputs = np.full(4, np.nan)
+                self.controller.last_output = np.full(2, np.nan)
+        self._input_pose = tuple(self.sim.arena.pose)
         self.metrics = None
         self.run_label = self._run_label()
+        self._run_changes = [(0.0, self._settings())]
         self.run_id += 1
         self.layout_id += 1
         self._anchor()
@@ -670,10 +838,14 @@ class ViewerApp:
             )
         with self.lock:
             self.playing = False
+            other = name != self.scenario_label
             self.base_scenario = scenario
             self.scenario_label = name
             self.disturbance_on = scenario.disturbance is not None
             self._reset_locked(scenario)
+            if other:  # the last run's trail and numbers belong to another arena
+                self.ghost = None
+                self.ghost_id += 1
             self._notice(f"Loaded {scenario.name}.", "info")
 
     def upload_scenario(self, content: bytes, filename: str = "scenario.toml") -> str:
@@ -727,6 +899,21 @@ class ViewerApp:
             raise ViewerError(f"position {xy!r}: must be finite and within 1 km")
         return x, y
 
+    def obstacle_number(self, obstacle_id: int) -> int:
+        """The number the page gives an obstacle (its label in the arena, its name in
+        messages): its place in the layout, from 1 (``obstacles[k]`` of the scenario
+        file is obstacle k + 1)."""
+        with self.lock:
+            for k, (i, _) in enumerate(self._layout):
+                if i == obstacle_id:
+                    return k + 1
+        return obstacle_id + 1
+
+    @staticmethod
+    def plain_names(text: str) -> str:
+        """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1."""
+        return re.sub(r"obstacles\[(\d+)\]", lambda m: f"obstacle {int(m.group(1)) + 1}", text)
+
     def check_target(self) -> str | None:
         """After an edit (a drag ended, an obstacle added): tell the user when the target
         can no longer be reached, and when it can again. Returns the warning, if any."""
@@ -739,15 +926,22 @@ class ViewerApp:
                 0.5 * self.sim.arena.footprint_m[1],
             )
             if blocked is not None:
-                text = f"The target {blocked[1]}: the robot cannot get there."
+                text = self.plain_names(f"The target {blocked[1]}: the robot cannot get there.")
                 self._target_warning = text
                 self._notice(text, "warning")
                 return text
-            on_robot = self.obstacles_on_robot()
+            # A finished run restarts from the start on Play: judge the start, not where
+            # the last run stopped (it may have stopped against that very obstacle).
+            finished = self.sim.done
+            on_robot = self.obstacles_on_robot(at_start=finished)
             if on_robot:
+                names = ", ".join(str(self.obstacle_number(i)) for i in on_robot)
                 text = (
-                    f"Obstacle {', '.join(str(i) for i in on_robot)} is on the robot: "
-                    "Play will end in a collision at once. Drag it off the robot."
+                    f"Obstacle {names} is on the robot's start: the next run will end in a "
+                    "collision at once. Drag it off the start."
+                    if finished
+                    else f"Obstacle {names} is on the robot: Play will end in a collision "
+                    "at once. Drag it off the robot."
                 )
                 self._target_warning = text
                 self._notice(text, "warning")
@@ -757,15 +951,35 @@ class ViewerApp:
                 self._notice("The target can be reached again.", "info")
             return None
 
-    def obstacles_on_robot(self) -> list[int]:
-        """Ids of the obstacles that overlap the robot's footprint where it stands."""
+    def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
+        """Ids of the obstacles that overlap the robot's footprint where it stands (or,
+        ``at_start``, where the next run starts, with the obstacles of the layout)."""
         with self.lock:
             arena = self.sim.arena
+            if at_start:
+                return self._obstacles_on_start_locked()
             clearances = arena.clearances()
             if self.geometry == "paper":  # the 25 cm are judged centre to centre there
                 clearances = clearances + np.array(arena._scene().radii, dtype=float)
             ids = list(arena.obstacles)
             return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
+
+    def _obstacles_on_start_locked(self) -> list[int]:
+        sc = self.sim.scenario
+        x, y = sc.start
+        heading = sc.heading_rad
+        length, width = self.sim.arena.footprint_m
+        c, s = math.cos(heading), math.sin(heading)
+        out = []
+        for obstacle_id, spec in self._layout:
+            dx, dy = spec.position[0] - x, spec.position[1] - y
+            lx, ly = c * dx + s * dy, -s * dx + c * dy
+            gap = math.hypot(max(abs(lx) - 0.5 * length, 0.0), max(abs(ly) - 0.5 * width, 0.0))
+            if self.geometry != "paper":
+                gap -= spec.radius_m
+            if gap <= 0.0:
+                out.append(obstacle_id)
+        return out
 
     # -- the paper controller's membership editor ----------------------------------
 
@@ -816,7 +1030,7 @@ class ViewerApp:
         with self.lock:
             arena = self.sim.arena
             if obstacle_id not in arena.obstacles:
-                raise ViewerError(f"obstacle {obstacle_id} does not exist (any more)")
+                raise ViewerError("that obstacle does not exist (any more)")
             before = arena.obstacles[obstacle_id].position_at(arena.time_s)
             arena.move_obstacle(obstacle_id, (x, y))
             # The layout (what a reset restarts from) shifts that obstacle's whole path.
@@ -877,7 +1091,7 @@ class ViewerApp:
                     raise ViewerError("there is no obstacle to remove")
                 obstacle_id = max(arena.obstacles)
             if obstacle_id not in arena.obstacles:
-                raise ViewerError(f"obstacle {obstacle_id} does not exist (any more)")
+                raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
             self._layout = [(i, s) for i, s in self._layout if i != obstacle_id]
             self.layout_id += 1
@@ -924,7 +1138,10 @@ class ViewerApp:
             self.controller.inner = inner
             self.controller.name = label
             self.controller_label = label
+            if self.what_if is not None and self.what_if_system() is None:
+                self.what_if = None  # nothing to try inputs on
             self._restart_if_finished_locked()
+            self._note_change_locked()
             self._answer_again_locked()
             if not quiet:
                 self._notice(f"Controller: {label}.", "info")
@@ -1001,6 +1218,7 @@ class ViewerApp:
             if hasattr(inner, "set_parts_off"):
                 inner.set_parts_off(self.parts_off)
                 self._restart_if_finished_locked()
+                self._note_change_locked()
                 self._notice(f"fuzzynav: {name} {'on' if on else 'off'}.", "info")
             else:
                 self._notice(
@@ -1048,12 +1266,14 @@ class ViewerApp:
         with self.lock:
             self.sim.perception = Perception(mode, self.sim.sensors, geometry=self.geometry)
             self._restart_if_finished_locked()
+            self._note_change_locked()
             self._bump()
 
     def set_disturbance(self, on: bool) -> None:
         with self.lock:
             self.disturbance_on = bool(on)
             self._apply_disturbance_locked()
+            self._note_change_locked()
             self._bump()
 
     def disturbance_in_use(self) -> Disturbance:
@@ -1080,12 +1300,38 @@ class ViewerApp:
             sim.sensors = sensors
             sim.perception = Perception(sim.perception.mode, sensors, geometry=self.geometry)
             self.noise_std_m = std_m
+            self._note_change_locked()
             self._bump()
 
     # -- reading -----------------------------------------------------------------------
 
     def snapshot(self) -> Snapshot:
         with self.lock:
+            snap = self._live_snapshot_locked()
+            snap.history_span = (
+                (self._history[0].time_s, self._history[-1].time_s) if self._history else (0.0, 0.0)
+            )
+            k = self.history_index
+            if k is None or k >= len(self._history):
+                return snap
+            h = self._history[k]
+            limit = self.sim.voltage_limit_v
+            snap.history = True
+            snap.time_s = h.time_s
+            snap.pose = h.pose
+            snap.input_pose = h.input_pose
+            snap.inputs = h.inputs.copy()
+            snap.voltages_v = np.clip(h.output, -limit, limit)
+            snap.target = h.target
+            snap.obstacles = [
+                ObstacleView(o.id, h.obstacles.get(o.id, o.xy), o.radius_m, o.is_static, o.velocity)
+                for o in snap.obstacles
+            ]
+            snap.memory_xy, snap.steer_heading_rad = None, math.nan
+            return snap
+
+    def _live_snapshot_locked(self) -> Snapshot:
+        with self.lock:  # (held already: an RLock)
             sim = self.sim
             arena = sim.arena
             t = arena.time_s
@@ -1141,7 +1387,19 @@ class ViewerApp:
                 ghost=self.ghost,
                 ghost_id=self.ghost_id,
                 run_label=self.run_label,
+                disturbance_text=self.disturbance_text() if self.disturbance_on else "",
+                inputs_disturbed=self._inputs_disturbed_locked(),
+                obstacle_numbers={i: k + 1 for k, (i, _) in enumerate(self._layout)},
+                what_if=None if self.what_if is None else self.what_if.copy(),
+                input_pose=self._input_pose,
             )
+
+    def _inputs_disturbed_locked(self) -> bool:
+        d = self.sim.disturbance
+        if d is None or not np.isfinite(self.controller.last_inputs[0]):
+            return False
+        t = self.sim.time_s - self.sim.control_period_s  # when the last inputs were read
+        return d.start_s <= t < d.stop_s
 
     def trail_since(self, start: int) -> tuple[int, np.ndarray]:
         """(run id, trail points from index ``start`` on)."""
@@ -1177,6 +1435,129 @@ class ViewerApp:
             fis = getattr(inner, "merged", None)
         return fis
 
+    # -- classroom mode: a teacher's settings pushed to every tab's world -------------
+
+    def settings(self) -> dict:
+        """What a teacher pushes to the class (``--classroom``): the scenario with its
+        layout as edited, the controller (by name, or its rule base when edited or
+        uploaded), the perception, geometry, disturbance, noise, parts and speed."""
+        with self.lock:
+            inner = self.controller.inner
+            fis = getattr(inner, "fis", None)
+            named = self.controller_label in self.controller_options() and not (
+                self.controller_label == EDITED_LABEL
+                or self.controller_label == self.uploaded_label
+            )
+            return {
+                "scenario_label": self.scenario_label,
+                "scenario": self._layout_scenario(),
+                "controller": self.controller_label,
+                "fis": None if named else fis,
+                "perception": self.sim.perception.mode,
+                "geometry": self.geometry,
+                "disturbance_on": self.disturbance_on,
+                "noise_std_m": self.noise_std_m,
+                "parts_off": self.parts_off,
+                "speed": self.speed,
+            }
+
+    def apply_settings(self, settings: dict) -> None:
+        """Take a teacher's :meth:`settings`: this world restarts in them, paused at t = 0."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        self.pause()
+        if settings["geometry"] != self.geometry:
+            self.set_geometry(settings["geometry"])
+        label = settings["scenario_label"]
+        with self.lock:
+            if label in scenario_names() and settings["scenario"] == load_scenario(label):
+                self.uploaded_scenarios.pop(label, None)  # the shipped file as it is
+            else:  # the teacher's layout (edited, or uploaded) under the teacher's name
+                self.uploaded_scenarios[label] = settings["scenario"]
+        self.load_scenario(label)
+        for name in [p.name for p in self.part_options()]:
+            if (name in settings["parts_off"]) != (name in self.parts_off):
+                self.set_part(name, name not in settings["parts_off"])
+        if settings["fis"] is not None:
+            self.uploaded_controller = FisController(settings["fis"], name=settings["controller"])
+            self.uploaded_label = settings["controller"]
+            self._install_controller(self.uploaded_controller, settings["controller"])
+        elif settings["controller"] != self.controller_label:
+            self.set_controller(settings["controller"])
+        if settings["perception"] != self.sim.perception.mode:
+            self.set_perception(settings["perception"])
+        self.set_disturbance(settings["disturbance_on"])
+        self.set_noise(settings["noise_std_m"])
+        self.set_speed(settings["speed"])
+        self._notice("The teacher set this world up.", "info")
+
+    # -- what-if mode ------------------------------------------------------------------
+
+    def what_if_system(self):
+        """The rule base what-if mode works on: a plain system over the four inputs
+        (paper, an edited or uploaded one); None for fuzzynav (its blocks read sectors
+        and a planned bearing) and for controllers without rules."""
+        inner = self.controller.inner
+        fis = getattr(inner, "fis", None)
+        if fis is None or hasattr(inner, "teaching_view") or fis.n_inputs != 4:
+            return None
+        return fis
+
+    def start_what_if(self) -> None:
+        """Pause and try inputs by hand: the whole inference follows the inputs set
+        with :meth:`set_what_if_input`; the robot does not move. :meth:`stop_what_if`
+        (or Play, or Step) leaves it, and a run that was playing plays on."""
+        with self.lock:
+            if self.what_if_system() is None:
+                raise ViewerError(
+                    f"what-if mode needs a rule base over the four inputs (paper, an edited "
+                    f"or uploaded .fis); {self.controller_label} has none"
+                )
+            if self.what_if is not None:
+                return
+            self.history_index = None
+            self._resume_after_what_if = self.playing
+            self.playing = False
+            x = self.controller.last_inputs.copy()
+            if not np.isfinite(x[0]):
+                x = np.asarray(self.sim.sense()[0], dtype=float)
+            self.what_if = x
+            self._bump()
+
+    def set_what_if_input(self, index: int, value) -> None:
+        """Set input ``index`` (0-3: d_t, d_o, phi_t, phi_o) in what-if mode; NaN is
+        "not sensed" (d_o, phi_o)."""
+        with self.lock:
+            if self.what_if is None:
+                raise ViewerError("what-if mode is off: switch it on first")
+            fis = self.what_if_system()
+            if fis is None:
+                raise ViewerError("this controller has no rule base over the four inputs")
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ViewerError(f"{value!r}: must be a number") from None
+            name = fis.input_names[index]
+            if math.isnan(value):
+                if index in (0, 2):
+                    raise ViewerError(f"{name} is always known: give a number")
+            else:
+                lo, hi = fis.inputs[index].range
+                if not (math.isfinite(value) and lo <= value <= hi):
+                    raise ViewerError(f"{name} = {value!r}: must be between {lo:g} and {hi:g}")
+            self.what_if[index] = value
+            self._bump()
+
+    def stop_what_if(self) -> None:
+        with self.lock:
+            if self.what_if is None:
+                return
+            self.what_if = None
+            resume = self._resume_after_what_if
+            self._bump()
+        if resume:
+            self.play()
+
     def teaching(self) -> dict | None:
         """The rule base at the last controller inputs: firing strengths and aggregation.
 
@@ -1186,6 +1567,15 @@ class ViewerApp:
         state = None
         with self.lock:
             inputs = self.controller.last_inputs.copy()
+            k = self.history_index
+            if k is not None and k < len(self._history):
+                step = self._history[k]
+                inputs = step.inputs.copy()
+                if view is not None:
+                    if step.block is None:
+                        return None
+                    x, state = step.block
+                    return self._teaching_of(self.fuzzy_system(), x, state)
             if view is not None:
                 # a controller whose blocks see more than the four inputs (fuzzynav)
                 seen = view()
@@ -1194,9 +1584,16 @@ class ViewerApp:
                 fis, x, state = seen
         if view is None:
             fis = self.fuzzy_system()
+            what_if = self.what_if
+            if what_if is not None and fis is not None:
+                inputs = what_if.copy()
             if fis is None or not np.isfinite(inputs[0]):
                 return None
             x = inputs[: len(fis.input_names)]
+        return self._teaching_of(fis, x, state)
+
+    @staticmethod
+    def _teaching_of(fis, x, state) -> dict:
         strengths = np.asarray(fis.firing_strengths(np.asarray([x])))[0]
         grid, membership, centroids = fis.aggregated(x)
         return {

@@ -36,9 +36,50 @@ HUSKY_FOOTPRINT_M = (0.99, 0.67)  # drawn; the world's own footprint is the aren
 PANEL_HZ = 4.0  # the status line and the inference view
 PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
 PLOT_POINTS = 120
-TRAIL_CHUNK = 16  # trail points per scene node: a frame re-sends at most this many
+TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this many
+BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
 SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
 TOP_DOWN_TOLERANCE_RAD = math.radians(1.5)
+NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
+PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
+FIT_WINDOW_S = 20.0
+HISTORY_STEP_S = 0.02  # the time slider's step: one control period
+TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
+SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
+SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
+EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
+# What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
+# and the paper geometry's partition layout, controller/paper_partition.py).
+EDITOR_LABELS = {
+    "d_t.a0": "VS full to, S starts (m)",
+    "d_t.w1": "S peak after that (m)",
+    "d_t.w2": "M centre after S (m)",
+    "d_t.w3": "L peak after M (m)",
+    "d_t.w4": "VL full after L (m)",
+    "d_t.c0": "first centre (m)",
+    "d_o.b0": "near full to (m)",
+    "d_o.w1": "medium centre after (m)",
+    "d_o.w2": "far full after that (m)",
+    "phi_t.peak": "P, N peak (rad)",
+    "phi_t.width": "VP, VN full after (rad)",
+    "phi_t.zero": "Z half-width (rad)",
+    "phi_t.foot": "P starts at (× peak)",
+    "phi_o.peak": "P, N peak (rad)",
+    "phi_o.width": "VP, VN peak after (rad)",
+    "phi_o.zero": "Z half-width (rad)",
+    "phi_o.foot": "P starts at (× peak)",
+    "phi_o.tail": "VP, VN end after (rad)",
+    "v.vs_end": "VS full to (V)",
+    "v.vs_ramp": "VS falls over (V)",
+    "v.s_offset": "S centre after VS (V)",
+    "v.m_offset": "M centre after S (V)",
+    "v.l_offset": "L centre after M (V)",
+    "v.s_half": "S half-width (V)",
+    "v.m_half": "M half-width (V)",
+    "v.l_half": "L half-width (V)",
+    "v.vl_offset": "VL starts after L (V)",
+    "v.vl_ramp": "VL rises over (V)",
+}  # a new tab's camera follows its canvas's shape for this long
 GHOST_GREY = (148, 163, 184)
 
 # Colours (RGB 0-255).
@@ -54,6 +95,10 @@ NO_ECHO = (175, 175, 175)
 MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
 STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
+TARGET_INPUT = (13, 148, 136)  # d_t, phi_t on the robot (views.TARGET_INPUT)
+OBSTACLE_INPUT = (192, 38, 211)  # d_o, phi_o (views.OBSTACLE_INPUT)
+ARC_SEGMENTS = 8
+INPUT_SEGMENTS = ARC_SEGMENTS + 2  # a distance, a radius along the heading, an arc
 
 OBSTACLE_HEIGHT_M = 0.5
 # The target is drawn (and picked) above the obstacles: dropped on one, it is still
@@ -70,6 +115,8 @@ COLOUR_KEY = [
     ("#9333ea", "fuzzynav's echo memory (points it remembers)"),
     ("#16a34a", "fuzzynav's planned bearing (thick green line)"),
     ("#d97706", "safe-distance ring (red: an obstacle inside)"),
+    ("#0d9488", "d_t (line to the target) and phi_t (arc from the heading)"),
+    ("#c026d3", "d_o (from the footprint's edge) and phi_o (arc from the heading)"),
     ("#606f88", "static obstacle"),
     ("#ea580c", "moving obstacle"),
     ("#dc2626", "target (drag it)"),
@@ -194,6 +241,38 @@ def _xy(position) -> np.ndarray:
     return xy
 
 
+class ClientSurface:
+    """One tab's own scene and GUI (viser's client-scoped API), in the shape of the
+    server that :class:`ViewerServer` draws on: classroom mode gives every tab a world
+    of its own (:mod:`app.viewer_classroom`)."""
+
+    def __init__(self, server, client):
+        import types
+
+        self._server, self._client = server, client
+        self.scene, self.gui = client.scene, client.gui
+        self.initial_camera = types.SimpleNamespace()  # the tab's own camera is fitted
+
+    def get_clients(self) -> dict:
+        cid = self._client.client_id
+        return {cid: self._client} if cid in self._server.get_clients() else {}
+
+    def atomic(self):
+        return self._client.atomic()
+
+    def get_port(self) -> int:
+        return self._server.get_port()
+
+    def on_client_connect(self, callback) -> None:
+        callback(self._client)
+
+    def on_client_disconnect(self, callback) -> None:
+        pass  # the classroom server ends the tab's world
+
+    def stop(self) -> None:
+        pass  # the server is the classroom's
+
+
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
@@ -202,11 +281,16 @@ class ViewerServer:
         "paper's Table 4 metrics appear here when a run ends.</div>"
     )
 
-    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080, *, surface=None):
         self.app = app
         self.host = host
-        with guarded_server_start(host):  # only its own page may connect (app/origin_guard.py)
-            self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
+        if surface is None:
+            with guarded_server_start(host):  # only its own page may connect (origin_guard)
+                self.server = viser.ViserServer(
+                    host=host, port=port, label="fuzzynav", verbose=False
+                )
+        else:  # one tab's own world (classroom mode): its scene and GUI only
+            self.server = surface
         self.port = self.server.get_port()
         from fuzzynav.app.viewer import MAX_UPLOAD_BYTES
         from fuzzynav.app.viewer_guards import install_message_guards
@@ -235,6 +319,7 @@ class ViewerServer:
         self._start_xy = tuple(app.sim.scenario.start)
         self.view_3d = False
         self._fitting_until: dict[int, float] = {}
+        self._fit_window: dict[int, float] = {}
         self.show_handles = False
         self.presentation = False
         self._ghost_drawn = -1
@@ -246,11 +331,14 @@ class ViewerServer:
         self._surface_planes: list = []
         self._last_inference = None
         self._next_plot = 0.0
+        self._timeline_key = None
+        self._next_timeline = 0.0
 
         self.server.scene.set_up_direction("+z")
         self._build_gui()
         self._build_static_scene()
         self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(self._on_disconnect)
         app.start()
         self._thread = threading.Thread(
             target=self._render_loop, name="fuzzynav-render", daemon=True
@@ -283,14 +371,30 @@ class ViewerServer:
     def _on_connect(self, client: viser.ClientHandle) -> None:
         """Frame the arena for this tab, and again whenever its canvas changes shape in
         its first seconds (it starts as wide as the window and narrows when the side
-        panels dock, which takes a while on a slow machine)."""
-        client.camera.on_update(lambda camera: self._keep_top_down(client))
-        deadline = time.monotonic() + 20.0
-        while time.monotonic() < deadline and not self._stop.is_set():
-            if client.client_id not in self.server.get_clients():
-                return
+        panels dock, which takes a while on a slow machine).
+
+        Nothing waits here: viser runs this on one of its 32 worker threads, which
+        every button and dropdown of every tab shares; a tab that held one for its
+        first seconds stalled a whole class joining at once. The canvas reports each
+        change of shape as a camera message (:meth:`_on_camera`), which refits it.
+        """
+        self._open_fit_window(client, FIT_WINDOW_S)
+        client.camera.on_update(lambda camera: self._on_camera(client))
+        self._fit_camera(client, force=False)
+
+    def _on_disconnect(self, client: viser.ClientHandle) -> None:
+        for table in (self._camera_fits, self._fitting_until, self._fit_window):
+            table.pop(client.client_id, None)
+
+    def _open_fit_window(self, client, seconds: float) -> None:
+        """Refit this tab's camera whenever its canvas changes shape in the next
+        ``seconds`` (a tab connecting, the panels widening in presentation mode)."""
+        self._fit_window[client.client_id] = time.monotonic() + seconds
+
+    def _on_camera(self, client) -> None:
+        if time.monotonic() < self._fit_window.get(client.client_id, 0.0):
             self._fit_camera(client, force=False)
-            time.sleep(0.2)
+        self._keep_top_down(client)
 
     def _keep_top_down(self, client) -> None:
         """Unless the 3D view is switched on, a camera tilted (a drag on the ground
@@ -446,12 +550,20 @@ class ViewerServer:
                 cast_shadow=False,
             )
             ring.on_drag("left")(self._make_body_drag("/target", None, self.target))
-        scene.add_label(
+        self.target_label = scene.add_label(
             "/target/label",
             "target",
             position=(0.45, 0.45, 0.0),
             anchor="bottom-left",
-            font_screen_scale=0.9,
+            font_screen_scale=self._label_scale(0.9),
+        )
+        # A first hint on the arena itself, gone after the first drag (in any tab).
+        self.drag_hint = scene.add_label(
+            "/target/hint",
+            "drag the target or an obstacle",
+            position=(-0.4, -0.45, 0.0),
+            anchor="top-right",
+            font_screen_scale=self._label_scale(0.85),
         )
         self.target.on_update(self._make_drag_callback("/target", None))
         self.ideal = scene.add_line_segments(
@@ -476,6 +588,21 @@ class ViewerServer:
             thickness=0.06,
             visible=False,
         )
+        # The controller's inputs drawn on the robot, in the term plots' colours: d_t as
+        # the line to the target, phi_t as the arc from the heading to it; d_o as the gap
+        # from the footprint's edge along phi_o, phi_o as its arc. A fixed number of
+        # segments each: an update sends only their points, at the panels' rate.
+        self.input_nodes = {
+            kind: scene.add_line_segments(
+                f"/inputs/{kind}",
+                np.zeros((INPUT_SEGMENTS, 2, 3), np.float32),
+                colour,
+                thickness=0.04,
+                visible=False,
+            )
+            for kind, colour in (("target", TARGET_INPUT), ("obstacle", OBSTACLE_INPUT))
+        }
+        self._inputs_drawn = None
         self.ghost_node = scene.add_line_segments(
             "/ghost/trail",
             np.zeros((1, 2, 3), np.float32),
@@ -521,7 +648,7 @@ class ViewerServer:
                 f"{x}" + (" m" if x == x1 else ""),
                 position=(x, y0 - 0.25, 0.0),
                 anchor="top-center",
-                font_screen_scale=0.75,
+                font_screen_scale=self._label_scale(0.75),
             )
         for y in range(y0, y1 + 1, step):
             scene.add_label(
@@ -529,7 +656,7 @@ class ViewerServer:
                 f"{y}" + (" m" if y == y1 else ""),
                 position=(x0 - 0.25, y, 0.0),
                 anchor="center-right",
-                font_screen_scale=0.75,
+                font_screen_scale=self._label_scale(0.75),
             )
         cam = self.server.initial_camera
         # A new tab's canvas aspect is not known yet ("Reset view" also comes here):
@@ -580,8 +707,29 @@ class ViewerServer:
         # Speeds as choices: a linear slider gave 0.1-1x a tenth of its track.
         self.speed = gui.add_button_group("Speed ×", SPEED_CHOICES)
         self.speed.on_click(self._guarded(lambda e: app.set_speed(float(self.speed.value))))
+        # Back through the run: the scene, the inputs and the inference of any step.
+        self.history_slider = gui.add_slider(
+            "Run so far (s)",
+            0.0,
+            HISTORY_STEP_S,
+            HISTORY_STEP_S,
+            0.0,
+            hint="Drag back through this run: the robot, its inputs and the rules as they "
+            "were then (the run pauses; Live, Play or Step go back)",
+        )
+        self.history_slider.on_update(
+            self._guarded(lambda e: self.app.view_history(self.history_slider.value))
+        )
+        self.history_live = gui.add_button("Live", hint="Back to where the run is now")
+        self.history_live.on_click(self._guarded(lambda e: self.app.leave_history()))
         # Messages below the buttons, so that one appearing never moves them.
         self.message_html = gui.add_html("")
+        # Above the fold at 1280 x 800 (it was the last thing in the panel).
+        gui.add_html(
+            "<div class='fz-drag-hint' style='font-size:0.8em;color:#475569;padding:0 8px'>"
+            "Drag the <b>target</b> or an <b>obstacle</b> by its body; the robot reacts at "
+            "once. Scroll to zoom, right-drag to pan.</div>"
+        )
 
         with gui.add_folder("Scenario"):
             self.scenario_dd = gui.add_dropdown(
@@ -686,21 +834,27 @@ class ViewerServer:
             gui.add_html(colour_key_html())
         with gui.add_folder("Result"):
             self.result = gui.add_html(self._RESULT_PENDING)
-        gui.add_markdown(
-            "<small>Drag the **target** or an **obstacle** by its body; the robot reacts at "
-            "once. Scroll to zoom, right-drag to pan.</small>"
-        )
 
         panel = gui.add_panel()
         self.left_panel = panel
         self._inference_tab = panel.add_tab("Inference", viser.Icon.BRAIN)
         with self._inference_tab:
             self.defs_html = gui.add_html("", order=0.0)
+            self.firing_only_cb = gui.add_checkbox(
+                "Firing rules only",
+                False,
+                hint="Show only the rules whose strength is above zero",
+                order=0.5,
+            )
+            self.firing_only_cb.on_update(self._guarded(lambda e: self._redraw_inference()))
+            self._build_what_if()
+            self.timeline_html = gui.add_html("", order=0.8)
             self.inference_html = gui.add_html("", order=1.0)
         self._surface_tab = panel.add_tab("Surface", viser.Icon.GRID_DOTS)
         with self._surface_tab:
-            self.surface_html = gui.add_html("", order=0.0)
-            self.marker_html = gui.add_html("", order=1.0)
+            self._build_surface_choice()
+            self.surface_html = gui.add_html("", order=1.0)
+            self.marker_html = gui.add_html("", order=2.0)
         self._editor_tab = panel.add_tab("Editor", viser.Icon.ADJUSTMENTS)
         with self._editor_tab:
             self._build_editor()
@@ -736,10 +890,10 @@ class ViewerServer:
                 order=2.0,
             )
         panel.dock_left()
-        panel.set_width(400)
+        panel.set_width(NORMAL_WIDTHS[0])
         main = gui.main_panel
         main.dock_right()
-        main.set_width(330)
+        main.set_width(NORMAL_WIDTHS[1])
 
     def _build_editor(self) -> None:
         """Sliders for the paper controller's membership parameters (the tuner's
@@ -756,8 +910,8 @@ class ViewerServer:
         gui.add_html(
             "<div style='font-size:0.85em;padding:0 6px'>Move a slider and the robot drives "
             "with the edited <b>paper</b> controller at once (the run goes on). Each number "
-            "is a position or a width of the tuner's parametrisation "
-            f"(controller/paper.py), so the terms stay in order. {note}</div>"
+            "places a term (where it starts, peaks or ends) or a gap after the term before "
+            f"it, so the terms stay in order whatever you do. {note}</div>"
         )
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Reset to shipped")
@@ -773,11 +927,12 @@ class ViewerServer:
                 for name in names:
                     lo, hi = editor.bounds[name]
                     slider = gui.add_slider(
-                        name.split(".", 1)[1],
+                        EDITOR_LABELS.get(name, name.split(".", 1)[1]),
                         lo,
                         hi,
-                        step=round((hi - lo) / 200, 4),
-                        initial_value=editor.value(name),
+                        step=EDITOR_STEP,
+                        initial_value=round(editor.value(name), 2),
+                        hint=f"{name} in the tuner's terms; {lo:g} to {hi:g}",
                     )
                     slider.on_update(
                         self._guarded(
@@ -843,10 +998,148 @@ class ViewerServer:
             for client in self.server.get_clients().values():
                 self._fit_camera(client, force=True)
 
+    def _build_surface_choice(self) -> None:
+        """The first surface's two axes and the values the other inputs are held at
+        (MATLAB's Surface Viewer); the second plane stays (d_o, phi_o)."""
+        gui = self.server.gui
+        self.surface_axes = (0, 2)
+        self.surface_held = [5.0, 1.0, 0.0, 0.0]
+        with gui.add_folder("Axes and held inputs", expand_by_default=False, order=0.0):
+            self.surface_x_dd = gui.add_dropdown("x axis", SURFACE_INPUTS, initial_value="d_t")
+            self.surface_y_dd = gui.add_dropdown("y axis", SURFACE_INPUTS, initial_value="phi_t")
+            self.surface_held_boxes = []
+            for k, name in enumerate(SURFACE_INPUTS):
+                lo, hi = SURFACE_RANGES[k]
+                box = gui.add_number(
+                    f"held {name}",
+                    initial_value=self.surface_held[k],
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.05,
+                    hint="the value this input is held at when it is not an axis",
+                )
+                box.on_update(self._guarded(lambda e: self._on_surface_choice()))
+                self.surface_held_boxes.append(box)
+            self.surface_no_obstacle_cb = gui.add_checkbox(
+                "no obstacle sensed",
+                True,
+                hint="d_o and phi_o held as 'none sensed' (when neither is an axis)",
+            )
+            for handle in (self.surface_x_dd, self.surface_y_dd, self.surface_no_obstacle_cb):
+                handle.on_update(self._guarded(lambda e: self._on_surface_choice()))
+
+    def _on_surface_choice(self) -> None:
+        x = SURFACE_INPUTS.index(self.surface_x_dd.value)
+        y = SURFACE_INPUTS.index(self.surface_y_dd.value)
+        if x == y:
+            raise ViewerError("choose two different inputs for the axes")
+        self.surface_axes = (x, y)
+        self.surface_held = [float(b.value) for b in self.surface_held_boxes]
+        self._surface_key = None  # recompute
+        self.app._bump()
+
+    def _custom_plane(self, fis):
+        xi, yi = self.surface_axes
+        held = np.array(self.surface_held, dtype=float)
+        no_obstacle = self.surface_no_obstacle_cb.value and not ({xi, yi} & {1, 3})
+        if no_obstacle:
+            held[1] = held[3] = np.nan
+        names = fis.input_names
+        others = [k for k in range(4) if k not in (xi, yi)]
+        said = []
+        for k in others:
+            if np.isnan(held[k]):
+                if "no obstacle sensed" not in said:
+                    said.append("no obstacle sensed")
+            else:
+                said.append(f"{names[k]} = {held[k]:g}")
+        ranges = [self._surface_range(fis, k) for k in range(4)]
+        return (
+            f"{names[xi]}, {names[yi]} with {', '.join(said)}",
+            fis,
+            xi,
+            yi,
+            ranges[xi],
+            ranges[yi],
+            held,
+            "wheels",
+        )
+
+    @staticmethod
+    def _surface_range(fis, k: int) -> tuple[float, float]:
+        lo, hi = fis.inputs[k].range
+        return (
+            max(SURFACE_RANGES[k][0], lo) if k in (0, 1) else SURFACE_RANGES[k][0],
+            min(SURFACE_RANGES[k][1], hi) if k in (0, 1) else SURFACE_RANGES[k][1],
+        )
+
+    def _build_what_if(self) -> None:
+        """What-if mode: pause, type an input's value, and the whole inference (rules,
+        clipped sets, aggregate, centroids, the surface's dot) follows; the robot stays."""
+        gui = self.server.gui
+        with gui.add_folder("What-if", expand_by_default=False, order=0.6):
+            self.what_if_cb = gui.add_checkbox(
+                "What-if mode",
+                False,
+                hint="Pause and try inputs by hand; untick to go on where the run was",
+            )
+            self.what_if_cb.on_update(self._guarded(self._on_what_if))
+            self.what_if_boxes = []
+            for k, (name, lo, hi, unit) in enumerate(
+                (
+                    ("d_t", 0.0, 20.0, "m"),
+                    ("d_o", 0.0, 10.0, "m"),
+                    ("phi_t", -math.pi, math.pi, "rad"),
+                    ("phi_o", -math.pi, math.pi, "rad"),
+                )
+            ):
+                box = gui.add_number(
+                    f"{name} ({unit})",
+                    initial_value=0.0,
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.01,
+                    disabled=True,
+                    hint="type a value (d_o, phi_o: none sensed until you do)",
+                )
+                box.on_update(
+                    self._guarded(lambda e, k=k: self.app.set_what_if_input(k, e.target.value))
+                )
+                self.what_if_boxes.append(box)
+
+    def _on_what_if(self, event) -> None:
+        if self.what_if_cb.value:
+            try:
+                self.app.start_what_if()
+            except ViewerError:
+                self.what_if_cb.value = False
+                raise
+        else:
+            self.app.stop_what_if()
+
+    def _redraw_inference(self) -> None:
+        self._last_inference = None
+        self.app._bump()
+
     def _on_presentation(self, event) -> None:
+        """Large type for a projector: a wide inference panel, a wider control panel,
+        the status line and the arena's labels larger, and every tab's camera refitted
+        to its narrower canvas (the new shape arrives as a camera message)."""
         self.presentation = bool(self.presentation_cb.value)
-        self.left_panel.set_width(720 if self.presentation else 400)
+        for client in self.server.get_clients().values():  # before the canvases change
+            self._open_fit_window(client, 10.0)
+        left, right = PRESENTATION_WIDTHS if self.presentation else NORMAL_WIDTHS
+        self.left_panel.set_width(left)
+        self.server.gui.main_panel.set_width(right)
+        with self.server.atomic():
+            if self._bounds is not None:
+                self._frame_arena(self._bounds)  # the metre marks, at the new size
+            self.target_label.font_screen_scale = self._label_scale(0.9)
+            self.drag_hint.font_screen_scale = self._label_scale(0.85)
+            for node in self._obstacle_nodes.values():
+                node["label"].font_screen_scale = self._label_scale(0.8)
         self._last_inference = None  # redraw with the new type size
+        self._last_metrics_run = -1
         self.app._bump()
 
     def _on_editor_button(self, event) -> None:
@@ -859,7 +1152,7 @@ class ViewerServer:
         self.app.reset_membership_editor()
         editor = self.app.editor()
         for name, slider in self.editor_sliders.items():
-            slider.value = editor.value(name)
+            slider.value = round(editor.value(name), 2)
 
     def _guarded(self, func):
         """Run a GUI callback; a refused action becomes a message in the page."""
@@ -915,6 +1208,11 @@ class ViewerServer:
         self.scenario_dd.options = self.app.scenario_options()
         self.scenario_dd.value = label
 
+    def _first_drag(self) -> None:
+        """The arena's drag hint has done its job."""
+        if self.drag_hint.visible:
+            self.drag_hint.visible = False
+
     def _make_body_drag(self, name: str, obstacle_id: int | None, gizmo):
         """Drag the target or an obstacle by its body: it follows the pointer on the
         horizontal plane through the point grabbed."""
@@ -927,6 +1225,7 @@ class ViewerServer:
             if event.client is None:
                 return
             try:
+                self._first_drag()
                 if event.phase == "start" or "xy" not in grab:
                     self._dragging.add(name)
                     grab["from"] = _xy(event.start_position)  # copies
@@ -936,17 +1235,21 @@ class ViewerServer:
                     app.move_target((x, y))
                 else:
                     app.move_obstacle(obstacle_id, (x, y))
-                gizmo.position = (x, y, float(gizmo.position[2]))
+                # Another tab may have reset the run meanwhile: this node is then gone
+                # (the new run's node follows the world), and the drag goes on.
+                if not gizmo._impl.removed:
+                    gizmo.position = (x, y, float(gizmo.position[2]))
             except ViewerError as exc:  # a malformed or refused position (issue 26)
                 app._notice(str(exc), "warning")
-                self._snap_back(gizmo, obstacle_id)
+                if not gizmo._impl.removed:
+                    self._snap_back(gizmo, obstacle_id)
                 grab.clear()
                 self._dragging.discard(name)  # or its drawing stays frozen
-                return
-            if event.phase == "end":
-                grab.clear()
-                self._dragging.discard(name)
-                app.check_target()
+            finally:
+                if event.phase == "end":  # whatever happened above, the drag ends here
+                    grab.clear()
+                    self._dragging.discard(name)
+                    app.check_target()
 
         return on_drag
 
@@ -958,6 +1261,7 @@ class ViewerServer:
                 return
             if event.phase == "start":
                 self._dragging.add(name)
+                self._first_drag()
             try:
                 x, y = _xy(event.target.position)
                 if obstacle_id is None:
@@ -1067,11 +1371,13 @@ class ViewerServer:
         self.robot.position = (x, y, 0.0)
         self.robot.wxyz = yaw_wxyz(heading)
 
-        ranges = tuple(np.round(snap.ranges_m, 3))
+        # Drawn to BEAM_STEP_M (a pixel or two at the arena's scale): a beam is re-sent
+        # when its reading moves by that much, not at every millimetre.
+        ranges = tuple(np.round(snap.ranges_m / BEAM_STEP_M) * BEAM_STEP_M)
         if ranges != self._last_ranges:
             self._last_ranges = ranges
             for handle, echo in ((self.beams, True), (self.free_beams, False)):
-                points, colours = self._beam_segments(snap, echo)
+                points, colours = self._beam_segments(snap, echo, ranges)
                 handle.points = points
                 handle.colors = colours
         alert = snap.nearest_clearance_m < SAFE_DISTANCE_M
@@ -1093,6 +1399,57 @@ class ViewerServer:
         self._draw_memory(snap)
         self._draw_trail()
         self._draw_ghost(snap)
+
+    @staticmethod
+    def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
+        """(INPUT_SEGMENTS, 2, 3): a distance along ``bearing`` (from ``start`` m off the
+        centre), the heading's radius and the arc from the heading to ``bearing``."""
+        x, y, heading = pose
+        z = 0.5
+        a = heading + bearing
+        seg = np.zeros((INPUT_SEGMENTS, 2, 3), np.float32)
+        seg[:, :, 2] = z
+        seg[0, 0, :2] = (x + start * math.cos(a), y + start * math.sin(a))
+        seg[0, 1, :2] = (x + (start + distance) * math.cos(a), y + (start + distance) * math.sin(a))
+        seg[1, 0, :2] = (x, y)
+        seg[1, 1, :2] = (x + radius * math.cos(heading), y + radius * math.sin(heading))
+        angles = heading + np.linspace(0.0, bearing, ARC_SEGMENTS + 1)
+        arc = np.column_stack([x + radius * np.cos(angles), y + radius * np.sin(angles)])
+        seg[2:, 0, :2] = arc[:-1]
+        seg[2:, 1, :2] = arc[1:]
+        return seg
+
+    @staticmethod
+    def footprint_exit(footprint_m, bearing: float) -> float:
+        """How far from the centre a ray at ``bearing`` (robot frame) leaves the
+        footprint (0 for the paper's point robot)."""
+        half_l, half_w = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
+        c, s = abs(math.cos(bearing)), abs(math.sin(bearing))
+        return min(half_l / c if c > 1e-9 else math.inf, half_w / s if s > 1e-9 else math.inf)
+
+    def _draw_inputs(self, snap: Snapshot) -> None:
+        """The inputs the controller was given, on the robot (at the panels' rate, from
+        the same snapshot as the term plots: the same numbers)."""
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
+        pose = snap.input_pose or snap.pose  # where they were read (a step ago)
+        key = (tuple(np.round(pose, 3)), tuple(np.round((d_t, d_o, phi_t, phi_o), 3)))
+        if key == self._inputs_drawn:
+            return
+        self._inputs_drawn = key
+        shown = {
+            "target": math.isfinite(d_t) and math.isfinite(phi_t),
+            "obstacle": math.isfinite(d_o) and math.isfinite(phi_o),
+        }
+        if shown["target"]:
+            self.input_nodes["target"].points = self.input_segments(pose, d_t, phi_t, 1.1)
+        if shown["obstacle"]:
+            start = self.footprint_exit(snap.footprint_m, phi_o)
+            self.input_nodes["obstacle"].points = self.input_segments(
+                pose, max(d_o, 0.0), phi_o, 0.8, start
+            )
+        for kind, node in self.input_nodes.items():
+            if node.visible != shown[kind]:
+                node.visible = shown[kind]
 
     def _draw_ghost(self, snap: Snapshot) -> None:
         if snap.ghost_id == self._ghost_drawn:
@@ -1136,12 +1493,12 @@ class ViewerServer:
                 dtype=np.float32,
             )
 
-    def _beam_segments(self, snap: Snapshot, echo: bool):
+    def _beam_segments(self, snap: Snapshot, echo: bool, ranges=None):
         """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
         mounts = self.app.sim.sensors.config.mounts
         half = 0.5 * snap.beam_width_rad
         segments, colours = [], []
-        for mount, reading in zip(mounts, snap.ranges_m):
+        for mount, reading in zip(mounts, snap.ranges_m if ranges is None else ranges):
             if math.isfinite(reading) != echo:
                 continue
             reach = float(reading) if math.isfinite(reading) else snap.max_range_m
@@ -1191,20 +1548,40 @@ class ViewerServer:
                     position=(0.0, 0.0, -0.5 * OBSTACLE_HEIGHT_M - 0.01),
                 )
                 body.on_drag("left")(self._make_body_drag(name, ob.id, handle))
-                if not ob.is_static:
-                    scene.add_label(
-                        f"{name}/label",
-                        "moving",
-                        position=(ob.radius_m + 0.1, 0.0, 0.0),
-                        anchor="center-left",
-                        font_screen_scale=0.8,
-                    )
+                number = snap.obstacle_numbers.get(ob.id, ob.id + 1)
+                label = scene.add_label(
+                    f"{name}/label",
+                    self._obstacle_label(number, ob.is_static),
+                    position=(ob.radius_m + 0.08, 0.0, 0.0),
+                    anchor="center-left",
+                    font_screen_scale=self._label_scale(0.8),
+                )
                 handle.on_update(self._make_drag_callback(name, ob.id))
-                node = {"handle": handle, "name": name, "static": ob.is_static, "xy": ob.xy}
+                node = {
+                    "handle": handle,
+                    "name": name,
+                    "static": ob.is_static,
+                    "xy": ob.xy,
+                    "label": label,
+                    "number": number,
+                }
                 self._obstacle_nodes[key] = node
+            number = snap.obstacle_numbers.get(ob.id, ob.id + 1)
+            if node["number"] != number:  # an obstacle before it was removed
+                node["number"] = number
+                node["label"].text = self._obstacle_label(number, ob.is_static)
             elif node["xy"] != ob.xy and node["name"] not in self._dragging:
                 node["handle"].position = (ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01)
                 node["xy"] = ob.xy
+
+    @staticmethod
+    def _obstacle_label(number: int, static: bool) -> str:
+        """What the arena calls an obstacle: the number the messages use."""
+        return f"obstacle {number}" + ("" if static else " (moving)")
+
+    def _label_scale(self, scale: float) -> float:
+        """Arena labels are larger in presentation mode."""
+        return scale * (1.6 if self.presentation else 1.0)
 
     def _draw_trail(self) -> None:
         run_id, new = self.app.trail_since(self._trail_index)
@@ -1246,7 +1623,10 @@ class ViewerServer:
             self._next_plot = now + 1.0 / PLOT_HZ
             self._draw_plots()
         self._draw_inference(snap)
+        self._draw_timeline(snap)
         self._draw_surface(snap)
+        with self.server.atomic():
+            self._draw_inputs(snap)
         key = (snap.run_id, snap.metrics is not None, snap.ghost_id)
         if self._last_metrics_run != key:
             self._last_metrics_run = key
@@ -1297,16 +1677,36 @@ class ViewerServer:
         for name, box in self.part_boxes.items():
             if box.value != (name not in snap.parts_off):
                 box.value = name not in snap.parts_off
+        top = max(round(snap.history_span[1], 2), HISTORY_STEP_S)
+        if abs(self.history_slider.max - top) > 1e-9:
+            self.history_slider.max = top
+        shown = min(round(snap.time_s, 2), top)
+        if abs(self.history_slider.value - shown) > 0.5 * HISTORY_STEP_S:
+            self.history_slider.value = shown
+        if self.history_live.disabled == snap.history:
+            self.history_live.disabled = not snap.history
+        on = snap.what_if is not None
+        if self.what_if_cb.value != on:
+            self.what_if_cb.value = on
+        for k, box in enumerate(self.what_if_boxes):
+            if box.disabled == on:
+                box.disabled = not on
+            if on and math.isfinite(snap.what_if[k]) and abs(box.value - snap.what_if[k]) > 5e-3:
+                box.value = round(float(snap.what_if[k]), 2)
         if self.app.paper_edit is not None:
             editor = self.app.paper_edit
             for name, slider in self.editor_sliders.items():
-                value = editor.value(name)
+                value = round(editor.value(name), 2)  # as the slider shows it
                 if abs(slider.value - value) > 1e-9:
                     slider.value = value
 
     def _status_html(self, snap: Snapshot) -> str:
         state = (
-            "running"
+            "what-if (paused)"
+            if snap.what_if is not None
+            else "looking back (paused)"
+            if snap.history
+            else "running"
             if snap.playing
             else {
                 "reached": "reached the target",
@@ -1322,22 +1722,38 @@ class ViewerServer:
         }.get(state, "#64748b")
         d_t, d_o, phi_t, phi_o = snap.inputs
         v_l, v_r = snap.voltages_v
+        # A disturbed input is marked (the disturbance is added to every input).
+        mark = (
+            "<sup title='includes the disturbance' style='color:#b45309'>~</sup>"
+            if snap.inputs_disturbed
+            else ""
+        )
+        extras = ""
+        if snap.disturbance_text:
+            extras += f" · <span style='color:#b45309'>{html.escape(snap.disturbance_text)}</span>"
+        if snap.noise_std_m > 0:
+            extras += f" · noise σ {snap.noise_std_m:.2f} m"
+        if snap.layout_edited:
+            extras += " · layout edited"
+        big = self.presentation
         return (
             "<div class='fz-status' style='font-family:system-ui,sans-serif;line-height:1.35;"
-            "padding:0 8px'>"
+            f"padding:0 8px;font-size:{'1.3em' if big else '1em'}'>"
             f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
-            f"<span style='font-size:1.6em;font-weight:600;font-variant-numeric:tabular-nums'>"
-            f"t = {snap.time_s:6.2f} s</span>"
-            f"<span style='font-weight:600;color:{colour}'>● {state}</span></div>"
+            f"<span class='fz-time' style='font-size:1.6em;font-weight:600;"
+            "font-variant-numeric:tabular-nums;white-space:nowrap'>"
+            f"t = {snap.time_s:.2f} s</span>"
+            f"<span style='font-weight:600;color:{colour};white-space:nowrap'>● {state}</span></div>"
             f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
-            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception} · ×{snap.speed:g}"
-            f"{' · layout edited' if snap.layout_edited else ''}</div>"
+            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception}"
+            f" · ×{snap.speed:g}{extras}</div>"
             "<table style='width:100%;font-size:0.85em;margin-top:4px;"
-            "font-variant-numeric:tabular-nums'><tr>"
-            f"<td>d<sub>t</sub> {_fmt(d_t, 'm')}</td><td>d<sub>o</sub> "
-            f"{_fmt(d_o, 'm') if math.isfinite(d_o) else 'none'}</td>"
+            "font-variant-numeric:tabular-nums;white-space:nowrap'><tr>"
+            f"<td>d<sub>t</sub> {_fmt(d_t, 'm')}{mark}</td><td>d<sub>o</sub> "
+            f"{_fmt(d_o, 'm') + mark if math.isfinite(d_o) else 'none'}</td>"
             f"<td>V<sub>L</sub> {_fmt(v_l, 'V', 1)}</td></tr><tr>"
-            f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}</td><td>φ<sub>o</sub> {_fmt(phi_o, 'rad')}</td>"
+            f"<td>φ<sub>t</sub> {_fmt(phi_t, 'rad')}{mark}</td><td>φ<sub>o</sub> "
+            f"{_fmt(phi_o, 'rad') + mark if math.isfinite(phi_o) else 'none'}</td>"
             f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table></div>"
         )
 
@@ -1382,7 +1798,7 @@ class ViewerServer:
             )
             paper_cell = (
                 (
-                    f"<td style='text-align:right;color:#64748b'>"
+                    f"<td style='text-align:right;color:#64748b;white-space:nowrap'>"
                     f"{_fmt(paper.get(key), unit, 3) if key else ''}</td>"
                 )
                 if paper
@@ -1400,11 +1816,12 @@ class ViewerServer:
                     }.get(label, "")
                 )
                 ghost_cell = (
-                    "<td style='text-align:right;color:#64748b'>"
+                    "<td style='text-align:right;color:#64748b;white-space:nowrap'>"
                     f"{html.escape(str(g)) if label == 'Outcome' and g else _fmt(g, unit, 3)}</td>"
                 )
             body.append(
-                f"<tr><td>{label}</td><td style='text-align:right'>{shown}</td>{ghost_cell}"
+                f"<tr><td>{label}</td><td style='text-align:right;white-space:nowrap'>{shown}</td>"
+                f"{ghost_cell}"
                 f"{paper_cell}</tr>"
             )
         note = (
@@ -1419,7 +1836,8 @@ class ViewerServer:
             "MAD and RMSE are distances from the straight start–target line.</div>"
         )
         return (
-            "<table style='width:100%;font-size:0.85em;font-variant-numeric:tabular-nums'>"
+            "<table style='width:100%;font-size:"
+            f"{'1.1em' if self.presentation else '0.85em'};font-variant-numeric:tabular-nums'>"
             + head
             + "".join(body)
             + "</table>"
@@ -1441,15 +1859,61 @@ class ViewerServer:
         self.plot_angle.data = (t, rows[:, 3], rows[:, 4])
         self.plot_voltage.data = (t, rows[:, 5], rows[:, 6])
 
-    def _system_uid(self, fis) -> str:
+    def _system_uid(self, fis, labels, output_labels) -> str:
         """An id prefix for this system's SVG definitions (new when the system changes)."""
         key = id(fis)
         if key != self._system_key:
             self._system_key = key
             self._system_count += 1
             self._uid = f"fz{self._system_count}"
-            self.defs_html.content = views.defs_html(fis, self._uid)
+            self.defs_html.content = views.defs_html(fis, self._uid, labels, output_labels)
         return self._uid
+
+    @staticmethod
+    def _output_weights(info) -> dict | None:
+        """fuzzynav's blocks: the weight its arbitration gives each output now (alpha to
+        the avoidance block, 1 - alpha to the goal block); None for a plain system."""
+        state = info.get("state") or {}
+        try:
+            alpha = float(state["avoidance weight alpha"])
+        except (KeyError, TypeError, ValueError):
+            return None
+        return {
+            name: (alpha if name.startswith("avoid") else 1.0 - alpha)
+            for name in info["output_names"]
+        }
+
+    def _draw_timeline(self, snap: Snapshot) -> None:
+        """The rule-firing strip of this run, with a cursor at the time shown (the live
+        end, or the time slider's step). Redrawn every TIMELINE_PERIOD_S while playing."""
+        import base64
+
+        now = time.perf_counter()
+        key = (snap.run_id, snap.controller_label, round(snap.time_s, 2))
+        if key == self._timeline_key or (snap.playing and now < self._next_timeline):
+            return
+        self._timeline_key = key
+        self._next_timeline = now + TIMELINE_PERIOD_S
+        line = self.app.firing_timeline()
+        if line is None:
+            self._set_html(self.timeline_html, "")
+            return
+        times, strengths = line
+        png = base64.b64encode(views.timeline_png(times, strengths)).decode()
+        t0, t1 = float(times[0]), float(times[-1])
+        where = 100.0 * (snap.time_s - t0) / (t1 - t0) if t1 > t0 else 100.0
+        self._set_html(
+            self.timeline_html,
+            "<div class='fz-timeline' style='font-family:system-ui,sans-serif;font-size:0.8em;"
+            "padding:0 6px'><b>Rules over this run</b> (a row per rule, rule 1 at the top; "
+            "orange: firing)<div style='position:relative'>"
+            f"<img src='data:image/png;base64,{png}' style='width:100%;height:60px;"
+            "display:block;image-rendering:pixelated;border:1px solid #cbd5e1'/>"
+            f"<div class='fz-timeline-cursor' style='position:absolute;top:0;bottom:0;"
+            f"left:{min(max(where, 0.0), 100.0):.1f}%;width:2px;background:#0f172a'></div></div>"
+            "<div style='display:flex;justify-content:space-between;color:#475569'>"
+            f"<span>{t0:.1f} s</span><span>{t1:.1f} s</span></div></div>",
+        )
 
     def _draw_inference(self, snap: Snapshot) -> None:
         info = self.app.teaching()
@@ -1469,19 +1933,33 @@ class ViewerServer:
             )
             return
         fis = info["fis"]
-        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.presentation)
+        only_firing = bool(self.firing_only_cb.value)
+        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.presentation, only_firing)
         if key == self._last_inference:
             return
         self._last_inference = key
-        uid = self._system_uid(fis)
         labels = list(info["input_names"])
+        notes = {}
         if info.get("state") is not None and "phi_t" in labels:
             # fuzzynav's goal block is fed the planner's bearing, not the target's.
-            labels[labels.index("phi_t")] = "phi_plan (planned bearing)"
+            labels[labels.index("phi_t")] = "phi_plan"
+            notes["phi_plan"] = (
+                "the bearing fuzzynav's planner steers to, fed to its goal block "
+                "(not the target bearing φ_t of the status line)"
+            )
+        uid = self._system_uid(fis, labels, info["output_names"])
         inf = views.infer(fis, info["inputs"], labels, info["output_names"])
         self._set_html(
             self.inference_html,
-            views.inference_html(inf, uid=uid, large=self.presentation, crisp=info["state"]),
+            views.inference_html(
+                inf,
+                uid=uid,
+                large=self.presentation,
+                crisp=info["state"],
+                only_firing=only_firing,
+                weights=self._output_weights(info),
+                notes=notes,
+            ),
         )
 
     # -- control surfaces ---------------------------------------------------------------
@@ -1493,20 +1971,10 @@ class ViewerServer:
         if fis is not None and fis.n_inputs == 4 and not hasattr(inner, "teaching_view"):
             names = fis.input_names
             ranges = [tuple(v.range) for v in fis.inputs]
-            d_t_range = (0.0, min(ranges[0][1], 12.0))
             held = np.array([5.0, np.nan, 0.0, np.nan])
             d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
             return [
-                (
-                    f"{names[0]}, {names[2]} with no obstacle sensed",
-                    fis,
-                    0,
-                    2,
-                    d_t_range,
-                    (-math.pi, math.pi),
-                    held,
-                    "wheels",
-                ),
+                self._custom_plane(fis),
                 (
                     f"{names[1]}, {names[3]} with the target 5 m ahead",
                     fis,
@@ -1542,22 +2010,21 @@ class ViewerServer:
     def _draw_surface(self, snap: Snapshot) -> None:
         inner = self.app.controller.inner
         key = (id(getattr(inner, "fis", None)), id(inner))
-        if key != self._surface_key:
+        if self._surface_key is None or key != self._surface_key:
             self._surface_key = key
             self._surface_planes = self._surface_planes_for(inner)
             self.surface_html.content = self._surface_html(snap)
         markers = {}
-        d_t, d_o, phi_t, phi_o = snap.inputs
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
         for p, plane in enumerate(self._surface_planes):
             title, fis, xi, yi, x_range, y_range, held, kind = plane
             if kind == "block":
                 info = self.app.teaching()
                 x = info["inputs"] if info is not None else np.full(2, np.nan)
                 vx, vy = float(x[xi]), float(x[yi])
-            elif xi == 0:
-                vx, vy = d_t, phi_t
             else:
-                vx, vy = d_o, phi_o
+                values = (d_t, d_o, phi_t, phi_o)
+                vx, vy = values[xi], values[yi]
             where = views.marker_fraction(vx, vy, x_range, y_range)
             for k in range(2):
                 markers[f"fz-op{p}{k}"] = where
@@ -1580,7 +2047,8 @@ class ViewerServer:
                 left, right = out[..., 0], out[..., 1]
                 fields = [
                     ("speed = (left + right) / 2 (V)", 0.5 * (left + right)),
-                    ("turn = right − left (V, + = to the left)", right - left),
+                    # as fuzzynav's command has it: left = speed - turn, right = speed + turn
+                    ("turn = (right − left) / 2 (V)", 0.5 * (right - left)),
                 ]
             else:
                 fields = [(f"{fis.output_names[k]}", out[..., k]) for k in range(2)]
@@ -1588,21 +2056,35 @@ class ViewerServer:
             for k, (label, values) in enumerate(fields):
                 limit = float(np.nanmax(np.abs(values))) or 1.0
                 png = base64.b64encode(views.surface_png(values, limit)).decode()
+                x_ticks = "".join(
+                    f"<span class='fz-xtick'>{v:.3g}</span>" for v in np.linspace(*x_range, 5)
+                )
+                y_ticks = "".join(
+                    f"<span class='fz-ytick'>{v:.2g}</span>"
+                    for v in np.linspace(y_range[1], y_range[0], 5)
+                )
                 cells.append(
                     "<div style='flex:1;min-width:0'>"
                     f"<div style='font-size:0.8em;font-weight:600'>{html.escape(label)}</div>"
-                    "<div style='position:relative'>"
+                    "<div style='display:flex;gap:2px'>"
+                    "<div style='display:flex;flex-direction:column;justify-content:space-between;"
+                    f"font-size:0.65em;color:#475569;text-align:right'>{y_ticks}</div>"
+                    "<div style='position:relative;flex:1;min-width:0'>"
                     f"<img src='data:image/png;base64,{png}' style='width:100%;display:block;"
                     "image-rendering:pixelated;border:1px solid #cbd5e1'/>"
                     f"<div id='fz-op{p}{k}' class='fz-op' style='position:absolute;display:none;"
                     "width:12px;height:12px;margin:-6px 0 0 -6px;border-radius:50%;"
-                    "border:2px solid #111;background:#facc15'></div></div>"
-                    f"<div style='font-size:0.7em;color:#475569;display:flex;"
-                    f"justify-content:space-between'><span>{x_range[0]:.1f}</span>"
-                    f"<span>{html.escape(fis.input_names[xi])} →</span><span>{x_range[1]:.1f}</span></div>"
-                    f"<div style='font-size:0.7em;color:#475569'>colour: −{limit:.1f} (blue) … "
-                    f"+{limit:.1f} (red); {html.escape(fis.input_names[yi])} from "
-                    f"{y_range[0]:.2f} (bottom) to {y_range[1]:.2f} (top)</div></div>"
+                    "border:2px solid #111;background:#facc15'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'>{x_ticks}</div></div></div>"
+                    f"<div style='font-size:0.7em;color:#475569;text-align:center'>"
+                    f"{html.escape(fis.input_names[xi])} → ; ↑ {html.escape(fis.input_names[yi])}"
+                    "</div>"
+                    "<div class='fz-colour-bar' style='height:8px;margin-top:2px;border:1px solid "
+                    "#cbd5e1;background:linear-gradient(to right,#2563eb,#ffffff,#dc2626)'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'><span>−{limit:.1f}</span><span>0</span>"
+                    f"<span>+{limit:.1f} V</span></div></div>"
                 )
             blocks.append(
                 f"<div style='font-weight:600;margin-top:6px'>{html.escape(title)}</div>"
@@ -1611,5 +2093,7 @@ class ViewerServer:
         return (
             "<div class='fz-surface' style='font-family:system-ui,sans-serif;font-size:0.9em;"
             "padding:0 6px'>The crisp outputs over two inputs, the others held; the yellow "
-            "dot is where the robot is now." + "".join(blocks) + "</div>"
+            "dot is where the robot is now. A positive turn turns to the left."
+            + "".join(blocks)
+            + "</div>"
         )

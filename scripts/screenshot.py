@@ -42,6 +42,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "img" / "viewer.png")
     parser.add_argument("--presentation", action="store_true", help="presentation mode on")
     parser.add_argument(
+        "--what-if", action="store_true", help="what-if mode on, phi_t set to -1.0 rad"
+    )
+    parser.add_argument(
         "--all", action="store_true", help="the guide's screenshots (three views, two sizes)"
     )
     args = parser.parse_args(argv)
@@ -53,10 +56,11 @@ def main(argv=None) -> int:
             ("surface", "Surface", 1920, 1080, False),
             ("editor", "Editor", 1280, 800, False),
             ("editor", "Editor", 1920, 1080, False),
+            ("whatif", "Inference", 1280, 800, "what-if"),
         ]
-        for view, tab, width, height, presentation in shots:
+        for view, tab, width, height, mode in shots:
             out = ROOT / "docs" / "img" / f"viewer-{view}-{width}.png"
-            extra = ["--presentation"] if presentation else []
+            extra = {True: ["--presentation"], "what-if": ["--what-if"]}.get(mode, [])
             code = main(
                 [
                     "--tab",
@@ -117,6 +121,10 @@ def main(argv=None) -> int:
                 page.get_by_role("checkbox", name="Presentation mode (large type)").click()
             if args.tab:
                 page.get_by_role("tab", name=args.tab).click()
+            if args.what_if:
+                app.start_what_if()
+                app.set_what_if_input(2, -1.0)
+                page.get_by_text("What-if", exact=True).click()
             page.wait_for_timeout(1500)  # let the panels and the scene catch up
             args.out.parent.mkdir(parents=True, exist_ok=True)
             page.screenshot(path=str(args.out))

@@ -469,7 +469,7 @@ def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
     assert app.check_target() is None
     app.move_target((4.1, 4.0))
     warning = app.check_target()
-    assert warning is not None and "inside static obstacle obstacles[0]" in warning
+    assert warning is not None and "inside static obstacle obstacle 1 " in warning
     assert app.snapshot().message == warning and app.snapshot().message_level == "warning"
     app.move_target((4.0, 4.3))  # 0.1 m off its surface: outside, still out of reach
     assert "cannot be reached" in app.check_target()
@@ -620,3 +620,231 @@ def test_geometry_switch_restarts_as_the_paper_point_robot(app):
     assert snap.pose[2] == 0.0
     with pytest.raises(ViewerError):
         app.set_geometry("round")
+
+
+# -- issue 27: the defects a class found ----------------------------------------------------
+
+
+def run_to_end(a: ViewerApp) -> None:
+    while not a.sim.done:
+        a.step_once()
+
+
+def test_the_previous_run_keeps_the_label_of_what_drove_it(served):
+    """Defect 3: after paper ran to the end, switching to fuzzynav labelled the grey
+    trail "fuzzynav"; a part switched or an Editor edit did the same; and "This run"
+    kept its starting label after a switch mid-run."""
+    a = served.app
+    a.set_controller("paper")
+    a.set_speed(10.0)
+    run_to_end(a)
+    a.set_controller("fuzzynav")  # after the end: the run restarts, paper's is the ghost
+    assert a.ghost.label == "s1 · paper · ideal", a.ghost.label
+    assert a.run_label == "s1 · fuzzynav · ideal"
+    # the Result panel says so
+    deadline = time.monotonic() + 10
+    while "Previous run (grey trail): s1 · paper · ideal" not in served.result.content:
+        assert time.monotonic() < deadline, served.result.content
+        time.sleep(0.05)
+    # a part switched after the end: the ghost is the run with the part on
+    run_to_end(a)
+    a.set_part("edge following", False)
+    assert a.ghost.label == "s1 · fuzzynav · ideal", a.ghost.label
+    assert a.run_label == "s1 · fuzzynav without edge following · ideal"
+    a.set_part("edge following", True)
+    # an Editor edit after the end: the ghost is the shipped paper's run
+    a.set_controller("paper")
+    run_to_end(a)
+    a.set_membership_parameter("d_t.w1", a.editor().value("d_t.w1") + 0.3)
+    assert a.ghost.label == "s1 · paper · ideal" and a.run_label == "s1 · paper (edited) · ideal"
+    # a switch mid-run is part of this run's label, with its time
+    for _ in range(100):
+        a.step_once()
+    a.set_controller("p")
+    assert a.run_label == "s1 · paper (edited) · ideal; from 2.0 s: p · ideal", a.run_label
+    a.reset()
+    assert a.ghost.label == "s1 · paper (edited) · ideal; from 2.0 s: p · ideal"
+
+
+def test_a_scenario_change_drops_the_previous_run(served):
+    """Defect 4: after loading another scenario, s1's ghost was drawn in the new arena
+    and its numbers compared with the new scenario's."""
+    a = served.app
+    for _ in range(200):
+        a.step_once()
+    a.reset()
+    assert a.ghost is not None
+    a.restore_layout()  # the same scenario: the ghost stays
+    assert a.ghost is not None
+    deadline = time.monotonic() + 10
+    while not served.ghost_node.visible:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    a.load_scenario("crossing")
+    assert a.ghost is None and a.snapshot().ghost is None
+    deadline = time.monotonic() + 10
+    while served.ghost_node.visible or "previous" in served.result.content:
+        assert time.monotonic() < deadline, served.result.content
+        time.sleep(0.05)
+
+
+def test_disturbance_and_noise_are_said_and_a_disturbed_input_is_marked(served):
+    """Defect 9: neither the status line nor the run label said that the inputs were
+    disturbed or noisy, and a disturbed value ("d_o -0.50 m") carried no mark."""
+    a = served.app
+    a.set_disturbance(True)
+    a.set_noise(0.05)
+    for _ in range(60):
+        a.step_once()
+    snap = a.snapshot()
+    assert snap.inputs_disturbed
+    status = served._status_html(snap)
+    assert "disturbed by 1·sin(2t)" in status and "noise σ 0.05 m" in status
+    assert status.count("includes the disturbance") >= 2  # d_t and phi_t at least
+    assert "from 0.0 s" not in a.run_label
+    assert a.run_label == "s1 · p · ideal · disturbed by 1·sin(2t) · noise σ 0.05 m", a.run_label
+    a.set_disturbance(False)
+    a.step_once()
+    snap = a.snapshot()
+    assert not snap.inputs_disturbed
+    assert "includes the disturbance" not in served._status_html(snap)
+    assert "from 1.2 s: p · ideal · noise σ 0.05 m" in a.run_label, a.run_label
+    a.set_noise(0.0)
+    # s3's disturbance acts from 25 to 35 s only: before it, no mark
+    a.load_scenario("s3")
+    a.step_once()
+    snap = a.snapshot()
+    assert "disturbed by 1·sin(2t) for 25-35 s" in served._status_html(snap)
+    assert not snap.inputs_disturbed
+
+
+def test_after_a_collision_a_drag_is_judged_against_the_start(app):
+    """Defect 10: after a run ended in a collision, ending a drag warned "Obstacle 1 is
+    on the robot: Play will end in a collision at once", though Play restarts from the
+    start. Obstacles are named as the arena labels them (obstacle k+1, defect 11)."""
+    app.add_obstacle((1.5, 0.0), 0.3)  # in the robot's way
+    run_to_end(app)
+    assert app.sim.outcome == "collided"
+    assert app.obstacles_on_robot()  # it stands against the obstacle ...
+    ox = app.sim.arena.obstacles[max(app.sim.arena.obstacles)]
+    app.move_obstacle(ox.id, (1.5, 0.1))  # ... and a drag ends there
+    assert app.check_target() is None, app.message
+    assert "on the robot" not in app.message
+    # dropped on the start, it is said, with the number the arena shows
+    app.move_obstacle(ox.id, (0.2, 0.0))
+    warning = app.check_target()
+    number = app.obstacle_number(ox.id)
+    assert number == len(app.sim.arena.obstacles)  # the last of the layout
+    assert warning == (
+        f"Obstacle {number} is on the robot's start: the next run will end in a collision "
+        "at once. Drag it off the start."
+    )
+    app.play()  # and so it does
+    assert app.wait_for(lambda a: a.sim.done, timeout=10)
+    assert app.sim.outcome == "collided" and app.sim.time_s < 0.2
+
+
+def test_obstacles_have_one_name_everywhere(app):
+    """Defect 11: "Obstacle 0" in one message, "obstacles[1]" in another, and the arena
+    labelled neither. Now the k-th obstacle of the layout is "obstacle k" everywhere."""
+    app.move_target((4.1, 4.0))  # s1's first obstacle (obstacles[0] in the file)
+    assert "inside static obstacle obstacle 1 " in app.check_target()
+    assert app.snapshot().obstacle_numbers == {
+        i: k + 1 for k, i in enumerate(app.sim.arena.obstacles)
+    }
+    first = min(app.sim.arena.obstacles)
+    x, y, _ = app.sim.arena.pose
+    app.move_target((8.0, 8.0))
+    app.move_obstacle(first, (x, y))
+    assert app.check_target().startswith("Obstacle 1 is on the robot:")
+
+
+def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
+    """Defect 5: a drag in one tab while another pressed Reset logged, at every further
+    drag message, "RuntimeError: Cannot assign to 'position' on a removed
+    TransformControlsHandle", and the end-of-drag check was skipped. The drag callback
+    is the server's own, fed the events viser gives it."""
+    import asyncio
+    from types import SimpleNamespace
+
+    a = served.app
+    first = min(a.sim.arena.obstacles)
+    key = (a.run_id, first)
+    deadline = time.monotonic() + 10
+    while key not in served._obstacle_nodes:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    node = served._obstacle_nodes[key]
+    on_drag = served._make_body_drag(node["name"], first, node["handle"])
+    ox, oy = a.sim.arena.obstacles[first].position_at(0.0)
+
+    def event(phase, to):
+        return SimpleNamespace(
+            client=object(), phase=phase, start_position=(ox, oy, 0.5), end_position=to
+        )
+
+    asyncio.run(on_drag(event("start", (ox, oy, 0.5))))
+    asyncio.run(on_drag(event("update", (ox - 0.5, oy, 0.5))))
+    a.reset()  # another tab
+    deadline = time.monotonic() + 10
+    while not node["handle"]._impl.removed:  # the render loop drew the new run
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    x, y, _ = a.sim.arena.pose
+    asyncio.run(on_drag(event("update", (ox - 1.0, oy, 0.5))))
+    asyncio.run(on_drag(event("end", (x, y, 0.5))))  # dropped on the robot
+    assert a.sim.arena.obstacles[first].position_at(0.0) == pytest.approx((x, y))
+    # the end-of-drag check ran
+    assert a.message.startswith("Obstacle 1 is on the robot:"), a.message
+    assert node["name"] not in served._dragging
+    err = capfd.readouterr().err
+    assert "Cannot assign" not in err and "Traceback" not in err, err
+
+
+def test_a_fallback_is_alarmed_about_only_when_its_output_counts():
+    """Defect 6: fuzzynav's avoidance outputs fall back whenever nothing is near; that
+    is worth a red line only when the arbitration gives them weight."""
+    from fuzzynav.app import viewer_views as views
+
+    a = ViewerApp("s1", "fuzzynav")
+    for _ in range(5):
+        a.step_once()
+    info = a.teaching()
+    inf = views.infer(info["fis"], info["inputs"], None, info["output_names"])
+    assert inf.fallback == [False, False, True, True]
+    idle = {"goal_speed": 1.0, "goal_turn": 1.0, "avoid_speed": 0.0, "avoid_turn": 0.0}
+    text = views.inference_html(inf, weights=idle)
+    assert "fz-fallback" not in text and "does not steer" in text and ">unused<" in text
+    weighed = dict(idle, avoid_speed=0.3, avoid_turn=0.3)
+    text = views.inference_html(inf, weights=weighed)
+    assert "No rule concludes on avoid_speed, avoid_turn: fallback" in text
+    assert ">fallback<" in text
+
+
+def test_run_history_replays_a_step_and_play_goes_on_from_the_live_end():
+    """The time slider's model: a recorded step gives back that step's pose, inputs and
+    inference (fuzzynav: what its blocks were fed then); Play leaves it and the run goes
+    on from where it really is; a reset empties it."""
+    a = ViewerApp("s1", "fuzzynav")
+    seen = []
+    for _ in range(100):
+        a.step_once()
+        seen.append((a.sim.time_s, a.sim.arena.pose, a.teaching()["inputs"].copy()))
+    t, pose, block_inputs = seen[39]
+    assert a.view_history(t + 0.004) == pytest.approx(t)
+    snap = a.snapshot()
+    assert snap.history and snap.time_s == pytest.approx(t) and snap.pose == pose
+    assert np.array_equal(a.teaching()["inputs"], block_inputs)
+    assert a.sim.time_s == pytest.approx(2.0)
+    a.start()
+    try:
+        a.play()
+        assert a.history_index is None
+        assert a.wait_for(lambda x: x.sim.time_s > 2.2, timeout=10)
+        a.pause()
+    finally:
+        a.stop()
+    a.reset()
+    assert a.history_times() == (0.0, 0.0)
+    with pytest.raises(ViewerError, match="nothing recorded"):
+        a.view_history(1.0)

@@ -1,0 +1,151 @@
+"""``fuzzynav serve --classroom``: every tab drives a world of its own.
+
+Each tab that connects gets its own :class:`app.viewer.ViewerApp` (its robot, its drags,
+its controller) and its own scene and panels (a :class:`app.viewer_ui.ViewerServer` on
+the tab's client-scoped viser API, :class:`app.viewer_ui.ClientSurface`). A tab that
+types the teacher's token (printed at start) in its **Teacher** folder can push its
+scenario (with its layout as edited) and settings to every other tab.
+
+The worlds are built one after the other on a thread of their own, not on viser's
+worker threads: forty tabs joining at once then wait their turn for their page, while
+every tab already there keeps its buttons.
+"""
+
+from __future__ import annotations
+
+import queue
+import secrets
+import threading
+
+import viser
+
+from fuzzynav.app.origin_guard import guarded_server_start
+from fuzzynav.app.viewer import ViewerError
+
+
+class ClassroomServer:
+    """The viser server of a classroom: one world per tab (see the module doc)."""
+
+    def __init__(self, make_app, host: str = "127.0.0.1", port: int = 8080, token=None):
+        self.make_app = make_app  # () -> a new ViewerApp
+        self.host = host
+        self.token = token or secrets.token_urlsafe(6)
+        with guarded_server_start(host):
+            self.server = viser.ViserServer(host=host, port=port, label="fuzzynav", verbose=False)
+        self.port = self.server.get_port()
+        self.sessions: dict = {}  # client id -> ViewerServer
+        self.teachers: set[int] = set()
+        self._lock = threading.Lock()
+        self._queue: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        self._builder = threading.Thread(
+            target=self._build_loop, name="fuzzynav-classroom", daemon=True
+        )
+        self._builder.start()
+        self.server.on_client_connect(lambda client: self._queue.put(("connect", client)))
+        self.server.on_client_disconnect(self._on_disconnect)
+
+    def _on_disconnect(self, client) -> None:
+        with self._lock:
+            view = self.sessions.get(client.client_id)
+        if view is not None:
+            view._stop.set()  # no more frames for a closed tab; its world ends below
+        self._queue.put(("disconnect", client))
+
+    @property
+    def url(self) -> str:
+        host = "127.0.0.1" if self.host in ("", "0.0.0.0") else self.host
+        return f"http://{'[' + host + ']' if ':' in host else host}:{self.port}"
+
+    def _build_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                kind, client = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            try:
+                if kind == "connect":
+                    self._open(client)
+                else:
+                    self._close(client.client_id)
+            except Exception as exc:  # one tab's trouble must not end the class
+                print(f"fuzzynav classroom: tab {client.client_id}: {exc}", flush=True)
+
+    def _open(self, client) -> None:
+        from fuzzynav.app.viewer_ui import ClientSurface, ViewerServer
+
+        if client.client_id not in self.server.get_clients():
+            return  # gone before its turn
+        view = ViewerServer(self.make_app(), surface=ClientSurface(self.server, client))
+        self._add_teacher_folder(view, client.client_id)
+        with self._lock:
+            self.sessions[client.client_id] = view
+        if client.client_id not in self.server.get_clients():  # left while being built
+            self._close(client.client_id)
+
+    def _close(self, client_id: int) -> None:
+        with self._lock:
+            view = self.sessions.pop(client_id, None)
+            self.teachers.discard(client_id)
+        if view is not None:
+            view.stop()
+
+    def _add_teacher_folder(self, view, client_id: int) -> None:
+        gui = view.server.gui
+        with gui.add_folder("Teacher", expand_by_default=False, order=1000.0):
+            box = gui.add_text("Teacher's token", "", hint="printed by fuzzynav serve --classroom")
+            push = gui.add_button(
+                "Push my world's setup to the class",
+                visible=False,
+                hint="Every tab restarts in this tab's scenario, layout and settings",
+            )
+
+        def on_token(event) -> None:
+            if event.client is None:
+                return
+            if secrets.compare_digest(str(box.value), self.token):
+                with self._lock:
+                    self.teachers.add(client_id)
+                push.visible = True
+                view._tell(
+                    event.client, "You are the teacher: you can push to the class.", "success"
+                )
+            elif box.value:
+                view._tell(event.client, "That is not the teacher's token.", "error")
+
+        def on_push(event) -> None:
+            if event.client is None:
+                return
+            try:
+                n = self.push_from(client_id)
+            except ViewerError as exc:
+                view._tell(event.client, str(exc), "error")
+                return
+            view._tell(event.client, f"Pushed to {n} tab{'s' if n != 1 else ''}.", "success")
+
+        box.on_update(on_token)
+        push.on_click(on_push)
+        view.teacher_token_box, view.teacher_push = box, push
+
+    def push_from(self, client_id: int) -> int:
+        """The teacher's scenario (as edited) and settings to every other tab's world;
+        returns how many tabs took them."""
+        with self._lock:
+            if client_id not in self.teachers:
+                raise ViewerError("only the teacher's tab can push to the class")
+            source = self.sessions[client_id].app
+            others = [v for cid, v in self.sessions.items() if cid != client_id]
+        settings = source.settings()
+        for view in others:
+            view.app.apply_settings(settings)
+        return len(others)
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._builder.join(timeout=5.0)
+        with self._lock:
+            views = list(self.sessions.values())
+            self.sessions.clear()
+        for view in views:
+            view.stop()
+        self.server.stop()

@@ -1,0 +1,284 @@
+"""The viewer with many tabs at once, driven by scripted websocket clients.
+
+A scripted client speaks viser's own protocol (no browser): it opens the websocket with
+the viser version as subprotocol, sends a camera message (viser counts a client as
+connected from its first camera message, as a browser tab sends one as soon as its
+canvas exists), reads everything the server sends, and can press a GUI button the way
+the page does (a ``GuiUpdateMessage``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+import time
+
+import msgspec
+import pytest
+import viser
+import websockets
+from viser import _messages as messages
+
+from fuzzynav.app.viewer import ViewerApp
+
+pytestmark = pytest.mark.timeout(180)
+
+
+class ScriptedClients:
+    """Websocket clients on an event loop of their own (a thread)."""
+
+    def __init__(self, url: str):
+        self.ws_url = url.replace("http://", "ws://")
+        self.loop = asyncio.new_event_loop()
+        self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self.thread.start()
+        self.sockets: list = []
+        self.received = []  # bytes received per client
+        self.tasks = []
+
+    def _run(self, coro, timeout=60.0):
+        return asyncio.run_coroutine_threadsafe(coro, self.loop).result(timeout)
+
+    async def _one(self, width: int, height: int):
+        ws = await websockets.connect(
+            self.ws_url,
+            subprotocols=[f"viser-v{viser.__version__}"],
+            max_size=None,
+            open_timeout=60,
+        )
+        camera = messages.ViewerCameraMessage(
+            wxyz=(1.0, 0.0, 0.0, 0.0),
+            position=(0.0, 0.0, 20.0),
+            fov=0.78,
+            near=0.01,
+            far=1000.0,
+            image_height=height,
+            image_width=width,
+            look_at=(0.0, 0.0, 0.0),
+            up_direction=(0.0, 0.0, 1.0),
+        )
+        await ws.send(msgspec.msgpack.encode(camera.as_serializable_dict()))
+        k = len(self.received)
+        self.received.append(0)
+
+        async def read():
+            try:
+                async for frame in ws:
+                    self.received[k] += len(frame)
+            except websockets.ConnectionClosed:
+                pass
+
+        self.tasks.append(asyncio.ensure_future(read()))
+        self.sockets.append(ws)
+        return ws
+
+    def connect(self, n: int, width: int = 900, height: int = 700) -> list:
+        """Open ``n`` clients at once (concurrently); returns their websockets."""
+
+        async def many():
+            return await asyncio.gather(*(self._one(width, height) for _ in range(n)))
+
+        return self._run(many())
+
+    def press(self, ws, handle, value) -> None:
+        """What the page sends when a button (of a button group: ``value``) is clicked."""
+        message = messages.GuiUpdateMessage(uuid=handle._impl.uuid, updates={"value": value})
+        self._run(ws.send(msgspec.msgpack.encode(message.as_serializable_dict())))
+
+    def close(self) -> None:
+        async def close_all():
+            await asyncio.gather(*(ws.close() for ws in self.sockets), return_exceptions=True)
+            for task in self.tasks:
+                task.cancel()
+
+        try:
+            self._run(close_all(), timeout=30)
+        finally:
+            self.loop.call_soon_threadsafe(self.loop.stop)
+            self.thread.join(timeout=10)
+            self.loop.close()
+
+
+@pytest.fixture
+def served():
+    from fuzzynav.app.viewer_ui import ViewerServer
+
+    server = ViewerServer(ViewerApp("s1", "p"), port=0)
+    yield server
+    server.stop()
+
+
+def wait_until(predicate, timeout: float) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return predicate()
+
+
+def test_forty_tabs_joining_at_once_do_not_stall_another_tabs_buttons(served, capfd):
+    """Defect 2: each new tab held one of viser's 32 worker threads for 20 s (a polling
+    loop in the connect callback), so after 32 joined, every button of every tab waited
+    for a free thread (a Speed click took 18 s). Now a press from another tab takes
+    effect within a second while 40 tabs join together, and nothing is logged."""
+    clients = ScriptedClients(served.url)
+    try:
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(served.server.get_clients()) == 1, 30)
+        served.app.play()
+        started = time.perf_counter()
+        clients.connect(40)
+        joined = time.perf_counter() - started
+        assert wait_until(lambda: len(served.server.get_clients()) == 41, 30)
+        # every new tab has been given the page: the scene and the panels
+        assert wait_until(lambda: min(clients.received[1:]) > 10_000, 30), clients.received
+        # the class has joined; a tab presses Speed 0.25 at once
+        pressed = time.perf_counter()
+        clients.press(teacher, served.speed, "0.25")
+        assert wait_until(lambda: served.app.speed == 0.25, 10)
+        latency = time.perf_counter() - pressed
+        # and again a little later (a click queued behind the joiners would show here)
+        time.sleep(0.5)
+        pressed = time.perf_counter()
+        clients.press(teacher, served.speed, "3")
+        assert wait_until(lambda: served.app.speed == 3.0, 10)
+        latency = max(latency, time.perf_counter() - pressed)
+        with capfd.disabled():
+            print(f"\n40 clients joined in {joined:.2f} s; button latency {latency:.3f} s")
+        assert latency < 1.0, latency
+        assert joined < 10.0, joined
+        # the world kept running for everyone
+        t = served.app.sim.time_s
+        assert served.app.wait_for(lambda a: a.sim.time_s > t + 0.3, timeout=10)
+    finally:
+        clients.close()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err and "Error" not in err, err[-3000:]
+
+
+@pytest.fixture
+def classroom():
+    from fuzzynav.app.viewer_classroom import ClassroomServer
+
+    server = ClassroomServer(lambda: ViewerApp("s1", "p"), port=0, token="teach-me")
+    yield server
+    server.stop()
+
+
+def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(classroom, capfd):
+    """``--classroom``: every tab has its own world (Play in one does not move the
+    other's robot); a tab that types the teacher's token can push its scenario and
+    settings, and every other world takes them."""
+    clients = ScriptedClients(classroom.url)
+    try:
+        first, _ = clients.connect(1)[0], clients.connect(1)[0]
+        assert wait_until(lambda: len(classroom.sessions) == 2, 30), classroom.sessions
+        (a, b) = (classroom.sessions[k] for k in sorted(classroom.sessions))
+        assert a.app is not b.app
+        clients.press(first, a.run_buttons, "Play")
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.5, timeout=10), a.app.sim.time_s
+        assert b.app.sim.time_s == 0.0 and not b.app.playing, b.app.sim.time_s  # it stays
+        # the second tab drags its target: the first's stays
+        b.app.move_target((3.0, -2.0))
+        assert a.app.sim.arena.target.tolist() == [8.0, 8.0]
+        # a third tab, the teacher's: crossing with fuzzynav and noise, then push
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 3, 30), classroom.sessions
+        t = classroom.sessions[max(classroom.sessions)]
+        assert not t.teacher_push.visible
+        clients.press(teacher, t.teacher_token_box, "wrong")
+        with pytest.raises(Exception, match="only the teacher"):
+            classroom.push_from(max(classroom.sessions))
+        clients.press(teacher, t.teacher_token_box, "teach-me")
+        assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
+        clients.press(teacher, t.scenario_dd, "crossing")
+        clients.press(teacher, t.controller_dd, "fuzzynav")
+        assert t.app.wait_for(
+            lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
+        ), (t.app.scenario_label, t.app.controller_label, t.app.message)
+        t.app.set_noise(0.05)
+        clients.press(teacher, t.teacher_push, True)
+        for view in (a, b):
+            assert view.app.wait_for(
+                lambda x: (
+                    x.scenario_label == "crossing"
+                    and x.controller_label == "fuzzynav"
+                    and x.noise_std_m == 0.05
+                    and x.sim.time_s == 0.0
+                ),
+                timeout=20,
+            ), (view.app.scenario_label, view.app.controller_label)
+        # still independent after the push
+        clients.press(first, a.run_buttons, "Step")
+        assert a.app.wait_for(lambda x: x.sim.time_s > 0.0, timeout=10), a.app.message
+        assert b.app.sim.time_s == 0.0, b.app.sim.time_s
+    finally:
+        clients.close()
+    assert wait_until(lambda: not classroom.sessions, 30), classroom.sessions  # ends with its tab
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]
+
+
+def test_forty_tabs_joining_a_classroom_do_not_stall_the_tabs_already_there(classroom, capfd):
+    clients = ScriptedClients(classroom.url)
+    try:
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 1, 30)
+        (view,) = classroom.sessions.values()
+        view.app.play()
+        clients.connect(40)
+        assert wait_until(lambda: len(classroom.server.get_clients()) == 41, 30)
+        latency = 0.0
+        for value, speed in (("0.25", 0.25), ("3", 3.0)):
+            pressed = time.perf_counter()
+            clients.press(teacher, view.speed, value)
+            assert wait_until(lambda s=speed: view.app.speed == s, 10)
+            latency = max(latency, time.perf_counter() - pressed)
+            time.sleep(0.3)
+        built = len(classroom.sessions)
+        with capfd.disabled():
+            print(f"\nclassroom: button latency {latency:.3f} s while {built} of 41 worlds built")
+        assert latency < 1.0, latency
+        assert wait_until(lambda: len(classroom.sessions) == 41, 120)  # all get their world
+    finally:
+        clients.close()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]
+
+
+def test_serve_classroom_prints_the_token_and_refuses_rrd(tmp_path, capsys):
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from fuzzynav.app.cli import build_parser, main
+
+    assert build_parser().parse_args(["serve", "--classroom"]).classroom
+    assert not build_parser().parse_args(["demo"]).classroom
+    assert main(["serve", "--classroom", "--port", "0", "--rrd", str(tmp_path / "x.rrd")]) == 2
+    assert "--classroom" in capsys.readouterr().err
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fuzzynav.app.cli", "serve", "s2", "--classroom", "--port", "0"],
+        cwd=Path(__file__).resolve().parents[1],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+    )
+    try:
+        lines = []
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any("fuzzynav viewer: http" in x for x in lines):
+            lines.append(proc.stdout.readline())
+            assert proc.poll() is None, "".join(lines)
+        text = "".join(lines)
+        assert "classroom mode" in text and "the teacher's token (Teacher folder): " in text
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0 and "stopped, port released" in out, out
