@@ -604,9 +604,6 @@ class ViewerApp:
             self.ghost_id += 1
         # A new run: what was said about the last one (its outcome) no longer holds.
         self.message, self.message_level = "", "info"
-        if self.geometry == "paper" and scenario.paper_heading_rad is not None:
-            # s1-s3 start, in the paper's geometry, at the fitted initial heading.
-            scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
         self.sim.reset(seed=self.seed, scenario=scenario)
         self._apply_disturbance_locked()
         self._layout = [

@@ -10,7 +10,8 @@ import pytest
 from fuzzynav.app.runs import run_scenario
 from fuzzynav.app.tuning import read_vector
 from fuzzynav.controller.fuzzy import FuzzySystem
-from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, PaperTunable, paper_controller
+from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, paper_controller
+from fuzzynav.controller.paper_design import PaperDesignTunable
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.controller.tuning import Tunable, tunable
 
@@ -79,7 +80,9 @@ def test_shipped_file_differs_from_first_design_only_in_membership_parameters():
     assert shipped.rules == first.rules and shipped.n_points == first.n_points
     for a, b in zip(shipped.inputs + shipped.outputs, first.inputs + first.outputs):
         assert (a.name, a.range, a.term_names) == (b.name, b.range, b.term_names)
-    assert "fuzzynav tune" in PAPER_RULES.read_text(encoding="utf-8").split("[system]")[0]
+    assert (
+        "Reproduce with: fuzzynav " in PAPER_RULES.read_text(encoding="utf-8").split("[system]")[0]
+    )
 
 
 def test_sign_convention_target_left_speeds_up_right_wheel():
@@ -105,8 +108,8 @@ def test_sign_convention_obstacle_left_turns_right():
 
 
 def test_tunable_protocol_and_construction():
-    t = tunable("paper")  # the layout the Husky geometry's rules/paper.toml was tuned in
-    assert isinstance(t, Tunable) and isinstance(t, PaperTunable)
+    t = tunable("paper")  # the layout rules/paper.toml was fitted in
+    assert isinstance(t, Tunable) and isinstance(t, PaperDesignTunable)
     names, bounds, x0 = t.parameter_names(), t.bounds(), t.initial_vector()
     assert len(names) == len(bounds) == len(x0) == len(set(names))
     lo, hi = np.array(bounds).T
@@ -123,7 +126,7 @@ def test_tunable_protocol_and_construction():
         tunable("nope")
 
 
-def test_the_shipped_husky_rule_base_is_its_tuned_vector():
+def test_the_shipped_rule_base_is_its_tuned_vector():
     """rules/paper.toml's header vector (6 digits) rebuilds the shipped system."""
     t = tunable("paper")
     vector = read_vector(PAPER_RULES, t.parameter_names())
