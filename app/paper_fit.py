@@ -250,7 +250,11 @@ class FitCost:
     s1-s3 in the Husky geometry in both perception modes against its bounds."""
 
     def __init__(
-        self, control_period_s: float = 0.05, stall_s: float | None = 15.0, husky: bool = False
+        self,
+        control_period_s: float = 0.05,
+        stall_s: float | None = 15.0,
+        husky: bool = False,
+        husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
     ):
         from fuzzynav.controller.paper_design import PaperDesignTunable
         from fuzzynav.world.husky import HuskyModel
@@ -259,6 +263,7 @@ class FitCost:
         self.control_period_s = control_period_s
         self.stall_s = stall_s
         self.husky = husky
+        self.husky_perception = tuple(husky_perception)
         self.paper = paper_results()
         self.model = HuskyModel.default()  # one plant: its ZOH matrices are computed once
 
@@ -285,7 +290,7 @@ class FitCost:
             paper = self.measure_all(vector)
             cost = sum(run_cost(m, self.paper) for m in paper) + story_cost(paper)
             if self.husky:
-                for perception in HUSKY_PERCEPTION:
+                for perception in self.husky_perception:
                     runs = self.measure_all(vector, "husky", perception)
                     cost += sum(husky_cost(m, self.paper) for m in runs)
             return float(cost)
@@ -313,11 +318,12 @@ def fit(
     checkpoint=None,
     sigma0: float = 0.15,
     husky: bool = False,
+    husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
 ):
     """Fit the 12 design numbers (:mod:`fuzzynav.controller.paper_design`) with a seeded
     CMA-ES (:func:`fuzzynav.app.cmaes.cmaes`) from ``x0`` with step ``sigma0`` (a
-    fraction of each bound's span), ``popsize`` candidates a generation; returns
-    (x, cost, generations, evaluations)."""
+    fraction of each bound's span), ``popsize`` candidates a generation, never worse than
+    ``x0``; returns (x, cost, generations, evaluations)."""
     import multiprocessing
 
     from fuzzynav.app.cmaes import cmaes
@@ -326,7 +332,7 @@ def fit(
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     bounds = tunable.bounds()
-    cost = FitCost(control_period_s, husky=husky)
+    cost = FitCost(control_period_s, husky=husky, husky_perception=husky_perception)
     start = tunable.initial_vector() if x0 is None else np.asarray(x0, float)
 
     def report(generation, best_f, best_x, sigma):
@@ -336,7 +342,7 @@ def fit(
             on_generation(generation, best_f)
 
     if workers == 1:
-        return cmaes(
+        x, best, nit, nfev = cmaes(
             cost,
             bounds,
             start,
@@ -347,8 +353,17 @@ def fit(
             lambda f, xs: [f(x) for x in xs],
             report,
         )
-    with multiprocessing.get_context("spawn").Pool(workers) as pool:
-        return cmaes(cost, bounds, start, sigma0, maxiter, popsize, seed, pool.map, report)
+    else:
+        with multiprocessing.get_context("spawn").Pool(workers) as pool:
+            x, best, nit, nfev = cmaes(
+                cost, bounds, start, sigma0, maxiter, popsize, seed, pool.map, report
+            )
+    # Never worse than the start: a search from a good vector whose samples all lose
+    # returns that vector (one more evaluation; the search itself is unchanged).
+    start_cost = cost(start)
+    if start_cost <= best:
+        return start.copy(), float(start_cost), nit, nfev + 1
+    return x, best, nit, nfev + 1
 
 
 def residual_table(vector, control_period_s: float = 0.02) -> list[dict]:
@@ -431,12 +446,18 @@ def cmd_fit_paper(args) -> int:
         checkpoint=args.checkpoint,
         sigma0=args.sigma,
         husky=args.husky,
+        husky_perception=tuple(args.husky_perception.split(",")),
     )
     elapsed = time.perf_counter() - started
     command = (
         f"fuzzynav fit-paper --maxiter {args.maxiter} --popsize {args.popsize} "
         f"--seed {args.seed} --dt {args.dt:g} --workers {args.workers} --sigma {args.sigma:g}"
         + (" --husky" if args.husky else "")
+        + (
+            f" --husky-perception {args.husky_perception}"
+            if args.husky and args.husky_perception != ",".join(HUSKY_PERCEPTION)
+            else ""
+        )
         + (f" --x0 {args.x0.name}" if args.x0 is not None else "")
     )
     header = (
@@ -501,7 +522,13 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--husky",
         action="store_true",
-        help="also hold s1-s3 in the Husky geometry (both perception modes) to its bounds",
+        help="also hold s1-s3 in the Husky geometry to its bounds",
+    )
+    p.add_argument(
+        "--husky-perception",
+        choices=("ideal,ultrasonic", "ideal", "ultrasonic"),
+        default="ideal,ultrasonic",
+        help="with --husky: the perception modes of its runs (default both)",
     )
     p.add_argument(
         "--checkpoint",
