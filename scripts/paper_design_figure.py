@@ -32,7 +32,7 @@ PANELS = [
     ("left", "Fig. 10: left wheel voltage", "v."),
     ("right", "Fig. 11: right wheel voltage", "v."),
 ]
-D_T_SHOWN_M = 16.0  # d_t's terms are flat beyond VL's corner; the scenarios start at 11.3 m
+D_T_SHOWN_M = 30.0  # the whole universe: VL holds 1 from its upper corner on
 
 
 def tuned_numbers(path: Path) -> dict[str, float]:

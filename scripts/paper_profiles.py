@@ -2,7 +2,7 @@
 
 For the shipped rule base's 12 numbers (its ``# tuned vector:`` line), evaluates the
 cost of ``fuzzynav fit-paper`` (app/paper_fit.py, the same options as the shipped file's
-command: 0.05 s control period, with ``--husky``) at the fitted vector and with one
+command: 0.05 s control period, ``--husky --husky-perception ideal``) at the fitted vector and with one
 number at a time multiplied by 0.9 and 1.1 (clipped to its bounds, so the design rules
 still hold: a clipped step says so). A number whose moves barely change the cost is one
 the paper's results leave free. Writes a JSON file and prints a Markdown table.
@@ -32,6 +32,7 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--dt", type=float, default=0.05)
     parser.add_argument("--no-husky", action="store_true")
+    parser.add_argument("--husky-perception", default="ideal")
     parser.add_argument("--out", type=Path, default=Path("docs/data/paper_profiles.json"))
     args = parser.parse_args()
     tunable = PaperDesignTunable()
@@ -45,7 +46,11 @@ def main() -> None:
             v[k] = float(np.clip(x[k] * factor, lo[k], hi[k]))
             vectors.append(v)
             labels.append((name, "clipped" if v[k] != x[k] * factor else "", v[k]))
-    cost = FitCost(args.dt, husky=not args.no_husky)
+    cost = FitCost(
+        args.dt,
+        husky=not args.no_husky,
+        husky_perception=tuple(args.husky_perception.split(",")),
+    )
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
         values = pool.map(cost, vectors)
     base = values[0]
@@ -73,7 +78,13 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(
         json.dumps(
-            {"rules": args.rules.name, "dt_s": args.dt, "fitted_cost": base, "profiles": rows},
+            {
+                "rules": args.rules.name,
+                "dt_s": args.dt,
+                "husky_perception": None if args.no_husky else args.husky_perception,
+                "fitted_cost": base,
+                "profiles": rows,
+            },
             indent=1,
         )
         + "\n",

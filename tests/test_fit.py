@@ -109,7 +109,7 @@ def test_the_shipped_rule_base_is_rebuilt_from_its_own_header():
     np.testing.assert_allclose(
         read_toml(PAPER_RULES).parameter_vector(),
         PaperDesignTunable().system(vector).parameter_vector(),
-        atol=1e-5,  # the header prints 6 significant digits
+        rtol=2e-5,  # the header prints 6 significant digits; d_t's centres sum powers of r
     )
     header = PAPER_RULES.read_text(encoding="utf-8").split("[system]")[0]
     assert "Reproduce with: fuzzynav fit-paper " in header
