@@ -15,7 +15,6 @@ the ones it can) run on the pymunk engine, one task per run, and the command say
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Sequence
 
@@ -54,11 +53,7 @@ def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | N
 def _scenario(job):
     from fuzzynav.world.layouts import generate_layout
 
-    scenario = generate_layout(job.family, job.seed, job.index)
-    if dict(job.options).get("geometry") == "paper" and scenario.paper_heading_rad is not None:
-        # as app.runs.build_simulation: the paper's geometry starts at its fitted heading
-        scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
-    return scenario
+    return generate_layout(job.family, job.seed, job.index)
 
 
 def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:
@@ -231,13 +226,6 @@ def run_layouts(
 
     indices = list(range(n)) if indices is None else [int(i) for i in indices]
     scenarios = [generate_layout(family, seed, i) for i in indices]
-    if geometry == "paper":
-        scenarios = [
-            dataclasses.replace(s, heading_rad=s.paper_heading_rad)
-            if s.paper_heading_rad is not None
-            else s
-            for s in scenarios
-        ]
     if isinstance(controller, str):
         ctrl = batch_controller(make_controller(controller, geometry=geometry))
     elif isinstance(controller, (list, tuple)):
@@ -331,10 +319,13 @@ def batch_mapper(objective, probe_vector, executor, cost_function, stall_s: floa
     return mapper, None
 
 
-def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
+def fit_measures(
+    fit_cost, scenario_names, vectors, geometry: str = "paper", perception: str = "ideal"
+) -> list[list[dict] | None]:
     """:meth:`app.paper_fit.FitCost.measure_all` of every vector on the batch engine:
-    every candidate x s1-s3 in one batch (the paper's point robot, ideal perception,
-    the fit's period, cap and stall rule); None for a vector that builds no system."""
+    every candidate x s1-s3 in one batch (``geometry`` and ``perception``, each
+    scenario's own start heading, the fit's period, cap and stall rule); None for a
+    vector that builds no system."""
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.world.batch import run_batch
@@ -345,13 +336,13 @@ def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
     for k, vector in enumerate(vectors):
         vector = np.asarray(vector, dtype=float)
         try:
-            system = fit_cost.tunable.system(vector[:-1])
+            system = fit_cost.tunable.system(vector)
         except ValueError:
             continue
         built.append(k)
         controllers.append(FisController(system, name="paper"))
         for name in scenario_names:
-            scenario = dataclasses.replace(load_scenario(name), heading_rad=float(vector[-1]))
+            scenario = load_scenario(name)
             if fit_cost.stall_s is not None:  # as app.paper_fit.run_paper_geometry
                 scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
             scenarios.append(scenario)
@@ -361,8 +352,9 @@ def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
     result = run_batch(
         scenarios,
         batch_controller(controllers, run_sets),
-        perception="ideal",
-        geometry="paper",
+        perception=perception,
+        geometry=geometry,
+        seeds=0,
         control_period_s=fit_cost.control_period_s,
         model=fit_cost.model,
         stall_s=fit_cost.stall_s,
@@ -380,6 +372,7 @@ def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
             "mad_m": m["mad_m"],
             "rmse_m": m["rmse_m"],
             "min_center_distance_m": m["min_center_distance_m"],
+            "min_clearance_m": m.get("min_clearance_m"),
             "passes": [
                 (
                     float(result.closest_center_time_s[i, j]),
@@ -398,25 +391,31 @@ def fit_measures(fit_cost, scenario_names, vectors) -> list[list[dict] | None]:
     return out
 
 
-def fit_costs(fit_cost, run_cost, scenario_names, vectors) -> list[float]:
-    """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine
-    (``run_cost``, ``scenario_names``: app.paper_fit's, given by the caller so that this
-    module does not import it; top level: a pool task)."""
+def fit_costs(fit_cost, vectors, scenario_names=("s1", "s2", "s3")) -> list[float]:
+    """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine in
+    every mode of :meth:`~app.paper_fit.FitCost.modes` and combined by its
+    :meth:`~app.paper_fit.FitCost.combine` (so that this module does not import
+    paper_fit; top level: a pool task)."""
+    per_mode = [
+        fit_measures(fit_cost, scenario_names, vectors, geometry, perception)
+        for geometry, perception in fit_cost.modes()
+    ]
     costs = []
-    for measures in fit_measures(fit_cost, scenario_names, vectors):
-        if measures is None:
+    for k in range(len(vectors)):
+        measured = [mode[k] for mode in per_mode]
+        if any(m is None for m in measured):
             costs.append(1e6)  # as FitCost: a candidate that cannot run
         else:
-            costs.append(sum(run_cost(m, fit_cost.paper) for m in measures))
+            costs.append(fit_cost.combine(measured))
     return costs
 
 
-def fit_mapper(fit_cost, run_cost, scenario_names, pool_map=None, workers: int = 1):
-    """A map-like ``mapper(function, vectors)`` for the fit's CMA-ES or DE: a whole
-    generation as one batch (or one per worker through ``pool_map``)."""
+def fit_mapper(fit_cost, pool_map=None, workers: int = 1):
+    """A map-like ``mapper(function, vectors)`` for the fit's CMA-ES: a whole generation
+    as one batch (or one per worker through ``pool_map``)."""
     import functools
 
-    task = functools.partial(fit_costs, fit_cost, run_cost, tuple(scenario_names))
+    task = functools.partial(_fit_costs_task, fit_cost)
 
     def mapper(_function, vectors):
         vectors = list(vectors)
@@ -427,6 +426,10 @@ def fit_mapper(fit_cost, run_cost, scenario_names, pool_map=None, workers: int =
         return [cost for part in pool_map(task, parts) for cost in part]
 
     return mapper
+
+
+def _fit_costs_task(fit_cost, vectors) -> list[float]:
+    return fit_costs(fit_cost, vectors)
 
 
 def add_engine_option(parser) -> None:

@@ -357,12 +357,13 @@ COMMAND_DOCS = {
     ),
     "fit-paper": (
         "Reconstruct the paper controller's membership functions (not printed in the "
-        "paper) and the unstated initial heading by fitting s1-s3, run in the paper's "
-        "point-robot geometry, to the paper's Table 4 and the events of its section 4. "
-        "Long: tens of minutes on two cores.",
+        "paper) from 12 design numbers that keep the design rules, by fitting s1-s3, run "
+        "in the paper's point-robot geometry from the scenarios' start, to the paper's "
+        "Table 4, the events and the story of its section 4 (--husky: and to the Husky "
+        "geometry's bounds). Long: tens of minutes on two cores.",
         [
             "fuzzynav fit-paper --maxiter 2 --popsize 2 --out trial.toml",
-            "fuzzynav fit-paper --seed 1 --out paper_table4.toml",
+            "fuzzynav fit-paper --husky --seed 1 --out paper.toml",
         ],
     ),
     "demo": (

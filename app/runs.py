@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
@@ -47,17 +46,14 @@ def build_simulation(
     stop_on_collision: bool = True,
     geometry: str = "husky",
 ) -> Simulation:
-    """A simulation from user choices. In the paper's geometry the scenario starts at its
-    ``paper_heading_rad`` when it has one (the fitted initial heading of s1-s3), and
-    ``--controller paper`` drives with the rule base fitted in that geometry."""
+    """A simulation from user choices; both geometries start from the scenario's own
+    pose."""
     check_geometry(geometry, perception)
     if not isinstance(scenario, Scenario):
         # the start is checked against the robot that drives: the paper's geometry is a
         # point robot, so a layout valid for it is not refused for the Husky's footprint
         footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
         scenario = load_scenario(scenario, footprint_m=footprint)
-    if geometry == "paper" and scenario.paper_heading_rad is not None:
-        scenario = dataclasses.replace(scenario, heading_rad=scenario.paper_heading_rad)
     ctrl = (
         controller_object
         if controller_object is not None

@@ -776,9 +776,6 @@ class ViewerApp:
         self.what_if = None
         self.history_index = None
         self._history = []
-        if self.geometry == "paper" and scenario.paper_heading_rad is not None:
-            # s1-s3 start, in the paper's geometry, at the fitted initial heading.
-            scenario = scenario.replace(heading_rad=scenario.paper_heading_rad)
         self.sim.reset(seed=self.seed, scenario=scenario)
         self._apply_disturbance_locked()
         self._layout = [

@@ -1,9 +1,10 @@
 """Edit the paper controller's membership functions while it drives.
 
-The sliders move the numbers of the layout the shipped rule base was made in: the
-partition layout of :mod:`fuzzynav.controller.paper_partition` for the paper geometry's
-``rules/paper_table4.toml``, the 27-number layout of
-:class:`fuzzynav.controller.paper.PaperTunable` for the Husky's ``rules/paper.toml``.
+The sliders move the numbers of a layout that can rebuild the shipped rule base: the
+partition layout of :mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
+:class:`fuzzynav.controller.paper.PaperTunable` (the shipped ``rules/paper.toml`` of issue
+25 is drawn from the 12 numbers of :mod:`fuzzynav.controller.paper_design`, which this
+editor does not offer yet, so it starts from the tuner's starting point and says so).
 Both build their shapes from positive widths, so that however a slider is moved, every
 shape stays valid and the terms stay in their order. The partition layout leaves no
 input uncovered; in the 27-number one a slider can open a hole (its Z and P terms may

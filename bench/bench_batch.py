@@ -184,8 +184,6 @@ def crosscheck(n: int) -> dict:
         for family in FAMILIES:
             for i in range(per):
                 sc = generate_layout(family, 11, i)
-                if geometry == "paper" and sc.paper_heading_rad is not None:
-                    sc = sc.replace(heading_rad=sc.paper_heading_rad)
                 scenarios.append(sc)
         batch = run_batch(
             scenarios,

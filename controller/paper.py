@@ -1,44 +1,33 @@
 """The paper's controller: Table 1's 40 rules with our membership functions.
 
-The rules, ranges, term names and shape kinds are the paper's; the membership
+The rules, ranges, term names and shape families are the paper's; the membership
 parameters are ours (the paper's figures are missing) and live in
-``assets/rules/paper.toml`` (the Husky geometry's), produced by ``fuzzynav tune`` (the
-command is in that file's header, its start is ``assets/paper/husky_start.toml``, and
-docs/paper-controller.md tells the stages before it).
-``assets/rules/paper_first_design.toml`` keeps the hand-made first design the first
-tuning started from.
+``assets/rules/paper.toml``: one rule base for both geometries, the Husky's footprint and
+the paper's point robot. Its membership functions are drawn from the 12 numbers of
+:mod:`fuzzynav.controller.paper_design` (what ``fuzzynav tune --controller paper`` and
+``fuzzynav fit-paper`` search), so they keep the design rules of
+:mod:`fuzzynav.controller.design_rules`; the command that made it is in its header and
+docs/paper-controller.md tells the stages.
+``assets/rules/paper_first_design.toml`` keeps the hand-made first design (the template
+of rules, ranges and names every layout fills in).
 
-Tuning parametrisation (:class:`PaperTunable`, 27 numbers). Every variable is laid out
-by a few ordered "anchor" points built from positive widths, so that every shape is
-valid and the terms stay in the paper's order by construction:
+:class:`PaperTunable` is the earlier 27-number layout, kept because the viewer's editor
+can still read rule bases written in it; its shapes can break the design rules (holes,
+spikes, terms that never reach 1), which is why the shipped rule base no longer uses it.
+Its description:
 
 * ``d_t`` (5): anchors a0 < a1 < a2 < a3 < a4 (a0 and four widths);
   VS = linzmf[a0, a1], S = trimf[a0, a1, a2], M = gaussmf[(a3 - a1)/4.71, a2],
-  L = trimf[a2, a3, a4], VL = linsmf[a3, a4]. (sigma = half the mean neighbour
-  distance / 1.1774: the Gaussian is 0.5 half-way to its neighbours' peaks.)
+  L = trimf[a2, a3, a4], VL = linsmf[a3, a4].
 * ``d_o`` (3): b0 < b1 < b2; near = linzmf[b0, b1], medium = gaussmf[(b2 - b0)/4.71, b1],
   far = linsmf[b1, b2].
 * ``phi_t`` (4) and ``phi_o`` (5), symmetric left/right: peak p, width w, zero half-width
   z, foot f (a fraction of p); VN = linzmf[-(p + w), -p], N = trimf[-(p + w), -p, -f p],
-  Z = trimf[-z, 0, z], P = trimf[f p, p, p + w], VP = linsmf[p, p + w]. Z is a triangle,
-  not a Gaussian: a Gaussian Z never vanishes, so "Z -> both wheels VL" kept firing at a
-  few per cent at large bearings, and the wide VL set it clips pulled the slow wheel up
-  and killed the turn. With f > 0 only Z
-  fires for a small bearing, so the robot drives straight and fast when roughly aligned
-  instead of hovering between "Z: full speed" and "P: hard turn". For ``phi_o`` a fourth number, the tail
-  t, makes VP = trimf[p, p + w, p + w + t] (VN mirrored): an obstacle further round
-  than p + w + t (behind the robot) fires no obstacle rule, instead of Table 1's
-  "VP -> go straight" that would fight the target rules.
-* outputs ``left`` and ``right`` (10, shared: the rules are mirror images): VS =
-  linzmf[e, e + r_vs]; S, M, L = triangles with ordered centres c_S = e + o_S,
-  c_M = c_S + o_M, c_L = c_M + o_L and half-widths of their own; VL = linsmf[c_L + o_VL,
-  c_L + o_VL + r_VL]. Each term has its own width because the centroid weighs a clipped
-  set by its AREA: with Table 1, "turn" rules (VS on one wheel, M on the other) compete
-  with "go" rules (L or VL on both wheels) that fire at the same time, and wide L/VL
-  sets wash the difference out. Narrow, high L and VL sets still give full speed when
-  they fire alone (the 12 V saturation follows). No Gaussian on the outputs: a Gaussian
-  never vanishes, so a rule firing at 0.01 clips it into a thin slab over the whole range
-  and that slab drags the centroid (the first design's M did).
+  Z = trimf[-z, 0, z], P = trimf[f p, p, p + w], VP = linsmf[p, p + w]; for ``phi_o`` a
+  tail t makes VP = trimf[p, p + w, p + w + t] (VN mirrored).
+* outputs ``left`` and ``right`` (10, shared): VS = linzmf[e, e + r_vs]; S, M, L =
+  triangles with ordered centres and half-widths of their own; VL = linsmf[c_L + o_VL,
+  c_L + o_VL + r_VL].
 """
 
 from __future__ import annotations
@@ -54,9 +43,8 @@ from fuzzynav.resources import asset_path
 ASSETS = asset_path("rules")
 PAPER_RULES = ASSETS / "paper.toml"
 FIRST_DESIGN = ASSETS / "paper_first_design.toml"
-#: Fitted in the paper's point-robot geometry to its Table 4 (``fuzzynav fit-paper``).
-PAPER_TABLE4_RULES = ASSETS / "paper_table4.toml"
-RULES_BY_GEOMETRY = {"husky": PAPER_RULES, "paper": PAPER_TABLE4_RULES}
+#: One rule base serves both geometries (docs/paper-controller.md shows the numbers).
+RULES_BY_GEOMETRY = {"husky": PAPER_RULES, "paper": PAPER_RULES}
 
 _K = 4.71  # 2 * sqrt(2 ln 2) * 2: Gaussian at 0.5 half-way to the neighbouring peaks
 
@@ -202,9 +190,9 @@ class PaperTunable(TableOneTunable):
 
 
 def tunable():
-    """What ``fuzzynav tune --controller paper`` tunes: the 27-number layout of the
-    Husky-geometry rule base (:class:`PaperTunable`), with a cost for holes in the
-    tuner (app/tuning.py). The paper-geometry fit (``fuzzynav fit-paper``) uses the
-    partition layout, :class:`fuzzynav.controller.paper_partition.PaperPartitionTunable`,
-    which has no holes by construction."""
-    return PaperTunable()
+    """What ``fuzzynav tune --controller paper`` tunes: the 12 design numbers of
+    :class:`fuzzynav.controller.paper_design.PaperDesignTunable`, the layout of the
+    shipped rule base (``fuzzynav fit-paper`` searches the same numbers)."""
+    from fuzzynav.controller.paper_design import PaperDesignTunable
+
+    return PaperDesignTunable()

@@ -114,8 +114,6 @@ def _layouts(family: str, first: int, n: int, geometry: str):
     out = []
     for i in range(first, first + n):
         sc = generate_layout(family, 7, i)
-        if geometry == "paper" and sc.paper_heading_rad is not None:
-            sc = sc.replace(heading_rad=sc.paper_heading_rad)
         out.append(sc.replace(duration_s=min(sc.duration_s, CAP_S)))
     return out
 
@@ -331,7 +329,7 @@ def test_sweep_engine_option_and_the_fallback_message(capsys):
 
 def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     from fuzzynav.app.batch_runs import fit_costs, objective_costs
-    from fuzzynav.app.paper_fit import SCENARIOS, FitCost, run_cost
+    from fuzzynav.app.paper_fit import FitCost
     from fuzzynav.app.tuning import STALL_S, Case, Objective, outcome_cost
     from fuzzynav.controller.tuning import tunable
     from fuzzynav.world.scenario import ObstacleSpec, load_scenario
@@ -348,6 +346,9 @@ def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     assert np.allclose(batch, [objective(v) for v in vectors], rtol=0, atol=1e-9)
     # the fit: the paper's point robot on s1-s3 with the stall rule, at a coarse period
     fit = FitCost(control_period_s=0.1)
-    vector = np.append(fit.tunable.initial_vector(), 0.3)
-    batch = fit_costs(fit, run_cost, SCENARIOS, [vector])
+    vector = fit.tunable.initial_vector()
+    batch = fit_costs(fit, [vector])
     assert batch == pytest.approx([fit(vector)], rel=1e-9)
+    # with the Husky geometry's runs too (both perception modes)
+    husky = FitCost(control_period_s=0.1, husky=True)
+    assert fit_costs(husky, [vector]) == pytest.approx([husky(vector)], rel=1e-9)

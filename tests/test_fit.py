@@ -12,9 +12,11 @@ from fuzzynav.app.paper_fit import (
     paper_results,
     read_fitted,
     run_cost,
+    story_cost,
 )
-from fuzzynav.controller.paper import PAPER_TABLE4_RULES
-from fuzzynav.controller.paper_partition import PARTITION_PARAMETERS, PaperPartitionTunable
+from fuzzynav.controller.design_rules import violations
+from fuzzynav.controller.paper import PAPER_RULES
+from fuzzynav.controller.paper_design import DESIGN_PARAMETERS, PaperDesignTunable
 from fuzzynav.controller.rulebase import read_toml
 
 
@@ -86,26 +88,42 @@ def test_the_papers_own_numbers_cost_nothing_and_any_arrival_beats_none():
     assert run_cost(worst, paper) < NOT_REACHED_COST <= run_cost(lost, paper)
 
 
-def test_the_shipped_fit_is_rebuilt_from_its_own_header():
-    vector, heading = read_fitted(PAPER_TABLE4_RULES)
-    assert len(vector) == len(PARTITION_PARAMETERS)
-    assert read_toml(PAPER_TABLE4_RULES) == PaperPartitionTunable().system(vector) or np.allclose(
-        read_toml(PAPER_TABLE4_RULES).parameter_vector(),
-        PaperPartitionTunable().system(vector).parameter_vector(),
-        atol=1e-5,  # the header prints 6 significant digits
+def test_the_story_costs_nothing_when_told_and_something_when_not():
+    def run(name, passes):
+        return {"scenario": name, "passes": passes}
+
+    told = [
+        run("s1", [(30.0, 0.46), (45.0, 0.29), (60.0, 0.26)]),
+        run("s2", [(29.0, 0.38), (61.0, 0.72)]),
+        run("s3", [(33.0, 0.63), (57.0, 0.73)]),
+    ]
+    assert story_cost(told) == 0.0
+    first_closest = [run("s1", [(30.0, 0.22), (45.0, 0.82), (60.0, 0.96)])] + told[1:]
+    s3_early = told[:2] + [run("s3", [(28.0, 0.63), (57.0, 0.73)])]
+    assert story_cost(first_closest) > 0.0 and story_cost(s3_early) > 0.0
+
+
+def test_the_shipped_rule_base_is_rebuilt_from_its_own_header():
+    vector = read_fitted(PAPER_RULES)
+    assert len(vector) == len(DESIGN_PARAMETERS)
+    np.testing.assert_allclose(
+        read_toml(PAPER_RULES).parameter_vector(),
+        PaperDesignTunable().system(vector).parameter_vector(),
+        rtol=2e-5,  # the header prints 6 significant digits; d_t's centres sum powers of r
     )
-    from fuzzynav.world.scenario import load_scenario
+    header = PAPER_RULES.read_text(encoding="utf-8").split("[system]")[0]
+    assert "Reproduce with: fuzzynav fit-paper " in header
 
-    assert all(load_scenario(s).paper_heading_rad == heading for s in ("s1", "s2", "s3"))
 
-
-def test_fit_paper_command_writes_a_rule_base_with_its_reproduce_line(tmp_path, capsys):
+def test_fit_paper_command_writes_a_design_valid_rule_base_with_its_reproduce_line(
+    tmp_path, capsys
+):
     out = tmp_path / "trial.toml"
     argv = ["fit-paper", "--maxiter", "1", "--popsize", "2", "--workers", "1", "--out", str(out)]
     assert main(argv + ["--json"]) == 0
     text = out.read_text(encoding="utf-8")
     assert "Reproduce with: fuzzynav fit-paper --maxiter 1 --popsize 2" in text
-    assert "initial_heading_rad=" in text
-    read_toml(out)  # a valid rule base
+    faults = violations(read_toml(out))  # what the fit writes keeps the design rules
+    assert faults == [], [str(f) for f in faults]
     assert main(["fit-paper", "--dt", "5", "--out", str(tmp_path / "x.toml")]) == 2
     assert main(["fit-paper", "--out", str(tmp_path / "no" / "x.toml")]) == 2

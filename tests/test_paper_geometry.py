@@ -108,12 +108,11 @@ def test_paper_geometry_refuses_range_sensors(capsys):
     assert main(["run", "s1", "--geometry", "round"]) == 2
 
 
-def test_paper_geometry_starts_s1_at_its_fitted_heading():
-    sim = build_simulation("s1", "p", geometry="paper")
-    scenario = sim.scenario
-    assert scenario.paper_heading_rad is not None
-    assert sim.arena.pose[2] == pytest.approx(scenario.paper_heading_rad)
-    assert build_simulation("s1", "p").arena.pose[2] == 0.0  # the Husky keeps heading_rad
+def test_both_geometries_start_s1_at_the_scenarios_heading():
+    """One start for both robots (a reading of the text, not a fitted number)."""
+    paper = build_simulation("s1", "p", geometry="paper")
+    husky = build_simulation("s1", "p")
+    assert paper.arena.pose[2] == husky.arena.pose[2] == paper.scenario.heading_rad
 
 
 def _read_trace(path):

@@ -32,7 +32,8 @@ def test_shipped_scenarios_match_the_paper():
     s1, s2, s3 = (load_scenario(n) for n in ("s1", "s2", "s3"))
     assert [o.position for o in s1.obstacles] == [(4.0, 4.0), (5.7, 5.0), (7.5, 6.4)]
     assert all(o.radius_m == 0.2 and o.is_static for o in s1.obstacles)
-    assert s1.start == (0.0, 0.0) and s1.target == (8.0, 8.0) and s1.heading_rad == 0.0
+    assert s1.start == (0.0, 0.0) and s1.target == (8.0, 8.0)
+    assert s1.heading_rad == pytest.approx(math.pi / 4)  # facing the target (issue 25)
     static, moving = s2.obstacles
     assert static.position == (4.0, 3.58) and static.is_static
     assert moving.position == (8.0, 8.0) and moving.radius_m == 0.3

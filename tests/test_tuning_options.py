@@ -54,7 +54,7 @@ def test_free_indices():
 def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     t = tunable("paper")
     names, x0 = t.parameter_names(), t.initial_vector()
-    free = free_indices(names, ["phi_o.peak", "d_o.b0"])
+    free = free_indices(names, ["phi_o.p", "d_o.near"])
     runs = [
         tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
         for _ in range(2)
@@ -168,7 +168,7 @@ def test_tune_cli_local_search(tmp_path, write_toml, capsys):
                 "--x0",
                 str(out),
                 "--free",
-                "d_o.b0",
+                "d_o.near",
                 "--maxiter",
                 "1",
                 "--workers",

@@ -160,7 +160,8 @@ def test_moving_the_target_changes_where_the_robot_goes():
         return np.array(a.sim.arena.pose[:2]), a
 
     reference, _ = drive()
-    moved, a = drive((8.0, -4.0))
+    # s1 starts facing the old target (pi/4): turning to the new one takes a few seconds
+    moved, a = drive((8.0, -4.0), steps=450)
     # The target moved from up-right to down-right of the start: so did the robot.
     assert reference[1] > 0.5 and moved[1] < -0.3, (reference, moved)
     assert np.linalg.norm(moved - np.array([8.0, -4.0])) < np.linalg.norm(
@@ -598,9 +599,9 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
 
 
 def test_geometry_switch_restarts_as_the_paper_point_robot(app):
-    """The paper's geometry: the point robot, the paper rule base fitted in it, s1's
-    fitted initial heading, and no sonars (ultrasonic is refused, switched to ideal)."""
-    from fuzzynav.controller.paper import PAPER_TABLE4_RULES
+    """The paper's geometry: the point robot, the paper rule base, s1's initial
+    heading, and no sonars (ultrasonic is refused, switched to ideal)."""
+    from fuzzynav.controller.paper import RULES_BY_GEOMETRY
     from fuzzynav.controller.rulebase import read_toml
     from fuzzynav.world.scenario import load_scenario
 
@@ -610,14 +611,14 @@ def test_geometry_switch_restarts_as_the_paper_point_robot(app):
     snap = app.snapshot()
     assert snap.geometry == "paper" and snap.perception == "ideal"
     assert snap.footprint_m == (0.0, 0.0)
-    assert app.controller.inner.fis == read_toml(PAPER_TABLE4_RULES)
-    assert snap.pose[2] == pytest.approx(load_scenario("s1").paper_heading_rad)
+    assert app.controller.inner.fis == read_toml(RULES_BY_GEOMETRY["paper"])
+    assert snap.pose[2] == pytest.approx(load_scenario("s1").heading_rad)
     with pytest.raises(ViewerError, match="ideal perception only"):
         app.set_perception("ultrasonic")
     app.set_geometry("husky")
     snap = app.snapshot()
     assert snap.geometry == "husky" and snap.footprint_m == (0.99, 0.67)
-    assert snap.pose[2] == 0.0
+    assert snap.pose[2] == pytest.approx(load_scenario("s1").heading_rad)
     with pytest.raises(ViewerError):
         app.set_geometry("round")
 

@@ -101,9 +101,6 @@ class Scenario:
     disturbance: Disturbance | None = None
     description: str = ""
     source: str = field(default="<memory>", compare=False)
-    #: The initial heading in the paper's geometry, when it differs from ``heading_rad``
-    #: (s1-s3: fitted, since the paper does not state it); None: ``heading_rad``.
-    paper_heading_rad: float | None = None
 
     def replace(self, **changes) -> Scenario:
         return replace(self, **changes)
@@ -113,12 +110,7 @@ class Scenario:
         data: dict[str, Any] = {
             "name": self.name,
             "duration_s": self.duration_s,
-            "robot": {"start": list(self.start), "heading_rad": self.heading_rad}
-            | (
-                {}
-                if self.paper_heading_rad is None
-                else {"paper_heading_rad": self.paper_heading_rad}
-            ),
+            "robot": {"start": list(self.start), "heading_rad": self.heading_rad},
             "target": {"position": list(self.target), "tolerance_m": self.tolerance_m},
             "obstacles": [
                 {
@@ -154,11 +146,6 @@ class Scenario:
             "[robot]",
             f"start = {_toml_list(self.start)}",
             f"heading_rad = {self.heading_rad!r}",
-            *(
-                []
-                if self.paper_heading_rad is None
-                else [f"paper_heading_rad = {self.paper_heading_rad!r}"]
-            ),
             "",
             "[target]",
             f"position = {_toml_list(self.target)}",
@@ -210,7 +197,7 @@ MAX_OBSTACLES = 1000
 #: integer anyway; Python cannot even print an integer of more than 4300 digits).
 _MAX_EXACT_INT = 2**63
 _TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
-_ROBOT_KEYS = {"start", "heading_rad", "paper_heading_rad"}
+_ROBOT_KEYS = {"start", "heading_rad"}
 _TARGET_KEYS = {"position", "tolerance_m"}
 _OBSTACLE_KEYS = {"position", "radius_m", "velocity", "acceleration"}
 _DISTURBANCE_KEYS = {"amplitude", "angular_frequency_rad_s", "start_s", "stop_s"}
@@ -315,13 +302,6 @@ def scenario_from_dict(
     heading = r.number(
         robot.get("heading_rad", 0.0), "robot.heading_rad", limit=1000.0, unit=" rad"
     )
-    paper_heading = (
-        None
-        if "paper_heading_rad" not in robot
-        else r.number(
-            robot["paper_heading_rad"], "robot.paper_heading_rad", limit=1000.0, unit=" rad"
-        )
-    )
 
     target_t = r.table(data["target"], "target", _TARGET_KEYS, {"position"})
     target = r.point(target_t["position"], "target.position")
@@ -404,7 +384,6 @@ def scenario_from_dict(
         disturbance=disturbance,
         description=description,
         source=source,
-        paper_heading_rad=paper_heading,
     )
     check_layout(scenario, footprint_m)
     return scenario
