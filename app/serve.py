@@ -90,8 +90,6 @@ def serve(
     from fuzzynav.app.viewer_ui import ViewerServer
 
     if classroom and rrd is not None:
-        from fuzzynav.app.cli import UsageError
-
         raise UsageError("--rrd records one world: it cannot be used with --classroom")
     rrd = _check_rrd(rrd)
     check_host(host)

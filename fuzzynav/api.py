@@ -250,6 +250,7 @@ def sweep(
     *,
     workers: int = 1,
     progress: Callable[[int, int], None] | None = None,
+    engine: str = "batch",
 ) -> list[dict]:
     """Run ``controller`` on ``n`` seeded random layouts of ``family``.
 
@@ -270,6 +271,10 @@ def sweep(
         Processes to spread the runs over (1: in this process).
     progress : callable, optional
         Called as ``progress(done, total)`` as runs finish.
+    engine : {"batch", "pymunk"}
+        ``batch``: the runs in lockstep as numpy arrays (world/batch.py; the command
+        line's default); ``pymunk``: one world at a time, the reference. Controllers the
+        batch engine cannot drive (fuzzynav) run on pymunk.
 
     Returns
     -------
@@ -293,6 +298,7 @@ def sweep(
             executor=executor,
             progress=progress,
             options=options,
+            engine=engine,
         )
     finally:
         executor.close()

@@ -340,7 +340,8 @@ def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     t = tunable("paper")
     cases = [Case(sc, "ideal", "tiny"), Case(sc, "ultrasonic", "tiny/u")]
     objective = Objective(t, cases, control_period_s=0.1)
-    _, vectors = _candidates(3, seed=5)
+    low, high = np.array(t.bounds()).T  # the paper tunable's own layout
+    vectors = low + (high - low) * np.random.default_rng(5).random((3, len(low)))
     batch = objective_costs(objective, outcome_cost, STALL_S, vectors)
     assert len(set(batch)) == 3  # the candidates' costs differ
     assert np.allclose(batch, [objective(v) for v in vectors], rtol=0, atol=1e-9)
