@@ -1185,18 +1185,32 @@ def command_line() -> str:
     return " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name] + sys.argv[1:])
 
 
-def reproduce_command(scenario, controller, perception, seed, control_period_s) -> str:
-    source = getattr(scenario, "source", "<memory>")
-    where = source if source and source != "<memory>" else "<scenario.toml from /meta/scenario>"
-    stem = Path(where).stem
-    if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
-        where = stem
-    from fuzzynav.app.cli import off_flag
+def reproduce_command(
+    scenario,
+    controller,
+    perception,
+    seed,
+    control_period_s,
+    *,
+    geometry: str = "husky",
+    noise_std_m: float = 0.0,
+    voltage_limit_v: float = 12.0,
+    parameters=None,
+):
+    """The run's :class:`app.runs.Reproduction`: the ``fuzzynav run`` command with every
+    option that changes the run, and what it cannot carry."""
+    from fuzzynav.app.runs import reproduce
 
-    off = off_flag(tuple(getattr(controller, "parts_off", None) or ()))
-    return (
-        f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)}{off} "
-        f"--perception {perception} --seed {seed} --dt {control_period_s:g}"
+    return reproduce(
+        scenario,
+        controller,
+        perception=perception,
+        seed=seed,
+        control_period_s=control_period_s,
+        geometry=geometry,
+        noise_std_m=noise_std_m,
+        voltage_limit_v=voltage_limit_v,
+        parameters=parameters,
     )
 
 
@@ -1225,6 +1239,7 @@ def _metadata(
     control_period_s,
     voltage_limit_v,
     extra_metadata,
+    geometry: str = "husky",
 ) -> None:
     """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
     /meta/robot (with the sensors)."""
@@ -1274,25 +1289,41 @@ def _metadata(
         for m in sensor_config.mounts
     ]
     doc("/meta/robot", "\n".join(robot) + "\n", markdown=False)
+    from fuzzynav.app.runs import scenario_digest
+
+    again = reproduce_command(
+        scenario,
+        controller,
+        perception,
+        seed,
+        control_period_s,
+        geometry=geometry,
+        noise_std_m=sensor_config.noise_std_m,
+        voltage_limit_v=voltage_limit_v,
+        parameters=parameters,
+    )
     run = {
         "scenario": scenario.name,
         "scenario file": getattr(scenario, "source", ""),
+        "scenario sha256": scenario_digest(scenario),
         "controller": controller_label(controller),
         "perception": perception,
+        "geometry": geometry,
         "seed": seed,
+        "sensor noise (m)": sensor_config.noise_std_m,
         "control period (s)": control_period_s,
         "voltage limit (V)": voltage_limit_v,
-        "reproduce": "`"
-        + reproduce_command(scenario, controller, perception, seed, control_period_s)
-        + "`",
-        "command line": "`" + command_line() + "`",
+        "reproduce": "`" + again.command + "`",
     }
+    if again.notes:
+        run["reproduce needs"] = "; ".join(again.notes)
+    run["command line"] = "`" + command_line() + "`"
     parts_off = tuple(getattr(inner, "parts_off", None) or ())
     if parts_off:  # fuzzynav with parts switched off (assets/rules/fuzzynav_parts.toml)
         run = {
-            **dict(list(run.items())[:3]),
+            **dict(list(run.items())[:4]),
             "parts off": ", ".join(parts_off),
-            **dict(list(run.items())[3:]),
+            **dict(list(run.items())[4:]),
         }
     for key, value in (extra_metadata or {}).items():
         run[str(key)] = value
@@ -1649,6 +1680,7 @@ def record_run(
             control_period_s=result.control_period_s,
             voltage_limit_v=voltage_limit_v,
             extra_metadata=extra,
+            geometry=getattr(result, "geometry", "husky"),
         )
         _metrics(writer.static, result.metrics, result.outcome)
         writer.send_heatmap(writer.static)
@@ -1801,6 +1833,7 @@ class LiveRecorder:
             control_period_s=sim.control_period_s,
             voltage_limit_v=sim.voltage_limit_v,
             extra_metadata=extra,
+            geometry=sim.geometry,
         )
 
     def update(self, sim, *, force: bool = False) -> int:
@@ -1921,12 +1954,20 @@ def add_run_options(parser) -> None:
         metavar="PATH",
         help="write a rerun recording of the run (open it with: rerun PATH)",
     )
+    from fuzzynav.app.runs import add_digest_options
+
+    add_digest_options(parser)
 
 
 def run_hook(args, sim):
     """``run --rrd PATH``: the recording is written when the run ends, whole, in place
     of any old file; after Ctrl-C the partial run goes to ``<stem>.partial.rrd`` (marked
-    interrupted inside) and PATH is left as it was."""
+    interrupted inside) and PATH is left as it was. First, with or without ``--rrd``,
+    ``--scenario-sha256`` and ``--fis-sha256`` (a recording's reproduce command) are
+    checked: a scenario or rule base other than the recorded one is refused."""
+    from fuzzynav.app.runs import check_digests
+
+    check_digests(args, sim)
     path = getattr(args, "rrd", None)
     if path is None:
         return None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 import tomllib
 from collections import defaultdict
 
@@ -371,7 +372,11 @@ def test_metadata_documents(s1_p):
     assert metrics["path_length_m"] == pytest.approx(result.metrics["path_length_m"])
     run = rec.text("/meta/run")
     assert "| seed | 0 |" in run and "ideal" in run and "p" in run
-    assert "fuzzynav run s1 --controller p --perception ideal --seed 0 --dt 0.02" in run
+    assert (
+        "`fuzzynav run s1 --controller p --perception ideal --geometry husky --seed 0 "
+        "--noise 0.0 --dt 0.02`" in run
+    )
+    assert "| geometry | husky |" in run and "| sensor noise (m) | 0 |" in run
     robot = rec.text("/meta/robot")
     assert f"c_m = {sim.model.parameters.c_m!r}" in robot
     assert "footprint_length_m" in robot
@@ -896,3 +901,162 @@ def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):
     assert "| parts off | echo memory, edge following |" in meta
     assert "--controller fuzzynav --off 'echo memory,edge following' " in meta
     assert "memory_s = 0.0" in rec.text("/meta/rules")
+
+
+# ---------------------------------------------------------------------------------------
+# The reproduce command (issue 28, defect 1): it repeats the run, whatever the options
+
+SHORT_SCENARIO = """name = "short run for the reproduce command"
+duration_s = 32.0
+
+[robot]
+start = [0.0, 0.0]
+heading_rad = 0.3
+paper_heading_rad = -0.4
+
+[target]
+position = [5.0, 1.5]
+tolerance_m = 0.15
+
+[[obstacles]]
+position = [2.5, -0.2]
+radius_m = 0.2
+
+[[obstacles]]
+position = [4.0, -2.5]
+radius_m = 0.25
+velocity = [0.0, 0.12]
+
+[disturbance]
+amplitude = 0.4
+angular_frequency_rad_s = 2.0
+start_s = 4.0
+stop_s = 8.0
+"""
+
+
+def _run_json(argv, capsys) -> dict:
+    assert main(argv) == 0, capsys.readouterr().err
+    row = json.loads(capsys.readouterr().out)
+    row.pop("wall_time_s")
+    return row
+
+
+def _reproduce_line(rrd) -> str:
+    return re.search(r"\| reproduce \| `([^`]*)` \|", Recording(rrd).text("/meta/run")).group(1)
+
+
+@pytest.fixture
+def short_scenario(tmp_path):
+    path = tmp_path / "short.toml"
+    path.write_text(SHORT_SCENARIO, encoding="utf-8")
+    return path
+
+
+REPRODUCE_CASES = {
+    "geometry paper": ["--geometry", "paper"],
+    "noise and seed": ["--perception", "ultrasonic", "--noise", "0.05", "--seed", "7"],
+    "control period": ["--dt", "0.05"],
+    "fuzzynav, a part off": ["--controller", "fuzzynav", "--off", "edge following"],
+    "baseline in the paper geometry": ["--controller", "baseline", "--geometry", "paper"],
+}
+
+
+@pytest.mark.parametrize("options", REPRODUCE_CASES.values(), ids=REPRODUCE_CASES.keys())
+def test_the_stored_reproduce_command_repeats_the_run(tmp_path, short_scenario, capsys, options):
+    """Run with an option that changes the run (it does: the trace differs from the
+    default run's), read the reproduce command back from the recording, run it: the same
+    metrics, the same trace to the last digit."""
+    base = [str(short_scenario), "--json"]
+    first = _run_json(
+        [
+            "run",
+            *base,
+            *options,
+            "--rrd",
+            str(tmp_path / "a.rrd"),
+            "--trace",
+            str(tmp_path / "a.csv"),
+        ],
+        capsys,
+    )
+    _run_json(["run", *base, "--trace", str(tmp_path / "default.csv")], capsys)
+    assert (tmp_path / "a.csv").read_text() != (tmp_path / "default.csv").read_text()
+    command = _reproduce_line(tmp_path / "a.rrd")
+    assert "reproduce needs" not in Recording(tmp_path / "a.rrd").text("/meta/run")
+    argv = shlex.split(command)
+    assert argv[:2] == ["fuzzynav", "run"]
+    again = _run_json([*argv[1:], "--json", "--trace", str(tmp_path / "b.csv")], capsys)
+    assert again == first
+    assert (tmp_path / "b.csv").read_text() == (tmp_path / "a.csv").read_text()
+
+
+def test_reproduce_names_a_fis_file_with_its_digest(tmp_path, short_scenario, capsys):
+    fis = tmp_path / "mine.fis"
+    assert main(["fis", "export", str(fis)]) == 0
+    capsys.readouterr()
+    rrd = tmp_path / "fis.rrd"
+    first = _run_json(
+        ["run", str(short_scenario), "--fis", str(fis), "--rrd", str(rrd), "--json"], capsys
+    )
+    argv = shlex.split(_reproduce_line(rrd))
+    assert argv[argv.index("--fis") + 1] == str(fis) and "--fis-sha256" in argv
+    assert _run_json([*argv[1:], "--json"], capsys) == first
+    # the same command refuses a .fis file that changed since
+    text = fis.read_text()
+    fis.write_text(text.replace("[System]", "[System]\n", 1).replace("Name='", "Name='x", 1))
+    assert main([*argv[1:], "--json"]) == 2
+    assert "--fis-sha256" in capsys.readouterr().err
+
+
+def test_reproduce_of_a_scenario_file_carries_its_digest(tmp_path, short_scenario, capsys):
+    rrd = tmp_path / "a.rrd"
+    _run_json(["run", str(short_scenario), "--rrd", str(rrd), "--json"], capsys)
+    argv = shlex.split(_reproduce_line(rrd))
+    digest = argv[argv.index("--scenario-sha256") + 1]
+    assert re.fullmatch(r"[0-9a-f]{64}", digest)
+    assert f"| scenario sha256 | {digest} |" in Recording(rrd).text("/meta/run")
+    short_scenario.write_text(SHORT_SCENARIO.replace("radius_m = 0.2\n", "radius_m = 0.21\n"))
+    assert main([*argv[1:], "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "--scenario-sha256" in err and "changed" in err
+
+
+def test_reproduce_of_a_scenario_made_in_memory_runs_from_meta_scenario(
+    tmp_path, capsys, monkeypatch
+):
+    """A scenario that came from no file (the viewer's, an edited one): the command
+    names scenario.toml, /meta/scenario saved as that file; it then repeats the run."""
+    from fuzzynav.world.scenario import loads_scenario
+
+    scenario = loads_scenario(SHORT_SCENARIO, "<memory>").replace(duration_s=9.0)
+    sim = build_simulation(scenario, "paper", geometry="paper")
+    result = sim.run()
+    rrd = record(sim, result, tmp_path / "mem.rrd")
+    rec = Recording(rrd)
+    meta = rec.text("/meta/run")
+    assert "| reproduce needs | scenario.toml: the recording's /meta/scenario saved" in meta
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scenario.toml").write_text(rec.text("/meta/scenario"), encoding="utf-8")
+    argv = shlex.split(_reproduce_line(rrd))
+    again = _run_json([*argv[1:], "--json"], capsys)
+    assert again["time_to_target_s"] == result.metrics["time_to_target_s"]
+    assert again["path_length_m"] == result.metrics["path_length_m"]
+    assert again["outcome"] == result.outcome
+
+
+def test_reproduce_says_when_the_controller_is_not_a_shipped_one(tmp_path):
+    """An edited rule base (the viewer's Editor) cannot be named by --controller: the
+    run page says so instead of naming a controller that would drive differently."""
+    from fuzzynav.controller.registry import make_controller
+
+    controller = make_controller("paper")
+    var = controller.fis.inputs[0]
+    term = var.terms[0]
+    controller.fis = controller.fis.with_term_params(
+        var.name, term.name, [p + 0.01 for p in term.params]
+    )
+    sim = build_simulation("s1", "paper", controller_object=controller)
+    result = sim.run()
+    meta = Recording(record(sim, result, tmp_path / "edited.rrd")).text("/meta/run")
+    assert "| reproduce needs | the controller (paper) is not one 'run' builds" in meta
