@@ -52,8 +52,9 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
 The default blueprint (sent first, so that a viewer opening a file still loading uses
 it; again at the end with the legends placed) puts the world on the left and the paper's
 figures stacked on the right, with tabs for the plant, the sensors, the rules and the
-run's documents. The application id is ``fuzzynav-<scenario>-<controller>``, so each
-scenario and controller keeps its own layout in a viewer. docs/recordings.md says what
+run's documents. The application id (:func:`application_id`) is
+``fuzzynav-<scenario>-<controller>-<geometry>-<key of the scenario's content>``, so
+recordings whose layouts differ keep their own in a viewer. docs/recordings.md says what
 every entity and tab shows; docs/robustness.md how files are written (whole, beside the
 target, renamed; a partial run as ``<stem>.partial.rrd``).
 
@@ -1432,9 +1433,10 @@ def blueprint(
     (further tabs: plant, sensors, rules, internals, run information).
 
     It depends on the run only through what the recording's application id already
-    fixes (scenario and controller: obstacle ids, whether rules and internals exist)
-    and through the world's bounds and the legends' corners, so that two recordings
-    opened in one viewer do not share, or fight over, one layout."""
+    fixes (:func:`application_id`: the scenario's content, the geometry and the
+    controller: obstacle ids, whether rules and internals exist) and through the world's
+    bounds and the legends' corners, so that two recordings opened in one viewer do not
+    share, or fight over, one layout."""
     import rerun.blueprint as rrb
 
     x_range, y_range = _world_bounds(scenario, log)
@@ -1546,14 +1548,30 @@ def _id_part(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_")[:60] or "run"
 
 
-def application_id(scenario, controller) -> str:
-    """``fuzzynav-<scenario>-<controller>``: rerun keeps one layout per application id,
-    so recordings of different scenarios or controllers opened in one viewer each keep
-    their own (the scenario is its file's stem, s1, or its name)."""
+def application_id(scenario, controller, geometry: str = "husky") -> str:
+    """``fuzzynav-<scenario>-<controller>-<geometry>-<key>``: rerun keeps one layout per
+    application id, so every recording whose layout can differ gets its own. The
+    scenario is its file's stem (s1) or its name; ``key`` is 8 hex digits of a sha256 over
+    what fixes the layout besides: the scenario's content (its obstacles and the world
+    view's bounds: two ``layout.toml`` files in different folders differ here), the
+    geometry, and the controller's rule count and internals (the rules tab). Two runs of
+    one scenario, geometry and controller share a layout; their bounds and legend
+    corners come from their runs, so they may differ a little (the later one's wins)."""
+    import hashlib
+
+    from fuzzynav.app.runs import scenario_digest
+
     source = getattr(scenario, "source", "") or ""
     label = Path(source).stem if source and source != "<memory>" else scenario.name
+    name = controller_label(controller)
+    n_rules = len(getattr(rule_system(controller), "rules", ()))
+    layout = "|".join(
+        (scenario_digest(scenario), geometry, name, str(n_rules), str(has_internals(controller)))
+    )
+    key = hashlib.sha256(layout.encode("utf-8")).hexdigest()[:8]
     # (rerun 0.41 takes letters, digits, "-" and "_" in an application id.)
-    return f"{APPLICATION_ID}-{_id_part(label)}-{_id_part(controller_label(controller))}"
+    parts = (APPLICATION_ID, _id_part(label), _id_part(name), _id_part(geometry), key)
+    return "-".join(parts)
 
 
 def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
@@ -1643,7 +1661,9 @@ def record_run(
     check_writable_file(path)
     # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
     # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
-    rec = rr.RecordingStream(application_id(scenario, controller))
+    rec = rr.RecordingStream(
+        application_id(scenario, controller, getattr(result, "geometry", "husky"))
+    )
     stream = rec.binary_stream()
     rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
     try:
@@ -1772,7 +1792,11 @@ class LiveRecorder:
 
     def _open(self, sim=None) -> None:
         if self._rec is None:
-            app_id = application_id(sim.scenario, sim.controller) if sim else APPLICATION_ID
+            app_id = (
+                application_id(sim.scenario, sim.controller, sim.geometry)
+                if sim
+                else APPLICATION_ID
+            )
             self._rec = _open_stream(self._tmp, app_id)
 
     def _failed(self, exc: BaseException) -> RecordingError:

@@ -244,8 +244,9 @@ def test_entity_paths(s1_p):
     assert RULES_PATH not in rec.entities  # P is not fuzzy
     # Static obstacles never move: no path entity for them.
     assert not any(e.endswith("/path") for e in rec.entities)
-    # One application id (so one layout) per scenario and controller.
-    assert [r.application_id for r in rec.recordings] == ["fuzzynav-s1-p"]
+    # One application id (so one layout) per scenario, controller, geometry and content.
+    [app_id] = [r.application_id for r in rec.recordings]
+    assert re.fullmatch(r"fuzzynav-s1-p-husky-[0-9a-f]{8}", app_id)
     assert rec.blueprints, "the default layout is stored with the recording"
     assert rec.timelines == {"sim_time"}
 
@@ -1060,3 +1061,80 @@ def test_reproduce_says_when_the_controller_is_not_a_shipped_one(tmp_path):
     result = sim.run()
     meta = Recording(record(sim, result, tmp_path / "edited.rrd")).text("/meta/run")
     assert "| reproduce needs | the controller (paper) is not one 'run' builds" in meta
+
+
+# ---------------------------------------------------------------------------------------
+# Layout keys (issue 28, defect 2): recordings whose layout can differ never share one
+
+
+def _blueprint_bounds(path) -> list:
+    """Every VisualBounds2D range stored in a recording's blueprints."""
+    reader = RrdReader(path)
+    found = []
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store):
+            batch = chunk.to_record_batch()
+            for name in batch.schema.names:
+                if name.endswith("VisualBounds2D:range"):
+                    found += [v for v in batch.column(name).to_pylist() if v]
+    return found
+
+
+def _layout_of(path) -> tuple[str, list[str], list]:
+    reader = RrdReader(path)
+    ids = [r.application_id for r in reader.recordings()]
+    return ids[0], [b.application_id for b in reader.blueprints()], _blueprint_bounds(path)
+
+
+def test_recordings_that_differ_in_geometry_or_content_have_their_own_layouts(tmp_path):
+    """report's husky and paper-geometry runs of s1 (same stem, same controller), and
+    two layout.toml files of different content in different folders: each recording's
+    application id, the id its blueprint is stored under, and its world bounds are its
+    own. The same content in another folder keeps the same layout."""
+    from fuzzynav.world.scenario import load_scenario
+
+    def run(scenario, geometry, name):
+        sim = build_simulation(scenario, "paper", geometry=geometry)
+        for _ in range(40):
+            sim.step()
+        return record(sim, sim.result(), tmp_path / f"{name}.rrd")
+
+    folders = [tmp_path / d for d in ("a", "b", "c")]
+    texts = [SHORT_SCENARIO, SHORT_SCENARIO.replace("[5.0, 1.5]", "[9.0, 4.0]"), SHORT_SCENARIO]
+    for folder, text in zip(folders, texts):
+        folder.mkdir()
+        (folder / "layout.toml").write_text(text, encoding="utf-8")
+    layouts = {
+        "s1 husky": _layout_of(run(load_scenario("s1"), "husky", "s1h")),
+        "s1 paper": _layout_of(run(load_scenario("s1"), "paper", "s1p")),
+        "a": _layout_of(run(load_scenario(folders[0] / "layout.toml"), "husky", "a")),
+        "b": _layout_of(run(load_scenario(folders[1] / "layout.toml"), "husky", "b")),
+        "c": _layout_of(run(load_scenario(folders[2] / "layout.toml"), "husky", "c")),
+    }
+    for key, (app_id, blueprint_ids, bounds) in layouts.items():
+        assert blueprint_ids and set(blueprint_ids) == {app_id}, key
+        assert bounds, key
+    assert layouts["s1 husky"][0].startswith("fuzzynav-s1-paper-husky-")
+    assert layouts["s1 paper"][0].startswith("fuzzynav-s1-paper-paper-")
+    assert layouts["a"][0].startswith("fuzzynav-layout-paper-husky-")
+    distinct = ["s1 husky", "s1 paper", "a", "b"]
+    assert len({layouts[k][0] for k in distinct}) == len(distinct)
+    assert layouts["a"][2] != layouts["b"][2]  # the bounds that would have been shared
+    assert layouts["s1 husky"][2] != layouts["s1 paper"][2]
+    assert layouts["c"][0] == layouts["a"][0]  # same content: the same layout
+
+
+def test_the_layout_key_changes_with_the_controller_and_its_rules():
+    from fuzzynav.app.recording import application_id
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.scenario import load_scenario
+
+    s1 = load_scenario("s1")
+    ids = {
+        application_id(s1, make_controller(name), "husky")
+        for name in ("paper", "baseline", "fuzzynav", "p")
+    }
+    assert len(ids) == 4
+    tiny = FuzzyController(TinyFis())  # the same name, other rules: another layout
+    other = FuzzyController(make_fuzzy_controller().fis)
+    assert application_id(s1, tiny) != application_id(s1, other)
