@@ -97,7 +97,8 @@ class Recording:
     def bars(self, entity: str):
         """(times in ns, values (rows, bars)) of a BarChart entity, as float32 was sent."""
         times, values = self.rows(entity, "BarChart:values")
-        tensors = [v[0] for v in values]
+        times = np.array([t for t, v in zip(times, values) if v], dtype=np.int64)
+        tensors = [v[0] for v in values if v]  # (a row without a decision has none)
         assert all(t["shape"] == tensors[0]["shape"] for t in tensors)
         matrix = np.array([[np.nan if x is None else x for x in t["buffer"]] for t in tensors])
         return times, matrix.reshape(len(tensors), -1)
@@ -233,8 +234,10 @@ def test_entity_paths(s1_p):
     }
     for oid in log.obstacle_ids:
         world |= {f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/safe_ring"}
-    for name in SENSORS:
-        world |= {f"/world/sensors/{name}/beam", f"/world/sensors/{name}/hit"}
+    # Ideal perception uses no range sensor: no beams, but the line to the obstacle the
+    # controller reacts to.
+    world.add("/world/robot/sensed")
+    assert not any(e.startswith("/world/sensors") for e in rec.entities)
     layout = plot_layout(log.obstacle_ids, SENSORS)
     plots = set(layout)
     meta = {f"/meta/{name}" for name in META}
@@ -276,7 +279,8 @@ def test_series_equal_the_simulation_arrays(s1_p):
         "/plots/wheels": log.lg_state[:, 0:2],
         "/plots/velocity": log.lg_state[:, 2:4],
         "/plots/current": log.lg_state[:, 4:6],
-        "/plots/inputs": log.inputs,
+        "/plots/inputs/distances": log.inputs[:, [0, 1]],
+        "/plots/inputs/angles": log.inputs[:, [2, 3]],
         "/plots/angles/heading": log.pose[:, 2:3],
         "/plots/disturbance": log.disturbance[:, None],
         "/plots/ranges": ranges,
@@ -287,7 +291,7 @@ def test_series_equal_the_simulation_arrays(s1_p):
     for col, oid in enumerate(log.obstacle_ids):
         got = rec.series("/plots/distance", f"obstacle {oid}")[1]
         assert same(got, log.center_distance_m[:, col]), oid
-    assert same(rec.series("/plots/voltage", "right (V)")[1], log.voltages_v[:, 1])
+    assert same(rec.series("/plots/voltage", "right")[1], log.voltages_v[:, 1])
     assert same(rec.series("/plots/ranges", "front (m)")[1], ranges[:, 1])
     # Computed from the pose: equal to the controller's inputs (s1 has no disturbance).
     assert not log.disturbance.any()
@@ -301,7 +305,7 @@ def test_series_equal_the_simulation_arrays(s1_p):
     gap = np.min(np.abs(bearings[sensed] - log.inputs[sensed, 3][:, None]), axis=1)
     assert np.all(gap < 1e-9)
     # The last row has no decision: NaN voltages, kept as NaN.
-    assert np.isnan(rec.series("/plots/voltage", "left (V)")[1][-1])
+    assert np.isnan(rec.series("/plots/voltage", "left")[1][-1])
 
 
 def test_world_geometry_follows_the_pose(s1_p):
@@ -336,12 +340,32 @@ def test_world_geometry_follows_the_pose(s1_p):
         assert list(t) == [0] and np.allclose(shift[0][0][:2], log.obstacle_xy[0, col], atol=1e-5)
     t, target = rec.rows("/world/target", "Points2D:positions")
     assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
-    # A hit point for every echo, none without.
-    for k, name in enumerate(SENSORS):
+    # The sensed obstacle: where d_o is finite, a line from the centre to the centre of
+    # the obstacle nearest by clearance; none where nothing is sensed.
+    _, sensed = rec.rows("/world/robot/sensed", "LineStrips2D:strips")
+    seen = np.isfinite(log.inputs[:, 1])
+    assert [len(x) for x in sensed] == list(seen.astype(int))
+    nearest = np.argmin(log.clearance_m, axis=1)
+    ends = np.array([x[0][1] for x in sensed if x])
+    want = log.obstacle_xy[np.flatnonzero(seen), nearest[seen]]
+    assert seen.any() and np.allclose(ends, want, atol=1e-5)
+
+
+def test_ultrasonic_runs_draw_the_beams_and_echoes(tmp_path):
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario = load_scenario("s1").replace(duration_s=12.0)
+    sim = build_simulation(scenario, "p", perception="ultrasonic")
+    result = sim.run()
+    rec = Recording(record(sim, result, tmp_path / "u.rrd"))
+    log = result.log
+    assert "/world/robot/sensed" not in rec.entities
+    for k, name in enumerate(SENSORS):  # a hit point for every echo, none without
         _, hits = rec.rows(f"/world/sensors/{name}/hit", "Points2D:positions")
         assert [len(h) for h in hits] == list(np.isfinite(log.ranges_m[:, k]).astype(int))
         _, beams = rec.rows(f"/world/sensors/{name}/beam", "LineStrips2D:strips")
         assert len(beams) == len(log)
+    assert np.isfinite(log.ranges_m).any()
 
 
 def test_the_moving_obstacle_moves(s2_p):
@@ -396,15 +420,33 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     n_rules = len(fis.rules)
     assert strengths.shape == (len(result.log), n_rules)
     times, rows = rec.bars(RULES_PATH)
-    assert np.array_equal(times, nanos(result.log.time_s))
-    assert same(rows, strengths.astype(np.float32))  # one bar per rule, float32
+    # One convention (defect 8): a row with a decision has every rule's strength; the
+    # last row (no decision) has none, so the chart at the end shows the last decision.
+    assert np.isnan(result.log.controller_output_v[-1]).all()
+    assert np.array_equal(times, nanos(result.log.time_s[:-1]))
+    assert same(rows, strengths[:-1].astype(np.float32))  # one bar per rule, float32
     assert strengths.max() > 0.5  # something fired
+    # bar k stands at abscissa k + 1: rule R(k+1)
+    abscissa = rec.static[RULES_PATH]["BarChart:abscissa"][0]["buffer"]
+    assert abscissa == list(range(1, n_rules + 1))
     rules = rec.text("/meta/rules")
     assert f"R{n_rules}: {fis.rule_text(n_rules - 1)}" in rules
-    # The heatmap (rules x time: one column per step here) and the rules in words.
+    # The heatmap (rules x time: one column per decision here) and the rules in words.
     heatmap = rec.static[RULES_HEATMAP_PATH]["Tensor:data"][0]
-    assert heatmap["shape"] == [n_rules, len(result.log)]
-    assert same(np.array(heatmap["buffer"]).reshape(n_rules, -1), strengths.T.astype(np.float32))
+    assert heatmap["shape"] == [n_rules, len(result.log) - 1]
+    assert same(
+        np.array(heatmap["buffer"]).reshape(n_rules, -1), strengths[:-1].T.astype(np.float32)
+    )
+    names = heatmap["names"]
+    assert names[0] == f"rule R1-R{n_rules}" and "s a column" in names[1]
+    # The strongest rule at each decision, where it changes: a lane in seconds.
+    t, states = rec.rows(RULES_PATH.replace("firing", "strongest"), "StateChange:state")
+    top = np.argmax(strengths[:-1], axis=1)
+    top = np.where(strengths[:-1].max(axis=1) > 0, top, -1)
+    change = np.flatnonzero(np.r_[True, top[1:] != top[:-1]])
+    assert np.array_equal(t, nanos(result.log.time_s[change]))
+    want = [f"R{k + 1}" if k >= 0 else "none fires" for k in top[change]]
+    assert [x[0] for x in states] == want and len(want) > 1
     texts = rec.text(RULES_TEXT_PATH)
     assert all(f"**R{k + 1}**: {fis.rule_text(k)}" in texts for k in range(n_rules))
 
@@ -764,9 +806,8 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     # The layout has a tab for the rules' firing (sent first, and again with the legends).
     assert layouts == [n_rules, n_rules]
     times, firing = rec.bars(RULES_PATH)
-    assert np.array_equal(times, nanos(result.log.time_s))
-    assert firing.shape == (len(result.log), n_rules)
-    assert np.all(np.isnan(firing[-1]))  # the last row has no decision
+    assert np.array_equal(times, nanos(result.log.time_s[:-1]))  # the last: no decision
+    assert firing.shape == (len(result.log) - 1, n_rules)
     log = result.log
     fresh = fuzzynav_controller()
     for k in range(len(log) - 1):
@@ -777,7 +818,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     _, internals = rec.scalars(INTERNALS_PATH)
     avoiding = internals[:-1, 0] > 0.3
     assert avoiding.sum() >= 20 and np.all(
-        firing[:-1][avoiding, len(controller.goal.rules) :].max(axis=1) > 0.3
+        firing[avoiding, len(controller.goal.rules) :].max(axis=1) > 0.3
     )
     rules = rec.text("/meta/rules")
     assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
