@@ -107,6 +107,10 @@ TRAIL = (40, 110, 220)
 HEADING = (0, 140, 120)  # teal: neither the trail's blue nor a sensor's or an obstacle's
 SENSED = (240, 180, 0)  # the line to the obstacle the controller reacts to
 EVENT = (20, 20, 20)
+# Red, orange, purple... are obstacles 0, 1, 2 in every plot and figure: the right wheel
+# is drawn black-ish, the limits light grey.
+RIGHT = (40, 40, 40)
+LIMIT = (185, 185, 185)
 TARGET = (30, 160, 60)
 OBSTACLE = (200, 60, 50)
 SAFE_RING = (140, 140, 140)
@@ -301,14 +305,14 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
     return [
         ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
         ("/plots/angles/phi_t", ["phi_t"], [p[0]], [1.5]),
-        ("/plots/angles/heading", ["heading"], [p[1]], [1.5]),
+        ("/plots/angles/heading", ["heading"], [HEADING], [1.5]),
         ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
         (
             "/plots/voltage",
             # (the two limits share one name: one legend entry)
             ["left", "right", "left, before limit", "right, before limit"]
             + [f"±{limit:g} V limit"] * 2,
-            [p[0], p[1], (150, 190, 230), (240, 160, 160), grey, grey],
+            [p[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
             [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
         ),
         ("/plots/inputs/distances", ["d_t", "d_o"], [p[0], p[1]], [1.5] * 2),
@@ -319,9 +323,9 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
             obstacle_colors + [grey],
             [1.5] * k + [1.0],
         ),
-        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], p[:2], [1.5] * 2),
+        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], [p[0], RIGHT], [1.5] * 2),
         ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
-        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], p[:2], [1.5] * 2),
+        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], [p[0], RIGHT], [1.5] * 2),
         (
             "/plots/ranges",
             [f"{m} (m)" for m in sensor_names],
@@ -1984,7 +1988,7 @@ def blueprint(
         # Five series: a legend would cover the start; the name says which is which.
         plot(
             "/plots/voltage",
-            "wheel voltages, V: blue left, red right (pale: before the limit), grey ±12 V",
+            "wheel voltages, V: blue left, black right (pale: before the limit), grey ±12 V",
             legend=False,
         ),
         row_shares=[1.15, 1.2, 1.15, 1.15, 1.35],
@@ -2007,7 +2011,11 @@ def blueprint(
     sensing = rrb.Vertical(
         plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
         plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
-        plot("/plots/disturbance", "disturbance added to every input", legend=False),
+        plot(
+            "/plots/disturbance",
+            "disturbance added to every input (m on d_t, d_o; rad on phi_t, phi_o)",
+            legend=False,
+        ),
         name="sensors and safety",
     )
     tabs = [paper, plant, sensing]

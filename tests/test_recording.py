@@ -1179,3 +1179,177 @@ def test_the_layout_key_changes_with_the_controller_and_its_rules():
     tiny = FuzzyController(TinyFis())  # the same name, other rules: another layout
     other = FuzzyController(make_fuzzy_controller().fis)
     assert application_id(s1, tiny) != application_id(s1, other)
+
+
+# ---------------------------------------------------------------------------------------
+# What a reviewer sees (issue 28, defects 3-10, events, summary)
+
+
+def _views(path) -> dict:
+    """{view name: {component: value}} of the last blueprint stored in a recording."""
+    reader = RrdReader(path)
+    store = reader.blueprints()[-1]
+    by_id: dict[str, dict] = defaultdict(dict)
+    for chunk in reader.stream(store=store):
+        batch = chunk.to_record_batch()
+        parts = chunk.entity_path.split("/")
+        if len(parts) < 3 or parts[1] != "view":
+            continue
+        for name in batch.schema.names:
+            if ":" in name and not name.startswith("rerun."):
+                key = "/".join(parts[3:] + [name])
+                by_id[parts[2]][key] = batch.column(name).to_pylist()[-1]
+    return {v["ViewBlueprint:display_name"][0]: v for v in by_id.values()}
+
+
+@pytest.fixture(scope="module")
+def s3_paper(tmp_path_factory):
+    sim = build_simulation("s3", "paper")
+    result = sim.run()
+    path = tmp_path_factory.mktemp("rrd") / "s3_paper.rrd"
+    record(sim, result, path)
+    return sim, result, Recording(path), path
+
+
+def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp_path):
+    from fuzzynav.app.figures import paper_figure_number
+
+    names = list(_views(s3_paper[3]))
+    for kind, key in (
+        ("distances", "distance to the target"),
+        ("angles", "target angle phi_t and heading"),
+        ("obstacle_angles", "obstacle angles"),
+        ("voltages", "wheel voltages"),
+    ):
+        [name] = [n for n in names if n.startswith(key)]
+        assert name.endswith(f"(Fig. {paper_figure_number('s3', kind)})"), name
+    assert {n for n in names if "(Fig. 1" in n} == set()  # no s1 number in s3's panels
+    # every plot names its unit
+    plots = [n for n, v in _views(s3_paper[3]).items() if "TimeAxis/TimeAxis:view_range" in v]
+    assert len(plots) >= 12
+    for name in plots:
+        assert re.search(r"\b(m|rad|V|A|rad/s|m/s)\b", name), name
+
+
+def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
+    views = _views(s3_paper[3])
+    [voltage] = [v for n, v in views.items() if n.startswith("wheel voltages")]
+    assert voltage["PlotLegend/PlotLegend:visible"] == [False]
+    names = s3_paper[2].static["/plots/voltage"]["SeriesLines:names"]
+    assert names[-1] == names[-2] == "±12 V limit"  # one legend entry for both limits
+
+
+def test_a_legend_gets_empty_room_or_the_emptiest_corner():
+    from fuzzynav.app.recording import LEGEND_ENTRY_PX, PLOT_PX, _legend_placement
+
+    t = np.linspace(0, 1, 400)
+    busy = np.column_stack([np.sin(9 * t), np.cos(9 * t)])  # data in every corner
+    corner, value_range = _legend_placement(busy, 2)
+    assert value_range is not None
+    lo, hi = value_range
+    h = (2 * LEGEND_ENTRY_PX + 14.0) / PLOT_PX
+    top = "Top" in str(corner)
+    left = "Left" in str(corner)
+    in_time = (t < 0.24) if left else (t > 0.76)
+    v = (busy[in_time] - lo) / (hi - lo)
+    assert np.all(v <= 1 - h) if top else np.all(v >= h)  # the box holds no data
+    quiet = np.column_stack([t, t])  # a rising line leaves the top left empty
+    assert _legend_placement(quiet, 2)[1] is None
+    assert "LeftTop" in str(_legend_placement(quiet, 2)[0])
+
+
+def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
+    sim, result, rec, path = s3_paper
+    log = result.log
+    assert same(rec.scalars("/plots/inputs/distances")[1], log.inputs[:, [0, 1]])
+    assert same(rec.scalars("/plots/inputs/angles")[1], log.inputs[:, [2, 3]])
+    assert np.isnan(log.inputs[:, 1]).any()  # s3 has stretches with nothing sensed
+    names = list(_views(path))
+    assert any(n.startswith("inputs d_t, d_o, m") and "nothing sensed" in n for n in names)
+    assert any(n.startswith("inputs phi_t, phi_o, rad") and "nothing sensed" in n for n in names)
+
+
+def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
+    from fuzzynav.app.recording import _rgba
+
+    _, result, rec, _ = s3_paper
+    plot_colours = rec.static["/plots/distance"]["SeriesLines:colors"]
+    for col, oid in enumerate(result.log.obstacle_ids):
+        body = rec.static[f"/world/obstacles/{oid}/body"]["Points2D:colors"][0]
+        assert body == plot_colours[col + 1]  # (series 0 is the target)
+    heading = rec.static["/world/robot/heading"]
+    assert heading["Arrows2D:colors"][0] not in (
+        _rgba(recording.TRAIL),
+        *plot_colours[1:],
+    )
+    assert heading["Arrows2D:radii"][0] >= 0.03
+    assert (
+        heading["Arrows2D:draw_order"][0]
+        > rec.static["/world/robot/trail"]["LineStrips2D:draw_order"][0]
+    )
+    # red is obstacle 0's: not the heading's nor the right wheel's
+    red = plot_colours[1]
+    assert red not in rec.static["/plots/angles/heading"]["SeriesLines:colors"]
+    assert red not in rec.static["/plots/voltage"]["SeriesLines:colors"]
+    assert red not in rec.static["/plots/wheels"]["SeriesLines:colors"]
+
+
+def test_the_run_page_shows_the_commands_wrapped(s3_paper):
+    _, _, rec, _ = s3_paper
+    text = rec.text("/meta/run")
+    command = re.search(r"\| reproduce \| `([^`]*)` \|", text).group(1)
+    block = re.search(r"## reproduce\n\n```sh\n(.*?)\n```", text, re.S).group(1)
+    assert all(len(line) <= 80 for line in block.splitlines())
+    assert shlex.split(block.replace("\\\n", " ")) == shlex.split(command)
+
+
+def test_events_are_marked_in_the_recording(s3_paper):
+    _, result, rec, _ = s3_paper
+    log = result.log
+    times, texts = rec.rows("/events/log", "TextLog:text")
+    texts = [x[0] for x in texts]
+    for col, oid in enumerate(log.obstacle_ids):
+        k = int(np.nanargmin(log.center_distance_m[:, col]))
+        d = log.center_distance_m[k, col]
+        want = f"closest to obstacle {oid}: {d:.2f} m centre to centre"
+        [hit] = [j for j, x in enumerate(texts) if want in x]
+        assert times[hit] == nanos(log.time_s[k])
+        # the world marks where the robot was then
+    marks = rec.static["/world/events/closest"]["Points2D:positions"]
+    rows = [int(np.nanargmin(log.center_distance_m[:, c])) for c in range(len(log.obstacle_ids))]
+    assert np.allclose(marks, log.pose[rows, :2], atol=1e-5)
+    # s3's disturbance window: on at 25 s, off at 35 s, in the log and in its lane
+    assert any("disturbance on" in x for x in texts) and any("disturbance off" in x for x in texts)
+    t, states = rec.rows("/events/lanes/disturbance", "StateChange:state")
+    assert [x[0] for x in states] == ["off", "on", "off"]
+    assert list(t[1:]) == list(nanos([25.0, 35.0]))
+    assert (
+        texts[-1]
+        .strip()
+        .endswith(f"reached the target at {result.metrics['time_to_target_s']:.2f} s")
+    )
+    # the moving obstacle, where it was at its closest approach, and its track
+    moving = [c for c in range(len(log.obstacle_ids)) if np.ptp(log.obstacle_xy[:, c, 0]) > 0]
+    assert moving
+    for col in moving:
+        oid = log.obstacle_ids[col]
+        ring = np.array(
+            rec.static[f"/world/events/moving_{oid}/at_closest"]["LineStrips2D:strips"][0]
+        )
+        assert np.allclose(ring.mean(axis=0)[:2], log.obstacle_xy[rows[col], col], atol=0.02)
+        track = np.array(rec.static[f"/world/events/moving_{oid}/track"]["LineStrips2D:strips"][0])
+        assert len(track) == len(log)
+
+
+def test_the_summary_sets_the_run_beside_the_paper(s3_paper):
+    from fuzzynav.app.report import published_table4
+
+    _, result, rec, path = s3_paper
+    text = rec.text("/meta/summary")
+    assert f"**{result.outcome}**" in text
+    paper = published_table4("paper", "s3")
+    ours = result.metrics["path_length_m"]
+    diff = 100 * (ours - paper["path_length_m"]) / paper["path_length_m"]
+    assert f"| path_length_m | {ours:.4g} | {paper['path_length_m']:.4g} | {diff:+.1f} % |" in text
+    assert "closest to obstacle 0" in text and "(paper:" in text
+    assert "summary" in _views(path)  # in the first view, beside the world
