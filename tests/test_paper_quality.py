@@ -168,4 +168,4 @@ def test_paper_geometry_reproduces_table4_from_the_trace(tmp_path, scenario):
             k = int(np.argmin(distances[:, event["obstacle"]]))
             assert abs(t["time_s"][k] / event["time_s"] - 1) <= DONE_OTHER, (event, t["time_s"][k])
     # "After several oscillations, it finally reaches zero": the target ends up ahead.
-    assert abs(t["phi_t"][-1]) < 0.35
+    assert abs(t["phi_t_rad"][-1]) < 0.35

@@ -1353,3 +1353,28 @@ def test_the_summary_sets_the_run_beside_the_paper(s3_paper):
     assert f"| path_length_m | {ours:.4g} | {paper['path_length_m']:.4g} | {diff:+.1f} % |" in text
     assert "closest to obstacle 0" in text and "(paper:" in text
     assert "summary" in _views(path)  # in the first view, beside the world
+
+
+def test_the_trace_holds_the_true_target_inputs_and_units_in_its_names(tmp_path):
+    """Defect 13: beside the disturbed inputs, the true d_t and phi_t; every column's
+    name ends in its unit."""
+    import csv
+
+    from fuzzynav.app.trace import TRACE_COLUMNS
+    from fuzzynav.world.geometry import wrap_angle
+
+    path = tmp_path / "s3.csv"
+    # (the paper controller is still on its way during s3's disturbance; p is not)
+    assert main(["run", "s3", "--controller", "paper", "--trace", str(path)]) == 0
+    for name in TRACE_COLUMNS:
+        assert re.search(r"_(s|m|rad|v|m_or_rad)$", name), name
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    col = {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
+    true_d_t = np.hypot(8.0 - col["x_m"], 8.0 - col["y_m"])
+    assert np.allclose(col["true_d_t_m"], true_d_t, atol=1e-12, rtol=0)
+    disturbance = col["disturbance_m_or_rad"]
+    assert np.abs(disturbance).max() > 0.5  # s3's window is in the run
+    assert np.allclose(col["d_t_m"] - disturbance, col["true_d_t_m"], atol=1e-9, rtol=0)
+    gap = wrap_angle(col["phi_t_rad"] - disturbance - col["true_phi_t_rad"])
+    assert np.abs(gap).max() < 1e-9
