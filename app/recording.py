@@ -700,7 +700,7 @@ class _ColumnWriter:
                 path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
             )
         self._rows.add_series(path, columns)
-        self._legend_samples.setdefault(path, []).append(np.asarray(columns)[::5])
+        self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
 
     def legend_corners(self) -> dict:
         """Per plot view, where its legend goes and the value range that leaves it room
@@ -722,6 +722,10 @@ class _ColumnWriter:
             placement = _legend_placement(values, len(set(names)))
             if placement is not None:
                 placements[path] = placement
+                finite = values[np.isfinite(values)]
+                lo, hi = float(finite.min()), float(finite.max())
+                pad = 0.05 * (hi - lo if hi > lo else max(abs(hi), 1.0))
+                placements[f"{path}#data"] = (lo - pad, hi + pad)  # (a view without legend)
         return placements
 
     def _series(self, log, start, end, pose, target, ranges, inputs):
@@ -1825,7 +1829,8 @@ def _legend_placement(series: np.ndarray, n_entries: int):
     (rerun draws the legend over the plot): the corner whose legend-sized box holds the
     fewest points of ``series`` (rows, k); if even that one holds some, the value axis
     is stretched away from the data on that side (by at most :data:`MAX_HEADROOM`), so
-    the legend sits over empty room. ``(corner, None)``: rerun's own range. None
+    the legend sits over empty room; else the data's range with a 5 % margin (always
+    set: rerun's own range left curves that start with a gap off the panel). None
     without data."""
     import rerun.blueprint as rrb
 
@@ -1854,8 +1859,8 @@ def _legend_placement(series: np.ndarray, n_entries: int):
     }
     counts = {corner: int(np.count_nonzero(inside)) for corner, inside in boxes.items()}
     corner = min(counts, key=counts.get)
-    if counts[corner] == 0:
-        return corner, None
+    if counts[corner] == 0:  # the data's own range (rerun's auto range misjudged series
+        return corner, (lo_r, hi_r)  # that start with a gap, e.g. d_o before any sighting)
     # Stretch the axis so that the data under the legend's box move out of it: on the
     # box's side, the data's extreme inside the box's time span sets the room needed.
     top = corner in (rrb.Corner2D.LeftTop, rrb.Corner2D.RightTop)
@@ -1886,7 +1891,7 @@ def _legend_placement(series: np.ndarray, n_entries: int):
         (False, False): rrb.Corner2D.RightBottom,
     }[(top, left)]
     if stretch > MAX_HEADROOM:  # rather some overlap than flattened curves
-        return min(counts, key=counts.get), None
+        return min(counts, key=counts.get), (lo_r, hi_r)
     return corner, (float(value_range[0]), float(value_range[1]))
 
 
@@ -1953,19 +1958,24 @@ def blueprint(
         start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
     )
     placements = dict(legend_corners or {})
-    label = scenario_stem(scenario)
+    from fuzzynav.app.figures import numbered_scenario
+
+    label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
 
     def plot(origin, name, *, contents=None, legend=True, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
         axis = rrb.TimeAxis(view_range=whole_run)
         placement = placements.get(origin)
-        if not legend:  # one series: the panel's name says what it is
-            kw["plot_legend"] = rrb.PlotLegend(visible=False)
-        elif placement is not None:
+        corner, value_range = None, None
+        if placement is not None:
             corner, value_range = placement if isinstance(placement, tuple) else (placement, None)
+        if not legend:  # the panel's name says what its series are
+            kw["plot_legend"] = rrb.PlotLegend(visible=False)
+            value_range = placements.get(f"{origin}#data", value_range)
+        elif corner is not None:
             kw["plot_legend"] = rrb.PlotLegend(corner=corner)
-            if value_range is not None:
-                kw["axis_y"] = rrb.ScalarAxis(range=value_range)
+        if value_range is not None:
+            kw["axis_y"] = rrb.ScalarAxis(range=value_range)
         if contents is not None:
             kw["contents"] = contents
         return rrb.TimeSeriesView(

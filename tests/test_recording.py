@@ -1186,11 +1186,25 @@ def test_the_layout_key_changes_with_the_controller_and_its_rules():
 
 
 def _views(path) -> dict:
-    """{view name: {component: value}} of the last blueprint stored in a recording."""
+    """{view name: {component: value}} of the final blueprint stored in a recording (the
+    one sent last, with the legends placed: the store that has them; the file's order of
+    stores is not the order they were sent in)."""
     reader = RrdReader(path)
-    store = reader.blueprints()[-1]
+    stores = reader.blueprints()
+    chunks = {
+        store.recording_id: [c.to_record_batch() for c in reader.stream(store=store)]
+        for store in stores
+    }
+    final = max(
+        stores,
+        key=lambda st: sum(
+            name.endswith("PlotLegend:corner")
+            for batch in chunks[st.recording_id]
+            for name in batch.schema.names
+        ),
+    )
     by_id: dict[str, dict] = defaultdict(dict)
-    for chunk in reader.stream(store=store):
+    for chunk in reader.stream(store=final):
         batch = chunk.to_record_batch()
         parts = chunk.entity_path.split("/")
         if len(parts) < 3 or parts[1] != "view":
@@ -1378,3 +1392,26 @@ def test_the_trace_holds_the_true_target_inputs_and_units_in_its_names(tmp_path)
     assert np.allclose(col["d_t_m"] - disturbance, col["true_d_t_m"], atol=1e-9, rtol=0)
     gap = wrap_angle(col["phi_t_rad"] - disturbance - col["true_phi_t_rad"])
     assert np.abs(gap).max() < 1e-9
+
+
+def test_every_plot_has_a_value_range_that_holds_its_data(s3_paper):
+    """Defect 5 and the inputs' panels: rerun's own range left curves that start with a
+    gap (d_o before any sighting) off the panel and the currents with one tick; every
+    plot now sets its range, and it holds every finite value of its series."""
+    _, _, rec, path = s3_paper
+    views = _views(path)
+    origin = {
+        "distance to the target": ["/plots/distance"],
+        "target angle phi_t and heading": ["/plots/angles/phi_t", "/plots/angles/heading"],
+        "motor currents": ["/plots/current"],
+        "inputs d_t, d_o": ["/plots/inputs/distances"],
+        "inputs phi_t, phi_o": ["/plots/inputs/angles"],
+        "wheel voltages": ["/plots/voltage"],
+    }
+    for start, entities in origin.items():
+        [view] = [v for n, v in views.items() if n.startswith(start)]
+        lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
+        values = np.concatenate([rec.scalars(e)[1].reshape(-1) for e in entities])
+        values = values[np.isfinite(values)]
+        assert lo < values.min() and values.max() < hi, start
+        assert hi - lo < 3.0 * (values.max() - values.min()) + 1e-6, start  # not flattened
