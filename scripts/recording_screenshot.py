@@ -91,8 +91,13 @@ def main(argv=None) -> int:
     parser.add_argument("rrd", type=Path)
     parser.add_argument("out", type=Path)
     parser.add_argument("--size", default="1600x1000")
-    parser.add_argument("--click", action="append", default=[], metavar="X,Y",
-                        help="click here (a tab) before the screenshot; repeatable")
+    parser.add_argument(
+        "--click",
+        action="append",
+        default=[],
+        metavar="X,Y",
+        help="click here (a tab) before the screenshot; repeatable",
+    )
     parser.add_argument("--wait", type=float, default=12.0, help="seconds to let it load")
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.split("x"))
