@@ -1529,6 +1529,116 @@ def _metrics(static: _StaticBatch, metrics: dict, outcome: str) -> None:
 
 
 # ---------------------------------------------------------------------------------------
+# The fuzzy logic at the time cursor (a controller with a ``fis``)
+
+FUZZY_PATH = "/fuzzy"
+#: Each variable's membership plot spans FUZZY_W x 1 in its view (x: its range).
+FUZZY_W = 4.0
+FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
+
+
+def _text_array(texts):
+    import pyarrow as pa
+
+    _, arrow_type = _component_types()[("LineStrips2D", "labels")]
+    return pa.array(list(texts), type=arrow_type)
+
+
+def _send_fuzzy(rec, static: _StaticBatch, fis, log) -> list[str]:
+    """The viewer's inference view, replayed from the recording: every input's and
+    output's membership functions (static), at each decision the input's value as a
+    vertical line on its terms (labelled with the value), and each output's aggregated
+    membership with its centroid (the controller's output then, labelled). Returns the
+    variables drawn (``inputs/d_t``, ``outputs/left``, ...)."""
+    import rerun as rr
+
+    decided = np.all(np.isfinite(log.controller_output_v), axis=1)
+    rows = np.flatnonzero(decided)
+    if not len(rows):
+        return []
+    static.add_archetype(FUZZY_PATH, rr.Transform3D(scale=[1.0, -1.0, 1.0]))  # y up
+    tc = _time_column(log.time_s[rows])
+    aggregated = [fis.aggregated(log.inputs[r]) for r in rows]
+    drawn = []
+    variables = [("inputs", k, v) for k, v in enumerate(fis.inputs)]
+    variables += [("outputs", k, v) for k, v in enumerate(fis.outputs)]
+    for kind, k, var in variables:
+        lo, hi = (float(v) for v in var.range)
+        unit = getattr(var, "unit", "") or ""
+        base = f"{FUZZY_PATH}/{kind}/{var.name}"
+
+        def sx(value, lo=lo, hi=hi):
+            return FUZZY_W * (np.asarray(value, dtype=float) - lo) / (hi - lo)
+
+        x = np.linspace(lo, hi, 401)
+        static.add_archetype(
+            f"{base}/terms",
+            rr.LineStrips2D(
+                strips=[np.column_stack([sx(x), np.asarray(t(x), float)]) for t in var.terms],
+                colors=[SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))],
+                radii=0.012,
+                labels=[t.name for t in var.terms],
+            ),
+        )
+        static.add_archetype(
+            f"{base}/axis",
+            rr.Points2D(
+                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.22)],
+                radii=0.001,
+                colors=[(90, 90, 90)] * 3,
+                labels=[f"{lo:g} {unit}", f"{hi:g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
+            ),
+        )
+        static.add_archetype(
+            f"{base}/frame",
+            rr.LineStrips2D(
+                strips=[[(0, 0), (FUZZY_W, 0)], [(0, 0), (0, 1)]],
+                colors=[(150, 150, 150)] * 2,
+                radii=0.005,
+            ),
+        )
+        if kind == "inputs":
+            value = log.inputs[rows, k]
+            text = [f"{var.name} = {v:.3g} {unit}" for v in value if np.isfinite(v)]
+        else:
+            value = np.array([a.output[k] for a in aggregated])
+            text = [f"{var.name} = {v:.2f} {unit} (centroid)" for v in value]
+            grid = aggregated[0].grid[k]
+            take = np.linspace(0, len(grid) - 1, FUZZY_POINTS).round().astype(int)
+            shape = np.stack(
+                [np.column_stack([sx(grid[take]), a.membership[k][take]]) for a in aggregated]
+            )
+            static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
+            rec.send_columns(
+                f"{base}/aggregated",
+                indexes=[tc],
+                columns=[_column("LineStrips2D", "strips", _strips_array(shape))],
+                strict=True,
+            )
+        seen = np.isfinite(value)
+        at = np.clip(sx(value[seen]), 0.0, FUZZY_W)
+        marker = np.stack(
+            [
+                np.column_stack([at, np.zeros_like(at)]),
+                np.column_stack([at, np.full_like(at, 1.08)]),
+            ],
+            axis=1,
+        )
+        static.add(f"{base}/value", "LineStrips2D", colors=(20, 20, 20), radii=0.018)
+        rec.send_columns(
+            f"{base}/value",
+            indexes=[tc],
+            columns=[
+                _column("LineStrips2D", "strips", _strips_array(marker), seen.astype(np.int32)),
+                _column("LineStrips2D", "labels", _text_array(text), seen.astype(np.int32)),
+            ],
+            strict=True,
+        )
+        drawn.append(f"{kind}/{var.name}")
+    return drawn
+
+
+# ---------------------------------------------------------------------------------------
 # Events: closest approaches, the disturbance window, the end (issue 28)
 
 EVENTS_LOG_PATH = "/events/log"  # TextLog at each event's time
@@ -1921,6 +2031,7 @@ def blueprint(
     log=None,
     internals: bool = False,
     legend_corners=None,
+    fuzzy=(),
 ):
     """The default layout: the world on the left, the paper's plots stacked on the right
     (further tabs: plant, sensors, rules, internals, run information).
@@ -2051,6 +2162,30 @@ def blueprint(
                 rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
                 row_shares=[1, 2, 2, 2],
                 name="rules",
+            )
+        )
+    if fuzzy:  # the inference at the time cursor, as the viewer's inference view
+        views = [
+            rrb.Spatial2DView(
+                origin="/",
+                contents=[f"{FUZZY_PATH}/{name}/**"],
+                name=f"{name.replace('/', ' ')} at the cursor",
+                visual_bounds=rrb.VisualBounds2D(
+                    x_range=[-0.45, FUZZY_W + 0.45], y_range=[-1.35, 0.25]
+                ),
+            )
+            for name in fuzzy
+        ]
+        tabs.append(
+            rrb.Vertical(
+                rrb.Grid(*views, grid_columns=2),
+                rrb.BarChartView(
+                    origin=RULES_PATH,
+                    name="rule firing strength (0-1) at the cursor, bar k = rule Rk",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                row_shares=[3, 1],
+                name="fuzzy logic",
             )
         )
     if internals:
@@ -2256,12 +2391,20 @@ def record_run(
         _metrics(writer.static, result.metrics, result.outcome)
         events = _send_events(rec, writer.static, result)
         _summary(writer.static, result, controller, events)
+        fuzzy = (
+            _send_fuzzy(rec, writer.static, fis, log)
+            if fis is not None and writer.fis_error is None
+            else []
+        )
         writer.send_heatmap(writer.static)
         writer.static.send(rec)
         # Again, now with the legends placed where the data leave room.
         rec.send_blueprint(
             blueprint(
-                *layout, internals=has_internals(controller), legend_corners=writer.legend_corners()
+                *layout,
+                internals=has_internals(controller),
+                legend_corners=writer.legend_corners(),
+                fuzzy=fuzzy,
             )
         )
     finally:

@@ -1415,3 +1415,38 @@ def test_every_plot_has_a_value_range_that_holds_its_data(s3_paper):
         values = values[np.isfinite(values)]
         assert lo < values.min() and values.max() < hi, start
         assert hi - lo < 3.0 * (values.max() - values.min()) + 1e-6, start  # not flattened
+
+
+def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
+    """The membership functions of every variable; at each decision the input's value
+    on its terms and each output's aggregated membership with its centroid, which is
+    the controller's output then; nothing at the final instant (no decision)."""
+    from fuzzynav.app.recording import FUZZY_W
+
+    sim, result, rec = fuzzy_run
+    fis = sim.controller.fis
+    if not hasattr(fis, "aggregated"):
+        pytest.skip("the stand-in system has no aggregation")
+    log = result.log
+    decided = nanos(log.time_s[:-1])
+    for k, var in enumerate(fis.inputs):
+        base = f"/fuzzy/inputs/{var.name}"
+        assert rec.static[f"{base}/terms"]["LineStrips2D:labels"] == [t.name for t in var.terms]
+        t, strips = rec.rows(f"{base}/value", "LineStrips2D:strips")
+        assert np.array_equal(t, decided)
+        lo, hi = var.range
+        value = log.inputs[:-1, k]
+        assert [len(s) for s in strips] == list(np.isfinite(value).astype(int))
+        x = [s[0][0][0] for s in strips if s]
+        want = np.clip(FUZZY_W * (value[np.isfinite(value)] - lo) / (hi - lo), 0, FUZZY_W)
+        assert np.allclose(x, want, atol=1e-5)
+    for k, var in enumerate(fis.outputs):
+        base = f"/fuzzy/outputs/{var.name}"
+        t, labels = rec.rows(f"{base}/value", "LineStrips2D:labels")
+        assert np.array_equal(t, decided)
+        got = [float(x[0].split("=")[1].split()[0]) for x in labels]
+        assert np.allclose(got, log.controller_output_v[:-1, k], rtol=0, atol=0.0051)
+        t, shapes = rec.rows(f"{base}/aggregated", "LineStrips2D:strips")
+        assert np.array_equal(t, decided)
+        heights = np.array([[p[1] for p in s[0]] for s in shapes])
+        assert heights.max() > 0.2 and heights.max() <= 1.0 + 1e-6
