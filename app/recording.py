@@ -586,9 +586,12 @@ class _RowBatch:
         self.arrays = [pa.array(nanos.astype("timedelta64[ns]"), type=pa.duration("ns"))]
         self.unit_offsets = pa.array(np.arange(self.n + 1, dtype=np.int32))
 
-    def add(self, entity: str, archetype: str, name: str, instances, lengths=None) -> None:
+    def add(
+        self, entity: str, archetype: str, name: str, instances, lengths=None, absent=None
+    ) -> None:
         """``instances``: the component's Arrow array; one per row, or ``lengths[i]``
-        of them in row i."""
+        of them in row i. Rows where ``absent`` is true hold no value at all (null: the
+        viewer shows the latest row before), not an empty list (which clears it)."""
         import pyarrow as pa
 
         field, _ = _component_field(entity, archetype, name)
@@ -596,8 +599,9 @@ class _RowBatch:
             offsets = self.unit_offsets
         else:
             offsets = pa.array(np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32))
+        mask = None if absent is None else pa.array(np.asarray(absent, bool))
         self.fields.append(field)
-        self.arrays.append(pa.ListArray.from_arrays(offsets, instances))
+        self.arrays.append(pa.ListArray.from_arrays(offsets, instances, mask=mask))
 
     def add_series(self, entity: str, columns) -> None:
         """Scalars: ``columns`` (n rows, k series) as k instances per row."""
@@ -968,6 +972,7 @@ class _ColumnWriter:
             "values",
             _tensor_rows(strengths[decided]),
             lengths=decided.astype(np.int32),
+            absent=~decided,  # the chart at the final instant shows the last decision
         )
         self.rule_times.append(np.asarray(self._rows_time, dtype=float)[decided])
         self.rule_strengths.append(strengths[decided])
@@ -1571,22 +1576,39 @@ def _send_fuzzy(rec, static: _StaticBatch, fis, log) -> list[str]:
             return FUZZY_W * (np.asarray(value, dtype=float) - lo) / (hi - lo)
 
         x = np.linspace(lo, hi, 401)
+        curves = [np.asarray(t(x), float) for t in var.terms]
+        colours = [SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))]
         static.add_archetype(
             f"{base}/terms",
             rr.LineStrips2D(
-                strips=[np.column_stack([sx(x), np.asarray(t(x), float)]) for t in var.terms],
-                colors=[SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))],
+                strips=[np.column_stack([sx(x), y]) for y in curves],
+                colors=colours,
                 radii=0.012,
+                labels=[t.name for t in var.terms],
+                show_labels=False,  # (a strip's label sits mid-range: at the peaks instead)
+            ),
+        )
+        # each term's name above its peak (the middle of a plateau)
+        peaks = []
+        for y in curves:
+            top = np.flatnonzero(y >= y.max() - 1e-9)
+            peaks.append((float(sx(x[top[len(top) // 2]])), 1.0))
+        static.add_archetype(
+            f"{base}/term_names",
+            rr.Points2D(
+                positions=peaks,
+                radii=0.001,
+                colors=colours,
                 labels=[t.name for t in var.terms],
             ),
         )
         static.add_archetype(
             f"{base}/axis",
             rr.Points2D(
-                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.22)],
+                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.32)],
                 radii=0.001,
                 colors=[(90, 90, 90)] * 3,
-                labels=[f"{lo:g} {unit}", f"{hi:g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
+                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
             ),
         )
         static.add_archetype(
@@ -2171,7 +2193,7 @@ def blueprint(
                 contents=[f"{FUZZY_PATH}/{name}/**"],
                 name=f"{name.replace('/', ' ')} at the cursor",
                 visual_bounds=rrb.VisualBounds2D(
-                    x_range=[-0.45, FUZZY_W + 0.45], y_range=[-1.35, 0.25]
+                    x_range=[-0.6, FUZZY_W + 0.6], y_range=[-1.45, 0.25]
                 ),
             )
             for name in fuzzy

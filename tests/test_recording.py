@@ -425,6 +425,9 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     assert np.isnan(result.log.controller_output_v[-1]).all()
     assert np.array_equal(times, nanos(result.log.time_s[:-1]))
     assert same(rows, strengths[:-1].astype(np.float32))  # one bar per rule, float32
+    # ... absent there (null), not an empty list, which would clear the chart at the end
+    raw_times, raw = rec.rows(RULES_PATH, "BarChart:values")
+    assert raw_times[-1] == nanos(result.log.time_s[-1]) and raw[-1] is None
     assert strengths.max() > 0.5  # something fired
     # bar k stands at abscissa k + 1: rule R(k+1)
     abscissa = rec.static[RULES_PATH]["BarChart:abscissa"][0]["buffer"]
