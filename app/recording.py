@@ -25,17 +25,24 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /target                               Points2D, radius = arrival tolerance
       /start, /ideal_line, /scale           static: the start, the straight start-target line,
                                             a 1 m scale bar
-      /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
+      /robot/sensed                         ideal perception: LineStrips2D to the centre of
+                                            the obstacle the controller reacts to
+      /sensors/{sensor}/beam                ultrasonic perception: the cone, as long as the
+                                            reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
+      /events/closest, /events/moving_{id}  static: the robot at each closest approach; a
+                                            moving obstacle then, and its track
     /plots                                  Scalars: one entity per plot, one instance
                                             per series (named in the legend; the order
                                             is :func:`plot_layout`'s)
-      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre)
-      /angles/phi_t, /angles/heading                       Fig. 14 (phi_t from the geometry)
+      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre;
+                                                           s2: 18, s3: 23, as every panel)
+      /angles/phi_t, /angles/heading                       Fig. 14, one panel
       /obstacle_angles   obstacle {id}...                  Fig. 15 (bearing from the heading)
-      /voltage           left, right (applied), left and right command (before the
-                         saturation), +12 V and -12 V limits      Fig. 16
-      /inputs            d_t, d_o, phi_t, phi_o as the controller saw them
+      /voltage           left, right (applied), left and right before the limit, the
+                         +-12 V limit (one name for both lines)   Fig. 16
+      /inputs/distances  d_t, d_o (m) as the controller saw them
+      /inputs/angles     phi_t, phi_o (rad) as the controller saw them
       /clearance         obstacle {id}..., the 0.25 m safe distance (footprint to surface)
       /wheels            w_LW, w_RW (rad/s)
       /velocity          v_MH (m/s), w_JH (rad/s)
@@ -43,11 +50,18 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
     /rules                                  fuzzy controllers only
-      /firing            BarChart per step: bar k is rule R(k+1)'s firing strength (float32)
+      /firing            BarChart per decision: the bar at abscissa k is rule Rk (float32);
+                         null at the last row (no decision)
+      /strongest         StateChange: the strongest rule where it changes
       /heatmap           static Tensor: rules x time (binned, max per bin)
       /texts             static TextDocument: every rule in words
+    /fuzzy/inputs/{name}, /fuzzy/outputs/{name}   a controller with a fis: the membership
+                         functions, the input's value / the aggregated output and its
+                         centroid at each decision (the viewer's inference view)
+    /events/log                             TextLog: closest approaches, disturbance, end
+    /events/lanes/{closest_approach,disturbance,outcome}   StateChange lanes
     /meta                                   static TextDocuments
-      /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
+      /run, /metrics, /scenario, /rules, /robot, /summary
 
 The default blueprint (sent first, so that a viewer opening a file still loading uses
 it; again at the end with the legends placed) puts the world on the left and the paper's
