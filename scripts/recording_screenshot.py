@@ -1,18 +1,24 @@
 """Screenshots of a recording in rerun's web viewer, in headless Chromium (docs/recordings.md).
 
-    python scripts/recording_screenshot.py run.rrd out.png [--tab NAME] [--size 1600x1000]
+    python scripts/recording_screenshot.py run.rrd out.png [--click X,Y] [--wait S]
 
-Serves the file with ``rerun --serve-web`` on free local ports, opens the web viewer in
-Chromium (Debian's ``chromium`` through playwright, software WebGL), waits for the
-recording to load, optionally clicks a tab by its name, and writes the screenshot.
-The rerun process it started is ended by its process id.
+Serves the file with ``rerun --serve-web`` on free ports of 127.0.0.1, opens the web
+viewer in Chromium (Debian's ``chromium`` through playwright, software WebGL), waits
+``--wait`` seconds for the recording to load (75 s was enough on 2 busy cores), clicks
+where ``--click`` says (a tab: at 1600 x 1000 "plant and inputs" is at 987,50, "fuzzy
+logic" at 1296,50), and writes the screenshot at ``--size``.
+The rerun processes it started (the ``rerun`` wrapper and its server, one process group)
+are ended by that group's id, also after an error; a signal that kills this script
+before then leaves them running (``ps``, then ``kill`` their ids).
 """
 
 from __future__ import annotations
 
 import argparse
 import base64
+import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -43,9 +49,22 @@ def screenshot(rrd: Path, out: Path, *, width: int, height: int, tabs=(), wait_s
     rerun = Path(sys.executable).with_name("rerun")
     web, grpc = free_port(), free_port()
     server = subprocess.Popen(
-        [str(rerun), "--serve-web", str(rrd), "--web-viewer-port", str(web), "--port", str(grpc)],
+        [
+            str(rerun),
+            "--serve-web",
+            str(rrd),
+            "--bind",
+            "127.0.0.1",  # (rerun binds every interface by default)
+            "--web-viewer-port",
+            str(web),
+            "--port",
+            str(grpc),
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        # its own process group: ``rerun`` is a wrapper that starts the real server as
+        # a child, which outlived a terminated wrapper; the group is ended as one
+        start_new_session=True,
     )
     try:
         wait_for(web)
@@ -79,11 +98,20 @@ def screenshot(rrd: Path, out: Path, *, width: int, height: int, tabs=(), wait_s
             out.write_bytes(base64.b64decode(shot["data"]))
             browser.close()
     finally:
-        server.terminate()
-        try:
-            server.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        end_group(server)
+
+
+def end_group(server: subprocess.Popen) -> None:
+    """End the server's process group (the wrapper and the server it started)."""
+    try:
+        os.killpg(server.pid, signal.SIGTERM)
+    except ProcessLookupError:
+        return
+    try:
+        server.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        os.killpg(server.pid, signal.SIGKILL)
+        server.wait(timeout=10)
 
 
 def main(argv=None) -> int:
