@@ -178,7 +178,10 @@ def test_logged_voltages_are_the_exported_fis_at_the_logged_inputs(tmp_path, geo
     ours = [float(r[col["controller_left_v"]]) for r in body]
     inputs = np.array(
         [
-            [float(r[col[k]]) if r[col[k]] else math.nan for k in ("d_t", "d_o", "phi_t", "phi_o")]
+            [
+                float(r[col[k]]) if r[col[k]] else math.nan
+                for k in ("d_t_m", "d_o_m", "phi_t_rad", "phi_o_rad")
+            ]
             for r in body
         ]
     )

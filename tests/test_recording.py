@@ -1270,9 +1270,9 @@ def test_a_legend_gets_empty_room_or_the_emptiest_corner():
     in_time = (t < 0.24) if left else (t > 0.76)
     v = (busy[in_time] - lo) / (hi - lo)
     assert np.all(v <= 1 - h) if top else np.all(v >= h)  # the box holds no data
-    quiet = np.column_stack([t, t])  # a rising line leaves the top left empty
-    assert _legend_placement(quiet, 2)[1] is None
-    assert "LeftTop" in str(_legend_placement(quiet, 2)[0])
+    quiet = np.column_stack([t, t])  # a rising line leaves the top left empty:
+    corner, value_range = _legend_placement(quiet, 2)  # the data's own range, 5 % margin
+    assert "LeftTop" in str(corner) and value_range == pytest.approx((-0.05, 1.05))
 
 
 def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
