@@ -1641,9 +1641,9 @@ def _send_fuzzy(rec, static: _StaticBatch, fis, log) -> list[str]:
             text = [f"{var.name} = {v:.2f} {unit} (centroid)" for v in value]
             grid = aggregated[0].grid[k]
             take = np.linspace(0, len(grid) - 1, FUZZY_POINTS).round().astype(int)
-            shape = np.stack(
-                [np.column_stack([sx(grid[take]), a.membership[k][take]]) for a in aggregated]
-            )
+            heights = np.array([a.membership[k] for a in aggregated])[:, take]
+            xs = np.broadcast_to(sx(grid[take]), heights.shape)
+            shape = np.stack([xs, heights], axis=-1)
             static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
             rec.send_columns(
                 f"{base}/aggregated",
