@@ -63,8 +63,9 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
     /meta                                   static TextDocuments
       /run, /metrics, /scenario, /rules, /robot, /summary
 
-The default blueprint (sent first, so that a viewer opening a file still loading uses
-it; again at the end with the legends placed) puts the world on the left and the paper's
+The default blueprint (a live recording sends it first, so that a viewer opening the
+stream uses it at once, and again at the end with the legends placed; ``record_run``,
+whose file appears whole, once at the end) puts the world on the left and the paper's
 figures stacked on the right, with tabs for the plant, the sensors, the rules and the
 run's documents. The application id (:func:`application_id`) is
 ``fuzzynav-<scenario>-<controller>-<geometry>-<key of the scenario's content>``, so
@@ -2387,10 +2388,10 @@ def record_run(
     stream = rec.binary_stream()
     rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
     try:
-        # The layout first: a viewer that opens the file while it loads uses it at once.
+        # One layout, at the end with the legends placed: the file appears whole (renamed
+        # into place), so no viewer sees it loading (LiveRecorder sends one first too).
         n_rules = len(getattr(rule_system(controller), "rules", ()))
         layout = (scenario, list(log.obstacle_ids), n_rules, log)
-        rec.send_blueprint(blueprint(*layout, internals=has_internals(controller)))
         writer = _ColumnWriter(
             rec,
             footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
