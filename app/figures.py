@@ -52,7 +52,11 @@ OBSTACLE = "#d62728"
 SAFE = "#555555"
 MOVING = "#9467bd"
 WHEEL_LEFT = "#1f77b4"
-WHEEL_RIGHT = "#d62728"
+# Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings):
+# the right wheel and the heading take colours no obstacle has.
+WHEEL_RIGHT = "#222222"
+HEADING = "#008c78"  # teal, as the recording's heading arrow
+EVENT = "#222222"
 DISTURBANCE = "#f2a900"
 OBSTACLE_COLORS = [
     "#d62728",
@@ -163,8 +167,10 @@ def draw_trajectory(
     footprints: bool = True,
     legend: bool = True,
     title: str | None = None,
+    events: bool = True,
 ) -> None:
-    """The paper's trajectory figure on ``ax`` (also used for the comparison grid)."""
+    """The paper's trajectory figure on ``ax`` (also used for the comparison grid);
+    ``events``: mark each obstacle's closest approach (time and centre distance)."""
     from matplotlib.patches import Circle
 
     log = result.log
@@ -181,6 +187,7 @@ def draw_trajectory(
         zorder=1,
     )
     moving = set(_moving_columns(log)) if len(log) else set()
+    labels = []  # (text, where, colour): placed once the limits are known
     paper_geometry = getattr(result, "geometry", "husky") == "paper"
     safe_label = f"{SAFE_DISTANCE_M} m safe distance" + (
         ", centre to centre" if paper_geometry else ""
@@ -194,17 +201,27 @@ def draw_trajectory(
         color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
         first, last = pts[present][0], pts[present][-1]
         if col in moving:
+            # above the straight line (s2's obstacle moves along it), in its own colour
             ax.plot(
                 pts[present, 0],
                 pts[present, 1],
-                color=MOVING,
-                lw=1.2,
-                ls=":",
-                label="moving obstacle's path" if col == min(moving) else None,
-                zorder=2,
+                color=color,
+                lw=2.2,
+                ls=(0, (1, 1.5)),
+                label=f"{_obstacle_label(log, col)}'s path (moving)",
+                zorder=2.5,
             )
             ax.add_patch(
-                Circle(first, radius, facecolor="none", edgecolor=color, lw=0.8, ls="--", zorder=2)
+                Circle(
+                    first,
+                    radius,
+                    facecolor="none",
+                    edgecolor=color,
+                    lw=0.9,
+                    ls="--",
+                    zorder=2.5,
+                    label=f"{_obstacle_label(log, col)} at the start",
+                )
             )
         ax.add_patch(Circle(last, radius, facecolor=color, edgecolor=color, alpha=0.75, zorder=3))
         ax.add_patch(
@@ -221,14 +238,7 @@ def draw_trajectory(
                 label=(safe_label if col == 0 else None),
             )
         )
-        ax.annotate(
-            _obstacle_label(log, col),
-            last,
-            xytext=(6, 6),
-            textcoords="offset points",
-            fontsize=7,
-            color=color,
-        )
+        labels.append((_obstacle_label(log, col), last, color))
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
         for k in list(range(0, len(log), period)) + [len(log) - 1]:
@@ -263,14 +273,132 @@ def draw_trajectory(
             zorder=7,
             label="collision" if c is result.collisions[0] else None,
         )
+    closest = closest_approaches(result) if events else []
+    for k, (col, row, distance) in enumerate(closest):
+        ax.plot(
+            *xy[row],
+            marker="o",
+            ms=4.5,
+            mfc="white",
+            mec=EVENT,
+            ls="none",
+            zorder=7,
+            label="closest approach (centre to centre)" if k == 0 else None,
+        )
+        if col in moving:  # the moving obstacle where it was then
+            ax.add_patch(
+                Circle(
+                    log.obstacle_xy[row, col],
+                    float(log.obstacle_radii_m[col]),
+                    facecolor=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
+                    alpha=0.35,
+                    edgecolor="none",
+                    zorder=3,
+                )
+            )
+        labels.append((f"{distance:.2f} m, {log.time_s[row]:.1f} s", xy[row], EVENT))
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
+    ax.autoscale_view()
+    _place_labels(ax, labels)
     ax.grid(True, lw=0.3, alpha=0.6)
     if title is not None:
         ax.set_title(title, fontsize=9)
     if legend:
         ax.legend(fontsize=7, loc="best", framealpha=0.85)
+
+
+def closest_approaches(result) -> list[tuple[int, int, float]]:
+    """(obstacle column, row, centre distance m) of each obstacle's closest approach."""
+    log = result.log
+    out = []
+    if not len(log):
+        return out
+    for col in range(len(log.obstacle_ids)):
+        d = np.where(
+            np.isfinite(log.center_distance_m[:, col]), log.center_distance_m[:, col], np.inf
+        )
+        row = int(np.argmin(d))
+        if math.isfinite(d[row]):
+            out.append((col, row, float(d[row])))
+    return out
+
+
+def _place_labels(ax, labels) -> None:
+    """Annotate each (text, point, colour) on the side that faces the axes' middle, so
+    that no label runs off the axes (a label at the right edge reads to the left)."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    for text, (x, y), color in labels:
+        right = x > 0.5 * (x0 + x1)
+        up = y < 0.5 * (y0 + y1)
+        ax.annotate(
+            text,
+            (x, y),
+            xytext=(-6 if right else 6, 6 if up else -6),
+            textcoords="offset points",
+            ha="right" if right else "left",
+            va="bottom" if up else "top",
+            fontsize=7,
+            color=color,
+            zorder=8,
+        )
+
+
+def _mark_closest(ax, result, *, label: bool) -> None:
+    """A dotted vertical line at each obstacle's closest approach (its colour)."""
+    log = result.log
+    for col, row, distance in closest_approaches(result):
+        ax.axvline(
+            log.time_s[row],
+            color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
+            ls=":",
+            lw=0.9,
+            zorder=0.5,
+            gid="closest",
+            label=(
+                f"closest to {_obstacle_label(log, col)}: {distance:.2f} m, {log.time_s[row]:.1f} s"
+            )
+            if label
+            else None,
+        )
+
+
+def scenario_stem(scenario) -> str:
+    """A scenario's short name: its file's stem (s1) or its name."""
+    source = getattr(scenario, "source", "") or ""
+    return Path(source).stem if source and source != "<memory>" else scenario.name
+
+
+def numbered_scenario(scenario) -> str | None:
+    """The shipped scenario's name (s1) when the run drove a shipped file, whose figures
+    have the paper's numbers; None for any other (a copy named s2.toml elsewhere too)."""
+    from fuzzynav.world.scenario import SCENARIO_DIR
+
+    source = getattr(scenario, "source", "") or ""
+    if not source or source == "<memory>":
+        return None
+    try:
+        shipped = Path(source).resolve().parent == SCENARIO_DIR.resolve()
+    except OSError:
+        return None
+    return Path(source).stem if shipped else None
+
+
+def run_figure_stem(scenario, kind: str, controller: str) -> str:
+    """A run figure's file name: ``fig17_s2_trajectory_paper`` for a shipped s1-s3 (the
+    report's names), ``<stem>_<kind>_<controller>`` for any other scenario."""
+    shipped = numbered_scenario(scenario)
+    if shipped is not None:
+        return paper_figure_stem(shipped, kind, controller)
+    return f"{scenario_stem(scenario)}_{kind}_{controller}"
+
+
+def _figure_prefix(result, kind: str) -> str:
+    """``Fig. 18. `` for s2's distances: the paper's number, one numbering everywhere."""
+    shipped = numbered_scenario(result.scenario)
+    number = paper_figure_number(shipped, kind) if shipped else None
+    return f"Fig. {number}. " if number is not None else ""
 
 
 def _run_title(result, controller_label: str | None) -> str:
@@ -364,7 +492,7 @@ def run_figure(
             result,
             footprint_m=footprint_m or _default_footprint(),
             footprints=not paper_geometry,
-            title=f"Trajectory — {title}",
+            title=f"{_figure_prefix(result, 'trajectory')}Trajectory — {title}",
         )
         return fig
 
@@ -384,13 +512,15 @@ def run_figure(
         else:
             bottom.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
         bottom.axhline(0.0, color="k", lw=0.6)
+        _mark_closest(top, result, label=True)
+        _mark_closest(bottom, result, label=False)
         _time_axes(top, "distance, centre to centre (m)", scenario, xlabel=False)
         _time_axes(
             bottom,
             "centre to obstacle surface (m)" if paper_geometry else "footprint clearance (m)",
             scenario,
         )
-        top.set_title(f"Distances — {title}", fontsize=9)
+        top.set_title(f"{_figure_prefix(result, 'distances')}Distances — {title}", fontsize=9)
         for a in (top, bottom):
             _legend_outside(a)
         return fig
@@ -411,10 +541,12 @@ def run_figure(
                 label="phi_t as the controller received it",
             )
         top.plot(t, phi_t, color=ROBOT, lw=1.4, label="phi_t")
-        bottom.plot(t, log.pose[:, 2], color="#d62728", lw=1.4, label="heading")
+        bottom.plot(t, log.pose[:, 2], color=HEADING, lw=1.4, label="heading")
         _time_axes(top, "target angle phi_t (rad)", scenario, xlabel=False)
         _time_axes(bottom, "heading (rad)", scenario)
-        top.set_title(f"Target angle and heading — {title}", fontsize=9)
+        top.set_title(
+            f"{_figure_prefix(result, 'angles')}Target angle and heading — {title}", fontsize=9
+        )
         for a in (top, bottom):
             _legend_outside(a)
         return fig
@@ -436,7 +568,9 @@ def run_figure(
             a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
         a.axhline(0.0, color="k", lw=0.6)
         _time_axes(a, "obstacle angle (rad)", scenario)
-        a.set_title(f"Obstacle angles — {title}", fontsize=9)
+        a.set_title(
+            f"{_figure_prefix(result, 'obstacle_angles')}Obstacle angles — {title}", fontsize=9
+        )
         if a.get_legend_handles_labels()[0]:
             _legend_outside(a)
         return fig
@@ -479,7 +613,7 @@ def run_figure(
     diff.axhline(0.0, color="k", lw=0.6)
     _time_axes(diff, "left − right (V)", scenario)
     _legend_outside(diff)
-    ax[0, 0].set_title(f"Wheel voltages — {title}", fontsize=9)
+    ax[0, 0].set_title(f"{_figure_prefix(result, 'voltages')}Wheel voltages — {title}", fontsize=9)
     return fig
 
 
@@ -580,6 +714,7 @@ def write_membership_figures(
     points: int = 1001,
     stem=None,
     title_suffix: str = "",
+    numbers: dict | None = None,
 ) -> list[Path]:
     """One figure per input and output variable of a ``FuzzySystem``: every term's
     membership over the variable's range, named ``membership_<variable>`` (or
@@ -596,12 +731,15 @@ def write_membership_figures(
             y = np.asarray(term(x), dtype=float)
             (line,) = a.plot(x, y, lw=1.6, label=f"{term.name} ({term.shape})")
             peak = int(np.argmax(y))
+            # a peak at an end of the range (VL at 14 V) is labelled inward, not cut off
+            where = (x[peak] - lo) / (hi - lo) if hi > lo else 0.5
+            ha = "left" if where < 0.08 else "right" if where > 0.92 else "center"
             a.annotate(
                 term.name,
                 (x[peak], y[peak]),
-                xytext=(0, 4),
+                xytext=({"left": 3, "right": -3, "center": 0}[ha], 4),
                 textcoords="offset points",
-                ha="center",
+                ha=ha,
                 fontsize=8,
                 color=line.get_color(),
             )
@@ -612,7 +750,11 @@ def write_membership_figures(
         a.set_ylabel("membership")
         a.grid(True, lw=0.3, alpha=0.6)
         desc = getattr(var, "description", "")
-        a.set_title(f"{kind} {var.name}" + (f": {desc}" if desc else "") + title_suffix, fontsize=9)
+        number = (numbers or {}).get(var.name)
+        head = f"Fig. {number}. " if number is not None else ""
+        a.set_title(
+            f"{head}{kind} {var.name}" + (f": {desc}" if desc else "") + title_suffix, fontsize=9
+        )
         a.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
         name = stem(var.name) if stem is not None else f"{prefix}membership_{var.name}"
         written += _save(fig, out_dir, name, formats)
@@ -629,7 +771,7 @@ def write_membership_overview(
 
     variables = list(fis.inputs) + list(fis.outputs)
     rows = (len(variables) + 1) // 2
-    fig, axes = plt.subplots(rows, 2, figsize=(10, 2.6 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, 2, figsize=(12, 2.8 * rows), squeeze=False)
     for a, var in zip(axes.ravel(), variables):
         lo, hi = var.range
         shown = min(hi, d_t_shown_m) if var.name == "d_t" else hi
@@ -640,8 +782,10 @@ def write_membership_overview(
         note = f" (shown to {shown:g} of {hi:g})" if shown < hi else ""
         a.set_title(f"{var.name}{unit}{note}", fontsize=9)
         a.set_ylim(-0.02, 1.1)
+        a.set_xlabel(f"{var.name}{unit}")
+        a.set_ylabel("membership")
         a.grid(True, lw=0.3, alpha=0.6)
-        a.legend(fontsize=7)
+        a.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))  # not over a term
     for a in axes.ravel()[len(variables) :]:
         a.axis("off")
     fig.suptitle(title, fontsize=10)
@@ -728,12 +872,26 @@ def comparison_figure(
                 result,
                 footprint_m=footprint_m,
                 footprints=False,
-                legend=(i == 0 and j == 0),
+                legend=False,
                 title=f"{tag} {shown}, {scenario}: {result.outcome}{extra}",
+                events=False,
             )
             # which run a panel shows, for a reader of the Figure object (and the tests)
             ax.set_gid(f"{scenario}/{controller}")
-        _share_limits([axes[i, j] for j in range(cols) if row_results[j] is not None])
+    # One legend for every panel (each panel's own limits: sharing a row's squashed a
+    # panel whose path is short beside a long one).
+    handles = {}
+    for ax in axes.ravel():
+        for handle, text in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(text, handle)
+    if handles:
+        fig.legend(
+            list(handles.values()),
+            list(handles),
+            loc="outside lower center",
+            ncols=min(4, len(handles)),
+            fontsize=7,
+        )
     fig.suptitle(title or "Trajectories while reaching the target (paper Fig. 27)", fontsize=10)
     return fig
 
@@ -768,20 +926,6 @@ def write_comparison_figure(
         footprint_m=footprint_m,
     )
     return _save(fig, out_dir, name, formats)
-
-
-def _share_limits(axes) -> None:
-    if not axes:
-        return
-    for ax in axes:
-        ax.autoscale_view()
-    xs = [ax.get_xlim() for ax in axes]
-    ys = [ax.get_ylim() for ax in axes]
-    xlim = (min(x[0] for x in xs), max(x[1] for x in xs))
-    ylim = (min(y[0] for y in ys), max(y[1] for y in ys))
-    for ax in axes:
-        ax.set_xlim(*xlim)
-        ax.set_ylim(*ylim)
 
 
 # ---------------------------------------------------------------------------------------
@@ -912,6 +1056,7 @@ def write_paper_figures(
             formats=formats,
             stem=lambda var, name=name: membership_figure_stem(var, name),
             title_suffix=f"\n{name} controller, {geometry} geometry",
+            numbers=MEMBERSHIP_FIGURE if name == "paper" else None,
         )
         for var in tuple(fis.inputs) + tuple(fis.outputs):
             stem = membership_figure_stem(var.name, name)
@@ -1015,14 +1160,26 @@ def run_hook(args, sim):
 
     def write(result, interrupted: bool) -> None:
         params = sim.model.parameters
+        # Named as the report names them: by the paper's figure numbers (fig12_s1_...).
+        name = _controller_label(sim.controller) or "controller"
         try:
             paths = write_run_figures(
                 result,
                 out_dir,
                 controller=sim.controller,
+                names={kind: run_figure_stem(result.scenario, kind, name) for kind in RUN_FIGURES},
                 footprint_m=(params.footprint_length_m, params.footprint_width_m),
                 voltage_limit_v=sim.voltage_limit_v,
+                membership=False,
             )
+            fis = _fis(sim.controller)
+            if fis is not None:
+                paths += write_membership_figures(
+                    fis,
+                    out_dir,
+                    stem=lambda var: membership_figure_stem(var, name),
+                    numbers=MEMBERSHIP_FIGURE if name == "paper" else None,
+                )
         except OSError as exc:  # a full disk, a folder removed meanwhile
             raise ValueError(
                 f"--figures {escape_controls(str(out_dir))}: the figures were not written "

@@ -25,17 +25,24 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /target                               Points2D, radius = arrival tolerance
       /start, /ideal_line, /scale           static: the start, the straight start-target line,
                                             a 1 m scale bar
-      /sensors/{sensor}/beam                LineStrips2D: the cone, as long as the reading
+      /robot/sensed                         ideal perception: LineStrips2D to the centre of
+                                            the obstacle the controller reacts to
+      /sensors/{sensor}/beam                ultrasonic perception: the cone, as long as the
+                                            reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
+      /events/closest, /events/moving_{id}  static: the robot at each closest approach; a
+                                            moving obstacle then, and its track
     /plots                                  Scalars: one entity per plot, one instance
                                             per series (named in the legend; the order
                                             is :func:`plot_layout`'s)
-      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre)
-      /angles/phi_t, /angles/heading                       Fig. 14 (phi_t from the geometry)
+      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre;
+                                                           s2: 18, s3: 23, as every panel)
+      /angles/phi_t, /angles/heading                       Fig. 14, one panel
       /obstacle_angles   obstacle {id}...                  Fig. 15 (bearing from the heading)
-      /voltage           left, right (applied), left and right command (before the
-                         saturation), +12 V and -12 V limits      Fig. 16
-      /inputs            d_t, d_o, phi_t, phi_o as the controller saw them
+      /voltage           left, right (applied), left and right before the limit, the
+                         +-12 V limit (one name for both lines)   Fig. 16
+      /inputs/distances  d_t, d_o (m) as the controller saw them
+      /inputs/angles     phi_t, phi_o (rad) as the controller saw them
       /clearance         obstacle {id}..., the 0.25 m safe distance (footprint to surface)
       /wheels            w_LW, w_RW (rad/s)
       /velocity          v_MH (m/s), w_JH (rad/s)
@@ -43,17 +50,26 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
     /rules                                  fuzzy controllers only
-      /firing            BarChart per step: bar k is rule R(k+1)'s firing strength (float32)
+      /firing            BarChart per decision: the bar at abscissa k is rule Rk (float32);
+                         null at the last row (no decision)
+      /strongest         StateChange: the strongest rule where it changes
       /heatmap           static Tensor: rules x time (binned, max per bin)
       /texts             static TextDocument: every rule in words
+    /fuzzy/inputs/{name}, /fuzzy/outputs/{name}   a controller with a fis: the membership
+                         functions, the input's value / the aggregated output and its
+                         centroid at each decision (the viewer's inference view)
+    /events/log                             TextLog: closest approaches, disturbance, end
+    /events/lanes/{closest_approach,disturbance,outcome}   StateChange lanes
     /meta                                   static TextDocuments
-      /run, /metrics, /scenario, /rules, /robot, /sensors, /versions
+      /run, /metrics, /scenario, /rules, /robot, /summary
 
-The default blueprint (sent first, so that a viewer opening a file still loading uses
-it; again at the end with the legends placed) puts the world on the left and the paper's
+The default blueprint (a live recording sends it first, so that a viewer opening the
+stream uses it at once, and again at the end with the legends placed; ``record_run``,
+whose file appears whole, once at the end) puts the world on the left and the paper's
 figures stacked on the right, with tabs for the plant, the sensors, the rules and the
-run's documents. The application id is ``fuzzynav-<scenario>-<controller>``, so each
-scenario and controller keeps its own layout in a viewer. docs/recordings.md says what
+run's documents. The application id (:func:`application_id`) is
+``fuzzynav-<scenario>-<controller>-<geometry>-<key of the scenario's content>``, so
+recordings whose layouts differ keep their own in a viewer. docs/recordings.md says what
 every entity and tab shows; docs/robustness.md how files are written (whole, beside the
 target, renamed; a partial run as ``<stem>.partial.rrd``).
 
@@ -90,21 +106,29 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.args import off_flag
 from fuzzynav.app.safe_files import check_writable_file  # noqa: F401  (re-exported)
 
 TIMELINE = "sim_time"
 APPLICATION_ID = "fuzzynav"
 SAFE_DISTANCE_M = 0.25
 HEADING_ARROW_M = 0.7
+#: Draw orders in the world view (higher on top): beams under everything the robot is.
+BEAM_ORDER, OBSTACLE_ORDER, TRAIL_ORDER, ROBOT_ORDER, HEADING_ORDER = 10, 20, 30, 40, 50
 RING_SEGMENTS = 48
 
 # Colours (RGB).
 ROBOT = (40, 110, 220)
 TRAIL = (40, 110, 220)
+HEADING = (0, 140, 120)  # teal: neither the trail's blue nor a sensor's or an obstacle's
+SENSED = (240, 180, 0)  # the line to the obstacle the controller reacts to
+EVENT = (20, 20, 20)
+# Red, orange, purple... are obstacles 0, 1, 2 in every plot and figure: the right wheel
+# is drawn black-ish, the limits light grey.
+RIGHT = (40, 40, 40)
+LIMIT = (185, 185, 185)
 TARGET = (30, 160, 60)
 OBSTACLE = (200, 60, 50)
-SAFE_RING = (240, 150, 40)
+SAFE_RING = (140, 140, 140)
 START = (235, 235, 235)
 SCALE = (200, 200, 200)
 OBSTACLE_PATH = (150, 60, 160)
@@ -279,6 +303,7 @@ def controller_label(controller) -> str:
 RULES_PATH = "/rules/firing"  # BarChart per step: every rule's firing strength (float32)
 RULES_HEATMAP_PATH = "/rules/heatmap"  # static Tensor, rules x time bins (max per bin)
 RULES_TEXT_PATH = "/rules/texts"  # static TextDocument: R1 ... Rn in words
+RULES_STRONGEST_PATH = "/rules/strongest"  # StateChange: the strongest rule where it changes
 #: The most time bins of the rule heatmap (a long run is binned: the max per bin).
 HEATMAP_MAX_BINS = 1500
 
@@ -294,32 +319,28 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
     k = len(ids)
     return [
         ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
-        ("/plots/angles/phi_t", ["phi_t (rad)"], [p[0]], [1.5]),
-        ("/plots/angles/heading", ["heading (rad)"], [p[1]], [1.5]),
+        ("/plots/angles/phi_t", ["phi_t"], [p[0]], [1.5]),
+        ("/plots/angles/heading", ["heading"], [HEADING], [1.5]),
         ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
         (
             "/plots/voltage",
-            [
-                "left (V)",
-                "right (V)",
-                "left command (V)",
-                "right command (V)",
-                f"+{limit:g} V limit",
-                f"-{limit:g} V limit",
-            ],
-            [p[0], p[1], (150, 190, 230), (240, 160, 160), grey, grey],
+            # (the two limits share one name: one legend entry)
+            ["left", "right", "left, before limit", "right, before limit"]
+            + [f"±{limit:g} V limit"] * 2,
+            [p[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
             [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
         ),
-        ("/plots/inputs", ["d_t", "d_o", "phi_t", "phi_o"], p[:4], [1.5] * 4),
+        ("/plots/inputs/distances", ["d_t", "d_o"], [p[0], p[1]], [1.5] * 2),
+        ("/plots/inputs/angles", ["phi_t", "phi_o"], [p[2], p[3]], [1.5] * 2),
         (
             "/plots/clearance",
             obstacles + [f"safe {SAFE_DISTANCE_M} m"],
             obstacle_colors + [grey],
             [1.5] * k + [1.0],
         ),
-        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], p[:2], [1.5] * 2),
+        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], [p[0], RIGHT], [1.5] * 2),
         ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
-        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], p[:2], [1.5] * 2),
+        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], [p[0], RIGHT], [1.5] * 2),
         (
             "/plots/ranges",
             [f"{m} (m)" for m in sensor_names],
@@ -357,10 +378,18 @@ def _component_types() -> dict:
     samples = (
         rr.SeriesLines(names="x", colors=[(0, 0, 0)], widths=1.0),
         rr.Scalars(scalars=[0.0]),
-        rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x"),
-        rr.LineStrips2D(strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)], labels="x"),
-        rr.Arrows2D(vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)]),
-        rr.BarChart(values=np.zeros(2, dtype=np.float32), color=(0, 0, 0)),
+        rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x", draw_order=1.0),
+        rr.LineStrips2D(
+            strips=[[(0, 0), (1, 1)]], radii=1.0, colors=[(0, 0, 0)], labels="x", draw_order=1.0
+        ),
+        rr.Arrows2D(
+            vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)], draw_order=1.0
+        ),
+        rr.BarChart(
+            values=np.zeros(2, dtype=np.float32),
+            color=(0, 0, 0),
+            abscissa=np.zeros(2, dtype=np.float32),
+        ),
     )
     out = {}
     for sample in samples:
@@ -514,6 +543,15 @@ class _StaticBatch:
             self.fields.append(field)
             self.arrays.append(pa.array([values], type=field.type))
 
+    def add_array(self, entity: str, archetype: str, name: str, instances) -> None:
+        """One component given as its Arrow array of instances."""
+        import pyarrow as pa
+
+        field, _ = _component_field(entity, archetype, name)
+        self.fields.append(field)
+        offsets = pa.array([0, len(instances)], type=pa.int32())
+        self.arrays.append(pa.ListArray.from_arrays(offsets, instances))
+
     def add_archetype(self, entity: str, archetype) -> None:
         """Every component of an ``rr`` archetype, with the SDK's own descriptors."""
         import pyarrow as pa
@@ -563,9 +601,12 @@ class _RowBatch:
         self.arrays = [pa.array(nanos.astype("timedelta64[ns]"), type=pa.duration("ns"))]
         self.unit_offsets = pa.array(np.arange(self.n + 1, dtype=np.int32))
 
-    def add(self, entity: str, archetype: str, name: str, instances, lengths=None) -> None:
+    def add(
+        self, entity: str, archetype: str, name: str, instances, lengths=None, absent=None
+    ) -> None:
         """``instances``: the component's Arrow array; one per row, or ``lengths[i]``
-        of them in row i."""
+        of them in row i. Rows where ``absent`` is true hold no value at all (null: the
+        viewer shows the latest row before), not an empty list (which clears it)."""
         import pyarrow as pa
 
         field, _ = _component_field(entity, archetype, name)
@@ -573,8 +614,9 @@ class _RowBatch:
             offsets = self.unit_offsets
         else:
             offsets = pa.array(np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32))
+        mask = None if absent is None else pa.array(np.asarray(absent, bool))
         self.fields.append(field)
-        self.arrays.append(pa.ListArray.from_arrays(offsets, instances))
+        self.arrays.append(pa.ListArray.from_arrays(offsets, instances, mask=mask))
 
     def add_series(self, entity: str, columns) -> None:
         """Scalars: ``columns`` (n rows, k series) as k instances per row."""
@@ -617,8 +659,15 @@ class _ColumnWriter:
         fis=None,
         tolerance_m: float = 0.15,
         controller=None,
+        perception: str | None = None,
+        geometry: str = "husky",
     ):
         self.rec = rec
+        # Ideal perception uses no range sensor: no beams are drawn, but the line to the
+        # obstacle the controller reacts to (the nearest: by clearance, or centre to
+        # centre in the paper's geometry).
+        self.draw_beams = perception != "ideal"
+        self.geometry = geometry
         self.controller = controller
         self.internals = has_internals(controller)
         # A decision: the voltages, the internals, then the inputs of the blocks' rules.
@@ -670,18 +719,33 @@ class _ColumnWriter:
                 path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
             )
         self._rows.add_series(path, columns)
-        self._legend_samples.setdefault(path, []).append(np.asarray(columns)[::5])
+        self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
 
     def legend_corners(self) -> dict:
-        """Per plot, the corner its data leave most empty (for the legend)."""
-        corners = {}
+        """Per plot view, where its legend goes and the value range that leaves it room
+        (:func:`_legend_placement`): ``{view origin: (corner, range or None)}``. The
+        two angle entities share one view (/plots/angles), as Fig. 14 shows both."""
+        samples = {}
         for path, parts in self._legend_samples.items():
             widths = {p.shape[1] for p in parts if p.ndim == 2}
             if len(widths) == 1:  # (obstacles added mid-run change the width: skip)
-                corner = _legend_corner(np.concatenate(parts))
-                if corner is not None:
-                    corners[path] = corner
-        return corners
+                samples[path] = np.concatenate(parts)
+        angles = [
+            samples.pop(p) for p in ("/plots/angles/phi_t", "/plots/angles/heading") if p in samples
+        ]
+        if len(angles) == 2 and len(angles[0]) == len(angles[1]):
+            samples["/plots/angles"] = np.hstack(angles)
+        placements = {}
+        for path, values in samples.items():
+            names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
+            placement = _legend_placement(values, len(set(names)))
+            if placement is not None:
+                placements[path] = placement
+                finite = values[np.isfinite(values)]
+                lo, hi = float(finite.min()), float(finite.max())
+                pad = 0.05 * (hi - lo if hi > lo else max(abs(hi), 1.0))
+                placements[f"{path}#data"] = (lo - pad, hi + pad)  # (a view without legend)
+        return placements
 
     def _series(self, log, start, end, pose, target, ranges, inputs):
         """(path, names, colors, widths, columns) of every plot, in :func:`plot_layout`'s
@@ -706,7 +770,8 @@ class _ColumnWriter:
                     -limit * constant,
                 ]
             ),
-            "/plots/inputs": inputs,
+            "/plots/inputs/distances": inputs[:, [0, 1]],
+            "/plots/inputs/angles": inputs[:, [2, 3]],
             "/plots/clearance": np.column_stack(
                 [log.clearance_m[start:end], SAFE_DISTANCE_M * constant]
             ),
@@ -734,14 +799,26 @@ class _ColumnWriter:
         pose = log.pose[start:end]
 
         # -- the robot
-        self._style("/world/robot/footprint", "LineStrips2D", colors=ROBOT, radii=0.015)
+        self._style(
+            "/world/robot/footprint",
+            "LineStrips2D",
+            colors=ROBOT,
+            radii=0.015,
+            draw_order=float(ROBOT_ORDER),
+        )
         rows.add(
             "/world/robot/footprint",
             "LineStrips2D",
             "strips",
             _strips_array(footprint_outlines(pose, *self.footprint_m)),
         )
-        self._style("/world/robot/heading", "Arrows2D", colors=ROBOT, radii=0.02)
+        self._style(
+            "/world/robot/heading",
+            "Arrows2D",
+            colors=HEADING,
+            radii=0.035,
+            draw_order=float(HEADING_ORDER),
+        )
         heading = np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], axis=-1) * HEADING_ARROW_M
         rows.add(
             "/world/robot/heading",
@@ -757,7 +834,13 @@ class _ColumnWriter:
         )
         previous = log.pose[start - 1, :2] if start > 0 else pose[0, :2]
         starts = np.vstack([previous[None, :], pose[:-1, :2]])
-        self._style("/world/robot/trail", "LineStrips2D", colors=TRAIL, radii=0.02)
+        self._style(
+            "/world/robot/trail",
+            "LineStrips2D",
+            colors=TRAIL,
+            radii=0.02,
+            draw_order=float(TRAIL_ORDER),
+        )
         rows.add(
             "/world/robot/trail",
             "LineStrips2D",
@@ -788,9 +871,69 @@ class _ColumnWriter:
         for col, oid in enumerate(log.obstacle_ids):
             self._send_obstacle(log, col, oid, start, end, t)
 
-        # -- the sensors
-        origins, directions = sensor_geometry(pose, self.sensor_config)
+        # -- the sensors, or (ideal perception) the obstacle the controller reacts to
         ranges = log.ranges_m[start:end]
+        if self.draw_beams:
+            self._send_beams(pose, ranges, rows)
+        else:
+            self._send_sensed(log, start, end, pose, rows)
+
+        # -- time series: one entity per plot, one instance (series) per column
+        inputs = log.inputs[start:end]
+        for path, names, colors, widths, columns in self._series(
+            log, start, end, pose, target, ranges, inputs
+        ):
+            self._plot(path, names, colors, widths, columns)
+
+        # -- rule firing strengths (rows with a decision: the last row has none)
+        decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
+        if self.fis is not None and self.fis_error is None:
+            try:
+                strengths = np.asarray(self.fis.firing_strengths(inputs), dtype=float)
+            except Exception as exc:  # a fuzzy system of another shape: record why not
+                self.fis_error = f"{type(exc).__name__}: {exc}"
+            else:
+                self._plot_rules(strengths, decided)
+        if self.internals and self.replica_error is None:
+            self._internals(log, start, end)
+        if send_static:
+            self._static.send(self.rec)
+        rows.send(self.rec)
+        self.sent = end
+
+    def _send_sensed(self, log, start: int, end: int, pose, rows) -> None:
+        """A line from the robot's centre to the centre of the obstacle the controller
+        reacts to (the nearest, as ideal perception picks it), where it senses one."""
+        d_o = log.inputs[start:end, 1]
+        n = end - start
+        if log.obstacle_xy.shape[1] == 0:
+            sensed = np.zeros(n, bool)
+            centres = np.zeros((n, 2))
+        else:
+            near = log.center_distance_m if self.geometry == "paper" else log.clearance_m
+            near = np.where(np.isfinite(near[start:end]), near[start:end], np.inf)
+            k = np.argmin(near, axis=1)
+            centres = log.obstacle_xy[start:end][np.arange(n), k]
+            sensed = np.isfinite(d_o) & np.all(np.isfinite(centres), axis=1)
+        self._style(
+            "/world/robot/sensed",
+            "LineStrips2D",
+            colors=SENSED,
+            radii=0.025,
+            draw_order=float(ROBOT_ORDER - 1),
+        )
+        strips = np.stack([pose[sensed, :2], centres[sensed]], axis=1)
+        rows.add(
+            "/world/robot/sensed",
+            "LineStrips2D",
+            "strips",
+            _strips_array(strips),
+            lengths=sensed.astype(np.int32),
+        )
+
+    def _send_beams(self, pose, ranges, rows) -> None:
+        """The range sensors' cones, as long as their readings, and their echoes."""
+        origins, directions = sensor_geometry(pose, self.sensor_config)
         max_range = float(self.sensor_config.max_range_m)
         half = 0.5 * float(self.sensor_config.beam_width_rad)
         for k, name in enumerate(self.sensor_names):
@@ -803,7 +946,11 @@ class _ColumnWriter:
             left = o + length * np.hstack([np.cos(d + half), np.sin(d + half)])
             right = o + length * np.hstack([np.cos(d - half), np.sin(d - half)])
             self._style(
-                f"/world/sensors/{name}/beam", "LineStrips2D", colors=(*color, 160), radii=0.008
+                f"/world/sensors/{name}/beam",
+                "LineStrips2D",
+                colors=(*color, 110),
+                radii=0.006,
+                draw_order=float(BEAM_ORDER),
             )
             rows.add(
                 f"/world/sensors/{name}/beam",
@@ -821,38 +968,29 @@ class _ColumnWriter:
                 lengths=echo.astype(np.int32),
             )
 
-        # -- time series: one entity per plot, one instance (series) per column
-        inputs = log.inputs[start:end]
-        for path, names, colors, widths, columns in self._series(
-            log, start, end, pose, target, ranges, inputs
-        ):
-            self._plot(path, names, colors, widths, columns)
-
-        # -- rule firing strengths
-        if self.fis is not None and self.fis_error is None:
-            try:
-                strengths = np.asarray(self.fis.firing_strengths(inputs), dtype=float)
-            except Exception as exc:  # a fuzzy system of another shape: record why not
-                self.fis_error = f"{type(exc).__name__}: {exc}"
-            else:
-                self._plot_rules(strengths)
-        if self.internals and self.replica_error is None:
-            self._internals(log, start, end)
-        if send_static:
-            self._static.send(self.rec)
-        rows.send(self.rec)
-        self.sent = end
-
-    def _plot_rules(self, strengths: np.ndarray) -> None:
-        """Every rule's firing strength at every row as one bar chart (bar k-1 is rule
-        Rk, float32), and kept for the run's heatmap (:meth:`send_heatmap`). One bar
-        chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
+    def _plot_rules(self, strengths: np.ndarray, decided: np.ndarray) -> None:
+        """Every rule's firing strength at every row with a decision as one bar chart
+        (bar k-1 is rule Rk, its abscissa k; float32), and kept for the run's heatmap
+        (:meth:`send_heatmap`). A row without a decision (the last) has no strengths:
+        nothing is logged there, so the chart at the end shows the last decision's. One
+        bar chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
         strengths = np.ascontiguousarray(strengths, dtype=np.float32)
+        decided = np.asarray(decided, bool)
         self.n_rules = strengths.shape[1]
-        self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
-        self._rows.add(RULES_PATH, "BarChart", "values", _tensor_rows(strengths))
-        self.rule_times.append(np.asarray(self._rows_time, dtype=float))
-        self.rule_strengths.append(strengths)
+        if RULES_PATH not in self._styled:  # bar k at abscissa k + 1: rule R(k+1)
+            self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
+            numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
+            self._static.add_array(RULES_PATH, "BarChart", "abscissa", _tensor_rows(numbers))
+        self._rows.add(
+            RULES_PATH,
+            "BarChart",
+            "values",
+            _tensor_rows(strengths[decided]),
+            lengths=decided.astype(np.int32),
+            absent=~decided,  # the chart at the final instant shows the last decision
+        )
+        self.rule_times.append(np.asarray(self._rows_time, dtype=float)[decided])
+        self.rule_strengths.append(strengths[decided])
 
     def send_heatmap(self, static: _StaticBatch) -> None:
         """The rule firing of the whole run as a heatmap: rules down, time across (at
@@ -865,12 +1003,34 @@ class _ColumnWriter:
         times = np.concatenate(self.rule_times)
         strengths = np.nan_to_num(np.concatenate(self.rule_strengths), nan=0.0)
         heatmap = rule_heatmap(strengths, HEATMAP_MAX_BINS)
+        bins = heatmap.shape[1]
+        span = f"{times[0]:.2f} s to {times[-1]:.2f} s" if len(times) else "no rows"
+        per_bin = (times[-1] - times[0]) / max(bins - 1, 1) if len(times) > 1 else 0.0
         static.add_archetype(
             RULES_HEATMAP_PATH,
-            rr.Tensor(heatmap, dim_names=["rule", "time bin"], value_range=[0.0, 1.0]),
+            rr.Tensor(
+                heatmap,
+                dim_names=[
+                    f"rule R1-R{heatmap.shape[0]}",
+                    f"time {span}, {per_bin:.3g} s a column",
+                ],
+                value_range=[0.0, 1.0],
+            ),
         )
-        span = f"{times[0]:.2f} s to {times[-1]:.2f} s" if len(times) else "no rows"
-        bins = heatmap.shape[1]
+        # The strongest rule at each decision, where it changes: a labelled lane in s.
+        if len(times):
+            top = np.argmax(strengths, axis=1)
+            fired = strengths[np.arange(len(top)), top] > 0
+            state = np.where(fired, top, -1)
+            change = np.ones(len(state), bool)
+            change[1:] = state[1:] != state[:-1]
+            labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
+            self.rec.send_columns(
+                RULES_STRONGEST_PATH,
+                indexes=[_time_column(times[change])],
+                columns=rr.StateChange.columns(state=labels),
+                strict=True,
+            )
         lines = [
             f"# Rule firing, {span}",
             "",
@@ -928,7 +1088,7 @@ class _ColumnWriter:
                 strengths[decided] = self.blocks.firing_strengths(
                     decisions[:, 2 + len(INTERNALS) :]
                 )
-            self._plot_rules(strengths)
+            self._plot_rules(strengths, decided)
 
     def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)
@@ -986,8 +1146,14 @@ class _ColumnWriter:
             tc = _time_column(t[rows])
             lengths = present[rows].astype(np.int32)
             pos = xy[rows][present[rows]]
+            # the obstacle's colour in every plot and figure (OBSTACLE_PALETTE by column)
             self._style(
-                f"{base}/body", "Points2D", colors=OBSTACLE, radii=radius, labels=f"obstacle {oid}"
+                f"{base}/body",
+                "Points2D",
+                colors=OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)],
+                radii=radius,
+                labels=f"obstacle {oid}",
+                draw_order=float(OBSTACLE_ORDER),
             )
             self._send(
                 f"{base}/body",
@@ -1186,18 +1352,54 @@ def command_line() -> str:
     return " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name] + sys.argv[1:])
 
 
-def reproduce_command(scenario, controller, perception, seed, control_period_s) -> str:
-    source = getattr(scenario, "source", "<memory>")
-    where = source if source and source != "<memory>" else "<scenario.toml from /meta/scenario>"
-    stem = Path(where).stem
-    if Path(where).parent.name == "scenarios" and stem in ("s1", "s2", "s3"):
-        where = stem
+def reproduce_command(
+    scenario,
+    controller,
+    perception,
+    seed,
+    control_period_s,
+    *,
+    geometry: str = "husky",
+    noise_std_m: float = 0.0,
+    voltage_limit_v: float = 12.0,
+    parameters=None,
+):
+    """The run's :class:`app.runs.Reproduction`: the ``fuzzynav run`` command with every
+    option that changes the run, and what it cannot carry."""
+    from fuzzynav.app.runs import reproduce
 
-    off = off_flag(tuple(getattr(controller, "parts_off", None) or ()))
-    return (
-        f"fuzzynav run {shlex.quote(where)} --controller {controller_label(controller)}{off} "
-        f"--perception {perception} --seed {seed} --dt {control_period_s:g}"
+    return reproduce(
+        scenario,
+        controller,
+        perception=perception,
+        seed=seed,
+        control_period_s=control_period_s,
+        geometry=geometry,
+        noise_std_m=noise_std_m,
+        voltage_limit_v=voltage_limit_v,
+        parameters=parameters,
     )
+
+
+def wrap_command(command: str, width: int = 72) -> str:
+    """A shell command on several lines (`` \\`` continuations, one option and its value
+    a line where the line would grow past ``width``): the same command to a shell."""
+    words = shlex.split(command)
+    lines, current = [], ""
+    k = 0
+    while k < len(words):
+        piece = shlex.quote(words[k])
+        if words[k].startswith("--") and k + 1 < len(words) and not words[k + 1].startswith("--"):
+            piece += " " + shlex.quote(words[k + 1])
+            k += 1
+        k += 1
+        if current and len(current) + 1 + len(piece) > width:
+            lines.append(current)
+            current = "    " + piece
+        else:
+            current = f"{current} {piece}" if current else piece
+    lines.append(current)
+    return " \\\n".join(lines)
 
 
 def _rules_text(fis, first: int = 1) -> str:
@@ -1225,6 +1427,7 @@ def _metadata(
     control_period_s,
     voltage_limit_v,
     extra_metadata,
+    geometry: str = "husky",
 ) -> None:
     """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
     /meta/robot (with the sensors)."""
@@ -1274,32 +1477,58 @@ def _metadata(
         for m in sensor_config.mounts
     ]
     doc("/meta/robot", "\n".join(robot) + "\n", markdown=False)
+    from fuzzynav.app.runs import scenario_digest
+
+    again = reproduce_command(
+        scenario,
+        controller,
+        perception,
+        seed,
+        control_period_s,
+        geometry=geometry,
+        noise_std_m=sensor_config.noise_std_m,
+        voltage_limit_v=voltage_limit_v,
+        parameters=parameters,
+    )
     run = {
         "scenario": scenario.name,
         "scenario file": getattr(scenario, "source", ""),
+        "scenario sha256": scenario_digest(scenario),
         "controller": controller_label(controller),
         "perception": perception,
+        "geometry": geometry,
         "seed": seed,
+        "sensor noise (m)": sensor_config.noise_std_m,
         "control period (s)": control_period_s,
         "voltage limit (V)": voltage_limit_v,
-        "reproduce": "`"
-        + reproduce_command(scenario, controller, perception, seed, control_period_s)
-        + "`",
-        "command line": "`" + command_line() + "`",
+        "reproduce": "`" + again.command + "`",
     }
+    if again.notes:
+        run["reproduce needs"] = "; ".join(again.notes)
+    run["command line"] = "`" + command_line() + "`"
     parts_off = tuple(getattr(inner, "parts_off", None) or ())
     if parts_off:  # fuzzynav with parts switched off (assets/rules/fuzzynav_parts.toml)
         run = {
-            **dict(list(run.items())[:3]),
+            **dict(list(run.items())[:4]),
             "parts off": ", ".join(parts_off),
-            **dict(list(run.items())[3:]),
+            **dict(list(run.items())[4:]),
         }
     for key, value in (extra_metadata or {}).items():
         run[str(key)] = value
+    # The commands again below the table, one option a line: a table cell does not
+    # wrap, and a long command was cut at the panel's edge.
+    commands = {"reproduce": again.command}
+    line = str(run.get("command line", "")).strip("`")
+    if line:
+        commands["command line"] = line
+    shown = "".join(
+        f"\n\n## {what}\n\n```sh\n{wrap_command(text)}\n```" for what, text in commands.items()
+    )
     doc(
         "/meta/run",
         "# Run\n\n"
         + _markdown_table(run)
+        + shown
         + "\n\n# Versions\n\n"
         + _markdown_table(package_versions()),
     )
@@ -1317,6 +1546,378 @@ def _metrics(static: _StaticBatch, metrics: dict, outcome: str) -> None:
         + "\n```\n"
     )
     static.add_archetype("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
+
+
+# ---------------------------------------------------------------------------------------
+# The fuzzy logic at the time cursor (a controller with a ``fis``)
+
+FUZZY_PATH = "/fuzzy"
+#: Each variable's membership plot spans FUZZY_W x 1 in its view (x: its range).
+FUZZY_W = 4.0
+FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
+
+
+def _text_array(texts):
+    import pyarrow as pa
+
+    _, arrow_type = _component_types()[("LineStrips2D", "labels")]
+    return pa.array(list(texts), type=arrow_type)
+
+
+def _send_fuzzy(rec, static: _StaticBatch, fis, log) -> list[str]:
+    """The viewer's inference view, replayed from the recording: every input's and
+    output's membership functions (static), at each decision the input's value as a
+    vertical line on its terms (labelled with the value), and each output's aggregated
+    membership with its centroid (the controller's output then, labelled). Returns the
+    variables drawn (``inputs/d_t``, ``outputs/left``, ...)."""
+    import rerun as rr
+
+    decided = np.all(np.isfinite(log.controller_output_v), axis=1)
+    rows = np.flatnonzero(decided)
+    if not len(rows):
+        return []
+    static.add_archetype(FUZZY_PATH, rr.Transform3D(scale=[1.0, -1.0, 1.0]))  # y up
+    tc = _time_column(log.time_s[rows])
+    aggregated = [fis.aggregated(log.inputs[r]) for r in rows]
+    drawn = []
+    variables = [("inputs", k, v) for k, v in enumerate(fis.inputs)]
+    variables += [("outputs", k, v) for k, v in enumerate(fis.outputs)]
+    for kind, k, var in variables:
+        lo, hi = (float(v) for v in var.range)
+        unit = getattr(var, "unit", "") or ""
+        base = f"{FUZZY_PATH}/{kind}/{var.name}"
+
+        def sx(value, lo=lo, hi=hi):
+            return FUZZY_W * (np.asarray(value, dtype=float) - lo) / (hi - lo)
+
+        x = np.linspace(lo, hi, 401)
+        curves = [np.asarray(t(x), float) for t in var.terms]
+        colours = [SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))]
+        static.add_archetype(
+            f"{base}/terms",
+            rr.LineStrips2D(
+                strips=[np.column_stack([sx(x), y]) for y in curves],
+                colors=colours,
+                radii=0.012,
+                labels=[t.name for t in var.terms],
+                show_labels=False,  # (a strip's label sits mid-range: at the peaks instead)
+            ),
+        )
+        # each term's name above its peak (the middle of a plateau)
+        peaks = []
+        for y in curves:
+            top = np.flatnonzero(y >= y.max() - 1e-9)
+            peaks.append((float(sx(x[top[len(top) // 2]])), 1.0))
+        static.add_archetype(
+            f"{base}/term_names",
+            rr.Points2D(
+                positions=peaks,
+                radii=0.001,
+                colors=colours,
+                labels=[t.name for t in var.terms],
+            ),
+        )
+        static.add_archetype(
+            f"{base}/axis",
+            rr.Points2D(
+                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.32)],
+                radii=0.001,
+                colors=[(90, 90, 90)] * 3,
+                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
+            ),
+        )
+        static.add_archetype(
+            f"{base}/frame",
+            rr.LineStrips2D(
+                strips=[[(0, 0), (FUZZY_W, 0)], [(0, 0), (0, 1)]],
+                colors=[(150, 150, 150)] * 2,
+                radii=0.005,
+            ),
+        )
+        if kind == "inputs":
+            value = log.inputs[rows, k]
+            text = [f"{var.name} = {v:.3g} {unit}" for v in value if np.isfinite(v)]
+        else:
+            value = np.array([a.output[k] for a in aggregated])
+            text = [f"{var.name} = {v:.2f} {unit} (centroid)" for v in value]
+            grid = aggregated[0].grid[k]
+            take = np.linspace(0, len(grid) - 1, FUZZY_POINTS).round().astype(int)
+            heights = np.array([a.membership[k] for a in aggregated])[:, take]
+            xs = np.broadcast_to(sx(grid[take]), heights.shape)
+            shape = np.stack([xs, heights], axis=-1)
+            static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
+            rec.send_columns(
+                f"{base}/aggregated",
+                indexes=[tc],
+                columns=[_column("LineStrips2D", "strips", _strips_array(shape))],
+                strict=True,
+            )
+        seen = np.isfinite(value)
+        at = np.clip(sx(value[seen]), 0.0, FUZZY_W)
+        marker = np.stack(
+            [
+                np.column_stack([at, np.zeros_like(at)]),
+                np.column_stack([at, np.full_like(at, 1.08)]),
+            ],
+            axis=1,
+        )
+        static.add(f"{base}/value", "LineStrips2D", colors=(20, 20, 20), radii=0.018)
+        rec.send_columns(
+            f"{base}/value",
+            indexes=[tc],
+            columns=[
+                _column("LineStrips2D", "strips", _strips_array(marker), seen.astype(np.int32)),
+                _column("LineStrips2D", "labels", _text_array(text), seen.astype(np.int32)),
+            ],
+            strict=True,
+        )
+        drawn.append(f"{kind}/{var.name}")
+    return drawn
+
+
+# ---------------------------------------------------------------------------------------
+# Events: closest approaches, the disturbance window, the end (issue 28)
+
+EVENTS_LOG_PATH = "/events/log"  # TextLog at each event's time
+EVENTS_LANES = "/events/lanes"  # StateChange lanes: closest, disturbance, outcome
+EVENTS_WORLD = "/world/events"  # static: where the robot was at each event
+
+
+@dataclasses.dataclass(frozen=True)
+class Event:
+    """One event of a run: its time (s), what ("closest", "disturbance on/off",
+    "reached", "collided", "timeout"), the obstacle (closest only) and its text."""
+
+    time_s: float
+    kind: str
+    text: str
+    obstacle: int | None = None
+    distance_m: float | None = None
+
+
+def run_events(result) -> list[Event]:
+    """The run's events in time order: each obstacle's closest approach (centre to
+    centre, as the paper's section 4 gives them, with the footprint clearance then),
+    the disturbance window's start and end, and the outcome at the run's end."""
+    log = result.log
+    events: list[Event] = []
+    if not len(log):
+        return events
+    t = log.time_s
+    for col, oid in enumerate(log.obstacle_ids):
+        d = np.where(
+            np.isfinite(log.center_distance_m[:, col]), log.center_distance_m[:, col], np.inf
+        )
+        k = int(np.argmin(d))
+        if not math.isfinite(d[k]):
+            continue
+        clearance = float(log.clearance_m[k, col])
+        surface = (
+            ""
+            if getattr(result, "geometry", "husky") == "paper"
+            else (f", footprint clearance {clearance:.2f} m")
+        )
+        events.append(
+            Event(
+                float(t[k]),
+                "closest",
+                f"closest to obstacle {oid}: {d[k]:.2f} m centre to centre{surface}",
+                oid,
+                float(d[k]),
+            )
+        )
+    window = getattr(result.scenario, "disturbance", None)
+    if window is not None:
+        for when, what in ((window.start_s, "on"), (window.stop_s, "off")):
+            if t[0] <= when <= t[-1]:
+                events.append(
+                    Event(
+                        float(when),
+                        f"disturbance {what}",
+                        f"disturbance {what} ({window.amplitude:g} sin({window.angular_frequency_rad_s:g} t) "
+                        f"on the inputs from {window.start_s:g} s to {window.stop_s:g} s)",
+                    )
+                )
+    outcome = getattr(result, "outcome", None) or "running"
+    end = float(t[-1])
+    m = result.metrics or {}
+    if outcome == "reached":
+        text = f"reached the target at {m.get('time_to_target_s', end):.2f} s"
+    elif outcome == "collided":
+        text = f"collided at {end:.2f} s"
+    else:
+        text = f"{outcome} at {end:.2f} s"
+    events.append(Event(end, outcome, text))
+    return sorted(events, key=lambda e: e.time_s)
+
+
+def _send_events(rec, static: _StaticBatch, result) -> list[Event]:
+    """The events as a text log and state lanes on the timeline, and, in the world,
+    a marker where the robot was at each closest approach and each moving obstacle
+    drawn where it was then, with its whole track."""
+    import rerun as rr
+
+    events = run_events(result)
+    if not events:
+        return events
+    log = result.log
+    times = np.array([e.time_s for e in events])
+    rec.send_columns(
+        EVENTS_LOG_PATH,
+        indexes=[_time_column(times)],
+        columns=rr.TextLog.columns(
+            text=[f"{e.time_s:7.2f} s  {e.text}" for e in events],
+            level=["WARN" if e.kind in ("collided", "timeout") else "INFO" for e in events],
+        ),
+        strict=True,
+    )
+    t0 = float(log.time_s[0])
+    lanes = {
+        "closest approach": [(t0, "-")]
+        + [
+            (e.time_s, f"obstacle {e.obstacle}: {e.distance_m:.2f} m")
+            for e in events
+            if e.kind == "closest"
+        ],
+        # (the end is an instant: the lane says from the start how the run ends)
+        "outcome": [(t0, f"driving, then {events[-1].text}")],
+    }
+    if any(e.kind.startswith("disturbance") for e in events):
+        lanes["disturbance"] = [(t0, "off")] + [
+            (e.time_s, "on" if e.kind.endswith("on") else "off")
+            for e in events
+            if e.kind.startswith("disturbance")
+        ]
+    for lane, changes in lanes.items():
+        changes = sorted(changes, key=lambda c: c[0])
+        rec.send_columns(
+            f"{EVENTS_LANES}/{lane.replace(' ', '_')}",
+            indexes=[_time_column(np.array([c[0] for c in changes]))],
+            columns=rr.StateChange.columns(state=[c[1] for c in changes]),
+            strict=True,
+        )
+    # where the robot and the obstacle were at each closest approach
+    closest = [e for e in events if e.kind == "closest"]
+    if closest:
+        rows = [int(np.searchsorted(log.time_s, e.time_s)) for e in closest]
+        static.add_archetype(
+            f"{EVENTS_WORLD}/closest",
+            rr.Points2D(
+                positions=[log.pose[k, :2] for k in rows],
+                radii=0.07,
+                colors=[EVENT] * len(rows),
+                labels=[f"{e.distance_m:.2f} m at {e.time_s:.1f} s" for e in closest],
+                draw_order=float(HEADING_ORDER + 1),
+            ),
+        )
+        for e, k in zip(closest, rows):
+            col = list(log.obstacle_ids).index(e.obstacle)
+            xy = log.obstacle_xy[:, col]
+            present = np.all(np.isfinite(xy), axis=1)
+            if not present.any() or np.ptp(xy[present], axis=0).max() <= 1e-9:
+                continue  # a static obstacle is drawn where it is
+            color = OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)]
+            radius = float(log.obstacle_radii_m[col])
+            static.add_archetype(
+                f"{EVENTS_WORLD}/moving_{e.obstacle}/track",
+                rr.LineStrips2D(
+                    strips=[xy[present]],
+                    colors=[(*color, 140)],
+                    radii=0.012,
+                    draw_order=float(OBSTACLE_ORDER - 1),
+                ),
+            )
+            static.add_archetype(
+                f"{EVENTS_WORLD}/moving_{e.obstacle}/at_closest",
+                rr.LineStrips2D(
+                    strips=[_circle(radius) + xy[k]],
+                    colors=[color],
+                    radii=0.015,
+                    labels=[f"obstacle {e.obstacle} at {e.time_s:.1f} s"],
+                    draw_order=float(OBSTACLE_ORDER),
+                ),
+            )
+    return events
+
+
+def _summary(static: _StaticBatch, result, controller, events) -> None:
+    """/meta/summary: the outcome, Table 4's metrics beside the paper's published values
+    (s1-s3, the paper and baseline controllers), and the events."""
+    import rerun as rr
+
+    from fuzzynav.app.experiments import TABLE4_ROWS
+
+    m = result.metrics or {}
+    name = controller_label(controller)
+    stem = scenario_stem(result.scenario)
+    lines = [
+        f"# {result.scenario.name}",
+        "",
+        f"**{getattr(result, 'outcome', 'running')}** — {name} controller, "
+        f"{result.perception} perception, {getattr(result, 'geometry', 'husky')} geometry, "
+        f"seed {result.seed}",
+        "",
+    ]
+    published = None
+    try:
+        from fuzzynav.app.report import published_table4
+
+        published = published_table4(name, stem)
+    except Exception:  # the paper's numbers are optional here
+        published = None
+    head = "| metric | this run | paper | difference |" if published else "| metric | this run |"
+    lines += [head, "|---|---|---|---|" if published else "|---|---|"]
+    for key in (*TABLE4_ROWS, "time_to_target_s", "min_clearance_m", "voltage_jumps"):
+        value = m.get(key)
+        ours = (
+            "—"
+            if value is None or (isinstance(value, float) and not math.isfinite(value))
+            else f"{value:.4g}"
+        )
+        if published:
+            paper = published.get(key)
+            if paper is None or value is None or not math.isfinite(float(value)):
+                lines.append(f"| {key} | {ours} | {'—' if paper is None else f'{paper:.4g}'} | — |")
+            else:
+                diff = 100.0 * (float(value) - paper) / paper if paper else float("nan")
+                lines.append(f"| {key} | {ours} | {paper:.4g} | {diff:+.1f} % |")
+        else:
+            lines.append(f"| {key} | {ours} |")
+    if not published:
+        lines += [
+            "",
+            "(The paper publishes Table 4 for s1-s3 and its own controller and ref. [19].)",
+        ]
+    paper_events = {}
+    if name == "paper" and stem in ("s1", "s2", "s3"):
+        try:
+            from fuzzynav.app.paper_fit import paper_results
+
+            for ev in paper_results().get("events", {}).get(stem, []):
+                paper_events[int(ev["obstacle"])] = ev
+        except Exception:
+            paper_events = {}
+    lines += ["", "## Events", ""]
+    for e in events:
+        extra = ""
+        ev = paper_events.get(e.obstacle) if e.kind == "closest" else None
+        if ev:
+            when = f"{ev['time_s']:g} s, " if ev.get("time_s") is not None else ""
+            extra = (
+                f" (paper: {when}{ev['distance_m']:g} m)"
+                if ev.get("distance_m") is not None
+                else ""
+            )
+        lines.append(f"- {e.time_s:.2f} s: {e.text}{extra}")
+    static.add_archetype(
+        "/meta/summary", rr.TextDocument("\n".join(lines) + "\n", media_type=rr.MediaType.MARKDOWN)
+    )
+
+
+def scenario_stem(scenario) -> str:
+    """A scenario's short name: its file's stem (s1) or its name."""
+    source = getattr(scenario, "source", "") or ""
+    return Path(source).stem if source and source != "<memory>" else scenario.name
 
 
 def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
@@ -1361,10 +1962,23 @@ def _world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
 
-def _legend_corner(series: np.ndarray):
-    """The corner of a plot its data leave most empty (rerun draws the legend over the
-    plot): the fewest points of ``series`` (rows, k) in each corner's quarter-box of
-    the plot's normalised time-value area. None without data."""
+#: The plot area of a stacked panel at 1600 x 1000 (px) and a legend entry's height: a
+#: legend of k entries covers about (k * LEGEND_ENTRY_PX + 12) / PLOT_PX of a panel.
+PLOT_PX = 140.0
+LEGEND_ENTRY_PX = 23.0
+LEGEND_WIDTH = 0.24  # of the time axis
+#: How far the value axis may be stretched to give the legend empty room (x its span).
+MAX_HEADROOM = 2.6
+
+
+def _legend_placement(series: np.ndarray, n_entries: int):
+    """(corner, value range or None) for a plot's legend, so that it covers no data
+    (rerun draws the legend over the plot): the corner whose legend-sized box holds the
+    fewest points of ``series`` (rows, k); if even that one holds some, the value axis
+    is stretched away from the data on that side (by at most :data:`MAX_HEADROOM`), so
+    the legend sits over empty room; else the data's range with a 5 % margin (always
+    set: rerun's own range left curves that start with a gap off the panel). None
+    without data."""
     import rerun.blueprint as rrb
 
     values = np.asarray(series, dtype=float)
@@ -1378,15 +1992,73 @@ def _legend_corner(series: np.ndarray):
         return None
     t, v = t[ok], v[ok]
     lo, hi = float(v.min()), float(v.max())
-    v = (v - lo) / (hi - lo) if hi > lo else np.full_like(v, 0.5)
-    size = 0.35
-    counts = {
-        rrb.Corner2D.LeftTop: np.count_nonzero((t < size) & (v > 1 - size)),
-        rrb.Corner2D.RightTop: np.count_nonzero((t > 1 - size) & (v > 1 - size)),
-        rrb.Corner2D.LeftBottom: np.count_nonzero((t < size) & (v < size)),
-        rrb.Corner2D.RightBottom: np.count_nonzero((t > 1 - size) & (v < size)),
+    span = hi - lo if hi > lo else max(abs(hi), 1.0)
+    pad = 0.05 * span  # rerun's own margin, about
+    lo_r, hi_r = lo - pad, hi + pad
+    vn = (v - lo_r) / (hi_r - lo_r)
+    h = min(0.95, (n_entries * LEGEND_ENTRY_PX + 14.0) / PLOT_PX)
+    w = LEGEND_WIDTH
+    boxes = {
+        rrb.Corner2D.LeftTop: (t < w) & (vn > 1 - h),
+        rrb.Corner2D.RightTop: (t > 1 - w) & (vn > 1 - h),
+        rrb.Corner2D.LeftBottom: (t < w) & (vn < h),
+        rrb.Corner2D.RightBottom: (t > 1 - w) & (vn < h),
     }
-    return min(counts, key=counts.get)
+    counts = {corner: int(np.count_nonzero(inside)) for corner, inside in boxes.items()}
+    corner = min(counts, key=counts.get)
+    if counts[corner] == 0:  # the data's own range (rerun's auto range misjudged series
+        return corner, (lo_r, hi_r)  # that start with a gap, e.g. d_o before any sighting)
+    # Stretch the axis so that the data under the legend's box move out of it: on the
+    # box's side, the data's extreme inside the box's time span sets the room needed.
+    top = corner in (rrb.Corner2D.LeftTop, rrb.Corner2D.RightTop)
+    left = corner in (rrb.Corner2D.LeftTop, rrb.Corner2D.LeftBottom)
+    best = None
+    for c_top in (True, False):
+        for c_left in (True, False):
+            in_time = (t < w) if c_left else (t > 1 - w)
+            if not in_time.any():
+                extreme = hi_r if c_top else lo_r
+            else:
+                extreme = float(v[in_time].max() if c_top else v[in_time].min())
+            # new range [a, b] with the legend box (h of it) beyond ``extreme``
+            if c_top:
+                b = lo_r + (max(extreme + pad, lo_r) - lo_r) / (1.0 - h)
+                a, b = lo_r, max(b, hi_r)
+            else:
+                a = hi_r - (hi_r - min(extreme - pad, hi_r)) / (1.0 - h)
+                a, b = min(a, lo_r), hi_r
+            stretch = (b - a) / (hi_r - lo_r)
+            if best is None or stretch < best[0]:
+                best = (stretch, c_top, c_left, (a, b))
+    stretch, top, left, value_range = best
+    corner = {
+        (True, True): rrb.Corner2D.LeftTop,
+        (True, False): rrb.Corner2D.RightTop,
+        (False, True): rrb.Corner2D.LeftBottom,
+        (False, False): rrb.Corner2D.RightBottom,
+    }[(top, left)]
+    if stretch > MAX_HEADROOM:  # rather some overlap than flattened curves
+        return min(counts, key=counts.get), (lo_r, hi_r)
+    return corner, (float(value_range[0]), float(value_range[1]))
+
+
+#: The panels of a recording and the paper's figure each draws (app.figures's kinds).
+PAPER_KIND = {
+    "/plots/distance": "distances",
+    "/plots/angles": "angles",
+    "/plots/obstacle_angles": "obstacle_angles",
+    "/plots/voltage": "voltages",
+}
+
+
+def figure_tag(scenario_label: str, path: str) -> str:
+    """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
+    draws (:func:`app.figures.paper_figure_number`, one numbering everywhere), or ""."""
+    from fuzzynav.app.figures import paper_figure_number
+
+    kind = PAPER_KIND.get(path)
+    number = paper_figure_number(scenario_label, kind) if kind else None
+    return f" (Fig. {number})" if number is not None else ""
 
 
 def blueprint(
@@ -1396,14 +2068,16 @@ def blueprint(
     log=None,
     internals: bool = False,
     legend_corners=None,
+    fuzzy=(),
 ):
     """The default layout: the world on the left, the paper's plots stacked on the right
     (further tabs: plant, sensors, rules, internals, run information).
 
     It depends on the run only through what the recording's application id already
-    fixes (scenario and controller: obstacle ids, whether rules and internals exist)
-    and through the world's bounds and the legends' corners, so that two recordings
-    opened in one viewer do not share, or fight over, one layout."""
+    fixes (:func:`application_id`: the scenario's content, the geometry and the
+    controller: obstacle ids, whether rules and internals exist) and through the world's
+    bounds and the legends' corners, so that two recordings opened in one viewer do not
+    share, or fight over, one layout."""
     import rerun.blueprint as rrb
 
     x_range, y_range = _world_bounds(scenario, log)
@@ -1431,53 +2105,124 @@ def blueprint(
     whole_run = rrb.TimeRange(
         start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
     )
-    corners = dict(legend_corners or {})
+    placements = dict(legend_corners or {})
+    from fuzzynav.app.figures import numbered_scenario
 
-    def plot(origin, name, **kw):
+    label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
+
+    def plot(origin, name, *, contents=None, legend=True, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
         axis = rrb.TimeAxis(view_range=whole_run)
-        corner = corners.get(origin)
-        if corner is not None:
+        placement = placements.get(origin)
+        corner, value_range = None, None
+        if placement is not None:
+            corner, value_range = placement if isinstance(placement, tuple) else (placement, None)
+        if not legend:  # the panel's name says what its series are
+            kw["plot_legend"] = rrb.PlotLegend(visible=False)
+            value_range = placements.get(f"{origin}#data", value_range)
+        elif corner is not None:
             kw["plot_legend"] = rrb.PlotLegend(corner=corner)
-        return rrb.TimeSeriesView(origin=origin, name=name, axis_x=axis, **kw)
+        if value_range is not None:
+            kw["axis_y"] = rrb.ScalarAxis(range=value_range)
+        if contents is not None:
+            kw["contents"] = contents
+        return rrb.TimeSeriesView(
+            origin=origin, name=name + figure_tag(label, origin), axis_x=axis, **kw
+        )
 
+    lanes = rrb.StateTimelineView(
+        origin=EVENTS_LANES,
+        name="events: closest approach (centre to centre), disturbance, outcome",
+    )
     paper = rrb.Vertical(
-        plot("/plots/distance", "distance to target and obstacles, m (Fig. 13)"),
-        plot("/plots/angles/phi_t", "target angle phi_t, rad (Fig. 14)"),
-        plot("/plots/angles/heading", "heading, rad (Fig. 14)"),
-        plot("/plots/obstacle_angles", "obstacle angles, rad (Fig. 15)"),
-        plot("/plots/voltage", "wheel voltages, V, with the limit (Fig. 16)"),
+        lanes,
+        plot("/plots/distance", "distance to the target and each obstacle, centre to centre, m"),
+        plot(
+            "/plots/angles",
+            "target angle phi_t and heading, rad",
+            contents=["/plots/angles/**"],
+        ),
+        plot("/plots/obstacle_angles", "obstacle angles from the heading, rad"),
+        # Five series: a legend would cover the start; the name says which is which.
+        plot(
+            "/plots/voltage",
+            "wheel voltages, V: blue left, black right (pale: before the limit), grey ±12 V",
+            legend=False,
+        ),
+        row_shares=[1.15, 1.2, 1.15, 1.15, 1.35],
         name="paper figures",
     )
     plant = rrb.Vertical(
-        plot("/plots/wheels", "wheel speeds, rad/s"),
-        plot("/plots/velocity", "v (m/s) and w (rad/s)"),
-        plot("/plots/current", "motor currents, A"),
-        plot("/plots/inputs", "controller inputs (with disturbance)"),
+        plot("/plots/wheels", "wheel speeds w_LW, w_RW, rad/s"),
+        plot("/plots/velocity", "v_MH, m/s, and w_JH, rad/s"),
+        plot("/plots/current", "motor currents i_L1, i_L2, A"),
+        plot(
+            "/plots/inputs/distances",
+            "inputs d_t, d_o, m, as the controller saw them (d_o gap: nothing sensed)",
+        ),
+        plot(
+            "/plots/inputs/angles",
+            "inputs phi_t, phi_o, rad, as the controller saw them (phi_o gap: nothing sensed)",
+        ),
         name="plant and inputs",
     )
     sensing = rrb.Vertical(
         plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
         plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
-        plot("/plots/disturbance", "disturbance on the inputs"),
+        plot(
+            "/plots/disturbance",
+            "disturbance added to every input (m on d_t, d_o; rad on phi_t, phi_o)",
+            legend=False,
+        ),
         name="sensors and safety",
     )
     tabs = [paper, plant, sensing]
     if n_rules:
         tabs.append(
             rrb.Vertical(
+                rrb.StateTimelineView(
+                    origin=RULES_STRONGEST_PATH,
+                    name="the strongest rule at each decision (s)",
+                ),
+                rrb.BarChartView(
+                    origin=RULES_PATH,
+                    name="rule firing strength (0-1) at the time cursor, bar k = rule Rk",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
                 rrb.TensorView(
                     origin=RULES_HEATMAP_PATH,
-                    name="rule firing over the run (rules down, time across)",
+                    name="rule firing over the run: rows R1 (top) to Rn, time across, "
+                    "dark 0 to yellow 1",
                     scalar_mapping=rrb.TensorScalarMapping(colormap="viridis"),
                     view_fit="Fill",
                 ),
-                rrb.BarChartView(
-                    origin=RULES_PATH, name="rule firing at the cursor (bar k: R(k+1))"
-                ),
                 rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
-                row_shares=[2, 2, 3],
+                row_shares=[1, 2, 2, 2],
                 name="rules",
+            )
+        )
+    if fuzzy:  # the inference at the time cursor, as the viewer's inference view
+        views = [
+            rrb.Spatial2DView(
+                origin="/",
+                contents=[f"{FUZZY_PATH}/{name}/**"],
+                name=f"{name.replace('/', ' ')} at the cursor",
+                visual_bounds=rrb.VisualBounds2D(
+                    x_range=[-0.6, FUZZY_W + 0.6], y_range=[-1.45, 0.25]
+                ),
+            )
+            for name in fuzzy
+        ]
+        tabs.append(
+            rrb.Vertical(
+                rrb.Grid(*views, grid_columns=2),
+                rrb.BarChartView(
+                    origin=RULES_PATH,
+                    name="rule firing strength (0-1) at the cursor, bar k = rule Rk",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                row_shares=[3, 1],
+                name="fuzzy logic",
             )
         )
     if internals:
@@ -1497,8 +2242,17 @@ def blueprint(
     if internals:
         tabs[-2] = rrb.Vertical(tabs[-2], name="internals")
     right = rrb.Tabs(*tabs, active_tab=0)
+    left = rrb.Vertical(
+        world,
+        rrb.Tabs(
+            rrb.TextDocumentView(origin="/meta/summary", name="summary"),
+            rrb.TextLogView(origin=EVENTS_LOG_PATH, name="events"),
+            active_tab=0,
+        ),
+        row_shares=[5, 3],
+    )
     return rrb.Blueprint(
-        rrb.Horizontal(world, right, column_shares=[1, 1]),
+        rrb.Horizontal(left, right, column_shares=[1, 1]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(timeline=TIMELINE, state="collapsed", play_state="following"),
@@ -1515,14 +2269,30 @@ def _id_part(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_")[:60] or "run"
 
 
-def application_id(scenario, controller) -> str:
-    """``fuzzynav-<scenario>-<controller>``: rerun keeps one layout per application id,
-    so recordings of different scenarios or controllers opened in one viewer each keep
-    their own (the scenario is its file's stem, s1, or its name)."""
+def application_id(scenario, controller, geometry: str = "husky") -> str:
+    """``fuzzynav-<scenario>-<controller>-<geometry>-<key>``: rerun keeps one layout per
+    application id, so every recording whose layout can differ gets its own. The
+    scenario is its file's stem (s1) or its name; ``key`` is 8 hex digits of a sha256 over
+    what fixes the layout besides: the scenario's content (its obstacles and the world
+    view's bounds: two ``layout.toml`` files in different folders differ here), the
+    geometry, and the controller's rule count and internals (the rules tab). Two runs of
+    one scenario, geometry and controller share a layout; their bounds and legend
+    corners come from their runs, so they may differ a little (the later one's wins)."""
+    import hashlib
+
+    from fuzzynav.app.runs import scenario_digest
+
     source = getattr(scenario, "source", "") or ""
     label = Path(source).stem if source and source != "<memory>" else scenario.name
+    name = controller_label(controller)
+    n_rules = len(getattr(rule_system(controller), "rules", ()))
+    layout = "|".join(
+        (scenario_digest(scenario), geometry, name, str(n_rules), str(has_internals(controller)))
+    )
+    key = hashlib.sha256(layout.encode("utf-8")).hexdigest()[:8]
     # (rerun 0.41 takes letters, digits, "-" and "_" in an application id.)
-    return f"{APPLICATION_ID}-{_id_part(label)}-{_id_part(controller_label(controller))}"
+    parts = (APPLICATION_ID, _id_part(label), _id_part(name), _id_part(geometry), key)
+    return "-".join(parts)
 
 
 def _open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
@@ -1622,14 +2392,16 @@ def record_run(
         check_writable_file(path)
     # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
     # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
-    rec = rr.RecordingStream(application_id(scenario, controller))
+    rec = rr.RecordingStream(
+        application_id(scenario, controller, getattr(result, "geometry", "husky"))
+    )
     stream = rec.binary_stream()
     rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
     try:
-        # The layout first: a viewer that opens the file while it loads uses it at once.
+        # One layout, at the end with the legends placed: the file appears whole (renamed
+        # into place), so no viewer sees it loading (LiveRecorder sends one first too).
         n_rules = len(getattr(rule_system(controller), "rules", ()))
         layout = (scenario, list(log.obstacle_ids), n_rules, log)
-        rec.send_blueprint(blueprint(*layout, internals=has_internals(controller)))
         writer = _ColumnWriter(
             rec,
             footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
@@ -1638,6 +2410,8 @@ def record_run(
             fis=fis,
             tolerance_m=scenario.tolerance_m,
             controller=controller,
+            perception=result.perception,
+            geometry=getattr(result, "geometry", "husky"),
         )
         writer.send(log, 0, len(log), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
@@ -1659,14 +2433,25 @@ def record_run(
             control_period_s=result.control_period_s,
             voltage_limit_v=voltage_limit_v,
             extra_metadata=extra,
+            geometry=getattr(result, "geometry", "husky"),
         )
         _metrics(writer.static, result.metrics, result.outcome)
+        events = _send_events(rec, writer.static, result)
+        _summary(writer.static, result, controller, events)
+        fuzzy = (
+            _send_fuzzy(rec, writer.static, fis, log)
+            if fis is not None and writer.fis_error is None
+            else []
+        )
         writer.send_heatmap(writer.static)
         writer.static.send(rec)
         # Again, now with the legends placed where the data leave room.
         rec.send_blueprint(
             blueprint(
-                *layout, internals=has_internals(controller), legend_corners=writer.legend_corners()
+                *layout,
+                internals=has_internals(controller),
+                legend_corners=writer.legend_corners(),
+                fuzzy=fuzzy,
             )
         )
     finally:
@@ -1750,7 +2535,11 @@ class LiveRecorder:
 
     def _open(self, sim=None) -> None:
         if self._rec is None:
-            app_id = application_id(sim.scenario, sim.controller) if sim else APPLICATION_ID
+            app_id = (
+                application_id(sim.scenario, sim.controller, sim.geometry)
+                if sim
+                else APPLICATION_ID
+            )
             self._rec = _open_stream(self._tmp, app_id)
 
     def _failed(self, exc: BaseException) -> RecordingError:
@@ -1782,6 +2571,8 @@ class LiveRecorder:
             fis=controller_fis(sim.controller),
             tolerance_m=sim.scenario.tolerance_m,
             controller=sim.controller,
+            perception=sim.perception.mode,
+            geometry=sim.geometry,
         )
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
@@ -1811,6 +2602,7 @@ class LiveRecorder:
             control_period_s=sim.control_period_s,
             voltage_limit_v=sim.voltage_limit_v,
             extra_metadata=extra,
+            geometry=sim.geometry,
         )
 
     def update(self, sim, *, force: bool = False) -> int:
@@ -1885,6 +2677,8 @@ class LiveRecorder:
                 result = sim.result() if _log_length(sim) else None  # no metrics of nothing
                 if result is not None:
                     _metrics(static, result.metrics, result.outcome)
+                    events = _send_events(self._rec, static, result)
+                    _summary(static, result, sim.controller, events)
                 self._writer.send_heatmap(static)
                 static.send(self._rec)
                 w = self._writer
@@ -1931,12 +2725,20 @@ def add_run_options(parser) -> None:
         metavar="PATH",
         help="write a rerun recording of the run (open it with: rerun PATH)",
     )
+    from fuzzynav.app.runs import add_digest_options
+
+    add_digest_options(parser)
 
 
 def run_hook(args, sim):
     """``run --rrd PATH``: the recording is written when the run ends, whole, in place
     of any old file; after Ctrl-C the partial run goes to ``<stem>.partial.rrd`` (marked
-    interrupted inside) and PATH is left as it was."""
+    interrupted inside) and PATH is left as it was. First, with or without ``--rrd``,
+    ``--scenario-sha256`` and ``--fis-sha256`` (a recording's reproduce command) are
+    checked: a scenario or rule base other than the recorded one is refused."""
+    from fuzzynav.app.runs import check_digests
+
+    check_digests(args, sim)
     path = getattr(args, "rrd", None)
     if path is None:
         return None

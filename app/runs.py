@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
@@ -87,3 +88,226 @@ def summary(
     }
     out.update(result.metrics)
     return {k: out[k] for k in SUMMARY_KEYS}
+
+
+# ---------------------------------------------------------------------------------------
+# The command that reproduces a run (stored in every recording's /meta/run)
+
+SCENARIO_DIGEST_OPTION = "--scenario-sha256"
+FIS_DIGEST_OPTION = "--fis-sha256"
+
+
+def scenario_digest(scenario: Scenario) -> str:
+    """sha256 of the scenario a run drives, as its TOML (``Scenario.to_toml``, what a
+    recording's ``/meta/scenario`` holds): the same for the file it came from and for
+    that document saved as a file."""
+    import hashlib
+
+    return hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest()
+
+
+def rule_base_digest(fis) -> str:
+    """sha256 of a fuzzy system as its TOML (``controller.rulebase.dumps_toml``)."""
+    import hashlib
+
+    from fuzzynav.controller.rulebase import dumps_toml
+
+    return hashlib.sha256(dumps_toml(fis).encode("utf-8")).hexdigest()
+
+
+def _shipped_name(scenario: Scenario) -> str | None:
+    from fuzzynav.world.scenario import SCENARIO_DIR
+
+    source = getattr(scenario, "source", "") or ""
+    if not source or source == "<memory>":
+        return None
+    path = Path(source)
+    try:
+        shipped = path.resolve().parent == SCENARIO_DIR.resolve() and path.suffix == ".toml"
+    except OSError:
+        return None
+    return path.stem if shipped else None
+
+
+def _scenario_part(scenario: Scenario, geometry: str) -> tuple[list[str], list[str]]:
+    """(arguments, notes): the scenario as ``run`` takes it. A shipped scenario by its
+    name when the run drove it unchanged; a file by its path with its digest (``run``
+    refuses a file that changed since); a scenario made in memory (the viewer's, an
+    edited one) as ``scenario.toml``, the recording's ``/meta/scenario`` saved."""
+    from fuzzynav.world.scenario import ScenarioError, load_scenario
+
+    digest = scenario_digest(scenario)
+    source = getattr(scenario, "source", "") or ""
+    if source and source != "<memory>":
+        try:
+            loaded = load_scenario(source)
+        except (ScenarioError, OSError):
+            loaded = None
+        if loaded is not None and scenario_digest(loaded) == digest:
+            name = _shipped_name(scenario)
+            if name is not None:
+                return [name], []
+            return [source, SCENARIO_DIGEST_OPTION, digest], []
+    return (  # (the digest goes last: see reproduce)
+        ["scenario.toml", SCENARIO_DIGEST_OPTION, digest],
+        [
+            "scenario.toml: the recording's /meta/scenario saved as a file (the run's "
+            "scenario was not read unchanged from a file)"
+        ],
+    )
+
+
+def _fingerprint(controller) -> str | None:
+    """What a controller drives with, as text: its rule base(s) and crisp parameters;
+    None when they cannot be written out (a fuzzy system the TOML writer refuses)."""
+    import json
+
+    from fuzzynav.controller.rulebase import dumps_toml
+
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    parts = [type(inner).__name__]
+    systems = []
+    if getattr(inner, "fis", None) is not None:
+        systems.append(inner.fis)
+    if callable(getattr(inner, "rule_blocks", None)):
+        systems += list(inner.rule_blocks().values())
+    try:
+        parts += [dumps_toml(system) for system in systems]
+    except Exception:  # not a FuzzySystem the writer knows: nothing to compare
+        return None
+    if callable(getattr(inner, "params_toml", None)):
+        parts.append(inner.params_toml())
+    if len(parts) == 1:  # not fuzzy: its plain parameters
+        plain = {
+            k: v
+            for k, v in vars(inner).items()
+            if not k.startswith("_") and isinstance(v, (int, float, str, bool))
+        }
+        parts.append(json.dumps(plain, sort_keys=True, default=repr))
+    return "\n".join(parts)
+
+
+def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
+    """(arguments, notes): ``--controller NAME [--off ...]`` when a fresh controller of
+    that name (the same parts off) drives with exactly this one's rules and parameters;
+    ``--fis PATH --fis-sha256 HEX`` for one read from a .fis file; else a note that the
+    controller cannot be named on the command line (edited in the viewer, say)."""
+    from fuzzynav.controller.registry import controller_names
+
+    inner = getattr(controller, "inner", controller)
+    name = getattr(inner, "name", None)
+    parts_off = tuple(getattr(inner, "parts_off", None) or ())
+    mine = _fingerprint(controller)
+    if mine is not None and isinstance(name, str) and name in controller_names():
+        fresh = make_controller(name, geometry=geometry)
+        if parts_off and hasattr(fresh, "set_parts_off"):
+            fresh.set_parts_off(list(parts_off))
+        if _fingerprint(fresh) == mine:
+            args = ["--controller", name]
+            if parts_off:
+                args += ["--off", ",".join(parts_off)]
+            return args, []
+    source = str(getattr(inner, "source", "") or "")
+    fis = getattr(inner, "fis", None)
+    if source.endswith(".fis") and fis is not None and mine is not None:
+        return ["--fis", source, FIS_DIGEST_OPTION, rule_base_digest(fis)], []
+    label = name if isinstance(name, str) and name else type(inner).__name__
+    return (
+        ["--controller", label],
+        [
+            f"the controller ({label}) is not one 'run' builds: its rules or parameters "
+            "differ from the shipped ones (they are in /meta/rules)"
+        ],
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class Reproduction:
+    """The ``fuzzynav run`` command of a run; ``complete`` when it reproduces the run by
+    itself, else ``notes`` say what it needs besides (or cannot carry)."""
+
+    command: str
+    notes: tuple[str, ...] = ()
+
+    @property
+    def complete(self) -> bool:
+        return not self.notes
+
+
+def reproduce(
+    scenario: Scenario,
+    controller,
+    *,
+    perception: str = "ideal",
+    seed: int | None = 0,
+    control_period_s: float = 0.02,
+    geometry: str = "husky",
+    noise_std_m: float = 0.0,
+    voltage_limit_v: float = 12.0,
+    parameters=None,
+) -> Reproduction:
+    """The command that repeats a run: every option that changes it (scenario and its
+    digest when it is not a shipped one, controller or .fis with its digest, parts off,
+    perception, geometry, seed, noise, control period). ``scenario`` is the one the run
+    drove (in the paper's geometry, after its paper start)."""
+    import shlex
+
+    argv, notes = _scenario_part(scenario, geometry)
+    digest = argv[1:]  # the scenario's digest option, if any, goes last
+    argv = argv[:1]
+    more, why = _controller_part(controller, geometry)
+    argv += more
+    notes += why
+    argv += ["--perception", perception, "--geometry", geometry]
+    if seed is None:
+        notes.append("the run had no seed (seed None): its noise cannot be repeated")
+    else:
+        argv += ["--seed", str(int(seed))]
+    argv += ["--noise", repr(float(noise_std_m)), "--dt", repr(float(control_period_s))]
+    argv += digest
+    if float(voltage_limit_v) != 12.0:
+        notes.append(f"voltage limit {voltage_limit_v:g} V ('run' drives with 12 V)")
+    if parameters is not None:
+        from fuzzynav.world.husky import HuskyModel
+
+        if parameters != HuskyModel.default().parameters:
+            notes.append("the robot's parameters differ from husky.toml (see /meta/robot)")
+    return Reproduction("fuzzynav run " + " ".join(shlex.quote(a) for a in argv), tuple(notes))
+
+
+def check_digests(args, sim) -> None:
+    """``run --scenario-sha256 / --fis-sha256``: refuse to run a scenario or a rule base
+    other than the one a recording's reproduce command names (ValueError, said why)."""
+    want = getattr(args, "scenario_sha256", None)
+    if want:
+        have = scenario_digest(sim.scenario)
+        if have != want.lower():
+            raise ValueError(
+                f"{SCENARIO_DIGEST_OPTION} {want}: the scenario {args.scenario!r} is not the "
+                f"one recorded (its sha256 is {have}): the file changed since"
+            )
+    want = getattr(args, "fis_sha256", None)
+    if want:
+        fis = getattr(sim.controller, "fis", None)
+        have = rule_base_digest(fis) if fis is not None else "(no rule base)"
+        if have != want.lower():
+            raise ValueError(
+                f"{FIS_DIGEST_OPTION} {want}: the rule base read from --fis is not the one "
+                f"recorded (its sha256 is {have}): the file changed since"
+            )
+
+
+def add_digest_options(parser) -> None:
+    parser.add_argument(
+        SCENARIO_DIGEST_OPTION,
+        default=None,
+        metavar="HEX",
+        help="refuse to run unless the scenario's sha256 (as its TOML; a recording's "
+        "reproduce command gives it) is this",
+    )
+    parser.add_argument(
+        FIS_DIGEST_OPTION,
+        default=None,
+        metavar="HEX",
+        help="refuse to run unless the --fis rule base's sha256 (as its TOML) is this",
+    )

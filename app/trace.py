@@ -1,17 +1,21 @@
 """``fuzzynav run ... --trace PATH.csv``: one CSV row per control step, for pandas or MATLAB.
 
-Columns (SI units; the header is the first line)::
+Columns (SI units, each name ending in its unit; the header is the first line)::
 
-    time_s,x_m,y_m,heading_rad,d_t,d_o,phi_t,phi_o,v_left,v_right,
-    controller_left_v,controller_right_v,disturbance
+    time_s,x_m,y_m,heading_rad,d_t_m,d_o_m,phi_t_rad,phi_o_rad,
+    true_d_t_m,true_phi_t_rad,v_left_v,v_right_v,
+    controller_left_v,controller_right_v,disturbance_m_or_rad
 
 ``x_m, y_m, heading_rad``: the robot centre's pose (heading continuous, not wrapped).
-``d_t .. phi_o``: the four inputs exactly as the controller received them, the
-disturbance included; ``d_o`` and ``phi_o`` are empty when nothing is detected.
-``v_left, v_right``: the voltages applied from this step to the next, after the
-saturation; ``controller_*_v``: the controller's output before it. The last row is the
-final state, with no command: its voltages are empty. Numbers are written with
-``repr`` (shortest text that reads back as the same float), so a trace is exact.
+``d_t_m .. phi_o_rad``: the four inputs exactly as the controller received them, the
+disturbance included; ``d_o_m`` and ``phi_o_rad`` are empty when nothing is detected.
+``true_d_t_m, true_phi_t_rad``: the target's distance and bearing from the pose, without
+the disturbance (Eqs. 7 and 10). ``v_left_v, v_right_v``: the voltages applied from this
+step to the next, after the saturation; ``controller_*_v``: the controller's output
+before it. ``disturbance_m_or_rad``: the value added to every input (metres on the
+distances, radians on the angles). The last row is the final state, with no command: its
+voltages are empty. Numbers are written with ``repr`` (shortest text that reads back as
+the same float), so a trace is exact.
 """
 
 from __future__ import annotations
@@ -30,15 +34,17 @@ TRACE_COLUMNS = (
     "x_m",
     "y_m",
     "heading_rad",
-    "d_t",
-    "d_o",
-    "phi_t",
-    "phi_o",
-    "v_left",
-    "v_right",
+    "d_t_m",
+    "d_o_m",
+    "phi_t_rad",
+    "phi_o_rad",
+    "true_d_t_m",
+    "true_phi_t_rad",
+    "v_left_v",
+    "v_right_v",
     "controller_left_v",
     "controller_right_v",
-    "disturbance",
+    "disturbance_m_or_rad",
 )
 
 
@@ -49,6 +55,14 @@ def _cell(value: float) -> str:
 
 def trace_rows(log):
     """The trace's rows (lists of strings) for a :class:`world.simulation.SimulationLog`."""
+    import numpy as np
+
+    from fuzzynav.world.geometry import wrap_angle
+
+    dx = log.target_xy[:, 0] - log.pose[:, 0]
+    dy = log.target_xy[:, 1] - log.pose[:, 1]
+    true_d_t = np.hypot(dx, dy)
+    true_phi_t = np.atleast_1d(wrap_angle(np.arctan2(dy, dx) - log.pose[:, 2]))
     for k in range(len(log)):
         x, y, heading = log.pose[k]
         yield [
@@ -57,6 +71,8 @@ def trace_rows(log):
             _cell(y),
             _cell(heading),
             *(_cell(v) for v in log.inputs[k]),
+            _cell(true_d_t[k]),
+            _cell(true_phi_t[k]),
             *(_cell(v) for v in log.voltages_v[k]),
             *(_cell(v) for v in log.controller_output_v[k]),
             _cell(log.disturbance[k]),

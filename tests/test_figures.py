@@ -162,9 +162,13 @@ def test_cli_figures(tmp_path, capsys):
     assert main(["run", "s1", "--controller", "p", "--json", "--figures", str(out_dir)]) == 0
     captured = capsys.readouterr()
     assert str(out_dir) in captured.err
+    # one numbering everywhere: named as the report names them (Fig. 12 = s1's trajectory)
+    from fuzzynav.app.figures import paper_figure_stem
+
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
-        f"{n}.{ext}" for n in RUN_FIGURES for ext in FORMATS
+        f"{paper_figure_stem('s1', n, 'p')}.{ext}" for n in RUN_FIGURES for ext in FORMATS
     )
+    assert (out_dir / "fig12_s1_trajectory_p.png").exists()
 
 
 def test_cli_unwritable_figures_dir_fails_before_the_run(tmp_path, monkeypatch, capsys):
@@ -345,3 +349,132 @@ def test_fig27_is_the_papers_3_by_2():
             f"({next(letters)}) {FIG27_TITLES[controller]}, {scenario}"
         )
     assert "fuzzynav" not in " ".join(ax.get_title() for ax in fig.axes)
+
+
+# ---------------------------------------------------------------------------------------
+# Issue 28: one numbering, labels inside, one legend for Fig. 27, events, colours
+
+
+def test_run_figure_titles_carry_the_papers_number(p_runs):
+    from fuzzynav.app.figures import paper_figure_number, run_figure
+
+    for scenario, result in p_runs.items():
+        for kind in RUN_FIGURES:
+            fig = run_figure(kind, result, controller_label="p")
+            title = next(ax.get_title() for ax in fig.axes if ax.get_title())
+            assert title.startswith(f"Fig. {paper_figure_number(scenario, kind)}. "), title
+
+
+def test_cli_figures_of_the_paper_controller_number_its_membership(tmp_path, capsys):
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario = tmp_path / "s2.toml"  # a copy: not numbered (the paper has no such run)
+    scenario.write_text(load_scenario("s2").replace(duration_s=2.0).to_toml())
+    out_dir = tmp_path / "figs"
+    assert main(["run", str(scenario), "--json", "--figures", str(out_dir)]) == 0
+    capsys.readouterr()
+    names = {p.stem for p in out_dir.glob("*.png")}
+    assert "s2_trajectory_paper" in names  # no number outside s1-s3 of the paper
+    assert "fig10_membership_left_paper" in names and "fig06_membership_d_t_paper" in names
+
+
+def _inside(fig, artist, ax) -> bool:
+    renderer = fig.canvas.get_renderer()
+    box, frame = artist.get_window_extent(renderer), ax.get_window_extent(renderer)
+    return (
+        box.x0 >= frame.x0 - 1
+        and box.x1 <= frame.x1 + 1
+        and box.y0 >= frame.y0 - 1
+        and box.y1 <= frame.y1 + 1
+    )
+
+
+def test_membership_labels_stay_inside_the_axes(tmp_path, paper_fis, monkeypatch):
+    """VL peaks at the right end of the voltage range: its label reads inward."""
+    import matplotlib.figure
+
+    drawn = []
+    real = matplotlib.figure.Figure.savefig
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda self, *a, **k: drawn.append(self) or real(self, *a, **k),
+    )
+    write_membership_figures(paper_fis, tmp_path, formats=("png",))
+    assert len(drawn) == len(paper_fis.inputs) + len(paper_fis.outputs)
+    for fig in drawn:
+        ax = fig.axes[0]
+        for text in ax.texts:
+            assert _inside(fig, text, ax), (ax.get_title(), text.get_text())
+
+
+def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
+    """s1 in the paper's geometry: "obstacle 2" was cut off at the axes' edge."""
+    from fuzzynav.app.figures import closest_approaches, run_figure
+
+    result = build_simulation("s1", "paper", geometry="paper").run()
+    fig = run_figure("trajectory", result, controller_label="paper")
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    assert {t.get_text() for t in ax.texts} >= {"obstacle 0", "obstacle 1", "obstacle 2"}
+    for text in ax.texts:
+        assert _inside(fig, text, ax), text.get_text()
+    log = result.log
+    for col, row, distance in closest_approaches(result):
+        assert distance == np.nanmin(log.center_distance_m[:, col])
+        assert any(t.get_text() == f"{distance:.2f} m, {log.time_s[row]:.1f} s" for t in ax.texts)
+    fig = run_figure("distances", result, controller_label="paper")
+    lines = [a for a in fig.axes[0].lines if a.get_gid() == "closest"]
+    assert sorted(line.get_xdata()[0] for line in lines) == sorted(
+        log.time_s[row] for _, row, _ in closest_approaches(result)
+    )
+
+
+def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs):
+    from fuzzynav.app.figures import OBSTACLE_COLORS, run_figure
+
+    result = p_runs["s2"]
+    ax = run_figure("trajectory", result).axes[0]
+    labels = ax.get_legend_handles_labels()[1]
+    assert "obstacle 1's path (moving)" in labels and "obstacle 1 at the start" in labels
+    path = next(line for line in ax.lines if line.get_label() == "obstacle 1's path (moving)")
+    straight = next(line for line in ax.lines if line.get_label() == "straight line")
+    assert path.get_zorder() > straight.get_zorder()
+    assert path.get_color() == OBSTACLE_COLORS[1]
+
+
+def test_red_means_obstacle_0_only(s3_p_run, p_runs):
+    from matplotlib.colors import to_hex
+
+    from fuzzynav.app.figures import OBSTACLE_COLORS, run_figure
+
+    red = OBSTACLE_COLORS[0]
+    for kind in ("angles", "voltages"):
+        fig = run_figure(kind, s3_p_run)
+        colours = {to_hex(line.get_color()) for ax in fig.axes for line in ax.lines}
+        assert red not in colours, kind
+
+
+def test_fig27_has_one_legend_and_its_own_limits_per_panel():
+    from fuzzynav.app.figures import FIG27_COLUMNS, comparison_figure
+    from fuzzynav.world.scenario import load_scenario
+
+    grid = {}
+    for s in ("s1", "s2"):
+        scenario = load_scenario(s).replace(duration_s=6.0 if s == "s1" else 20.0)
+        grid[s] = {c: build_simulation(scenario, c).run() for c in FIG27_COLUMNS}
+    fig = comparison_figure(grid, controllers=FIG27_COLUMNS)
+    assert all(ax.get_legend() is None for ax in fig.axes)
+    [legend] = fig.legends
+    texts = {t.get_text() for t in legend.get_texts()}
+    assert {"robot (centre)", "target", "start"} <= texts
+    assert "obstacle 1's path (moving)" in texts  # s2's, from a panel other than (a)
+    # every panel keeps its own limits (sharing a row's squashed (d) into (c)'s range)
+    from fuzzynav.app.figures import _new_figure, draw_trajectory
+
+    for ax in fig.axes:
+        scenario, controller = ax.get_gid().split("/")
+        _, alone = _new_figure(4, 4)
+        draw_trajectory(alone[0, 0], grid[scenario][controller], footprints=False, events=False)
+        alone[0, 0].autoscale_view()
+        assert ax.get_ylim() == alone[0, 0].get_ylim() and ax.get_xlim() == alone[0, 0].get_xlim()

@@ -18,7 +18,9 @@ from fuzzynav.controller.proportional import ProportionalController
 from fuzzynav.world.scenario import ObstacleSpec, Scenario
 from fuzzynav.world.simulation import Simulation
 
-HEADER = "time_s,x_m,y_m,heading_rad,d_t,d_o,phi_t,phi_o,v_left,v_right"
+HEADER = (
+    "time_s,x_m,y_m,heading_rad,d_t_m,d_o_m,phi_t_rad,phi_o_rad,true_d_t_m,true_phi_t_rad,v_left_v"
+)
 
 
 def _scenario(start, heading, target, obstacles, duration_s=40.0):
@@ -131,12 +133,12 @@ def test_trace_columns_rows_and_empty_cells(tmp_path, capsys):
     steps = __import__("json").loads(capsys.readouterr().out)["steps"]
     assert len(body) == steps + 1  # one row per control step, and the final state
     col = {name: i for i, name in enumerate(rows[0])}
-    assert body[-1][col["v_left"]] == "" and body[-1][col["v_right"]] == ""
-    assert all(r[col["v_left"]] != "" for r in body[:-1])
+    assert body[-1][col["v_left_v"]] == "" and body[-1][col["v_right_v"]] == ""
+    assert all(r[col["v_left_v"]] != "" for r in body[:-1])
     # At the start the moving obstacle (at the target) is 11.3 m away: nothing detected.
-    assert body[0][col["d_o"]] == "" and body[0][col["phi_o"]] == ""
+    assert body[0][col["d_o_m"]] == "" and body[0][col["phi_o_rad"]] == ""
     assert float(body[1][col["time_s"]]) == pytest.approx(0.02)
-    applied = np.array([[float(r[col["v_left"]]), float(r[col["v_right"]])] for r in body[:-1]])
+    applied = np.array([[float(r[col["v_left_v"]]), float(r[col["v_right_v"]])] for r in body[:-1]])
     assert np.abs(applied).max() <= 12.0
 
 
@@ -146,10 +148,10 @@ def test_trace_holds_the_disturbed_inputs_the_controller_received(tmp_path):
     rows = _read_trace(path)
     col = {name: i for i, name in enumerate(rows[0])}
     for r in rows[1:]:
-        t, disturbance = float(r[col["time_s"]]), float(r[col["disturbance"]])
+        t, disturbance = float(r[col["time_s"]]), float(r[col["disturbance_m_or_rad"]])
         x, y, heading = (float(r[col[k]]) for k in ("x_m", "y_m", "heading_rad"))
         d_t = math.hypot(8.0 - x, 8.0 - y) + disturbance
-        assert float(r[col["d_t"]]) == pytest.approx(d_t, abs=1e-9)
+        assert float(r[col["d_t_m"]]) == pytest.approx(d_t, abs=1e-9)
         expected = 1.0 * math.sin(2.0 * t) if 25.0 <= t < 35.0 else 0.0
         assert disturbance == pytest.approx(expected, abs=1e-12)
 
@@ -175,13 +177,16 @@ def test_logged_voltages_are_the_exported_fis_at_the_logged_inputs(tmp_path, geo
     ours = [float(r[col["controller_left_v"]]) for r in body]
     inputs = np.array(
         [
-            [float(r[col[k]]) if r[col[k]] else math.nan for k in ("d_t", "d_o", "phi_t", "phi_o")]
+            [
+                float(r[col[k]]) if r[col[k]] else math.nan
+                for k in ("d_t_m", "d_o_m", "phi_t_rad", "phi_o_rad")
+            ]
             for r in body
         ]
     )
     left_right = system.evaluate(inputs)
     np.testing.assert_allclose(left_right[:, 0], ours, atol=1e-9)
-    applied = np.array([[float(r[col["v_left"]]), float(r[col["v_right"]])] for r in body])
+    applied = np.array([[float(r[col["v_left_v"]]), float(r[col["v_right_v"]])] for r in body])
     np.testing.assert_allclose(np.clip(left_right, -12, 12), applied, atol=1e-9)
     # The same rows through simpful, an evaluator that shares no code with ours.
     from test_fuzzy_engine import build_simpful, simpful_eval

@@ -192,7 +192,7 @@ def _from_trace(t, scenario):
         "rmse_m": float(np.sqrt(np.mean(d**2))),  # Eq. 17
         "min_center_distance_m": float(distances.min()),
         "passes": passes,
-        "final_phi_t_rad": float(t["phi_t"][-1]),
+        "final_phi_t_rad": float(t["phi_t_rad"][-1]),
     }
 
 

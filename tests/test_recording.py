@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 import tomllib
 from collections import defaultdict
 
@@ -96,7 +97,8 @@ class Recording:
     def bars(self, entity: str):
         """(times in ns, values (rows, bars)) of a BarChart entity, as float32 was sent."""
         times, values = self.rows(entity, "BarChart:values")
-        tensors = [v[0] for v in values]
+        times = np.array([t for t, v in zip(times, values) if v], dtype=np.int64)
+        tensors = [v[0] for v in values if v]  # (a row without a decision has none)
         assert all(t["shape"] == tensors[0]["shape"] for t in tensors)
         matrix = np.array([[np.nan if x is None else x for x in t["buffer"]] for t in tensors])
         return times, matrix.reshape(len(tensors), -1)
@@ -232,8 +234,10 @@ def test_entity_paths(s1_p):
     }
     for oid in log.obstacle_ids:
         world |= {f"/world/obstacles/{oid}/body", f"/world/obstacles/{oid}/safe_ring"}
-    for name in SENSORS:
-        world |= {f"/world/sensors/{name}/beam", f"/world/sensors/{name}/hit"}
+    # Ideal perception uses no range sensor: no beams, but the line to the obstacle the
+    # controller reacts to.
+    world.add("/world/robot/sensed")
+    assert not any(e.startswith("/world/sensors") for e in rec.entities)
     layout = plot_layout(log.obstacle_ids, SENSORS)
     plots = set(layout)
     meta = {f"/meta/{name}" for name in META}
@@ -243,8 +247,9 @@ def test_entity_paths(s1_p):
     assert RULES_PATH not in rec.entities  # P is not fuzzy
     # Static obstacles never move: no path entity for them.
     assert not any(e.endswith("/path") for e in rec.entities)
-    # One application id (so one layout) per scenario and controller.
-    assert [r.application_id for r in rec.recordings] == ["fuzzynav-s1-p"]
+    # One application id (so one layout) per scenario, controller, geometry and content.
+    [app_id] = [r.application_id for r in rec.recordings]
+    assert re.fullmatch(r"fuzzynav-s1-p-husky-[0-9a-f]{8}", app_id)
     assert rec.blueprints, "the default layout is stored with the recording"
     assert rec.timelines == {"sim_time"}
 
@@ -274,7 +279,8 @@ def test_series_equal_the_simulation_arrays(s1_p):
         "/plots/wheels": log.lg_state[:, 0:2],
         "/plots/velocity": log.lg_state[:, 2:4],
         "/plots/current": log.lg_state[:, 4:6],
-        "/plots/inputs": log.inputs,
+        "/plots/inputs/distances": log.inputs[:, [0, 1]],
+        "/plots/inputs/angles": log.inputs[:, [2, 3]],
         "/plots/angles/heading": log.pose[:, 2:3],
         "/plots/disturbance": log.disturbance[:, None],
         "/plots/ranges": ranges,
@@ -285,7 +291,7 @@ def test_series_equal_the_simulation_arrays(s1_p):
     for col, oid in enumerate(log.obstacle_ids):
         got = rec.series("/plots/distance", f"obstacle {oid}")[1]
         assert same(got, log.center_distance_m[:, col]), oid
-    assert same(rec.series("/plots/voltage", "right (V)")[1], log.voltages_v[:, 1])
+    assert same(rec.series("/plots/voltage", "right")[1], log.voltages_v[:, 1])
     assert same(rec.series("/plots/ranges", "front (m)")[1], ranges[:, 1])
     # Computed from the pose: equal to the controller's inputs (s1 has no disturbance).
     assert not log.disturbance.any()
@@ -299,7 +305,7 @@ def test_series_equal_the_simulation_arrays(s1_p):
     gap = np.min(np.abs(bearings[sensed] - log.inputs[sensed, 3][:, None]), axis=1)
     assert np.all(gap < 1e-9)
     # The last row has no decision: NaN voltages, kept as NaN.
-    assert np.isnan(rec.series("/plots/voltage", "left (V)")[1][-1])
+    assert np.isnan(rec.series("/plots/voltage", "left")[1][-1])
 
 
 def test_world_geometry_follows_the_pose(s1_p):
@@ -334,12 +340,32 @@ def test_world_geometry_follows_the_pose(s1_p):
         assert list(t) == [0] and np.allclose(shift[0][0][:2], log.obstacle_xy[0, col], atol=1e-5)
     t, target = rec.rows("/world/target", "Points2D:positions")
     assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
-    # A hit point for every echo, none without.
-    for k, name in enumerate(SENSORS):
+    # The sensed obstacle: where d_o is finite, a line from the centre to the centre of
+    # the obstacle nearest by clearance; none where nothing is sensed.
+    _, sensed = rec.rows("/world/robot/sensed", "LineStrips2D:strips")
+    seen = np.isfinite(log.inputs[:, 1])
+    assert [len(x) for x in sensed] == list(seen.astype(int))
+    nearest = np.argmin(log.clearance_m, axis=1)
+    ends = np.array([x[0][1] for x in sensed if x])
+    want = log.obstacle_xy[np.flatnonzero(seen), nearest[seen]]
+    assert seen.any() and np.allclose(ends, want, atol=1e-5)
+
+
+def test_ultrasonic_runs_draw_the_beams_and_echoes(tmp_path):
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario = load_scenario("s1").replace(duration_s=12.0)
+    sim = build_simulation(scenario, "p", perception="ultrasonic")
+    result = sim.run()
+    rec = Recording(record(sim, result, tmp_path / "u.rrd"))
+    log = result.log
+    assert "/world/robot/sensed" not in rec.entities
+    for k, name in enumerate(SENSORS):  # a hit point for every echo, none without
         _, hits = rec.rows(f"/world/sensors/{name}/hit", "Points2D:positions")
         assert [len(h) for h in hits] == list(np.isfinite(log.ranges_m[:, k]).astype(int))
         _, beams = rec.rows(f"/world/sensors/{name}/beam", "LineStrips2D:strips")
         assert len(beams) == len(log)
+    assert np.isfinite(log.ranges_m).any()
 
 
 def test_the_moving_obstacle_moves(s2_p):
@@ -371,7 +397,11 @@ def test_metadata_documents(s1_p):
     assert metrics["path_length_m"] == pytest.approx(result.metrics["path_length_m"])
     run = rec.text("/meta/run")
     assert "| seed | 0 |" in run and "ideal" in run and "p" in run
-    assert "fuzzynav run s1 --controller p --perception ideal --seed 0 --dt 0.02" in run
+    assert (
+        "`fuzzynav run s1 --controller p --perception ideal --geometry husky --seed 0 "
+        "--noise 0.0 --dt 0.02`" in run
+    )
+    assert "| geometry | husky |" in run and "| sensor noise (m) | 0 |" in run
     robot = rec.text("/meta/robot")
     assert f"c_m = {sim.model.parameters.c_m!r}" in robot
     assert "footprint_length_m" in robot
@@ -390,15 +420,36 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     n_rules = len(fis.rules)
     assert strengths.shape == (len(result.log), n_rules)
     times, rows = rec.bars(RULES_PATH)
-    assert np.array_equal(times, nanos(result.log.time_s))
-    assert same(rows, strengths.astype(np.float32))  # one bar per rule, float32
+    # One convention (defect 8): a row with a decision has every rule's strength; the
+    # last row (no decision) has none, so the chart at the end shows the last decision.
+    assert np.isnan(result.log.controller_output_v[-1]).all()
+    assert np.array_equal(times, nanos(result.log.time_s[:-1]))
+    assert same(rows, strengths[:-1].astype(np.float32))  # one bar per rule, float32
+    # ... absent there (null), not an empty list, which would clear the chart at the end
+    raw_times, raw = rec.rows(RULES_PATH, "BarChart:values")
+    assert raw_times[-1] == nanos(result.log.time_s[-1]) and raw[-1] is None
     assert strengths.max() > 0.5  # something fired
+    # bar k stands at abscissa k + 1: rule R(k+1)
+    abscissa = rec.static[RULES_PATH]["BarChart:abscissa"][0]["buffer"]
+    assert abscissa == list(range(1, n_rules + 1))
     rules = rec.text("/meta/rules")
     assert f"R{n_rules}: {fis.rule_text(n_rules - 1)}" in rules
-    # The heatmap (rules x time: one column per step here) and the rules in words.
+    # The heatmap (rules x time: one column per decision here) and the rules in words.
     heatmap = rec.static[RULES_HEATMAP_PATH]["Tensor:data"][0]
-    assert heatmap["shape"] == [n_rules, len(result.log)]
-    assert same(np.array(heatmap["buffer"]).reshape(n_rules, -1), strengths.T.astype(np.float32))
+    assert heatmap["shape"] == [n_rules, len(result.log) - 1]
+    assert same(
+        np.array(heatmap["buffer"]).reshape(n_rules, -1), strengths[:-1].T.astype(np.float32)
+    )
+    names = heatmap["names"]
+    assert names[0] == f"rule R1-R{n_rules}" and "s a column" in names[1]
+    # The strongest rule at each decision, where it changes: a lane in seconds.
+    t, states = rec.rows(RULES_PATH.replace("firing", "strongest"), "StateChange:state")
+    top = np.argmax(strengths[:-1], axis=1)
+    top = np.where(strengths[:-1].max(axis=1) > 0, top, -1)
+    change = np.flatnonzero(np.r_[True, top[1:] != top[:-1]])
+    assert np.array_equal(t, nanos(result.log.time_s[change]))
+    want = [f"R{k + 1}" if k >= 0 else "none fires" for k in top[change]]
+    assert [x[0] for x in states] == want and len(want) > 1
     texts = rec.text(RULES_TEXT_PATH)
     assert all(f"**R{k + 1}**: {fis.rule_text(k)}" in texts for k in range(n_rules))
 
@@ -755,12 +806,11 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     )
     rec = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller))
     n_rules = len(controller.goal.rules) + len(controller.avoid.rules)
-    # The layout has a tab for the rules' firing (sent first, and again with the legends).
-    assert layouts == [n_rules, n_rules]
+    # The layout has a tab for the rules' firing (sent once, with the legends placed).
+    assert layouts == [n_rules]
     times, firing = rec.bars(RULES_PATH)
-    assert np.array_equal(times, nanos(result.log.time_s))
-    assert firing.shape == (len(result.log), n_rules)
-    assert np.all(np.isnan(firing[-1]))  # the last row has no decision
+    assert np.array_equal(times, nanos(result.log.time_s[:-1]))  # the last: no decision
+    assert firing.shape == (len(result.log) - 1, n_rules)
     log = result.log
     fresh = fuzzynav_controller()
     for k in range(len(log) - 1):
@@ -771,7 +821,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     _, internals = rec.scalars(INTERNALS_PATH)
     avoiding = internals[:-1, 0] > 0.3
     assert avoiding.sum() >= 20 and np.all(
-        firing[:-1][avoiding, len(controller.goal.rules) :].max(axis=1) > 0.3
+        firing[avoiding, len(controller.goal.rules) :].max(axis=1) > 0.3
     )
     rules = rec.text("/meta/rules")
     assert f"# R{len(controller.goal.rules) + 1}: {controller.avoid.rule_text(0)}" in rules
@@ -896,3 +946,509 @@ def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):
     assert "| parts off | echo memory, edge following |" in meta
     assert "--controller fuzzynav --off 'echo memory,edge following' " in meta
     assert "memory_s = 0.0" in rec.text("/meta/rules")
+
+
+# ---------------------------------------------------------------------------------------
+# The reproduce command (issue 28, defect 1): it repeats the run, whatever the options
+
+SHORT_SCENARIO = """name = "short run for the reproduce command"
+duration_s = 32.0
+
+[robot]
+start = [0.0, 0.0]
+heading_rad = 0.3
+
+[target]
+position = [5.0, 1.5]
+tolerance_m = 0.15
+
+[[obstacles]]
+position = [2.5, -0.2]
+radius_m = 0.2
+
+[[obstacles]]
+position = [4.0, -2.5]
+radius_m = 0.25
+velocity = [0.0, 0.12]
+
+[disturbance]
+amplitude = 0.4
+angular_frequency_rad_s = 2.0
+start_s = 4.0
+stop_s = 8.0
+"""
+
+
+def _run_json(argv, capsys) -> dict:
+    assert main(argv) == 0, capsys.readouterr().err
+    row = json.loads(capsys.readouterr().out)
+    row.pop("wall_time_s")
+    return row
+
+
+def _reproduce_line(rrd) -> str:
+    return re.search(r"\| reproduce \| `([^`]*)` \|", Recording(rrd).text("/meta/run")).group(1)
+
+
+@pytest.fixture
+def short_scenario(tmp_path):
+    path = tmp_path / "short.toml"
+    path.write_text(SHORT_SCENARIO, encoding="utf-8")
+    return path
+
+
+REPRODUCE_CASES = {
+    "geometry paper": ["--geometry", "paper"],
+    "noise and seed": ["--perception", "ultrasonic", "--noise", "0.05", "--seed", "7"],
+    "control period": ["--dt", "0.05"],
+    "fuzzynav, a part off": ["--controller", "fuzzynav", "--off", "edge following"],
+    "baseline in the paper geometry": ["--controller", "baseline", "--geometry", "paper"],
+}
+
+
+@pytest.mark.parametrize("options", REPRODUCE_CASES.values(), ids=REPRODUCE_CASES.keys())
+def test_the_stored_reproduce_command_repeats_the_run(tmp_path, short_scenario, capsys, options):
+    """Run with an option that changes the run (it does: the trace differs from the
+    default run's), read the reproduce command back from the recording, run it: the same
+    metrics, the same trace to the last digit."""
+    base = [str(short_scenario), "--json"]
+    first = _run_json(
+        [
+            "run",
+            *base,
+            *options,
+            "--rrd",
+            str(tmp_path / "a.rrd"),
+            "--trace",
+            str(tmp_path / "a.csv"),
+        ],
+        capsys,
+    )
+    _run_json(["run", *base, "--trace", str(tmp_path / "default.csv")], capsys)
+    assert (tmp_path / "a.csv").read_text() != (tmp_path / "default.csv").read_text()
+    command = _reproduce_line(tmp_path / "a.rrd")
+    assert "reproduce needs" not in Recording(tmp_path / "a.rrd").text("/meta/run")
+    argv = shlex.split(command)
+    assert argv[:2] == ["fuzzynav", "run"]
+    again = _run_json([*argv[1:], "--json", "--trace", str(tmp_path / "b.csv")], capsys)
+    assert again == first
+    assert (tmp_path / "b.csv").read_text() == (tmp_path / "a.csv").read_text()
+
+
+def test_reproduce_names_a_fis_file_with_its_digest(tmp_path, short_scenario, capsys):
+    fis = tmp_path / "mine.fis"
+    assert main(["fis", "export", str(fis)]) == 0
+    capsys.readouterr()
+    rrd = tmp_path / "fis.rrd"
+    first = _run_json(
+        ["run", str(short_scenario), "--fis", str(fis), "--rrd", str(rrd), "--json"], capsys
+    )
+    argv = shlex.split(_reproduce_line(rrd))
+    assert argv[argv.index("--fis") + 1] == str(fis) and "--fis-sha256" in argv
+    assert _run_json([*argv[1:], "--json"], capsys) == first
+    # the same command refuses a .fis file that changed since
+    text = fis.read_text()
+    fis.write_text(text.replace("[System]", "[System]\n", 1).replace("Name='", "Name='x", 1))
+    assert main([*argv[1:], "--json"]) == 2
+    assert "--fis-sha256" in capsys.readouterr().err
+
+
+def test_reproduce_of_a_scenario_file_carries_its_digest(tmp_path, short_scenario, capsys):
+    rrd = tmp_path / "a.rrd"
+    _run_json(["run", str(short_scenario), "--rrd", str(rrd), "--json"], capsys)
+    argv = shlex.split(_reproduce_line(rrd))
+    digest = argv[argv.index("--scenario-sha256") + 1]
+    assert re.fullmatch(r"[0-9a-f]{64}", digest)
+    assert f"| scenario sha256 | {digest} |" in Recording(rrd).text("/meta/run")
+    short_scenario.write_text(SHORT_SCENARIO.replace("radius_m = 0.2\n", "radius_m = 0.21\n"))
+    assert main([*argv[1:], "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "--scenario-sha256" in err and "changed" in err
+
+
+def test_reproduce_of_a_scenario_made_in_memory_runs_from_meta_scenario(
+    tmp_path, capsys, monkeypatch
+):
+    """A scenario that came from no file (the viewer's, an edited one): the command
+    names scenario.toml, /meta/scenario saved as that file; it then repeats the run."""
+    from fuzzynav.world.scenario import loads_scenario
+
+    scenario = loads_scenario(SHORT_SCENARIO, "<memory>").replace(duration_s=9.0)
+    sim = build_simulation(scenario, "paper", geometry="paper")
+    result = sim.run()
+    rrd = record(sim, result, tmp_path / "mem.rrd")
+    rec = Recording(rrd)
+    meta = rec.text("/meta/run")
+    assert "| reproduce needs | scenario.toml: the recording's /meta/scenario saved" in meta
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scenario.toml").write_text(rec.text("/meta/scenario"), encoding="utf-8")
+    argv = shlex.split(_reproduce_line(rrd))
+    again = _run_json([*argv[1:], "--json"], capsys)
+    assert again["time_to_target_s"] == result.metrics["time_to_target_s"]
+    assert again["path_length_m"] == result.metrics["path_length_m"]
+    assert again["outcome"] == result.outcome
+
+
+def test_reproduce_says_when_the_controller_is_not_a_shipped_one(tmp_path):
+    """An edited rule base (the viewer's Editor) cannot be named by --controller: the
+    run page says so instead of naming a controller that would drive differently."""
+    from fuzzynav.controller.registry import make_controller
+
+    controller = make_controller("paper")
+    var = controller.fis.inputs[0]
+    term = var.terms[0]
+    controller.fis = controller.fis.with_term_params(
+        var.name, term.name, [p + 0.01 for p in term.params]
+    )
+    sim = build_simulation("s1", "paper", controller_object=controller)
+    result = sim.run()
+    meta = Recording(record(sim, result, tmp_path / "edited.rrd")).text("/meta/run")
+    assert "| reproduce needs | the controller (paper) is not one 'run' builds" in meta
+
+
+# ---------------------------------------------------------------------------------------
+# Layout keys (issue 28, defect 2): recordings whose layout can differ never share one
+
+
+def _blueprint_bounds(path) -> list:
+    """Every VisualBounds2D range stored in a recording's blueprints."""
+    reader = RrdReader(path)
+    found = []
+    for store in reader.blueprints():
+        for chunk in reader.stream(store=store):
+            batch = chunk.to_record_batch()
+            for name in batch.schema.names:
+                if name.endswith("VisualBounds2D:range"):
+                    found += [v for v in batch.column(name).to_pylist() if v]
+    return found
+
+
+def _layout_of(path) -> tuple[str, list[str], list]:
+    reader = RrdReader(path)
+    ids = [r.application_id for r in reader.recordings()]
+    return ids[0], [b.application_id for b in reader.blueprints()], _blueprint_bounds(path)
+
+
+def test_recordings_that_differ_in_geometry_or_content_have_their_own_layouts(tmp_path):
+    """report's husky and paper-geometry runs of s1 (same stem, same controller), and
+    two layout.toml files of different content in different folders: each recording's
+    application id, the id its blueprint is stored under, and its world bounds are its
+    own. The same content in another folder keeps the same layout."""
+    from fuzzynav.world.scenario import load_scenario
+
+    def run(scenario, geometry, name):
+        sim = build_simulation(scenario, "paper", geometry=geometry)
+        for _ in range(40):
+            sim.step()
+        return record(sim, sim.result(), tmp_path / f"{name}.rrd")
+
+    folders = [tmp_path / d for d in ("a", "b", "c")]
+    texts = [SHORT_SCENARIO, SHORT_SCENARIO.replace("[5.0, 1.5]", "[9.0, 4.0]"), SHORT_SCENARIO]
+    for folder, text in zip(folders, texts):
+        folder.mkdir()
+        (folder / "layout.toml").write_text(text, encoding="utf-8")
+    layouts = {
+        "s1 husky": _layout_of(run(load_scenario("s1"), "husky", "s1h")),
+        "s1 paper": _layout_of(run(load_scenario("s1"), "paper", "s1p")),
+        "a": _layout_of(run(load_scenario(folders[0] / "layout.toml"), "husky", "a")),
+        "b": _layout_of(run(load_scenario(folders[1] / "layout.toml"), "husky", "b")),
+        "c": _layout_of(run(load_scenario(folders[2] / "layout.toml"), "husky", "c")),
+    }
+    for key, (app_id, blueprint_ids, bounds) in layouts.items():
+        assert blueprint_ids and set(blueprint_ids) == {app_id}, key
+        assert bounds, key
+    assert layouts["s1 husky"][0].startswith("fuzzynav-s1-paper-husky-")
+    assert layouts["s1 paper"][0].startswith("fuzzynav-s1-paper-paper-")
+    assert layouts["a"][0].startswith("fuzzynav-layout-paper-husky-")
+    distinct = ["s1 husky", "s1 paper", "a", "b"]
+    assert len({layouts[k][0] for k in distinct}) == len(distinct)
+    assert layouts["a"][2] != layouts["b"][2]  # the bounds that would have been shared
+    assert layouts["s1 husky"][2] != layouts["s1 paper"][2]
+    assert layouts["c"][0] == layouts["a"][0]  # same content: the same layout
+
+
+def test_the_layout_key_changes_with_the_controller_and_its_rules():
+    from fuzzynav.app.recording import application_id
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.scenario import load_scenario
+
+    s1 = load_scenario("s1")
+    ids = {
+        application_id(s1, make_controller(name), "husky")
+        for name in ("paper", "baseline", "fuzzynav", "p")
+    }
+    assert len(ids) == 4
+    tiny = FuzzyController(TinyFis())  # the same name, other rules: another layout
+    other = FuzzyController(make_fuzzy_controller().fis)
+    assert application_id(s1, tiny) != application_id(s1, other)
+
+
+# ---------------------------------------------------------------------------------------
+# What a reviewer sees (issue 28, defects 3-10, events, summary)
+
+
+def _views(path) -> dict:
+    """{view name: {component: value}} of the final blueprint stored in a recording (the
+    one sent last, with the legends placed: the store that has them; the file's order of
+    stores is not the order they were sent in)."""
+    reader = RrdReader(path)
+    stores = reader.blueprints()
+    chunks = {
+        store.recording_id: [c.to_record_batch() for c in reader.stream(store=store)]
+        for store in stores
+    }
+    final = max(
+        stores,
+        key=lambda st: sum(
+            name.endswith("PlotLegend:corner")
+            for batch in chunks[st.recording_id]
+            for name in batch.schema.names
+        ),
+    )
+    by_id: dict[str, dict] = defaultdict(dict)
+    for chunk in reader.stream(store=final):
+        batch = chunk.to_record_batch()
+        parts = chunk.entity_path.split("/")
+        if len(parts) < 3 or parts[1] != "view":
+            continue
+        for name in batch.schema.names:
+            if ":" in name and not name.startswith("rerun."):
+                key = "/".join(parts[3:] + [name])
+                by_id[parts[2]][key] = batch.column(name).to_pylist()[-1]
+    return {v["ViewBlueprint:display_name"][0]: v for v in by_id.values()}
+
+
+@pytest.fixture(scope="module")
+def s3_paper(tmp_path_factory):
+    sim = build_simulation("s3", "paper")
+    result = sim.run()
+    path = tmp_path_factory.mktemp("rrd") / "s3_paper.rrd"
+    record(sim, result, path)
+    return sim, result, Recording(path), path
+
+
+def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp_path):
+    from fuzzynav.app.figures import paper_figure_number
+
+    names = list(_views(s3_paper[3]))
+    for kind, key in (
+        ("distances", "distance to the target"),
+        ("angles", "target angle phi_t and heading"),
+        ("obstacle_angles", "obstacle angles"),
+        ("voltages", "wheel voltages"),
+    ):
+        [name] = [n for n in names if n.startswith(key)]
+        assert name.endswith(f"(Fig. {paper_figure_number('s3', kind)})"), name
+    assert {n for n in names if "(Fig. 1" in n} == set()  # no s1 number in s3's panels
+    # every plot names its unit
+    plots = [n for n, v in _views(s3_paper[3]).items() if "TimeAxis/TimeAxis:view_range" in v]
+    assert len(plots) >= 12
+    for name in plots:
+        assert re.search(r"\b(m|rad|V|A|rad/s|m/s)\b", name), name
+
+
+def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
+    views = _views(s3_paper[3])
+    [voltage] = [v for n, v in views.items() if n.startswith("wheel voltages")]
+    assert voltage["PlotLegend/PlotLegend:visible"] == [False]
+    names = s3_paper[2].static["/plots/voltage"]["SeriesLines:names"]
+    assert names[-1] == names[-2] == "±12 V limit"  # one legend entry for both limits
+
+
+def test_a_legend_gets_empty_room_or_the_emptiest_corner():
+    from fuzzynav.app.recording import LEGEND_ENTRY_PX, PLOT_PX, _legend_placement
+
+    t = np.linspace(0, 1, 400)
+    busy = np.column_stack([np.sin(9 * t), np.cos(9 * t)])  # data in every corner
+    corner, value_range = _legend_placement(busy, 2)
+    assert value_range is not None
+    lo, hi = value_range
+    h = (2 * LEGEND_ENTRY_PX + 14.0) / PLOT_PX
+    top = "Top" in str(corner)
+    left = "Left" in str(corner)
+    in_time = (t < 0.24) if left else (t > 0.76)
+    v = (busy[in_time] - lo) / (hi - lo)
+    assert np.all(v <= 1 - h) if top else np.all(v >= h)  # the box holds no data
+    quiet = np.column_stack([t, t])  # a rising line leaves the top left empty:
+    corner, value_range = _legend_placement(quiet, 2)  # the data's own range, 5 % margin
+    assert "LeftTop" in str(corner) and value_range == pytest.approx((-0.05, 1.05))
+
+
+def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
+    sim, result, rec, path = s3_paper
+    log = result.log
+    assert same(rec.scalars("/plots/inputs/distances")[1], log.inputs[:, [0, 1]])
+    assert same(rec.scalars("/plots/inputs/angles")[1], log.inputs[:, [2, 3]])
+    assert np.isnan(log.inputs[:, 1]).any()  # s3 has stretches with nothing sensed
+    names = list(_views(path))
+    assert any(n.startswith("inputs d_t, d_o, m") and "nothing sensed" in n for n in names)
+    assert any(n.startswith("inputs phi_t, phi_o, rad") and "nothing sensed" in n for n in names)
+
+
+def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
+    from fuzzynav.app.recording import _rgba
+
+    _, result, rec, _ = s3_paper
+    plot_colours = rec.static["/plots/distance"]["SeriesLines:colors"]
+    for col, oid in enumerate(result.log.obstacle_ids):
+        body = rec.static[f"/world/obstacles/{oid}/body"]["Points2D:colors"][0]
+        assert body == plot_colours[col + 1]  # (series 0 is the target)
+    heading = rec.static["/world/robot/heading"]
+    assert heading["Arrows2D:colors"][0] not in (
+        _rgba(recording.TRAIL),
+        *plot_colours[1:],
+    )
+    assert heading["Arrows2D:radii"][0] >= 0.03
+    assert (
+        heading["Arrows2D:draw_order"][0]
+        > rec.static["/world/robot/trail"]["LineStrips2D:draw_order"][0]
+    )
+    # red is obstacle 0's: not the heading's nor the right wheel's
+    red = plot_colours[1]
+    assert red not in rec.static["/plots/angles/heading"]["SeriesLines:colors"]
+    assert red not in rec.static["/plots/voltage"]["SeriesLines:colors"]
+    assert red not in rec.static["/plots/wheels"]["SeriesLines:colors"]
+
+
+def test_the_run_page_shows_the_commands_wrapped(s3_paper):
+    _, _, rec, _ = s3_paper
+    text = rec.text("/meta/run")
+    command = re.search(r"\| reproduce \| `([^`]*)` \|", text).group(1)
+    block = re.search(r"## reproduce\n\n```sh\n(.*?)\n```", text, re.S).group(1)
+    assert all(len(line) <= 80 for line in block.splitlines())
+    assert shlex.split(block.replace("\\\n", " ")) == shlex.split(command)
+
+
+def test_events_are_marked_in_the_recording(s3_paper):
+    _, result, rec, _ = s3_paper
+    log = result.log
+    times, texts = rec.rows("/events/log", "TextLog:text")
+    texts = [x[0] for x in texts]
+    for col, oid in enumerate(log.obstacle_ids):
+        k = int(np.nanargmin(log.center_distance_m[:, col]))
+        d = log.center_distance_m[k, col]
+        want = f"closest to obstacle {oid}: {d:.2f} m centre to centre"
+        [hit] = [j for j, x in enumerate(texts) if want in x]
+        assert times[hit] == nanos(log.time_s[k])
+        # the world marks where the robot was then
+    marks = rec.static["/world/events/closest"]["Points2D:positions"]
+    rows = [int(np.nanargmin(log.center_distance_m[:, c])) for c in range(len(log.obstacle_ids))]
+    assert np.allclose(marks, log.pose[rows, :2], atol=1e-5)
+    # s3's disturbance window: on at 25 s, off at 35 s, in the log and in its lane
+    assert any("disturbance on" in x for x in texts) and any("disturbance off" in x for x in texts)
+    t, states = rec.rows("/events/lanes/disturbance", "StateChange:state")
+    assert [x[0] for x in states] == ["off", "on", "off"]
+    assert list(t[1:]) == list(nanos([25.0, 35.0]))
+    assert (
+        texts[-1]
+        .strip()
+        .endswith(f"reached the target at {result.metrics['time_to_target_s']:.2f} s")
+    )
+    # the moving obstacle, where it was at its closest approach, and its track
+    moving = [c for c in range(len(log.obstacle_ids)) if np.ptp(log.obstacle_xy[:, c, 0]) > 0]
+    assert moving
+    for col in moving:
+        oid = log.obstacle_ids[col]
+        ring = np.array(
+            rec.static[f"/world/events/moving_{oid}/at_closest"]["LineStrips2D:strips"][0]
+        )
+        assert np.allclose(ring.mean(axis=0)[:2], log.obstacle_xy[rows[col], col], atol=0.02)
+        track = np.array(rec.static[f"/world/events/moving_{oid}/track"]["LineStrips2D:strips"][0])
+        assert len(track) == len(log)
+
+
+def test_the_summary_sets_the_run_beside_the_paper(s3_paper):
+    from fuzzynav.app.report import published_table4
+
+    _, result, rec, path = s3_paper
+    text = rec.text("/meta/summary")
+    assert f"**{result.outcome}**" in text
+    paper = published_table4("paper", "s3")
+    ours = result.metrics["path_length_m"]
+    diff = 100 * (ours - paper["path_length_m"]) / paper["path_length_m"]
+    assert f"| path_length_m | {ours:.4g} | {paper['path_length_m']:.4g} | {diff:+.1f} % |" in text
+    assert "closest to obstacle 0" in text and "(paper:" in text
+    assert "summary" in _views(path)  # in the first view, beside the world
+
+
+def test_the_trace_holds_the_true_target_inputs_and_units_in_its_names(tmp_path):
+    """Defect 13: beside the disturbed inputs, the true d_t and phi_t; every column's
+    name ends in its unit."""
+    import csv
+
+    from fuzzynav.app.trace import TRACE_COLUMNS
+    from fuzzynav.world.geometry import wrap_angle
+
+    path = tmp_path / "s3.csv"
+    # (the paper controller is still on its way during s3's disturbance; p is not)
+    assert main(["run", "s3", "--controller", "paper", "--trace", str(path)]) == 0
+    for name in TRACE_COLUMNS:
+        assert re.search(r"_(s|m|rad|v|m_or_rad)$", name), name
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    col = {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
+    true_d_t = np.hypot(8.0 - col["x_m"], 8.0 - col["y_m"])
+    assert np.allclose(col["true_d_t_m"], true_d_t, atol=1e-12, rtol=0)
+    disturbance = col["disturbance_m_or_rad"]
+    assert np.abs(disturbance).max() > 0.5  # s3's window is in the run
+    assert np.allclose(col["d_t_m"] - disturbance, col["true_d_t_m"], atol=1e-9, rtol=0)
+    gap = wrap_angle(col["phi_t_rad"] - disturbance - col["true_phi_t_rad"])
+    assert np.abs(gap).max() < 1e-9
+
+
+def test_every_plot_has_a_value_range_that_holds_its_data(s3_paper):
+    """Defect 5 and the inputs' panels: rerun's own range left curves that start with a
+    gap (d_o before any sighting) off the panel and the currents with one tick; every
+    plot now sets its range, and it holds every finite value of its series."""
+    _, _, rec, path = s3_paper
+    views = _views(path)
+    origin = {
+        "distance to the target": ["/plots/distance"],
+        "target angle phi_t and heading": ["/plots/angles/phi_t", "/plots/angles/heading"],
+        "motor currents": ["/plots/current"],
+        "inputs d_t, d_o": ["/plots/inputs/distances"],
+        "inputs phi_t, phi_o": ["/plots/inputs/angles"],
+        "wheel voltages": ["/plots/voltage"],
+    }
+    for start, entities in origin.items():
+        [view] = [v for n, v in views.items() if n.startswith(start)]
+        lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
+        values = np.concatenate([rec.scalars(e)[1].reshape(-1) for e in entities])
+        values = values[np.isfinite(values)]
+        assert lo < values.min() and values.max() < hi, start
+        assert hi - lo < 3.0 * (values.max() - values.min()) + 1e-6, start  # not flattened
+
+
+def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
+    """The membership functions of every variable; at each decision the input's value
+    on its terms and each output's aggregated membership with its centroid, which is
+    the controller's output then; nothing at the final instant (no decision)."""
+    from fuzzynav.app.recording import FUZZY_W
+
+    sim, result, rec = fuzzy_run
+    fis = sim.controller.fis
+    if not hasattr(fis, "aggregated"):
+        pytest.skip("the stand-in system has no aggregation")
+    log = result.log
+    decided = nanos(log.time_s[:-1])
+    for k, var in enumerate(fis.inputs):
+        base = f"/fuzzy/inputs/{var.name}"
+        assert rec.static[f"{base}/terms"]["LineStrips2D:labels"] == [t.name for t in var.terms]
+        t, strips = rec.rows(f"{base}/value", "LineStrips2D:strips")
+        assert np.array_equal(t, decided)
+        lo, hi = var.range
+        value = log.inputs[:-1, k]
+        assert [len(s) for s in strips] == list(np.isfinite(value).astype(int))
+        x = [s[0][0][0] for s in strips if s]
+        want = np.clip(FUZZY_W * (value[np.isfinite(value)] - lo) / (hi - lo), 0, FUZZY_W)
+        assert np.allclose(x, want, atol=1e-5)
+    for k, var in enumerate(fis.outputs):
+        base = f"/fuzzy/outputs/{var.name}"
+        t, labels = rec.rows(f"{base}/value", "LineStrips2D:labels")
+        assert np.array_equal(t, decided)
+        got = [float(x[0].split("=")[1].split()[0]) for x in labels]
+        assert np.allclose(got, log.controller_output_v[:-1, k], rtol=0, atol=0.0051)
+        t, shapes = rec.rows(f"{base}/aggregated", "LineStrips2D:strips")
+        assert np.array_equal(t, decided)
+        heights = np.array([[p[1] for p in s[0]] for s in shapes])
+        assert heights.max() > 0.2 and heights.max() <= 1.0 + 1e-6
