@@ -31,26 +31,13 @@ from fuzzynav.app.args import (
 
 # The rows of both engines come from one function (app/batch_runs.py).
 from fuzzynav.app.batch_runs import layout_row, run_benchmark
+from fuzzynav.app.published import PAPER_TABLE4  # noqa: F401  (tests read it here)
 from fuzzynav.resources import escape_controls
+from fuzzynav.world.metrics import TABLE4_ROWS  # noqa: F401  (report and tests read it here)
 
 SAFE_CLEARANCE_M = 0.25
 
 # Paper Table 4 (notes section 2): method of ref. [19] | proposed, for S1 / S2 / S3.
-PAPER_TABLE4 = {
-    "baseline": {  # the paper's ref. [19]; our baseline is only a stand-in for it
-        "path_length_m": (12.4996, 20.7641, 22.0387),
-        "mad_m": (0.7037, 2.6611, 2.8844),
-        "rmse_m": (0.8964, 3.2797, 3.4752),
-        "min_center_distance_m": (0.3891, 2.22, 2.3),
-    },
-    "paper": {
-        "path_length_m": (11.8332, 11.8672, 11.8263),
-        "mad_m": (0.3653, 0.5727, 0.6298),
-        "rmse_m": (0.4825, 0.7449, 0.7474),
-        "min_center_distance_m": (0.2557, 0.3834, 0.6398),
-    },
-}
-TABLE4_ROWS = ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m")
 SCENARIOS = ("s1", "s2", "s3")
 
 

@@ -1845,7 +1845,7 @@ def _summary(static: _StaticBatch, result, controller, events) -> None:
     (s1-s3, the paper and baseline controllers), and the events."""
     import rerun as rr
 
-    from fuzzynav.app.experiments import TABLE4_ROWS
+    from fuzzynav.world.metrics import TABLE4_ROWS
 
     m = result.metrics or {}
     name = controller_label(controller)
@@ -1860,7 +1860,7 @@ def _summary(static: _StaticBatch, result, controller, events) -> None:
     ]
     published = None
     try:
-        from fuzzynav.app.report import published_table4
+        from fuzzynav.app.published import published_table4
 
         published = published_table4(name, stem)
     except Exception:  # the paper's numbers are optional here

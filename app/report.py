@@ -18,7 +18,8 @@ import math
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError
-from fuzzynav.app.experiments import PAPER_TABLE4, SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.experiments import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
 from fuzzynav.world.perception import GEOMETRIES
@@ -46,23 +47,6 @@ def percent_difference(ours, published) -> float | None:
     if not (math.isfinite(ours) and math.isfinite(published)) or published == 0.0:
         return None
     return 100.0 * (ours - published) / published
-
-
-def published_table4(controller: str, scenario: str) -> dict | None:
-    """The paper's Table 4 numbers for a controller's row: the proposed method's (for
-    ``paper``) from ``assets/paper/results.toml``; the method of [19]'s (for
-    ``baseline``, a stand-in for it), which that file does not hold, from
-    :data:`app.experiments.PAPER_TABLE4`; None for any other controller."""
-    if controller == "paper":
-        from fuzzynav.app.paper_fit import paper_results
-
-        table = paper_results()["table4"].get(scenario)
-        return None if table is None else {k: float(table[k]) for k in TABLE4_ROWS}
-    ref = PAPER_TABLE4.get(controller)
-    if ref is None or scenario not in SCENARIOS:
-        return None
-    index = SCENARIOS.index(scenario)
-    return {k: float(ref[k][index]) for k in TABLE4_ROWS}
 
 
 def paper_events(result, scenario: str) -> list[dict]:

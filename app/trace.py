@@ -59,24 +59,28 @@ def trace_rows(log):
 
     from fuzzynav.world.geometry import wrap_angle
 
-    dx = log.target_xy[:, 0] - log.pose[:, 0]
-    dy = log.target_xy[:, 1] - log.pose[:, 1]
-    true_d_t = np.hypot(dx, dy)
-    true_phi_t = np.atleast_1d(wrap_angle(np.arctan2(dy, dx) - log.pose[:, 2]))
-    for k in range(len(log)):
-        x, y, heading = log.pose[k]
-        yield [
-            _cell(log.time_s[k]),
-            _cell(x),
-            _cell(y),
-            _cell(heading),
-            *(_cell(v) for v in log.inputs[k]),
-            _cell(true_d_t[k]),
-            _cell(true_phi_t[k]),
-            *(_cell(v) for v in log.voltages_v[k]),
-            *(_cell(v) for v in log.controller_output_v[k]),
-            _cell(log.disturbance[k]),
-        ]
+    # the true inputs a block at a time: a long run's trace never holds whole columns
+    for start in range(0, len(log), TRACE_CHUNK_ROWS):
+        end = min(start + TRACE_CHUNK_ROWS, len(log))
+        pose, target = log.pose[start:end], log.target_xy[start:end]
+        dx = target[:, 0] - pose[:, 0]
+        dy = target[:, 1] - pose[:, 1]
+        true_d_t = np.hypot(dx, dy)
+        true_phi_t = np.atleast_1d(wrap_angle(np.arctan2(dy, dx) - pose[:, 2]))
+        for k in range(start, end):
+            x, y, heading = log.pose[k]
+            yield [
+                _cell(log.time_s[k]),
+                _cell(x),
+                _cell(y),
+                _cell(heading),
+                *(_cell(v) for v in log.inputs[k]),
+                _cell(true_d_t[k - start]),
+                _cell(true_phi_t[k - start]),
+                *(_cell(v) for v in log.voltages_v[k]),
+                *(_cell(v) for v in log.controller_output_v[k]),
+                _cell(log.disturbance[k]),
+            ]
 
 
 #: Rows encoded at a time: the text of a 2,000,000-step trace (about 400 MB) never sits

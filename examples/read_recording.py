@@ -56,9 +56,9 @@ def main(argv=None) -> dict:
     print(f"read back {len(times)} rows of /plots/voltage: {names[:2]}")
     print(
         f"left wheel: peak {np.nanmax(np.abs(left)):.2f} V; the run's trace: "
-        f"{np.nanmax(np.abs(run.trace['v_left'])):.2f} V"
+        f"{np.nanmax(np.abs(run.trace['v_left_v'])):.2f} V"
     )
-    same = np.array_equal(left[:-1], run.trace["v_left"][:-1])
+    same = np.array_equal(left[:-1], run.trace["v_left_v"][:-1])
     print(f"recording and trace agree step for step: {same}")
     return {"run": run, "path": path, "time_s": times, "voltages_v": volts, "names": names}
 

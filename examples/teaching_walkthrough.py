@@ -57,10 +57,10 @@ def main(argv=None) -> dict:
     for run, label, style in ((before, "as shipped", "-"), (after, "Z twice as wide", "--")):
         tr = run.trace
         axes[0, 0].plot(tr["x_m"], tr["y_m"], style, label=label)
-        axes[0, 1].plot(tr["time_s"], tr["d_o"], style, label=f"d_o, {label}")
-        axes[1, 0].plot(tr["time_s"], tr["phi_t"], style, label=f"phi_t, {label}")
-        axes[1, 1].plot(tr["time_s"], tr["v_left"], style, label=f"left, {label}")
-        axes[1, 1].plot(tr["time_s"], tr["v_right"], style, label=f"right, {label}")
+        axes[0, 1].plot(tr["time_s"], tr["d_o_m"], style, label=f"d_o, {label}")
+        axes[1, 0].plot(tr["time_s"], tr["phi_t_rad"], style, label=f"phi_t, {label}")
+        axes[1, 1].plot(tr["time_s"], tr["v_left_v"], style, label=f"left, {label}")
+        axes[1, 1].plot(tr["time_s"], tr["v_right_v"], style, label=f"right, {label}")
     for ob in before.result.scenario.obstacles:
         axes[0, 0].add_patch(plt.Circle(ob.position, ob.radius_m, color="tab:red", alpha=0.4))
     axes[0, 0].plot(*before.result.scenario.target, "k*", markersize=12, label="target")

@@ -70,8 +70,8 @@ def test_simulate_options_change_the_run():
     ideal = fuzzynav.simulate("s2")
     sonar = fuzzynav.simulate("s2", perception="ultrasonic")
     assert ideal.metrics["perception"] == "ideal" and sonar.metrics["perception"] == "ultrasonic"
-    n = min(len(ideal.trace["d_o"]), len(sonar.trace["d_o"]))
-    assert not np.array_equal(ideal.trace["d_o"][:n], sonar.trace["d_o"][:n], equal_nan=True)
+    n = min(len(ideal.trace["d_o_m"]), len(sonar.trace["d_o_m"]))
+    assert not np.array_equal(ideal.trace["d_o_m"][:n], sonar.trace["d_o_m"][:n], equal_nan=True)
     paper = fuzzynav.simulate("s1", controller="p", geometry="paper")
     assert paper.metrics["geometry"] == "paper"
 
@@ -193,4 +193,4 @@ def test_example_read_recording(tmp_path):
     run, volts = out["run"], out["voltages_v"]
     assert len(out["time_s"]) == len(run.result.log)
     np.testing.assert_array_equal(out["time_s"], np.round(run.trace["time_s"] * 1e9) / 1e9)
-    np.testing.assert_array_equal(volts[:-1, 0], run.trace["v_left"][:-1])
+    np.testing.assert_array_equal(volts[:-1, 0], run.trace["v_left_v"][:-1])

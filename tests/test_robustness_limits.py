@@ -88,6 +88,7 @@ class _FakeLog:
         self.voltages_v = rng.normal(size=(n, 2))
         self.controller_output_v = rng.normal(size=(n, 2))
         self.disturbance = np.zeros(n)
+        self.target_xy = rng.normal(size=(n, 2))
 
     def __len__(self):
         return len(self.time_s)

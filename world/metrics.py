@@ -37,6 +37,10 @@ import numpy as np
 
 from fuzzynav.world.geometry import point_segment_distance
 
+#: The metrics of the paper's Table 4, in its order (the comparison tables, the
+#: recordings' summary).
+TABLE4_ROWS = ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m")
+
 
 def path_length(xy: np.ndarray) -> float:
     steps = np.diff(np.asarray(xy, dtype=float), axis=0)
