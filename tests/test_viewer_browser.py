@@ -506,7 +506,10 @@ def test_editor_sliders_change_the_driving_controller_and_download_and_reset(ser
     shipped = app.controller.inner.fis
     name = "d_t.w1"
     editor = app.editor()
-    new_value = round(editor.value(name) + 0.8, 2)
+    low, high = editor.bounds[name]
+    # a step the slider allows, up or down, whatever the shipped value
+    step = 0.8 if editor.value(name) + 0.8 <= high else -0.8
+    new_value = round(max(low, min(high, editor.value(name) + step)), 2)
     box = page.locator(".mantine-Slider-root").first  # d_t's folder is open: a0 first
     assert box.count()
     # type the value into w1's number box (the second slider of the d_t folder)
@@ -519,7 +522,8 @@ def test_editor_sliders_change_the_driving_controller_and_download_and_reset(ser
     assert target is not None, "no number box holds d_t.w1"
     target.fill(str(new_value))
     target.press("Enter")
-    assert app.wait_for(lambda a: a.controller_label == "paper (edited)", timeout=10)
+    ok = app.wait_for(lambda a: a.controller_label == "paper (edited)", timeout=10)
+    assert ok, (app.controller_label, editor.value(name), new_value, k)
     edited = app.controller.inner.fis
     assert edited.inputs[0].terms[1].params != shipped.inputs[0].terms[1].params
     assert editor.value(name) == pytest.approx(new_value, abs=0.02)
