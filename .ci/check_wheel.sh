@@ -20,7 +20,7 @@ tops = {n.split("/")[0] for n in names}
 bad = {t for t in tops if t != "fuzzynav" and not (t.startswith("fuzzynav-") and t.endswith(".dist-info"))}
 assert not bad, f"the wheel installs more than fuzzynav: {sorted(bad)}"
 for needed in ("fuzzynav/assets/husky.toml", "fuzzynav/assets/rules/paper.toml",
-               "fuzzynav/assets/rules/paper_table4.toml", "fuzzynav/assets/scenarios/s1.toml",
+               "fuzzynav/assets/scenarios/s1.toml",
                "fuzzynav/assets/paper/results.toml", "fuzzynav/app/cli.py",
                "fuzzynav/world/husky.py", "fuzzynav/controller/fuzzy.py", "fuzzynav/__main__.py",
                "fuzzynav/api.py"):
