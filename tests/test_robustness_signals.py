@@ -60,7 +60,9 @@ def test_sigterm_while_a_recording_is_written_leaves_no_temporary_file(tmp_path)
 def test_sigterm_during_a_pooled_sweep_keeps_the_rows_and_says_so(tmp_path):
     """Exit 143 with worker BrokenPipe tracebacks and a leaked-semaphore warning."""
     out = tmp_path / "runs.jsonl"
+    # the pymunk engine: one row per task, so the signal falls while rows still arrive
     argv = ["sweep", "--n", "40", "--seed", "4", "--controller", "p", "--beside", "none"]
+    argv += ["--engine", "pymunk"]
     child = subprocess.Popen(
         [sys.executable, "-c", CHILD_SWEEP, *argv, "--workers", "2", "--out", str(out), "--json"],
         stdout=subprocess.PIPE,

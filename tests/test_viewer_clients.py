@@ -193,6 +193,9 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
         clients.press(teacher, t.teacher_token_box, "teach-me")
         assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
         clients.press(teacher, t.scenario_dd, "crossing")
+        # as a teacher would: the next choice once the scenario has loaded (a press that
+        # arrives while it loads can be lost under load: seen in CI)
+        assert t.app.wait_for(lambda x: x.scenario_label == "crossing", 10), t.app.message
         clients.press(teacher, t.controller_dd, "fuzzynav")
         assert t.app.wait_for(
             lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
