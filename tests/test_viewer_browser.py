@@ -657,10 +657,14 @@ def test_handles_are_hidden_until_asked_for(served, page):
     page.get_by_text("View", exact=True).click()
     box = page.get_by_role("checkbox", name="Show drag handles")
     box.click()
-    assert app.wait_for(lambda a: not served.target.disable_axes, timeout=10)
-    assert all(not n["handle"].disable_axes for n in served._obstacle_nodes.values())
+
+    def gizmos():
+        return [served.target] + [n["handle"] for n in served._obstacle_nodes.values()]
+
+    # The callback sets the target first and the obstacles after it: wait for all of them.
+    assert app.wait_for(lambda a: not any(g.disable_axes for g in gizmos()), timeout=10)
     box.click()
-    assert app.wait_for(lambda a: served.target.disable_axes, timeout=10)
+    assert app.wait_for(lambda a: all(g.disable_axes for g in gizmos()), timeout=10)
 
 
 def test_speed_choices_noise_box_colour_key(served, page):
