@@ -97,7 +97,6 @@ KNOWN_OVERSIZE = {
     "fuzzynav.app.tuning",  # grew past 800 with the batch engine's options (issue 29)
     "fuzzynav.app.viewer_views",  # grew past 800 with the classroom viewer (issue 27)
     "fuzzynav.controller.fuzzynav",
-    "fuzzynav.controller.fuzzy",
 }
 
 
