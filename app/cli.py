@@ -270,13 +270,13 @@ def _finish_hooks(hooks, result, interrupted: bool) -> None:
 
 EXTENSION_MODULES = (
     "fuzzynav.app.fis_commands",
-    "fuzzynav.app.experiments",
-    "fuzzynav.app.recording",
-    "fuzzynav.app.figures",
-    "fuzzynav.app.report",
-    "fuzzynav.app.serve",
-    "fuzzynav.app.paper_fit",
-    "fuzzynav.app.trace",
+    "fuzzynav.app.experiments.studies",
+    "fuzzynav.app.recordings.record",
+    "fuzzynav.app.figures.run_figures",
+    "fuzzynav.app.figures.report",
+    "fuzzynav.app.viewer.serve",
+    "fuzzynav.app.experiments.paper_fit",
+    "fuzzynav.app.recordings.trace",
 )
 
 

@@ -61,9 +61,9 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
 
 
 def _write(system, path: Path) -> None:
-    """Write one .fis whole or not at all (:mod:`app.safe_files`): a full disk or a
+    """Write one .fis whole or not at all (:mod:`fuzzynav.safe_files`): a full disk or a
     read-only folder leaves any old file as it was, and says so (ValueError)."""
-    from fuzzynav.app.safe_files import refuse_installed, write_text_atomically
+    from fuzzynav.safe_files import refuse_installed, write_text_atomically
 
     refuse_installed(path, "fis export")  # never over a shipped file
     try:

@@ -32,7 +32,7 @@ def published_table4(controller: str, scenario: str) -> dict | None:
     ``baseline``, a stand-in for it), which that file does not hold, from
     :data:`PAPER_TABLE4`; None for any other controller."""
     if controller == "paper":
-        from fuzzynav.app.paper_fit import paper_results
+        from fuzzynav.app.experiments.paper_fit import paper_results
 
         table = paper_results()["table4"].get(scenario)
         return None if table is None else {k: float(table[k]) for k in TABLE4_ROWS}

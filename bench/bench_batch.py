@@ -119,8 +119,8 @@ def layouts_runs(n: int, sample: int, perception: str) -> dict:
 
 
 def tuning_generation(candidates: int = 64) -> dict:
-    from fuzzynav.app.batch_runs import objective_costs
-    from fuzzynav.app.tuning import STALL_S, Objective, build_cases, outcome_cost
+    from fuzzynav.app.experiments.batch_runs import objective_costs
+    from fuzzynav.app.experiments.tuning import STALL_S, Objective, build_cases, outcome_cost
     from fuzzynav.controller.tuning import tunable
 
     t = tunable("paper")
@@ -150,7 +150,7 @@ def tuning_generation(candidates: int = 64) -> dict:
 
 def scaling_point(n: int) -> dict:
     """One N in this process (called in a fresh one): CPU per run, peak memory."""
-    from fuzzynav.app.batch_runs import run_layouts
+    from fuzzynav.app.experiments.batch_runs import run_layouts
 
     t0 = time.process_time()
     result = run_layouts("standard", n, 1, controller="paper")

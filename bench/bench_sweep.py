@@ -1,4 +1,4 @@
-"""Benchmark of the executors (app/executor.py) on one sweep: runs per second, serially, on
+"""Benchmark of the executors (app/experiments/executor.py) on one sweep: runs per second, serially, on
 a local pool of 1, 2 and all workers, and on a Dask LocalCluster, in one run.
 
     .venv/bin/python bench/bench_sweep.py [--n 48] [--controller paper] [--repeats 3]
@@ -24,14 +24,14 @@ import os
 import statistics
 import time
 
-from fuzzynav.app.executor import (
+from fuzzynav.app.experiments.executor import (
     DaskExecutor,
     LocalExecutor,
     SerialExecutor,
     available_cpus,
     chunk_size,
 )
-from fuzzynav.app.experiments import run_jobs, run_layout, sweep_jobs
+from fuzzynav.app.experiments.studies import run_jobs, run_layout, sweep_jobs
 
 
 def cpu_timed_run(job):
@@ -134,7 +134,7 @@ def main(argv=None) -> int:
     console.print(t)
     console.print(
         f"serial: {serial_wall / args.n * 1e3:.0f} ms per run (wall); a task carries up to "
-        f"{chunk_size(args.n, 1)} runs (app/executor.py: chunk_size); load average at the "
+        f"{chunk_size(args.n, 1)} runs (app/experiments/executor.py: chunk_size); load average at the "
         f"end {os.getloadavg()[0]:.1f} on {cpus} CPUs"
     )
     c = Table(title="CPU time per run in a worker (mean), and what N idle cores would give")

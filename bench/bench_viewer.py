@@ -40,8 +40,8 @@ from pathlib import Path
 
 import psutil
 
-from fuzzynav.app.viewer import ViewerApp
-from fuzzynav.app.viewer_ui import ViewerServer
+from fuzzynav.app.viewer.model import ViewerApp
+from fuzzynav.app.viewer.server import ViewerServer
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -365,7 +365,7 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if args.bandwidth_json:  # the baseline's subprocess: its numbers as one JSON line
-        import fuzzynav.app.viewer as viewer_module
+        import fuzzynav.app.viewer.model as viewer_module
 
         numbers = bandwidth_table(chromium, args.controller)
         numbers["code"] = str(Path(viewer_module.__file__).resolve().parent)

@@ -93,7 +93,7 @@ class TableOneTunable:
     and the header lines that say where the numbers come from."""
 
     name = "paper"
-    #: ``fuzzynav tune`` adds a cost for holes (app/tuning.py): Table 1's two rule
+    #: ``fuzzynav tune`` adds a cost for holes (app/experiments/tuning.py): Table 1's two rule
     #: families must each cover their inputs (controller/coverage.py).
     holes_penalised = True
     PARAMETERS: list[tuple[str, float, float, float]] = []

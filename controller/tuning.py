@@ -2,7 +2,7 @@
 
 A :class:`Tunable` maps a vector of positive widths/offsets (so that ordering
 constraints such as ``a <= b <= c`` hold by construction) to a fresh controller, and
-writes the shipped rule base(s) for a vector. ``fuzzynav tune`` (``app/tuning.py``)
+writes the shipped rule base(s) for a vector. ``fuzzynav tune`` (``app/experiments/tuning.py``)
 runs differential evolution over it. Tunables must be picklable (they are sent to the
 worker processes).
 """

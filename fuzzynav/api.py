@@ -98,7 +98,7 @@ class Run:
         if self._trace is None:
             # The CSV's own rows, read back: the arrays are the trace file's columns,
             # whatever columns it has, and equal to it (the cells are exact reprs).
-            from fuzzynav.app.trace import TRACE_COLUMNS, trace_rows
+            from fuzzynav.app.recordings.trace import TRACE_COLUMNS, trace_rows
 
             rows = list(trace_rows(self.result.log))
             table = np.array(
@@ -111,7 +111,7 @@ class Run:
     def save_rrd(self, path: str | Path) -> Path:
         """Write the run as a rerun recording (``rerun PATH`` opens it), whole or not
         at all. Returns the path written."""
-        from fuzzynav.app.recording import record_run
+        from fuzzynav.app.recordings.record import record_run
 
         sim = self._simulation
         return record_run(
@@ -127,7 +127,7 @@ class Run:
     def figures(self, folder: str | Path) -> list[Path]:
         """Write the paper's figures of the run (PNG and SVG) into ``folder`` (created
         if needed), as ``fuzzynav run --figures`` does. Returns the files written."""
-        from fuzzynav.app.figures import write_run_figures
+        from fuzzynav.app.figures.run_figures import write_run_figures
 
         sim = self._simulation
         params = sim.model.parameters
@@ -283,8 +283,8 @@ def sweep(
         (index, outcome, success, path_length_m, min_clearance_m, time_to_target_s,
         shortest_path_m, ...). A number that does not apply is None.
     """
-    from fuzzynav.app.executor import make_executor
-    from fuzzynav.app.experiments import sweep as run_sweep
+    from fuzzynav.app.experiments.executor import make_executor
+    from fuzzynav.app.experiments.studies import sweep as run_sweep
 
     options = {} if geometry == "husky" else {"geometry": geometry}
     executor = make_executor("local" if workers > 1 else "serial", workers=workers)
@@ -328,6 +328,6 @@ def read_fis(path: str | Path) -> FuzzySystem:
 def write_fis(system: FuzzySystem, path: str | Path) -> Path:
     """Write ``system`` as a MATLAB ``.fis`` file (GNU Octave reads it as the same
     system). Returns the path."""
-    from fuzzynav.app.safe_files import write_text_atomically
+    from fuzzynav.safe_files import write_text_atomically
 
     return write_text_atomically(path, dumps_fis(system))

@@ -17,7 +17,7 @@ that is not a regular file is never renamed over: a pipe (FIFO) or a terminal is
 written through a stream, anything else (a device, a socket, a directory) is refused.
 
 This module sits at the package's root (beside :mod:`fuzzynav.resources`) so that the
-controller's own savers use it too; ``fuzzynav.app.safe_files`` is the same module.
+controller's own savers use it too.
 """
 
 from __future__ import annotations

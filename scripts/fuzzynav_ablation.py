@@ -22,8 +22,13 @@ import json
 import sys
 from pathlib import Path
 
-from fuzzynav.app.executor import add_executor_options
-from fuzzynav.app.experiments import SAFE_CLEARANCE_M, LayoutJob, StudyInterrupted, run_study
+from fuzzynav.app.experiments.executor import add_executor_options
+from fuzzynav.app.experiments.studies import (
+    SAFE_CLEARANCE_M,
+    LayoutJob,
+    StudyInterrupted,
+    run_study,
+)
 from fuzzynav.controller.fuzzynav_parts import load_parts
 from fuzzynav.world.layouts import FAMILIES
 
@@ -41,7 +46,7 @@ def versions(parts) -> list[dict]:
 
 def outcome(k: int, row: dict) -> tuple:
     """(version index, family, mode, ok, safe, collided, timeout) of a sweep row, judged as
-    `fuzzynav sweep --off` judges it (the row is the sweep's own: app.experiments)."""
+    `fuzzynav sweep --off` judges it (the row is the sweep's own: app.experiments.studies)."""
     ok = row["success"]
     clearance = row["min_clearance_m"]
     return (

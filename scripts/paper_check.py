@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from fuzzynav.app.paper_fit import measure, paper_results
+from fuzzynav.app.experiments.paper_fit import measure, paper_results
 from fuzzynav.controller.fis_controller import FisController
 from fuzzynav.controller.paper import PAPER_RULES
 from fuzzynav.controller.rulebase import read_toml

@@ -1,7 +1,7 @@
 """What the paper's numbers pin down: the fit's cost with each design number moved +-10 %.
 
 For the shipped rule base's 12 numbers (its ``# tuned vector:`` line), evaluates the
-cost of ``fuzzynav fit-paper`` (app/paper_fit.py, the same options as the shipped file's
+cost of ``fuzzynav fit-paper`` (app/experiments/paper_fit.py, the same options as the shipped file's
 command: 0.05 s control period, ``--husky --husky-perception ideal``) at the fitted vector and with one
 number at a time multiplied by 0.9 and 1.1 (clipped to its bounds, so the design rules
 still hold: a clipped step says so). A number whose moves barely change the cost is one
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.paper_fit import FitCost, read_fitted
+from fuzzynav.app.experiments.paper_fit import FitCost, read_fitted
 from fuzzynav.controller.paper import PAPER_RULES
 from fuzzynav.controller.paper_design import PaperDesignTunable
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.app.tuning import read_vector
+from fuzzynav.app.experiments.tuning import read_vector
 from fuzzynav.controller.fis_controller import FisController
 from fuzzynav.controller.paper import PAPER_RULES, PaperTunable
 from fuzzynav.world.scenario import load_scenario

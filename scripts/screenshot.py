@@ -86,8 +86,8 @@ def main(argv=None) -> int:
         return 2
     from playwright.sync_api import sync_playwright
 
-    from fuzzynav.app.viewer import ViewerApp
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.model import ViewerApp
+    from fuzzynav.app.viewer.server import ViewerServer
 
     app = ViewerApp(args.scenario, args.controller)
     server = ViewerServer(app, port=0)

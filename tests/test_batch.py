@@ -15,11 +15,11 @@ import math
 import numpy as np
 import pytest
 
-from fuzzynav.app.batch_runs import run_layout_batch, run_layouts, tasks
 from fuzzynav.app.cli import main
-from fuzzynav.app.executor import LocalExecutor, SerialExecutor
-from fuzzynav.app.experiments import run_jobs, run_layout, sweep_jobs
-from fuzzynav.app.resultlog import ResultLog
+from fuzzynav.app.experiments.batch_runs import run_layout_batch, run_layouts, tasks
+from fuzzynav.app.experiments.executor import LocalExecutor, SerialExecutor
+from fuzzynav.app.experiments.resultlog import ResultLog
+from fuzzynav.app.experiments.studies import run_jobs, run_layout, sweep_jobs
 from fuzzynav.app.runs import build_simulation
 from fuzzynav.controller.batch import NotBatchable, batch_controller
 from fuzzynav.controller.fuzzy_batch import BatchFuzzy, evaluate_rows
@@ -235,14 +235,14 @@ def test_resume_on_a_pool_gives_the_rows_of_one_serial_run(tmp_path):
 
 
 def _key(row):
-    from fuzzynav.app.experiments import row_key
+    from fuzzynav.app.experiments.studies import row_key
 
     return row_key(row)
 
 
 def test_dask_runs_batches_as_tasks():
     pytest.importorskip("distributed")
-    from fuzzynav.app.executor import DaskExecutor
+    from fuzzynav.app.experiments.executor import DaskExecutor
 
     jobs = sweep_jobs("baseline", 6, 4, "clutter", options=FAST)
     serial = run_jobs(jobs, SerialExecutor(), engine="batch")
@@ -328,9 +328,9 @@ def test_sweep_engine_option_and_the_fallback_message(capsys):
 
 
 def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
-    from fuzzynav.app.batch_runs import fit_costs, objective_costs
-    from fuzzynav.app.paper_fit import FitCost
-    from fuzzynav.app.tuning import STALL_S, Case, Objective, outcome_cost
+    from fuzzynav.app.experiments.batch_runs import fit_costs, objective_costs
+    from fuzzynav.app.experiments.paper_fit import FitCost
+    from fuzzynav.app.experiments.tuning import STALL_S, Case, Objective, outcome_cost
     from fuzzynav.controller.tuning import tunable
     from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 

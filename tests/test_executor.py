@@ -1,4 +1,4 @@
-"""Executors (app/executor.py), the results file (app/resultlog.py) and resuming a study:
+"""Executors (app/experiments/executor.py), the results file (app/experiments/resultlog.py) and resuming a study:
 the same rows serially, on a local pool and on a real Dask LocalCluster; an interrupted
 sweep resumed ends equal to an uninterrupted one."""
 
@@ -12,9 +12,9 @@ import time
 import numpy as np
 import pytest
 
-from fuzzynav.app import experiments
 from fuzzynav.app.cli import main
-from fuzzynav.app.executor import (
+from fuzzynav.app.experiments import studies as experiments
+from fuzzynav.app.experiments.executor import (
     DaskExecutor,
     LocalExecutor,
     SerialExecutor,
@@ -23,9 +23,9 @@ from fuzzynav.app.executor import (
     default_start_method,
     make_executor,
 )
-from fuzzynav.app.experiments import row_key, run_jobs, sweep_jobs
-from fuzzynav.app.resultlog import ResultLog, ResultLogError
-from fuzzynav.app.tuning import Case, tune
+from fuzzynav.app.experiments.resultlog import ResultLog, ResultLogError
+from fuzzynav.app.experiments.studies import row_key, run_jobs, sweep_jobs
+from fuzzynav.app.experiments.tuning import Case, tune
 from fuzzynav.controller.tuning import tunable
 from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 

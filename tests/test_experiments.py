@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.tuning import Case, Objective, run_cost, tune
+from fuzzynav.app.experiments.tuning import Case, Objective, run_cost, tune
 from fuzzynav.controller.fis import read_fis
 from fuzzynav.controller.paper import FIRST_DESIGN
 from fuzzynav.controller.registry import make_controller

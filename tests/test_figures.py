@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.figures import (
+from fuzzynav.app.figures.run_figures import (
     FORMATS,
     RUN_FIGURES,
     _orient,
@@ -163,7 +163,7 @@ def test_cli_figures(tmp_path, capsys):
     captured = capsys.readouterr()
     assert str(out_dir) in captured.err
     # one numbering everywhere: named as the report names them (Fig. 12 = s1's trajectory)
-    from fuzzynav.app.figures import paper_figure_stem
+    from fuzzynav.app.figures.run_figures import paper_figure_stem
 
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
         f"{paper_figure_stem('s1', n, 'p')}.{ext}" for n in RUN_FIGURES for ext in FORMATS
@@ -219,7 +219,7 @@ def test_trajectory_is_drawn_where_the_robot_went(tmp_path, p_runs, s2_figures):
 
 
 def test_paper_figure_numbers():
-    from fuzzynav.app.figures import (
+    from fuzzynav.app.figures.run_figures import (
         membership_figure_stem,
         paper_figure_number,
         paper_figure_stem,
@@ -253,7 +253,7 @@ def _spans(ax):
 
 
 def test_s3_disturbance_is_shaded_on_every_time_axis(s3_p_run):
-    from fuzzynav.app.figures import run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
 
     window = (s3_p_run.scenario.disturbance.start_s, s3_p_run.scenario.disturbance.stop_s)
     assert window == (25.0, 35.0)
@@ -274,7 +274,7 @@ def test_s3_disturbance_is_shaded_on_every_time_axis(s3_p_run):
 
 
 def test_s1_has_no_disturbance_shading(p_runs):
-    from fuzzynav.app.figures import run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
 
     for kind in RUN_FIGURES:
         fig = run_figure(kind, p_runs["s1"])
@@ -287,7 +287,7 @@ def test_s1_has_no_disturbance_shading(p_runs):
 def test_voltage_figure_draws_each_wheel_in_its_own_panel(s3_p_run):
     """Neither wheel hides the other: the left (v_s1) and right (v_s2) wheels each have a
     panel, sharing the time axis and the voltage scale, and a third shows the difference."""
-    from fuzzynav.app.figures import run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
 
     fig = run_figure("voltages", s3_p_run, controller_label="p")
     left, right, diff = fig.axes
@@ -310,7 +310,7 @@ def test_voltage_figure_draws_each_wheel_in_its_own_panel(s3_p_run):
 
 
 def test_titles_name_the_geometry():
-    from fuzzynav.app.figures import run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
     from fuzzynav.world.scenario import load_scenario
 
     scenario = load_scenario("s1").replace(duration_s=2.0)
@@ -326,7 +326,7 @@ def test_titles_name_the_geometry():
 def test_fig27_is_the_papers_3_by_2():
     """Rows s1-s3; columns the method of [19] (our stand-in, baseline) and the proposed
     method (paper), lettered (a)-(f) row by row as the paper's caption."""
-    from fuzzynav.app.figures import FIG27_COLUMNS, FIG27_TITLES, comparison_figure
+    from fuzzynav.app.figures.run_figures import FIG27_COLUMNS, FIG27_TITLES, comparison_figure
     from fuzzynav.world.scenario import load_scenario
 
     assert FIG27_COLUMNS == ("baseline", "paper")
@@ -356,7 +356,7 @@ def test_fig27_is_the_papers_3_by_2():
 
 
 def test_run_figure_titles_carry_the_papers_number(p_runs):
-    from fuzzynav.app.figures import paper_figure_number, run_figure
+    from fuzzynav.app.figures.run_figures import paper_figure_number, run_figure
 
     for scenario, result in p_runs.items():
         for kind in RUN_FIGURES:
@@ -410,7 +410,7 @@ def test_membership_labels_stay_inside_the_axes(tmp_path, paper_fis, monkeypatch
 
 def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
     """s1 in the paper's geometry: "obstacle 2" was cut off at the axes' edge."""
-    from fuzzynav.app.figures import closest_approaches, run_figure
+    from fuzzynav.app.figures.run_figures import closest_approaches, run_figure
 
     result = build_simulation("s1", "paper", geometry="paper").run()
     fig = run_figure("trajectory", result, controller_label="paper")
@@ -431,7 +431,7 @@ def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
 
 
 def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs):
-    from fuzzynav.app.figures import OBSTACLE_COLORS, run_figure
+    from fuzzynav.app.figures.run_figures import OBSTACLE_COLORS, run_figure
 
     result = p_runs["s2"]
     ax = run_figure("trajectory", result).axes[0]
@@ -446,7 +446,7 @@ def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs)
 def test_red_means_obstacle_0_only(s3_p_run, p_runs):
     from matplotlib.colors import to_hex
 
-    from fuzzynav.app.figures import OBSTACLE_COLORS, run_figure
+    from fuzzynav.app.figures.run_figures import OBSTACLE_COLORS, run_figure
 
     red = OBSTACLE_COLORS[0]
     for kind in ("angles", "voltages"):
@@ -456,7 +456,7 @@ def test_red_means_obstacle_0_only(s3_p_run, p_runs):
 
 
 def test_fig27_has_one_legend_and_its_own_limits_per_panel():
-    from fuzzynav.app.figures import FIG27_COLUMNS, comparison_figure
+    from fuzzynav.app.figures.run_figures import FIG27_COLUMNS, comparison_figure
     from fuzzynav.world.scenario import load_scenario
 
     grid = {}
@@ -470,7 +470,7 @@ def test_fig27_has_one_legend_and_its_own_limits_per_panel():
     assert {"robot (centre)", "target", "start"} <= texts
     assert "obstacle 1's path (moving)" in texts  # s2's, from a panel other than (a)
     # every panel keeps its own limits (sharing a row's squashed (d) into (c)'s range)
-    from fuzzynav.app.figures import _new_figure, draw_trajectory
+    from fuzzynav.app.figures.run_figures import _new_figure, draw_trajectory
 
     for ax in fig.axes:
         scenario, controller = ax.get_gid().split("/")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.cmaes import cmaes
-from fuzzynav.app.paper_fit import (
+from fuzzynav.app.experiments.cmaes import cmaes
+from fuzzynav.app.experiments.paper_fit import (
     NOT_REACHED_COST,
     paper_results,
     read_fitted,

@@ -124,7 +124,7 @@ def test_husky_text_gives_parameters_or_a_named_value_error(tmp_path_factory, te
 
 @pytest.fixture(scope="module")
 def viewer_app():
-    from fuzzynav.app.viewer import ViewerApp
+    from fuzzynav.app.viewer.model import ViewerApp
 
     return ViewerApp("s1")
 
@@ -137,7 +137,7 @@ def viewer_app():
     )
 )
 def test_viewer_scenario_upload_is_used_or_refused_with_a_viewer_error(viewer_app, content):
-    from fuzzynav.app.viewer import ViewerError
+    from fuzzynav.app.viewer.model import ViewerError
 
     try:
         viewer_app.upload_scenario(content, "fuzz.toml")
@@ -153,7 +153,7 @@ def test_viewer_scenario_upload_is_used_or_refused_with_a_viewer_error(viewer_ap
     )
 )
 def test_viewer_fis_upload_is_used_or_refused_with_a_viewer_error(viewer_app, content):
-    from fuzzynav.app.viewer import ViewerError
+    from fuzzynav.app.viewer.model import ViewerError
 
     try:
         viewer_app.upload_fis(content, "fuzz.fis")

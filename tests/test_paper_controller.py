@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fuzzynav.app.experiments.tuning import read_vector
 from fuzzynav.app.runs import run_scenario
-from fuzzynav.app.tuning import read_vector
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, paper_controller
 from fuzzynav.controller.paper_design import PaperDesignTunable

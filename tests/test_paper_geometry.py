@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzynav.app.cli import main
+from fuzzynav.app.recordings.trace import TRACE_COLUMNS
 from fuzzynav.app.runs import build_simulation
-from fuzzynav.app.trace import TRACE_COLUMNS
 from fuzzynav.controller.fis import read_fis
 from fuzzynav.controller.proportional import ProportionalController
 from fuzzynav.world.scenario import ObstacleSpec, Scenario

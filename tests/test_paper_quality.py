@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.paper_fit import paper_results
+from fuzzynav.app.experiments.paper_fit import paper_results
 from fuzzynav.app.runs import run_scenario
 from fuzzynav.controller.coverage import MIN_STRONGEST, weakest_cover
 from fuzzynav.controller.paper import RULES_BY_GEOMETRY

@@ -16,9 +16,9 @@ import pytest
 rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader
 
-from fuzzynav.app import recording
 from fuzzynav.app.cli import main
-from fuzzynav.app.recording import (
+from fuzzynav.app.recordings import record as recording
+from fuzzynav.app.recordings.record import (
     RULES_HEATMAP_PATH,
     RULES_PATH,
     RULES_TEXT_PATH,
@@ -746,7 +746,7 @@ def _fuzzynav_crossing():
 def test_fuzzynav_internals_are_recorded(tmp_path):
     """The crossing run yields to the moving obstacle: the recording's internals plot
     shows it (yield = 1 on some rows), alpha stays in [0, 1], one row per log row."""
-    from fuzzynav.app.recording import INTERNALS, INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS, INTERNALS_PATH
 
     sim, result, controller = _fuzzynav_crossing()
     path = record_run(result, tmp_path / "fn.rrd", controller=controller)
@@ -768,8 +768,8 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     """The controller that drove logged its decisions: the recording plots them and
     decides nothing again. A copy that did not drive is replayed instead; both give
     the same plot."""
-    import fuzzynav.app.recording as recording
-    from fuzzynav.app.recording import INTERNALS_PATH
+    import fuzzynav.app.recordings.record as recording
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
@@ -795,7 +795,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     what the viewer's teaching panel computes from the controller after each decision;
     where avoidance takes a good part of the command (alpha > 0.3) an avoidance rule
     fires."""
-    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
@@ -830,7 +830,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
 def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
     """Decisions that do not line up with the run (tampered with here, as a controller
     swapped mid-run would leave them) are not plotted past the first difference."""
-    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
 
     _, result, controller = _fuzzynav_crossing()
     k = 300
@@ -864,7 +864,7 @@ def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
 def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
-    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     controller = fuzzynav_controller()
@@ -881,7 +881,7 @@ def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
 def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
     """Recorded with a controller other than the one that drove (other parameters): the
     replay differs at once, the plot stops there and the metadata says so."""
-    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     _, result, _ = _fuzzynav_crossing()
@@ -898,7 +898,7 @@ def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
 def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     """A live recording ends with the same data and the same layout (with its internals
     tab) as one written after the run."""
-    from fuzzynav.app.recording import INTERNALS_PATH
+    from fuzzynav.app.recordings.record import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     layouts = []
@@ -1190,7 +1190,7 @@ def test_recordings_that_differ_in_content_store_their_own_bounds(tmp_path):
 
 
 def test_the_layout_key_changes_with_the_controller_and_its_rules():
-    from fuzzynav.app.recording import application_id
+    from fuzzynav.app.recordings.record import application_id
     from fuzzynav.controller.registry import make_controller
     from fuzzynav.world.scenario import load_scenario
 
@@ -1250,7 +1250,7 @@ def s3_paper(tmp_path_factory):
 
 
 def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp_path):
-    from fuzzynav.app.figures import paper_figure_number
+    from fuzzynav.app.figures.run_figures import paper_figure_number
 
     names = list(_views(s3_paper[3]))
     for kind, key in (
@@ -1278,7 +1278,7 @@ def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
 
 
 def test_a_legend_gets_empty_room_or_the_emptiest_corner():
-    from fuzzynav.app.recording import LEGEND_ENTRY_PX, PLOT_PX, _legend_placement
+    from fuzzynav.app.recordings.record import LEGEND_ENTRY_PX, PLOT_PX, _legend_placement
 
     t = np.linspace(0, 1, 400)
     busy = np.column_stack([np.sin(9 * t), np.cos(9 * t)])  # data in every corner
@@ -1308,7 +1308,7 @@ def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
 
 
 def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
-    from fuzzynav.app.recording import _rgba
+    from fuzzynav.app.recordings.record import _rgba
 
     _, result, rec, _ = s3_paper
     plot_colours = rec.static["/plots/distance"]["SeriesLines:colors"]
@@ -1380,7 +1380,7 @@ def test_events_are_marked_in_the_recording(s3_paper):
 
 
 def test_the_summary_sets_the_run_beside_the_paper(s3_paper):
-    from fuzzynav.app.report import published_table4
+    from fuzzynav.app.figures.report import published_table4
 
     _, result, rec, path = s3_paper
     text = rec.text("/meta/summary")
@@ -1398,7 +1398,7 @@ def test_the_trace_holds_the_true_target_inputs_and_units_in_its_names(tmp_path)
     name ends in its unit."""
     import csv
 
-    from fuzzynav.app.trace import TRACE_COLUMNS
+    from fuzzynav.app.recordings.trace import TRACE_COLUMNS
     from fuzzynav.world.geometry import wrap_angle
 
     path = tmp_path / "s3.csv"
@@ -1445,7 +1445,7 @@ def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
     """The membership functions of every variable; at each decision the input's value
     on its terms and each output's aggregated membership with its centroid, which is
     the controller's output then; nothing at the final instant (no decision)."""
-    from fuzzynav.app.recording import FUZZY_W
+    from fuzzynav.app.recordings.record import FUZZY_W
 
     sim, result, rec = fuzzy_run
     fis = sim.controller.fis

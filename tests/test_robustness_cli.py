@@ -18,7 +18,7 @@ from fuzzynav.app.cli import main
 rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader  # noqa: E402
 
-from fuzzynav.app import recording  # noqa: E402
+from fuzzynav.app.recordings import record as recording  # noqa: E402
 
 
 def run_cli(capsys, *argv):
@@ -57,7 +57,7 @@ def test_tune_refuses_non_finite_weights(capsys, option, value):
 
 def test_tune_refuses_an_unwritable_out_before_tuning(capsys, monkeypatch, tmp_path):
     """It failed only after the tuning was done."""
-    import fuzzynav.app.tuning as tuning
+    import fuzzynav.app.experiments.tuning as tuning
 
     def never(*args, **kwargs):
         raise AssertionError("tuning started")
@@ -82,7 +82,7 @@ def test_tune_refuses_an_unwritable_out_before_tuning(capsys, monkeypatch, tmp_p
 def test_fis_export_to_a_read_only_place_is_a_clear_error(capsys, monkeypatch, tmp_path):
     """An OSError traceback before. (The tests may run as root, who writes anywhere:
     the file system's refusal is simulated.)"""
-    import fuzzynav.app.safe_files as safe_files
+    import fuzzynav.safe_files as safe_files
 
     def refuse(*args, **kwargs):
         raise PermissionError(errno.EROFS, "Read-only file system")
@@ -98,7 +98,7 @@ def test_fis_export_to_a_read_only_place_is_a_clear_error(capsys, monkeypatch, t
 
 
 def test_fis_export_on_a_full_disk_keeps_the_old_file(capsys, monkeypatch, tmp_path):
-    import fuzzynav.app.safe_files as safe_files
+    import fuzzynav.safe_files as safe_files
 
     def full(tmp, path):
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -115,7 +115,7 @@ def test_fis_export_on_a_full_disk_keeps_the_old_file(capsys, monkeypatch, tmp_p
 def test_figures_on_a_full_disk_are_a_clear_error_and_the_recording_is_kept(
     capsys, monkeypatch, tmp_path
 ):
-    import fuzzynav.app.figures as figures
+    import fuzzynav.app.figures.run_figures as figures
 
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -251,7 +251,7 @@ def test_two_runs_have_their_own_layouts(tmp_path):
 
 
 def test_world_bounds_follow_the_robot_not_a_far_obstacle():
-    from fuzzynav.app.recording import _world_bounds
+    from fuzzynav.app.recordings.record import _world_bounds
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.scenario import ObstacleSpec
 

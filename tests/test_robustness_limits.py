@@ -69,7 +69,7 @@ def test_the_budget_is_the_log_s_size_and_ordinary_runs_pass():
 
 
 def test_the_viewer_refuses_the_same_upload(tmp_path):
-    from fuzzynav.app.viewer import ViewerApp, ViewerError
+    from fuzzynav.app.viewer.model import ViewerApp, ViewerError
 
     app = ViewerApp("s1", "p")
     with pytest.raises(ViewerError, match="GiB one run may use"):
@@ -97,7 +97,7 @@ class _FakeLog:
 def test_the_trace_streams_its_rows(tmp_path):
     """The trace was built whole in memory (a string of ~0.4 GB for a long run), then
     written: its peak now is a chunk's, whatever the length."""
-    from fuzzynav.app.trace import TRACE_CHUNK_ROWS, write_trace
+    from fuzzynav.app.recordings.trace import TRACE_CHUNK_ROWS, write_trace
 
     peaks = {}
     for n in (5_000, 20_000):
@@ -210,7 +210,7 @@ def test_unsupported_scheduler_schemes_are_one_line(capsys, scheduler):
 def test_a_server_that_is_no_scheduler_is_refused_in_time(capsys, monkeypatch, reply):
     """One byte gave struct.error; silence hung for 40 s despite the 10 s timeout (here
     the bound is 2 s, to keep the test short: the bound is what is tested)."""
-    from fuzzynav.app import executor
+    from fuzzynav.app.experiments import executor
 
     monkeypatch.setattr(executor, "CONNECT_TIMEOUT_S", 2.0)
     CONNECT_TIMEOUT_S = executor.CONNECT_TIMEOUT_S

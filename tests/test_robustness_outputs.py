@@ -243,7 +243,7 @@ def test_a_full_disk_names_the_trace_and_keeps_the_old_one(capsys, monkeypatch, 
 
 
 def test_a_full_disk_names_the_results_file(capsys, monkeypatch, tmp_path):
-    import fuzzynav.app.resultlog as resultlog
+    import fuzzynav.app.experiments.resultlog as resultlog
 
     out = tmp_path / "runs.jsonl"
 
@@ -268,7 +268,7 @@ def test_sigma_is_checked(capsys, command, sigma):
 
 
 def test_cmaes_refuses_a_bad_sigma_from_code():
-    from fuzzynav.app.cmaes import cmaes
+    from fuzzynav.app.experiments.cmaes import cmaes
 
     with pytest.raises(ValueError, match="sigma0 = nan"):
         cmaes(lambda x: 0.0, [(0, 1)], [0.5], float("nan"), 1, 4, 0, map)
@@ -303,7 +303,7 @@ def test_a_fit_paper_checkpoint_on_a_full_disk_warns_and_keeps_the_old_one(
     capsys, monkeypatch, tmp_path
 ):
     import fuzzynav.safe_files as safe_files
-    from fuzzynav.app.paper_fit import _write_checkpoint
+    from fuzzynav.app.experiments.paper_fit import _write_checkpoint
 
     checkpoint = tmp_path / "ck.txt"
     checkpoint.write_text("an old checkpoint\n")

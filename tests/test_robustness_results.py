@@ -11,10 +11,10 @@ import time
 
 import pytest
 
-from fuzzynav.app import experiments
 from fuzzynav.app.cli import main
-from fuzzynav.app.experiments import row_key
-from fuzzynav.app.resultlog import ResultLog, ResultLogError
+from fuzzynav.app.experiments import studies as experiments
+from fuzzynav.app.experiments.resultlog import ResultLog, ResultLogError
+from fuzzynav.app.experiments.studies import row_key
 
 
 def run_cli(capsys, *argv):
@@ -154,7 +154,7 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
     code, err, _ = run_cli(capsys, *sweep_argv(out, "--resume"))
     assert code == 2 and "line 1: a row of another study" in err and "0123456789abcdef" in err
     # what the fingerprint is made of: the version and the rule bases change it
-    from fuzzynav.app.experiments import study_fingerprint
+    from fuzzynav.app.experiments.studies import study_fingerprint
 
     base = study_fingerprint("paper", (), "standard", 1, "ideal", {})
     import fuzzynav
@@ -172,7 +172,7 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
 
 def test_failures_with_an_edited_outcome_is_bad_input_not_a_crash(capsys, tmp_path, good_rows):
     """A row whose outcome differs from the rerun raised RuntimeError (a traceback)."""
-    from fuzzynav.app.experiments import check_row
+    from fuzzynav.app.experiments.studies import check_row
 
     row = json.loads(good_rows[0])
     row.update(outcome="timeout", reached=False, collided=False, success=False)
@@ -209,7 +209,7 @@ def test_a_fifo_as_resume_or_x0_is_refused_not_waited_on(capsys, tmp_path):
 
 
 def test_a_results_file_over_the_cap_is_refused(tmp_path, monkeypatch):
-    import fuzzynav.app.resultlog as resultlog
+    import fuzzynav.app.experiments.resultlog as resultlog
 
     out = tmp_path / "runs.jsonl"
     out.write_bytes(b"{}\n" * 100)
@@ -241,7 +241,7 @@ def test_no_more_workers_than_jobs(monkeypatch):
     """--workers 150 --n 1 started 150 processes."""
     import argparse
 
-    from fuzzynav.app.executor import LocalExecutor, executor_from_args
+    from fuzzynav.app.experiments.executor import LocalExecutor, executor_from_args
 
     args = argparse.Namespace(executor="local", workers=150, scheduler=None)
     with executor_from_args(args, jobs=1) as executor:

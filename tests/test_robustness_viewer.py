@@ -10,14 +10,14 @@ from types import SimpleNamespace
 
 import pytest
 
-from fuzzynav.app.viewer import MAX_UPLOAD_BYTES, ViewerApp
+from fuzzynav.app.viewer.model import MAX_UPLOAD_BYTES, ViewerApp
 
 viser_messages = pytest.importorskip("viser._messages")
 
 
 @pytest.fixture
 def served():
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     server = ViewerServer(ViewerApp("s1", "p"), port=0)
     yield server
@@ -100,7 +100,7 @@ def test_a_drag_without_a_position_does_not_freeze_the_target(served):
 
 def test_live_recordings_never_take_another_servers_file(tmp_path):
     """A second serve --rrd on the same path overwrote the first's -run2.rrd."""
-    pytest.importorskip("fuzzynav.app.recording")
+    pytest.importorskip("fuzzynav.app.recordings.record")
     path = tmp_path / "session.rrd"
     other = tmp_path / "session-run2.rrd"
     other.write_bytes(b"the other server's second run")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.tuning import (
+from fuzzynav.app.experiments.tuning import (
     CLEARANCE_WEIGHT,
     Case,
     Objective,

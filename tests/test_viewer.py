@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from net_helpers import port_is_free
 
-from fuzzynav.app.viewer import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
+from fuzzynav.app.viewer.model import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
 from fuzzynav.controller.fis import write_fis
 from fuzzynav.controller.registry import controller_names
 
@@ -36,7 +36,7 @@ def app():
 
 @pytest.fixture
 def served():
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     a = ViewerApp("s1", "p")
     server = ViewerServer(a, port=0)
@@ -97,7 +97,7 @@ def test_speed_factor_paces_the_simulation(app):
 
 
 def test_server_stop_frees_the_port():
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     a = ViewerApp("s1", "p")
     server = ViewerServer(a, port=0)
@@ -346,7 +346,7 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     parts (arbitration weight, side, mode) in words."""
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
-    from fuzzynav.app import viewer_views as views
+    from fuzzynav.app.viewer import views
 
     app.set_controller("fuzzynav")
     assert app.teaching() is None  # not called yet
@@ -497,7 +497,7 @@ def test_cli_refuses_a_host_it_cannot_listen_on(capsys):
 
 
 def test_rrd_records_each_run_to_its_own_file(tmp_path):
-    pytest.importorskip("fuzzynav.app.recording")
+    pytest.importorskip("fuzzynav.app.recordings.record")
     path = tmp_path / "session.rrd"
     a = ViewerApp("s1", "p", rrd_path=path).start()
     try:
@@ -565,7 +565,7 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
     while fuzzynav drives; the status line says which parts are off."""
     if "fuzzynav" not in controller_names():
         pytest.skip("no fuzzynav in this build")
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     def shown(predicate, timeout=10.0):
         # the server redraws from its own thread: wait for it
@@ -805,7 +805,7 @@ def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
 def test_a_fallback_is_alarmed_about_only_when_its_output_counts():
     """Defect 6: fuzzynav's avoidance outputs fall back whenever nothing is near; that
     is worth a red line only when the arbitration gives them weight."""
-    from fuzzynav.app import viewer_views as views
+    from fuzzynav.app.viewer import views
 
     a = ViewerApp("s1", "fuzzynav")
     for _ in range(5):

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from net_helpers import port_is_free
 
-from fuzzynav.app.viewer import ViewerApp
+from fuzzynav.app.viewer.model import ViewerApp
 
 pytestmark = [pytest.mark.browser, pytest.mark.timeout(150)]
 
@@ -97,7 +97,7 @@ def browser():
 def shared(browser):
     """One server and one connected tab for the module (a page load costs seconds of
     software WebGL); each test starts from scenario s1 at t = 0, paused."""
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     app = ViewerApp("s1", "p")
     server = ViewerServer(app, port=0)
@@ -299,7 +299,7 @@ def test_two_clients_share_one_world_and_closing_one_does_not_stop_it(browser, s
 
 
 def test_the_server_stops_and_frees_its_port(browser):
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     app = ViewerApp("s1", "p")
     server = ViewerServer(app, port=0)
@@ -1066,8 +1066,8 @@ def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, pag
     """d_t as the line to the target and phi_t as the arc from the heading, d_o from the
     footprint's edge along phi_o and phi_o's arc, in the colours of their term plots:
     the geometry and the inference are the same numbers."""
-    from fuzzynav.app import viewer_views as views
-    from fuzzynav.app.viewer_ui import OBSTACLE_INPUT, TARGET_INPUT
+    from fuzzynav.app.viewer import views
+    from fuzzynav.app.viewer.server import OBSTACLE_INPUT, TARGET_INPUT
 
     app = served.app
     app.set_controller("paper")
@@ -1110,7 +1110,7 @@ def test_the_surface_takes_any_two_axes_and_held_values(served, page):
     in; the map is the engine's over that plane, with ticks and a colour bar."""
     import base64
 
-    from fuzzynav.app import viewer_views as views
+    from fuzzynav.app.viewer import views
 
     app = served.app
     app.set_controller("paper")
@@ -1190,7 +1190,7 @@ def test_the_time_slider_shows_the_run_as_it_was(served, page):
     # the rule-firing strip: the engine's strengths at every recorded step, a cursor at 1 s
     import base64
 
-    from fuzzynav.app import viewer_views as views
+    from fuzzynav.app.viewer import views
 
     fis = app.fuzzy_system()
     X = np.array([h.inputs for h in app._history])

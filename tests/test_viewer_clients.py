@@ -19,7 +19,7 @@ import viser
 import websockets
 from viser import _messages as messages
 
-from fuzzynav.app.viewer import ViewerApp
+from fuzzynav.app.viewer.model import ViewerApp
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -101,7 +101,7 @@ class ScriptedClients:
 
 @pytest.fixture
 def served():
-    from fuzzynav.app.viewer_ui import ViewerServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
     server = ViewerServer(ViewerApp("s1", "p"), port=0)
     yield server
@@ -159,7 +159,7 @@ def test_forty_tabs_joining_at_once_do_not_stall_another_tabs_buttons(served, ca
 
 @pytest.fixture
 def classroom():
-    from fuzzynav.app.viewer_classroom import ClassroomServer
+    from fuzzynav.app.viewer.classroom import ClassroomServer
 
     server = ClassroomServer(lambda: ViewerApp("s1", "p"), port=0, token="teach-me")
     yield server

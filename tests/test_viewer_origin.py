@@ -13,8 +13,8 @@ import pytest
 pytest.importorskip("viser")
 import websockets.asyncio.client as ws_client  # noqa: E402
 
-from fuzzynav.app.origin_guard import check_handshake  # noqa: E402
-from fuzzynav.app.serve import serve  # noqa: E402
+from fuzzynav.app.viewer.origin_guard import check_handshake  # noqa: E402
+from fuzzynav.app.viewer.serve import serve  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@
 - :func:`surface_grid` / :func:`surface_png`: the control surface, crisp outputs over
   a plane of two inputs, as a heatmap image.
 - :func:`marker_style`: the operating point on the surfaces as a few bytes of CSS: the
-  heatmaps are sent once, only this moves (see :mod:`app.viewer_ui`).
+  heatmaps are sent once, only this moves (see :mod:`app.viewer.server`).
 
 Nothing here knows viser or the simulation; the strings are shown with viser's HTML
 element (which sets them as innerHTML).

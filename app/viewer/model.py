@@ -22,7 +22,7 @@ paper's Table 4 metrics.
 
 Structure: :class:`ViewerApp` (this module) owns the simulation and its thread and has a
 method for every user action; it knows nothing about viser and is tested without a
-browser. :mod:`app.viewer_ui` builds the viser scene and GUI and calls those methods.
+browser. :mod:`app.viewer.server` builds the viser scene and GUI and calls those methods.
 Every tab sees the same world; closing a tab does not stop the simulation; Ctrl-C stops
 the server and frees its port. Nothing the browser sends is ever used as a path: uploads
 are read from memory (a ``.fis`` goes through a private temporary file).
@@ -387,7 +387,7 @@ class ViewerApp:
             return
         try:
             if self._recorder is None:
-                from fuzzynav.app.recording import LiveRecorder
+                from fuzzynav.app.recordings.record import LiveRecorder
 
                 path = self._next_recording_path()
                 try:
@@ -982,7 +982,7 @@ class ViewerApp:
 
     def editor(self):
         """The membership editor of the paper controller (built on first use)."""
-        from fuzzynav.app.viewer_editor import PaperEditor
+        from fuzzynav.app.viewer.editor import PaperEditor
 
         with self.lock:
             if self.paper_edit is None:

@@ -1,7 +1,7 @@
 """``fuzzynav serve``: the viewer's command line (the server around :mod:`viewer_ui`).
 
-The app model (:mod:`fuzzynav.app.viewer`) knows nothing of the browser; the browser
-side (:mod:`fuzzynav.app.viewer_ui`) uses the model; this module starts both.
+The app model (:mod:`fuzzynav.app.viewer.model`) knows nothing of the browser; the browser
+side (:mod:`fuzzynav.app.viewer.server`) uses the model; this module starts both.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError, add_geometry_option, integer_in, scenario_help
-from fuzzynav.app.viewer import ViewerApp, ViewerError
+from fuzzynav.app.viewer.model import ViewerApp, ViewerError
 
 # ---------------------------------------------------------------------------------------
 # Command line
@@ -24,13 +24,13 @@ def _check_rrd(path):
     if path is None:
         return None
     try:
-        from fuzzynav.app.recording import check_writable_file
+        from fuzzynav.app.recordings.record import check_writable_file
     except ModuleNotFoundError as exc:
-        if exc.name not in ("fuzzynav.app.recording", "rerun"):
+        if exc.name not in ("fuzzynav.app.recordings.record", "rerun"):
             raise
 
         raise UsageError(
-            "--rrd: live recording needs app/recording.py and rerun-sdk, "
+            "--rrd: live recording needs app/recordings/record.py and rerun-sdk, "
             "which are not available in this installation"
         ) from None
     from fuzzynav.safe_files import refuse_installed
@@ -85,9 +85,9 @@ def serve(
     classroom: bool = False,
 ):
     """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
-    otherwise it returns the running :class:`app.viewer_ui.ViewerServer` (or, with
-    ``classroom``, the :class:`app.viewer_classroom.ClassroomServer`: a world per tab)."""
-    from fuzzynav.app.viewer_ui import ViewerServer
+    otherwise it returns the running :class:`app.viewer.server.ViewerServer` (or, with
+    ``classroom``, the :class:`app.viewer.classroom.ClassroomServer`: a world per tab)."""
+    from fuzzynav.app.viewer.server import ViewerServer
 
     if classroom and rrd is not None:
         raise UsageError("--rrd records one world: it cannot be used with --classroom")
@@ -95,7 +95,7 @@ def serve(
     check_host(host)
     app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)  # checks them
     if classroom:
-        from fuzzynav.app.viewer_classroom import ClassroomServer
+        from fuzzynav.app.viewer.classroom import ClassroomServer
 
         app = None
         server = ClassroomServer(

@@ -1,8 +1,8 @@
 """The viser side of the viewer: the 3D scene, the control panel, the plots and the
-teaching panel (see :mod:`app.viewer` for what the page shows and why).
+teaching panel (see :mod:`app.viewer.model` for what the page shows and why).
 
 :class:`ViewerServer` owns the viser server and one render thread. GUI callbacks only
-call :class:`app.viewer.ViewerApp` methods; the render thread alone writes the scene,
+call :class:`app.viewer.model.ViewerApp` methods; the render thread alone writes the scene,
 from :meth:`ViewerApp.snapshot`, at up to ``FRAME_HZ`` while something changes and not
 at all while nothing does. The plots, the status line and the teaching panel are redrawn
 at ``PANEL_HZ``.
@@ -19,15 +19,15 @@ from collections import deque
 import numpy as np
 import viser
 
-from fuzzynav.app import viewer_views as views
-from fuzzynav.app.origin_guard import guarded_server_start
-from fuzzynav.app.viewer import (
+from fuzzynav.app.viewer import views
+from fuzzynav.app.viewer.model import (
     NOISE_RANGE_M,
     SAFE_DISTANCE_M,
     Snapshot,
     ViewerApp,
     ViewerError,
 )
+from fuzzynav.app.viewer.origin_guard import guarded_server_start
 from fuzzynav.resources import shorten
 from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 
@@ -244,7 +244,7 @@ def _xy(position) -> np.ndarray:
 class ClientSurface:
     """One tab's own scene and GUI (viser's client-scoped API), in the shape of the
     server that :class:`ViewerServer` draws on: classroom mode gives every tab a world
-    of its own (:mod:`app.viewer_classroom`)."""
+    of its own (:mod:`app.viewer.classroom`)."""
 
     def __init__(self, server, client):
         import types
@@ -292,8 +292,8 @@ class ViewerServer:
         else:  # one tab's own world (classroom mode): its scene and GUI only
             self.server = surface
         self.port = self.server.get_port()
-        from fuzzynav.app.viewer import MAX_UPLOAD_BYTES
-        from fuzzynav.app.viewer_guards import install_message_guards
+        from fuzzynav.app.viewer.guards import install_message_guards
+        from fuzzynav.app.viewer.model import MAX_UPLOAD_BYTES
 
         # only a component's value, finite numbers, uploads refused at their declared size
         install_message_guards(

@@ -61,7 +61,7 @@ def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> d
     keys): one function for both engines (pymunk and :mod:`world.batch`)."""
     from types import SimpleNamespace
 
-    from fuzzynav.app.resultlog import finite_or_none
+    from fuzzynav.app.experiments.resultlog import finite_or_none
 
     m = metrics
     options = dict(job.options)
@@ -117,7 +117,7 @@ def run_benchmark(result, model, voltage_limit_v: float) -> dict:
 
 
 def run_layout_batch(jobs: Sequence) -> list[dict]:
-    """The rows of ``jobs`` (:class:`app.experiments.LayoutJob`, one controller,
+    """The rows of ``jobs`` (:class:`app.experiments.studies.LayoutJob`, one controller,
     perception and options), run together on the batch engine; in the jobs' order.
     Top level: what an executor sends to a worker."""
     from fuzzynav.controller.batch import batch_controller
@@ -239,10 +239,10 @@ def run_layouts(
 
 
 def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[float]:
-    """:class:`app.tuning.Objective`'s cost of every vector, all candidates x cases on
+    """:class:`app.experiments.tuning.Objective`'s cost of every vector, all candidates x cases on
     the batch engine (one batch per perception mode); the same per-run cost
-    (``cost_function``: :func:`app.tuning.outcome_cost`, given by the caller so that this
-    module does not import app.tuning) and holes penalty, tuning's stall rule after
+    (``cost_function``: :func:`app.experiments.tuning.outcome_cost`, given by the caller so that this
+    module does not import app.experiments.tuning) and holes penalty, tuning's stall rule after
     ``stall_s`` s. Top level: an executor task."""
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.world.batch import run_batch
@@ -322,7 +322,7 @@ def batch_mapper(objective, probe_vector, executor, cost_function, stall_s: floa
 def fit_measures(
     fit_cost, scenario_names, vectors, geometry: str = "paper", perception: str = "ideal"
 ) -> list[list[dict] | None]:
-    """:meth:`app.paper_fit.FitCost.measure_all` of every vector on the batch engine:
+    """:meth:`app.experiments.paper_fit.FitCost.measure_all` of every vector on the batch engine:
     every candidate x s1-s3 in one batch (``geometry`` and ``perception``, each
     scenario's own start heading, the fit's period, cap and stall rule); None for a
     vector that builds no system."""
@@ -343,7 +343,7 @@ def fit_measures(
         controllers.append(FisController(system, name="paper"))
         for name in scenario_names:
             scenario = load_scenario(name)
-            if fit_cost.stall_s is not None:  # as app.paper_fit.run_paper_geometry
+            if fit_cost.stall_s is not None:  # as app.experiments.paper_fit.run_paper_geometry
                 scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
             scenarios.append(scenario)
     if not built:
@@ -392,9 +392,9 @@ def fit_measures(
 
 
 def fit_costs(fit_cost, vectors, scenario_names=("s1", "s2", "s3")) -> list[float]:
-    """:class:`app.paper_fit.FitCost` of every vector, measured on the batch engine in
-    every mode of :meth:`~app.paper_fit.FitCost.modes` and combined by its
-    :meth:`~app.paper_fit.FitCost.combine` (so that this module does not import
+    """:class:`app.experiments.paper_fit.FitCost` of every vector, measured on the batch engine in
+    every mode of :meth:`~app.experiments.paper_fit.FitCost.modes` and combined by its
+    :meth:`~app.experiments.paper_fit.FitCost.combine` (so that this module does not import
     paper_fit; top level: a pool task)."""
     per_mode = [
         fit_measures(fit_cost, scenario_names, vectors, geometry, perception)

@@ -2,7 +2,7 @@
 
 ``sweep`` runs a controller on seeded random layouts (:mod:`world.layouts`) and reports
 how often it succeeds; ``compare`` runs controllers on s1-s3 and prints the paper's
-Table 4 rows beside the published numbers. ``tune`` lives in :mod:`app.tuning`.
+Table 4 rows beside the published numbers. ``tune`` lives in :mod:`app.experiments.tuning`.
 
 A sweep run "succeeds" when the target is reached without a collision; the stricter
 "safe success" also asks for a minimum clearance >= 0.25 m (the paper's safe distance).
@@ -29,8 +29,8 @@ from fuzzynav.app.args import (
     seed_type,
 )
 
-# The rows of both engines come from one function (app/batch_runs.py).
-from fuzzynav.app.batch_runs import layout_row, run_benchmark
+# The rows of both engines come from one function (app/experiments/batch_runs.py).
+from fuzzynav.app.experiments.batch_runs import layout_row, run_benchmark
 from fuzzynav.app.published import PAPER_TABLE4  # noqa: F401  (tests read it here)
 from fuzzynav.resources import escape_controls
 from fuzzynav.world.metrics import TABLE4_ROWS  # noqa: F401  (report and tests read it here)
@@ -290,7 +290,7 @@ def run_layout(job: LayoutJob) -> dict:
 def run_task(item) -> list[dict]:
     """One executor task: ``("batch", jobs)`` on the batch engine, or ``("pymunk",
     job)`` on the pymunk engine; a list of rows either way (top level)."""
-    from fuzzynav.app.batch_runs import run_layout_batch
+    from fuzzynav.app.experiments.batch_runs import run_layout_batch
 
     kind, payload = item
     if kind == "batch":
@@ -383,17 +383,17 @@ def run_jobs(
 ) -> list[dict]:
     """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
 
-    ``executor``: an :class:`app.executor.Executor` (default: serial). ``log``: an open
-    :class:`app.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
+    ``executor``: an :class:`app.experiments.executor.Executor` (default: serial). ``log``: an open
+    :class:`app.experiments.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
     new row is written to it as it arrives, and rows of other studies are refused.
     ``progress(done, total)`` after each row (and once at the start). ``engine``:
-    ``pymunk`` (one task per run) or ``batch`` (:mod:`app.batch_runs`: batches of runs
+    ``pymunk`` (one task per run) or ``batch`` (:mod:`app.experiments.batch_runs`: batches of runs
     as tasks; controllers it cannot drive run on pymunk, and ``on_fallback(message)``
     is told so).
     """
     if engine not in ("pymunk", "batch"):
         raise ValueError(f"engine = {engine!r}: must be pymunk or batch")
-    from fuzzynav.app.executor import SerialExecutor
+    from fuzzynav.app.experiments.executor import SerialExecutor
 
     executor = executor or SerialExecutor()
     keys = [job.key() for job in jobs]
@@ -406,7 +406,7 @@ def run_jobs(
         progress(len(found), len(jobs))
     wanted = set(keys)
     if engine == "batch":
-        from fuzzynav.app.batch_runs import tasks
+        from fuzzynav.app.experiments.batch_runs import tasks
 
         items, fallbacks = tasks(todo, executor.workers)
         for message in fallbacks:
@@ -513,7 +513,7 @@ def write_failures(out: dict, directory, progress=None, source: str = "") -> lis
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
-    from fuzzynav.app.recording import record_run
+    from fuzzynav.app.recordings.record import record_run
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.safe_files import write_text_atomically
     from fuzzynav.world.layouts import generate_layout
@@ -621,8 +621,8 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
     import contextlib
     import sys
 
-    from fuzzynav.app.executor import executor_from_args
-    from fuzzynav.app.resultlog import ResultLog
+    from fuzzynav.app.experiments.executor import executor_from_args
+    from fuzzynav.app.experiments.resultlog import ResultLog
 
     out = getattr(args, "out", None)
     if getattr(args, "resume", False) and out is None:
@@ -703,7 +703,7 @@ def cmd_sweep(args) -> int:
     from rich.table import Table
 
     if args.failures is not None:
-        from fuzzynav.app.figures import check_writable_dir
+        from fuzzynav.app.figures.run_figures import check_writable_dir
 
         check_writable_dir(args.failures, "--failures")  # before the sweep, not after
     beside = args.beside
@@ -831,7 +831,7 @@ def table4_row(controller: str, scenario: str, index: int, result, sim=None) -> 
 def run_table4(job) -> dict:
     """One Table 4 row: (controller, scenario, column index, perception, options) ->
     :func:`table4_row` (top level: what an executor sends to a worker)."""
-    from fuzzynav.app.resultlog import finite_or_none
+    from fuzzynav.app.experiments.resultlog import finite_or_none
     from fuzzynav.app.runs import build_simulation
 
     controller, scenario, index, perception, options = job
@@ -855,7 +855,7 @@ def compare(
     ``compare --json`` object. ``executor``: where the runs go (default: serial);
     ``sweep_rows``: the sweep's rows, run already (:func:`compare_sweep_jobs`, in
     their order), instead of running them here."""
-    from fuzzynav.app.executor import SerialExecutor
+    from fuzzynav.app.experiments.executor import SerialExecutor
 
     executor = executor or SerialExecutor()
     opts = tuple(sorted((options or {}).items()))
@@ -902,7 +902,7 @@ def cmd_compare(args) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from fuzzynav.app.executor import executor_from_args
+    from fuzzynav.app.experiments.executor import executor_from_args
     from fuzzynav.controller.registry import controller_names
 
     offered = controller_names()
@@ -1055,9 +1055,9 @@ def add_study_output_options(parser) -> None:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app import tuning
-    from fuzzynav.app.batch_runs import add_engine_option
-    from fuzzynav.app.executor import add_executor_options
+    from fuzzynav.app.experiments import tuning
+    from fuzzynav.app.experiments.batch_runs import add_engine_option
+    from fuzzynav.app.experiments.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
     from fuzzynav.world.perception import PERCEPTION_MODES

@@ -13,7 +13,7 @@ numbers and the event times 10 %, event distances 0.05 m, the final target beari
 obstacle passed farthest, s3's static pass later than s2's), chatter, and penalties for
 not arriving and for a collision. With ``--husky`` the same runs in the Husky geometry,
 both perception modes, are held to that geometry's bounds (hinges, zero inside them),
-so that one rule base serves both. A seeded CMA-ES (app/cmaes.py); the command that
+so that one rule base serves both. A seeded CMA-ES (app/experiments/cmaes.py); the command that
 reproduces a fitted file is written into its header.
 """
 
@@ -123,7 +123,7 @@ def run_once(
     )
     if stall_s is None:
         return sim.run()
-    from fuzzynav.app.tuning import run_until_stalled
+    from fuzzynav.app.experiments.tuning import run_until_stalled
 
     return run_until_stalled(sim, stall_s)
 
@@ -293,7 +293,7 @@ class FitCost:
 
     def combine(self, measured: list[list[dict]]) -> float:
         """The cost of one vector from its measured runs, one list per :meth:`modes`
-        (either engine measures them: app.batch_runs does so on the batch engine)."""
+        (either engine measures them: app.experiments.batch_runs does so on the batch engine)."""
         paper, *husky = measured
         cost = sum(run_cost(m, self.paper) for m in paper) + story_cost(paper)
         for runs in husky:
@@ -342,15 +342,15 @@ def fit(
     engine: str = "pymunk",
 ):
     """Fit the 12 design numbers (:mod:`fuzzynav.controller.paper_design`) with a seeded
-    CMA-ES (:func:`fuzzynav.app.cmaes.cmaes`) from ``x0`` with step ``sigma0`` (a
+    CMA-ES (:func:`fuzzynav.app.experiments.cmaes.cmaes`) from ``x0`` with step ``sigma0`` (a
     fraction of each bound's span), ``popsize`` candidates a generation, never worse than
     ``x0``; returns (x, cost, generations, evaluations). ``engine="batch"``: each
     generation's candidates x s1-s3 (x every mode) run as one batch per worker
-    (:func:`app.batch_runs.fit_mapper`); the costs equal the pymunk engine's to 1e-9."""
+    (:func:`app.experiments.batch_runs.fit_mapper`); the costs equal the pymunk engine's to 1e-9."""
     import multiprocessing
 
-    from fuzzynav.app.batch_runs import fit_mapper
-    from fuzzynav.app.cmaes import cmaes
+    from fuzzynav.app.experiments.batch_runs import fit_mapper
+    from fuzzynav.app.experiments.cmaes import cmaes
     from fuzzynav.controller.paper_design import PaperDesignTunable
 
     tunable = PaperDesignTunable()
@@ -439,7 +439,7 @@ def read_fitted(path: str | Path) -> np.ndarray:
 def cmd_fit_paper(args) -> int:
     from rich.console import Console
 
-    from fuzzynav.app.tuning import check_output_file
+    from fuzzynav.app.experiments.tuning import check_output_file
     from fuzzynav.controller.paper_design import PaperDesignTunable
 
     if not (math.isfinite(args.dt) and 0.001 <= args.dt <= 0.1):
@@ -489,7 +489,7 @@ def cmd_fit_paper(args) -> int:
     header = (
         f"Reproduce with: {command}\n"
         f"(best cost {best:.6f} after {nit} generations, {nfev} candidates, "
-        f"{elapsed:.0f} s on {args.workers} workers; cost: app/paper_fit.py)\n"
+        f"{elapsed:.0f} s on {args.workers} workers; cost: app/experiments/paper_fit.py)\n"
         "The start heading is the scenarios' (pi/4, a reading of the text), never fitted."
     )
     [path] = PaperDesignTunable().save(x, out, header=header)
@@ -508,8 +508,8 @@ def cmd_fit_paper(args) -> int:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.batch_runs import add_engine_option
-    from fuzzynav.app.cmaes import add_sigma_option
+    from fuzzynav.app.experiments.batch_runs import add_engine_option
+    from fuzzynav.app.experiments.cmaes import add_sigma_option
 
     p = subparsers.add_parser(
         "fit-paper",

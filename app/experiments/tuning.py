@@ -36,7 +36,7 @@ paper controller's arriving runs take 45-65 s for s1's 11.3 m).
 ``--method de`` (the default): ``scipy.optimize.differential_evolution`` runs with a fixed
 seed, ``updating="deferred"``, ``polish=False`` and the starting vector in its initial
 population; the cost of a generation is mapped over the executor (``--executor
-serial|local|dask``, ``--workers``, ``--scheduler``: app/executor.py) in order, so the
+serial|local|dask``, ``--workers``, ``--scheduler``: app/experiments/executor.py) in order, so the
 result does not depend on the executor or the number of workers. ``--radius R`` narrows every bound to the starting value +- R times
 the bound's span (a local DE around a vector that already works).
 
@@ -364,10 +364,10 @@ def tune(
     ``.nit``. ``on_generation(step, best cost, best vector)`` is called after every DE
     generation or local-search iteration; ``on_evaluation(count, best cost so far)`` after
     every candidate of a local search (one process: Powell's iterations are long).
-    ``executor`` (:mod:`app.executor`): where DE evaluates its population (a local
+    ``executor`` (:mod:`app.experiments.executor`): where DE evaluates its population (a local
     search is sequential and runs here); without one, ``workers > 1`` is a local pool.
     ``engine="batch"``: DE and CMA-ES run each generation's candidates x cases as
-    batches (:func:`app.batch_runs.batch_mapper`); a tunable whose controller cannot be
+    batches (:func:`app.experiments.batch_runs.batch_mapper`); a tunable whose controller cannot be
     batched uses the pymunk engine, and ``on_fallback(message)`` is told."""
     from scipy.optimize import Bounds, OptimizeResult, differential_evolution, minimize
 
@@ -393,7 +393,7 @@ def tune(
     generation = [0]
     batched = None
     if engine == "batch" and method in ("de", "cmaes"):
-        from fuzzynav.app.batch_runs import batch_mapper
+        from fuzzynav.app.experiments.batch_runs import batch_mapper
 
         stall_s = getattr(tunable, "stall_cutoff_s", STALL_S)
         batched, reason = batch_mapper(objective, start, executor, outcome_cost, stall_s)
@@ -422,7 +422,7 @@ def tune(
         if batched is not None:
             result = differential_evolution(objective, workers=batched, **kwargs)
         elif executor is None and workers > 1:
-            from fuzzynav.app.executor import LocalExecutor
+            from fuzzynav.app.experiments.executor import LocalExecutor
 
             with LocalExecutor(workers) as pool:
                 result = differential_evolution(objective, workers=pool.map, **kwargs)
@@ -450,7 +450,7 @@ def tune(
             counted, start, method=method, bounds=Bounds(lo, hi), options=options, callback=callback
         )
     elif method == "cmaes":
-        from fuzzynav.app.cmaes import cmaes
+        from fuzzynav.app.experiments.cmaes import cmaes
 
         def report(k, best_f, best_x, sigma):
             generation[0] = k
@@ -520,8 +520,8 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.cmaes import add_sigma_option
-    from fuzzynav.app.executor import add_executor_options
+    from fuzzynav.app.experiments.cmaes import add_sigma_option
+    from fuzzynav.app.experiments.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
     from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
@@ -575,7 +575,7 @@ def add_commands(subparsers) -> None:
         help="population = popsize x parameters (default 4)",
     )
     add_executor_options(p)
-    from fuzzynav.app.batch_runs import add_engine_option
+    from fuzzynav.app.experiments.batch_runs import add_engine_option
 
     add_engine_option(p)
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
@@ -656,7 +656,7 @@ def cmd_tune(args) -> int:
         TimeRemainingColumn,
     )
 
-    from fuzzynav.app.executor import SerialExecutor, executor_from_args
+    from fuzzynav.app.experiments.executor import SerialExecutor, executor_from_args
     from fuzzynav.controller.tuning import tunable as get_tunable
     from fuzzynav.world.perception import PERCEPTION_MODES
 
@@ -780,7 +780,7 @@ def cmd_tune(args) -> int:
     header = (
         f"Reproduce with: {command}\n"
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
-        f"cost: app/tuning.py)"
+        f"cost: app/experiments/tuning.py)"
     )
     if "header" in inspect.signature(t.save).parameters:
         paths = t.save(result.x, args.out, header=header)

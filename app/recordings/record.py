@@ -106,7 +106,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.safe_files import check_writable_file  # noqa: F401  (re-exported)
+from fuzzynav.safe_files import check_writable_file  # noqa: F401  (re-exported)
 
 TIMELINE = "sim_time"
 APPLICATION_ID = "fuzzynav"
@@ -1328,7 +1328,7 @@ def _git_revision() -> str | None:
     """The checkout's revision when fuzzynav runs from a git checkout of this project
     (an editable install); None for an installed wheel, which says its version instead
     of the revision of whatever repository it happens to sit in."""
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     if not (
         (root / ".git").exists()
         and (root / "fuzzynav" / "__init__.py").is_file()
@@ -1891,7 +1891,7 @@ def _summary(static: _StaticBatch, result, controller, events) -> None:
     paper_events = {}
     if name == "paper" and stem in ("s1", "s2", "s3"):
         try:
-            from fuzzynav.app.paper_fit import paper_results
+            from fuzzynav.app.experiments.paper_fit import paper_results
 
             for ev in paper_results().get("events", {}).get(stem, []):
                 paper_events[int(ev["obstacle"])] = ev
@@ -2042,7 +2042,7 @@ def _legend_placement(series: np.ndarray, n_entries: int):
     return corner, (float(value_range[0]), float(value_range[1]))
 
 
-#: The panels of a recording and the paper's figure each draws (app.figures's kinds).
+#: The panels of a recording and the paper's figure each draws (app.figures.run_figures's kinds).
 PAPER_KIND = {
     "/plots/distance": "distances",
     "/plots/angles": "angles",
@@ -2053,8 +2053,8 @@ PAPER_KIND = {
 
 def figure_tag(scenario_label: str, path: str) -> str:
     """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
-    draws (:func:`app.figures.paper_figure_number`, one numbering everywhere), or ""."""
-    from fuzzynav.app.figures import paper_figure_number
+    draws (:func:`app.figures.run_figures.paper_figure_number`, one numbering everywhere), or ""."""
+    from fuzzynav.app.figures.run_figures import paper_figure_number
 
     kind = PAPER_KIND.get(path)
     number = paper_figure_number(scenario_label, kind) if kind else None
@@ -2106,7 +2106,7 @@ def blueprint(
         start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
     )
     placements = dict(legend_corners or {})
-    from fuzzynav.app.figures import numbered_scenario
+    from fuzzynav.app.figures.run_figures import numbered_scenario
 
     label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
 
@@ -2313,7 +2313,7 @@ def _not_written(path: Path, reason: str) -> RecordingError:
 
 def write_recording_bytes(path, data: bytes) -> Path:
     """Write a finished recording: to a temporary file beside ``path``, flushed to disk,
-    renamed over ``path`` only when complete (:mod:`app.safe_files`). A full disk or an
+    renamed over ``path`` only when complete (:mod:`fuzzynav.safe_files`). A full disk or an
     unwritable folder raises :class:`RecordingError` and leaves ``path`` as it was; an
     interrupt (Ctrl-C) removes the temporary file and propagates."""
     from fuzzynav.safe_files import commit, discard, is_stream_target, temporary_beside
@@ -2508,7 +2508,7 @@ class LiveRecorder:
         self._tmp: Path | None = None
         self.kept_partial: Path | None = None
         if self.path is not None:
-            from fuzzynav.app.safe_files import temporary_beside
+            from fuzzynav.safe_files import temporary_beside
 
             check_writable_file(self.path)
             try:  # written beside the target, renamed over it by close()
@@ -2545,7 +2545,7 @@ class LiveRecorder:
     def _failed(self, exc: BaseException) -> RecordingError:
         """Close the file after a failed write (a full disk) and keep what was written
         under a name that says it is partial; the error to raise."""
-        from fuzzynav.app.safe_files import discard
+        from fuzzynav.safe_files import discard
 
         self.closed = True
         try:
@@ -2657,7 +2657,7 @@ class LiveRecorder:
             self._failed(KeyboardInterrupt("interrupted"))
             raise
         if self._tmp is not None:
-            from fuzzynav.app.safe_files import commit
+            from fuzzynav.safe_files import commit
 
             try:
                 commit(self._tmp, self.path)

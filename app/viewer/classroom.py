@@ -1,8 +1,8 @@
 """``fuzzynav serve --classroom``: every tab drives a world of its own.
 
-Each tab that connects gets its own :class:`app.viewer.ViewerApp` (its robot, its drags,
-its controller) and its own scene and panels (a :class:`app.viewer_ui.ViewerServer` on
-the tab's client-scoped viser API, :class:`app.viewer_ui.ClientSurface`). A tab that
+Each tab that connects gets its own :class:`app.viewer.model.ViewerApp` (its robot, its drags,
+its controller) and its own scene and panels (a :class:`app.viewer.server.ViewerServer` on
+the tab's client-scoped viser API, :class:`app.viewer.server.ClientSurface`). A tab that
 types the teacher's token (printed at start) in its **Teacher** folder can push its
 scenario (with its layout as edited) and settings to every other tab.
 
@@ -19,8 +19,8 @@ import threading
 
 import viser
 
-from fuzzynav.app.origin_guard import guarded_server_start
-from fuzzynav.app.viewer import ViewerError
+from fuzzynav.app.viewer.model import ViewerError
+from fuzzynav.app.viewer.origin_guard import guarded_server_start
 
 
 class ClassroomServer:
@@ -72,7 +72,7 @@ class ClassroomServer:
                 print(f"fuzzynav classroom: tab {client.client_id}: {exc}", flush=True)
 
     def _open(self, client) -> None:
-        from fuzzynav.app.viewer_ui import ClientSurface, ViewerServer
+        from fuzzynav.app.viewer.server import ClientSurface, ViewerServer
 
         if client.client_id not in self.server.get_clients():
             return  # gone before its turn
