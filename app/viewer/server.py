@@ -929,8 +929,9 @@ class ViewerServer:
             "from the tuner's starting point (Reset drives with the shipped one)."
         )
         gui.add_html(
-            "<div style='font-size:0.85em;padding:0 6px'>Move a slider and the robot drives "
-            "with the edited <b>paper</b> controller at once (the run goes on). Each number "
+            "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
+            "choice and the robot drives with the edited <b>paper</b> controller at once (the "
+            "run goes on). Each number "
             "places a term (where it starts, peaks or ends) or a gap after the term before "
             f"it, so the terms stay in order whatever you do. {note}</div>"
         )
