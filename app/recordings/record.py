@@ -1639,7 +1639,8 @@ def _send_fuzzy(rec, static: _StaticBatch, fis, log) -> list[str]:
             text = [f"{var.name} = {v:.3g} {unit}" for v in value if np.isfinite(v)]
         else:
             value = np.array([a.output[k] for a in aggregated])
-            text = [f"{var.name} = {v:.2f} {unit} (centroid)" for v in value]
+            method = getattr(getattr(fis, "inference", None), "defuzz_method", "centroid")
+            text = [f"{var.name} = {v:.2f} {unit} ({method})" for v in value]
             grid = aggregated[0].grid[k]
             take = np.linspace(0, len(grid) - 1, FUZZY_POINTS).round().astype(int)
             heights = np.array([a.membership[k] for a in aggregated])[:, take]
