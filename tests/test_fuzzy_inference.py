@@ -464,3 +464,16 @@ def test_fis_refuses_unknown_choices_naming_file_line_key_and_value(paper):
     # MATLAB's names are lower case; an upper-case spelling reads as the same choice
     upper = dumps_fis(paper).replace("DefuzzMethod='centroid'", "DefuzzMethod='MOM'")
     assert loads_fis(upper).inference.defuzz_method == "mom"
+
+
+def test_a_fis_bound_by_name_keeps_its_choices(paper):
+    """A .fis whose inputs are the robot's in another order is reordered (issue 26); its
+    inference choices go with it."""
+    from fuzzynav.controller.fis_controller import FisController, reordered
+
+    shuffled = reordered(
+        paper.with_inference(and_method="prod", defuzz_method="bisector"), inputs=(2, 0, 3, 1)
+    )
+    controller = FisController(loads_fis(dumps_fis(shuffled)))
+    assert controller.bound_by_name
+    assert controller.fis.inference == Inference(and_method="prod", defuzz_method="bisector")
