@@ -25,10 +25,10 @@ are the cost. The loop therefore works on plain floats: perception, saturation a
 log row never build small numpy arrays (only the controller's ``inputs`` and the plant's
 ``[x; u]`` are arrays), and log rows are written into the log's arrays in blocks. The
 plant step is :meth:`HuskyModel.step` itself and the saturation ``min``/``max`` (issue 24):
-their hand-inlined forms saved 3-5 us of a 25-30 us step, which no bench row needs to meet
-its aim (``bench/bench_world.py`` runs 32,000-36,000 steps/s without them, aim 20,000;
-docs/speed.md). Every operation on the numbers is the one the straightforward code did,
-in the same order, so runs are the same to the bit.
+their hand-inlined forms saved a few microseconds a step, which no bench row needs to
+meet its aim (``bench/bench_world.py``; the numbers are in docs/speed.md). Every
+operation on the numbers is the one the straightforward code did, in the same order, so
+runs are the same to the bit.
 """
 
 from __future__ import annotations
