@@ -847,7 +847,7 @@ def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
 def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
     """A reviewer can rebuild fuzzynav from the recording: both rule blocks as TOML and
     the crisp parameters, not the controller's running state."""
-    from fuzzynav.controller.fuzzynav import params_toml
+    from fuzzynav.controller.fuzzynav_params import params_toml
     from fuzzynav.controller.rulebase import dumps_toml
 
     _, result, controller = _fuzzynav_crossing()

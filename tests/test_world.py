@@ -201,6 +201,52 @@ def test_pose_matches_solve_ivp(voltages):
     assert ptheta == pytest.approx(theta, abs=2e-5)
 
 
+class SweptVoltage:
+    """Voltages past the 12 V limit either way and within it, changing every call."""
+
+    def reset(self):
+        self.k = 0
+
+    def __call__(self, inputs):
+        self.k += 1
+        return np.array((20.0 * math.sin(0.05 * self.k), 15.0 * math.cos(0.031 * self.k) + 3.0))
+
+
+def _former_plant_step(model, x, v_left, v_right, dt):
+    """The loop's plant step as it was inlined in ``Simulation._advance_plant`` until
+    issue 24 (``[x; u]`` packed by hand, the cached step matrix, the mean's two rows)."""
+    from fuzzynav.world.husky import N_STATES, step_product
+
+    z = np.empty(N_STATES + 2)
+    z[:N_STATES], z[N_STATES:] = x.tolist(), (v_left, v_right)
+    result = step_product(model.discrete(dt).step_matrix, z[None, :])[0]
+    mean = result[N_STATES + 2 : N_STATES + 4].tolist()
+    return result[:N_STATES], mean[0], mean[1]
+
+
+@pytest.mark.parametrize("dt", [0.02, 0.05])
+def test_the_loop_clips_and_steps_the_plant_as_np_clip_and_huskymodel_step(dt):
+    """Every row: the applied voltages are np.clip of the controller's to +-12 V, and
+    the next LG state is HuskyModel.step's, which is the formerly inlined step's, to
+    the bit (the plain forms replaced hand-inlined ones, issue 24)."""
+    model = HuskyModel.default()
+    log = (
+        Simulation(open_field(duration_s=6.0), SweptVoltage(), model=model, control_period_s=dt)
+        .run()
+        .log
+    )
+    raw, applied = log.controller_output_v[:-1], log.voltages_v[:-1]
+    assert np.abs(raw).max() > 12.0 and np.abs(raw).min() < 12.0  # both sides of the limit
+    np.testing.assert_array_equal(applied, np.clip(raw, -12.0, 12.0))
+    for k in range(len(log) - 1):
+        x, u = log.lg_state[k], applied[k]
+        x_next, x_mean = model.step(x, u, dt)
+        former_next, former_v, former_w = _former_plant_step(model, x, *u.tolist(), dt)
+        np.testing.assert_array_equal(log.lg_state[k + 1], x_next)
+        np.testing.assert_array_equal(x_next, former_next)
+        assert (float(x_mean[2]), float(x_mean[3])) == (former_v, former_w)
+
+
 def test_straight_drive_reaches_the_reference_speed():
     sim = Simulation(open_field(duration_s=6.0), ConstantVoltage(12.0, 12.0))
     log = sim.run().log
