@@ -3,12 +3,13 @@
 ``record_run(result, path)`` writes one finished (or interrupted) run to a ``.rrd`` file;
 :class:`~fuzzynav.app.recordings.live.LiveRecorder` appends the steps of a running
 simulation in chunks, for the viewer (re-exported here, where the viewer imports it).
-Both go through :class:`~fuzzynav.app.recordings.columns.ColumnWriter` and send whole columns on the timeline ``sim_time`` (a duration, nanosecond
-resolution), never one call per step: the entities that have a row at every step go
-out together as one Arrow record batch (``RecordingStream.send_record_batch``: one
-chunk per entity, as ``send_columns`` would make, for one call instead of ~20); the
-obstacles and the target, logged only where they change, with ``send_columns``;
-styles (colours, names, radii) once, as static components. Related series share one
+Both go through :class:`~fuzzynav.app.recordings.columns.ColumnWriter` and send whole
+columns on the timeline ``sim_time`` (a duration, nanosecond resolution), never one
+call per step: the entities that have a row at every step go out together as one
+Arrow record batch (``RecordingStream.send_record_batch``: one chunk per entity, as
+``send_columns`` would make, for one call instead of ~20); the obstacles and the
+target, logged only where they change, with ``send_columns``; styles (colours, names,
+radii) once, as static components. Related series share one
 entity (a plot) as instances: each entity costs a chunk with its own row ids and times,
 which for one entity per series made most of a file and of the time to write it.
 
@@ -64,15 +65,17 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
     /meta                                   static TextDocuments
       /run, /metrics, /scenario, /rules, /robot, /summary
 
-The default blueprint (a live recording sends it first, so that a viewer opening the
-stream uses it at once, and again at the end with the legends placed; ``record_run``,
-whose file appears whole, once at the end) puts the world on the left and the paper's
-figures stacked on the right, with tabs for the plant, the sensors, the rules and the
-run's documents (:mod:`.blueprint`). The application id (:func:`.blueprint.application_id`) is
+The default blueprint (:mod:`.blueprint`; a live recording sends it first, so that a
+viewer opening the stream uses it at once, and again at the end with the legends
+placed; ``record_run``, whose file appears whole, once at the end) puts the world on
+the left and the paper's figures stacked on the right, with tabs for the plant, the
+sensors, the rules and the run's documents. The application id
+(:func:`.blueprint.application_id`) is
 ``fuzzynav-<scenario>-<controller>-<geometry>-<key of the scenario's content>``, so
 recordings whose layouts differ keep their own in a viewer. docs/recordings.md says what
 every entity and tab shows; docs/robustness.md how files are written (whole, beside the
-target, renamed; a partial run as ``<stem>.partial.rrd``).
+target, renamed; a partial run as ``<stem>.partial.rrd``; ``record_run`` sends a long
+run :data:`SEND_ROWS` rows at a time).
 
 Row conventions follow :mod:`world.simulation`: row k holds the state at ``time_s[k]``;
 the voltages of the last row are NaN (no decision follows it), and are logged as NaN.
@@ -118,6 +121,9 @@ __all__ = [
     "record_run",
     "run_hook",
 ]
+
+#: The most rows ``record_run`` sends at once (100 s of a run at the default 20 ms).
+SEND_ROWS = 5000
 
 
 def _sensor_config(sensors):
@@ -203,7 +209,10 @@ def record_run(
             perception=result.perception,
             geometry=getattr(result, "geometry", "husky"),
         )
-        writer.send(log, 0, len(log), send_static=False)
+        # A block of rows at a time: the Arrow arrays built to send them stay as large
+        # as one block, however long the run (issue 26).
+        for first in range(0, len(log), SEND_ROWS):
+            writer.send(log, first, min(first + SEND_ROWS, len(log)), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
         if writer.fis_error:
