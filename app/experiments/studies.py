@@ -31,6 +31,7 @@ from fuzzynav.app.args import (
 
 # The rows of both engines come from one function (app/experiments/batch_runs.py).
 from fuzzynav.app.experiments.batch_runs import layout_row, run_benchmark
+from fuzzynav.app.provenance import fuzzynav_version
 from fuzzynav.app.published import PAPER_TABLE4  # noqa: F401  (tests read it here)
 from fuzzynav.resources import escape_controls
 from fuzzynav.world.metrics import TABLE4_ROWS  # noqa: F401  (report and tests read it here)
@@ -138,13 +139,11 @@ def _fingerprint(controller, parts_off, family, seed, perception, options) -> st
     # cached: every job's key asks for it (a sweep of 100,000 layouts once, not 100,000 times)
     import hashlib
 
-    from fuzzynav import __version__
-
     if controller not in _DIGESTS:
         _DIGESTS[controller] = _rules_digest(controller)
     what = json.dumps(
         [
-            __version__,
+            fuzzynav_version(),
             controller,
             _DIGESTS[controller],
             list(parts_off),

@@ -55,7 +55,6 @@ from __future__ import annotations
 import inspect
 import math
 import os
-import shlex
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -63,6 +62,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
+from fuzzynav.app.provenance import reproduce_line, shell_command
 from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import write_text_atomically
 
@@ -299,7 +299,7 @@ def reproduce_command(args) -> str:
     if method in ("de", "cmaes"):
         parts += ["--popsize", str(args.popsize), "--seed", str(args.seed)]
     parts += ["--dt", str(args.dt)]
-    return shlex.join(parts)  # --out, --workers, --checkpoint do not change the result
+    return shell_command(parts)  # --out, --workers, --checkpoint do not change the result
 
 
 def read_vector(path: Path, names: list[str]) -> np.ndarray:
@@ -778,7 +778,7 @@ def cmd_tune(args) -> int:
         )
     elapsed = time.perf_counter() - start
     header = (
-        f"Reproduce with: {command}\n"
+        reproduce_line(command) + "\n"
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
         f"cost: app/experiments/tuning.py)"
     )

@@ -39,6 +39,7 @@ import numpy as np
 
 from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import atomic_output, write_text_atomically
+from fuzzynav.world.geometry import footprint_outlines, obstacle_bearings, target_geometry
 
 SAFE_DISTANCE_M = 0.25
 FORMATS = ("png", "svg")
@@ -147,18 +148,6 @@ def _moving_columns(log) -> list[int]:
     return moving
 
 
-def _footprint(pose, length_m: float, width_m: float) -> np.ndarray:
-    hl, hw = 0.5 * length_m, 0.5 * width_m
-    corners = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw), (hl, hw)])
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.column_stack(
-        [
-            pose[0] + c * corners[:, 0] - s * corners[:, 1],
-            pose[1] + s * corners[:, 0] + c * corners[:, 1],
-        ]
-    )
-
-
 def draw_trajectory(
     ax,
     result,
@@ -241,8 +230,8 @@ def draw_trajectory(
         labels.append((_obstacle_label(log, col), last, color))
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
-        for k in list(range(0, len(log), period)) + [len(log) - 1]:
-            outline = _footprint(log.pose[k], *footprint_m)
+        shown = list(range(0, len(log), period)) + [len(log) - 1]
+        for outline in footprint_outlines(log.pose[shown], *footprint_m):
             ax.plot(outline[:, 0], outline[:, 1], color=ROBOT, lw=0.5, alpha=0.35, zorder=4)
     ax.plot(xy[:, 0], xy[:, 1], color=ROBOT, lw=1.8, label="robot (centre)", zorder=5)
     window = disturbance_window_s(scenario)
@@ -447,12 +436,6 @@ def _legend_outside(ax) -> None:
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
-def _bearings(log) -> np.ndarray:
-    dx = log.obstacle_xy[:, :, 0] - log.pose[:, 0:1]
-    dy = log.obstacle_xy[:, :, 1] - log.pose[:, 1:2]
-    return np.mod(np.arctan2(dy, dx) - log.pose[:, 2:3] + math.pi, 2 * math.pi) - math.pi
-
-
 def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
     """A copy with NaN where an angle wraps between +pi and -pi, so that no vertical
     line is drawn across the axes there."""
@@ -460,10 +443,6 @@ def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
     jumps = np.abs(np.diff(out, axis=0)) > math.pi
     out[1:][jumps] = np.nan
     return out
-
-
-def _wrap(angle):
-    return np.mod(angle + math.pi, 2 * math.pi) - math.pi
 
 
 def run_figure(
@@ -528,10 +507,7 @@ def run_figure(
     if kind == "angles":
         fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
         top, bottom = ax[0, 0], ax[1, 0]
-        phi_t = _wrap(
-            np.arctan2(log.target_xy[:, 1] - log.pose[:, 1], log.target_xy[:, 0] - log.pose[:, 0])
-            - log.pose[:, 2]
-        )
+        phi_t = target_geometry(log.pose, log.target_xy)[1]
         if disturbance_window_s(scenario) is not None and len(log):
             top.plot(
                 t,
@@ -555,7 +531,7 @@ def run_figure(
         fig, ax = _new_figure(7.6, 3.6)
         a = ax[0, 0]
         if len(log.obstacle_ids) and len(log):
-            bearings = _break_at_wraps(_bearings(log))
+            bearings = _break_at_wraps(obstacle_bearings(log.pose, log.obstacle_xy))
             for col in range(len(log.obstacle_ids)):
                 a.plot(
                     t,
