@@ -20,7 +20,10 @@ The viser side, one :class:`ViewerServer` per world, a coordinator of parts:
 
 The teaching views as pure functions, and the rest:
 
-- :mod:`.views`        the teaching views as pure functions (inference, surface, rules);
+- :mod:`.views`        the inference view (term plots, summary), the teaching views' front;
+- :mod:`.rule_table`   the rule table (rows, sticky headers, aggregated sets, centroids);
+- :mod:`.surface_view` the control surface and the rule-firing strip as images;
+- :mod:`.drawing`      what they draw with (Inference, sizes, colours, paths, sentences);
 - :mod:`.editor`       the membership-function editor's layout;
 - :mod:`.classroom`    ``serve --classroom``: a world per tab, a teacher's push;
 - :mod:`.guards`, :mod:`.origin_guard`  what the server takes from a browser;

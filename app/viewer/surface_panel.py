@@ -1,6 +1,6 @@
 """The Surface tab: the controller's crisp outputs over a plane of two inputs (MATLAB's
 Surface Viewer: both axes and the held inputs chosen), as heatmaps sent once, with the
-operating point as a dot that moves (a few bytes of CSS, :func:`views.marker_style`)."""
+operating point as a dot that moves (a few bytes of CSS, :func:`surface_view.marker_style`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from fuzzynav.app.viewer import views
+from fuzzynav.app.viewer import surface_view
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
 
@@ -168,10 +168,10 @@ class SurfacePanel:
             else:
                 values = (d_t, d_o, phi_t, phi_o)
                 vx, vy = values[xi], values[yi]
-            where = views.marker_fraction(vx, vy, x_range, y_range)
+            where = surface_view.marker_fraction(vx, vy, x_range, y_range)
             for k in range(2):
                 markers[f"fz-op{p}{k}"] = where
-        set_html(self.marker_html, views.marker_style(markers))
+        set_html(self.marker_html, surface_view.marker_style(markers))
 
     def _surface_html(self, snap: Snapshot) -> str:
         if not self._surface_planes:
@@ -185,7 +185,7 @@ class SurfacePanel:
         for p, (title, fis, xi, yi, x_range, y_range, held, kind) in enumerate(
             self._surface_planes
         ):
-            xs, ys, out = views.surface_grid(fis, xi, yi, x_range, y_range, held)
+            xs, ys, out = surface_view.surface_grid(fis, xi, yi, x_range, y_range, held)
             if kind == "wheels":
                 left, right = out[..., 0], out[..., 1]
                 fields = [
@@ -198,7 +198,7 @@ class SurfacePanel:
             cells = []
             for k, (label, values) in enumerate(fields):
                 limit = float(np.nanmax(np.abs(values))) or 1.0
-                png = base64.b64encode(views.surface_png(values, limit)).decode()
+                png = base64.b64encode(surface_view.surface_png(values, limit)).decode()
                 x_ticks = "".join(
                     f"<span class='fz-xtick'>{v:.3g}</span>" for v in np.linspace(*x_range, 5)
                 )
