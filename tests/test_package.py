@@ -92,7 +92,6 @@ SIZE_LIMIT_LINES = 800
 #: none may join them.
 KNOWN_OVERSIZE = {
     "fuzzynav.app.recordings.record",
-    "fuzzynav.app.viewer.model",
     "fuzzynav.app.figures.run_figures",
     "fuzzynav.app.experiments.studies",
     "fuzzynav.app.experiments.tuning",  # grew past 800 with the batch engine's options (issue 29)

@@ -109,7 +109,7 @@ def test_live_recordings_never_take_another_servers_file(tmp_path):
         for _ in range(2):
             with app.lock:
                 for _ in range(5):
-                    app._step_locked()
+                    app.driver._step_locked()
             app.reset()
     finally:
         app.stop()

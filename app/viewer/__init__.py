@@ -2,7 +2,15 @@
 
 The app model, which knows nothing of the browser:
 
-- :mod:`.model`        :class:`ViewerApp`: the world, the run, what a press does;
+- :mod:`.model`        :class:`ViewerApp`: the world, the run, what a press does (its
+  state and lock, and a method per user action, each done by one of its parts):
+- :mod:`.driver`       the run and its simulation thread, the ``--rrd`` recording;
+- :mod:`.history`      the run's history (the time slider) and results (label, metrics);
+- :mod:`.editing`      the scenario and its edits (layout, obstacles, target, the editor);
+- :mod:`.run_settings` what drives (controller, parts, geometry, perception, noise);
+- :mod:`.teaching`     the inference shown (live, a past step, what-if mode);
+- :mod:`.reading`      the snapshot the page draws from;
+- :mod:`.state`        the records and limits they share (Snapshot, Ghost, ViewerError);
 
 The viser side, one :class:`ViewerServer` per world, a coordinator of parts:
 
