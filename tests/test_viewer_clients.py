@@ -192,7 +192,7 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
             classroom.push_from(max(classroom.sessions))
         clients.press(teacher, t.teacher_token_box, "teach-me")
         assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
-        clients.press(teacher, t.scenario_dd, "crossing")
+        clients.press(teacher, t.controls.scenario_dd, "crossing")
         # as a teacher would: the next choice once the scenario has loaded (a press that
         # arrives while it loads can be lost under load: seen in CI)
         assert t.app.wait_for(lambda x: x.scenario_label == "crossing", 10), t.app.message

@@ -49,7 +49,7 @@ class ClassroomServer:
         with self._lock:
             view = self.sessions.get(client.client_id)
         if view is not None:
-            view._stop.set()  # no more frames for a closed tab; its world ends below
+            view.render.halt()  # no more frames for a closed tab; its world ends below
         self._queue.put(("disconnect", client))
 
     @property

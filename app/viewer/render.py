@@ -31,8 +31,12 @@ class RenderLoop:
     def start(self) -> None:
         self._thread.start()
 
-    def stop(self) -> None:
+    def halt(self) -> None:
+        """No more frames (without waiting for the thread: a closed classroom tab)."""
         self._stop.set()
+
+    def stop(self) -> None:
+        self.halt()
         self._thread.join(timeout=5.0)
 
     def scene_hz(self) -> float:
