@@ -32,7 +32,7 @@ def _deliver(server, message) -> None:
 
 def test_a_gui_update_sets_only_the_value(served):
     """The key update_cb replaced the scenario dropdown's callbacks for every client."""
-    impl = served.scenario_dd._impl
+    impl = served.controls.scenario_dd._impl
     callbacks = list(impl.update_cb)
     assert callbacks
     _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"update_cb": []}))
@@ -45,7 +45,7 @@ def test_a_gui_update_sets_only_the_value(served):
 @pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
 def test_a_slider_never_becomes_nan(served, value):
     """An editor slider set to NaN stayed NaN."""
-    impl = served.noise._impl
+    impl = served.controls.noise._impl
     before = impl.value
     _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": value}))
     assert impl.value == before and math.isfinite(impl.value)
@@ -54,7 +54,7 @@ def test_a_slider_never_becomes_nan(served, value):
 def test_an_upload_is_refused_at_its_declared_size(served):
     """Declared 1 TB, then 400 MB of parts: the server grew by 500 MB before refusing."""
     gui = served.server.gui
-    uuid = served.scenario_upload._impl.uuid
+    uuid = served.controls.scenario_upload._impl.uuid
     start = viser_messages.FileTransferStartUpload(
         uuid, "t1", "big.toml", "text/plain", part_count=10_000_000, size_bytes=10**12
     )
@@ -81,21 +81,21 @@ def _event(position, phase="update"):
 def test_a_refused_drag_is_drawn_back(served, position):
     """A handle dragged to 1e300 or NaN was refused but stayed drawn there."""
     target = tuple(served.app.snapshot().target)
-    on_update = served._make_drag_callback("/target", None)
+    on_update = served.handles._make_drag_callback("/target", None)
     event = _event(position, "start")
     asyncio.run(on_update(event))
     assert tuple(event.target.position[:2]) == target
-    assert "/target" not in served._dragging
+    assert "/target" not in served.handles.dragging
 
 
 def test_a_drag_without_a_position_does_not_freeze_the_target(served):
     """An empty position raised in the callback and left the target held as dragged:
     its drawing froze for as long as the server ran."""
-    on_update = served._make_drag_callback("/target", None)
+    on_update = served.handles._make_drag_callback("/target", None)
     asyncio.run(on_update(_event((), "start")))
-    assert "/target" not in served._dragging
+    assert "/target" not in served.handles.dragging
     asyncio.run(on_update(_event(("a", "b"))))
-    assert "/target" not in served._dragging
+    assert "/target" not in served.handles.dragging
 
 
 def test_live_recordings_never_take_another_servers_file(tmp_path):
@@ -109,7 +109,7 @@ def test_live_recordings_never_take_another_servers_file(tmp_path):
         for _ in range(2):
             with app.lock:
                 for _ in range(5):
-                    app._step_locked()
+                    app.driver._step_locked()
             app.reset()
     finally:
         app.stop()

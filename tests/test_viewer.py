@@ -578,22 +578,29 @@ def test_the_parts_panel_follows_the_controller_and_the_switches(app):
 
     server = ViewerServer(app, port=0)
     try:
-        assert not server.parts_folder.visible
-        assert set(server.part_boxes) == {p.name for p in app.part_options()}
+        assert not server.controls.parts_folder.visible
+        assert set(server.controls.part_boxes) == {p.name for p in app.part_options()}
         app.set_controller("fuzzynav")
         app.set_part("bearing planner", False)
-        assert shown(lambda: "fuzzynav (without bearing planner)" in server.status.content)
         assert shown(
-            lambda: server.parts_folder.visible and not server.part_boxes["bearing planner"].value
+            lambda: "fuzzynav (without bearing planner)" in server.status_line.status.content
+        )
+        assert shown(
+            lambda: (
+                server.controls.parts_folder.visible
+                and not server.controls.part_boxes["bearing planner"].value
+            )
         )
         assert all(
-            box.value for name, box in server.part_boxes.items() if name != "bearing planner"
+            box.value
+            for name, box in server.controls.part_boxes.items()
+            if name != "bearing planner"
         )
         for name in ("echo memory", "edge following"):
             app.set_part(name, False)
-        assert shown(lambda: "fuzzynav (3 parts off)" in server.status.content)
+        assert shown(lambda: "fuzzynav (3 parts off)" in server.status_line.status.content)
         app.set_controller("p")
-        assert shown(lambda: not server.parts_folder.visible)
+        assert shown(lambda: not server.controls.parts_folder.visible)
     finally:
         server.stop()
 
@@ -644,8 +651,8 @@ def test_the_previous_run_keeps_the_label_of_what_drove_it(served):
     assert a.run_label == "s1 · fuzzynav · ideal"
     # the Result panel says so
     deadline = time.monotonic() + 10
-    while "Previous run (grey trail): s1 · paper · ideal" not in served.result.content:
-        assert time.monotonic() < deadline, served.result.content
+    while "Previous run (grey trail): s1 · paper · ideal" not in served.status_line.result.content:
+        assert time.monotonic() < deadline, served.status_line.result.content
         time.sleep(0.05)
     # a part switched after the end: the ghost is the run with the part on
     run_to_end(a)
@@ -678,14 +685,14 @@ def test_a_scenario_change_drops_the_previous_run(served):
     a.restore_layout()  # the same scenario: the ghost stays
     assert a.ghost is not None
     deadline = time.monotonic() + 10
-    while not served.ghost_node.visible:
+    while not served.scene.ghost_node.visible:
         assert time.monotonic() < deadline
         time.sleep(0.05)
     a.load_scenario("crossing")
     assert a.ghost is None and a.snapshot().ghost is None
     deadline = time.monotonic() + 10
-    while served.ghost_node.visible or "previous" in served.result.content:
-        assert time.monotonic() < deadline, served.result.content
+    while served.scene.ghost_node.visible or "previous" in served.status_line.result.content:
+        assert time.monotonic() < deadline, served.status_line.result.content
         time.sleep(0.05)
 
 
@@ -699,7 +706,7 @@ def test_disturbance_and_noise_are_said_and_a_disturbed_input_is_marked(served):
         a.step_once()
     snap = a.snapshot()
     assert snap.inputs_disturbed
-    status = served._status_html(snap)
+    status = served.status_line._status_html(snap)
     assert "disturbed by 1·sin(2t)" in status and "noise σ 0.05 m" in status
     assert status.count("includes the disturbance") >= 2  # d_t and phi_t at least
     assert "from 0.0 s" not in a.run_label
@@ -708,14 +715,14 @@ def test_disturbance_and_noise_are_said_and_a_disturbed_input_is_marked(served):
     a.step_once()
     snap = a.snapshot()
     assert not snap.inputs_disturbed
-    assert "includes the disturbance" not in served._status_html(snap)
+    assert "includes the disturbance" not in served.status_line._status_html(snap)
     assert "from 1.2 s: p · ideal · noise σ 0.05 m" in a.run_label, a.run_label
     a.set_noise(0.0)
     # s3's disturbance acts from 25 to 35 s only: before it, no mark
     a.load_scenario("s3")
     a.step_once()
     snap = a.snapshot()
-    assert "disturbed by 1·sin(2t) for 25-35 s" in served._status_html(snap)
+    assert "disturbed by 1·sin(2t) for 25-35 s" in served.status_line._status_html(snap)
     assert not snap.inputs_disturbed
 
 
@@ -772,11 +779,11 @@ def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
     first = min(a.sim.arena.obstacles)
     key = (a.run_id, first)
     deadline = time.monotonic() + 10
-    while key not in served._obstacle_nodes:
+    while key not in served.handles.obstacle_nodes:
         assert time.monotonic() < deadline
         time.sleep(0.05)
-    node = served._obstacle_nodes[key]
-    on_drag = served._make_body_drag(node["name"], first, node["handle"])
+    node = served.handles.obstacle_nodes[key]
+    on_drag = served.handles._make_body_drag(node["name"], first, node["handle"])
     ox, oy = a.sim.arena.obstacles[first].position_at(0.0)
 
     def event(phase, to):
@@ -797,7 +804,7 @@ def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
     assert a.sim.arena.obstacles[first].position_at(0.0) == pytest.approx((x, y))
     # the end-of-drag check ran
     assert a.message.startswith("Obstacle 1 is on the robot:"), a.message
-    assert node["name"] not in served._dragging
+    assert node["name"] not in served.handles.dragging
     err = capfd.readouterr().err
     assert "Cannot assign" not in err and "Traceback" not in err, err
 

@@ -653,13 +653,15 @@ def test_an_obstacle_dropped_on_the_robot_is_flagged(served, page):
 def test_handles_are_hidden_until_asked_for(served, page):
     """Defect 10: no arrows over the posts unless the teacher wants them."""
     app = served.app
-    assert served.target.disable_axes and served.target.disable_sliders
+    assert served.handles.target.disable_axes and served.handles.target.disable_sliders
     page.get_by_text("View", exact=True).click()
     box = page.get_by_role("checkbox", name="Show drag handles")
     box.click()
 
     def gizmos():
-        return [served.target] + [n["handle"] for n in served._obstacle_nodes.values()]
+        return [served.handles.target] + [
+            n["handle"] for n in served.handles.obstacle_nodes.values()
+        ]
 
     # The callback sets the target first and the obstacles after it: wait for all of them.
     assert app.wait_for(lambda a: not any(g.disable_axes for g in gizmos()), timeout=10)
@@ -690,13 +692,13 @@ def test_geometry_control_shows_the_paper_point_robot(served, page):
         page.wait_for_function(
             "() => document.body.innerText.includes('Geometry: paper')", timeout=15_000
         )
-        assert app.wait_for(lambda a: served.geometry_dd.value == "paper", timeout=10)
-        assert served.point_robot.visible and not served.beams.visible
-        assert not any(node.visible for node in served._husky_nodes)
+        assert app.wait_for(lambda a: served.controls.geometry_dd.value == "paper", timeout=10)
+        assert served.scene.point_robot.visible and not served.scene.beams.visible
+        assert not any(node.visible for node in served.scene._husky_nodes)
     finally:
         app.set_geometry("husky")
-    assert app.wait_for(lambda a: served.geometry_dd.value == "husky", timeout=10)
-    assert all(node.visible for node in served._husky_nodes)
+    assert app.wait_for(lambda a: served.controls.geometry_dd.value == "husky", timeout=10)
+    assert all(node.visible for node in served.scene._husky_nodes)
 
 
 # -- issue 27: a viewer for a whole class -----------------------------------------------
@@ -919,7 +921,7 @@ def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
 
     before = sizes()
     # as for a tab open for minutes: its first seconds' refitting is long over
-    served._fit_window.clear()
+    served.camera._fit_window.clear()
     box = page.get_by_role("checkbox", name="Presentation mode (large type)")
     if not box.is_visible():  # the View folder is closed
         page.get_by_text("View", exact=True).click()
@@ -937,8 +939,10 @@ def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
         after = sizes()
         assert after["status"] > 1.2 * before["status"], (before, after)
         assert after["right"] > before["right"] + 50, (before, after)
-        assert served.target_label.font_screen_scale > 1.2
-        assert all(n["label"].font_screen_scale > 1.2 for n in served._obstacle_nodes.values())
+        assert served.handles.target_label.font_screen_scale > 1.2
+        assert all(
+            n["label"].font_screen_scale > 1.2 for n in served.handles.obstacle_nodes.values()
+        )
     finally:
         box.click()
     page.wait_for_function(
@@ -976,9 +980,9 @@ def test_the_small_things_a_class_noticed(served, page):
     # the hint is on screen at 1280 x 800, on the arena too, and goes with the first drag
     hint = page.locator(".fz-drag-hint").bounding_box()
     assert hint is not None and hint["y"] + hint["height"] < VIEWPORT["height"]
-    served.drag_hint.visible = True  # as on a fresh server (other tests dragged already)
+    served.handles.drag_hint.visible = True  # as on a fresh server (other tests dragged already)
     drag_target(page, 0.0, -0.5, steps=6)
-    assert app.wait_for(lambda a: not served.drag_hint.visible, timeout=10)
+    assert app.wait_for(lambda a: not served.handles.drag_hint.visible, timeout=10)
     # a run to its end: the time and every value of the result on one line
     app.set_speed(10.0)
     app.play()
@@ -1042,7 +1046,7 @@ def test_what_if_mode_follows_typed_inputs_without_moving_the_robot(served, page
     expected = ", ".join(f"{n} = {c:.2f}" for n, c in zip(fis.output_names, centroids))
     page.wait_for_function(
         "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
-        arg=f"Outputs (centroids): {expected}",
+        arg=f"Outputs (centroid): {expected}",
         timeout=15_000,
     )
     assert page.locator(".fz-firing").count() == int(np.sum(strengths > 0))
@@ -1050,8 +1054,8 @@ def test_what_if_mode_follows_typed_inputs_without_moving_the_robot(served, page
     page.wait_for_timeout(600)
     assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
     # the surface's dot is at the tried (d_o, phi_o)
-    marker = served.marker_html.content
-    lo, hi = served._surface_planes[1][4]  # the (d_o, phi_o) plane's d_o range
+    marker = served.surface.marker_html.content
+    lo, hi = served.surface._surface_planes[1][4]  # the (d_o, phi_o) plane's d_o range
     fx = 100 * (0.6 - lo) / (hi - lo)
     assert f"#fz-op10{{display:block!important;left:{fx:.1f}%" in marker, marker
     # leaving it, the run goes on where it was
@@ -1067,7 +1071,7 @@ def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, pag
     footprint's edge along phi_o and phi_o's arc, in the colours of their term plots:
     the geometry and the inference are the same numbers."""
     from fuzzynav.app.viewer import views
-    from fuzzynav.app.viewer.server import OBSTACLE_INPUT, TARGET_INPUT
+    from fuzzynav.app.viewer.scene import OBSTACLE_INPUT, TARGET_INPUT
 
     app = served.app
     app.set_controller("paper")
@@ -1081,13 +1085,13 @@ def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, pag
     open_tab(page, "Inference")
     page.wait_for_function(f"() => ({JS_VISIBLE})('/inputs/obstacle')", timeout=15_000)
     page.wait_for_function(f"() => ({JS_VISIBLE})('/inputs/target')", timeout=15_000)
-    target = served.input_nodes["target"].points
+    target = served.scene.input_nodes["target"].points
     x, y, heading = snap.input_pose  # the inputs are read there, before the step
     # the d_t line ends at the target; the phi_t arc ends on the bearing of the target
     assert target[0, 1, :2] == pytest.approx(snap.target, abs=1e-3)
     end = target[-1, 1, :2] - (x, y)
     assert math.atan2(end[1], end[0]) == pytest.approx(heading + phi_t, abs=1e-3)
-    gap = served.input_nodes["obstacle"].points[0]
+    gap = served.scene.input_nodes["obstacle"].points[0]
     assert np.linalg.norm(gap[1, :2] - gap[0, :2]) == pytest.approx(d_o, abs=1e-3)
     # on screen, in the plots' colours
     pixels = canvas_pixels(page)
@@ -1131,7 +1135,7 @@ def test_the_surface_takes_any_two_axes_and_held_values(served, page):
         ".innerText.includes('phi_o, d_o with d_t = 3, phi_t = 0')",
         timeout=15_000,
     )
-    title, fis, xi, yi, x_range, y_range, held, _ = served._surface_planes[0]
+    title, fis, xi, yi, x_range, y_range, held, _ = served.surface._surface_planes[0]
     assert (xi, yi) == (3, 1) and held.tolist() == [3.0, 1.0, 0.0, 0.0]
     # the first map is the engine's speed over that plane, computed here independently
     n = 41

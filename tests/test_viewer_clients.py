@@ -135,13 +135,13 @@ def test_forty_tabs_joining_at_once_do_not_stall_another_tabs_buttons(served, ca
         assert wait_until(lambda: min(clients.received[1:]) > 10_000, 30), clients.received
         # the class has joined; a tab presses Speed 0.25 at once
         pressed = time.perf_counter()
-        clients.press(teacher, served.speed, "0.25")
+        clients.press(teacher, served.controls.speed, "0.25")
         assert wait_until(lambda: served.app.speed == 0.25, 10)
         latency = time.perf_counter() - pressed
         # and again a little later (a click queued behind the joiners would show here)
         time.sleep(0.5)
         pressed = time.perf_counter()
-        clients.press(teacher, served.speed, "3")
+        clients.press(teacher, served.controls.speed, "3")
         assert wait_until(lambda: served.app.speed == 3.0, 10)
         latency = max(latency, time.perf_counter() - pressed)
         with capfd.disabled():
@@ -176,7 +176,7 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
         assert wait_until(lambda: len(classroom.sessions) == 2, 30), classroom.sessions
         (a, b) = (classroom.sessions[k] for k in sorted(classroom.sessions))
         assert a.app is not b.app
-        clients.press(first, a.run_buttons, "Play")
+        clients.press(first, a.controls.run_buttons, "Play")
         assert a.app.wait_for(lambda x: x.sim.time_s > 0.5, timeout=10), a.app.sim.time_s
         assert b.app.sim.time_s == 0.0 and not b.app.playing, b.app.sim.time_s  # it stays
         # the second tab drags its target: the first's stays
@@ -192,11 +192,11 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
             classroom.push_from(max(classroom.sessions))
         clients.press(teacher, t.teacher_token_box, "teach-me")
         assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
-        clients.press(teacher, t.scenario_dd, "crossing")
+        clients.press(teacher, t.controls.scenario_dd, "crossing")
         # as a teacher would: the next choice once the scenario has loaded (a press that
         # arrives while it loads can be lost under load: seen in CI)
         assert t.app.wait_for(lambda x: x.scenario_label == "crossing", 10), t.app.message
-        clients.press(teacher, t.controller_dd, "fuzzynav")
+        clients.press(teacher, t.controls.controller_dd, "fuzzynav")
         assert t.app.wait_for(
             lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
         ), (t.app.scenario_label, t.app.controller_label, t.app.message)
@@ -213,7 +213,7 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
                 timeout=20,
             ), (view.app.scenario_label, view.app.controller_label)
         # still independent after the push
-        clients.press(first, a.run_buttons, "Step")
+        clients.press(first, a.controls.run_buttons, "Step")
         assert a.app.wait_for(lambda x: x.sim.time_s > 0.0, timeout=10), a.app.message
         assert b.app.sim.time_s == 0.0, b.app.sim.time_s
     finally:
@@ -235,7 +235,7 @@ def test_forty_tabs_joining_a_classroom_do_not_stall_the_tabs_already_there(clas
         latency = 0.0
         for value, speed in (("0.25", 0.25), ("3", 3.0)):
             pressed = time.perf_counter()
-            clients.press(teacher, view.speed, value)
+            clients.press(teacher, view.controls.speed, value)
             assert wait_until(lambda s=speed: view.app.speed == s, 10)
             latency = max(latency, time.perf_counter() - pressed)
             time.sleep(0.3)

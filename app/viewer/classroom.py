@@ -49,7 +49,7 @@ class ClassroomServer:
         with self._lock:
             view = self.sessions.get(client.client_id)
         if view is not None:
-            view._stop.set()  # no more frames for a closed tab; its world ends below
+            view.render.halt()  # no more frames for a closed tab; its world ends below
         self._queue.put(("disconnect", client))
 
     @property
@@ -107,11 +107,11 @@ class ClassroomServer:
                 with self._lock:
                     self.teachers.add(client_id)
                 push.visible = True
-                view._tell(
+                view.tell(
                     event.client, "You are the teacher: you can push to the class.", "success"
                 )
             elif box.value:
-                view._tell(event.client, "That is not the teacher's token.", "error")
+                view.tell(event.client, "That is not the teacher's token.", "error")
 
         def on_push(event) -> None:
             if event.client is None:
@@ -119,9 +119,9 @@ class ClassroomServer:
             try:
                 n = self.push_from(client_id)
             except ViewerError as exc:
-                view._tell(event.client, str(exc), "error")
+                view.tell(event.client, str(exc), "error")
                 return
-            view._tell(event.client, f"Pushed to {n} tab{'s' if n != 1 else ''}.", "success")
+            view.tell(event.client, f"Pushed to {n} tab{'s' if n != 1 else ''}.", "success")
 
         box.on_update(on_token)
         push.on_click(on_push)

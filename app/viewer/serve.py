@@ -1,4 +1,4 @@
-"""``fuzzynav serve``: the viewer's command line (the server around :mod:`viewer_ui`).
+"""``fuzzynav serve``: the viewer's command line (the server around :mod:`.server`).
 
 The app model (:mod:`fuzzynav.app.viewer.model`) knows nothing of the browser; the browser
 side (:mod:`fuzzynav.app.viewer.server`) uses the model; this module starts both.

@@ -1,0 +1,280 @@
+"""The control panel (the right-hand panel): run buttons, speed, the time slider, the
+scenario, the controller and sensing, fuzzynav's parts, the view options, the colour
+key, with the status line, the message and the Result panel (:mod:`.status`) in their
+places. Its widgets follow the world, whichever tab changed it (:meth:`ControlPanel.sync`).
+"""
+
+from __future__ import annotations
+
+import html
+
+import viser
+
+from fuzzynav.app.viewer.model import NOISE_RANGE_M, Snapshot, ViewerError
+from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
+
+SPEED_CHOICES = ("0.1", "0.25", "0.5", "1", "3", "10")
+HISTORY_STEP_S = 0.02  # the time slider's step: one control period
+
+COLOUR_KEY = [
+    ("#dc2626", "beam: echo within 0.25 m (the safe distance)"),
+    ("#f59e0b", "beam: echo at about 1 m"),
+    ("#16a34a", "beam: echo at 3 m or more"),
+    ("#afafaf", "beam: no echo (thin, full range)"),
+    ("#2563eb", "trail of this run"),
+    ("#94a3b8", "ghost: the previous run's trail"),
+    ("#9333ea", "fuzzynav's echo memory (points it remembers)"),
+    ("#16a34a", "fuzzynav's planned bearing (thick green line)"),
+    ("#d97706", "safe-distance ring (red: an obstacle inside)"),
+    ("#0d9488", "d_t (line to the target) and phi_t (arc from the heading)"),
+    ("#c026d3", "d_o (from the footprint's edge) and phi_o (arc from the heading)"),
+    ("#606f88", "static obstacle"),
+    ("#ea580c", "moving obstacle"),
+    ("#dc2626", "target (drag it)"),
+]
+
+
+def colour_key_html() -> str:
+    rows = "".join(
+        f"<div style='display:flex;align-items:center;gap:6px'><span style='display:inline-block;"
+        f"width:22px;height:5px;border-radius:2px;background:{c}'></span>{html.escape(t)}</div>"
+        for c, t in COLOUR_KEY
+    )
+    return f"<div class='fz-colour-key' style='font-size:0.8em;padding:0 6px'>{rows}</div>"
+
+
+class ControlPanel:
+    """The right-hand panel of one :class:`app.viewer.server.ViewerServer`."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+
+    def build(self) -> None:
+        gui = self.view.server.gui
+        app = self.app
+        gui.configure_theme(
+            dark_mode=False,
+            show_logo=False,
+            show_share_button=False,
+            brand_color=(37, 99, 235),
+            control_width="large",
+        )
+        gui.set_panel_label("fuzzynav · fuzzy Husky navigator")
+
+        self.view.status_line.add_status(gui)
+        self.run_buttons = gui.add_button_group("Run", ("Play", "Pause", "Step", "Reset"))
+        self.run_buttons.on_click(self.view.guarded(self._on_run_button))
+        # Speeds as choices: a linear slider gave 0.1-1x a tenth of its track.
+        self.speed = gui.add_button_group("Speed ×", SPEED_CHOICES)
+        self.speed.on_click(self.view.guarded(lambda e: app.set_speed(float(self.speed.value))))
+        # Back through the run: the scene, the inputs and the inference of any step.
+        self.history_slider = gui.add_slider(
+            "Run so far (s)",
+            0.0,
+            HISTORY_STEP_S,
+            HISTORY_STEP_S,
+            0.0,
+            hint="Drag back through this run: the robot, its inputs and the rules as they "
+            "were then (the run pauses; Live, Play or Step go back)",
+        )
+        self.history_slider.on_update(
+            self.view.guarded(lambda e: app.view_history(self.history_slider.value))
+        )
+        self.history_live = gui.add_button("Live", hint="Back to where the run is now")
+        self.history_live.on_click(self.view.guarded(lambda e: app.leave_history()))
+        self.view.status_line.add_message(gui)  # below the buttons: never moves them
+        # Above the fold at 1280 x 800 (it was the last thing in the panel).
+        gui.add_html(
+            "<div class='fz-drag-hint' style='font-size:0.8em;color:#475569;padding:0 8px'>"
+            "Drag the <b>target</b> or an <b>obstacle</b> by its body; the robot reacts at "
+            "once. Scroll to zoom, right-drag to pan.</div>"
+        )
+
+        with gui.add_folder("Scenario"):
+            self.scenario_dd = gui.add_dropdown(
+                "Scenario", app.scenario_options(), initial_value=app.scenario_label
+            )
+            self.scenario_dd.on_update(
+                self.view.guarded(lambda e: app.load_scenario(self.scenario_dd.value))
+            )
+            self.obstacle_buttons = gui.add_button_group("Obstacle", ("Add", "Remove newest"))
+            self.obstacle_buttons.on_click(self.view.guarded(self._on_obstacle_button))
+            self.restore = gui.add_button(
+                "Restore scenario layout",
+                icon=viser.Icon.RESTORE,
+                hint="Undo drags, additions and removals",
+            )
+            self.restore.on_click(self.view.guarded(lambda e: app.restore_layout()))
+            self.scenario_upload = gui.add_upload_button(
+                "Upload scenario (.toml)", icon=viser.Icon.UPLOAD, mime_type=".toml"
+            )
+            self.scenario_upload.on_upload(self.view.guarded(self._on_scenario_upload))
+
+        with gui.add_folder("Controller and sensing"):
+            self.controller_dd = gui.add_dropdown(
+                "Controller", app.controller_options(), initial_value=app.controller_label
+            )
+            self.controller_dd.on_update(
+                self.view.guarded(lambda e: app.set_controller(self.controller_dd.value))
+            )
+            self.fis_upload = gui.add_upload_button(
+                "Upload a .fis controller", icon=viser.Icon.UPLOAD, mime_type=".fis"
+            )
+            self.fis_upload.on_upload(self.view.guarded(self._on_fis_upload))
+            self.perception_dd = gui.add_dropdown(
+                "Perception",
+                PERCEPTION_MODES,
+                initial_value=app.sim.perception.mode,
+                hint="ideal: exact nearest obstacle; ultrasonic: the three beams",
+            )
+            self.perception_dd.on_update(
+                self.view.guarded(lambda e: app.set_perception(self.perception_dd.value))
+            )
+            self.geometry_dd = gui.add_dropdown(
+                "Geometry",
+                GEOMETRIES,
+                initial_value=app.geometry,
+                hint="husky: the real 0.99 x 0.67 m footprint; paper: the paper's point robot, "
+                "inputs and distances centre to centre (ideal perception)",
+            )
+            self.geometry_dd.on_update(
+                self.view.guarded(lambda e: app.set_geometry(self.geometry_dd.value))
+            )
+            self.disturbance_cb = gui.add_checkbox(
+                "Disturbance",
+                app.disturbance_on,
+                hint="A sin(2t) added to every controller input (scenario 3: 25-35 s)",
+            )
+            self.disturbance_cb.on_update(
+                self.view.guarded(lambda e: app.set_disturbance(self.disturbance_cb.value))
+            )
+            self.noise = gui.add_slider(
+                "Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01, app.noise_std_m
+            )
+            self.noise.on_update(self.view.guarded(self._on_noise))
+            # What each part of fuzzynav does, shown by switching it off while it drives
+            # (shown while fuzzynav drives; assets/rules/fuzzynav_parts.toml).
+            self.parts_folder = gui.add_folder(
+                "fuzzynav's parts (untick: off)",
+                expand_by_default=False,
+                visible=app.snapshot().has_parts,
+            )
+            self.part_boxes = {}
+            with self.parts_folder:
+                for part in app.part_options():
+                    box = gui.add_checkbox(
+                        part.name, part.name not in app.parts_off, hint=f"Off: {part.what}"
+                    )
+                    box.on_update(
+                        self.view.guarded(
+                            lambda e, name=part.name: app.set_part(name, e.target.value)
+                        )
+                    )
+                    self.part_boxes[part.name] = box
+
+        with gui.add_folder("View", expand_by_default=False):
+            self.handles_cb = gui.add_checkbox(
+                "Show drag handles",
+                self.view.show_handles,
+                hint="Arrows on the target and the obstacles (they also drag by their body)",
+            )
+            self.handles_cb.on_update(self.view.guarded(self._on_handles))
+            self.view_3d_cb = gui.add_checkbox(
+                "3D view (tilt with the mouse)",
+                self.view.view_3d,
+                hint="Off: the camera stays straight above the arena",
+            )
+            self.view_3d_cb.on_update(self.view.guarded(self._on_view_3d))
+            self.presentation_cb = gui.add_checkbox(
+                "Presentation mode (large type)",
+                self.view.presentation,
+                hint="A wide inference panel and large type, for a projector",
+            )
+            self.presentation_cb.on_update(self.view.guarded(self._on_presentation))
+        with gui.add_folder("Colour key"):
+            gui.add_html(colour_key_html())
+        with gui.add_folder("Result"):
+            self.view.status_line.add_result(gui)
+
+    def sync(self, snap: Snapshot) -> None:
+        """Show in every tab what the world is (another tab may have changed it)."""
+        app = self.app
+        options = tuple(app.scenario_options())
+        if tuple(self.scenario_dd.options) != options:
+            self.scenario_dd.options = options
+        if self.scenario_dd.value != snap.scenario_label:
+            self.scenario_dd.value = snap.scenario_label
+        options = tuple(app.controller_options())
+        if tuple(self.controller_dd.options) != options:
+            self.controller_dd.options = options
+        if self.controller_dd.value != snap.controller_label and snap.controller_label in options:
+            self.controller_dd.value = snap.controller_label
+        if self.perception_dd.value != snap.perception:
+            self.perception_dd.value = snap.perception
+        if self.geometry_dd.value != snap.geometry:
+            self.geometry_dd.value = snap.geometry
+        if self.disturbance_cb.value != snap.disturbance_on:
+            self.disturbance_cb.value = snap.disturbance_on
+        if abs(self.noise.value - snap.noise_std_m) > 1e-9:
+            self.noise.value = snap.noise_std_m
+        if self.parts_folder.visible != snap.has_parts:
+            self.parts_folder.visible = snap.has_parts
+        for name, box in self.part_boxes.items():
+            if box.value != (name not in snap.parts_off):
+                box.value = name not in snap.parts_off
+        top = max(round(snap.history_span[1], 2), HISTORY_STEP_S)
+        if abs(self.history_slider.max - top) > 1e-9:
+            self.history_slider.max = top
+        shown = min(round(snap.time_s, 2), top)
+        if abs(self.history_slider.value - shown) > 0.5 * HISTORY_STEP_S:
+            self.history_slider.value = shown
+        if self.history_live.disabled == snap.history:
+            self.history_live.disabled = not snap.history
+
+    def _on_noise(self, event) -> None:
+        try:
+            self.app.set_noise(self.noise.value)
+        except ViewerError:
+            self.noise.value = self.app.noise_std_m  # never leave the box blank or wrong
+            raise
+
+    def _on_handles(self, event) -> None:
+        self.view.show_handles = bool(self.handles_cb.value)
+        self.view.handles.show(self.view.show_handles)
+
+    def _on_view_3d(self, event) -> None:
+        self.view.view_3d = bool(self.view_3d_cb.value)
+        if not self.view.view_3d:
+            self.view.camera.fit_all()
+
+    def _on_presentation(self, event) -> None:
+        self.view.set_presentation(bool(self.presentation_cb.value))
+
+    def _on_run_button(self, event) -> None:
+        choice = self.run_buttons.value
+        {
+            "Play": self.app.play,
+            "Pause": self.app.pause,
+            "Step": self.app.step_once,
+            "Reset": self.app.reset,
+        }[choice]()
+
+    def _on_obstacle_button(self, event) -> None:
+        if self.obstacle_buttons.value == "Add":
+            self.app.add_obstacle()
+        else:
+            self.app.remove_obstacle()
+
+    def _on_fis_upload(self, event) -> None:
+        uploaded = self.fis_upload.value
+        label = self.app.upload_fis(uploaded.content, uploaded.name)
+        self.controller_dd.options = self.app.controller_options()
+        self.controller_dd.value = label
+        self.view.tell(event.client, f"Driving with {label}.", "success")
+
+    def _on_scenario_upload(self, event) -> None:
+        uploaded = self.scenario_upload.value
+        label = self.app.upload_scenario(uploaded.content, uploaded.name)
+        self.scenario_dd.options = self.app.scenario_options()
+        self.scenario_dd.value = label

@@ -1,0 +1,350 @@
+"""The scenario and the edits to it: the scenario list, loading and uploading, the
+layout as dragged (target, obstacles added, moved and removed) and what it means for
+the run (a blocked target, an obstacle on the robot), and the paper controller's
+membership editor. A part of :class:`ViewerApp` (:mod:`.model`), whose state and lock
+it shares."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from fuzzynav.app.viewer.state import (
+    EDITED_LABEL,
+    MAX_UPLOAD_BYTES,
+    NEW_OBSTACLE_RADIUS_M,
+    UPLOADED_PREFIX,
+    ViewerError,
+    safe_display_name,
+)
+from fuzzynav.world.scenario import (
+    ObstacleSpec,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    loads_scenario,
+    scenario_names,
+    target_blocker,
+)
+
+
+class ScenarioEditing:
+    """See the module's docstring; ``app`` is the :class:`ViewerApp` it is part of."""
+
+    def __init__(self, app):
+        self.app = app
+
+    def scenario_options(self) -> list[str]:
+        app = self.app
+        options = list(scenario_names())
+        if app.scenario_label not in options:
+            options.append(app.scenario_label)
+        for name in app.uploaded_scenarios:
+            if name not in options:
+                options.append(name)
+        return options
+
+    def load_scenario(self, name: str) -> None:
+        """Switch to a shipped scenario (by name) or one uploaded before; pauses at t = 0."""
+        app = self.app
+        if name in app.uploaded_scenarios:
+            scenario = app.uploaded_scenarios[name]
+        elif name == app.scenario_label:
+            scenario = app.base_scenario
+        elif name in scenario_names():
+            try:
+                scenario = load_scenario(name)
+            except ScenarioError as exc:
+                raise ViewerError(str(exc)) from None
+        else:
+            raise ViewerError(
+                f"scenario {name!r}: unknown (choose from {', '.join(self.scenario_options())})"
+            )
+        with app.lock:
+            app.playing = False
+            other = name != app.scenario_label
+            app.base_scenario = scenario
+            app.scenario_label = name
+            app.disturbance_on = scenario.disturbance is not None
+            app.driver._reset_locked(scenario)
+            if other:  # the last run's trail and numbers belong to another arena
+                app.ghost = None
+                app.ghost_id += 1
+            app._notice(f"Loaded {scenario.name}.", "info")
+
+    def upload_scenario(self, content: bytes, filename: str = "scenario.toml") -> str:
+        """Validate an uploaded TOML scenario and switch to it; returns its label.
+
+        A bad file raises :class:`ViewerError` naming the key and value; the running
+        world is left as it was.
+        """
+        app = self.app
+        label = UPLOADED_PREFIX + safe_display_name(filename, "scenario.toml")
+        if len(content) > MAX_UPLOAD_BYTES:
+            raise ViewerError(f"{label}: {len(content)} bytes is too large for a scenario file")
+        try:  # bounded: nesting, numbers, counts (world/scenario.py)
+            scenario = loads_scenario(
+                bytes(content), source=label, footprint_m=app.sim.arena.footprint_m
+            )
+        except ScenarioError as exc:
+            raise ViewerError(str(exc)) from None
+        from fuzzynav.world.simulation import check_run_size
+
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
+            check_run_size(scenario.duration_s, app.sim.control_period_s, len(scenario.obstacles))
+        except ValueError as exc:
+            raise ViewerError(f"{label}: {exc}") from None
+        app.uploaded_scenarios[label] = scenario
+        self.load_scenario(label)
+        return label
+
+    def restore_layout(self) -> None:
+        """Undo every drag, addition and removal: the scenario as loaded, at t = 0."""
+        app = self.app
+        with app.lock:
+            app.playing = False
+            app.disturbance_on = app.base_scenario.disturbance is not None
+            app.driver._reset_locked(app.base_scenario)
+
+    def _layout_scenario(self) -> Scenario:
+        """The scenario as edited: obstacles and target where the user put them."""
+        app = self.app
+        return app.base_scenario.replace(
+            target=tuple(app._target), obstacles=tuple(spec for _, spec in app._layout)
+        )
+
+    @property
+    def layout_edited(self) -> bool:
+        app = self.app
+        return self._layout_scenario() != app.base_scenario
+
+    def _check_xy(self, xy) -> tuple[float, float]:
+        try:
+            x, y = (float(v) for v in list(xy)[:2])
+        except (TypeError, ValueError):
+            raise ViewerError(f"position {xy!r}: must be two numbers") from None
+        if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > 1000:
+            raise ViewerError(f"position {xy!r}: must be finite and within 1 km")
+        return x, y
+
+    def obstacle_number(self, obstacle_id: int) -> int:
+        """The number the page gives an obstacle (its label in the arena, its name in
+        messages): its place in the layout, from 1 (``obstacles[k]`` of the scenario
+        file is obstacle k + 1)."""
+        app = self.app
+        with app.lock:
+            for k, (i, _) in enumerate(app._layout):
+                if i == obstacle_id:
+                    return k + 1
+        return obstacle_id + 1
+
+    @staticmethod
+    def plain_names(text: str) -> str:
+        """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1."""
+        return re.sub(r"obstacles\[(\d+)\]", lambda m: f"obstacle {int(m.group(1)) + 1}", text)
+
+    def check_target(self) -> str | None:
+        """After an edit (a drag ended, an obstacle added): tell the user when the target
+        can no longer be reached, and when it can again. Returns the warning, if any."""
+        app = self.app
+        with app.lock:
+            layout = self._layout_scenario()
+            blocked = target_blocker(
+                layout.target,
+                layout.tolerance_m,
+                layout.obstacles,
+                0.5 * app.sim.arena.footprint_m[1],
+            )
+            if blocked is not None:
+                text = self.plain_names(f"The target {blocked[1]}: the robot cannot get there.")
+                app._target_warning = text
+                app._notice(text, "warning")
+                return text
+            # A finished run restarts from the start on Play: judge the start, not where
+            # the last run stopped (it may have stopped against that very obstacle).
+            finished = app.sim.done
+            on_robot = self.obstacles_on_robot(at_start=finished)
+            if on_robot:
+                names = ", ".join(str(self.obstacle_number(i)) for i in on_robot)
+                text = (
+                    f"Obstacle {names} is on the robot's start: the next run will end in a "
+                    "collision at once. Drag it off the start."
+                    if finished
+                    else f"Obstacle {names} is on the robot: Play will end in a collision "
+                    "at once. Drag it off the robot."
+                )
+                app._target_warning = text
+                app._notice(text, "warning")
+                return text
+            if app._target_warning is not None:
+                app._target_warning = None
+                app._notice("The target can be reached again.", "info")
+            return None
+
+    def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
+        """Ids of the obstacles that overlap the robot's footprint where it stands (or,
+        ``at_start``, where the next run starts, with the obstacles of the layout)."""
+        app = self.app
+        with app.lock:
+            arena = app.sim.arena
+            if at_start:
+                return self._obstacles_on_start_locked()
+            clearances = arena.clearances()
+            if app.geometry == "paper":  # the 25 cm are judged centre to centre there
+                clearances = clearances + np.array(arena._scene().radii, dtype=float)
+            ids = list(arena.obstacles)
+            return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
+
+    def _obstacles_on_start_locked(self) -> list[int]:
+        app = self.app
+        sc = app.sim.scenario
+        x, y = sc.start
+        heading = sc.heading_rad
+        length, width = app.sim.arena.footprint_m
+        c, s = math.cos(heading), math.sin(heading)
+        out = []
+        for obstacle_id, spec in app._layout:
+            dx, dy = spec.position[0] - x, spec.position[1] - y
+            lx, ly = c * dx + s * dy, -s * dx + c * dy
+            gap = math.hypot(max(abs(lx) - 0.5 * length, 0.0), max(abs(ly) - 0.5 * width, 0.0))
+            if app.geometry != "paper":
+                gap -= spec.radius_m
+            if gap <= 0.0:
+                out.append(obstacle_id)
+        return out
+
+    def editor(self):
+        """The membership editor of the paper controller (built on first use)."""
+        app = self.app
+        from fuzzynav.app.viewer.editor import PaperEditor
+
+        with app.lock:
+            if app.paper_edit is None:
+                app.paper_edit = PaperEditor(app.geometry)
+            return app.paper_edit
+
+    def set_membership_parameter(self, name: str, value) -> None:
+        """Change one of the paper controller's membership parameters and drive with the
+        edited system at once (the run goes on)."""
+        app = self.app
+        editor = self.editor()
+        try:
+            controller = editor.set(name, value)
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
+        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+
+    def set_inference_choice(self, field: str, value: str) -> None:
+        """Change one of the paper controller's inference choices (issue 27: AND,
+        implication, aggregation, defuzzification) and drive with it at once."""
+        app = self.app
+        try:
+            controller = self.editor().set_choice(field, value)
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
+        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+
+    def reset_membership_editor(self) -> None:
+        """Back to the shipped paper controller (and its parameters in the editor)."""
+        app = self.app
+        editor = self.editor()
+        controller = editor.reset()
+        app.setup._install_controller(controller, "paper")
+
+    def edited_fis_text(self) -> str:
+        """The edited paper system as a MATLAB .fis file (text)."""
+        return self.editor().fis_text()
+
+    def move_target(self, xy) -> None:
+        app = self.app
+        x, y = self._check_xy(xy)
+        with app.lock:
+            app.sim.arena.move_target((x, y))
+            app._target = (x, y)
+            # A controller that doubts target readings which move the target (fuzzynav,
+            # against disturbed inputs) is told that this move is meant.
+            new_target = getattr(app.controller.inner, "new_target", None)
+            if new_target is not None:
+                new_target()
+            app._bump()
+
+    def move_obstacle(self, obstacle_id: int, xy) -> None:
+        """Put an obstacle at ``xy`` now; a moving one keeps its velocity from there."""
+        app = self.app
+        x, y = self._check_xy(xy)
+        with app.lock:
+            arena = app.sim.arena
+            if obstacle_id not in arena.obstacles:
+                raise ViewerError("that obstacle does not exist (any more)")
+            before = arena.obstacles[obstacle_id].position_at(arena.time_s)
+            arena.move_obstacle(obstacle_id, (x, y))
+            # The layout (what a reset restarts from) shifts that obstacle's whole path.
+            delta = np.array((x, y)) - before
+            for k, (i, spec) in enumerate(app._layout):
+                if i == obstacle_id:
+                    moved = tuple(float(v) for v in np.asarray(spec.position) + delta)
+                    app._layout[k] = (
+                        i,
+                        ObstacleSpec(moved, spec.radius_m, spec.velocity, spec.acceleration),
+                    )
+            app._bump()
+
+    def suggest_obstacle_position(self) -> tuple[float, float]:
+        """Where a new obstacle is most instructive: on the way from the robot to the target."""
+        app = self.app
+        with app.lock:
+            x, y, heading = app.sim.arena.pose
+            tx, ty = app.sim.arena.target
+            centres, radii, _ = app.sim.arena.obstacle_arrays()
+        for frac in (0.5, 0.35, 0.65, 0.2, 0.8):
+            px, py = x + frac * (tx - x), y + frac * (ty - y)
+            if math.hypot(px - x, py - y) < 1.2 or math.hypot(px - tx, py - ty) < 0.8:
+                continue
+            if all(
+                math.hypot(px - c[0], py - c[1]) > r + NEW_OBSTACLE_RADIUS_M + 0.3
+                for c, r in zip(centres.tolist(), radii.tolist())
+            ):
+                return (round(px, 2), round(py, 2))
+        # No free spot on the way: 2.5 m ahead of the robot, a little to its left.
+        return (
+            round(x + 2.5 * math.cos(heading + 0.3), 2),
+            round(y + 2.5 * math.sin(heading + 0.3), 2),
+        )
+
+    def add_obstacle(self, xy=None, radius_m: float = NEW_OBSTACLE_RADIUS_M) -> int:
+        """Add a static obstacle (at a useful spot unless ``xy`` is given); returns its id."""
+        app = self.app
+        if xy is None:
+            xy = self.suggest_obstacle_position()
+        x, y = self._check_xy(xy)
+        radius_m = float(radius_m)
+        if not (math.isfinite(radius_m) and 0.02 <= radius_m <= 5.0):
+            raise ViewerError(f"radius {radius_m!r} m: must be between 0.02 and 5 m")
+        spec = ObstacleSpec((x, y), radius_m)
+        with app.lock:
+            obstacle_id = app.sim.arena.add_obstacle(spec)
+            app._layout.append((obstacle_id, spec))
+            app.layout_id += 1
+            app._bump()
+        self.check_target()
+        return obstacle_id
+
+    def remove_obstacle(self, obstacle_id: int | None = None) -> int:
+        """Remove an obstacle (the newest when no id is given); returns its id."""
+        app = self.app
+        with app.lock:
+            arena = app.sim.arena
+            if obstacle_id is None:
+                if not arena.obstacles:
+                    raise ViewerError("there is no obstacle to remove")
+                obstacle_id = max(arena.obstacles)
+            if obstacle_id not in arena.obstacles:
+                raise ViewerError("that obstacle does not exist (any more)")
+            arena.remove_obstacle(obstacle_id)
+            app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
+            app.layout_id += 1
+            app._bump()
+        self.check_target()
+        return obstacle_id

@@ -1,0 +1,158 @@
+"""The Editor tab: sliders for the paper controller's membership parameters (the
+tuner's parametrisation, :mod:`.editor`), its inference choices (issue 27), a download of
+the edited system and a reset.
+All of the Editor panel's code is here: its layout, its callbacks and its sync."""
+
+from __future__ import annotations
+
+from fuzzynav.controller.inference import CHOICES
+
+EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
+# The Editor's inference choices (issue 27): field of controller.inference.Inference,
+# label, and what the choice does, in words (MATLAB's names are the options).
+EDITOR_CHOICES = (
+    ("and_method", "AND", "how a rule joins its clauses: min, or prod (their product)"),
+    (
+        "imp_method",
+        "Implication",
+        "a rule's output set: min (its term clipped at the rule's strength) or prod (scaled by it)",
+    ),
+    (
+        "agg_method",
+        "Aggregation",
+        "how the rules' sets combine: max, sum (may pass 1), probor (a + b - ab)",
+    ),
+    (
+        "defuzz_method",
+        "Defuzzification",
+        "centroid, bisector (half the area each side), mom / som / lom: mean, smallest or "
+        "largest (in magnitude) of the points where the set is highest",
+    ),
+)
+# What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
+# and the paper geometry's partition layout, controller/paper_partition.py).
+EDITOR_LABELS = {
+    "d_t.a0": "VS full to, S starts (m)",
+    "d_t.w1": "S peak after that (m)",
+    "d_t.w2": "M centre after S (m)",
+    "d_t.w3": "L peak after M (m)",
+    "d_t.w4": "VL full after L (m)",
+    "d_t.c0": "first centre (m)",
+    "d_o.b0": "near full to (m)",
+    "d_o.w1": "medium centre after (m)",
+    "d_o.w2": "far full after that (m)",
+    "phi_t.peak": "P, N peak (rad)",
+    "phi_t.width": "VP, VN full after (rad)",
+    "phi_t.zero": "Z half-width (rad)",
+    "phi_t.foot": "P starts at (× peak)",
+    "phi_o.peak": "P, N peak (rad)",
+    "phi_o.width": "VP, VN peak after (rad)",
+    "phi_o.zero": "Z half-width (rad)",
+    "phi_o.foot": "P starts at (× peak)",
+    "phi_o.tail": "VP, VN end after (rad)",
+    "v.vs_end": "VS full to (V)",
+    "v.vs_ramp": "VS falls over (V)",
+    "v.s_offset": "S centre after VS (V)",
+    "v.m_offset": "M centre after S (V)",
+    "v.l_offset": "L centre after M (V)",
+    "v.s_half": "S half-width (V)",
+    "v.m_half": "M half-width (V)",
+    "v.l_half": "L half-width (V)",
+    "v.vl_offset": "VL starts after L (V)",
+    "v.vl_ramp": "VL rises over (V)",
+}
+
+
+class EditorPanel:
+    """The Editor tab of one :class:`app.viewer.server.ViewerServer`."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+        self.editor_sliders: dict = {}
+        self.editor_choices: dict = {}
+
+    def build(self) -> None:
+        """Sliders for the paper controller's membership parameters (the tuner's
+        parametrisation: ordered terms stay valid), a download and a reset."""
+        gui = self.view.server.gui
+        app = self.app
+        editor = app.editor()
+        note = (
+            "The sliders start from the shipped rule base's own numbers."
+            if editor.exact
+            else "The shipped rule base does not record its parameters: the sliders start "
+            "from the tuner's starting point (Reset drives with the shipped one)."
+        )
+        gui.add_html(
+            "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
+            "choice and the robot drives with the edited <b>paper</b> controller at once (the "
+            "run goes on). Each number "
+            "places a term (where it starts, peaks or ends) or a gap after the term before "
+            f"it, so the terms stay in order whatever you do. {note}</div>"
+        )
+        self.editor_buttons = gui.add_button_group(
+            "Edited system", ("Download .fis", "Reset to shipped")
+        )
+        self.editor_buttons.on_click(self.view.guarded(self._on_editor_button))
+        self.editor_choices = {}
+        with gui.add_folder("Inference (MATLAB's choices)", expand_by_default=True):
+            for field, label, hint in EDITOR_CHOICES:
+                dropdown = gui.add_dropdown(
+                    label, CHOICES[field], initial_value=editor.choice(field), hint=hint
+                )
+                dropdown.on_update(
+                    self.view.guarded(
+                        lambda e, field=field: app.set_inference_choice(field, e.target.value)
+                    )
+                )
+                self.editor_choices[field] = dropdown
+        self.editor_sliders = {}
+        groups: dict[str, list[str]] = {}
+        for name in editor.names:
+            groups.setdefault(name.split(".")[0], []).append(name)
+        titles = {"v": "outputs left, right (V)"}
+        for group, names in groups.items():
+            with gui.add_folder(titles.get(group, group), expand_by_default=group == "d_t"):
+                for name in names:
+                    lo, hi = editor.bounds[name]
+                    slider = gui.add_slider(
+                        EDITOR_LABELS.get(name, name.split(".", 1)[1]),
+                        lo,
+                        hi,
+                        step=EDITOR_STEP,
+                        initial_value=round(editor.value(name), 2),
+                        hint=f"{name} in the tuner's terms; {lo:g} to {hi:g}",
+                    )
+                    slider.on_update(
+                        self.view.guarded(
+                            lambda e, name=name: app.set_membership_parameter(name, e.target.value)
+                        )
+                    )
+                    self.editor_sliders[name] = slider
+
+    def _on_editor_button(self, event) -> None:
+        if self.editor_buttons.value == "Download .fis":
+            text = self.app.edited_fis_text()
+            event.client.send_file_download(
+                "paper_edited.fis", text.encode("utf-8"), save_immediately=True
+            )
+            return
+        self.app.reset_membership_editor()
+        editor = self.app.editor()
+        for name, slider in self.editor_sliders.items():
+            slider.value = round(editor.value(name), 2)
+        for field, dropdown in self.editor_choices.items():
+            dropdown.value = editor.choice(field)
+
+    def sync(self) -> None:
+        """The sliders at the edited system's numbers (another tab may have moved them)."""
+        if self.app.paper_edit is not None:
+            editor = self.app.paper_edit
+            for name, slider in self.editor_sliders.items():
+                value = round(editor.value(name), 2)  # as the slider shows it
+                if abs(slider.value - value) > 1e-9:
+                    slider.value = value
+            for field, dropdown in self.editor_choices.items():
+                if dropdown.value != editor.choice(field):
+                    dropdown.value = editor.choice(field)

@@ -1,0 +1,209 @@
+"""The Inference tab: MATLAB's rule viewer for the controller at the step shown (the
+term plots, the rule table, the aggregated sets and centroids, from :mod:`.views`), the
+rule-firing strip of the run, and what-if mode (inputs typed by hand)."""
+
+from __future__ import annotations
+
+import html
+import math
+import time
+
+import numpy as np
+
+from fuzzynav.app.viewer import views
+from fuzzynav.app.viewer.model import Snapshot, ViewerError
+from fuzzynav.app.viewer.status import set_html
+
+TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
+
+
+class InferencePanel:
+    """The Inference tab of one :class:`app.viewer.server.ViewerServer`."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+        self._system_key = None
+        self._system_count = 0
+        self._uid = "fz0"
+        self.last_inference = None
+        self._timeline_key = None
+        self._next_timeline = 0.0
+
+    def build(self) -> None:
+        gui = self.view.server.gui
+        self.defs_html = gui.add_html("", order=0.0)
+        self.firing_only_cb = gui.add_checkbox(
+            "Firing rules only",
+            False,
+            hint="Show only the rules whose strength is above zero",
+            order=0.5,
+        )
+        self.firing_only_cb.on_update(self.view.guarded(lambda e: self.redraw()))
+        self._build_what_if()
+        self.timeline_html = gui.add_html("", order=0.8)
+        self.inference_html = gui.add_html("", order=1.0)
+
+    def _build_what_if(self) -> None:
+        """What-if mode: pause, type an input's value, and the whole inference (rules,
+        clipped sets, aggregate, centroids, the surface's dot) follows; the robot stays."""
+        gui = self.view.server.gui
+        with gui.add_folder("What-if", expand_by_default=False, order=0.6):
+            self.what_if_cb = gui.add_checkbox(
+                "What-if mode",
+                False,
+                hint="Pause and try inputs by hand; untick to go on where the run was",
+            )
+            self.what_if_cb.on_update(self.view.guarded(self._on_what_if))
+            self.what_if_boxes = []
+            for k, (name, lo, hi, unit) in enumerate(
+                (
+                    ("d_t", 0.0, 20.0, "m"),
+                    ("d_o", 0.0, 10.0, "m"),
+                    ("phi_t", -math.pi, math.pi, "rad"),
+                    ("phi_o", -math.pi, math.pi, "rad"),
+                )
+            ):
+                box = gui.add_number(
+                    f"{name} ({unit})",
+                    initial_value=0.0,
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.01,
+                    disabled=True,
+                    hint="type a value (d_o, phi_o: none sensed until you do)",
+                )
+                box.on_update(
+                    self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.target.value))
+                )
+                self.what_if_boxes.append(box)
+
+    def _on_what_if(self, event) -> None:
+        if self.what_if_cb.value:
+            try:
+                self.app.start_what_if()
+            except ViewerError:
+                self.what_if_cb.value = False
+                raise
+        else:
+            self.app.stop_what_if()
+
+    def redraw(self) -> None:
+        self.last_inference = None
+        self.app._bump()
+
+    def sync(self, snap: Snapshot) -> None:
+        """What-if mode's box and numbers as the world has them."""
+        on = snap.what_if is not None
+        if self.what_if_cb.value != on:
+            self.what_if_cb.value = on
+        for k, box in enumerate(self.what_if_boxes):
+            if box.disabled == on:
+                box.disabled = not on
+            if on and math.isfinite(snap.what_if[k]) and abs(box.value - snap.what_if[k]) > 5e-3:
+                box.value = round(float(snap.what_if[k]), 2)
+
+    def _system_uid(self, fis, labels, output_labels) -> str:
+        """An id prefix for this system's SVG definitions (new when the system changes)."""
+        key = id(fis)
+        if key != self._system_key:
+            self._system_key = key
+            self._system_count += 1
+            self._uid = f"fz{self._system_count}"
+            self.defs_html.content = views.defs_html(fis, self._uid, labels, output_labels)
+        return self._uid
+
+    @staticmethod
+    def _output_weights(info) -> dict | None:
+        """fuzzynav's blocks: the weight its arbitration gives each output now (alpha to
+        the avoidance block, 1 - alpha to the goal block); None for a plain system."""
+        state = info.get("state") or {}
+        try:
+            alpha = float(state["avoidance weight alpha"])
+        except (KeyError, TypeError, ValueError):
+            return None
+        return {
+            name: (alpha if name.startswith("avoid") else 1.0 - alpha)
+            for name in info["output_names"]
+        }
+
+    def draw_timeline(self, snap: Snapshot) -> None:
+        """The rule-firing strip of this run, with a cursor at the time shown (the live
+        end, or the time slider's step). Redrawn every TIMELINE_PERIOD_S while playing."""
+        import base64
+
+        now = time.perf_counter()
+        key = (snap.run_id, snap.controller_label, round(snap.time_s, 2))
+        if key == self._timeline_key or (snap.playing and now < self._next_timeline):
+            return
+        self._timeline_key = key
+        self._next_timeline = now + TIMELINE_PERIOD_S
+        line = self.app.firing_timeline()
+        if line is None:
+            set_html(self.timeline_html, "")
+            return
+        times, strengths = line
+        png = base64.b64encode(views.timeline_png(times, strengths)).decode()
+        t0, t1 = float(times[0]), float(times[-1])
+        where = 100.0 * (snap.time_s - t0) / (t1 - t0) if t1 > t0 else 100.0
+        set_html(
+            self.timeline_html,
+            "<div class='fz-timeline' style='font-family:system-ui,sans-serif;font-size:0.8em;"
+            "padding:0 6px'><b>Rules over this run</b> (a row per rule, rule 1 at the top; "
+            "orange: firing)<div style='position:relative'>"
+            f"<img src='data:image/png;base64,{png}' style='width:100%;height:60px;"
+            "display:block;image-rendering:pixelated;border:1px solid #cbd5e1'/>"
+            f"<div class='fz-timeline-cursor' style='position:absolute;top:0;bottom:0;"
+            f"left:{min(max(where, 0.0), 100.0):.1f}%;width:2px;background:#0f172a'></div></div>"
+            "<div style='display:flex;justify-content:space-between;color:#475569'>"
+            f"<span>{t0:.1f} s</span><span>{t1:.1f} s</span></div></div>",
+        )
+
+    def draw(self, snap: Snapshot) -> None:
+        info = self.app.teaching()
+        if info is None:
+            fis = self.app.fuzzy_system()
+            if fis is None:
+                text = (
+                    f"The controller <b>{html.escape(snap.controller_label)}</b> has no "
+                    "fuzzy rules to show. Choose a fuzzy controller (paper, fuzzynav) or "
+                    "upload a .fis file."
+                )
+            else:
+                text = "Press <b>Play</b> or <b>Step</b>: the rules that fire appear here."
+            set_html(
+                self.inference_html,
+                f"<div style='font-size:0.9em;color:#475569;padding:0 6px'>{text}</div>",
+            )
+            return
+        fis = info["fis"]
+        only_firing = bool(self.firing_only_cb.value)
+        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.view.presentation, only_firing)
+        if key == self.last_inference:
+            return
+        self.last_inference = key
+        labels = list(info["input_names"])
+        notes = {}
+        if info.get("state") is not None and "phi_t" in labels:
+            # fuzzynav's goal block is fed the planner's bearing, not the target's.
+            labels[labels.index("phi_t")] = "phi_plan"
+            notes["phi_plan"] = (
+                "the bearing fuzzynav's planner steers to, fed to its goal block "
+                "(not the target bearing φ_t of the status line)"
+            )
+        uid = self._system_uid(fis, labels, info["output_names"])
+        inf = views.infer(fis, info["inputs"], labels, info["output_names"])
+        set_html(
+            self.inference_html,
+            views.inference_html(
+                inf,
+                uid=uid,
+                large=self.view.presentation,
+                crisp=info["state"],
+                only_firing=only_firing,
+                weights=self._output_weights(info),
+                notes=notes,
+            ),
+        )
+
+    # -- control surfaces ---------------------------------------------------------------

@@ -1,0 +1,96 @@
+"""The render loop: one thread per :class:`app.viewer.server.ViewerServer` that alone
+writes the scene, from :meth:`ViewerApp.snapshot`, at up to ``FRAME_HZ`` while something
+changes and not at all while nothing does; the panels (status line, plots, inference,
+surface, the inputs on the robot, the result) at ``PANEL_HZ``, the plots at ``PLOT_HZ``."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+
+from fuzzynav.app.viewer.model import Snapshot
+
+FRAME_HZ = 30.0
+PANEL_HZ = 4.0  # the status line and the inference view
+PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
+
+
+class RenderLoop:
+    """Draws a :class:`app.viewer.server.ViewerServer`'s parts from the app's snapshots."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+        self._stop = threading.Event()
+        self._frame_times: deque[float] = deque(maxlen=120)
+        self._last_panel_version = -1
+        self._next_plot = 0.0
+        self._thread = threading.Thread(target=self._run, name="fuzzynav-render", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def halt(self) -> None:
+        """No more frames (without waiting for the thread: a closed classroom tab)."""
+        self._stop.set()
+
+    def stop(self) -> None:
+        self.halt()
+        self._thread.join(timeout=5.0)
+
+    def scene_hz(self) -> float:
+        """Scene updates per second over the last frames (0 when idle)."""
+        times = list(self._frame_times)
+        if len(times) < 2 or time.perf_counter() - times[-1] > 0.5:
+            return 0.0
+        return (len(times) - 1) / (times[-1] - times[0])
+
+    def _run(self) -> None:
+        period = 1.0 / FRAME_HZ
+        drawn_version = -1
+        next_panels = 0.0
+        while not self._stop.is_set():
+            started = time.perf_counter()
+            snap = self.app.snapshot()
+            if snap.version != drawn_version:
+                try:
+                    with self.view.server.atomic():
+                        self.view.scene.draw(snap)
+                except Exception as exc:  # keep rendering whatever one frame did
+                    self.app._notice(f"scene update failed: {type(exc).__name__}: {exc}", "warning")
+                drawn_version = snap.version
+                self._frame_times.append(started)
+            if snap.version != self._last_panel_version and (
+                started >= next_panels or not snap.playing
+            ):
+                try:
+                    self._draw_panels(snap)
+                except Exception as exc:
+                    self.app._notice(f"panel update failed: {type(exc).__name__}: {exc}", "warning")
+                self._last_panel_version = snap.version
+                next_panels = started + 1.0 / PANEL_HZ
+            if self._last_panel_version == drawn_version == snap.version and not snap.playing:
+                # All drawn and nothing runs: sleep until the app changes.
+                with self.app._changed:
+                    if self.app.version == snap.version and not self._stop.is_set():
+                        self.app._changed.wait(0.25)
+                continue
+            self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
+
+    def _draw_panels(self, snap: Snapshot) -> None:
+        view = self.view
+        view.status_line.draw(snap)
+        view.controls.sync(snap)
+        view.inference.sync(snap)
+        view.editor.sync()
+        now = time.perf_counter()
+        if now >= self._next_plot or not snap.playing:
+            self._next_plot = now + 1.0 / PLOT_HZ
+            view.plots.draw()
+        view.inference.draw(snap)
+        view.inference.draw_timeline(snap)
+        view.surface.draw(snap)
+        with view.server.atomic():
+            view.scene.draw_inputs(snap)
+        view.status_line.draw_result(snap)

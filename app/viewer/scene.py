@@ -1,0 +1,525 @@
+"""The 3D scene: the robot (the Husky's body or the paper's point), its beams and safe
+ring, the controller's inputs drawn on it, fuzzynav's memory, the trail and the previous
+run's ghost, the start, the straight line to the target, and the ground with its metre
+marks. The target's and obstacles' drag handles are :mod:`.handles`'.
+
+Only the render thread draws here (:mod:`.render`), from :meth:`ViewerApp.snapshot`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fuzzynav.app.viewer.model import SAFE_DISTANCE_M, Snapshot
+
+HUSKY_FOOTPRINT_M = (0.99, 0.67)  # drawn; the world's own footprint is the arena's
+TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this many
+BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
+
+# Colours (RGB 0-255).
+GHOST_GREY = (148, 163, 184)
+HUSKY_YELLOW = (250, 190, 20)
+HUSKY_DARK = (40, 40, 40)
+TRAIL_BLUE = (37, 99, 235)
+RING_OK = (217, 119, 6)
+RING_ALERT = (220, 38, 38)
+NO_ECHO = (175, 175, 175)
+MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
+STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
+GROUND = (255, 255, 255)
+TARGET_INPUT = (13, 148, 136)  # d_t, phi_t on the robot (views.TARGET_INPUT)
+OBSTACLE_INPUT = (192, 38, 211)  # d_o, phi_o (views.OBSTACLE_INPUT)
+ARC_SEGMENTS = 8
+INPUT_SEGMENTS = ARC_SEGMENTS + 2  # a distance, a radius along the heading, an arc
+
+
+def yaw_wxyz(theta: float) -> tuple[float, float, float, float]:
+    return (math.cos(0.5 * theta), 0.0, 0.0, math.sin(0.5 * theta))
+
+
+def reading_colour(distance_m: float) -> tuple[int, int, int]:
+    """Red within the safe distance, through amber, to green at 3 m; grey = no echo."""
+    if not math.isfinite(distance_m):
+        return NO_ECHO
+    stops = [
+        (0.0, (220, 38, 38)),
+        (SAFE_DISTANCE_M, (220, 38, 38)),
+        (1.0, (245, 158, 11)),
+        (3.0, (22, 163, 74)),
+    ]
+    if distance_m >= stops[-1][0]:
+        return stops[-1][1]
+    for (d0, c0), (d1, c1) in zip(stops, stops[1:]):
+        if distance_m <= d1:
+            f = 0.0 if d1 == d0 else (distance_m - d0) / (d1 - d0)
+            return tuple(int(round(a + f * (b - a))) for a, b in zip(c0, c1))
+    return stops[-1][1]
+
+
+def rounded_rectangle(length: float, width: float, offset: float, n_arc: int = 8) -> np.ndarray:
+    """Closed outline (N, 2) of a rectangle grown by ``offset`` (round corners)."""
+    hx, hy = 0.5 * length, 0.5 * width
+    points = []
+    for cx, cy, a0 in (
+        (hx, hy, 0.0),
+        (-hx, hy, 0.5 * math.pi),
+        (-hx, -hy, math.pi),
+        (hx, -hy, 1.5 * math.pi),
+    ):
+        for k in range(n_arc + 1):
+            a = a0 + 0.5 * math.pi * k / n_arc
+            points.append((cx + offset * math.cos(a), cy + offset * math.sin(a)))
+    points.append(points[0])
+    return np.array(points)
+
+
+def polyline_segments(points_xy: np.ndarray, z: float) -> np.ndarray:
+    """(N, 2) polyline -> (N - 1, 2, 3) line segments at height z."""
+    p = np.asarray(points_xy, dtype=np.float32)
+    seg = np.zeros((max(len(p) - 1, 0), 2, 3), dtype=np.float32)
+    seg[:, 0, :2] = p[:-1]
+    seg[:, 1, :2] = p[1:]
+    seg[:, :, 2] = z
+    return seg
+
+
+def arena_bounds(snap: Snapshot, start) -> tuple[int, int, int, int]:
+    """Even-sized integer bounds holding start, target and obstacles, with a margin."""
+    xs = [start[0], snap.target[0], snap.pose[0]] + [o.xy[0] for o in snap.obstacles]
+    ys = [start[1], snap.target[1], snap.pose[1]] + [o.xy[1] for o in snap.obstacles]
+    x0, x1 = math.floor(min(xs) - 2.0), math.ceil(max(xs) + 2.0)
+    y0, y1 = math.floor(min(ys) - 2.0), math.ceil(max(ys) + 2.0)
+    size = max(x1 - x0, y1 - y0, 10)
+    size += size % 2
+    cx, cy = round(0.5 * (x0 + x1)), round(0.5 * (y0 + y1))
+    half = size // 2
+    return cx - half, cx + half, cy - half, cy + half
+
+
+def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
+    """(INPUT_SEGMENTS, 2, 3): a distance along ``bearing`` (from ``start`` m off the
+    centre), the heading's radius and the arc from the heading to ``bearing``."""
+    x, y, heading = pose
+    z = 0.5
+    a = heading + bearing
+    seg = np.zeros((INPUT_SEGMENTS, 2, 3), np.float32)
+    seg[:, :, 2] = z
+    seg[0, 0, :2] = (x + start * math.cos(a), y + start * math.sin(a))
+    seg[0, 1, :2] = (x + (start + distance) * math.cos(a), y + (start + distance) * math.sin(a))
+    seg[1, 0, :2] = (x, y)
+    seg[1, 1, :2] = (x + radius * math.cos(heading), y + radius * math.sin(heading))
+    angles = heading + np.linspace(0.0, bearing, ARC_SEGMENTS + 1)
+    arc = np.column_stack([x + radius * np.cos(angles), y + radius * np.sin(angles)])
+    seg[2:, 0, :2] = arc[:-1]
+    seg[2:, 1, :2] = arc[1:]
+    return seg
+
+
+def footprint_exit(footprint_m, bearing: float) -> float:
+    """How far from the centre a ray at ``bearing`` (robot frame) leaves the
+    footprint (0 for the paper's point robot)."""
+    half_l, half_w = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
+    c, s = abs(math.cos(bearing)), abs(math.sin(bearing))
+    return min(half_l / c if c > 1e-9 else math.inf, half_w / s if s > 1e-9 else math.inf)
+
+
+class Scene:
+    """The scene nodes of one :class:`app.viewer.server.ViewerServer`, and how a
+    snapshot moves them."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+        self.bounds = None
+        self._trail_nodes: list = []
+        self._current_trail = None
+        self._trail_points = np.zeros((0, 2))
+        self._trail_index = 0
+        self._drawn_run = -1
+        self._last_target = None
+        self._last_ranges = None
+        self._ring_alert = None
+        self._start_xy = tuple(view.app.sim.scenario.start)
+        self._ghost_drawn = -1
+        self.ghost_node = None
+
+    # -- built once ----------------------------------------------------------------------
+
+    def build(self) -> None:
+        scene = self.view.server.scene
+        # No HDRI environment map: viser fetches it from the internet and keeps the canvas
+        # dimmed until it arrives, which offline (a classroom) is never.
+        scene.configure_environment_map(hdri=None)
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
+        # ... so light the scene ourselves: soft all round, plus a sun from above.
+        scene.add_light_ambient("/lights/ambient", intensity=1.6)
+        scene.add_light_directional("/lights/sun", intensity=1.2, position=(2.0, -3.0, 10.0))
+        L, W = HUSKY_FOOTPRINT_M
+        self.robot = scene.add_frame("/robot", show_axes=False)
+        # The paper's geometry draws the robot as the point it is (a small disc), the
+        # Husky's as its body; both exist, one is shown (``_show_geometry``).
+        self.point_robot = scene.add_cylinder(
+            "/robot/point",
+            radius=0.06,
+            height=0.04,
+            color=HUSKY_YELLOW,
+            wxyz=(math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0),
+            position=(0.0, 0.0, 0.05),
+            visible=False,
+        )
+        self._husky_nodes = []
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/body",
+                color=HUSKY_YELLOW,
+                dimensions=(L, W * 0.78, 0.26),
+                position=(0.0, 0.0, 0.25),
+            )
+        )
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/deck",
+                color=HUSKY_DARK,
+                dimensions=(0.62 * L, 0.62 * W, 0.03),
+                position=(-0.06 * L, 0.0, 0.39),
+            )
+        )
+        self._husky_nodes.append(
+            scene.add_box(
+                "/robot/bumper",
+                color=HUSKY_DARK,
+                dimensions=(0.06, W * 0.78, 0.12),
+                position=(0.5 * L - 0.03, 0.0, 0.2),
+            )
+        )
+        wheel_q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)
+        for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
+            self._husky_nodes.append(
+                scene.add_cylinder(
+                    f"/robot/wheel{i}",
+                    radius=0.165,
+                    height=0.11,
+                    color=(25, 25, 25),
+                    wxyz=wheel_q,
+                    position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165),
+                )
+            )
+        # Heading arrow on the deck.
+        arrow = np.array(
+            [
+                [[-0.25, 0, 0.43], [0.42, 0, 0.43]],
+                [[0.42, 0, 0.43], [0.27, 0.12, 0.43]],
+                [[0.42, 0, 0.43], [0.27, -0.12, 0.43]],
+            ],
+            dtype=np.float32,
+        )
+        scene.add_line_segments("/robot/heading", arrow, (255, 255, 255), thickness=0.05)
+        self._ring_points = {
+            "husky": polyline_segments(rounded_rectangle(L, W, SAFE_DISTANCE_M), 0.03),
+            # the paper's 25 cm, centre to centre: an obstacle's centre must stay outside
+            "paper": polyline_segments(rounded_rectangle(0.0, 0.0, SAFE_DISTANCE_M), 0.03),
+        }
+        self.ring = scene.add_line_segments(
+            "/robot/safe_ring", self._ring_points["husky"], RING_OK, thickness=0.035
+        )
+        self._shown_geometry = "husky"
+        # Beams that echo: thick, coloured by the reading; beams that do not: thin grey.
+        self.beams = scene.add_line_segments(
+            "/robot/beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.07
+        )
+        self.free_beams = scene.add_line_segments(
+            "/robot/free_beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.025
+        )
+        self.show_geometry(self.app.geometry)
+        # Target: a bullseye with a handle that slides on the ground.
+        self.view.handles.build_target(scene)
+        self.ideal = scene.add_line_segments(
+            "/ideal_line", np.zeros((1, 2, 3), np.float32), (150, 150, 150), thickness=0.02
+        )
+        self.start_marker = scene.add_line_segments(
+            "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04
+        )
+        # fuzzynav's memory: the echoes it remembers, and the bearing its planner steers to.
+        self.memory = scene.add_point_cloud(
+            "/memory/echoes",
+            np.zeros((1, 3), np.float32),
+            MEMORY_PURPLE,
+            point_size=0.07,
+            point_shape="circle",
+            visible=False,
+        )
+        self.steer = scene.add_line_segments(
+            "/memory/steer",
+            np.zeros((1, 2, 3), np.float32),
+            STEER_GREEN,
+            thickness=0.06,
+            visible=False,
+        )
+        # The controller's inputs drawn on the robot, in the term plots' colours: d_t as
+        # the line to the target, phi_t as the arc from the heading to it; d_o as the gap
+        # from the footprint's edge along phi_o, phi_o as its arc. A fixed number of
+        # segments each: an update sends only their points, at the panels' rate.
+        self.input_nodes = {
+            kind: scene.add_line_segments(
+                f"/inputs/{kind}",
+                np.zeros((INPUT_SEGMENTS, 2, 3), np.float32),
+                colour,
+                thickness=0.04,
+                visible=False,
+            )
+            for kind, colour in (("target", TARGET_INPUT), ("obstacle", OBSTACLE_INPUT))
+        }
+        self._inputs_drawn = None
+        self.ghost_node = scene.add_line_segments(
+            "/ghost/trail",
+            np.zeros((1, 2, 3), np.float32),
+            GHOST_GREY,
+            thickness=0.035,
+            visible=False,
+        )
+
+    def frame_arena(self, bounds) -> None:
+        """Ground grid, metre marks and the top-down camera for these bounds."""
+        scene = self.view.server.scene
+        x0, x1, y0, y1 = bounds
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        size = x1 - x0
+        scene.add_grid(
+            "/ground",
+            width=size,
+            height=size,
+            plane="xy",
+            cell_size=0.5,
+            section_size=1.0,
+            cell_color=(222, 222, 218),
+            section_color=(165, 165, 160),
+            cell_thickness=0.8,
+            section_thickness=1.3,
+            plane_opacity=0.0,
+            shadow_opacity=0.0,
+            position=(cx, cy, 0.0),
+        )
+        scene.add_box(
+            "/ground_slab",
+            color=GROUND,
+            dimensions=(size, size, 0.02),
+            position=(cx, cy, -0.012),
+            cast_shadow=False,
+            receive_shadow=0.25,
+        )
+        scene.remove_by_name("/marks")
+        step = 1 if size <= 16 else 2
+        for x in range(x0, x1 + 1, step):
+            scene.add_label(
+                f"/marks/x{x}",
+                f"{x}" + (" m" if x == x1 else ""),
+                position=(x, y0 - 0.25, 0.0),
+                anchor="top-center",
+                font_screen_scale=self.view.label_scale(0.75),
+            )
+        for y in range(y0, y1 + 1, step):
+            scene.add_label(
+                f"/marks/y{y}",
+                f"{y}" + (" m" if y == y1 else ""),
+                position=(x0 - 0.25, y, 0.0),
+                anchor="center-right",
+                font_screen_scale=self.view.label_scale(0.75),
+            )
+        self.view.camera.frame(bounds)
+
+    # -- drawn from each snapshot ------------------------------------------------------
+
+    def show_geometry(self, geometry: str) -> None:
+        """The Husky's body for its footprint; a small disc for the paper's point robot."""
+        if geometry == self._shown_geometry:
+            return
+        self._shown_geometry = geometry
+        for node in self._husky_nodes:
+            node.visible = geometry == "husky"
+        self.point_robot.visible = geometry == "paper"
+        # The point robot senses exactly, not with the sonars: no beams are drawn.
+        self.beams.visible = self.free_beams.visible = geometry == "husky"
+        self.ring.points = self._ring_points[geometry]
+        self._ring_alert = None  # recolour the new ring
+
+    def draw(self, snap: Snapshot) -> None:
+        self.show_geometry(snap.geometry)
+        if snap.run_id != self._drawn_run:
+            self._drawn_run = snap.run_id
+            for node in self._trail_nodes + [self._current_trail]:
+                if node is not None:
+                    node.remove()
+            self._trail_nodes = []
+            self._current_trail = None
+            self._trail_points = np.zeros((0, 2))
+            self._trail_index = 0
+            self._start_xy = tuple(self.app.sim.scenario.start)
+            bounds = arena_bounds(snap, self._start_xy)
+            if bounds != self.bounds:
+                self.bounds = bounds
+                self.frame_arena(bounds)
+            sx, sy = self._start_xy
+            cross = np.array(
+                [
+                    [[sx - 0.2, sy, 0.01], [sx + 0.2, sy, 0.01]],
+                    [[sx, sy - 0.2, 0.01], [sx, sy + 0.2, 0.01]],
+                ],
+                dtype=np.float32,
+            )
+            self.start_marker.points = cross
+            self._last_target = None
+        self.view.handles.draw_obstacles(snap)
+
+        x, y, heading = snap.pose
+        self.robot.position = (x, y, 0.0)
+        self.robot.wxyz = yaw_wxyz(heading)
+
+        # Drawn to BEAM_STEP_M (a pixel or two at the arena's scale): a beam is re-sent
+        # when its reading moves by that much, not at every millimetre.
+        ranges = tuple(np.round(snap.ranges_m / BEAM_STEP_M) * BEAM_STEP_M)
+        if ranges != self._last_ranges:
+            self._last_ranges = ranges
+            for handle, echo in ((self.beams, True), (self.free_beams, False)):
+                points, colours = self._beam_segments(snap, echo, ranges)
+                handle.points = points
+                handle.colors = colours
+        alert = snap.nearest_clearance_m < SAFE_DISTANCE_M
+        if alert != self._ring_alert:
+            self._ring_alert = alert
+            colour = RING_ALERT if alert else RING_OK
+            self.ring.colors = np.broadcast_to(
+                np.array(colour, np.uint8), self.ring.points.shape
+            ).copy()
+
+        if snap.target != self._last_target:
+            self._last_target = snap.target
+            self.view.handles.place_target(snap.target)
+            sx, sy = self._start_xy
+            self.ideal.points = np.array(
+                [[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]], dtype=np.float32
+            )
+        self._draw_memory(snap)
+        self._draw_trail()
+        self._draw_ghost(snap)
+
+    def draw_inputs(self, snap: Snapshot) -> None:
+        """The inputs the controller was given, on the robot (at the panels' rate, from
+        the same snapshot as the term plots: the same numbers)."""
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
+        pose = snap.input_pose or snap.pose  # where they were read (a step ago)
+        key = (tuple(np.round(pose, 3)), tuple(np.round((d_t, d_o, phi_t, phi_o), 3)))
+        if key == self._inputs_drawn:
+            return
+        self._inputs_drawn = key
+        shown = {
+            "target": math.isfinite(d_t) and math.isfinite(phi_t),
+            "obstacle": math.isfinite(d_o) and math.isfinite(phi_o),
+        }
+        if shown["target"]:
+            self.input_nodes["target"].points = input_segments(pose, d_t, phi_t, 1.1)
+        if shown["obstacle"]:
+            start = footprint_exit(snap.footprint_m, phi_o)
+            self.input_nodes["obstacle"].points = input_segments(
+                pose, max(d_o, 0.0), phi_o, 0.8, start
+            )
+        for kind, node in self.input_nodes.items():
+            if node.visible != shown[kind]:
+                node.visible = shown[kind]
+
+    def _draw_ghost(self, snap: Snapshot) -> None:
+        if snap.ghost_id == self._ghost_drawn:
+            return
+        self._ghost_drawn = snap.ghost_id
+        ghost = snap.ghost
+        if ghost is None or len(ghost.trail) < 2:
+            self.ghost_node.visible = False
+            return
+        segs = polyline_segments(ghost.trail, 0.012)
+        self.ghost_node.points = segs
+        self.ghost_node.colors = np.broadcast_to(np.array(GHOST_GREY, np.uint8), segs.shape).copy()
+        self.ghost_node.visible = True
+
+    def _draw_memory(self, snap: Snapshot) -> None:
+        """fuzzynav's remembered echoes (where the robot believes they are) and the
+        bearing it steers to; hidden for controllers without a memory."""
+        shown = snap.memory_xy is not None
+        if self.memory.visible != shown:
+            self.memory.visible = shown
+        # The planned bearing only while there is one (none before the first step of a
+        # run: a line left from the last run would lie).
+        steering = shown and math.isfinite(snap.steer_heading_rad)
+        if self.steer.visible != steering:
+            self.steer.visible = steering
+        if not shown:
+            return
+        pts = snap.memory_xy
+        if len(pts):
+            cloud = np.column_stack([pts, np.full(len(pts), 0.08)]).astype(np.float32)
+        else:
+            cloud = np.zeros((1, 3), np.float32)  # one point under the ground
+            cloud[0, 2] = -1.0
+        self.memory.points = cloud
+        self.memory.colors = np.broadcast_to(np.array(MEMORY_PURPLE, np.uint8), cloud.shape).copy()
+        x, y, _ = snap.pose
+        a = snap.steer_heading_rad
+        if math.isfinite(a):
+            self.steer.points = np.array(
+                [[[x, y, 0.5], [x + 1.6 * math.cos(a), y + 1.6 * math.sin(a), 0.5]]],
+                dtype=np.float32,
+            )
+
+    def _beam_segments(self, snap: Snapshot, echo: bool, ranges=None):
+        """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
+        mounts = self.app.sim.sensors.config.mounts
+        half = 0.5 * snap.beam_width_rad
+        segments, colours = [], []
+        for mount, reading in zip(mounts, snap.ranges_m if ranges is None else ranges):
+            if math.isfinite(reading) != echo:
+                continue
+            reach = float(reading) if math.isfinite(reading) else snap.max_range_m
+            colour = reading_colour(float(reading))
+            ox, oy, a = mount.x_m, mount.y_m, mount.angle_rad
+            arc = [
+                (ox + reach * math.cos(a + s), oy + reach * math.sin(a + s))
+                for s in np.linspace(-half, half, 5)
+            ]
+            outline = [(ox, oy)] + arc + [(ox, oy)]
+            for p, q in zip(outline, outline[1:]):
+                segments.append([[p[0], p[1], 0.06], [q[0], q[1], 0.06]])
+                colours.append([colour, colour])
+        if not segments:  # nothing of this kind: a zero-length segment under the robot
+            return np.zeros((1, 2, 3), np.float32), np.full((1, 2, 3), 255, np.uint8)
+        return np.array(segments, dtype=np.float32), np.array(colours, dtype=np.uint8)
+
+    def _draw_trail(self) -> None:
+        run_id, new = self.app.trail_since(self._trail_index)
+        if run_id != self._drawn_run or len(new) == 0:
+            return
+        self._trail_index += len(new)
+        scene = self.view.server.scene
+        points = np.concatenate([self._trail_points, new])
+        chunk = TRAIL_CHUNK
+        while len(points) > chunk:
+            # A full chunk is frozen as a node of its own; the next starts at its end.
+            name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+            self._trail_nodes.append(
+                scene.add_line_segments(
+                    name, polyline_segments(points[:chunk], 0.015), TRAIL_BLUE, thickness=0.045
+                )
+            )
+            self._current_trail = None
+            points = points[chunk - 1 :]
+        if len(points) >= 2:
+            segs = polyline_segments(points, 0.015)
+            if self._current_trail is None:
+                name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+                self._current_trail = scene.add_line_segments(
+                    name, segs, TRAIL_BLUE, thickness=0.045
+                )
+            else:
+                self._current_trail.points = segs
+        self._trail_points = points
+
+    # -- panels ------------------------------------------------------------------------

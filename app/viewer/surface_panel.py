@@ -1,0 +1,242 @@
+"""The Surface tab: the controller's crisp outputs over a plane of two inputs (MATLAB's
+Surface Viewer: both axes and the held inputs chosen), as heatmaps sent once, with the
+operating point as a dot that moves (a few bytes of CSS, :func:`surface_view.marker_style`)."""
+
+from __future__ import annotations
+
+import html
+import math
+
+import numpy as np
+
+from fuzzynav.app.viewer import surface_view
+from fuzzynav.app.viewer.model import Snapshot, ViewerError
+from fuzzynav.app.viewer.status import set_html
+
+SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
+SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
+
+
+class SurfacePanel:
+    """The Surface tab of one :class:`app.viewer.server.ViewerServer`."""
+
+    def __init__(self, view):
+        self.view = view
+        self.app = view.app
+        self._surface_key = None
+        self._surface_planes: list = []
+
+    def build(self) -> None:
+        gui = self.view.server.gui
+        self._build_surface_choice()
+        self.surface_html = gui.add_html("", order=1.0)
+        self.marker_html = gui.add_html("", order=2.0)
+
+    def _build_surface_choice(self) -> None:
+        """The first surface's two axes and the values the other inputs are held at
+        (MATLAB's Surface Viewer); the second plane stays (d_o, phi_o)."""
+        gui = self.view.server.gui
+        self.surface_axes = (0, 2)
+        self.surface_held = [5.0, 1.0, 0.0, 0.0]
+        with gui.add_folder("Axes and held inputs", expand_by_default=False, order=0.0):
+            self.surface_x_dd = gui.add_dropdown("x axis", SURFACE_INPUTS, initial_value="d_t")
+            self.surface_y_dd = gui.add_dropdown("y axis", SURFACE_INPUTS, initial_value="phi_t")
+            self.surface_held_boxes = []
+            for k, name in enumerate(SURFACE_INPUTS):
+                lo, hi = SURFACE_RANGES[k]
+                box = gui.add_number(
+                    f"held {name}",
+                    initial_value=self.surface_held[k],
+                    min=round(lo, 2),
+                    max=round(hi, 2),
+                    step=0.05,
+                    hint="the value this input is held at when it is not an axis",
+                )
+                box.on_update(self.view.guarded(lambda e: self._on_surface_choice()))
+                self.surface_held_boxes.append(box)
+            self.surface_no_obstacle_cb = gui.add_checkbox(
+                "no obstacle sensed",
+                True,
+                hint="d_o and phi_o held as 'none sensed' (when neither is an axis)",
+            )
+            for handle in (self.surface_x_dd, self.surface_y_dd, self.surface_no_obstacle_cb):
+                handle.on_update(self.view.guarded(lambda e: self._on_surface_choice()))
+
+    def _on_surface_choice(self) -> None:
+        x = SURFACE_INPUTS.index(self.surface_x_dd.value)
+        y = SURFACE_INPUTS.index(self.surface_y_dd.value)
+        if x == y:
+            raise ViewerError("choose two different inputs for the axes")
+        self.surface_axes = (x, y)
+        self.surface_held = [float(b.value) for b in self.surface_held_boxes]
+        self._surface_key = None  # recompute
+        self.app._bump()
+
+    def _custom_plane(self, fis):
+        xi, yi = self.surface_axes
+        held = np.array(self.surface_held, dtype=float)
+        no_obstacle = self.surface_no_obstacle_cb.value and not ({xi, yi} & {1, 3})
+        if no_obstacle:
+            held[1] = held[3] = np.nan
+        names = fis.input_names
+        others = [k for k in range(4) if k not in (xi, yi)]
+        said = []
+        for k in others:
+            if np.isnan(held[k]):
+                if "no obstacle sensed" not in said:
+                    said.append("no obstacle sensed")
+            else:
+                said.append(f"{names[k]} = {held[k]:g}")
+        ranges = [self._surface_range(fis, k) for k in range(4)]
+        return (
+            f"{names[xi]}, {names[yi]} with {', '.join(said)}",
+            fis,
+            xi,
+            yi,
+            ranges[xi],
+            ranges[yi],
+            held,
+            "wheels",
+        )
+
+    @staticmethod
+    def _surface_range(fis, k: int) -> tuple[float, float]:
+        lo, hi = fis.inputs[k].range
+        return (
+            max(SURFACE_RANGES[k][0], lo) if k in (0, 1) else SURFACE_RANGES[k][0],
+            min(SURFACE_RANGES[k][1], hi) if k in (0, 1) else SURFACE_RANGES[k][1],
+        )
+
+    def _surface_planes_for(self, inner):
+        """(title, fis, x index, y index, x range, y range, held inputs, outputs) per
+        plane; outputs are ('speed', 'turn') from (left, right) or the block's own."""
+        fis = getattr(inner, "fis", None)
+        if fis is not None and fis.n_inputs == 4 and not hasattr(inner, "teaching_view"):
+            names = fis.input_names
+            ranges = [tuple(v.range) for v in fis.inputs]
+            held = np.array([5.0, np.nan, 0.0, np.nan])
+            d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
+            return [
+                self._custom_plane(fis),
+                (
+                    f"{names[1]}, {names[3]} with the target 5 m ahead",
+                    fis,
+                    1,
+                    3,
+                    d_o_range,
+                    (-math.pi / 2, math.pi / 2),
+                    held,
+                    "wheels",
+                ),
+            ]
+        goal = getattr(inner, "goal", None)
+        if goal is not None and hasattr(inner, "teaching_view"):
+            held = np.zeros(goal.n_inputs)
+            held[:] = [5.0 if n == "d_t" else 0.0 for n in goal.input_names]
+            xi = goal.input_names.index("d_t")
+            yi = 1 - xi
+            return [
+                (
+                    "fuzzynav's goal block over (d_t, phi_plan); its avoidance block reads "
+                    "three sector distances, not (d_o, phi_o)",
+                    goal,
+                    xi,
+                    yi,
+                    (0.0, min(goal.inputs[xi].range[1], 12.0)),
+                    (-math.pi, math.pi),
+                    held,
+                    "block",
+                )
+            ]
+        return []
+
+    def draw(self, snap: Snapshot) -> None:
+        inner = self.app.controller.inner
+        key = (id(getattr(inner, "fis", None)), id(inner))
+        if self._surface_key is None or key != self._surface_key:
+            self._surface_key = key
+            self._surface_planes = self._surface_planes_for(inner)
+            self.surface_html.content = self._surface_html(snap)
+        markers = {}
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
+        for p, plane in enumerate(self._surface_planes):
+            title, fis, xi, yi, x_range, y_range, held, kind = plane
+            if kind == "block":
+                info = self.app.teaching()
+                x = info["inputs"] if info is not None else np.full(2, np.nan)
+                vx, vy = float(x[xi]), float(x[yi])
+            else:
+                values = (d_t, d_o, phi_t, phi_o)
+                vx, vy = values[xi], values[yi]
+            where = surface_view.marker_fraction(vx, vy, x_range, y_range)
+            for k in range(2):
+                markers[f"fz-op{p}{k}"] = where
+        set_html(self.marker_html, surface_view.marker_style(markers))
+
+    def _surface_html(self, snap: Snapshot) -> str:
+        if not self._surface_planes:
+            return (
+                "<div style='font-size:0.9em;color:#475569;padding:0 6px'>The controller "
+                f"<b>{html.escape(snap.controller_label)}</b> has no fuzzy surface to show.</div>"
+            )
+        import base64
+
+        blocks = []
+        for p, (title, fis, xi, yi, x_range, y_range, held, kind) in enumerate(
+            self._surface_planes
+        ):
+            xs, ys, out = surface_view.surface_grid(fis, xi, yi, x_range, y_range, held)
+            if kind == "wheels":
+                left, right = out[..., 0], out[..., 1]
+                fields = [
+                    ("speed = (left + right) / 2 (V)", 0.5 * (left + right)),
+                    # as fuzzynav's command has it: left = speed - turn, right = speed + turn
+                    ("turn = (right − left) / 2 (V)", 0.5 * (right - left)),
+                ]
+            else:
+                fields = [(f"{fis.output_names[k]}", out[..., k]) for k in range(2)]
+            cells = []
+            for k, (label, values) in enumerate(fields):
+                limit = float(np.nanmax(np.abs(values))) or 1.0
+                png = base64.b64encode(surface_view.surface_png(values, limit)).decode()
+                x_ticks = "".join(
+                    f"<span class='fz-xtick'>{v:.3g}</span>" for v in np.linspace(*x_range, 5)
+                )
+                y_ticks = "".join(
+                    f"<span class='fz-ytick'>{v:.2g}</span>"
+                    for v in np.linspace(y_range[1], y_range[0], 5)
+                )
+                cells.append(
+                    "<div style='flex:1;min-width:0'>"
+                    f"<div style='font-size:0.8em;font-weight:600'>{html.escape(label)}</div>"
+                    "<div style='display:flex;gap:2px'>"
+                    "<div style='display:flex;flex-direction:column;justify-content:space-between;"
+                    f"font-size:0.65em;color:#475569;text-align:right'>{y_ticks}</div>"
+                    "<div style='position:relative;flex:1;min-width:0'>"
+                    f"<img src='data:image/png;base64,{png}' style='width:100%;display:block;"
+                    "image-rendering:pixelated;border:1px solid #cbd5e1'/>"
+                    f"<div id='fz-op{p}{k}' class='fz-op' style='position:absolute;display:none;"
+                    "width:12px;height:12px;margin:-6px 0 0 -6px;border-radius:50%;"
+                    "border:2px solid #111;background:#facc15'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'>{x_ticks}</div></div></div>"
+                    f"<div style='font-size:0.7em;color:#475569;text-align:center'>"
+                    f"{html.escape(fis.input_names[xi])} → ; ↑ {html.escape(fis.input_names[yi])}"
+                    "</div>"
+                    "<div class='fz-colour-bar' style='height:8px;margin-top:2px;border:1px solid "
+                    "#cbd5e1;background:linear-gradient(to right,#2563eb,#ffffff,#dc2626)'></div>"
+                    "<div style='font-size:0.65em;color:#475569;display:flex;"
+                    f"justify-content:space-between'><span>−{limit:.1f}</span><span>0</span>"
+                    f"<span>+{limit:.1f} V</span></div></div>"
+                )
+            blocks.append(
+                f"<div style='font-weight:600;margin-top:6px'>{html.escape(title)}</div>"
+                f"<div style='display:flex;gap:8px'>{''.join(cells)}</div>"
+            )
+        return (
+            "<div class='fz-surface' style='font-family:system-ui,sans-serif;font-size:0.9em;"
+            "padding:0 6px'>The crisp outputs over two inputs, the others held; the yellow "
+            "dot is where the robot is now. A positive turn turns to the left."
+            + "".join(blocks)
+            + "</div>"
+        )
