@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import differential_evolution
 
+from fuzzynav.app.published import PAPER_TABLE4, SCENARIOS
 from fuzzynav.controller.fuzzynav_params import PARAMS_PATH
 from fuzzynav.controller.fuzzynav_tuning import tunable
 from fuzzynav.world.layouts import generate_layout
@@ -28,7 +29,7 @@ from fuzzynav.world.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PAPER_PATH_M = {"s1": 11.8332, "s2": 11.8672, "s3": 11.8263}
+PAPER_PATH_M = dict(zip(SCENARIOS, PAPER_TABLE4["paper"]["path_length_m"]))
 _CACHE: dict = {}
 
 

@@ -261,3 +261,21 @@ def test_recordings_name_the_package_version():
     # This test runs from a checkout: the revision is there, and it is this checkout's.
     if (ROOT / ".git").exists():
         assert versions.get("git")
+
+
+def test_the_papers_numbers_live_in_one_place():
+    """Table 4 is written once, in assets/paper/results.toml; the code reads it there
+    (app/published.py) instead of carrying copies that can drift apart."""
+    results = tomllib.loads(asset_path("paper", "results.toml").read_text(encoding="utf-8"))
+    numbers = {
+        repr(value)
+        for table in ("table4", "table4_ref19")
+        for row in results[table].values()
+        for value in row.values()
+        if len(repr(value)) >= 6  # 0.2557, 11.8332, ...: specific enough to find
+    }
+    assert len(numbers) >= 20
+    for name, path in _module_files().items():
+        text = path.read_text(encoding="utf-8")
+        found = sorted(n for n in numbers if n in text)
+        assert not found, f"{name} carries Table 4's {found}: read app.published instead"

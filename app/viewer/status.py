@@ -7,30 +7,8 @@ from __future__ import annotations
 import html
 import math
 
+from fuzzynav.app.published import published_table4
 from fuzzynav.app.viewer.model import Snapshot
-
-# Paper Table 4, proposed method (S1, S2, S3): shown beside our numbers for the shipped
-# scenarios when their layout has not been edited.
-PAPER_TABLE4 = {
-    "s1": {
-        "path_length_m": 11.8332,
-        "mad_m": 0.3653,
-        "rmse_m": 0.4825,
-        "min_center_distance_m": 0.2557,
-    },
-    "s2": {
-        "path_length_m": 11.8672,
-        "mad_m": 0.5727,
-        "rmse_m": 0.7449,
-        "min_center_distance_m": 0.3834,
-    },
-    "s3": {
-        "path_length_m": 11.8263,
-        "mad_m": 0.6298,
-        "rmse_m": 0.7474,
-        "min_center_distance_m": 0.6398,
-    },
-}
 
 
 def _fmt(value, unit: str = "", digits: int = 2) -> str:
@@ -166,7 +144,7 @@ class StatusLine:
             return self.RESULT_PENDING
         m = snap.metrics or {"outcome": "running" if snap.playing else "not finished"}
         ghost = snap.ghost.metrics if snap.ghost is not None else None
-        paper = PAPER_TABLE4.get(snap.scenario_label) if not snap.layout_edited else None
+        paper = None if snap.layout_edited else published_table4("paper", snap.scenario_label)
         colour = "#15803d" if m.get("outcome") == "reached" else "#b91c1c"
         rows = [
             ("Outcome", m.get("outcome"), None, ""),
