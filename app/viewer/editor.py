@@ -1,15 +1,15 @@
 """Edit the paper controller's membership functions while it drives.
 
 The sliders move the numbers of a layout that can rebuild the shipped rule base: the
-partition layout of :mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
-:class:`fuzzynav.controller.paper.PaperTunable` (the shipped ``rules/paper.toml`` of issue
-25 is drawn from the 12 numbers of :mod:`fuzzynav.controller.paper_design`, which this
-editor does not offer yet, so it starts from the tuner's starting point and says so).
-Both build their shapes from positive widths, so that however a slider is moved, every
-shape stays valid and the terms stay in their order. The partition layout leaves no
-input uncovered; in the 27-number one a slider can open a hole (its Z and P terms may
-stop overlapping), and the rule panel then says that no rule fires and the fallback
-applies. The editor starts from the shipped rule base's own numbers when its
+design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``
+of issue 25: every slider position keeps the design rules), or, for rule bases written
+by older fits and tunes, the partition layout of
+:mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
+:class:`fuzzynav.controller.paper.PaperTunable`. All build their shapes from positive
+widths, so that however a slider is moved, every shape stays valid and the terms stay in
+their order. The design and partition layouts leave no input uncovered; in the
+27-number one a slider can open a hole (its Z and P terms may stop overlapping), and the
+rule panel then says that no rule fires and the fallback applies. The editor starts from the shipped rule base's own numbers when its
 file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they rebuild
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
@@ -65,14 +65,16 @@ class PaperEditor:
 
     def __init__(self, geometry: str = "husky"):
         from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
+        from fuzzynav.controller.paper_design import PaperDesignTunable
         from fuzzynav.controller.paper_partition import PaperPartitionTunable
 
         self.geometry = geometry
         self.shipped = paper_controller(geometry=geometry)
         path = RULES_BY_GEOMETRY[geometry]
-        # The layout the shipped file was made in: the partition one (no holes) for the
-        # rule base fitted to Table 4, the earlier 27-number one for the Husky's.
-        for candidate in (PaperPartitionTunable(), PaperTunable()):
+        # The layout the shipped file was made in: the design layout (issue 25) for the
+        # shipped paper controller; the partition one (no holes) and the earlier
+        # 27-number one for rule bases written by older fits and tunes.
+        for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
             self.tunable = candidate
             self.start, self.exact = shipped_vector(candidate, self.shipped.fis, path)
             if self.exact:

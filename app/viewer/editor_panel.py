@@ -29,15 +29,27 @@ EDITOR_CHOICES = (
         "largest (in magnitude) of the points where the set is highest",
     ),
 )
-# What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
-# and the paper geometry's partition layout, controller/paper_partition.py).
+# What the editor's numbers do, in words: the shipped paper controller's design layout
+# (controller/paper_design.py), then the older 27-number (controller/paper.py) and
+# partition (controller/paper_partition.py) layouts.
 EDITOR_LABELS = {
+    "d_t.c0": "VS holds 1 up to (m)",
+    "d_t.h": "VS to S spacing (m)",
+    "d_t.r": "each next spacing grows (×)",
+    "d_o.near": "near holds 1 up to (m)",
+    "d_o.far": "far holds 1 from (m)",
+    "phi_t.p": "P, N centre (rad)",
+    "phi_t.w": "VP, VN full after P (rad)",
+    "phi_o.p": "P, N centre (rad)",
+    "phi_o.w": "VP, VN full after P (rad)",
+    "v.e0": "VS holds 1 at (V)",
+    "v.top": "VL holds 1 at (V)",
+    "v.r": "each next spacing grows (×)",
     "d_t.a0": "VS full to, S starts (m)",
     "d_t.w1": "S peak after that (m)",
     "d_t.w2": "M centre after S (m)",
     "d_t.w3": "L peak after M (m)",
     "d_t.w4": "VL full after L (m)",
-    "d_t.c0": "first centre (m)",
     "d_o.b0": "near full to (m)",
     "d_o.w1": "medium centre after (m)",
     "d_o.w2": "far full after that (m)",
