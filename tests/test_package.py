@@ -95,8 +95,6 @@ KNOWN_OVERSIZE = {
     "fuzzynav.app.viewer.server",
     "fuzzynav.app.viewer.model",
     "fuzzynav.app.figures.run_figures",
-    "fuzzynav.app.experiments.studies",
-    "fuzzynav.app.experiments.tuning",  # grew past 800 with the batch engine's options (issue 29)
     "fuzzynav.app.viewer.views",  # grew past 800 with the classroom viewer (issue 27)
     "fuzzynav.controller.fuzzynav",
     "fuzzynav.controller.fuzzy",

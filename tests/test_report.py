@@ -116,7 +116,7 @@ def test_report_table_is_beside_the_papers_numbers(paper_geometry_report):
     the difference in per cent is computed from the two."""
     import tomllib
 
-    from fuzzynav.app.experiments.studies import PAPER_TABLE4, TABLE4_ROWS
+    from fuzzynav.app.experiments.compare import PAPER_TABLE4, TABLE4_ROWS
     from fuzzynav.resources import asset_path
 
     with open(asset_path("paper", "results.toml"), "rb") as fh:

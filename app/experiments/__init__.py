@@ -1,6 +1,9 @@
 """The experiments room: many runs, and what they say.
 
-- :mod:`.studies`     ``sweep`` and ``compare`` on seeded layouts and the paper's scenarios;
+- :mod:`.studies`     a study's layout jobs, their rows and fingerprints, run on an executor;
+- :mod:`.sweep`       ``sweep``: a controller on seeded layouts, its success rate;
+- :mod:`.compare`     ``compare``: Table 4 on the paper's scenarios, beside the paper;
+- :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
 - :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;

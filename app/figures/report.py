@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError
-from fuzzynav.app.experiments.studies import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.experiments.compare import SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
