@@ -94,7 +94,6 @@ KNOWN_OVERSIZE = {
     "fuzzynav.app.recordings.record",
     "fuzzynav.app.viewer.server",
     "fuzzynav.app.viewer.model",
-    "fuzzynav.app.figures.run_figures",
     "fuzzynav.app.viewer.views",  # grew past 800 with the classroom viewer (issue 27)
     "fuzzynav.controller.fuzzynav",
     "fuzzynav.controller.fuzzy",
