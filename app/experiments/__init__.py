@@ -9,5 +9,5 @@
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
 - :mod:`.resultlog`   ``--out``/``--resume``: rows written as they arrive, read back safely;
-- :mod:`.cmaes`       the evolution strategy of the fit.
+- :mod:`.evolution`   pycma's CMA-ES on a box, seeded: fit-paper's search (and tune --method cmaes).
 """

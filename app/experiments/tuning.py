@@ -228,7 +228,7 @@ def tune(
             counted, start, method=method, bounds=Bounds(lo, hi), options=options, callback=callback
         )
     elif method == "cmaes":
-        from fuzzynav.app.experiments.cmaes import cmaes
+        from fuzzynav.app.experiments.evolution import cmaes
 
         def report(k, best_f, best_x, sigma):
             generation[0] = k
@@ -298,7 +298,7 @@ def _csv(text: str) -> list[str]:
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.experiments.cmaes import add_sigma_option
+    from fuzzynav.app.experiments.evolution import add_sigma_option
     from fuzzynav.app.experiments.executor import add_executor_options
     from fuzzynav.world.perception import PERCEPTION_MODES
     from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
