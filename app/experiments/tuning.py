@@ -558,7 +558,7 @@ def cmd_tune(args) -> int:
     header = (
         f"Reproduce with: {command}\n"
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
-        f"cost: app/experiments/tuning.py)"
+        f"cost: app/experiments/objective.py)"
     )
     if "header" in inspect.signature(t.save).parameters:
         paths = t.save(result.x, args.out, header=header)
