@@ -51,7 +51,7 @@ PYEOF
     "$work/venv/bin/python" -c "import fuzzynav; r = fuzzynav.simulate('s1'); print(r.outcome, r.trace['x_m'][-1])"
     # An installed wheel names its version and no git revision (it is no checkout).
     "$work/venv/bin/python" -c "
-from fuzzynav.app.recordings.record import package_versions
+from fuzzynav.app.provenance import package_versions
 import fuzzynav
 v = package_versions()
 assert v['fuzzynav'] == fuzzynav.__version__ and 'git' not in v, v

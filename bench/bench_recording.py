@@ -70,7 +70,8 @@ def fuzzy_controller_factory():
 
 
 def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
-    from fuzzynav.app.recordings.record import LiveRecorder, record_run
+    from fuzzynav.app.recordings.live import LiveRecorder
+    from fuzzynav.app.recordings.record import record_run
     from fuzzynav.app.runs import build_simulation
 
     runs, records, lives, rows = [], [], [], 0
@@ -127,7 +128,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     imported = import_time_s()
-    from fuzzynav.app.recordings.record import package_versions, record_run
+    from fuzzynav.app.provenance import package_versions
+    from fuzzynav.app.recordings.record import record_run
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.controller.proportional import ProportionalController
 

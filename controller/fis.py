@@ -1,11 +1,13 @@
 """MATLAB Fuzzy Logic Toolbox ``.fis`` files: a strict reader and a writer.
 
 Supported: what the engine in :mod:`controller.fuzzy` computes -- a Mamdani system with
-AndMethod='min', OrMethod='max', ImpMethod='min', AggMethod='max',
-DefuzzMethod='centroid', membership functions trimf, trapmf, linsmf, linzmf, gaussmf,
-gauss2mf, and AND rules without NOT. Everything else (Sugeno, prod/probor/sum/bisector/
-mom/..., other membership functions, OR rules, negated clauses) is rejected with an error
-that names the file, the line and the value. The file is parsed, never evaluated.
+AndMethod 'min' or 'prod', OrMethod 'max' or 'probor' (kept, but without effect: there
+are no OR rules), ImpMethod 'min' or 'prod', AggMethod 'max', 'sum' or 'probor',
+DefuzzMethod 'centroid', 'bisector', 'mom', 'som' or 'lom' (MATLAB's meanings:
+:mod:`controller.inference`), membership functions trimf, trapmf, linsmf, linzmf,
+gaussmf, gauss2mf, and AND rules without NOT. Everything else (Sugeno, custom methods,
+other membership functions, OR rules, negated clauses) is rejected with an error that
+names the file, the line and the value. The file is parsed, never evaluated.
 
 The format::
 
@@ -53,6 +55,7 @@ from fuzzynav.resources import InputError, escape_controls, read_user_text, shor
 
 from . import membership as mf
 from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable
+from .inference import CHOICES, FIS_KEYS, Inference
 from .rulebase import MAX_RULES, MAX_TERMS, MAX_VARIABLES
 
 __all__ = ["read_fis", "write_fis", "loads_fis", "dumps_fis", "FisFormatError"]
@@ -77,15 +80,9 @@ _VEC_RE = re.compile(r"^\[([^\]]*)\]$")
 _MF_RE = re.compile(r"^'([^']*)'\s*:\s*'([^']*)'\s*,\s*\[([^\]]*)\]$")
 _RULE_RE = re.compile(r"^([^,]*),([^(]*)\(([^)]*)\)\s*:\s*(\S+)$")
 
-_FIXED = {
-    "Type": "mamdani",
-    "AndMethod": "min",
-    "OrMethod": "max",
-    "ImpMethod": "min",
-    "AggMethod": "max",
-    "DefuzzMethod": "centroid",
-}
-_SYSTEM_KEYS = {"Name", "Version", "NumInputs", "NumOutputs", "NumRules"} | set(_FIXED)
+_SYSTEM_KEYS = {"Name", "Type", "Version", "NumInputs", "NumOutputs", "NumRules"} | set(
+    FIS_KEYS.values()
+)
 _VAR_KEYS = {"Name", "Range", "NumMFs"}
 
 
@@ -179,22 +176,24 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         if key not in sysd:
             raise rd.err(sys_sec[2], f"[System] lacks {key}=")
     name = rd.string(*sysd["Name"], "Name")
-    for key, want in _FIXED.items():
+    lineno, val = sysd["Type"]
+    got = rd.string(lineno, val, "Type")
+    if got.lower() != "mamdani":
+        raise rd.err(
+            lineno,
+            f"unsupported system type {got!r}: only Mamdani systems are supported (no Sugeno)",
+            val,
+        )
+    choices = {}
+    for field, key in FIS_KEYS.items():
+        allowed = ", ".join(map(repr, CHOICES[field]))
         if key not in sysd:
-            if key == "Type":
-                continue
-            raise rd.err(sys_sec[2], f"[System] lacks {key}= (only {want!r} is supported)")
+            raise rd.err(sys_sec[2], f"[System] lacks {key}= (one of {allowed})")
         lineno, val = sysd[key]
         got = rd.string(lineno, val, key)
-        if got.lower() != want:
-            if key == "Type":
-                raise rd.err(
-                    lineno,
-                    f"unsupported system type {got!r}: only Mamdani systems "
-                    f"are supported (no Sugeno)",
-                    val,
-                )
-            raise rd.err(lineno, f"unsupported {key} {got!r}: only {want!r} is supported", val)
+        if got.lower() not in CHOICES[field]:
+            raise rd.err(lineno, f"unsupported {key} {got!r}: supported are {allowed}", val)
+        choices[field] = got.lower()
     if "Version" in sysd:
         lineno, val = sysd["Version"]
         if rd.num(lineno, val, "Version") != 2.0:
@@ -346,7 +345,14 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
             rules_sec[2], f"NumRules={n_rules} but the [Rules] section has {len(rules)} rules"
         )
     try:
-        return FuzzySystem(inputs, outputs, rules, name=name, n_points=DEFAULT_POINTS)
+        return FuzzySystem(
+            inputs,
+            outputs,
+            rules,
+            name=name,
+            n_points=DEFAULT_POINTS,
+            inference=Inference(**choices),
+        )
     except ValueError as e:
         raise rd.err(None, str(e)) from None
 
@@ -384,12 +390,8 @@ def dumps_fis(system: FuzzySystem) -> str:
         f"NumInputs={len(system.inputs)}",
         f"NumOutputs={len(system.outputs)}",
         f"NumRules={len(system.rules)}",
-        "AndMethod='min'",
-        "OrMethod='max'",
-        "ImpMethod='min'",
-        "AggMethod='max'",
-        "DefuzzMethod='centroid'",
     ]
+    L += [f"{key}='{getattr(system.inference, field)}'" for field, key in FIS_KEYS.items()]
     for kind, vs in (("Input", system.inputs), ("Output", system.outputs)):
         for i, v in enumerate(vs, start=1):
             L += [

@@ -72,6 +72,7 @@ def reordered(fis: FuzzySystem, inputs=None, outputs=None) -> FuzzySystem:
         name=fis.name,
         description=fis.description,
         n_points=fis.n_points,
+        inference=fis.inference,
     )
 
 

@@ -1,6 +1,9 @@
 """A small, fast, vectorised Mamdani fuzzy inference engine (MATLAB-compatible semantics).
 
-Inference (the MATLAB Fuzzy Logic Toolbox defaults for a Mamdani FIS):
+Inference (the MATLAB Fuzzy Logic Toolbox defaults for a Mamdani FIS; the other choices
+MATLAB offers -- AND = product, implication = product, aggregation = sum or probabilistic
+OR, defuzzification = bisector, mean / smallest / largest of maximum -- are
+:mod:`controller.inference`'s, picked with ``FuzzySystem(..., inference=Inference(...))``):
 
 * AND = min over the inputs a rule uses (an input marked ``None`` -- the paper's NONE --
   takes no part in the rule);
@@ -31,8 +34,13 @@ Speed (the numbers are in bench/bench_fuzzy.py):
   multi-megabyte temporaries cost a page fault per 4 KiB page on every call) and lays
   the aggregate out as (grid point, sample) so every numpy call works on long rows;
 * :meth:`FuzzySystem.evaluate_one` (the control loop) runs memberships, firing strengths
-  and per-term levels as generated straight-line Python (numpy calls on tiny arrays cost
-  1-3 us each), then a handful of numpy calls on the grid.
+  and per-term levels as generated straight-line Python (:mod:`controller.fuzzy_front`:
+  numpy calls on tiny arrays cost 1-3 us each), then a handful of numpy calls on the grid.
+
+Those tricks are the default inference's. Any other choice takes the plain path: each
+rule's implied set on the grid, folded over the rules in rule order, then
+:func:`controller.inference.defuzzify`; one code for one row and for many, so the two
+agree to the last bit there too.
 
 ``evaluate_one(x)`` and ``evaluate(X)[i]`` are identical to the last bit: they do the
 same floating-point operations (min and max are exact; the membership formulas are the
@@ -52,36 +60,21 @@ from typing import NamedTuple
 import numpy as np
 
 from . import membership as mf
+from .fuzzy_front import generate_front
+from .inference import DEFAULT as DEFAULT_INFERENCE
+from .inference import Inference, defuzzify
 
-__all__ = ["Term", "Variable", "Rule", "FuzzySystem", "Aggregation", "DEFAULT_POINTS"]
+__all__ = [
+    "Term",
+    "Variable",
+    "Rule",
+    "FuzzySystem",
+    "Aggregation",
+    "Inference",
+    "DEFAULT_POINTS",
+]
 
 DEFAULT_POINTS = 101
-
-
-def _literal(value: float) -> str:
-    """A float as Python source for the generated single-sample code: repr() (which
-    reads back exactly) for a finite number, names bound in its namespace for inf and
-    NaN (repr gives 'inf', which is no Python literal)."""
-    value = float(value)
-    if math.isfinite(value):
-        return repr(value)
-    if math.isnan(value):
-        return "_NAN"
-    return "_INF" if value > 0 else "(-_INF)"
-
-
-def _plain_divisor(value: float) -> bool:
-    """Whether Python's float division by ``value`` is numpy's (not 0, not inf)."""
-    return value != 0.0 and math.isfinite(value)
-
-
-def _gauss_exp(d: float, den: float, clip: bool) -> float:
-    """``exp(-(d * d) / den)`` with numpy's IEEE division (x / 0 is inf, 0 / 0 NaN, no
-    exception), as the vectorised gaussmf/gauss2mf compute it when 2 sigma^2 under- or
-    overflows; ``clip`` maps NaN to 0 as the batch gaussmf kernel's fmax does."""
-    with np.errstate(all="ignore"):
-        y = np.exp(-(np.float64(d) * np.float64(d)) / np.float64(den))
-        return float(np.fmax(y, 0.0)) if clip else float(y)
 
 
 # --------------------------------------------------------------------------- data
@@ -199,7 +192,7 @@ class Aggregation(NamedTuple):
 
     grid: np.ndarray  # (n_outputs, n_points): the output grids
     membership: np.ndarray  # (n_outputs, n_points): the aggregated output membership
-    output: np.ndarray  # (n_outputs,): the centroids (= evaluate_one)
+    output: np.ndarray  # (n_outputs,): the crisp outputs (= evaluate_one)
 
 
 # --------------------------------------------------------------------------- engine
@@ -262,6 +255,8 @@ class FuzzySystem:
     rules : sequence of :class:`Rule`.
     name, description : free text (kept by the .toml and .fis writers).
     n_points : number of points of the defuzzification grid of every output (>= 2).
+    inference : :class:`~controller.inference.Inference`, the AND, implication,
+        aggregation and defuzzification methods (MATLAB's defaults if omitted).
 
     Not thread-safe to *mutate* (it is never mutated); evaluation from several threads is
     fine (each thread gets its own work buffers).
@@ -276,7 +271,11 @@ class FuzzySystem:
         name: str = "fuzzy",
         description: str = "",
         n_points: int = DEFAULT_POINTS,
+        inference: Inference = DEFAULT_INFERENCE,
     ):
+        if not isinstance(inference, Inference):
+            raise ValueError(f"inference must be an Inference, got {inference!r}")
+        self.inference = inference
         self.name = str(name)
         self.description = str(description)
         self.inputs: tuple[Variable, ...] = tuple(inputs)
@@ -301,6 +300,7 @@ class FuzzySystem:
             name=self.name,
             description=self.description,
             n_points=self.n_points,
+            inference=self.inference,
         )
 
     def __setstate__(self, state):
@@ -365,7 +365,9 @@ class FuzzySystem:
     def __repr__(self):
         return (
             f"FuzzySystem({self.name!r}, inputs={self.input_names}, "
-            f"outputs={self.output_names}, rules={len(self.rules)}, n_points={self.n_points})"
+            f"outputs={self.output_names}, rules={len(self.rules)}, n_points={self.n_points}"
+            + ("" if self.inference == DEFAULT_INFERENCE else f", {self.inference}")
+            + ")"
         )
 
     # ------------------------------------------------------------------ compile
@@ -432,158 +434,16 @@ class FuzzySystem:
         self._grid2 = grid2
         self._gridcol = [np.ascontiguousarray(self._grid[o][:, None]) for o in range(n_out)]
         self._mid = [0.5 * (v.range[0] + v.range[1]) for v in self.outputs]
-        self._front = self._generate_front()
+        # the plain path (any inference but the default): per output, the rules that
+        # conclude on it (in rule order) and their terms on the grid, (rule, point, 1)
+        self._plain = not self.inference.is_default
+        self._rule_terms = []
+        for o in range(n_out):
+            rs = [r_i for r_i, r in enumerate(self.rules) if r.consequent[o] is not None]
+            ks = [self.rules[r_i].consequent[o] for r_i in rs]
+            self._rule_terms.append((rs, np.ascontiguousarray(self._mfg[o, ks, :, None])))
+        self._front = generate_front(self, per_rule=self._plain)
         self._tls = threading.local()
-
-    def _generate_front(self):
-        """Generate straight-line Python for the single-sample path: x -> the level of
-        every consequent slot (max over its rules of the weighted firing strength).
-
-        The code contains only variable names made here and float literals written with
-        repr() (which reads back exactly); the arithmetic is operation for operation the
-        one of the vectorised membership functions, so the results are identical."""
-        lines = ["def front(x):"]
-        n_in = len(self.inputs)
-        lines.append(f"    if len(x) != {n_in}:")
-        lines.append("        raise ValueError(_msg % len(x))")
-        r = _literal
-        for i, v in enumerate(self.inputs):
-            xi = f"x{i}"
-            lines.append(f"    {xi} = float(x[{i}])")
-            body = []
-            names = []
-            for j, term in enumerate(v.terms):
-                m = f"m{i}_{j}"
-                names.append(m)
-                p = term.params
-                if term.shape == "trimf":
-                    a, b, c = p
-                    body.append(f"if {xi} == {r(b)}: {m} = 1.0")
-                    if a < b:
-                        body.append(
-                            f"elif {r(a)} < {xi} < {r(b)}: {m} = ({xi} - {r(a)}) / {r(b - a)}"
-                        )
-                    if b < c:
-                        body.append(
-                            f"elif {r(b)} < {xi} < {r(c)}: {m} = ({r(c)} - {xi}) / {r(c - b)}"
-                        )
-                    body.append(f"else: {m} = 0.0")
-                elif term.shape == "trapmf":
-                    a, b, c, d = p
-                    body.append(f"if {xi} >= {r(b)}: y1 = 1.0")
-                    if a < b:
-                        body.append(f"elif {r(a)} <= {xi}: y1 = ({xi} - {r(a)}) / {r(b - a)}")
-                    body.append("else: y1 = 0.0")
-                    body.append(f"if {xi} <= {r(c)}: y2 = 1.0")
-                    if c < d:
-                        body.append(f"elif {xi} <= {r(d)}: y2 = ({r(d)} - {xi}) / {r(d - c)}")
-                    body.append("else: y2 = 0.0")
-                    body.append(f"{m} = y1 if y1 < y2 else y2")
-                elif term.shape == "linsmf":
-                    a, b = p
-                    if a < b:
-                        body.append(f"if {xi} > {r(b)}: {m} = 1.0")
-                        body.append(f"elif {r(a)} <= {xi}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
-                        body.append(f"else: {m} = 0.0")
-                    else:
-                        body.append(f"{m} = 1.0 if {xi} >= {r(a)} else 0.0")
-                elif term.shape == "linzmf":
-                    a, b = p
-                    if a < b:
-                        body.append(f"if {xi} < {r(a)}: {m} = 1.0")
-                        body.append(f"elif {xi} <= {r(b)}: {m} = ({r(b)} - {xi}) / {r(b - a)}")
-                        body.append(f"else: {m} = 0.0")
-                    else:
-                        body.append(f"{m} = 1.0 if {xi} < {r(a)} else 0.0")
-                elif term.shape == "gaussmf":
-                    s, c = p
-                    den = 2.0 * s * s
-                    body.append(f"d = {xi} - {r(c)}")
-                    if _plain_divisor(den):
-                        body.append(f"{m} = _float(_exp(-(d * d) / {r(den)}))")
-                    else:  # 2 sigma^2 under- or overflows: numpy's IEEE division
-                        body.append(f"{m} = _gauss_exp(d, {r(den)}, True)")
-                elif term.shape == "gauss2mf":
-                    s1, c1, s2, c2 = p
-                    # a flat side is exactly 1.0, as the vectorised np.where gives
-                    den1, den2 = 2.0 * s1 * s1, 2.0 * s2 * s2
-                    g1 = (
-                        f"_float(_exp(-(d * d) / {r(den1)}))"
-                        if _plain_divisor(den1)
-                        else f"_gauss_exp(d, {r(den1)}, False)"
-                    )
-                    g2 = (
-                        f"_float(_exp(-(d * d) / {r(den2)}))"
-                        if _plain_divisor(den2)
-                        else f"_gauss_exp(d, {r(den2)}, False)"
-                    )
-                    body.append(f"if {xi} < {r(c1)}:")
-                    body.append(f"    d = {xi} - {r(c1)}")
-                    body.append(f"    y1 = {g1}")
-                    body.append("else: y1 = 1.0")
-                    body.append(f"if {xi} > {r(c2)}:")
-                    body.append(f"    d = {xi} - {r(c2)}")
-                    body.append(f"    y2 = {g2}")
-                    body.append("else: y2 = 1.0")
-                    body.append(f"{m} = y1 * y2")
-                else:  # pragma: no cover - check_params guards this
-                    raise AssertionError(term.shape)
-            # NaN: nothing sensed, every membership 0
-            lines.append(f"    if {xi} != {xi}:")
-            lines.append("        " + " = ".join(names + ["0.0"]))
-            lines.append("    else:")
-            lines += ["        " + b for b in body]
-        # firing strengths
-        row_name = {}
-        for i, v in enumerate(self.inputs):
-            for j in range(len(v.terms)):
-                row_name[self._batch_terms_row(i, j)] = f"m{i}_{j}"
-        for r_i, (rows, rule) in enumerate(zip(self._rule_rows, self.rules)):
-            ms = [row_name[rw] for rw in rows]
-            f = f"f{r_i}"
-            if len(ms) == 1:
-                lines.append(f"    {f} = {ms[0]}")
-            else:
-                # numpy.minimum(a, b) semantics for non-NaN values: b if b < a else a
-                lines.append(f"    {f} = {ms[1]} if {ms[1]} < {ms[0]} else {ms[0]}")
-                for mm in ms[2:]:
-                    lines.append(f"    {f} = {mm} if {mm} < {f} else {f}")
-            if self._weighted:
-                lines.append(f"    {f} = {f} * {r(rule.weight)}")
-        # slot levels, term-major (k * n_out + o): the layout of self._mfgK4. The max
-        # over a slot's rules is written as the comparisons max() makes (keep the first
-        # of equals), which costs a third of a call to max() with many arguments.
-        n_out, kmax = len(self.outputs), self._kmax
-        used = dict(self._slot_rules)
-        out = []
-        for k in range(kmax):
-            for o in range(n_out):
-                rs = used.get(o * kmax + k)
-                if not rs:
-                    out.append("0.0")
-                elif len(rs) == 1:
-                    out.append(f"f{rs[0]}")
-                else:
-                    lvl = f"l{k}_{o}"
-                    lines.append(f"    {lvl} = f{rs[1]} if f{rs[1]} > f{rs[0]} else f{rs[0]}")
-                    for q in rs[2:]:
-                        lines.append(f"    {lvl} = f{q} if f{q} > {lvl} else {lvl}")
-                    out.append(lvl)
-        lines.append(f"    return [{', '.join(out)}]")
-        src = "\n".join(lines) + "\n"
-        # numpy's exp, as the vectorised gaussmf uses (math.exp differs in the last bit
-        # for a few percent of arguments); on a float it runs the same loop
-        ns = {
-            "_exp": np.exp,
-            "_float": float,
-            "_gauss_exp": _gauss_exp,
-            "_INF": math.inf,
-            "_NAN": math.nan,
-            "_msg": f"expected {n_in} inputs {self.input_names}, got %d",
-        }
-        exec(compile(src, f"<fuzzy front {self.name}>", "exec"), ns)
-        self._front_src = src
-        return ns["front"]
 
     def _batch_terms_row(self, i: int, j: int) -> int:
         return sum(len(v.terms) for v in self.inputs[:i]) + j
@@ -622,9 +482,10 @@ class FuzzySystem:
             if len(rr) == 1:
                 np.copyto(out, rows[rr[0]])
             else:
-                np.minimum(rows[rr[0]], rows[rr[1]], out=out)
+                both = np.multiply if self.inference.and_method == "prod" else np.minimum
+                both(rows[rr[0]], rows[rr[1]], out=out)
                 for q in rr[2:]:
-                    np.minimum(out, rows[q], out=out)
+                    both(out, rows[q], out=out)
         if self._weighted:
             F[:, :n] *= self._W[:, None]
         for sl, rs in self._slot_rules:
@@ -635,8 +496,9 @@ class FuzzySystem:
         return ws
 
     def firing_strengths(self, X) -> np.ndarray:
-        """(N, n_rules) firing strengths: min over the inputs a rule uses, times the rule
-        weight (the level at which the rule clips its consequent terms)."""
+        """(N, n_rules) firing strengths: the AND (min or product) over the inputs a rule
+        uses, times the rule weight (the level at which the rule clips, or by which it
+        scales, its consequent terms)."""
         X = self._check_X(X)
         out = np.empty((X.shape[0], len(self.rules)))
         for b0 in range(0, X.shape[0], _BLOCK):
@@ -666,6 +528,8 @@ class FuzzySystem:
         the same bits (module docstring)."""
         X = self._check_X(X)
         N = X.shape[0]
+        if self._plain:
+            return self._plain_evaluate(X)
         if N <= _ROW_BY_ROW_MAX:
             return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(N, len(self.outputs))
         Y = np.empty((N, len(self.outputs)))
@@ -710,6 +574,43 @@ class FuzzySystem:
                     np.divide(num, den, out=y, where=den > 0.0)
         return Y
 
+    def _plain_aggregate(self, o: int, F: np.ndarray) -> np.ndarray:
+        """Output ``o``'s aggregate (grid point, sample) from the weighted firing
+        strengths ``F`` (rule, sample), with the system's implication and aggregation,
+        folded over the rules in rule order (MATLAB's order)."""
+        rules, terms = self._rule_terms[o]
+        if not rules:
+            return np.zeros((self.n_points, F.shape[1]))
+        imp = np.minimum if self.inference.imp_method == "min" else np.multiply
+        implied = imp(terms, F[rules][:, None, :])  # (rule, grid point, sample)
+        method = self.inference.agg_method
+        if method == "max":
+            return np.maximum.reduce(implied, axis=0)
+        if method == "sum":  # a reduce over the first axis adds the rules one by one
+            return np.add.reduce(implied, axis=0)
+        agg = implied[0].copy()  # probor: a + b - a * b, rule by rule
+        for nxt in implied[1:]:
+            agg = (agg + nxt) - agg * nxt
+        return agg
+
+    def _plain_outputs(self, F: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        """The aggregates (one (G, n) per output) and the crisp outputs (n, n_out)."""
+        aggs = [self._plain_aggregate(o, F) for o in range(len(self.outputs))]
+        Y = np.empty((F.shape[1], len(self.outputs)))
+        for o, agg in enumerate(aggs):
+            Y[:, o] = defuzzify(self.inference.defuzz_method, self._grid[o], agg, self._mid[o])
+        return aggs, Y
+
+    def _plain_evaluate(self, X: np.ndarray) -> np.ndarray:
+        """:meth:`evaluate` for any inference but the default (the plain path)."""
+        Y = np.empty((X.shape[0], len(self.outputs)))
+        step = 128  # (rule, grid point, sample) temporaries of a few MB at most
+        for b0 in range(0, X.shape[0], step):
+            Xb = X[b0 : b0 + step]
+            F = self._block_levels(Xb).F[:, : len(Xb)]
+            Y[b0 : b0 + len(Xb)] = self._plain_outputs(F)[1]
+        return Y
+
     def _agg_one(self, x):
         """Single-sample path: (aggregated (n_out, 1, G), outputs list); operation for
         operation the batch's arithmetic (min/max are exact; the sums run in grid order:
@@ -717,6 +618,9 @@ class FuzzySystem:
         called directly: the ndarray methods and np.cumsum add a Python wrapper each."""
         if type(x) is np.ndarray:
             x = x.tolist()  # Python floats: much faster than numpy scalars below
+        if self._plain:
+            aggs, Y = self._plain_outputs(_array(self._front(x))[:, None])
+            return np.stack([a[:, 0] for a in aggs])[:, None, :], Y[0].tolist()
         s = _array(self._front(x)).reshape(self._s_shape)
         agg = _max_reduce(_minimum(s, self._mfgK4), 0)  # (n_out, 1, G)
         sums = _accumulate(agg * self._grid2, 2)[:, :, -1].tolist()  # [[num, den], ...]
@@ -736,7 +640,8 @@ class FuzzySystem:
 
     def aggregated(self, x: Sequence[float]) -> Aggregation:
         """For one input vector: the output grids, the aggregated output membership on
-        them (max over terms of min(level, MF)) and the centroids (= evaluate_one)."""
+        them (by default the max over terms of min(level, MF)) and the crisp outputs
+        (= evaluate_one)."""
         agg, out = self._agg_one(x)
         return Aggregation(self._grid.copy(), agg[:, 0, :], np.array(out))
 
@@ -806,7 +711,7 @@ class FuzzySystem:
 
     def replace(self, **kw) -> FuzzySystem:
         """A copy with some constructor arguments replaced (inputs, outputs, rules, name,
-        description, n_points)."""
+        description, n_points, inference)."""
         return self._replace(**kw)
 
     def _replace(self, **kw) -> FuzzySystem:
@@ -817,6 +722,7 @@ class FuzzySystem:
             name=self.name,
             description=self.description,
             n_points=self.n_points,
+            inference=self.inference,
         )
         args.update(kw)
         return FuzzySystem(args.pop("inputs"), args.pop("outputs"), args.pop("rules"), **args)
@@ -827,16 +733,23 @@ class FuzzySystem:
     def with_n_points(self, n_points: int) -> FuzzySystem:
         return self._replace(n_points=n_points)
 
+    def with_inference(self, **choices: str) -> FuzzySystem:
+        """A copy with some inference choices replaced, e.g. ``defuzz_method="mom"``
+        (:class:`~controller.inference.Inference`'s fields)."""
+        return self._replace(inference=self.inference.replace(**choices))
+
     def __eq__(self, other):
-        """Same variables (names, ranges, terms), rules and grid: the same function.
-        The system name, description and the variables' units/descriptions are ignored."""
+        """Same variables (names, ranges, terms), rules, grid and inference: the same
+        function. The system name, description and the variables' units/descriptions are
+        ignored."""
         if not isinstance(other, FuzzySystem):
             return NotImplemented
-        return (self.inputs, self.outputs, self.rules, self.n_points) == (
+        return (self.inputs, self.outputs, self.rules, self.n_points, self.inference) == (
             other.inputs,
             other.outputs,
             other.rules,
             other.n_points,
+            other.inference,
         )
 
     __hash__ = None  # type: ignore[assignment]

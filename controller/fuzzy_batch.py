@@ -16,6 +16,13 @@ The inference is :meth:`FuzzySystem.evaluate`'s (Mamdani min/max, centroid on th
   the same bits), the firing strengths and slot levels are min/max (exact), and the
   centroid's two sums run in grid order as ``evaluate``'s: equal to ``evaluate`` row by
   row, bit for bit (tests/test_batch.py checks it, and the issue's 1e-12 V).
+
+Inference choices other than the default (:mod:`controller.inference`: product AND or
+implication, sum or probor aggregation, another defuzzification) are supported the cheap
+way: each parameter set's rows go through its own :meth:`FuzzySystem.evaluate` (its
+plain path), so the numbers are again ``evaluate``'s, bit for bit; only the speed-up of
+one pass over all sets is lost. The inference is part of the structure: the sets of one
+batch share it.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ def _structure(system: FuzzySystem) -> tuple:
         tuple((v.name, v.range, tuple((t.name, t.shape) for t in v.terms)) for v in system.outputs),
         system.rules,
         system.n_points,
+        system.inference,
     )
 
 
@@ -130,7 +138,7 @@ class BatchFuzzy:
     ----------
     systems : sequence of FuzzySystem
         The parameter sets, all of one structure (same variables, ranges, term names
-        and shapes, rules, grid); set ``k`` is ``systems[k]``.
+        and shapes, rules, grid, inference); set ``k`` is ``systems[k]``.
 
     Raises
     ------
@@ -148,7 +156,7 @@ class BatchFuzzy:
                 raise ValueError(
                     f"systems[{k}] ({other.name!r}) has another structure than systems[0] "
                     f"({first.name!r}): one batch takes one structure (variables, terms, "
-                    "shapes, rules, grid) with per-row parameters"
+                    "shapes, rules, grid, inference) with per-row parameters"
                 )
         self.systems = systems
         self.structure = first
@@ -195,6 +203,13 @@ class BatchFuzzy:
                 )
         if self.n_sets == 1:
             return self.systems[0].evaluate(X)
+        if not system.inference.is_default:
+            # the plain path of each set on its own rows (module docstring)
+            Y = np.empty((n, system.n_outputs))
+            for k in np.unique(groups).tolist():
+                rows = groups == k
+                Y[rows] = self.systems[k].evaluate(X[rows])
+            return Y
         Y = np.empty((n, system.n_outputs))
         for b0 in range(0, n, _ROWS_PER_BLOCK):
             Y[b0 : b0 + _ROWS_PER_BLOCK] = self._evaluate_block(

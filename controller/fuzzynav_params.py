@@ -1,4 +1,5 @@
-"""fuzzynav's crisp parameters: their defaults, tuning bounds and the shipped file.
+"""fuzzynav's crisp parameters: their defaults, tuning bounds and the shipped file
+(read by :func:`load_params`, written by :func:`write_params`).
 
 Apart from :mod:`fuzzynav.controller.fuzzynav` so that the parts table
 (:mod:`fuzzynav.controller.fuzzynav_parts`), which names these parameters, and the
@@ -98,3 +99,23 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
             raise ValueError(f"{path}: unknown crisp parameter(s) {sorted(unknown)}")
         params.update({k: float(v) for k, v in crisp.items()})
     return params
+
+
+def params_toml(params: dict) -> str:
+    """The crisp parameters as the ``[crisp]`` table of ``fuzzynav_params.toml``: plain
+    data, written by tomli-w (in :data:`CRISP_DEFAULTS` order) under two comment lines."""
+    import tomli_w
+
+    header = (
+        "# fuzzynav's crisp parameters (arbitration, memory, escape); see\n"
+        "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.\n\n"
+    )
+    return header + tomli_w.dumps({"crisp": {k: float(params[k]) for k in CRISP_DEFAULTS}})
+
+
+def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:
+    path = Path(path)
+    from fuzzynav.safe_files import write_text_atomically
+
+    write_text_atomically(path, params_toml(params))
+    return path

@@ -6,8 +6,11 @@ Format (every key below is allowed; any other key is an error)::
     name = "fuzzy-husky-paper"           # required
     description = "..."                  # optional
     points = 101                         # optional: defuzzification grid points (default 101)
-    # Fixed semantics (optional keys, only these values are accepted):
-    # and = "min", implication = "min", aggregation = "max", defuzzification = "centroid"
+    # Inference (optional keys, MATLAB's names and meanings, the defaults first;
+    # controller/inference.py): and = "min" | "prod", or = "max" | "probor" (no effect:
+    # every rule is an AND rule), implication = "min" | "prod",
+    # aggregation = "max" | "sum" | "probor",
+    # defuzzification = "centroid" | "bisector" | "mom" | "som" | "lom"
 
     [[inputs]]                           # one table per input, in column order
     name = "d_t"
@@ -51,19 +54,11 @@ from fuzzynav.resources import InputError, escape_controls, loads_user_toml, rea
 
 from . import membership as mf
 from .fuzzy import DEFAULT_POINTS, FuzzySystem, Rule, Term, Variable, rule_sentence
+from .inference import CHOICES, TOML_KEYS, Inference
 
 __all__ = ["read_toml", "write_toml", "parse_rule", "format_rule", "loads_toml", "dumps_toml"]
 
-_SYSTEM_KEYS = {
-    "name",
-    "description",
-    "points",
-    "and",
-    "implication",
-    "aggregation",
-    "defuzzification",
-}
-_FIXED = {"and": "min", "implication": "min", "aggregation": "max", "defuzzification": "centroid"}
+_SYSTEM_KEYS = {"name", "description", "points"} | set(TOML_KEYS.values())
 _VAR_KEYS = {"name", "range", "unit", "description", "terms"}
 _VAR_REQUIRED = ("name", "range", "terms")
 _TERM_KEYS = {"name", "shape", "params"}
@@ -281,9 +276,13 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
     points = sysd.get("points", DEFAULT_POINTS)
     if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= MAX_POINTS:
         raise err("system.points", points, f"must be an integer from 2 to {MAX_POINTS}")
-    for k, want in _FIXED.items():
-        if k in sysd and sysd[k] != want:
-            raise err(f"system.{k}", sysd[k], f"only {want!r} is supported")
+    choices = {}
+    for field, k in TOML_KEYS.items():
+        if k in sysd:
+            if sysd[k] not in CHOICES[field]:
+                allowed = ", ".join(map(repr, CHOICES[field]))
+                raise err(f"system.{k}", sysd[k], f"must be one of {allowed}")
+            choices[field] = sysd[k]
 
     variables = {}
     groups = {}
@@ -321,7 +320,13 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
         except ValueError as e:
             raise err(key, text, f"rule {i + 1}: {e}") from None
     return FuzzySystem(
-        groups["inputs"], groups["outputs"], rules, name=name, description=desc, n_points=points
+        groups["inputs"],
+        groups["outputs"],
+        rules,
+        name=name,
+        description=desc,
+        n_points=points,
+        inference=Inference(**choices),
     )
 
 
@@ -392,12 +397,10 @@ def dumps_toml(system: FuzzySystem) -> str:
     if system.description:
         lines.append(f"description = {_str(system.description)}")
     lines.append(f"points = {system.n_points}")
-    lines += [
-        'and = "min"',
-        'implication = "min"',
-        'aggregation = "max"',
-        'defuzzification = "centroid"',
-    ]
+    inference = system.inference.as_dict()
+    if inference["or_method"] == "max":  # the default, without effect: left out
+        del inference["or_method"]
+    lines += [f"{TOML_KEYS[field]} = {_str(value)}" for field, value in inference.items()]
     for side, vs in (("inputs", system.inputs), ("outputs", system.outputs)):
         for v in vs:
             lines += [

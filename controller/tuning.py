@@ -18,7 +18,7 @@ import numpy as np
 __all__ = ["Tunable", "tunable", "TUNABLE_NAMES"]
 
 # name -> module whose ``tunable()`` returns the Tunable (imported lazily)
-_MODULES = {"paper": "fuzzynav.controller.paper", "fuzzynav": "fuzzynav.controller.fuzzynav"}
+_MODULES = {"paper": "fuzzynav.controller.paper", "fuzzynav": "fuzzynav.controller.fuzzynav_tuning"}
 TUNABLE_NAMES = tuple(_MODULES)
 
 

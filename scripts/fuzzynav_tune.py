@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from fuzzynav.controller.fuzzynav import tunable
 from fuzzynav.controller.fuzzynav_params import PARAMS_PATH
+from fuzzynav.controller.fuzzynav_tuning import tunable
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.scenario import load_scenario
 from fuzzynav.world.simulation import Simulation

@@ -148,14 +148,16 @@ def test_reads_matlab_style_file(tmp_path):
 # (text to replace, replacement, expected message fragment, line number or None)
 BAD = [
     ("Type='mamdani'", "Type='sugeno'", "only Mamdani", 3),
-    ("AndMethod='min'", "AndMethod='prod'", "unsupported AndMethod 'prod'", 8),
-    ("OrMethod='max'", "OrMethod='probor'", "unsupported OrMethod", 9),
-    ("ImpMethod='min'", "ImpMethod='prod'", "unsupported ImpMethod", 10),
-    ("AggMethod='max'", "AggMethod='sum'", "unsupported AggMethod", 11),
+    # prod, probor, sum, bisector, mom, som and lom are read since issue 27: only
+    # MATLAB's custom (user function) methods are refused
+    ("AndMethod='min'", "AndMethod='myand'", "unsupported AndMethod 'myand'", 8),
+    ("OrMethod='max'", "OrMethod='sum'", "unsupported OrMethod", 9),
+    ("ImpMethod='min'", "ImpMethod='max'", "unsupported ImpMethod", 10),
+    ("AggMethod='max'", "AggMethod='min'", "unsupported AggMethod", 11),
     (
         "DefuzzMethod='centroid'",
-        "DefuzzMethod='bisector'",
-        "unsupported DefuzzMethod 'bisector'",
+        "DefuzzMethod='wtaver'",
+        "unsupported DefuzzMethod 'wtaver'",
         12,
     ),
     ("Version=2.0", "Version=3.0", "unsupported Version", 4),

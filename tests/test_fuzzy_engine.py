@@ -757,7 +757,7 @@ _GOOD = PAPER_TOML.read_text(encoding="utf-8")
     [
         ("points = 101", 'points = 101\ncolour = "red"', "key 'system.colour'"),
         ("points = 101", "points = 1", "key 'system.points'"),
-        ('defuzzification = "centroid"', 'defuzzification = "bisector"', "only 'centroid'"),
+        ('defuzzification = "centroid"', 'defuzzification = "median"', "must be one of"),
         ('name = "d_o"', 'name = "d_o"\nspeed = 3', "key 'inputs[1].speed'"),
         (
             '{ name = "near",   shape = "linzmf",  params = [0.5, 1.2] }',

@@ -17,17 +17,16 @@ rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader
 
 from fuzzynav.app.cli import main
+from fuzzynav.app.recordings import arrow, blueprint, style
+from fuzzynav.app.recordings import internals as internals_module
+from fuzzynav.app.recordings import live as live_module
 from fuzzynav.app.recordings import record as recording
-from fuzzynav.app.recordings.record import (
-    RULES_HEATMAP_PATH,
-    RULES_PATH,
-    RULES_TEXT_PATH,
-    LiveRecorder,
-    footprint_outlines,
-    plot_layout,
-    record_run,
-)
+from fuzzynav.app.recordings.columns import plot_layout
+from fuzzynav.app.recordings.internals import RULES_HEATMAP_PATH, RULES_PATH, RULES_TEXT_PATH
+from fuzzynav.app.recordings.live import LiveRecorder
+from fuzzynav.app.recordings.record import record_run
 from fuzzynav.app.runs import build_simulation
+from fuzzynav.world.geometry import footprint_outlines
 
 SENSORS = ("left", "front", "right")
 META = ("run", "metrics", "scenario", "rules", "robot")
@@ -563,7 +562,7 @@ def test_live_recorder_waits_for_a_chunk_and_refuses_a_reset(tmp_path):
 
 def test_live_recorder_sends_at_most_every_min_interval(tmp_path, monkeypatch):
     clock = [100.0]
-    monkeypatch.setattr(recording.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(live_module.time, "monotonic", lambda: clock[0])
     sim = build_simulation("s1", "p")
     live = LiveRecorder(tmp_path / "paced.rrd", chunk_steps=5, min_interval_s=1.0)
     sent = []
@@ -709,14 +708,14 @@ def test_check_writable_file_leaves_nothing_behind(tmp_path):
 def test_component_metadata_matches_the_sdk():
     """The record batches carry the same descriptors rr.log would."""
     scalars = rr.Scalars(scalars=[1.0]).as_component_batches()[0].component_descriptor()
-    d, arrow_type = recording._component_types()[("Scalars", "scalars")]
+    d, arrow_type = arrow.component_types()[("Scalars", "scalars")]
     assert (d.archetype, d.component, d.component_type) == (
         scalars.archetype,
         scalars.component,
         scalars.component_type,
     )
     assert arrow_type == pa.float64()
-    field, _ = recording._component_field("/x", "SeriesLines", "names")
+    field, _ = arrow.component_field("/x", "SeriesLines", "names")
     assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
     assert field.metadata[b"rerun:entity_path"] == b"/x"
 
@@ -746,7 +745,7 @@ def _fuzzynav_crossing():
 def test_fuzzynav_internals_are_recorded(tmp_path):
     """The crossing run yields to the moving obstacle: the recording's internals plot
     shows it (yield = 1 on some rows), alpha stays in [0, 1], one row per log row."""
-    from fuzzynav.app.recordings.record import INTERNALS, INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS, INTERNALS_PATH
 
     sim, result, controller = _fuzzynav_crossing()
     path = record_run(result, tmp_path / "fn.rrd", controller=controller)
@@ -768,15 +767,16 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     """The controller that drove logged its decisions: the recording plots them and
     decides nothing again. A copy that did not drive is replayed instead; both give
     the same plot."""
-    import fuzzynav.app.recordings.record as recording
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     assert len(controller.decisions) == len(result.log) - 1  # one per decided row
     replays = []
-    real = recording.controller_replica
-    monkeypatch.setattr(recording, "controller_replica", lambda c: replays.append(c) or real(c))
+    real = internals_module.controller_replica
+    monkeypatch.setattr(
+        internals_module, "controller_replica", lambda c: replays.append(c) or real(c)
+    )
     logged = Recording(record_run(result, tmp_path / "logged.rrd", controller=controller))
     assert replays == []
     replayed = Recording(
@@ -795,14 +795,14 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     what the viewer's teaching panel computes from the controller after each decision;
     where avoidance takes a good part of the command (alpha > 0.3) an avoidance rule
     fires."""
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     layouts = []
-    real = recording.blueprint
+    real = blueprint.blueprint
     monkeypatch.setattr(
-        recording, "blueprint", lambda *a, **kw: layouts.append(a[2]) or real(*a, **kw)
+        blueprint, "blueprint", lambda *a, **kw: layouts.append(a[2]) or real(*a, **kw)
     )
     rec = Recording(record_run(result, tmp_path / "fn.rrd", controller=controller))
     n_rules = len(controller.goal.rules) + len(controller.avoid.rules)
@@ -830,7 +830,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
 def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
     """Decisions that do not line up with the run (tampered with here, as a controller
     swapped mid-run would leave them) are not plotted past the first difference."""
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
 
     _, result, controller = _fuzzynav_crossing()
     k = 300
@@ -847,7 +847,7 @@ def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
 def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
     """A reviewer can rebuild fuzzynav from the recording: both rule blocks as TOML and
     the crisp parameters, not the controller's running state."""
-    from fuzzynav.controller.fuzzynav import params_toml
+    from fuzzynav.controller.fuzzynav_params import params_toml
     from fuzzynav.controller.rulebase import dumps_toml
 
     _, result, controller = _fuzzynav_crossing()
@@ -864,7 +864,7 @@ def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
 def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     controller = fuzzynav_controller()
@@ -881,7 +881,7 @@ def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
 def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
     """Recorded with a controller other than the one that drove (other parameters): the
     replay differs at once, the plot stops there and the metadata says so."""
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     _, result, _ = _fuzzynav_crossing()
@@ -898,17 +898,17 @@ def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
 def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     """A live recording ends with the same data and the same layout (with its internals
     tab) as one written after the run."""
-    from fuzzynav.app.recordings.record import INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.fuzzynav import fuzzynav_controller
 
     layouts = []
-    real = recording.blueprint
+    real = blueprint.blueprint
 
     def spy(scenario, obstacle_ids=(), n_rules=0, log=None, internals=False, **kw):
         layouts.append((list(obstacle_ids), n_rules, None if log is None else len(log), internals))
         return real(scenario, obstacle_ids, n_rules, log, internals=internals, **kw)
 
-    monkeypatch.setattr(recording, "blueprint", spy)
+    monkeypatch.setattr(blueprint, "blueprint", spy)
     sim, whole, controller = _fuzzynav_crossing()
     whole_rec = Recording(record_run(whole, tmp_path / "whole.rrd", controller=controller))
     whole_layout = layouts[-1]  # (sent first, then again with the legends placed)
@@ -1190,7 +1190,7 @@ def test_recordings_that_differ_in_content_store_their_own_bounds(tmp_path):
 
 
 def test_the_layout_key_changes_with_the_controller_and_its_rules():
-    from fuzzynav.app.recordings.record import application_id
+    from fuzzynav.app.recordings.blueprint import application_id
     from fuzzynav.controller.registry import make_controller
     from fuzzynav.world.scenario import load_scenario
 
@@ -1278,11 +1278,11 @@ def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
 
 
 def test_a_legend_gets_empty_room_or_the_emptiest_corner():
-    from fuzzynav.app.recordings.record import LEGEND_ENTRY_PX, PLOT_PX, _legend_placement
+    from fuzzynav.app.recordings.blueprint import LEGEND_ENTRY_PX, PLOT_PX, legend_placement
 
     t = np.linspace(0, 1, 400)
     busy = np.column_stack([np.sin(9 * t), np.cos(9 * t)])  # data in every corner
-    corner, value_range = _legend_placement(busy, 2)
+    corner, value_range = legend_placement(busy, 2)
     assert value_range is not None
     lo, hi = value_range
     h = (2 * LEGEND_ENTRY_PX + 14.0) / PLOT_PX
@@ -1292,7 +1292,7 @@ def test_a_legend_gets_empty_room_or_the_emptiest_corner():
     v = (busy[in_time] - lo) / (hi - lo)
     assert np.all(v <= 1 - h) if top else np.all(v >= h)  # the box holds no data
     quiet = np.column_stack([t, t])  # a rising line leaves the top left empty:
-    corner, value_range = _legend_placement(quiet, 2)  # the data's own range, 5 % margin
+    corner, value_range = legend_placement(quiet, 2)  # the data's own range, 5 % margin
     assert "LeftTop" in str(corner) and value_range == pytest.approx((-0.05, 1.05))
 
 
@@ -1308,7 +1308,7 @@ def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
 
 
 def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
-    from fuzzynav.app.recordings.record import _rgba
+    from fuzzynav.app.recordings.style import rgba
 
     _, result, rec, _ = s3_paper
     plot_colours = rec.static["/plots/distance"]["SeriesLines:colors"]
@@ -1317,7 +1317,7 @@ def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
         assert body == plot_colours[col + 1]  # (series 0 is the target)
     heading = rec.static["/world/robot/heading"]
     assert heading["Arrows2D:colors"][0] not in (
-        _rgba(recording.TRAIL),
+        rgba(style.TRAIL),
         *plot_colours[1:],
     )
     assert heading["Arrows2D:radii"][0] >= 0.03
@@ -1445,7 +1445,7 @@ def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
     """The membership functions of every variable; at each decision the input's value
     on its terms and each output's aggregated membership with its centroid, which is
     the controller's output then; nothing at the final instant (no decision)."""
-    from fuzzynav.app.recordings.record import FUZZY_W
+    from fuzzynav.app.recordings.fuzzy import FUZZY_W
 
     sim, result, rec = fuzzy_run
     fis = sim.controller.fis

@@ -18,7 +18,9 @@ from fuzzynav.app.cli import main
 rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader  # noqa: E402
 
+from fuzzynav.app.recordings import blueprint, documents  # noqa: E402
 from fuzzynav.app.recordings import record as recording  # noqa: E402
+from fuzzynav.app.recordings.live import LiveRecorder  # noqa: E402
 
 
 def run_cli(capsys, *argv):
@@ -174,14 +176,14 @@ def test_ctrl_c_while_the_recording_is_written_keeps_the_old_file(capsys, monkey
     """Exit 130 and a file with 1-30 of 38 entities, written in place, before."""
     rrd = tmp_path / "run.rrd"
     rrd.write_bytes(b"a good old recording")
-    real = recording._metrics
+    real = documents.metrics
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(recording, "_metrics", interrupted)
+    monkeypatch.setattr(documents, "metrics", interrupted)
     code, err = run_cli(capsys, "run", "s1", "--rrd", str(rrd))
-    monkeypatch.setattr(recording, "_metrics", real)
+    monkeypatch.setattr(documents, "metrics", real)
     assert code == 130
     assert "interrupted while writing the recording" in err and "old file is unchanged" in err
     assert rrd.read_bytes() == b"a good old recording"
@@ -194,7 +196,7 @@ def test_live_recorder_on_a_full_disk_keeps_the_partial_file_by_its_name(tmp_pat
     path = tmp_path / "live.rrd"
     path.write_bytes(b"old")
     sim = build_simulation("s1", "p")
-    live = recording.LiveRecorder(path, chunk_steps=20, min_interval_s=0.0)
+    live = LiveRecorder(path, chunk_steps=20, min_interval_s=0.0)
     for _ in range(50):
         sim.step()
         live.update(sim)
@@ -244,14 +246,14 @@ def test_two_runs_have_their_own_layouts(tmp_path):
     try:
         sim = build_simulation("s1", "paper")
         result = sim.run()
-        recording.blueprint(result.scenario, [0, 1, 2], 40, result.log)
+        blueprint.blueprint(result.scenario, [0, 1, 2], 40, result.log)
     finally:
         rrb.TimeRangeBoundary.absolute = real
     assert seen == []
 
 
 def test_world_bounds_follow_the_robot_not_a_far_obstacle():
-    from fuzzynav.app.recordings.record import _world_bounds
+    from fuzzynav.app.recordings.blueprint import world_bounds
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.scenario import ObstacleSpec
 
@@ -260,7 +262,7 @@ def test_world_bounds_follow_the_robot_not_a_far_obstacle():
     sim.reset(scenario=sim.scenario.replace(obstacles=sim.scenario.obstacles[:2] + (far,)))
     result = sim.run()
     assert result.log.obstacle_xy[:, 2, 0].max() > 1000  # it leaves for the horizon
-    (x0, x1), (y0, y1) = _world_bounds(result.scenario, result.log)
+    (x0, x1), (y0, y1) = world_bounds(result.scenario, result.log)
     assert x1 - x0 < 15 and y1 - y0 < 15  # the robot's 8 m x 8 m, with margins
 
 

@@ -11,8 +11,16 @@ from scipy.integrate import solve_ivp
 
 from fuzzynav.world.arena import Arena
 from fuzzynav.world.geometry import (
+    beam_cones,
+    beam_geometries,
+    circle_points,
+    footprint_outlines,
+    obstacle_bearings,
+    points_along,
     ray_circle_distance,
     rectangle_circle_clearance,
+    target_geometry,
+    to_robot_frame,
     wrap_angle,
     wrap_angle_scalar,
 )
@@ -81,6 +89,46 @@ def test_rectangle_circle_clearance_cases():
         (0, 0), math.pi / 2, *FOOTPRINT, (0.0, 2.0), 0.2
     ) == pytest.approx(1.305)
     assert rectangle_circle_clearance((0, 0), 0.0, *FOOTPRINT, (0.3, 0.0), 0.2) < 0
+
+
+def test_drawn_geometry_agrees_with_the_world():
+    """What the viewer, the recordings and the figures draw (world.geometry, issue 24):
+    the outline's corners lie on the footprint, the beams start where the sensors'
+    own geometry says, bearings and the target's distance are the robot frame's."""
+    pose = np.array([[1.0, -2.0, 0.7], [0.0, 0.0, -3.0], [-4.0, 5.0, math.pi]])
+    outlines = footprint_outlines(pose, *FOOTPRINT)
+    assert outlines.shape == (3, 5, 2) and np.array_equal(outlines[:, 0], outlines[:, 4])
+    for (x, y, h), outline in zip(pose, outlines):
+        for corner in outline[:4]:
+            local = to_robot_frame(corner, (x, y), h)
+            assert np.allclose(np.abs(local), np.multiply(FOOTPRINT, 0.5))
+    sensors = RangeSensorArray(SensorConfig())
+    origins, directions = beam_geometries(pose, sensors.config.mounts)
+    for k, p in enumerate(pose):
+        for j, (origin, direction) in enumerate(sensors.beam_geometry(tuple(p))):
+            assert np.allclose(origins[k, j], origin) and directions[k, j] == pytest.approx(
+                direction
+            )
+    left, right = beam_cones(origins[:, 0], directions[:, 0], np.full(3, 2.0), 0.1)
+    assert np.allclose(np.hypot(*(left - origins[:, 0]).T), 2.0)
+    assert np.allclose(np.hypot(*(right - origins[:, 0]).T), 2.0)
+    ends = points_along(origins[:, 0], directions[:, 0], np.full(3, 2.0))
+    assert np.allclose(
+        0.5 * (left + right), ends * math.cos(0.1) + origins[:, 0] * (1 - math.cos(0.1))
+    )
+    obstacles = np.array([[[3.0, 4.0]]] * 3)
+    bearings = obstacle_bearings(pose, obstacles)
+    distance, phi_t = target_geometry(pose, obstacles[:, 0])
+    for k, (x, y, h) in enumerate(pose):
+        lx, ly = to_robot_frame(obstacles[k, 0], (x, y), h)
+        assert bearings[k, 0] == pytest.approx(math.atan2(ly, lx)) == pytest.approx(phi_t[k])
+        assert distance[k] == pytest.approx(math.hypot(lx, ly))
+    assert np.all((bearings > -math.pi) & (bearings <= math.pi))
+    # straight behind is +pi, never -pi, as wrap_angle gives it
+    assert target_geometry(np.array([[0.0, 0.0, 0.0]]), np.array([[-1.0, 0.0]]))[1][0] == math.pi
+    ring = circle_points(0.5, 48)
+    assert ring.shape == (49, 2) and np.allclose(np.hypot(*ring.T), 0.5)
+    assert np.allclose(ring[0], ring[-1])
 
 
 # -- sensors -----------------------------------------------------------------------------
@@ -199,6 +247,52 @@ def test_pose_matches_solve_ivp(voltages):
     px, py, ptheta = result.log.pose[-1]
     assert (px, py) == pytest.approx((x, y), abs=2e-4)
     assert ptheta == pytest.approx(theta, abs=2e-5)
+
+
+class SweptVoltage:
+    """Voltages past the 12 V limit either way and within it, changing every call."""
+
+    def reset(self):
+        self.k = 0
+
+    def __call__(self, inputs):
+        self.k += 1
+        return np.array((20.0 * math.sin(0.05 * self.k), 15.0 * math.cos(0.031 * self.k) + 3.0))
+
+
+def _former_plant_step(model, x, v_left, v_right, dt):
+    """The loop's plant step as it was inlined in ``Simulation._advance_plant`` until
+    issue 24 (``[x; u]`` packed by hand, the cached step matrix, the mean's two rows)."""
+    from fuzzynav.world.husky import N_STATES, step_product
+
+    z = np.empty(N_STATES + 2)
+    z[:N_STATES], z[N_STATES:] = x.tolist(), (v_left, v_right)
+    result = step_product(model.discrete(dt).step_matrix, z[None, :])[0]
+    mean = result[N_STATES + 2 : N_STATES + 4].tolist()
+    return result[:N_STATES], mean[0], mean[1]
+
+
+@pytest.mark.parametrize("dt", [0.02, 0.05])
+def test_the_loop_clips_and_steps_the_plant_as_np_clip_and_huskymodel_step(dt):
+    """Every row: the applied voltages are np.clip of the controller's to +-12 V, and
+    the next LG state is HuskyModel.step's, which is the formerly inlined step's, to
+    the bit (the plain forms replaced hand-inlined ones, issue 24)."""
+    model = HuskyModel.default()
+    log = (
+        Simulation(open_field(duration_s=6.0), SweptVoltage(), model=model, control_period_s=dt)
+        .run()
+        .log
+    )
+    raw, applied = log.controller_output_v[:-1], log.voltages_v[:-1]
+    assert np.abs(raw).max() > 12.0 and np.abs(raw).min() < 12.0  # both sides of the limit
+    np.testing.assert_array_equal(applied, np.clip(raw, -12.0, 12.0))
+    for k in range(len(log) - 1):
+        x, u = log.lg_state[k], applied[k]
+        x_next, x_mean = model.step(x, u, dt)
+        former_next, former_v, former_w = _former_plant_step(model, x, *u.tolist(), dt)
+        np.testing.assert_array_equal(log.lg_state[k + 1], x_next)
+        np.testing.assert_array_equal(x_next, former_next)
+        assert (float(x_mean[2]), float(x_mean[3])) == (former_v, former_w)
 
 
 def test_straight_drive_reaches_the_reference_speed():

@@ -344,8 +344,8 @@ class Arena:
         """The obstacles now as plain floats, cached until the next step or edit.
 
         The clearances are :func:`world.geometry.rectangle_circle_clearance` inlined,
-        with the same operations in the same order (``max``/``min`` written as the
-        comparisons they make), so the numbers are the same to the bit.
+        with the same operations in the same order, so the numbers are the same to the
+        bit.
         """
         scene = self._scene_cache
         if scene is None:
@@ -375,11 +375,8 @@ class Arena:
                 dy = cy - y
                 qx = abs(c * dx + s * dy) - hx
                 qy = abs(ns * dx + c * dy) - hy
-                inside = qy if qy > qx else qx  # max(qx, qy)
-                inside = 0.0 if 0.0 < inside else inside  # min(inside, 0.0)
-                clearances.append(
-                    _hypot(0.0 if 0.0 > qx else qx, 0.0 if 0.0 > qy else qy) + inside - radius
-                )
+                inside = min(max(qx, qy), 0.0)
+                clearances.append(_hypot(max(qx, 0.0), max(qy, 0.0)) + inside - radius)
             scene = self._scene_cache = _new_tuple(
                 _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat)
             )
@@ -513,7 +510,7 @@ class Arena:
         smallest = self.min_clearance_m
         reported = {c.obstacle_id for c in self.collisions[first_new:]}
         for j, (c0, c1) in enumerate(zip(before.clearances, after.clearances)):
-            low = c0 if c0 < c1 else c1
+            low = min(c0, c1)
             if low < smallest:
                 smallest = low
             obstacle = self._scene_obstacles[j]

@@ -99,3 +99,74 @@ def point_segment_distance(points: np.ndarray, a, b) -> np.ndarray:
     closest = a + t[:, None] * ab
     diff = np.asarray(points, dtype=float) - closest
     return np.hypot(diff[:, 0], diff[:, 1])
+
+
+# ---------------------------------------------------------------------------------------
+# What the viewer, the recordings and the figures draw, vectorised over poses: pose is
+# (n, 3) rows of (x, y, heading). One place for each, so that they all draw the same.
+
+
+def footprint_outlines(pose: np.ndarray, length_m: float, width_m: float) -> np.ndarray:
+    """(n, 5, 2): the closed outline of a length x width footprint centred on each pose."""
+    hl, hw = 0.5 * length_m, 0.5 * width_m
+    corners = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw), (hl, hw)])
+    c, s = np.cos(pose[:, 2])[:, None], np.sin(pose[:, 2])[:, None]
+    x = pose[:, 0:1] + c * corners[:, 0] - s * corners[:, 1]
+    y = pose[:, 1:2] + s * corners[:, 0] + c * corners[:, 1]
+    return np.stack([x, y], axis=-1)
+
+
+def beam_geometries(pose: np.ndarray, mounts) -> tuple[np.ndarray, np.ndarray]:
+    """(origins (n, k, 2), directions (n, k)) in the world of k sensors mounted at
+    ``mounts`` (each with ``x_m``, ``y_m``, ``angle_rad`` in the robot frame) at every
+    pose: ``RangeSensorArray.beam_geometry`` for many poses."""
+    mx = np.array([m.x_m for m in mounts])
+    my = np.array([m.y_m for m in mounts])
+    ma = np.array([m.angle_rad for m in mounts])
+    h = pose[:, 2:3]
+    c, s = np.cos(h), np.sin(h)
+    ox = pose[:, 0:1] + c * mx - s * my
+    oy = pose[:, 1:2] + s * mx + c * my
+    return np.stack([ox, oy], axis=-1), h + ma
+
+
+def beam_cones(
+    origins: np.ndarray, directions: np.ndarray, lengths: np.ndarray, half_width_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(left edge ends, right edge ends), each (n, 2): the far corners of beam cones
+    from (n, 2) ``origins`` along ``directions`` (n,), ``lengths`` (n,) long and
+    ``half_width_rad`` either side."""
+    length = np.asarray(lengths, dtype=float)[:, None]
+    d = np.asarray(directions, dtype=float)[:, None]
+    left = origins + length * np.hstack([np.cos(d + half_width_rad), np.sin(d + half_width_rad)])
+    right = origins + length * np.hstack([np.cos(d - half_width_rad), np.sin(d - half_width_rad)])
+    return left, right
+
+
+def points_along(origins: np.ndarray, directions: np.ndarray, distances: np.ndarray) -> np.ndarray:
+    """(n, 2): the points ``distances`` (n,) from (n, 2) ``origins`` along ``directions``
+    (n,), e.g. where a range sensor's reading puts its echo on the beam's axis."""
+    d = np.asarray(directions, dtype=float)[:, None]
+    return origins + np.asarray(distances, dtype=float)[:, None] * np.hstack([np.cos(d), np.sin(d)])
+
+
+def obstacle_bearings(pose: np.ndarray, obstacle_xy: np.ndarray) -> np.ndarray:
+    """(n, n_obstacles): the bearing of each obstacle's centre (``obstacle_xy`` is
+    (n, n_obstacles, 2)) from the heading, in (-pi, pi]."""
+    dx = obstacle_xy[:, :, 0] - pose[:, 0:1]
+    dy = obstacle_xy[:, :, 1] - pose[:, 1:2]
+    return wrap_angle(np.arctan2(dy, dx) - pose[:, 2:3])
+
+
+def target_geometry(pose: np.ndarray, target_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance d_t, bearing phi_t in (-pi, pi]) of the target (``target_xy`` (n, 2))
+    from every pose, centre to centre."""
+    dx = target_xy[:, 0] - pose[:, 0]
+    dy = target_xy[:, 1] - pose[:, 1]
+    return np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - pose[:, 2])
+
+
+def circle_points(radius_m: float, segments: int) -> np.ndarray:
+    """(segments + 1, 2): a closed circle of ``radius_m`` around the origin."""
+    a = np.linspace(0.0, 2.0 * math.pi, segments + 1)
+    return np.stack([radius_m * np.cos(a), radius_m * np.sin(a)], axis=-1)

@@ -87,7 +87,7 @@ def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, 
     # list.index(min(...)) is np.argmin's first minimum, without the numpy call.
     k = clearances.index(min(clearances))
     d_o = clearances[k]
-    d_o = 0.0 if 0.0 > d_o else d_o  # max(d_o, 0.0)
+    d_o = max(d_o, 0.0)
     if d_o > cutoff_m:
         return math.nan, math.nan, -1
     cx, cy = scene.xy[k]
@@ -177,7 +177,7 @@ class Perception:
             if clearances:
                 k = clearances.index(min(clearances))  # np.argmin's first minimum
                 nearest = clearances[k]
-                nearest = 0.0 if 0.0 > nearest else nearest  # max(clearance, 0.0)
+                nearest = max(nearest, 0.0)
                 if not nearest > self.cutoff_m:
                     cx, cy = scene[2][k]
                     d_o = nearest

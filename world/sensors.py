@@ -240,10 +240,7 @@ class RangeSensorArray:
         cfg = self.config
         if cfg.noise_std_m > 0.0:
             distance += self._rng.normal(0.0, cfg.noise_std_m)
-        # min(max(distance, min_range), max_range), as the comparisons min/max make
-        low, high = cfg.min_range_m, cfg.max_range_m
-        distance = low if low > distance else distance
-        return high if high < distance else distance
+        return min(max(distance, cfg.min_range_m), cfg.max_range_m)
 
     def _store(self, ranges: list[float], hits) -> None:
         """Keep the readings (a fresh array per update) and the hit points (None: none)."""

@@ -23,10 +23,12 @@ NaN voltages because no decision follows it.
 Speed (issue 2): a step does a few dozen small operations, so their per-call overheads
 are the cost. The loop therefore works on plain floats: perception, saturation and the
 log row never build small numpy arrays (only the controller's ``inputs`` and the plant's
-``[x; u]`` are arrays), the plant step is ``HuskyModel``'s own precomputed (12 x 8) ZOH
-product, and log rows are written into the log's arrays in blocks. Every operation on
-the numbers is the one the straightforward code did, in the same order, so runs are the
-same to the bit.
+``[x; u]`` are arrays), and log rows are written into the log's arrays in blocks. The
+plant step is :meth:`HuskyModel.step` itself and the saturation ``min``/``max`` (issue 24):
+their hand-inlined forms saved a few microseconds a step, which no bench row needs to
+meet its aim (``bench/bench_world.py``; the numbers are in docs/speed.md). Every
+operation on the numbers is the one the straightforward code did, in the same order, so
+runs are the same to the bit.
 """
 
 from __future__ import annotations
@@ -39,8 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fuzzynav.world.arena import Arena, Collision
-from fuzzynav.world.husky import N_STATES, HuskyModel
-from fuzzynav.world.husky import step_product as _step_product
+from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.metrics import compute_metrics
 from fuzzynav.world.perception import Perception, check_geometry
 from fuzzynav.world.scenario import Scenario
@@ -98,7 +99,6 @@ def check_run_size(duration_s: float, control_period_s: float, n_obstacles: int)
 
 
 _FLOAT64 = np.dtype(np.float64)
-_PACK_XU = struct.Struct(f"{N_STATES + 2}d").pack_into
 _pack_into = struct.pack_into
 
 
@@ -382,9 +382,6 @@ class Simulation:
         capacity = int(math.ceil(min(sc.duration_s, 3600.0) / self.control_period_s)) + 2
         self._log = _LogBuffer(capacity)
         self._pending: dict | None = None
-        self._plant = (None, None, None)  # (model, dt, step matrix or None)
-        self._z = np.empty(N_STATES + 2)  # [x; u] for the plant's step product
-        self._z_row = self._z[None, :]  # the same memory as one row
 
     @property
     def time_s(self) -> float:
@@ -457,14 +454,10 @@ class Simulation:
         d_t, d_o, phi_t, phi_o, ranges, ranges_list, disturbance = self._sense(target_xy)
         inputs = np.array((d_t, d_o, phi_t, phi_o))
         left, right = self._decide(inputs, ranges)
-        # np.clip(raw, -limit, limit) on two finite floats: min(max(v, -limit), limit),
-        # written as the comparisons min and max make (2-argument min/max are slow).
+        # The saturation block, np.clip(raw, -limit, limit) on two finite floats.
         limit = self.voltage_limit_v
-        low = -limit
-        v_left = low if low > left else left
-        v_left = limit if limit < v_left else v_left
-        v_right = low if low > right else right
-        v_right = limit if limit < v_right else v_right
+        v_left = min(max(left, -limit), limit)
+        v_right = min(max(right, -limit), limit)
         x_list = self._state_list()
         self._record(
             x_list,
@@ -482,7 +475,7 @@ class Simulation:
         )
 
         dt = self.control_period_s
-        forward_speed, yaw_rate = self._advance_plant(x_list, v_left, v_right, dt)
+        forward_speed, yaw_rate = self._advance_plant(v_left, v_right, dt)
         new_contacts = arena.step(forward_speed, yaw_rate, dt)
 
         x, y, _ = arena._pose
@@ -519,28 +512,11 @@ class Simulation:
             return x.tolist()
         return np.asarray(x, dtype=float).reshape(-1).tolist()
 
-    def _advance_plant(
-        self, x_list: list[float], v_left: float, v_right: float, dt: float
-    ) -> tuple[float, float]:
-        """``HuskyModel.step`` on floats: sets ``self.x``, returns the step-mean forward
-        speed and yaw rate. The same (12 x 8) product with the same ``[x; u]`` as
-        ``HuskyModel.step`` and the batch engine (``world.husky.step_product``), so the
-        same numbers, without its per-call overheads."""
-        model = self.model
-        cached_model, cached_dt, matrix = self._plant
-        if model is not cached_model or dt != cached_dt:
-            matrix = model.discrete(dt).step_matrix if type(model).step is HuskyModel.step else None
-            self._plant = (model, dt, matrix)
-        if matrix is None:
-            self.x, x_mean = model.step(self.x, np.array((v_left, v_right)), dt)
-            return float(x_mean[2]), float(x_mean[3])
-        z = self._z
-        _PACK_XU(z, 0, *x_list, v_left, v_right)  # z = [x; u], without building an array
-        # the batch engine's product too (world.husky.step_product): the same bits
-        result = _step_product(matrix, self._z_row)[0]
-        self.x = result[:N_STATES]
-        mean = result[N_STATES + 2 : N_STATES + 4].tolist()
-        return mean[0], mean[1]
+    def _advance_plant(self, v_left: float, v_right: float, dt: float) -> tuple[float, float]:
+        """One plant step with the voltages held over ``dt`` (:meth:`HuskyModel.step`):
+        sets ``self.x``, returns the step-mean forward speed and yaw rate."""
+        self.x, x_mean = self.model.step(self.x, np.array((v_left, v_right)), dt)
+        return float(x_mean[2]), float(x_mean[3])
 
     def _record(
         self,

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from fuzzynav.app.args import UsageError, integer_in, print_json, seed_type
+from fuzzynav.app.provenance import reproduce_line
 from fuzzynav.resources import asset_path
 from fuzzynav.safe_files import write_text_atomically
 
@@ -487,7 +488,7 @@ def cmd_fit_paper(args) -> int:
         + (f" --x0 {args.x0.name}" if args.x0 is not None else "")
     )
     header = (
-        f"Reproduce with: {command}\n"
+        reproduce_line(command) + "\n"
         f"(best cost {best:.6f} after {nit} generations, {nfev} candidates, "
         f"{elapsed:.0f} s on {args.workers} workers; cost: app/experiments/paper_fit.py)\n"
         "The start heading is the scenarios' (pi/4, a reading of the text), never fitted."

@@ -26,6 +26,7 @@ from fuzzynav.app.args import UsageError
 
 # The rows of both engines come from one function (app/experiments/batch_runs.py).
 from fuzzynav.app.experiments.batch_runs import layout_row
+from fuzzynav.app.provenance import fuzzynav_version
 
 SAFE_CLEARANCE_M = 0.25
 
@@ -124,13 +125,11 @@ def _fingerprint(controller, parts_off, family, seed, perception, options) -> st
     # cached: every job's key asks for it (a sweep of 100,000 layouts once, not 100,000 times)
     import hashlib
 
-    from fuzzynav import __version__
-
     if controller not in _DIGESTS:
         _DIGESTS[controller] = _rules_digest(controller)
     what = json.dumps(
         [
-            __version__,
+            fuzzynav_version(),
             controller,
             _DIGESTS[controller],
             list(parts_off),

@@ -24,7 +24,6 @@ from __future__ import annotations
 import inspect
 import math
 import os
-import shlex
 import time
 from pathlib import Path
 
@@ -42,6 +41,7 @@ from fuzzynav.app.experiments.objective import (
     outcome_cost,
     run_until_stalled,  # noqa: F401  (paper_fit's run_once imports it from here)
 )
+from fuzzynav.app.provenance import reproduce_line, shell_command
 from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import write_text_atomically
 
@@ -77,7 +77,7 @@ def reproduce_command(args) -> str:
     if method in ("de", "cmaes"):
         parts += ["--popsize", str(args.popsize), "--seed", str(args.seed)]
     parts += ["--dt", str(args.dt)]
-    return shlex.join(parts)  # --out, --workers, --checkpoint do not change the result
+    return shell_command(parts)  # --out, --workers, --checkpoint do not change the result
 
 
 def read_vector(path: Path, names: list[str]) -> np.ndarray:
@@ -556,7 +556,7 @@ def cmd_tune(args) -> int:
         )
     elapsed = time.perf_counter() - start
     header = (
-        f"Reproduce with: {command}\n"
+        reproduce_line(command) + "\n"
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
         f"cost: app/experiments/objective.py)"
     )

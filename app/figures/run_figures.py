@@ -64,6 +64,7 @@ from fuzzynav.app.figures.style import (
 )
 from fuzzynav.app.figures.trajectory import closest_approaches, draw_trajectory
 from fuzzynav.resources import escape_controls
+from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 
 def _mark_closest(ax, result, *, label: bool) -> None:
@@ -102,12 +103,6 @@ def _geometry_label(result) -> str:
     return f"{getattr(result, 'geometry', 'husky')} geometry"
 
 
-def _bearings(log) -> np.ndarray:
-    dx = log.obstacle_xy[:, :, 0] - log.pose[:, 0:1]
-    dy = log.obstacle_xy[:, :, 1] - log.pose[:, 1:2]
-    return np.mod(np.arctan2(dy, dx) - log.pose[:, 2:3] + math.pi, 2 * math.pi) - math.pi
-
-
 def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
     """A copy with NaN where an angle wraps between +pi and -pi, so that no vertical
     line is drawn across the axes there."""
@@ -115,10 +110,6 @@ def _break_at_wraps(angles: np.ndarray) -> np.ndarray:
     jumps = np.abs(np.diff(out, axis=0)) > math.pi
     out[1:][jumps] = np.nan
     return out
-
-
-def _wrap(angle):
-    return np.mod(angle + math.pi, 2 * math.pi) - math.pi
 
 
 def run_figure(
@@ -183,10 +174,7 @@ def run_figure(
     if kind == "angles":
         fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
         top, bottom = ax[0, 0], ax[1, 0]
-        phi_t = _wrap(
-            np.arctan2(log.target_xy[:, 1] - log.pose[:, 1], log.target_xy[:, 0] - log.pose[:, 0])
-            - log.pose[:, 2]
-        )
+        phi_t = target_geometry(log.pose, log.target_xy)[1]
         if disturbance_window_s(scenario) is not None and len(log):
             top.plot(
                 t,
@@ -210,7 +198,7 @@ def run_figure(
         fig, ax = _new_figure(7.6, 3.6)
         a = ax[0, 0]
         if len(log.obstacle_ids) and len(log):
-            bearings = _break_at_wraps(_bearings(log))
+            bearings = _break_at_wraps(obstacle_bearings(log.pose, log.obstacle_xy))
             for col in range(len(log.obstacle_ids)):
                 a.plot(
                     t,

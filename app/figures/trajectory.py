@@ -21,6 +21,7 @@ from fuzzynav.app.figures.style import (
     _obstacle_label,
     disturbance_window_s,
 )
+from fuzzynav.world.geometry import footprint_outlines
 
 FOOTPRINT_EVERY_S = 5.0
 
@@ -34,18 +35,6 @@ def _moving_columns(log) -> list[int]:
         if len(xy) > 1 and np.any(np.ptp(xy, axis=0) > 1e-9):
             moving.append(col)
     return moving
-
-
-def _footprint(pose, length_m: float, width_m: float) -> np.ndarray:
-    hl, hw = 0.5 * length_m, 0.5 * width_m
-    corners = np.array([(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw), (hl, hw)])
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    return np.column_stack(
-        [
-            pose[0] + c * corners[:, 0] - s * corners[:, 1],
-            pose[1] + s * corners[:, 0] + c * corners[:, 1],
-        ]
-    )
 
 
 def draw_trajectory(
@@ -130,8 +119,8 @@ def draw_trajectory(
         labels.append((_obstacle_label(log, col), last, color))
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
-        for k in list(range(0, len(log), period)) + [len(log) - 1]:
-            outline = _footprint(log.pose[k], *footprint_m)
+        shown = list(range(0, len(log), period)) + [len(log) - 1]
+        for outline in footprint_outlines(log.pose[shown], *footprint_m):
             ax.plot(outline[:, 0], outline[:, 1], color=ROBOT, lw=0.5, alpha=0.35, zorder=4)
     ax.plot(xy[:, 0], xy[:, 1], color=ROBOT, lw=1.8, label="robot (centre)", zorder=5)
     window = disturbance_window_s(scenario)

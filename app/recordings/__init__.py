@@ -1,5 +1,21 @@
 """The recordings room: every run as a rerun ``.rrd`` recording or a CSV trace.
 
-- :mod:`.record`  rerun columns, the blueprint, the live recorder, the files;
-- :mod:`.trace`   ``run --trace PATH.csv``: one row per control step.
+- :mod:`.record`     ``record_run`` (a finished or interrupted run to a file) and
+  ``run --rrd``'s options; the list of every entity a recording holds;
+- :mod:`.live`       the live recorder: a running simulation, a chunk of steps at a time;
+- :mod:`.files`      a recording written whole beside its target, or ``RecordingError``;
+- :mod:`.columns`    the column writer both share, and the plots (one entity each);
+- :mod:`.scene`      the world's entities: robot, target, obstacles, beams, the map;
+- :mod:`.internals`  the controller's inside: which it is, rule firing, fuzzynav's state;
+- :mod:`.fuzzy`      the fuzzy inference at the time cursor (a controller with a ``fis``);
+- :mod:`.events`     closest approaches, the disturbance window and the end;
+- :mod:`.documents`  the run's documents under ``/meta`` (run, versions, rules, summary);
+- :mod:`.blueprint`  the default layout, legend placement and the application id;
+- :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;
+- :mod:`.style`      colours, draw orders and sizes;
+- :mod:`.trace`      ``run --trace PATH.csv``: one row per control step.
+
+Provenance (versions, git revision, reproduce commands) is :mod:`fuzzynav.app.provenance`'s,
+shared with the sweeps and the tuning; the geometry drawn (footprints, beams, bearings)
+is :mod:`fuzzynav.world.geometry`'s, shared with the viewer and the figures.
 """

@@ -13,6 +13,12 @@ applies. The editor starts from the shipped rule base's own numbers when its
 file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they rebuild
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
+
+Beside the shapes, the inference choices (issue 27): AND min or product, implication min
+or product, aggregation max, sum or probabilistic OR, defuzzification centroid,
+bisector, mean / smallest / largest of maximum, with MATLAB's meanings
+(:mod:`fuzzynav.controller.inference`). A choice rebuilds the controller as a slider
+does, and the downloaded .fis carries it.
 """
 
 from __future__ import annotations
@@ -76,6 +82,25 @@ class PaperEditor:
         self.vector = self.start.copy()
         self.edited = False
         self._controller = self.shipped
+        self.inference = self.shipped.fis.inference
+
+    def choice(self, field: str) -> str:
+        """The current value of an inference choice (an Inference field name)."""
+        return getattr(self.inference, field)
+
+    def set_choice(self, field: str, value):
+        """Set one inference choice (``defuzz_method="mom"``, ...); returns the controller
+        of the edited system."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        try:
+            inference = self.inference.replace(**{field: value})
+        except (TypeError, ValueError) as exc:
+            raise ValueError(str(exc)) from None
+        fis = self._controller.fis.replace(inference=inference)
+        controller = FisController(fis, name="paper (edited)")
+        self.inference, self._controller, self.edited = inference, controller, True
+        return controller
 
     def value(self, name: str) -> float:
         return float(self.vector[self.names.index(name)])
@@ -113,7 +138,7 @@ class PaperEditor:
                 fis = shaped
         except ValueError:
             fis = shaped
-        return FisController(fis, name="paper (edited)")
+        return FisController(fis.replace(inference=self.inference), name="paper (edited)")
 
     def reset(self):
         """Back to the shipped controller."""
@@ -122,6 +147,7 @@ class PaperEditor:
         self.vector = self.start.copy()
         self.edited = False
         self._controller = paper_controller(geometry=self.geometry)
+        self.inference = self._controller.fis.inference
         return self._controller
 
     def controller(self):

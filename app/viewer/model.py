@@ -999,6 +999,15 @@ class ViewerApp:
             raise ViewerError(str(exc)) from None
         self._install_controller(controller, EDITED_LABEL, quiet=True)
 
+    def set_inference_choice(self, field: str, value: str) -> None:
+        """Change one of the paper controller's inference choices (issue 27: AND,
+        implication, aggregation, defuzzification) and drive with it at once."""
+        try:
+            controller = self.editor().set_choice(field, value)
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
+        self._install_controller(controller, EDITED_LABEL, quiet=True)
+
     def reset_membership_editor(self) -> None:
         """Back to the shipped paper controller (and its parameters in the editor)."""
         editor = self.editor()

@@ -48,6 +48,27 @@ TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often w
 SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
 SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
+# The Editor's inference choices (issue 27): field of controller.inference.Inference,
+# label, and what the choice does, in words (MATLAB's names are the options).
+EDITOR_CHOICES = (
+    ("and_method", "AND", "how a rule joins its clauses: min, or prod (their product)"),
+    (
+        "imp_method",
+        "Implication",
+        "a rule's output set: min (its term clipped at the rule's strength) or prod (scaled by it)",
+    ),
+    (
+        "agg_method",
+        "Aggregation",
+        "how the rules' sets combine: max, sum (may pass 1), probor (a + b - ab)",
+    ),
+    (
+        "defuzz_method",
+        "Defuzzification",
+        "centroid, bisector (half the area each side), mom / som / lom: mean, smallest or "
+        "largest (in magnitude) of the points where the set is highest",
+    ),
+)
 # What the editor's numbers do, in words (the Husky's 27-number layout, controller/paper.py,
 # and the paper geometry's partition layout, controller/paper_partition.py).
 EDITOR_LABELS = {
@@ -908,8 +929,9 @@ class ViewerServer:
             "from the tuner's starting point (Reset drives with the shipped one)."
         )
         gui.add_html(
-            "<div style='font-size:0.85em;padding:0 6px'>Move a slider and the robot drives "
-            "with the edited <b>paper</b> controller at once (the run goes on). Each number "
+            "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
+            "choice and the robot drives with the edited <b>paper</b> controller at once (the "
+            "run goes on). Each number "
             "places a term (where it starts, peaks or ends) or a gap after the term before "
             f"it, so the terms stay in order whatever you do. {note}</div>"
         )
@@ -917,6 +939,20 @@ class ViewerServer:
             "Edited system", ("Download .fis", "Reset to shipped")
         )
         self.editor_buttons.on_click(self._guarded(self._on_editor_button))
+        from fuzzynav.controller.inference import CHOICES
+
+        self.editor_choices = {}
+        with gui.add_folder("Inference (MATLAB's choices)", expand_by_default=True):
+            for field, label, hint in EDITOR_CHOICES:
+                dropdown = gui.add_dropdown(
+                    label, CHOICES[field], initial_value=editor.choice(field), hint=hint
+                )
+                dropdown.on_update(
+                    self._guarded(
+                        lambda e, field=field: app.set_inference_choice(field, e.target.value)
+                    )
+                )
+                self.editor_choices[field] = dropdown
         self.editor_sliders = {}
         groups: dict[str, list[str]] = {}
         for name in editor.names:
@@ -1153,6 +1189,8 @@ class ViewerServer:
         editor = self.app.editor()
         for name, slider in self.editor_sliders.items():
             slider.value = round(editor.value(name), 2)
+        for field, dropdown in self.editor_choices.items():
+            dropdown.value = editor.choice(field)
 
     def _guarded(self, func):
         """Run a GUI callback; a refused action becomes a message in the page."""
@@ -1699,6 +1737,9 @@ class ViewerServer:
                 value = round(editor.value(name), 2)  # as the slider shows it
                 if abs(slider.value - value) > 1e-9:
                     slider.value = value
+            for field, dropdown in self.editor_choices.items():
+                if dropdown.value != editor.choice(field):
+                    dropdown.value = editor.choice(field)
 
     def _status_html(self, snap: Snapshot) -> str:
         state = (

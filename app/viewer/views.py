@@ -319,6 +319,26 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
     return "".join(parts)
 
 
+def _choice(fis, field: str, default: str) -> str:
+    """One of the system's inference choices (controller/inference.py, issue 27)."""
+    return getattr(getattr(fis, "inference", None), field, default)
+
+
+def _defuzz_word(fis) -> str:
+    """The defuzzification method as the views name it: centroid, bisector, MOM..."""
+    method = _choice(fis, "defuzz_method", "centroid")
+    return method if method in ("centroid", "bisector") else method.upper()
+
+
+def _scaled_use(ref, x0, y0, w, h, level, fill, opacity) -> str:
+    """A term's area (``ref``, drawn in a w x h box at (x0, y0)) scaled by ``level``: the
+    level * membership of the product implication."""
+    return (
+        f"<g transform='translate({x0:.1f},{y0 + h * (1.0 - level):.1f}) scale(1,{level:.4f})'>"
+        f"<use href='#{ref}' fill='{fill}' fill-opacity='{opacity}' stroke='none'/></g>"
+    )
+
+
 def _clipped_use(ref, clip_id, x0, y0, w, h, level, fill, opacity) -> str:
     """A term's area (``ref``, drawn in a w x h box at (x0, y0)) cut at ``level``: the
     min(membership, level) of Mamdani's implication, drawn with a clip rectangle."""
@@ -452,7 +472,13 @@ def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=N
             if k is None:
                 continue
             level = float(inf.memberships[v][k]) if kind == "in" else s
-            if level > 0:
+            if level > 0 and kind == "out" and _choice(fis, "imp_method", "min") == "prod":
+                fills.append(
+                    _scaled_use(
+                        f"{uid}out{v}f{k}", col_x(c) + pad, y0 + pad, w, h, s, CONSEQUENT_FILL, 0.85
+                    )
+                )
+            elif level > 0:
                 fill = ANTECEDENT_FILL if kind == "in" else CONSEQUENT_FILL
                 fills.append(
                     _clipped_use(
@@ -523,8 +549,9 @@ def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
         x0, w = col_x(c) + pad, CELL_W - 2 * pad
         a = inf.aggregate[j]
         peak = float(a.max()) if len(a) else 0.0
-        # A set only a few per cent high is invisible at scale 1: drawn taller, and said.
-        zoom = 1.0 if peak >= 0.25 or peak <= 0 else 1.0 / peak
+        # A set only a few per cent high is invisible at scale 1: drawn taller, and said;
+        # one above 1 (sum aggregation) is drawn lower, and its height said.
+        zoom = 1.0 if 0.25 <= peak <= 1.0 or peak <= 0 else 1.0 / peak
         parts.append(
             f"<rect x='{x0:.1f}' y='{y0:.1f}' width='{w:.1f}' height='{agg_h:.1f}' fill='#eff6ff'"
             " stroke='#bfdbfe'/>"
@@ -544,7 +571,7 @@ def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
         note = (
             ("unused" if unused else "fallback")
             if peak <= 0
-            else (f"×{zoom:.0f}" if zoom > 1 else "")
+            else (f"×{zoom:.0f}" if zoom > 1 else f"peak {peak:.2f}" if zoom < 1 else "")
         )
         if note:
             red = peak <= 0 and not unused
@@ -558,7 +585,8 @@ def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
         )
     parts.append(
         f"<text x='2' y='{y0 + 10:.1f}' font-size='8.5' fill='#334155'>aggregated</text>"
-        f"<text x='2' y='{y0 + 21:.1f}' font-size='8.5' fill='#334155'>centroid</text></svg>"
+        f"<text x='2' y='{y0 + 21:.1f}' font-size='8.5' fill='#334155'>{_defuzz_word(fis)}</text>"
+        "</svg>"
     )
     return "".join(parts)
 
@@ -668,7 +696,7 @@ def inference_html(
     centroid_text = ", ".join(
         f"{html.escape(name)} = {c:.2f}" for name, c in zip(inf.output_labels, inf.centroids)
     )
-    lines.append(f"<div>Outputs (centroids): {centroid_text}</div>")
+    lines.append(f"<div>Outputs ({_defuzz_word(inf.fis)}): {centroid_text}</div>")
     for name, text in (notes or {}).items():
         lines.append(
             f"<div style='color:#475569'><b>{html.escape(name)}</b>: {html.escape(text)}</div>"
@@ -709,8 +737,9 @@ def inference_html(
         lines.append(
             "<div style='font-weight:600;margin-top:6px'>Rules"
             + (" that fire" if only_firing else "")
-            + " (yellow: antecedent degree, blue: consequent clipped at the rule's "
-            "strength; hover a row to read it)</div>"
+            + " (yellow: antecedent degree, blue: consequent "
+            + ("scaled by" if _choice(inf.fis, "imp_method", "min") == "prod" else "clipped at")
+            + " the rule's strength; hover a row to read it)</div>"
         )
         lines.append(
             rules_html(

@@ -1,0 +1,409 @@
+"""The recording's default layout (its rerun blueprint) and its application id.
+
+The world on the left, the paper's figures stacked on the right, with tabs for the
+plant, the sensors, the rules and the run's documents. A live recording sends the
+layout first, so that a viewer opening the stream uses it at once, and again at the end
+with the legends placed where the data leave room (:func:`legend_placement`);
+``record_run``, whose file appears whole, once at the end. The application id
+(:func:`application_id`) is ``fuzzynav-<scenario>-<controller>-<geometry>-<key of the
+scenario's content>``, so recordings whose layouts differ keep their own in a viewer.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .arrow import TIMELINE
+from .events import EVENTS_LANES, EVENTS_LOG_PATH
+from .fuzzy import FUZZY_PATH, FUZZY_W
+from .internals import (
+    INTERNALS_PATH,
+    RULES_HEATMAP_PATH,
+    RULES_PATH,
+    RULES_STRONGEST_PATH,
+    RULES_TEXT_PATH,
+    controller_label,
+    has_internals,
+    rule_system,
+)
+
+APPLICATION_ID = "fuzzynav"
+
+
+def scenario_stem(scenario) -> str:
+    """A scenario's short name: its file's stem (s1) or its name."""
+    source = getattr(scenario, "source", "") or ""
+    return Path(source).stem if source and source != "<memory>" else scenario.name
+
+
+def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
+    """The world view's bounds: the robot's whole path (or, before it has one, the
+    start), the target, and the obstacles near them, with a 1 m margin. A moving
+    obstacle counts only where it comes within 2 m of that area, so a long run's view
+    is the robot's, not the path of an obstacle that left for the horizon."""
+    xs = [scenario.start[0], scenario.target[0]]
+    ys = [scenario.start[1], scenario.target[1]]
+    if log is not None and len(log):
+        xy = log.pose[:, :2]
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if len(xy):
+            xs += [float(xy[:, 0].min()), float(xy[:, 0].max())]
+            ys += [float(xy[:, 1].min()), float(xy[:, 1].max())]
+    near = 2.0
+    lo_x, hi_x, lo_y, hi_y = min(xs) - near, max(xs) + near, min(ys) - near, max(ys) + near
+
+    def keep(points, radii):
+        for (x, y), r in zip(points, radii):
+            if lo_x <= x <= hi_x and lo_y <= y <= hi_y:
+                xs.extend((x - r, x + r))
+                ys.extend((y - r, y + r))
+
+    keep([o.position for o in scenario.obstacles], [o.radius_m for o in scenario.obstacles])
+    if log is not None and len(log) and log.obstacle_xy.size:
+        radii = np.repeat(log.obstacle_radii_m[None, :], len(log), axis=0).reshape(-1)
+        points = log.obstacle_xy.reshape(-1, 2)
+        finite = np.all(np.isfinite(points), axis=1)
+        inside = (
+            finite
+            & (points[:, 0] >= lo_x)
+            & (points[:, 0] <= hi_x)
+            & (points[:, 1] >= lo_y)
+            & (points[:, 1] <= hi_y)
+        )
+        if inside.any():
+            p, r = points[inside], radii[inside]
+            xs += [float((p[:, 0] - r).min()), float((p[:, 0] + r).max())]
+            ys += [float((p[:, 1] - r).min()), float((p[:, 1] + r).max())]
+    margin = 1.0
+    return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
+
+
+#: The plot area of a stacked panel at 1600 x 1000 (px) and a legend entry's height: a
+#: legend of k entries covers about (k * LEGEND_ENTRY_PX + 12) / PLOT_PX of a panel.
+PLOT_PX = 140.0
+LEGEND_ENTRY_PX = 23.0
+LEGEND_WIDTH = 0.24  # of the time axis
+#: How far the value axis may be stretched to give the legend empty room (x its span).
+MAX_HEADROOM = 2.6
+
+
+def legend_placement(series: np.ndarray, n_entries: int):
+    """(corner, value range or None) for a plot's legend, so that it covers no data
+    (rerun draws the legend over the plot): the corner whose legend-sized box holds the
+    fewest points of ``series`` (rows, k); if even that one holds some, the value axis
+    is stretched away from the data on that side (by at most :data:`MAX_HEADROOM`), so
+    the legend sits over empty room; else the data's range with a 5 % margin (always
+    set: rerun's own range left curves that start with a gap off the panel). None
+    without data."""
+    import rerun.blueprint as rrb
+
+    values = np.asarray(series, dtype=float)
+    if values.ndim != 2 or not values.size:
+        return None
+    n = len(values)
+    t = np.repeat(np.linspace(0.0, 1.0, n)[:, None], values.shape[1], axis=1).reshape(-1)
+    v = values.reshape(-1)
+    ok = np.isfinite(v)
+    if not ok.any():
+        return None
+    t, v = t[ok], v[ok]
+    lo, hi = float(v.min()), float(v.max())
+    span = hi - lo if hi > lo else max(abs(hi), 1.0)
+    pad = 0.05 * span  # rerun's own margin, about
+    lo_r, hi_r = lo - pad, hi + pad
+    vn = (v - lo_r) / (hi_r - lo_r)
+    h = min(0.95, (n_entries * LEGEND_ENTRY_PX + 14.0) / PLOT_PX)
+    w = LEGEND_WIDTH
+    boxes = {
+        rrb.Corner2D.LeftTop: (t < w) & (vn > 1 - h),
+        rrb.Corner2D.RightTop: (t > 1 - w) & (vn > 1 - h),
+        rrb.Corner2D.LeftBottom: (t < w) & (vn < h),
+        rrb.Corner2D.RightBottom: (t > 1 - w) & (vn < h),
+    }
+    counts = {corner: int(np.count_nonzero(inside)) for corner, inside in boxes.items()}
+    corner = min(counts, key=counts.get)
+    if counts[corner] == 0:  # the data's own range (rerun's auto range misjudged series
+        return corner, (lo_r, hi_r)  # that start with a gap, e.g. d_o before any sighting)
+    # Stretch the axis so that the data under the legend's box move out of it: on the
+    # box's side, the data's extreme inside the box's time span sets the room needed.
+    top = corner in (rrb.Corner2D.LeftTop, rrb.Corner2D.RightTop)
+    left = corner in (rrb.Corner2D.LeftTop, rrb.Corner2D.LeftBottom)
+    best = None
+    for c_top in (True, False):
+        for c_left in (True, False):
+            in_time = (t < w) if c_left else (t > 1 - w)
+            if not in_time.any():
+                extreme = hi_r if c_top else lo_r
+            else:
+                extreme = float(v[in_time].max() if c_top else v[in_time].min())
+            # new range [a, b] with the legend box (h of it) beyond ``extreme``
+            if c_top:
+                b = lo_r + (max(extreme + pad, lo_r) - lo_r) / (1.0 - h)
+                a, b = lo_r, max(b, hi_r)
+            else:
+                a = hi_r - (hi_r - min(extreme - pad, hi_r)) / (1.0 - h)
+                a, b = min(a, lo_r), hi_r
+            stretch = (b - a) / (hi_r - lo_r)
+            if best is None or stretch < best[0]:
+                best = (stretch, c_top, c_left, (a, b))
+    stretch, top, left, value_range = best
+    corner = {
+        (True, True): rrb.Corner2D.LeftTop,
+        (True, False): rrb.Corner2D.RightTop,
+        (False, True): rrb.Corner2D.LeftBottom,
+        (False, False): rrb.Corner2D.RightBottom,
+    }[(top, left)]
+    if stretch > MAX_HEADROOM:  # rather some overlap than flattened curves
+        return min(counts, key=counts.get), (lo_r, hi_r)
+    return corner, (float(value_range[0]), float(value_range[1]))
+
+
+#: The panels of a recording and the paper's figure each draws (app.figures.run_figures's kinds).
+PAPER_KIND = {
+    "/plots/distance": "distances",
+    "/plots/angles": "angles",
+    "/plots/obstacle_angles": "obstacle_angles",
+    "/plots/voltage": "voltages",
+}
+
+
+def figure_tag(scenario_label: str, path: str) -> str:
+    """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
+    draws (:func:`app.figures.run_figures.paper_figure_number`, one numbering everywhere), or ""."""
+    from fuzzynav.app.figures.run_figures import paper_figure_number
+
+    kind = PAPER_KIND.get(path)
+    number = paper_figure_number(scenario_label, kind) if kind else None
+    return f" (Fig. {number})" if number is not None else ""
+
+
+def blueprint(
+    scenario,
+    obstacle_ids=(),
+    n_rules: int = 0,
+    log=None,
+    internals: bool = False,
+    legend_corners=None,
+    fuzzy=(),
+):
+    """The default layout: the world on the left, the paper's plots stacked on the right
+    (further tabs: plant, sensors, rules, internals, run information).
+
+    It depends on the run only through what the recording's application id already
+    fixes (:func:`application_id`: the scenario's content, the geometry and the
+    controller: obstacle ids, whether rules and internals exist) and through the world's
+    bounds and the legends' corners, so that two recordings opened in one viewer do not
+    share, or fight over, one layout."""
+    import rerun.blueprint as rrb
+
+    x_range, y_range = world_bounds(scenario, log)
+    # The view's origin is "/", where /world's mirror applies: scene y = -world y.
+    bounds = rrb.VisualBounds2D(x_range=x_range, y_range=[-y_range[1], -y_range[0]])
+    everything = rrb.VisibleTimeRanges(
+        timeline=TIMELINE,
+        start=rrb.TimeRangeBoundary.infinite(),
+        end=rrb.TimeRangeBoundary.cursor_relative(),
+    )
+    overrides = {"/world/robot/trail": everything}
+    for oid in obstacle_ids:
+        overrides[f"/world/obstacles/{oid}/path"] = everything
+    world = rrb.Spatial2DView(
+        origin="/",
+        contents=["/world/**"],
+        name="world (y up)",
+        visual_bounds=bounds,
+        overrides=overrides,
+    )
+
+    # Every plot shows the whole run, like the paper's figures (the viewer would
+    # otherwise show a window around the time cursor): unbounded both ways, so that the
+    # layout holds for any run, not only this one's time span.
+    whole_run = rrb.TimeRange(
+        start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
+    )
+    placements = dict(legend_corners or {})
+    from fuzzynav.app.figures.run_figures import numbered_scenario
+
+    label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
+
+    def plot(origin, name, *, contents=None, legend=True, **kw):
+        # (Linking the axes to the global range would drop this view range in 0.41.)
+        axis = rrb.TimeAxis(view_range=whole_run)
+        placement = placements.get(origin)
+        corner, value_range = None, None
+        if placement is not None:
+            corner, value_range = placement if isinstance(placement, tuple) else (placement, None)
+        if not legend:  # the panel's name says what its series are
+            kw["plot_legend"] = rrb.PlotLegend(visible=False)
+            value_range = placements.get(f"{origin}#data", value_range)
+        elif corner is not None:
+            kw["plot_legend"] = rrb.PlotLegend(corner=corner)
+        if value_range is not None:
+            kw["axis_y"] = rrb.ScalarAxis(range=value_range)
+        if contents is not None:
+            kw["contents"] = contents
+        return rrb.TimeSeriesView(
+            origin=origin, name=name + figure_tag(label, origin), axis_x=axis, **kw
+        )
+
+    lanes = rrb.StateTimelineView(
+        origin=EVENTS_LANES,
+        name="events: closest approach (centre to centre), disturbance, outcome",
+    )
+    paper = rrb.Vertical(
+        lanes,
+        plot("/plots/distance", "distance to the target and each obstacle, centre to centre, m"),
+        plot(
+            "/plots/angles",
+            "target angle phi_t and heading, rad",
+            contents=["/plots/angles/**"],
+        ),
+        plot("/plots/obstacle_angles", "obstacle angles from the heading, rad"),
+        # Five series: a legend would cover the start; the name says which is which.
+        plot(
+            "/plots/voltage",
+            "wheel voltages, V: blue left, black right (pale: before the limit), grey ±12 V",
+            legend=False,
+        ),
+        row_shares=[1.15, 1.2, 1.15, 1.15, 1.35],
+        name="paper figures",
+    )
+    plant = rrb.Vertical(
+        plot("/plots/wheels", "wheel speeds w_LW, w_RW, rad/s"),
+        plot("/plots/velocity", "v_MH, m/s, and w_JH, rad/s"),
+        plot("/plots/current", "motor currents i_L1, i_L2, A"),
+        plot(
+            "/plots/inputs/distances",
+            "inputs d_t, d_o, m, as the controller saw them (d_o gap: nothing sensed)",
+        ),
+        plot(
+            "/plots/inputs/angles",
+            "inputs phi_t, phi_o, rad, as the controller saw them (phi_o gap: nothing sensed)",
+        ),
+        name="plant and inputs",
+    )
+    sensing = rrb.Vertical(
+        plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
+        plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
+        plot(
+            "/plots/disturbance",
+            "disturbance added to every input (m on d_t, d_o; rad on phi_t, phi_o)",
+            legend=False,
+        ),
+        name="sensors and safety",
+    )
+    tabs = [paper, plant, sensing]
+    if n_rules:
+        tabs.append(
+            rrb.Vertical(
+                rrb.StateTimelineView(
+                    origin=RULES_STRONGEST_PATH,
+                    name="the strongest rule at each decision (s)",
+                ),
+                rrb.BarChartView(
+                    origin=RULES_PATH,
+                    name="rule firing strength (0-1) at the time cursor, bar k = rule Rk",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                rrb.TensorView(
+                    origin=RULES_HEATMAP_PATH,
+                    name="rule firing over the run: rows R1 (top) to Rn, time across, "
+                    "dark 0 to yellow 1",
+                    scalar_mapping=rrb.TensorScalarMapping(colormap="viridis"),
+                    view_fit="Fill",
+                ),
+                rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
+                row_shares=[1, 2, 2, 2],
+                name="rules",
+            )
+        )
+    if fuzzy:  # the inference at the time cursor, as the viewer's inference view
+        views = [
+            rrb.Spatial2DView(
+                origin="/",
+                contents=[f"{FUZZY_PATH}/{name}/**"],
+                name=f"{name.replace('/', ' ')} at the cursor",
+                visual_bounds=rrb.VisualBounds2D(
+                    x_range=[-0.6, FUZZY_W + 0.6], y_range=[-1.45, 0.25]
+                ),
+            )
+            for name in fuzzy
+        ]
+        tabs.append(
+            rrb.Vertical(
+                rrb.Grid(*views, grid_columns=2),
+                rrb.BarChartView(
+                    origin=RULES_PATH,
+                    name="rule firing strength (0-1) at the cursor, bar k = rule Rk",
+                    plot_legend=rrb.PlotLegend(visible=False),
+                ),
+                row_shares=[3, 1],
+                name="fuzzy logic",
+            )
+        )
+    if internals:
+        tabs.append(
+            plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target")
+        )
+    tabs.append(
+        rrb.Tabs(
+            *[
+                rrb.TextDocumentView(origin=f"/meta/{name}", name=name)
+                for name in ("run", "metrics", "scenario", "rules", "robot")
+            ],
+            name="run information",
+        )
+    )
+    # Short tab names (a long one hid "run information"); the internals' tab says whose.
+    if internals:
+        tabs[-2] = rrb.Vertical(tabs[-2], name="internals")
+    right = rrb.Tabs(*tabs, active_tab=0)
+    left = rrb.Vertical(
+        world,
+        rrb.Tabs(
+            rrb.TextDocumentView(origin="/meta/summary", name="summary"),
+            rrb.TextLogView(origin=EVENTS_LOG_PATH, name="events"),
+            active_tab=0,
+        ),
+        row_shares=[5, 3],
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(left, right, column_shares=[1, 1]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline=TIMELINE, state="collapsed", play_state="following"),
+        auto_views=False,
+    )
+
+
+def _id_part(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_")[:60] or "run"
+
+
+def application_id(scenario, controller, geometry: str = "husky") -> str:
+    """``fuzzynav-<scenario>-<controller>-<geometry>-<key>``: rerun keeps one layout per
+    application id, so every recording whose layout can differ gets its own. The
+    scenario is its file's stem (s1) or its name; ``key`` is 8 hex digits of a sha256 over
+    what fixes the layout besides: the scenario's content (its obstacles and the world
+    view's bounds: two ``layout.toml`` files in different folders differ here), the
+    geometry, and the controller's rule count and internals (the rules tab). Two runs of
+    one scenario, geometry and controller share a layout; their bounds and legend
+    corners come from their runs, so they may differ a little (the later one's wins)."""
+    import hashlib
+
+    from fuzzynav.app.runs import scenario_digest
+
+    source = getattr(scenario, "source", "") or ""
+    label = Path(source).stem if source and source != "<memory>" else scenario.name
+    name = controller_label(controller)
+    n_rules = len(getattr(rule_system(controller), "rules", ()))
+    layout = "|".join(
+        (scenario_digest(scenario), geometry, name, str(n_rules), str(has_internals(controller)))
+    )
+    key = hashlib.sha256(layout.encode("utf-8")).hexdigest()[:8]
+    # (rerun 0.41 takes letters, digits, "-" and "_" in an application id.)
+    parts = (APPLICATION_ID, _id_part(label), _id_part(name), _id_part(geometry), key)
+    return "-".join(parts)

@@ -1,0 +1,283 @@
+"""The column writer that :func:`~fuzzynav.app.recordings.record.record_run` and
+:class:`~fuzzynav.app.recordings.live.LiveRecorder` share, and the recording's plots.
+
+Every plot is one entity with one instance per series (named in the legend), in
+:func:`plot_layout`'s order; the writer sends rows [start, end) of a run's log at a
+time, the world through :class:`~fuzzynav.app.recordings.scene.SceneColumns` and the
+controller's inside through :class:`~fuzzynav.app.recordings.internals.ControllerColumns`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fuzzynav.world.geometry import obstacle_bearings, target_geometry
+
+from .arrow import RowBatch, StaticBatch
+from .blueprint import legend_placement
+from .internals import INTERNALS, ControllerColumns, has_internals, rule_system
+from .scene import SceneColumns
+from .style import (
+    HEADING,
+    LIMIT,
+    OBSTACLE_PALETTE,
+    RIGHT,
+    SAFE_DISTANCE_M,
+    SENSOR_COLORS,
+    SERIES_PALETTE,
+    TARGET,
+)
+
+
+def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> list[tuple]:
+    """(path, series names, colours, widths) of every plot but the rules."""
+    ids = list(obstacle_ids)
+    obstacles = [f"obstacle {i}" for i in ids]
+    obstacle_colors = [OBSTACLE_PALETTE[c % len(OBSTACLE_PALETTE)] for c in range(len(ids))]
+    grey = (120, 120, 120)
+    p = SERIES_PALETTE
+    limit = voltage_limit_v
+    k = len(ids)
+    return [
+        ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
+        ("/plots/angles/phi_t", ["phi_t"], [p[0]], [1.5]),
+        ("/plots/angles/heading", ["heading"], [HEADING], [1.5]),
+        ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
+        (
+            "/plots/voltage",
+            # (the two limits share one name: one legend entry)
+            ["left", "right", "left, before limit", "right, before limit"]
+            + [f"±{limit:g} V limit"] * 2,
+            [p[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
+            [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
+        ),
+        ("/plots/inputs/distances", ["d_t", "d_o"], [p[0], p[1]], [1.5] * 2),
+        ("/plots/inputs/angles", ["phi_t", "phi_o"], [p[2], p[3]], [1.5] * 2),
+        (
+            "/plots/clearance",
+            obstacles + [f"safe {SAFE_DISTANCE_M} m"],
+            obstacle_colors + [grey],
+            [1.5] * k + [1.0],
+        ),
+        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], [p[0], RIGHT], [1.5] * 2),
+        ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
+        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], [p[0], RIGHT], [1.5] * 2),
+        (
+            "/plots/ranges",
+            [f"{m} (m)" for m in sensor_names],
+            [SENSOR_COLORS.get(m, grey) for m in sensor_names],
+            [1.5] * len(sensor_names),
+        ),
+        ("/plots/disturbance", ["disturbance"], [p[7]], [1.5]),
+    ]
+
+
+def plot_layout(
+    obstacle_ids, sensor_names, n_rules: int = 0, voltage_limit_v: float = 12.0
+) -> dict[str, list[str]]:
+    """Every plot entity of a recording and the names of its series, in instance order
+    (instance j of a row of ``path`` is series ``names[j]``); a plot without series (no
+    obstacles) is not logged."""
+    layout = {
+        path: names
+        for path, names, _, _ in _plot_spec(obstacle_ids, sensor_names, voltage_limit_v)
+        if names
+    }
+    return layout
+
+
+class ColumnWriter(SceneColumns, ControllerColumns):
+    """Sends rows [start, end) of a SimulationLog as columns; remembers what it sent so
+    that the next chunk continues it (trail segments, obstacle changes, styles). The
+    world's entities are :class:`~fuzzynav.app.recordings.scene.SceneColumns`', the
+    controller's inside :class:`~fuzzynav.app.recordings.internals.ControllerColumns`';
+    this class holds the state they share, the plots and the chunk."""
+
+    def __init__(
+        self,
+        rec,
+        *,
+        footprint_m,
+        sensor_config,
+        voltage_limit_v: float,
+        fis=None,
+        tolerance_m: float = 0.15,
+        controller=None,
+        perception: str | None = None,
+        geometry: str = "husky",
+    ):
+        self.rec = rec
+        # Ideal perception uses no range sensor: no beams are drawn, but the line to the
+        # obstacle the controller reacts to (the nearest: by clearance, or centre to
+        # centre in the paper's geometry).
+        self.draw_beams = perception != "ideal"
+        self.geometry = geometry
+        self.controller = controller
+        self.internals = has_internals(controller)
+        # A decision: the voltages, the internals, then the inputs of the blocks' rules.
+        blocks = rule_system(controller) if self.internals and fis is None else None
+        self.blocks = blocks
+        self.decision_width = 2 + len(INTERNALS) + (len(blocks.inputs) if blocks else 0)
+        self.internals_source: str | None = None  # "decisions" or "replay", from chunk 1
+        self.replica = None
+        self.replica_error: str | None = None
+        self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
+        self.sensor_config = sensor_config
+        self.sensor_names = [m.name for m in sensor_config.mounts]
+        self.voltage_limit_v = float(voltage_limit_v)
+        self.fis = fis
+        self.fis_error: str | None = None
+        self.tolerance_m = float(tolerance_m)
+        self.sent = 0
+        self._styled: set[str] = set()
+        self._plot_styles: dict[str, tuple] = {}
+        self._static = self.static = StaticBatch()
+        self._obstacles: dict[int, tuple[bool, tuple[float, float]]] = {}
+        self._target: tuple[float, float] | None = None
+        self.obstacle_ids: list[int] = []
+        self.n_rules = 0
+        self.rule_times: list[np.ndarray] = []  # for the heatmap, sent at the end
+        self.rule_strengths: list[np.ndarray] = []
+        self._rings: set[int] = set()
+        self._legend_samples: dict[str, list[np.ndarray]] = {}
+
+    # -- low level ---------------------------------------------------------------------
+
+    def _send(self, path: str, tc, columns) -> None:
+        self.rec.send_columns(path, indexes=[tc], columns=columns, strict=True)
+
+    def _style(self, path: str, archetype: str, **components) -> None:
+        """Static styling of an entity, sent with the chunk's other styles."""
+        if path not in self._styled:
+            self._styled.add(path)
+            self._static.add(path, archetype, **components)
+
+    def _plot(self, path: str, names, colors, widths, columns) -> None:
+        """One plot entity: ``columns`` (n, k) are k series, named ``names``."""
+        if not names:  # e.g. obstacle angles without obstacles
+            return
+        style = (tuple(names), tuple(colors), tuple(widths))
+        if self._plot_styles.get(path) != style:  # new, or obstacles were added
+            self._plot_styles[path] = style
+            self._static.add(
+                path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
+            )
+        self._rows.add_series(path, columns)
+        self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
+
+    def legend_corners(self) -> dict:
+        """Per plot view, where its legend goes and the value range that leaves it room
+        (:func:`legend_placement`): ``{view origin: (corner, range or None)}``. The
+        two angle entities share one view (/plots/angles), as Fig. 14 shows both."""
+        samples = {}
+        for path, parts in self._legend_samples.items():
+            widths = {p.shape[1] for p in parts if p.ndim == 2}
+            if len(widths) == 1:  # (obstacles added mid-run change the width: skip)
+                samples[path] = np.concatenate(parts)
+        angles = [
+            samples.pop(p) for p in ("/plots/angles/phi_t", "/plots/angles/heading") if p in samples
+        ]
+        if len(angles) == 2 and len(angles[0]) == len(angles[1]):
+            samples["/plots/angles"] = np.hstack(angles)
+        placements = {}
+        for path, values in samples.items():
+            names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
+            placement = legend_placement(values, len(set(names)))
+            if placement is not None:
+                placements[path] = placement
+                finite = values[np.isfinite(values)]
+                lo, hi = float(finite.min()), float(finite.max())
+                pad = 0.05 * (hi - lo if hi > lo else max(abs(hi), 1.0))
+                placements[f"{path}#data"] = (lo - pad, hi + pad)  # (a view without legend)
+        return placements
+
+    def _series(self, log, start, end, pose, target, ranges, inputs):
+        """(path, names, colors, widths, columns) of every plot, in :func:`plot_layout`'s
+        order; ``columns`` is (rows, series)."""
+        n = end - start
+        ids = list(log.obstacle_ids)
+        d_t, phi_t = target_geometry(pose, target)
+        bearings = obstacle_bearings(pose, log.obstacle_xy[start:end]) if ids else np.zeros((n, 0))
+        limit = self.voltage_limit_v
+        constant = np.ones((n, 1))
+        lg = log.lg_state[start:end]
+        columns = {
+            "/plots/distance": np.column_stack([d_t, log.center_distance_m[start:end]]),
+            "/plots/angles/phi_t": phi_t[:, None],
+            "/plots/angles/heading": pose[:, 2:3],
+            "/plots/obstacle_angles": bearings,
+            "/plots/voltage": np.column_stack(
+                [
+                    log.voltages_v[start:end],
+                    log.controller_output_v[start:end],
+                    limit * constant,
+                    -limit * constant,
+                ]
+            ),
+            "/plots/inputs/distances": inputs[:, [0, 1]],
+            "/plots/inputs/angles": inputs[:, [2, 3]],
+            "/plots/clearance": np.column_stack(
+                [log.clearance_m[start:end], SAFE_DISTANCE_M * constant]
+            ),
+            "/plots/wheels": lg[:, 0:2],
+            "/plots/velocity": lg[:, 2:4],
+            "/plots/current": lg[:, 4:6],
+            "/plots/ranges": np.where(np.isinf(ranges), np.nan, ranges),
+            "/plots/disturbance": log.disturbance[start:end, None],
+        }
+        return [
+            (path, names, colors, widths, columns[path])
+            for path, names, colors, widths in _plot_spec(ids, self.sensor_names, limit)
+        ]
+
+    # -- one chunk ---------------------------------------------------------------------
+
+    def send(self, log, start: int, end: int, *, send_static: bool = True) -> None:
+        """Send rows [start, end); with ``send_static`` also the static components
+        collected so far (else the caller sends ``self.static``)."""
+        if end <= start:
+            return
+        t = log.time_s[start:end]
+        rows = self._rows = RowBatch(t)
+        self._rows_time = t
+        pose = log.pose[start:end]
+
+        # -- the robot, and the target (only the rows where it moved)
+        self._send_robot(log, start, pose, rows)
+        target = log.target_xy[start:end]
+        self._send_target(t, target)
+
+        # -- the obstacles
+        self.obstacle_ids = list(log.obstacle_ids)
+        for col, oid in enumerate(log.obstacle_ids):
+            self._send_obstacle(log, col, oid, start, end, t)
+
+        # -- the sensors, or (ideal perception) the obstacle the controller reacts to
+        ranges = log.ranges_m[start:end]
+        if self.draw_beams:
+            self._send_beams(pose, ranges, rows)
+        else:
+            self._send_sensed(log, start, end, pose, rows)
+
+        # -- time series: one entity per plot, one instance (series) per column
+        inputs = log.inputs[start:end]
+        for path, names, colors, widths, columns in self._series(
+            log, start, end, pose, target, ranges, inputs
+        ):
+            self._plot(path, names, colors, widths, columns)
+
+        # -- rule firing strengths (rows with a decision: the last row has none)
+        decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
+        if self.fis is not None and self.fis_error is None:
+            try:
+                strengths = np.asarray(self.fis.firing_strengths(inputs), dtype=float)
+            except Exception as exc:  # a fuzzy system of another shape: record why not
+                self.fis_error = f"{type(exc).__name__}: {exc}"
+            else:
+                self._plot_rules(strengths, decided)
+        if self.internals and self.replica_error is None:
+            self._internals(log, start, end)
+        if send_static:
+            self._static.send(self.rec)
+        rows.send(self.rec)
+        self.sent = end

@@ -1,0 +1,260 @@
+"""What a controller did inside, in a recording: which controller it is, its fuzzy
+system, the firing of its rules (a bar chart per decision, a heatmap of the run, the
+rules in words) and fuzzynav's inner state (from the decisions it logged while it drove,
+or replayed through a copy).
+
+:class:`ControllerColumns` is the part of the column writer
+(:class:`~fuzzynav.app.recordings.columns.ColumnWriter`) that sends them.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from .arrow import StaticBatch, tensor_rows, time_column
+from .style import SERIES_PALETTE
+
+
+def controller_fis(controller):
+    """The controller's ``FuzzySystem`` (its ``fis`` attribute), or None."""
+    fis = getattr(controller, "fis", None) if controller is not None else None
+    if fis is None or not hasattr(fis, "firing_strengths"):
+        return None
+    return fis
+
+
+def has_internals(controller) -> bool:
+    """Whether the controller logs its inner state (fuzzynav's ``decisions``: per call,
+    the two voltages and the :data:`INTERNALS`); that state is then recorded, from the
+    log of the controller that drove or, failing that, replayed through a copy."""
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    return controller is not None and isinstance(getattr(inner, "decisions", None), list)
+
+
+def rule_system(controller):
+    """The fuzzy system whose rules' firing a recording plots: the controller's ``fis``
+    (fed the four logged inputs), else for a controller that logs its decisions its
+    ``merged`` blocks (fed the blocks' inputs it logged); None if neither."""
+    fis = controller_fis(controller)
+    if fis is not None:
+        return fis
+    inner = getattr(controller, "inner", controller)
+    merged = getattr(inner, "merged", None) if has_internals(controller) else None
+    return merged if hasattr(merged, "firing_strengths") else None
+
+
+def controller_replica(controller):
+    """A fresh copy of a controller that explains itself, through which the logged inputs
+    are replayed to record its inner state when it did not log its decisions; else None."""
+    if not has_internals(controller):
+        return None
+    inner = getattr(controller, "inner", controller)
+    replica = copy.deepcopy(inner)
+    replica.reset()
+    return replica
+
+
+INTERNALS_PATH = "/plots/internals"
+INTERNALS = (
+    "avoidance weight alpha",
+    "planner offset (rad)",
+    "yield (1) / pass first (-1)",
+    "following an edge (1)",
+    "target reading doubted (1)",
+)
+
+
+def controller_label(controller) -> str:
+    if controller is None:
+        return "unknown"
+    name = getattr(controller, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    return type(controller).__name__
+
+
+RULES_PATH = "/rules/firing"  # BarChart per step: every rule's firing strength (float32)
+RULES_HEATMAP_PATH = "/rules/heatmap"  # static Tensor, rules x time bins (max per bin)
+RULES_TEXT_PATH = "/rules/texts"  # static TextDocument: R1 ... Rn in words
+RULES_STRONGEST_PATH = "/rules/strongest"  # StateChange: the strongest rule where it changes
+#: The most time bins of the rule heatmap (a long run is binned: the max per bin).
+HEATMAP_MAX_BINS = 1500
+
+
+def rule_heatmap(strengths: np.ndarray, max_bins: int) -> np.ndarray:
+    """(rules, bins) float32: the firing strengths (rows, rules) binned over time, each
+    bin the largest strength of its rows; one column per row if there are few."""
+    strengths = np.asarray(strengths, dtype=np.float32)
+    n = len(strengths)
+    if n <= max_bins:
+        return np.ascontiguousarray(strengths.T)
+    edges = np.linspace(0, n, max_bins + 1).astype(int)
+    return np.ascontiguousarray(np.maximum.reduceat(strengths, edges[:-1], axis=0).T)
+
+
+class ControllerColumns:
+    """The controller's inside, rows [start, end) at a time: every rule's firing and
+    fuzzynav's inner state (:data:`INTERNALS`). A part of
+    :class:`~fuzzynav.app.recordings.columns.ColumnWriter`, whose state it uses: the
+    stream, the styles and the plots (``_style``, ``_plot``, ``_rows``), the controller,
+    its ``fis`` or ``blocks``, and what earlier chunks chose (``internals_source``,
+    ``replica``)."""
+
+    def _plot_rules(self, strengths: np.ndarray, decided: np.ndarray) -> None:
+        """Every rule's firing strength at every row with a decision as one bar chart
+        (bar k-1 is rule Rk, its abscissa k; float32), and kept for the run's heatmap
+        (:meth:`send_heatmap`). A row without a decision (the last) has no strengths:
+        nothing is logged there, so the chart at the end shows the last decision's. One
+        bar chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
+        strengths = np.ascontiguousarray(strengths, dtype=np.float32)
+        decided = np.asarray(decided, bool)
+        self.n_rules = strengths.shape[1]
+        if RULES_PATH not in self._styled:  # bar k at abscissa k + 1: rule R(k+1)
+            self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
+            numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
+            self._static.add_array(RULES_PATH, "BarChart", "abscissa", tensor_rows(numbers))
+        self._rows.add(
+            RULES_PATH,
+            "BarChart",
+            "values",
+            tensor_rows(strengths[decided]),
+            lengths=decided.astype(np.int32),
+            absent=~decided,  # the chart at the final instant shows the last decision
+        )
+        self.rule_times.append(np.asarray(self._rows_time, dtype=float)[decided])
+        self.rule_strengths.append(strengths[decided])
+
+    def send_heatmap(self, static: StaticBatch) -> None:
+        """The rule firing of the whole run as a heatmap: rules down, time across (at
+        most :data:`HEATMAP_MAX_BINS` bins, each the max over its rows, so a brief
+        firing stays visible), with the rules in words beside it."""
+        if not self.rule_strengths:
+            return
+        import rerun as rr
+
+        times = np.concatenate(self.rule_times)
+        strengths = np.nan_to_num(np.concatenate(self.rule_strengths), nan=0.0)
+        heatmap = rule_heatmap(strengths, HEATMAP_MAX_BINS)
+        bins = heatmap.shape[1]
+        span = f"{times[0]:.2f} s to {times[-1]:.2f} s" if len(times) else "no rows"
+        per_bin = (times[-1] - times[0]) / max(bins - 1, 1) if len(times) > 1 else 0.0
+        static.add_archetype(
+            RULES_HEATMAP_PATH,
+            rr.Tensor(
+                heatmap,
+                dim_names=[
+                    f"rule R1-R{heatmap.shape[0]}",
+                    f"time {span}, {per_bin:.3g} s a column",
+                ],
+                value_range=[0.0, 1.0],
+            ),
+        )
+        # The strongest rule at each decision, where it changes: a labelled lane in s.
+        if len(times):
+            top = np.argmax(strengths, axis=1)
+            fired = strengths[np.arange(len(top)), top] > 0
+            state = np.where(fired, top, -1)
+            change = np.ones(len(state), bool)
+            change[1:] = state[1:] != state[:-1]
+            labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
+            self.rec.send_columns(
+                RULES_STRONGEST_PATH,
+                indexes=[time_column(times[change])],
+                columns=rr.StateChange.columns(state=labels),
+                strict=True,
+            )
+        lines = [
+            f"# Rule firing, {span}",
+            "",
+            f"Heatmap: row k is rule R(k+1), {bins} columns over the run "
+            f"({len(times)} steps, the largest strength in each column).",
+            "Bar chart: bar k is rule R(k+1) at the time cursor.",
+            "",
+        ]
+        lines += [f"- **R{k + 1}**: {text}" for k, text in enumerate(self.rule_texts())]
+        static.add_archetype(
+            RULES_TEXT_PATH, rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN)
+        )
+
+    def rule_texts(self) -> list[str]:
+        system = self.fis if self.fis is not None else self.blocks
+        if system is None or not hasattr(system, "rule_text"):
+            return [f"(rule {k + 1})" for k in range(self.n_rules)]
+        return [system.rule_text(k) for k in range(min(self.n_rules, len(system.rules)))]
+
+    def _internals(self, log, start: int, end: int) -> None:
+        """Plot the controller's inner state on rows [start, end): from the decisions it
+        logged while it drove (``decisions``), when they line up with the run (the same
+        voltages, row for row), else by replaying the rows through the replica. Either
+        way the state must come with exactly the voltages the run logged; if not (the
+        controller was changed mid-run, say), nothing more is plotted and the metadata
+        says why."""
+        decided_v = log.controller_output_v[start:end]
+        decided = np.all(np.isfinite(decided_v), axis=1)  # the last row has no decision
+        out = np.full((end - start, len(INTERNALS)), np.nan)
+        try:
+            logged = self._logged_decisions(start, end, decided)
+            decisions = logged if logged is not None else self._replay(log, start, end, decided)
+        except ValueError as exc:  # decisions of another shape than this writer expects
+            self.replica_error = f"its decisions do not fit ({exc})"
+            return
+        voltages, state = decisions[:, :2], decisions[:, 2 : 2 + len(INTERNALS)]
+        # NaN (no decision to compare) counts as differing.
+        differs = np.flatnonzero(~np.all(np.abs(voltages - decided_v[decided]) <= 1e-9, axis=1))
+        if len(differs):
+            k = start + np.flatnonzero(decided)[differs[0]]
+            how = "logged decisions differ" if logged is not None else "replay differs"
+            self.replica_error = f"its {how} from the run at t = {log.time_s[k]:.2f} s"
+            return
+        out[decided] = state
+        self._plot(
+            INTERNALS_PATH,
+            list(INTERNALS),
+            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
+            [1.5] * len(INTERNALS),
+            out,
+        )
+        if self.blocks is not None:
+            strengths = np.full((end - start, len(self.blocks.rules)), np.nan)
+            if decided.any():
+                strengths[decided] = self.blocks.firing_strengths(
+                    decisions[:, 2 + len(INTERNALS) :]
+                )
+            self._plot_rules(strengths, decided)
+
+    def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
+        """The driving controller's own decisions for the decided rows of [start, end)
+        as an array (voltages, then the state); None to replay the rows instead (the
+        first chunk chooses: a controller that did not log its decisions from the run's
+        start is replayed throughout)."""
+        inner = getattr(self.controller, "inner", self.controller)  # the viewer's wrapper
+        decisions = getattr(inner, "decisions", None)
+        rows = np.flatnonzero(decided) + start
+        covered = isinstance(decisions, list) and (not len(rows) or rows[-1] < len(decisions))
+        if self.internals_source is None:
+            self.internals_source = "decisions" if covered and start == 0 else "replay"
+        if self.internals_source == "replay":
+            return None
+        if not covered:  # swapped for another controller mid-run: nothing to line up
+            return np.full((len(rows), self.decision_width), np.nan)
+        return np.array([decisions[k] for k in rows], dtype=float).reshape(
+            len(rows), self.decision_width
+        )
+
+    def _replay(self, log, start: int, end: int, decided: np.ndarray):
+        """The decisions of the decided rows of [start, end), replayed through a copy
+        of the controller (made at the first chunk); a replay that departs from the run
+        stops there (its later rows are NaN)."""
+        if self.replica is None:
+            self.replica = controller_replica(self.controller)
+        replica = self.replica
+        rows = np.flatnonzero(decided) + start
+        result = np.full((len(rows), self.decision_width), np.nan)
+        for j, k in enumerate(rows):
+            replica(log.inputs[k], ranges_m=log.ranges_m[k])
+            result[j] = replica.decisions[-1]
+            if np.any(np.abs(result[j, :2] - log.controller_output_v[k]) > 1e-9):
+                break
+        return result

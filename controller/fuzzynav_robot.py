@@ -1,0 +1,50 @@
+"""What fuzzynav knows of the robot: the voltage limit, the plant's gains (for dead
+reckoning), the footprint's half-sizes and the sonar mounts, and the distance along a
+bearing at which a point has a given clearance from the footprint.
+
+Shared by the echo memory (:mod:`fuzzynav.controller.fuzzynav_memory`), the tracker
+(:mod:`fuzzynav.controller.fuzzynav_tracker`) and the controller
+(:mod:`fuzzynav.controller.fuzzynav`, whose docstring is the design).
+"""
+
+from __future__ import annotations
+
+import math
+
+VOLTAGE_LIMIT_V = 12.0
+# Plant constants for dead reckoning (notes section 1): 12 V both -> 0.617 m/s,
+# (-12, +12) -> 0.62 rad/s; and the sensor mounts (x, y, angle) on the front edge.
+_V_PER_VOLT = 0.617 / 12.0
+_W_PER_VOLT = 0.62 / 12.0
+_HX, _HY = 0.495, 0.335
+_MOUNTS = (
+    (0.495, 0.75 * 0.335, math.radians(45.0)),
+    (0.495, 0.0, 0.0),
+    (0.495, -0.75 * 0.335, math.radians(-45.0)),
+)
+
+_AXES = frozenset(m[2] for m in _MOUNTS)
+
+
+def range_at_clearance(bearing_rad: float, clearance_m: float) -> float:
+    """How far from the robot's centre, along ``bearing_rad``, a point is
+    ``clearance_m`` from the footprint (half-sizes _HX, _HY).
+
+    With ``u = (|cos|, |sin|)``, the point ``r u`` is ``sqrt(max(r ux - HX, 0)^2 +
+    max(r uy - HY, 0)^2)`` from the rectangle: off a side, ``r = (H + d) / u``; off a
+    corner, the larger root of ``r^2 - 2 r (ux HX + uy HY) + HX^2 + HY^2 - d^2 = 0``.
+    (Placing it at d_o beyond the footprint's extent along the bearing puts it too near
+    off a corner: the footprint's nearest point is the corner, not the ray's exit.)
+    """
+    ux, uy = abs(math.cos(bearing_rad)), abs(math.sin(bearing_rad))
+    d = clearance_m
+    if ux > 0.0:
+        r = (_HX + d) / ux
+        if r * uy <= _HY:
+            return r
+    if uy > 0.0:
+        r = (_HY + d) / uy
+        if r * ux <= _HX:
+            return r
+    b = ux * _HX + uy * _HY
+    return b + math.sqrt(b * b - (_HX * _HX + _HY * _HY - d * d))
