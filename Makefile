@@ -35,7 +35,7 @@ test-lowest: $(VENV)/.installed-test
 	test -x $(LOWEST)/bin/python || $(PYTHON) -m venv $(LOWEST)
 	$(LOWEST)/bin/python -m pip install --quiet --upgrade pip
 	$(LOWEST)/bin/python -m pip install --quiet -c .ci/lowest-constraints.txt -e '.[test]'
-	$(LOWEST)/bin/python -m pip list 2>/dev/null | grep -iE '^(numpy|scipy|pymunk|viser|rerun-sdk|rich|matplotlib) '
+	$(LOWEST)/bin/python -m pip list 2>/dev/null | grep -iE '^(numpy|scipy|pymunk|viser|rerun-sdk|rich|matplotlib|cma|tomli_w|tomli-w) '
 	$(LOWEST)/bin/python -m pytest -n 2 -q -p no:cacheprovider
 
 # The built wheel, installed outside the checkout and used from an empty folder.

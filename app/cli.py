@@ -270,7 +270,9 @@ def _finish_hooks(hooks, result, interrupted: bool) -> None:
 
 EXTENSION_MODULES = (
     "fuzzynav.app.fis_commands",
-    "fuzzynav.app.experiments.studies",
+    "fuzzynav.app.experiments.tuning",
+    "fuzzynav.app.experiments.sweep",
+    "fuzzynav.app.experiments.compare",
     "fuzzynav.app.recordings.record",
     "fuzzynav.app.figures.run_figures",
     "fuzzynav.app.figures.report",

@@ -120,7 +120,7 @@ def layouts_runs(n: int, sample: int, perception: str) -> dict:
 
 def tuning_generation(candidates: int = 64) -> dict:
     from fuzzynav.app.experiments.batch_runs import objective_costs
-    from fuzzynav.app.experiments.tuning import STALL_S, Objective, build_cases, outcome_cost
+    from fuzzynav.app.experiments.objective import STALL_S, Objective, build_cases, outcome_cost
     from fuzzynav.controller.tuning import tunable
 
     t = tunable("paper")

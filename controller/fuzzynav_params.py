@@ -102,16 +102,15 @@ def load_params(path: str | Path = PARAMS_PATH) -> dict[str, float]:
 
 
 def params_toml(params: dict) -> str:
-    """The crisp parameters as the ``[crisp]`` table of ``fuzzynav_params.toml``."""
-    lines = [
-        "# fuzzynav's crisp parameters (arbitration, memory, escape); see",
-        "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.",
-        "",
-        "[crisp]",
-    ]
-    for key in CRISP_DEFAULTS:
-        lines.append(f"{key} = {float(params[key])!r}")
-    return "\n".join(lines) + "\n"
+    """The crisp parameters as the ``[crisp]`` table of ``fuzzynav_params.toml``: plain
+    data, written by tomli-w (in :data:`CRISP_DEFAULTS` order) under two comment lines."""
+    import tomli_w
+
+    header = (
+        "# fuzzynav's crisp parameters (arbitration, memory, escape); see\n"
+        "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.\n\n"
+    )
+    return header + tomli_w.dumps({"crisp": {k: float(params[k]) for k in CRISP_DEFAULTS}})
 
 
 def write_params(params: dict, path: str | Path = PARAMS_PATH) -> Path:

@@ -381,6 +381,11 @@ def _str(s: str) -> str:
 
 def dumps_toml(system: FuzzySystem) -> str:
     """The rule base as TOML text (reads back to an equal system)."""
+    # Written by hand, not by tomli-w: the layout is the point. A rule base is read and
+    # edited by people (the shipped ones, a tuned file): one term per line as an inline
+    # table, each rule one line of its own text, [system] first; tomli-w would write
+    # every term as an [[inputs.terms]] table and every number pair over four lines.
+    # (Its bytes are also what a run's rules digest is taken of: app/runs.py.)
     for v in system.inputs + system.outputs:
         for n in [v.name] + v.term_names:
             why = _bad_name(n)

@@ -284,7 +284,7 @@ def sweep(
         shortest_path_m, ...). A number that does not apply is None.
     """
     from fuzzynav.app.experiments.executor import make_executor
-    from fuzzynav.app.experiments.studies import sweep as run_sweep
+    from fuzzynav.app.experiments.sweep import sweep as run_sweep
 
     options = {} if geometry == "husky" else {"geometry": geometry}
     executor = make_executor("local" if workers > 1 else "serial", workers=workers)

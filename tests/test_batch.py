@@ -329,8 +329,8 @@ def test_sweep_engine_option_and_the_fallback_message(capsys):
 
 def test_tuning_and_fit_costs_on_the_batch_engine_equal_the_pymunk_ones():
     from fuzzynav.app.experiments.batch_runs import fit_costs, objective_costs
+    from fuzzynav.app.experiments.objective import STALL_S, Case, Objective, outcome_cost
     from fuzzynav.app.experiments.paper_fit import FitCost
-    from fuzzynav.app.experiments.tuning import STALL_S, Case, Objective, outcome_cost
     from fuzzynav.controller.tuning import tunable
     from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 

@@ -23,9 +23,10 @@ from fuzzynav.app.experiments.executor import (
     default_start_method,
     make_executor,
 )
+from fuzzynav.app.experiments.objective import Case
 from fuzzynav.app.experiments.resultlog import ResultLog, ResultLogError
 from fuzzynav.app.experiments.studies import row_key, run_jobs, sweep_jobs
-from fuzzynav.app.experiments.tuning import Case, tune
+from fuzzynav.app.experiments.tuning import tune
 from fuzzynav.controller.tuning import tunable
 from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.experiments.tuning import Case, Objective, run_cost, tune
+from fuzzynav.app.experiments.objective import Case, Objective, run_cost
+from fuzzynav.app.experiments.tuning import tune
 from fuzzynav.controller.fis import read_fis
 from fuzzynav.controller.paper import FIRST_DESIGN
 from fuzzynav.controller.registry import make_controller

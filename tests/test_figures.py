@@ -9,16 +9,11 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.figures.run_figures import (
-    FORMATS,
-    RUN_FIGURES,
-    _orient,
-    check_writable_dir,
-    membership_figure_names,
-    write_comparison_figure,
-    write_membership_figures,
-    write_run_figures,
-)
+from fuzzynav.app.figures.comparison import _orient, write_comparison_figure
+from fuzzynav.app.figures.membership import membership_figure_names, write_membership_figures
+from fuzzynav.app.figures.numbering import RUN_FIGURES
+from fuzzynav.app.figures.run_figures import write_run_figures
+from fuzzynav.app.figures.style import FORMATS, check_writable_dir
 from fuzzynav.app.runs import build_simulation
 from fuzzynav.controller.fis_controller import FisController
 from fuzzynav.controller.rulebase import read_toml
@@ -163,7 +158,7 @@ def test_cli_figures(tmp_path, capsys):
     captured = capsys.readouterr()
     assert str(out_dir) in captured.err
     # one numbering everywhere: named as the report names them (Fig. 12 = s1's trajectory)
-    from fuzzynav.app.figures.run_figures import paper_figure_stem
+    from fuzzynav.app.figures.numbering import paper_figure_stem
 
     assert sorted(p.name for p in out_dir.iterdir()) == sorted(
         f"{paper_figure_stem('s1', n, 'p')}.{ext}" for n in RUN_FIGURES for ext in FORMATS
@@ -219,7 +214,7 @@ def test_trajectory_is_drawn_where_the_robot_went(tmp_path, p_runs, s2_figures):
 
 
 def test_paper_figure_numbers():
-    from fuzzynav.app.figures.run_figures import (
+    from fuzzynav.app.figures.numbering import (
         membership_figure_stem,
         paper_figure_number,
         paper_figure_stem,
@@ -326,7 +321,8 @@ def test_titles_name_the_geometry():
 def test_fig27_is_the_papers_3_by_2():
     """Rows s1-s3; columns the method of [19] (our stand-in, baseline) and the proposed
     method (paper), lettered (a)-(f) row by row as the paper's caption."""
-    from fuzzynav.app.figures.run_figures import FIG27_COLUMNS, FIG27_TITLES, comparison_figure
+    from fuzzynav.app.figures.comparison import comparison_figure
+    from fuzzynav.app.figures.numbering import FIG27_COLUMNS, FIG27_TITLES
     from fuzzynav.world.scenario import load_scenario
 
     assert FIG27_COLUMNS == ("baseline", "paper")
@@ -356,7 +352,8 @@ def test_fig27_is_the_papers_3_by_2():
 
 
 def test_run_figure_titles_carry_the_papers_number(p_runs):
-    from fuzzynav.app.figures.run_figures import paper_figure_number, run_figure
+    from fuzzynav.app.figures.numbering import paper_figure_number
+    from fuzzynav.app.figures.run_figures import run_figure
 
     for scenario, result in p_runs.items():
         for kind in RUN_FIGURES:
@@ -410,7 +407,8 @@ def test_membership_labels_stay_inside_the_axes(tmp_path, paper_fis, monkeypatch
 
 def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
     """s1 in the paper's geometry: "obstacle 2" was cut off at the axes' edge."""
-    from fuzzynav.app.figures.run_figures import closest_approaches, run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
+    from fuzzynav.app.figures.trajectory import closest_approaches
 
     result = build_simulation("s1", "paper", geometry="paper").run()
     fig = run_figure("trajectory", result, controller_label="paper")
@@ -431,7 +429,8 @@ def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
 
 
 def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs):
-    from fuzzynav.app.figures.run_figures import OBSTACLE_COLORS, run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
+    from fuzzynav.app.figures.style import OBSTACLE_COLORS
 
     result = p_runs["s2"]
     ax = run_figure("trajectory", result).axes[0]
@@ -446,7 +445,8 @@ def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs)
 def test_red_means_obstacle_0_only(s3_p_run, p_runs):
     from matplotlib.colors import to_hex
 
-    from fuzzynav.app.figures.run_figures import OBSTACLE_COLORS, run_figure
+    from fuzzynav.app.figures.run_figures import run_figure
+    from fuzzynav.app.figures.style import OBSTACLE_COLORS
 
     red = OBSTACLE_COLORS[0]
     for kind in ("angles", "voltages"):
@@ -456,7 +456,8 @@ def test_red_means_obstacle_0_only(s3_p_run, p_runs):
 
 
 def test_fig27_has_one_legend_and_its_own_limits_per_panel():
-    from fuzzynav.app.figures.run_figures import FIG27_COLUMNS, comparison_figure
+    from fuzzynav.app.figures.comparison import comparison_figure
+    from fuzzynav.app.figures.numbering import FIG27_COLUMNS
     from fuzzynav.world.scenario import load_scenario
 
     grid = {}
@@ -470,7 +471,8 @@ def test_fig27_has_one_legend_and_its_own_limits_per_panel():
     assert {"robot (centre)", "target", "start"} <= texts
     assert "obstacle 1's path (moving)" in texts  # s2's, from a panel other than (a)
     # every panel keeps its own limits (sharing a row's squashed (d) into (c)'s range)
-    from fuzzynav.app.figures.run_figures import _new_figure, draw_trajectory
+    from fuzzynav.app.figures.style import _new_figure
+    from fuzzynav.app.figures.trajectory import draw_trajectory
 
     for ax in fig.axes:
         scenario, controller = ax.get_gid().split("/")

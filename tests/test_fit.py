@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
-from fuzzynav.app.experiments.cmaes import cmaes
+from fuzzynav.app.experiments.evolution import cmaes
 from fuzzynav.app.experiments.paper_fit import (
     NOT_REACHED_COST,
     paper_results,
@@ -50,6 +50,61 @@ def test_cmaes_stays_in_the_box():
     lo, hi = np.array(bounds).T
     assert all(np.all((lo <= s) & (s <= hi)) for s in seen)
     assert x[2] == pytest.approx(1.0, abs=1e-3)
+
+
+class _CornerCost:
+    """A stand-in for the fit's cost (no runs): a quadratic whose minimum lies past the
+    upper bound of every design number, recording each vector it is asked about."""
+
+    seen: list = []
+
+    def __init__(self, *args, **kwargs):
+        low, high = np.array(PaperDesignTunable().bounds()).T
+        self.target = high + 0.5 * (high - low)
+        self.span = high - low
+
+    def __call__(self, vector):
+        vector = np.asarray(vector, float)
+        _CornerCost.seen.append(vector.copy())
+        return float(np.sum(((vector - self.target) / self.span) ** 2))
+
+
+def test_fit_papers_optimiser_keeps_the_box_and_repeats_itself(monkeypatch):
+    """fit-paper's search (pycma's CMA-ES through paper_fit.fit) evaluates only vectors
+    inside the design numbers' bounds, ``popsize`` a generation for ``maxiter``
+    generations (and the start once more), and repeats itself for a seed."""
+    from fuzzynav.app.experiments import paper_fit
+
+    monkeypatch.setattr(paper_fit, "FitCost", _CornerCost)
+    low, high = np.array(PaperDesignTunable().bounds()).T
+
+    def fitted(seed):
+        _CornerCost.seen = []
+        out = paper_fit.fit(6, 5, seed, 1, 0.05, sigma0=0.3, engine="pymunk")
+        return out, np.array(_CornerCost.seen)
+
+    (x, cost, nit, nfev), seen = fitted(4)
+    assert (nit, nfev) == (6, 6 * 5 + 1) and len(seen) == nfev
+    assert np.all((low <= seen) & (seen <= high))
+    assert np.all((low <= x) & (x <= high))
+    start_cost = _CornerCost()(PaperDesignTunable().initial_vector())
+    assert cost < start_cost  # it moved towards the corner, and stayed in the box
+    (x_again, cost_again, *_), seen_again = fitted(4)
+    assert np.array_equal(x_again, x) and cost_again == cost
+    assert np.array_equal(seen_again, seen)  # the same candidates, in the same order
+    (x_other, *_), _ = fitted(5)
+    assert not np.array_equal(x_other, x)
+
+
+def test_fit_paper_is_seeded_on_the_real_cost(tmp_path):
+    """Two fits with one seed write the same rule base (one generation of four)."""
+    texts = []
+    for name in ("a.toml", "b.toml"):
+        out = tmp_path / name
+        argv = ["fit-paper", "--maxiter", "1", "--popsize", "4", "--seed", "3"]
+        assert main(argv + ["--workers", "1", "--out", str(out), "--json"]) == 0
+        texts.append(read_fitted(out))
+    assert np.array_equal(texts[0], texts[1])
 
 
 def _measured(reached=True, **changes):

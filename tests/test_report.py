@@ -88,7 +88,7 @@ def test_percent_difference():
 def paper_geometry_report(tmp_path_factory):
     """``report --geometry paper`` of the two controllers Fig. 27 compares (PNG only, to
     keep it fast: SVGs are written by the test above)."""
-    from fuzzynav.app.figures import run_figures as figures
+    from fuzzynav.app.figures import style as figures
 
     out = tmp_path_factory.mktemp("paper-report") / "r"
     with pytest.MonkeyPatch.context() as mp:
@@ -116,7 +116,7 @@ def test_report_table_is_beside_the_papers_numbers(paper_geometry_report):
     the difference in per cent is computed from the two."""
     import tomllib
 
-    from fuzzynav.app.experiments.studies import PAPER_TABLE4, TABLE4_ROWS
+    from fuzzynav.app.experiments.compare import PAPER_TABLE4, TABLE4_ROWS
     from fuzzynav.resources import asset_path
 
     with open(asset_path("paper", "results.toml"), "rb") as fh:
@@ -143,7 +143,7 @@ def test_report_table_is_beside_the_papers_numbers(paper_geometry_report):
 
 
 def test_report_figures_are_named_by_the_papers_numbers(paper_geometry_report):
-    from fuzzynav.app.figures.run_figures import RUN_FIGURES
+    from fuzzynav.app.figures.numbering import RUN_FIGURES
 
     rows = assert_index_is_complete(paper_geometry_report / "figures")
     assert {r["geometry"] for r in rows} == {"paper"}
@@ -187,7 +187,7 @@ def test_report_refuses_the_paper_geometry_with_sensors(tmp_path, capsys):
 def test_report_draws_the_paper_membership_overview(tmp_path, capsys, monkeypatch):
     from PIL import Image
 
-    from fuzzynav.app.figures import run_figures as figures
+    from fuzzynav.app.figures import style as figures
 
     monkeypatch.setattr(figures, "FORMATS", ("png",))  # the overview is what is tested
 

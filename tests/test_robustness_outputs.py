@@ -268,7 +268,7 @@ def test_sigma_is_checked(capsys, command, sigma):
 
 
 def test_cmaes_refuses_a_bad_sigma_from_code():
-    from fuzzynav.app.experiments.cmaes import cmaes
+    from fuzzynav.app.experiments.evolution import cmaes
 
     with pytest.raises(ValueError, match="sigma0 = nan"):
         cmaes(lambda x: 0.0, [(0, 1)], [0.5], float("nan"), 1, 4, 0, map)

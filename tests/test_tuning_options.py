@@ -7,14 +7,11 @@ import numpy as np
 import pytest
 
 from fuzzynav.app.cli import main
+from fuzzynav.app.experiments.objective import CLEARANCE_WEIGHT, Case, Objective, run_cost
 from fuzzynav.app.experiments.tuning import (
-    CLEARANCE_WEIGHT,
-    Case,
-    Objective,
     free_indices,
     read_vector,
     reproduce_command,
-    run_cost,
     tune,
 )
 from fuzzynav.controller.tuning import tunable

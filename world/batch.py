@@ -312,7 +312,7 @@ def run_batch(
         Stop every run still going at this time as ``timeout`` (tuning's cap); the
         scenarios' own durations otherwise.
     stall_s : float, optional
-        Tuning's early stop (:func:`app.experiments.tuning.run_until_stalled`): a run whose
+        Tuning's early stop (:func:`app.experiments.objective.run_until_stalled`): a run whose
         distance to the target has not reached a new minimum by 5 cm for this many
         seconds ends as ``timeout``, its last step unlogged, as there.
     trace : bool

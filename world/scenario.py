@@ -136,6 +136,10 @@ class Scenario:
 
     def to_toml(self) -> str:
         """TOML text that :func:`load_scenario` reads back to an equal scenario."""
+        # Written by hand, not by tomli-w: the layout is the point. Scenario files are
+        # read and edited by people; a position is one [x, y] pair on one line (tomli-w
+        # writes every array over several lines), in the order the shipped files use.
+        # (Its bytes are also what a run's scenario digest is taken of: app/runs.py.)
         d = self.to_dict()
         lines = [f"name = {_toml_str(d['name'])}"]
         if self.description:

@@ -1,10 +1,13 @@
 """The experiments room: many runs, and what they say.
 
-- :mod:`.studies`     ``sweep`` and ``compare`` on seeded layouts and the paper's scenarios;
+- :mod:`.studies`     a study's layout jobs, their rows and fingerprints, run on an executor;
+- :mod:`.sweep`       ``sweep``: a controller on seeded layouts, its success rate;
+- :mod:`.compare`     ``compare``: Table 4 on the paper's scenarios, beside the paper;
+- :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
 - :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
 - :mod:`.resultlog`   ``--out``/``--resume``: rows written as they arrive, read back safely;
-- :mod:`.cmaes`       the evolution strategy of the fit.
+- :mod:`.evolution`   pycma's CMA-ES on a box, seeded: fit-paper's search (and tune --method cmaes).
 """

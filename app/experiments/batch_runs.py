@@ -239,10 +239,10 @@ def run_layouts(
 
 
 def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[float]:
-    """:class:`app.experiments.tuning.Objective`'s cost of every vector, all candidates x cases on
+    """:class:`app.experiments.objective.Objective`'s cost of every vector, all candidates x cases on
     the batch engine (one batch per perception mode); the same per-run cost
-    (``cost_function``: :func:`app.experiments.tuning.outcome_cost`, given by the caller so that this
-    module does not import app.experiments.tuning) and holes penalty, tuning's stall rule after
+    (``cost_function``: :func:`app.experiments.objective.outcome_cost`, given by the caller so
+    that this module does not import the tuning's cost) and holes penalty, tuning's stall rule after
     ``stall_s`` s. Top level: an executor task."""
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.world.batch import run_batch

@@ -13,7 +13,7 @@ numbers and the event times 10 %, event distances 0.05 m, the final target beari
 obstacle passed farthest, s3's static pass later than s2's), chatter, and penalties for
 not arriving and for a collision. With ``--husky`` the same runs in the Husky geometry,
 both perception modes, are held to that geometry's bounds (hinges, zero inside them),
-so that one rule base serves both. A seeded CMA-ES (app/experiments/cmaes.py); the command that
+so that one rule base serves both. A seeded CMA-ES (app/experiments/evolution.py); the command that
 reproduces a fitted file is written into its header.
 """
 
@@ -343,7 +343,7 @@ def fit(
     engine: str = "pymunk",
 ):
     """Fit the 12 design numbers (:mod:`fuzzynav.controller.paper_design`) with a seeded
-    CMA-ES (:func:`fuzzynav.app.experiments.cmaes.cmaes`) from ``x0`` with step ``sigma0`` (a
+    CMA-ES (:func:`fuzzynav.app.experiments.evolution.cmaes`) from ``x0`` with step ``sigma0`` (a
     fraction of each bound's span), ``popsize`` candidates a generation, never worse than
     ``x0``; returns (x, cost, generations, evaluations). ``engine="batch"``: each
     generation's candidates x s1-s3 (x every mode) run as one batch per worker
@@ -351,7 +351,7 @@ def fit(
     import multiprocessing
 
     from fuzzynav.app.experiments.batch_runs import fit_mapper
-    from fuzzynav.app.experiments.cmaes import cmaes
+    from fuzzynav.app.experiments.evolution import cmaes
     from fuzzynav.controller.paper_design import PaperDesignTunable
 
     tunable = PaperDesignTunable()
@@ -510,7 +510,7 @@ def cmd_fit_paper(args) -> int:
 
 def add_commands(subparsers) -> None:
     from fuzzynav.app.experiments.batch_runs import add_engine_option
-    from fuzzynav.app.experiments.cmaes import add_sigma_option
+    from fuzzynav.app.experiments.evolution import add_sigma_option
 
     p = subparsers.add_parser(
         "fit-paper",

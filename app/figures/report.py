@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError
-from fuzzynav.app.experiments.studies import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.experiments.compare import SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
@@ -194,12 +194,8 @@ def write_report(
     """
     from rich.progress import Progress
 
-    from fuzzynav.app.figures.run_figures import (
-        FORMATS,
-        check_writable_dir,
-        write_figure_index,
-        write_paper_figures,
-    )
+    from fuzzynav.app.figures.paper_set import write_figure_index, write_paper_figures
+    from fuzzynav.app.figures.style import FORMATS, check_writable_dir
     from fuzzynav.app.recordings.record import record_run
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.perception import check_geometry
@@ -268,7 +264,7 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
     """The docs' pictures under the names they use: the husky geometry's trajectories
     (``s1_paper_trajectory.png``), its Fig. 27 (``comparison.png``), the paper
     controller's membership overview; ``table4.md`` beside the folder."""
-    from fuzzynav.app.figures.run_figures import paper_figure_stem
+    from fuzzynav.app.figures.numbering import paper_figure_stem
 
     images.mkdir(parents=True, exist_ok=True)
     if "husky" in geometries:
@@ -283,7 +279,7 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
     # the README's table lives beside its images' folder (docs/table4.md)
     _copy(out / "table4.md", images.parent / "table4.md")
     if "paper" in controllers:
-        from fuzzynav.app.figures.run_figures import write_membership_overview
+        from fuzzynav.app.figures.membership import write_membership_overview
         from fuzzynav.controller.paper import PAPER_RULES
 
         write_membership_overview(

@@ -1,0 +1,164 @@
+"""The figures' shared style: colours, sizes and file types, a figure on the Agg canvas,
+files written whole, time axes, legends, and what a figure asks of a controller.
+
+Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings);
+the right wheel and the heading take colours no obstacle has.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from fuzzynav.safe_files import atomic_output
+
+SAFE_DISTANCE_M = 0.25
+FORMATS = ("png", "svg")
+DPI = 150
+
+ROBOT = "#1f77b4"
+TARGET = "#2ca02c"
+OBSTACLE = "#d62728"
+SAFE = "#555555"
+MOVING = "#9467bd"
+WHEEL_LEFT = "#1f77b4"
+# Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings):
+# the right wheel and the heading take colours no obstacle has.
+WHEEL_RIGHT = "#222222"
+HEADING = "#008c78"  # teal, as the recording's heading arrow
+EVENT = "#222222"
+DISTURBANCE = "#f2a900"
+OBSTACLE_COLORS = [
+    "#d62728",
+    "#ff7f0e",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#bcbd22",
+    "#17becf",
+    "#7f7f7f",
+]
+
+
+def check_writable_dir(path, option: str = "--figures") -> Path:
+    """Create ``path`` if needed and make sure files can be written in it; ValueError
+    with the reason otherwise."""
+    from fuzzynav.safe_files import refuse_installed
+
+    path = Path(path)
+    refuse_installed(path, option)  # never among the shipped rule bases and scenarios
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"{option} {path}: exists and is not a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot create it ({exc.strerror or exc})") from None
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".fuzzynav-probe-", dir=path)
+    except OSError as exc:
+        raise ValueError(f"{option} {path}: cannot write there ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+    return path
+
+
+def _new_figure(width_in: float, height_in: float, rows: int = 1, cols: int = 1, **kw):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, cols, squeeze=False, **kw)
+    return fig, axes
+
+
+def _save(fig, out_dir: Path, name: str, formats=FORMATS) -> list[Path]:
+    paths = []
+    for ext in formats:
+        path = out_dir / f"{name}.{ext}"
+        # whole or not at all: a full disk left a truncated PNG over the good one
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, dpi=DPI, format=ext, metadata=_metadata(ext))
+        paths.append(path)
+        # The layout is done (it is the costly part of a save): keep it for the others.
+        fig.set_layout_engine("none")
+    return paths
+
+
+def _metadata(ext: str) -> dict:
+    # Reproducible files: no creation date (SVG) and no software timestamp (PNG).
+    if ext == "svg":
+        return {"Date": None}
+    if ext == "png":
+        return {"Software": None}
+    return {}
+
+
+def _obstacle_label(log, col: int) -> str:
+    return f"obstacle {log.obstacle_ids[col]}"
+
+
+def disturbance_window_s(scenario) -> tuple[float, float] | None:
+    """(start, stop) seconds of the scenario's input disturbance, or None."""
+    d = getattr(scenario, "disturbance", None)
+    return None if d is None else (float(d.start_s), float(d.stop_s))
+
+
+def _shade_disturbance(ax, scenario) -> None:
+    """Shade the disturbance window on a time axis (a patch with gid ``disturbance``)."""
+    window = disturbance_window_s(scenario)
+    if window is None:
+        return
+    ax.axvspan(
+        *window,
+        facecolor=DISTURBANCE,
+        alpha=0.22,
+        lw=0,
+        zorder=0,
+        gid="disturbance",
+        label=f"disturbance ({window[0]:g}–{window[1]:g} s)",
+    )
+
+
+def _time_axes(ax, ylabel: str, scenario=None, *, xlabel: bool = True) -> None:
+    if xlabel:
+        ax.set_xlabel("time (s)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, lw=0.3, alpha=0.6)
+    if scenario is not None:
+        _shade_disturbance(ax, scenario)
+
+
+def _legend_outside(ax) -> None:
+    # Beside the axes, never over the curves.
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+
+def _default_footprint() -> tuple[float, float]:
+    try:
+        from fuzzynav.world.husky import HuskyModel
+
+        p = HuskyModel.default().parameters
+        return (p.footprint_length_m, p.footprint_width_m)
+    except Exception:  # the figures do not depend on the parameter file being readable
+        return (0.99, 0.67)
+
+
+def _fis(controller):
+    """The controller's fuzzy system: its ``fis``, else (fuzzynav) its blocks merged into
+    one (``merged``: every block's inputs and outputs, under names unique across them)."""
+    if controller is None:
+        return None
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    fis = getattr(inner, "fis", None)
+    if fis is None and callable(getattr(inner, "rule_blocks", None)):
+        fis = getattr(inner, "merged", None)
+    return fis if fis is not None and hasattr(fis, "inputs") and hasattr(fis, "outputs") else None
+
+
+def _controller_label(controller) -> str | None:
+    if controller is None:
+        return None
+    name = getattr(controller, "name", None)
+    return name if isinstance(name, str) and name else type(controller).__name__
