@@ -2,12 +2,12 @@
 
 For the shipped rule base's 12 numbers (its ``# tuned vector:`` line), evaluates the
 cost of ``fuzzynav fit-paper`` (app/experiments/paper_fit.py, the same options as the shipped file's
-command: 0.05 s control period, ``--husky --husky-perception ideal``) at the fitted vector and with one
+command: 0.05 s control period, ``--husky --husky-perception ideal --husky-weight 10``) at the fitted vector and with one
 number at a time multiplied by 0.9 and 1.1 (clipped to its bounds, so the design rules
 still hold: a clipped step says so). A number whose moves barely change the cost is one
 the paper's results leave free. Writes a JSON file and prints a Markdown table.
 
-    .venv/bin/python scripts/paper_profiles.py [--workers 2] [--out docs/data/paper_profiles.json]
+    .venv/bin/python scripts/paper_profiles.py [--workers 2 | --workers 0 (batch engine)] [--out docs/data/paper_profiles.json]
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ def main() -> None:
     parser.add_argument("--dt", type=float, default=0.05)
     parser.add_argument("--no-husky", action="store_true")
     parser.add_argument("--husky-perception", default="ideal")
+    parser.add_argument("--husky-weight", type=float, default=10.0)
     parser.add_argument("--out", type=Path, default=Path("docs/data/paper_profiles.json"))
     args = parser.parse_args()
     tunable = PaperDesignTunable()
@@ -50,9 +51,15 @@ def main() -> None:
         args.dt,
         husky=not args.no_husky,
         husky_perception=tuple(args.husky_perception.split(",")),
+        husky_weight=args.husky_weight,
     )
-    with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-        values = pool.map(cost, vectors)
+    if args.workers == 0:  # the batch engine, one process (the costs equal pymunk's)
+        from fuzzynav.app.batch_runs import fit_costs
+
+        values = fit_costs(cost, vectors)
+    else:
+        with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
+            values = pool.map(cost, vectors)
     base = values[0]
     rows = []
     print(f"fitted cost {base:.3f}\n")

@@ -144,8 +144,6 @@ def test_save_writes_a_loadable_rule_base(tmp_path):
 # Not met by the design-rule rule base started facing the target (issue 25); the numbers
 # and the searches are in docs/paper-controller.md ("How close it comes").
 _NOT_MET = {
-    ("ideal", "s1"): "reaches s1 without collision, but 0.196 m from the first obstacle",
-    ("ideal", "s2"): "reaches s2 without collision, but 0.247 m from the static obstacle",
     ("ultrasonic", "s1"): "the sonars lose the first obstacle, dead ahead, between beams",
     ("ultrasonic", "s2"): "the sonars lose the static obstacle, ahead, between beams",
     ("ultrasonic", "s3"): "the sonars lose the static obstacle, ahead, between beams",

@@ -403,10 +403,17 @@ def test_inference_view_says_when_no_rule_fires_and_counts_weak_rules(served, pa
 
     app = served.app
     app.set_controller("paper")
-    # the shipped rule bases have no gap any more: open one with the Editor, as a user
-    # would (phi_t's P starts at 0.8 x its peak, past the end of Z)
-    app.set_membership_parameter("phi_t.zero", 0.1)
-    app.set_membership_parameter("phi_t.foot", 0.8)
+    # the shipped rule base has no gap, nor can the Editor open one (its design layout
+    # keeps every input covered): drive with one drawn in the older 27-number layout
+    # (phi_t's P starts at 0.8 x its peak, past the end of Z)
+    from fuzzynav.controller.paper import PaperTunable
+
+    tunable = PaperTunable()
+    vector = tunable.initial_vector()
+    names = tunable.parameter_names()
+    vector[names.index("phi_t.zero")] = 0.1
+    vector[names.index("phi_t.foot")] = 0.8
+    app.set_controller_object(FisController(tunable.system(vector)), "paper (gapped)")
     fis = app.controller.inner.fis
     # inputs where the edited phi_t terms leave a gap (none fires), and weak ones
     phis = np.linspace(-3.0, 3.0, 601)
@@ -504,22 +511,22 @@ def test_editor_sliders_change_the_driving_controller_and_download_and_reset(ser
     app.set_controller("paper")
     open_tab(page, "Editor")
     shipped = app.controller.inner.fis
-    name = "d_t.w1"
+    name = "d_t.h"  # the spacing VS -> S: moves S
     editor = app.editor()
     low, high = editor.bounds[name]
     # a step the slider allows, up or down, whatever the shipped value
     step = 0.8 if editor.value(name) + 0.8 <= high else -0.8
     new_value = round(max(low, min(high, editor.value(name) + step)), 2)
-    box = page.locator(".mantine-Slider-root").first  # d_t's folder is open: a0 first
+    box = page.locator(".mantine-Slider-root").first  # d_t's folder is open: c0 first
     assert box.count()
-    # type the value into w1's number box (the second slider of the d_t folder)
+    # type the value into h's number box (the second slider of the d_t folder)
     inputs = page.locator("input[inputmode='decimal']")
     target = None
     for k in range(inputs.count()):
         if abs(float(inputs.nth(k).input_value() or "nan") - round(editor.value(name), 2)) < 1e-6:
             target = inputs.nth(k)
             break
-    assert target is not None, "no number box holds d_t.w1"
+    assert target is not None, f"no number box holds {name}"
     target.fill(str(new_value))
     target.press("Enter")
     ok = app.wait_for(lambda a: a.controller_label == "paper (edited)", timeout=10)

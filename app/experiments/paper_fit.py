@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.args import UsageError, integer_in, print_json, seed_type
+from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
 from fuzzynav.app.provenance import reproduce_line
 from fuzzynav.resources import asset_path
 from fuzzynav.safe_files import write_text_atomically
@@ -258,6 +258,7 @@ class FitCost:
         stall_s: float | None = 15.0,
         husky: bool = False,
         husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
+        husky_weight: float = 1.0,
     ):
         from fuzzynav.controller.paper_design import PaperDesignTunable
         from fuzzynav.world.husky import HuskyModel
@@ -267,6 +268,7 @@ class FitCost:
         self.stall_s = stall_s
         self.husky = husky
         self.husky_perception = tuple(husky_perception)
+        self.husky_weight = float(husky_weight)
         self.paper = paper_results()
         self.model = HuskyModel.default()  # one plant: its ZOH matrices are computed once
 
@@ -298,7 +300,7 @@ class FitCost:
         paper, *husky = measured
         cost = sum(run_cost(m, self.paper) for m in paper) + story_cost(paper)
         for runs in husky:
-            cost += sum(husky_cost(m, self.paper) for m in runs)
+            cost += self.husky_weight * sum(husky_cost(m, self.paper) for m in runs)
         return float(cost)
 
     def __call__(self, vector) -> float:
@@ -341,6 +343,7 @@ def fit(
     husky: bool = False,
     husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
     engine: str = "pymunk",
+    husky_weight: float = 1.0,
 ):
     """Fit the 12 design numbers (:mod:`fuzzynav.controller.paper_design`) with a seeded
     CMA-ES (:func:`fuzzynav.app.experiments.evolution.cmaes`) from ``x0`` with step ``sigma0`` (a
@@ -357,7 +360,12 @@ def fit(
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     bounds = tunable.bounds()
-    cost = FitCost(control_period_s, husky=husky, husky_perception=husky_perception)
+    cost = FitCost(
+        control_period_s,
+        husky=husky,
+        husky_perception=husky_perception,
+        husky_weight=husky_weight,
+    )
     start = tunable.initial_vector() if x0 is None else np.asarray(x0, float)
 
     def report(generation, best_f, best_x, sigma):
@@ -473,6 +481,7 @@ def cmd_fit_paper(args) -> int:
         husky=args.husky,
         husky_perception=tuple(args.husky_perception.split(",")),
         engine=args.engine,
+        husky_weight=args.husky_weight,
     )
     elapsed = time.perf_counter() - started
     command = (
@@ -483,6 +492,11 @@ def cmd_fit_paper(args) -> int:
         + (
             f" --husky-perception {args.husky_perception}"
             if args.husky and args.husky_perception != ",".join(HUSKY_PERCEPTION)
+            else ""
+        )
+        + (
+            f" --husky-weight {args.husky_weight:g}"
+            if args.husky and args.husky_weight != 1
             else ""
         )
         + (f" --x0 {args.x0.name}" if args.x0 is not None else "")
@@ -562,6 +576,14 @@ def add_commands(subparsers) -> None:
         choices=("ideal,ultrasonic", "ideal", "ultrasonic"),
         default="ideal,ultrasonic",
         help="with --husky: the perception modes of its runs (default both)",
+    )
+    p.add_argument(
+        "--husky-weight",
+        type=float_in(0.0, 1000.0),
+        default=1.0,
+        metavar="W",
+        help="with --husky: the weight of the Husky runs' hinges against the paper's "
+        "numbers (default 1; the shipped rule base: 10, the Husky's bounds first)",
     )
     p.add_argument(
         "--checkpoint",
