@@ -1,7 +1,10 @@
 """The 3D scene: the robot (the Husky's body or the paper's point), its beams and safe
 ring, the controller's inputs drawn on it, fuzzynav's memory, the trail and the previous
 run's ghost, the start, the straight line to the target, and the ground with its metre
-marks. The target's and obstacles' drag handles are :mod:`.handles`'.
+marks. The target's and obstacles' drag handles are :mod:`.handles`'. The shapes (the
+safe ring, the beam cones, the inputs' lines and arcs, the Husky's body) are
+:mod:`world.geometry`'s, as the recordings and the figures draw them; here they are only
+placed in the scene.
 
 Only the render thread draws here (:mod:`.render`), from :meth:`ViewerApp.snapshot`.
 """
