@@ -374,8 +374,18 @@ def husky_body_boxes(length_m: float, width_m: float) -> dict[str, tuple[tuple, 
 
 
 def husky_wheel_centres(width_m: float) -> np.ndarray:
-    """(4, 3): the drawn wheels' centres in the robot frame (front left, front right,
-    rear left, rear right), inside the footprint's ``width_m`` and resting on the ground."""
+    """The drawn wheels' centres, inside the footprint and resting on the ground.
+
+    Parameters
+    ----------
+    width_m : float
+        The footprint's width; the wheels' centres lie 5.5 cm inside its sides.
+
+    Returns
+    -------
+    numpy.ndarray, (4, 3)
+        Front left, front right, rear left, rear right, metres in the robot frame.
+    """
     signs = np.array([(1, 1), (1, -1), (-1, 1), (-1, -1)], dtype=float)
     return np.column_stack(
         [
