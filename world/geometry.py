@@ -1,4 +1,5 @@
-"""Small closed-form geometry used by the world, the sensors' tests and the metrics.
+"""Small closed-form geometry used by the world, the sensors' tests and the metrics,
+and every shape the viewer, the recordings and the figures draw.
 
 Angles are radians, counter-clockwise positive; lengths are metres. The robot frame has
 x forward and y to the left.
