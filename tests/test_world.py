@@ -11,16 +11,24 @@ from scipy.integrate import solve_ivp
 
 from fuzzynav.world.arena import Arena
 from fuzzynav.world.geometry import (
+    HUSKY_WHEEL_RADIUS_M,
+    beam_cone_outlines,
     beam_cones,
     beam_geometries,
+    bearing_segments,
     circle_points,
+    footprint_exit_m,
     footprint_outlines,
+    husky_body_boxes,
+    husky_wheel_centres,
     obstacle_bearings,
     points_along,
     ray_circle_distance,
     rectangle_circle_clearance,
+    rounded_rectangle,
     target_geometry,
     to_robot_frame,
+    to_world_frame,
     wrap_angle,
     wrap_angle_scalar,
 )
@@ -129,6 +137,85 @@ def test_drawn_geometry_agrees_with_the_world():
     ring = circle_points(0.5, 48)
     assert ring.shape == (49, 2) and np.allclose(np.hypot(*ring.T), 0.5)
     assert np.allclose(ring[0], ring[-1])
+
+
+def test_the_viewers_shapes_against_closed_forms():
+    """The shapes the viewer draws from world.geometry (issue 24): each against a
+    closed form it does not use."""
+    rng = np.random.default_rng(7)
+    # to_world_frame undoes to_robot_frame, and rotates by complex multiplication
+    for x, y, h in ((1.0, -2.0, 0.7), (0.0, 0.0, -3.0), (-4.0, 5.0, math.pi)):
+        local = rng.normal(size=(6, 2))
+        world = to_world_frame(local, (x, y), h)
+        expected = (local[:, 0] + 1j * local[:, 1]) * np.exp(1j * h) + (x + 1j * y)
+        assert np.allclose(world[:, 0] + 1j * world[:, 1], expected, atol=1e-12)
+        for p, q in zip(world, local):
+            assert np.allclose(to_robot_frame(p, (x, y), h), q, atol=1e-12)
+        assert np.allclose(to_world_frame(local[0], (x, y), h), world[0])
+    # the safe ring: every point offset from the footprint, i.e. its clearance is 0
+    for length, width, offset in ((0.99, 0.67, 0.25), (0.0, 0.0, 0.25), (2.0, 0.5, 0.1)):
+        ring = rounded_rectangle(length, width, offset)
+        assert ring.shape == (37, 2) and np.array_equal(ring[0], ring[-1])
+        for p in ring:
+            gap = rectangle_circle_clearance((0, 0), 0.0, length, width, p, 0.0)
+            assert gap == pytest.approx(offset, abs=1e-12)
+        # counter-clockwise: the shoelace area is the grown rectangle's, corners rounded
+        area = 0.5 * np.sum(ring[:-1, 0] * ring[1:, 1] - ring[1:, 0] * ring[:-1, 1])
+        n = 4 * 8  # the circle's chords: a regular 32-gon of radius ``offset``
+        polygon = 0.5 * n * offset**2 * math.sin(2 * math.pi / n)
+        assert area == pytest.approx(
+            length * width + 2 * offset * (length + width) + polygon, rel=1e-12
+        )
+    # where a ray leaves the footprint: on its edge, max(|x| / hl, |y| / hw) = 1
+    for bearing in rng.uniform(-math.pi, math.pi, 50):
+        r = footprint_exit_m(0.99, 0.67, bearing)
+        lx, ly = r * math.cos(bearing), r * math.sin(bearing)
+        assert max(abs(lx) / 0.495, abs(ly) / 0.335) == pytest.approx(1.0, abs=1e-12)
+    assert footprint_exit_m(0.99, 0.67, 0.0) == pytest.approx(0.495)
+    assert footprint_exit_m(0.99, 0.67, -0.5 * math.pi) == pytest.approx(0.335)
+    assert footprint_exit_m(0.0, 0.0, 1.0) == 0.0
+    assert np.allclose(footprint_exit_m(0.99, 0.67, np.array([0.0, math.pi])), 0.495)
+    # a distance and a bearing on the robot: the line from the exit along the bearing,
+    # the heading's radius, an arc of that radius from the heading to the bearing
+    x, y, h = 1.0, 2.0, 0.4
+    seg = bearing_segments((x, y, h), 1.5, -0.9, 0.8, start_m=0.3, arc_segments=6)
+    assert seg.shape == (8, 2, 2)
+    assert np.allclose(
+        seg[0, 0], to_world_frame((0.3 * math.cos(-0.9), 0.3 * math.sin(-0.9)), (x, y), h)
+    )
+    assert np.hypot(*(seg[0, 1] - seg[0, 0])) == pytest.approx(1.5)
+    assert to_robot_frame(seg[0, 1], (x, y), h)[1] / to_robot_frame(seg[0, 1], (x, y), h)[
+        0
+    ] == pytest.approx(math.tan(-0.9))
+    assert np.allclose(seg[1], [(x, y), (x + 0.8 * math.cos(h), y + 0.8 * math.sin(h))])
+    arc = np.vstack([seg[2:, 0], seg[-1:, 1]])
+    assert np.allclose(np.hypot(arc[:, 0] - x, arc[:, 1] - y), 0.8)
+    assert np.allclose(np.arctan2(arc[:, 1] - y, arc[:, 0] - x), h + np.linspace(0, -0.9, 7))
+    assert np.array_equal(seg[2:-1, 1], seg[3:, 0])  # the arc is joined
+    # beam cones: closed, the arc at the cone's length, its ends the two corners
+    origins = rng.normal(size=(4, 2))
+    directions = rng.uniform(-3, 3, 4)
+    lengths = rng.uniform(0.1, 4.0, 4)
+    cones = beam_cone_outlines(origins, directions, lengths, 0.2, arc_points=5)
+    assert cones.shape == (4, 7, 2)
+    assert np.array_equal(cones[:, 0], origins) and np.array_equal(cones[:, -1], origins)
+    offsets = cones[:, 1:-1] - origins[:, None]
+    assert np.allclose(np.hypot(offsets[..., 0], offsets[..., 1]), lengths[:, None])
+    angles = np.arctan2(offsets[..., 1], offsets[..., 0])
+    assert np.allclose(wrap_angle(angles - directions[:, None]), np.linspace(-0.2, 0.2, 5))
+    left, right = beam_cones(origins, directions, lengths, 0.2)
+    assert np.allclose(left, cones[:, -2]) and np.allclose(right, cones[:, 1])
+    # the drawn Husky: the hull is the footprint long, everything inside the footprint,
+    # the wheels on the ground
+    boxes = husky_body_boxes(0.99, 0.67)
+    assert boxes["body"][0][0] == 0.99
+    for size, centre in boxes.values():
+        assert abs(centre[0]) + 0.5 * size[0] <= 0.495 + 1e-12
+        assert abs(centre[1]) + 0.5 * size[1] <= 0.335 + 1e-12
+    wheels = husky_wheel_centres(0.67)
+    assert np.allclose(wheels[:, 2], HUSKY_WHEEL_RADIUS_M)
+    assert np.all(np.abs(wheels[:, 0]) + HUSKY_WHEEL_RADIUS_M <= 0.495)
+    assert np.allclose(np.abs(wheels[:, 1]), 0.335 - 0.055)
 
 
 # -- sensors -----------------------------------------------------------------------------

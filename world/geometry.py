@@ -1,4 +1,5 @@
-"""Small closed-form geometry used by the world, the sensors' tests and the metrics.
+"""Small closed-form geometry used by the world, the sensors' tests and the metrics,
+and every shape the viewer, the recordings and the figures draw.
 
 Angles are radians, counter-clockwise positive; lengths are metres. The robot frame has
 x forward and y to the left.
@@ -32,6 +33,31 @@ def to_robot_frame(point, robot_xy, heading_rad: float) -> tuple[float, float]:
     dx, dy = point[0] - robot_xy[0], point[1] - robot_xy[1]
     c, s = math.cos(heading_rad), math.sin(heading_rad)
     return (c * dx + s * dy, -s * dx + c * dy)
+
+
+def to_world_frame(points, robot_xy, heading_rad: float) -> np.ndarray:
+    """World coordinates of points given in the robot frame: :func:`to_robot_frame`'s
+    inverse.
+
+    Parameters
+    ----------
+    points : array_like, (2,) or (n, 2)
+        Points in the robot frame (x forward, y left), metres.
+    robot_xy : array_like, (2,)
+        The robot's centre in the world, metres.
+    heading_rad : float
+        The robot's heading.
+
+    Returns
+    -------
+    numpy.ndarray
+        The points in the world, the shape of ``points``.
+    """
+    p = np.asarray(points, dtype=float)
+    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    x = robot_xy[0] + c * p[..., 0] - s * p[..., 1]
+    y = robot_xy[1] + s * p[..., 0] + c * p[..., 1]
+    return np.stack([x, y], axis=-1)
 
 
 def rectangle_circle_clearance(
@@ -130,17 +156,54 @@ def beam_geometries(pose: np.ndarray, mounts) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([ox, oy], axis=-1), h + ma
 
 
+def beam_cone_outlines(
+    origins: np.ndarray,
+    directions: np.ndarray,
+    lengths: np.ndarray,
+    half_width_rad: float,
+    arc_points: int = 5,
+) -> np.ndarray:
+    """Closed outlines of beam cones: origin, an arc at the cone's length, origin.
+
+    Parameters
+    ----------
+    origins : numpy.ndarray, (n, 2)
+        Where each beam starts (any frame: the world, or the robot's for mounts).
+    directions : numpy.ndarray, (n,)
+        Each beam's axis, radians in the same frame.
+    lengths : numpy.ndarray, (n,)
+        How far each cone reaches from its origin, metres.
+    half_width_rad : float
+        The cone's half angle either side of the axis.
+    arc_points : int
+        Points on the far arc, from ``direction - half_width_rad`` (right edge) to
+        ``direction + half_width_rad`` (left edge), evenly spaced; at least 2.
+
+    Returns
+    -------
+    numpy.ndarray, (n, arc_points + 2, 2)
+        Each cone as a closed polyline.
+    """
+    origins = np.asarray(origins, dtype=float)
+    length = np.asarray(lengths, dtype=float)[:, None]
+    angle = np.asarray(directions, dtype=float)[:, None] + np.linspace(
+        -half_width_rad, half_width_rad, arc_points
+    )
+    arc = np.stack(
+        [origins[:, 0:1] + length * np.cos(angle), origins[:, 1:2] + length * np.sin(angle)],
+        axis=-1,
+    )
+    return np.concatenate([origins[:, None], arc, origins[:, None]], axis=1)
+
+
 def beam_cones(
     origins: np.ndarray, directions: np.ndarray, lengths: np.ndarray, half_width_rad: float
 ) -> tuple[np.ndarray, np.ndarray]:
     """(left edge ends, right edge ends), each (n, 2): the far corners of beam cones
     from (n, 2) ``origins`` along ``directions`` (n,), ``lengths`` (n,) long and
-    ``half_width_rad`` either side."""
-    length = np.asarray(lengths, dtype=float)[:, None]
-    d = np.asarray(directions, dtype=float)[:, None]
-    left = origins + length * np.hstack([np.cos(d + half_width_rad), np.sin(d + half_width_rad)])
-    right = origins + length * np.hstack([np.cos(d - half_width_rad), np.sin(d - half_width_rad)])
-    return left, right
+    ``half_width_rad`` either side: :func:`beam_cone_outlines` with no arc between."""
+    outline = beam_cone_outlines(origins, directions, lengths, half_width_rad, arc_points=2)
+    return outline[:, 2], outline[:, 1]
 
 
 def points_along(origins: np.ndarray, directions: np.ndarray, distances: np.ndarray) -> np.ndarray:
@@ -170,3 +233,165 @@ def circle_points(radius_m: float, segments: int) -> np.ndarray:
     """(segments + 1, 2): a closed circle of ``radius_m`` around the origin."""
     a = np.linspace(0.0, 2.0 * math.pi, segments + 1)
     return np.stack([radius_m * np.cos(a), radius_m * np.sin(a)], axis=-1)
+
+
+# ---------------------------------------------------------------------------------------
+# The robot's own shapes, in its frame (x forward, y left, z up from the ground).
+
+
+def rounded_rectangle(
+    length_m: float, width_m: float, offset_m: float, n_arc: int = 8
+) -> np.ndarray:
+    """Closed outline of a length x width rectangle grown by ``offset_m``: the points
+    ``offset_m`` from the footprint (the safe ring), round at the corners.
+
+    Parameters
+    ----------
+    length_m, width_m : float
+        The rectangle, centred on the origin, length along x; ``(0, 0)`` gives a circle
+        of radius ``offset_m`` (the paper's point robot).
+    offset_m : float
+        How far the outline lies from the rectangle.
+    n_arc : int
+        Segments per quarter-circle corner.
+
+    Returns
+    -------
+    numpy.ndarray, (4 * (n_arc + 1) + 1, 2)
+        The corners' arcs counter-clockwise from the front left, closed (the last point
+        is the first).
+    """
+    hx, hy = 0.5 * length_m, 0.5 * width_m
+    centres = np.array([(hx, hy), (-hx, hy), (-hx, -hy), (hx, -hy)])
+    starts = np.array([0.0, 0.5 * math.pi, math.pi, 1.5 * math.pi])
+    a = starts[:, None] + 0.5 * math.pi * np.arange(n_arc + 1) / n_arc
+    x = centres[:, 0:1] + offset_m * np.cos(a)
+    y = centres[:, 1:2] + offset_m * np.sin(a)
+    points = np.stack([x, y], axis=-1).reshape(-1, 2)
+    return np.vstack([points, points[:1]])
+
+
+def footprint_exit_m(length_m: float, width_m: float, bearing_rad):
+    """How far from the centre a ray at ``bearing_rad`` (robot frame) leaves a length x
+    width footprint: where a bearing's line starts outside the robot.
+
+    Parameters
+    ----------
+    length_m, width_m : float
+        The footprint, centred on the robot; ``(0, 0)`` for the paper's point robot,
+        which every ray leaves at 0.
+    bearing_rad : float or array_like
+        The ray's bearing from the heading.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The distance, metres, for each bearing.
+    """
+    c = np.abs(np.cos(np.asarray(bearing_rad, dtype=float)))
+    s = np.abs(np.sin(np.asarray(bearing_rad, dtype=float)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        along = np.where(c > 1e-9, 0.5 * length_m / c, math.inf)
+        across = np.where(s > 1e-9, 0.5 * width_m / s, math.inf)
+    exit_m = np.minimum(along, across)
+    return float(exit_m) if np.ndim(exit_m) == 0 else exit_m
+
+
+def bearing_segments(
+    pose,
+    distance_m: float,
+    bearing_rad: float,
+    radius_m: float,
+    start_m: float = 0.0,
+    arc_segments: int = 8,
+) -> np.ndarray:
+    """A distance and a bearing drawn on the robot, as line segments in the world.
+
+    Parameters
+    ----------
+    pose : (x, y, heading)
+        The robot's pose (metres, radians).
+    distance_m : float
+        The distance (d_t, d_o), drawn along the bearing from ``start_m`` off the centre.
+    bearing_rad : float
+        The bearing from the heading (phi_t, phi_o).
+    radius_m : float
+        The radius of the heading's line and of the arc from the heading to the bearing.
+    start_m : float
+        Where the distance starts along the bearing (:func:`footprint_exit_m` for a
+        footprint-to-surface distance).
+    arc_segments : int
+        Segments of the arc.
+
+    Returns
+    -------
+    numpy.ndarray, (arc_segments + 2, 2, 2)
+        Segment 0 the distance, 1 the heading's radius, then the arc.
+    """
+    x, y, heading = pose
+    a = heading + bearing_rad
+    seg = np.empty((arc_segments + 2, 2, 2))
+    seg[0, 0] = (x + start_m * math.cos(a), y + start_m * math.sin(a))
+    seg[0, 1] = (
+        x + (start_m + distance_m) * math.cos(a),
+        y + (start_m + distance_m) * math.sin(a),
+    )
+    seg[1, 0] = (x, y)
+    seg[1, 1] = (x + radius_m * math.cos(heading), y + radius_m * math.sin(heading))
+    angles = heading + np.linspace(0.0, bearing_rad, arc_segments + 1)
+    arc = np.column_stack([x + radius_m * np.cos(angles), y + radius_m * np.sin(angles)])
+    seg[2:, 0] = arc[:-1]
+    seg[2:, 1] = arc[1:]
+    return seg
+
+
+#: The drawn Husky A200's wheels (m): radius, width, and the half wheelbase. Drawn only;
+#: the LG model's wheel radius (husky.toml) is a fitted parameter, not the tyre's.
+HUSKY_WHEEL_RADIUS_M = 0.165
+HUSKY_WHEEL_WIDTH_M = 0.11
+HUSKY_HALF_WHEELBASE_M = 0.256
+
+
+def husky_body_boxes(length_m: float, width_m: float) -> dict[str, tuple[tuple, tuple]]:
+    """The Husky's drawn body as boxes sized from its footprint.
+
+    Parameters
+    ----------
+    length_m, width_m : float
+        The footprint (husky.toml's ``[footprint]``).
+
+    Returns
+    -------
+    dict
+        ``{name: (dimensions (x, y, z), centre (x, y, z))}``, metres in the robot frame,
+        for ``"body"`` (the yellow hull), ``"deck"`` (the top plate) and ``"bumper"``.
+    """
+    L, W = length_m, width_m
+    return {
+        "body": ((L, W * 0.78, 0.26), (0.0, 0.0, 0.25)),
+        "deck": ((0.62 * L, 0.62 * W, 0.03), (-0.06 * L, 0.0, 0.39)),
+        "bumper": ((0.06, W * 0.78, 0.12), (0.5 * L - 0.03, 0.0, 0.2)),
+    }
+
+
+def husky_wheel_centres(width_m: float) -> np.ndarray:
+    """The drawn wheels' centres, inside the footprint and resting on the ground.
+
+    Parameters
+    ----------
+    width_m : float
+        The footprint's width; the wheels' centres lie 5.5 cm inside its sides.
+
+    Returns
+    -------
+    numpy.ndarray, (4, 3)
+        Front left, front right, rear left, rear right, metres in the robot frame.
+    """
+    signs = np.array([(1, 1), (1, -1), (-1, 1), (-1, -1)], dtype=float)
+    return np.column_stack(
+        [
+            signs[:, 0] * HUSKY_HALF_WHEELBASE_M,
+            signs[:, 1] * (0.5 * width_m - 0.055),
+            np.full(4, HUSKY_WHEEL_RADIUS_M),
+        ]
+    )

@@ -19,6 +19,7 @@ from fuzzynav.app.viewer.state import (
     ViewerError,
     safe_display_name,
 )
+from fuzzynav.world.geometry import rectangle_circles_clearance
 from fuzzynav.world.scenario import (
     ObstacleSpec,
     Scenario,
@@ -185,35 +186,32 @@ class ScenarioEditing:
 
     def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
         """Ids of the obstacles that overlap the robot's footprint where it stands (or,
-        ``at_start``, where the next run starts, with the obstacles of the layout)."""
+        ``at_start``, where the next run starts, with the obstacles of the layout).
+
+        The gaps are :func:`world.geometry.rectangle_circles_clearance`'s, footprint to
+        surface; the paper's geometry judges its 25 cm centre to centre, so there the
+        obstacles count as points (radius 0)."""
         app = self.app
         with app.lock:
             arena = app.sim.arena
             if at_start:
-                return self._obstacles_on_start_locked()
-            clearances = arena.clearances()
-            if app.geometry == "paper":  # the 25 cm are judged centre to centre there
-                clearances = clearances + np.array(arena._scene().radii, dtype=float)
-            ids = list(arena.obstacles)
-            return [i for i, c in zip(ids, np.asarray(clearances).tolist()) if c <= 0.0]
-
-    def _obstacles_on_start_locked(self) -> list[int]:
-        app = self.app
-        sc = app.sim.scenario
-        x, y = sc.start
-        heading = sc.heading_rad
-        length, width = app.sim.arena.footprint_m
-        c, s = math.cos(heading), math.sin(heading)
-        out = []
-        for obstacle_id, spec in app._layout:
-            dx, dy = spec.position[0] - x, spec.position[1] - y
-            lx, ly = c * dx + s * dy, -s * dx + c * dy
-            gap = math.hypot(max(abs(lx) - 0.5 * length, 0.0), max(abs(ly) - 0.5 * width, 0.0))
-            if app.geometry != "paper":
-                gap -= spec.radius_m
-            if gap <= 0.0:
-                out.append(obstacle_id)
-        return out
+                sc = app.sim.scenario
+                robot_xy, heading = sc.start, sc.heading_rad
+                ids = [i for i, _ in app._layout]
+                centres = np.array([spec.position for _, spec in app._layout], dtype=float)
+                radii = np.array([spec.radius_m for _, spec in app._layout], dtype=float)
+            else:
+                x, y, heading = arena.pose
+                robot_xy = (x, y)
+                centres, radii, ids = arena.obstacle_arrays()
+            if not ids:
+                return []
+            if app.geometry == "paper":
+                radii = np.zeros_like(radii)
+            gaps = rectangle_circles_clearance(
+                robot_xy, heading, *arena.footprint_m, centres.reshape(-1, 2), radii
+            )
+            return [i for i, gap in zip(ids, gaps.tolist()) if gap <= 0.0]
 
     def editor(self):
         """The membership editor of the paper controller (built on first use)."""

@@ -13,6 +13,7 @@ from fuzzynav.app.viewer.state import (
     ObstacleView,
     Snapshot,
 )
+from fuzzynav.world.geometry import to_world_frame
 
 
 class Reading:
@@ -142,8 +143,4 @@ class Reading:
             return None, math.nan
         points, bearing = view()
         x, y, heading = pose
-        c, s = math.cos(heading), math.sin(heading)
-        world = np.column_stack(
-            [x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]]
-        )
-        return world, heading + bearing
+        return to_world_frame(np.reshape(points, (-1, 2)), (x, y), heading), heading + bearing

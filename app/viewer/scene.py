@@ -1,7 +1,10 @@
 """The 3D scene: the robot (the Husky's body or the paper's point), its beams and safe
 ring, the controller's inputs drawn on it, fuzzynav's memory, the trail and the previous
 run's ghost, the start, the straight line to the target, and the ground with its metre
-marks. The target's and obstacles' drag handles are :mod:`.handles`'.
+marks. The target's and obstacles' drag handles are :mod:`.handles`'. The shapes (the
+safe ring, the beam cones, the inputs' lines and arcs, the Husky's body) are
+:mod:`world.geometry`'s, as the recordings and the figures draw them; here they are only
+placed in the scene.
 
 Only the render thread draws here (:mod:`.render`), from :meth:`ViewerApp.snapshot`.
 """
@@ -13,8 +16,18 @@ import math
 import numpy as np
 
 from fuzzynav.app.viewer.model import SAFE_DISTANCE_M, Snapshot
+from fuzzynav.world.geometry import (
+    HUSKY_WHEEL_RADIUS_M,
+    HUSKY_WHEEL_WIDTH_M,
+    beam_cone_outlines,
+    beam_geometries,
+    bearing_segments,
+    footprint_exit_m,
+    husky_body_boxes,
+    husky_wheel_centres,
+    rounded_rectangle,
+)
 
-HUSKY_FOOTPRINT_M = (0.99, 0.67)  # drawn; the world's own footprint is the arena's
 TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this many
 BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
 
@@ -58,23 +71,6 @@ def reading_colour(distance_m: float) -> tuple[int, int, int]:
     return stops[-1][1]
 
 
-def rounded_rectangle(length: float, width: float, offset: float, n_arc: int = 8) -> np.ndarray:
-    """Closed outline (N, 2) of a rectangle grown by ``offset`` (round corners)."""
-    hx, hy = 0.5 * length, 0.5 * width
-    points = []
-    for cx, cy, a0 in (
-        (hx, hy, 0.0),
-        (-hx, hy, 0.5 * math.pi),
-        (-hx, -hy, math.pi),
-        (hx, -hy, 1.5 * math.pi),
-    ):
-        for k in range(n_arc + 1):
-            a = a0 + 0.5 * math.pi * k / n_arc
-            points.append((cx + offset * math.cos(a), cy + offset * math.sin(a)))
-    points.append(points[0])
-    return np.array(points)
-
-
 def polyline_segments(points_xy: np.ndarray, z: float) -> np.ndarray:
     """(N, 2) polyline -> (N - 1, 2, 3) line segments at height z."""
     p = np.asarray(points_xy, dtype=np.float32)
@@ -99,30 +95,13 @@ def arena_bounds(snap: Snapshot, start) -> tuple[int, int, int, int]:
 
 
 def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
-    """(INPUT_SEGMENTS, 2, 3): a distance along ``bearing`` (from ``start`` m off the
-    centre), the heading's radius and the arc from the heading to ``bearing``."""
-    x, y, heading = pose
-    z = 0.5
-    a = heading + bearing
+    """(INPUT_SEGMENTS, 2, 3): :func:`world.geometry.bearing_segments` at the inputs'
+    height (a distance along ``bearing`` from ``start`` m off the centre, the heading's
+    radius and the arc from the heading to ``bearing``)."""
     seg = np.zeros((INPUT_SEGMENTS, 2, 3), np.float32)
-    seg[:, :, 2] = z
-    seg[0, 0, :2] = (x + start * math.cos(a), y + start * math.sin(a))
-    seg[0, 1, :2] = (x + (start + distance) * math.cos(a), y + (start + distance) * math.sin(a))
-    seg[1, 0, :2] = (x, y)
-    seg[1, 1, :2] = (x + radius * math.cos(heading), y + radius * math.sin(heading))
-    angles = heading + np.linspace(0.0, bearing, ARC_SEGMENTS + 1)
-    arc = np.column_stack([x + radius * np.cos(angles), y + radius * np.sin(angles)])
-    seg[2:, 0, :2] = arc[:-1]
-    seg[2:, 1, :2] = arc[1:]
+    seg[:, :, :2] = bearing_segments(pose, distance, bearing, radius, start, ARC_SEGMENTS)
+    seg[:, :, 2] = 0.5
     return seg
-
-
-def footprint_exit(footprint_m, bearing: float) -> float:
-    """How far from the centre a ray at ``bearing`` (robot frame) leaves the
-    footprint (0 for the paper's point robot)."""
-    half_l, half_w = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
-    c, s = abs(math.cos(bearing)), abs(math.sin(bearing))
-    return min(half_l / c if c > 1e-9 else math.inf, half_w / s if s > 1e-9 else math.inf)
 
 
 class Scene:
@@ -156,7 +135,9 @@ class Scene:
         # ... so light the scene ourselves: soft all round, plus a sun from above.
         scene.add_light_ambient("/lights/ambient", intensity=1.6)
         scene.add_light_directional("/lights/sun", intensity=1.2, position=(2.0, -3.0, 10.0))
-        L, W = HUSKY_FOOTPRINT_M
+        # The Husky's footprint is the world's (husky.toml), whatever the geometry shown.
+        params = self.app.sim.model.parameters
+        L, W = params.footprint_length_m, params.footprint_width_m
         self.robot = scene.add_frame("/robot", show_axes=False)
         # The paper's geometry draws the robot as the point it is (a small disc), the
         # Husky's as its body; both exist, one is shown (``_show_geometry``).
@@ -169,41 +150,21 @@ class Scene:
             position=(0.0, 0.0, 0.05),
             visible=False,
         )
-        self._husky_nodes = []
-        self._husky_nodes.append(
-            scene.add_box(
-                "/robot/body",
-                color=HUSKY_YELLOW,
-                dimensions=(L, W * 0.78, 0.26),
-                position=(0.0, 0.0, 0.25),
-            )
-        )
-        self._husky_nodes.append(
-            scene.add_box(
-                "/robot/deck",
-                color=HUSKY_DARK,
-                dimensions=(0.62 * L, 0.62 * W, 0.03),
-                position=(-0.06 * L, 0.0, 0.39),
-            )
-        )
-        self._husky_nodes.append(
-            scene.add_box(
-                "/robot/bumper",
-                color=HUSKY_DARK,
-                dimensions=(0.06, W * 0.78, 0.12),
-                position=(0.5 * L - 0.03, 0.0, 0.2),
-            )
-        )
+        colours = {"body": HUSKY_YELLOW, "deck": HUSKY_DARK, "bumper": HUSKY_DARK}
+        self._husky_nodes = [
+            scene.add_box(f"/robot/{name}", color=colours[name], dimensions=size, position=centre)
+            for name, (size, centre) in husky_body_boxes(L, W).items()
+        ]
         wheel_q = (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0)
-        for i, (sx, sy) in enumerate(((1, 1), (1, -1), (-1, 1), (-1, -1))):
+        for i, centre in enumerate(husky_wheel_centres(W).tolist()):
             self._husky_nodes.append(
                 scene.add_cylinder(
                     f"/robot/wheel{i}",
-                    radius=0.165,
-                    height=0.11,
+                    radius=HUSKY_WHEEL_RADIUS_M,
+                    height=HUSKY_WHEEL_WIDTH_M,
                     color=(25, 25, 25),
                     wxyz=wheel_q,
-                    position=(sx * 0.256, sy * (0.5 * W - 0.055), 0.165),
+                    position=tuple(centre),
                 )
             )
         # Heading arrow on the deck.
@@ -420,7 +381,7 @@ class Scene:
         if shown["target"]:
             self.input_nodes["target"].points = input_segments(pose, d_t, phi_t, 1.1)
         if shown["obstacle"]:
-            start = footprint_exit(snap.footprint_m, phi_o)
+            start = footprint_exit_m(*snap.footprint_m, phi_o)
             self.input_nodes["obstacle"].points = input_segments(
                 pose, max(d_o, 0.0), phi_o, 0.8, start
             )
@@ -472,26 +433,27 @@ class Scene:
 
     def _beam_segments(self, snap: Snapshot, echo: bool, ranges=None):
         """The cone outlines (robot frame) of the beams that echo, or of those that do not."""
-        mounts = self.app.sim.sensors.config.mounts
-        half = 0.5 * snap.beam_width_rad
-        segments, colours = [], []
-        for mount, reading in zip(mounts, snap.ranges_m if ranges is None else ranges):
-            if math.isfinite(reading) != echo:
-                continue
-            reach = float(reading) if math.isfinite(reading) else snap.max_range_m
-            colour = reading_colour(float(reading))
-            ox, oy, a = mount.x_m, mount.y_m, mount.angle_rad
-            arc = [
-                (ox + reach * math.cos(a + s), oy + reach * math.sin(a + s))
-                for s in np.linspace(-half, half, 5)
-            ]
-            outline = [(ox, oy)] + arc + [(ox, oy)]
-            for p, q in zip(outline, outline[1:]):
-                segments.append([[p[0], p[1], 0.06], [q[0], q[1], 0.06]])
-                colours.append([colour, colour])
-        if not segments:  # nothing of this kind: a zero-length segment under the robot
+        readings = np.asarray(snap.ranges_m if ranges is None else ranges, dtype=float)
+        keep = np.isfinite(readings) == echo
+        if not keep.any():  # nothing of this kind: a zero-length segment under the robot
             return np.zeros((1, 2, 3), np.float32), np.full((1, 2, 3), 255, np.uint8)
-        return np.array(segments, dtype=np.float32), np.array(colours, dtype=np.uint8)
+        # The mounts' origins and axes in the robot frame: the world's beams at pose 0.
+        origins, directions = beam_geometries(np.zeros((1, 3)), self.app.sim.sensors.config.mounts)
+        reach = np.where(np.isfinite(readings), readings, snap.max_range_m)[keep]
+        outlines = beam_cone_outlines(
+            origins[0][keep], directions[0][keep], reach, 0.5 * snap.beam_width_rad
+        )
+        segments = np.zeros((outlines.shape[0], outlines.shape[1] - 1, 2, 3), np.float32)
+        segments[:, :, 0, :2] = outlines[:, :-1]
+        segments[:, :, 1, :2] = outlines[:, 1:]
+        segments[:, :, :, 2] = 0.06
+        colours = np.repeat(
+            np.array([reading_colour(float(r)) for r in readings[keep]], np.uint8),
+            outlines.shape[1] - 1,
+            axis=0,
+        )
+        colours = np.repeat(colours[:, None, :], 2, axis=1)
+        return segments.reshape(-1, 2, 3), colours
 
     def _draw_trail(self) -> None:
         run_id, new = self.app.trail_since(self._trail_index)
