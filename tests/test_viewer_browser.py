@@ -1004,8 +1004,8 @@ def test_the_small_things_a_class_noticed(served, page):
     # the Editor: words, no repository path, whole numbers in the boxes
     open_tab(page, "Editor")
     text = page.locator("body").inner_text()
-    assert "controller/paper.py" not in text and "S peak after that (m)" in text
-    assert "\nw1\n" not in text and "\na0\n" not in text
+    assert "controller/paper" not in text and "VS to S spacing (m)" in text
+    assert "\nh\n" not in text and "\nc0\n" not in text
     boxes = page.evaluate(
         "() => [...document.querySelectorAll(\"input[inputmode='decimal']\")]"
         ".filter(e => e.offsetParent).map(e => [e.value, e.scrollWidth <= e.clientWidth])"
