@@ -74,12 +74,12 @@ class InferencePanel:
                     hint="type a value (d_o, phi_o: none sensed until you do)",
                 )
                 box.on_update(
-                    self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.target.value))
+                    self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.value))
                 )
                 self.what_if_boxes.append(box)
 
     def _on_what_if(self, event) -> None:
-        if self.what_if_cb.value:
+        if event.value:
             try:
                 self.app.start_what_if()
             except ViewerError:
