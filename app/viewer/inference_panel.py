@@ -1,6 +1,6 @@
 """The Inference tab: MATLAB's rule viewer for the controller at the step shown (the
 term plots, the rule table, the aggregated sets and centroids, from :mod:`.views`), the
-rule-firing strip of the run, and what-if mode (inputs typed by hand)."""
+rule-firing strip of the run, and what-if mode (inputs dragged or typed by hand)."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ class InferencePanel:
         self.inference_html = gui.add_html("", order=1.0)
 
     def _build_what_if(self) -> None:
-        """What-if mode: pause, type an input's value, and the whole inference (rules,
+        """What-if mode: pause, drag or type an input's value, and the whole inference (rules,
         clipped sets, aggregate, centroids, the surface's dot) follows; the robot stays."""
         gui = self.view.server.gui
         with gui.add_folder("What-if", expand_by_default=False, order=0.6):
@@ -64,14 +64,15 @@ class InferencePanel:
                     ("phi_o", -math.pi, math.pi, "rad"),
                 )
             ):
-                box = gui.add_number(
+                # A slider per input: drag it (a real drag control) or type into its box.
+                box = gui.add_slider(
                     f"{name} ({unit})",
-                    initial_value=0.0,
                     min=round(lo, 2),
                     max=round(hi, 2),
                     step=0.01,
+                    initial_value=0.0,
                     disabled=True,
-                    hint="type a value (d_o, phi_o: none sensed until you do)",
+                    hint="drag, or type a value (d_o, phi_o: none sensed until you do)",
                 )
                 box.on_update(
                     self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.value))
@@ -100,8 +101,10 @@ class InferencePanel:
         for k, box in enumerate(self.what_if_boxes):
             if box.disabled == on:
                 box.disabled = not on
-            if on and math.isfinite(snap.what_if[k]) and abs(box.value - snap.what_if[k]) > 5e-3:
-                box.value = round(float(snap.what_if[k]), 2)
+            if on and math.isfinite(snap.what_if[k]):
+                shown = min(max(round(float(snap.what_if[k]), 2), box.min), box.max)
+                if abs(box.value - shown) > 5e-3:
+                    box.value = shown
 
     def _system_uid(self, fis, labels, output_labels) -> str:
         """An id prefix for this system's SVG definitions (new when the system changes)."""
