@@ -1066,10 +1066,10 @@ def test_what_if_mode_follows_typed_inputs_without_moving_the_robot(served, page
     page.get_by_text("What-if", exact=True).click()
 
 
-def test_what_if_mode_follows_a_dragged_input_without_moving_the_robot(served, page):
-    """What-if mode gives each input a slider (viser's HTML element cannot run a script,
-    so the term plot's line is not itself draggable): dragging phi_t's slider drives the
-    whole inference (the engine's centroids at the dragged inputs); the robot stays."""
+def test_what_if_mode_follows_dragged_inputs_without_moving_the_robot(served, page):
+    """What-if mode: dragging phi_t's slider, then across d_o's term plot in the
+    inference view, drives the whole inference (the engine's centroids at the dragged
+    inputs); the robot stays."""
     app = served.app
     app.set_controller("paper")
     app.play()
@@ -1114,6 +1114,32 @@ def test_what_if_mode_follows_a_dragged_input_without_moving_the_robot(served, p
         timeout=15_000,
     )
     assert f"phi_t = {tried[index]:.2f}" in page.locator(".fz-inference").inner_text()
+    assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
+    # the term plot itself: drag across d_o's plot (its line follows the pointer)
+    index = fis.input_names.index("d_o")
+    lo, hi = fis.inputs[index].range
+    plot = page.locator(".fz-inference .fz-drag-input[data-input='d_o']")
+    area = plot.bounding_box()
+    y = area["y"] + area["height"] / 2
+    page.mouse.move(area["x"] + 0.8 * area["width"], y)
+    page.mouse.down()
+    for frac in (0.7, 0.55, 0.4):
+        page.mouse.move(area["x"] + frac * area["width"], y, steps=4)
+    page.mouse.up()
+    wanted = lo + 0.4 * (hi - lo)
+    assert app.wait_for(lambda a: abs(a.what_if[index] - wanted) < 0.05 * (hi - lo), timeout=10), (
+        app.what_if,
+        wanted,
+    )
+    page.wait_for_timeout(400)
+    tried = np.array(app.what_if, dtype=float)
+    centroids = fis.aggregated(tried).output
+    expected = ", ".join(f"{n} = {c:.2f}" for n, c in zip(fis.output_names, centroids))
+    page.wait_for_function(
+        "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
+        arg=f"Outputs (centroid): {expected}",
+        timeout=15_000,
+    )
     assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
     page.get_by_role("checkbox", name="What-if mode").click()
     assert app.wait_for(lambda a: a.what_if is None and a.playing, timeout=10)

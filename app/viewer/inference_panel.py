@@ -14,6 +14,7 @@ from fuzzynav.app.viewer import views
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
 
+WHAT_IF_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")  # the what-if sliders, in this order
 TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
 
 
@@ -181,7 +182,14 @@ class InferencePanel:
             return
         fis = info["fis"]
         only_firing = bool(self.firing_only_cb.value)
-        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.view.presentation, only_firing)
+        what_if = snap.what_if is not None
+        key = (
+            id(fis),
+            tuple(np.round(info["inputs"], 6)),
+            self.view.presentation,
+            only_firing,
+            what_if,
+        )
         if key == self.last_inference:
             return
         self.last_inference = key
@@ -194,6 +202,14 @@ class InferencePanel:
                 "the bearing fuzzynav's planner steers to, fed to its goal block "
                 "(not the target bearing φ_t of the status line)"
             )
+        drag = None
+        if what_if:  # each input's plot drags its what-if slider (not fuzzynav's phi_plan)
+            drag = {
+                i: (box._impl.uuid, box.min, box.max)
+                for i, name in enumerate(labels)
+                if name in WHAT_IF_INPUTS
+                for box in (self.what_if_boxes[WHAT_IF_INPUTS.index(name)],)
+            }
         uid = self._system_uid(fis, labels, info["output_names"])
         inf = views.infer(fis, info["inputs"], labels, info["output_names"])
         set_html(
@@ -206,6 +222,7 @@ class InferencePanel:
                 only_firing=only_firing,
                 weights=self._output_weights(info),
                 notes=notes,
+                drag=drag,
             ),
         )
 
