@@ -116,3 +116,30 @@ def test_live_recordings_never_take_another_servers_file(tmp_path):
     assert app.recorded_files == [path, tmp_path / "session-run3.rrd"]
     assert other.read_bytes() == b"the other server's second run"
     assert all(p.stat().st_size > 1000 for p in app.recorded_files)
+
+
+def test_serve_rrd_writes_a_file_only_for_a_run_that_stepped(tmp_path):
+    """issue 26 item 14: with --rrd, 60 Reset clicks wrote 58 files. A run's file is
+    written only when it has at least one step; the numbers follow the runs written."""
+    pytest.importorskip("fuzzynav.app.recordings.record")
+    path = tmp_path / "session.rrd"
+    app = ViewerApp("s1", "p", rrd_path=path)
+    try:
+        for _ in range(60):
+            app.reset()
+        app.load_scenario("crossing")
+        app.restore_layout()
+        app.set_geometry("paper")
+        app.set_geometry("husky")
+        assert app.recorded_files == [] and list(tmp_path.iterdir()) == []
+        for _ in range(3):
+            app.step_once()
+            for _ in range(20):
+                app.reset()  # only the run before them has a step
+        app.step_once()
+    finally:
+        app.stop()
+    expected = [path] + [tmp_path / f"session-run{k}.rrd" for k in (2, 3, 4)]
+    assert app.recorded_files == expected
+    assert sorted(tmp_path.iterdir()) == sorted(expected)
+    assert all(p.stat().st_size > 1000 for p in expected)

@@ -1073,6 +1073,87 @@ def test_what_if_mode_follows_typed_inputs_without_moving_the_robot(served, page
     page.get_by_text("What-if", exact=True).click()
 
 
+def test_what_if_mode_follows_dragged_inputs_without_moving_the_robot(served, page):
+    """What-if mode: dragging phi_t's slider, then across d_o's term plot in the
+    inference view, drives the whole inference (the engine's centroids at the dragged
+    inputs); the robot stays."""
+    app = served.app
+    app.set_controller("paper")
+    app.play()
+    assert app.wait_for(lambda a: a.sim.time_s > 1.0, timeout=15)
+    open_tab(page, "Inference")
+    page.get_by_text("What-if", exact=True).click()
+    page.get_by_role("checkbox", name="What-if mode").click()
+    assert app.wait_for(lambda a: a.what_if is not None and not a.playing, timeout=10)
+    pose, t = tuple(app.sim.arena.pose), app.sim.time_s
+    fis = app.fuzzy_system()
+    index = fis.input_names.index("phi_t")
+    root = page.get_by_text("phi_t (rad)", exact=True).locator(
+        "xpath=ancestor::div[.//*[contains(@class,'mantine-Slider-root')]][1]"
+        "//*[contains(@class,'mantine-Slider-root')]"
+    )
+    thumb = root.get_by_role("slider")
+    page.wait_for_function(
+        "(el) => el.getAttribute('data-disabled') === null && "
+        "!el.closest('[data-disabled=\"true\"]')",
+        arg=root.element_handle(),
+        timeout=10_000,
+    )
+    box = root.bounding_box()
+    knob = thumb.bounding_box()
+    page.mouse.move(knob["x"] + knob["width"] / 2, knob["y"] + knob["height"] / 2)
+    page.mouse.down()
+    y = box["y"] + box["height"] / 2
+    for frac in (0.6, 0.45, 0.3, 0.25):  # a real drag, through the values in between
+        page.mouse.move(box["x"] + frac * box["width"], y, steps=4)
+    page.mouse.up()
+    lo, hi = -3.14, 3.14
+    assert app.wait_for(
+        lambda a: abs(a.what_if[index] - (lo + 0.25 * (hi - lo))) < 0.35, timeout=10
+    ), app.what_if
+    page.wait_for_timeout(400)  # the last value of the drag has arrived
+    tried = np.array(app.what_if, dtype=float)
+    centroids = fis.aggregated(tried).output
+    expected = ", ".join(f"{n} = {c:.2f}" for n, c in zip(fis.output_names, centroids))
+    page.wait_for_function(
+        "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
+        arg=f"Outputs (centroid): {expected}",
+        timeout=15_000,
+    )
+    assert f"phi_t = {tried[index]:.2f}" in page.locator(".fz-inference").inner_text()
+    assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
+    # the term plot itself: drag across d_o's plot (its line follows the pointer)
+    index = fis.input_names.index("d_o")
+    lo, hi = fis.inputs[index].range
+    plot = page.locator(".fz-inference .fz-drag-input[data-input='d_o']")
+    area = plot.bounding_box()
+    y = area["y"] + area["height"] / 2
+    page.mouse.move(area["x"] + 0.8 * area["width"], y)
+    page.mouse.down()
+    for frac in (0.7, 0.55, 0.4):
+        page.mouse.move(area["x"] + frac * area["width"], y, steps=4)
+    page.mouse.up()
+    wanted = lo + 0.4 * (hi - lo)
+    assert app.wait_for(lambda a: abs(a.what_if[index] - wanted) < 0.05 * (hi - lo), timeout=10), (
+        app.what_if,
+        wanted,
+    )
+    page.wait_for_timeout(400)
+    tried = np.array(app.what_if, dtype=float)
+    centroids = fis.aggregated(tried).output
+    expected = ", ".join(f"{n} = {c:.2f}" for n, c in zip(fis.output_names, centroids))
+    page.wait_for_function(
+        "(t) => document.querySelector('.fz-inference').innerText.includes(t)",
+        arg=f"Outputs (centroid): {expected}",
+        timeout=15_000,
+    )
+    assert tuple(app.sim.arena.pose) == pose and app.sim.time_s == t  # it stayed
+    page.get_by_role("checkbox", name="What-if mode").click()
+    assert app.wait_for(lambda a: a.what_if is None and a.playing, timeout=10)
+    app.pause()
+    page.get_by_text("What-if", exact=True).click()
+
+
 def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, page):
     """d_t as the line to the target and phi_t as the arc from the heading, d_o from the
     footprint's edge along phi_o and phi_o's arc, in the colours of their term plots:

@@ -192,10 +192,8 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
             classroom.push_from(max(classroom.sessions))
         clients.press(teacher, t.teacher_token_box, "teach-me")
         assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
+        # the controller pressed while the scenario loads (it was lost once in CI)
         clients.press(teacher, t.controls.scenario_dd, "crossing")
-        # as a teacher would: the next choice once the scenario has loaded (a press that
-        # arrives while it loads can be lost under load: seen in CI)
-        assert t.app.wait_for(lambda x: x.scenario_label == "crossing", 10), t.app.message
         clients.press(teacher, t.controls.controller_dd, "fuzzynav")
         assert t.app.wait_for(
             lambda x: x.scenario_label == "crossing" and x.controller_label == "fuzzynav", 10
@@ -285,3 +283,76 @@ def test_serve_classroom_prints_the_token_and_refuses_rrd(tmp_path, capsys):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0 and "stopped, port released" in out, out
+
+
+@pytest.mark.parametrize(
+    "name, pressed, now",
+    [
+        ("controller_dd", "fuzzynav", lambda app: app.controller_label),
+        ("perception_dd", "ultrasonic", lambda app: app.sim.perception.mode),
+        ("geometry_dd", "paper", lambda app: app.geometry),
+        ("scenario_dd", "crossing", lambda app: app.scenario_label),
+        ("disturbance_cb", True, lambda app: app.disturbance_on),
+    ],
+)
+def test_a_press_applies_the_value_sent_even_when_the_render_thread_syncs_first(
+    served, name, pressed, now
+):
+    """CI once saw the teacher's controller press lost: the callback read the dropdown's
+    value in viser's worker thread, after the render thread had set it back to the world's
+    (its sync). Here the sync wins that race every time: the press must still apply."""
+    handle = getattr(served.controls, name)
+    before = now(served.app)
+    assert before != pressed
+    executor = served.server.gui._thread_executor
+    real_submit = executor.submit
+
+    def sync_first(fn, *args, **kwargs):
+        handle.value = before  # what ControlPanel.sync does before the callback runs
+        return real_submit(fn, *args, **kwargs)
+
+    executor.submit = sync_first
+    clients = ScriptedClients(served.url)
+    try:
+        (ws,) = clients.connect(1)
+        clients.press(ws, handle, pressed)
+        assert wait_until(lambda: now(served.app) == pressed, 10), (
+            now(served.app),
+            served.app.message,
+        )
+    finally:
+        executor.submit = real_submit
+        clients.close()
+
+
+def test_a_controller_press_while_a_scenario_loads_applies_after_the_load(served):
+    """issue 27: a press that arrived while a scenario loaded could be lost; now the two
+    apply in the order they were pressed, without waiting in between."""
+    clients = ScriptedClients(served.url)
+    try:
+        (ws,) = clients.connect(1)
+        for _ in range(3):
+            clients.press(ws, served.controls.scenario_dd, "crossing")
+            clients.press(ws, served.controls.controller_dd, "fuzzynav")
+            clients.press(ws, served.controls.perception_dd, "ultrasonic")
+            assert wait_until(
+                lambda: (
+                    served.app.scenario_label == "crossing"
+                    and served.app.controller_label == "fuzzynav"
+                    and served.app.sim.perception.mode == "ultrasonic"
+                ),
+                10,
+            ), (served.app.scenario_label, served.app.controller_label, served.app.message)
+            clients.press(ws, served.controls.scenario_dd, "s1")
+            clients.press(ws, served.controls.controller_dd, "paper")
+            clients.press(ws, served.controls.perception_dd, "ideal")
+            assert wait_until(
+                lambda: (
+                    served.app.scenario_label == "s1"
+                    and served.app.controller_label == "paper"
+                    and served.app.sim.perception.mode == "ideal"
+                ),
+                10,
+            ), (served.app.scenario_label, served.app.controller_label, served.app.message)
+    finally:
+        clients.close()

@@ -103,14 +103,14 @@ class ClassroomServer:
         def on_token(event) -> None:
             if event.client is None:
                 return
-            if secrets.compare_digest(str(box.value), self.token):
+            if secrets.compare_digest(str(event.value), self.token):
                 with self._lock:
                     self.teachers.add(client_id)
                 push.visible = True
                 view.tell(
                     event.client, "You are the teacher: you can push to the class.", "success"
                 )
-            elif box.value:
+            elif event.value:
                 view.tell(event.client, "That is not the teacher's token.", "error")
 
         def on_push(event) -> None:
@@ -123,8 +123,9 @@ class ClassroomServer:
                 return
             view.tell(event.client, f"Pushed to {n} tab{'s' if n != 1 else ''}.", "success")
 
-        box.on_update(on_token)
-        push.on_click(on_push)
+        # in this tab's order, after its earlier presses (ViewerServer.guarded)
+        box.on_update(view.guarded(on_token))
+        push.on_click(view.guarded(on_push))
         view.teacher_token_box, view.teacher_push = box, push
 
     def push_from(self, client_id: int) -> int:

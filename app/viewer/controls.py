@@ -67,7 +67,7 @@ class ControlPanel:
         self.run_buttons.on_click(self.view.guarded(self._on_run_button))
         # Speeds as choices: a linear slider gave 0.1-1x a tenth of its track.
         self.speed = gui.add_button_group("Speed ×", SPEED_CHOICES)
-        self.speed.on_click(self.view.guarded(lambda e: app.set_speed(float(self.speed.value))))
+        self.speed.on_click(self.view.guarded(lambda e: app.set_speed(float(e.value))))
         # Back through the run: the scene, the inputs and the inference of any step.
         self.history_slider = gui.add_slider(
             "Run so far (s)",
@@ -78,9 +78,7 @@ class ControlPanel:
             hint="Drag back through this run: the robot, its inputs and the rules as they "
             "were then (the run pauses; Live, Play or Step go back)",
         )
-        self.history_slider.on_update(
-            self.view.guarded(lambda e: app.view_history(self.history_slider.value))
-        )
+        self.history_slider.on_update(self.view.guarded(lambda e: app.view_history(e.value)))
         self.history_live = gui.add_button("Live", hint="Back to where the run is now")
         self.history_live.on_click(self.view.guarded(lambda e: app.leave_history()))
         self.view.status_line.add_message(gui)  # below the buttons: never moves them
@@ -95,9 +93,7 @@ class ControlPanel:
             self.scenario_dd = gui.add_dropdown(
                 "Scenario", app.scenario_options(), initial_value=app.scenario_label
             )
-            self.scenario_dd.on_update(
-                self.view.guarded(lambda e: app.load_scenario(self.scenario_dd.value))
-            )
+            self.scenario_dd.on_update(self.view.guarded(lambda e: app.load_scenario(e.value)))
             self.obstacle_buttons = gui.add_button_group("Obstacle", ("Add", "Remove newest"))
             self.obstacle_buttons.on_click(self.view.guarded(self._on_obstacle_button))
             self.restore = gui.add_button(
@@ -115,9 +111,7 @@ class ControlPanel:
             self.controller_dd = gui.add_dropdown(
                 "Controller", app.controller_options(), initial_value=app.controller_label
             )
-            self.controller_dd.on_update(
-                self.view.guarded(lambda e: app.set_controller(self.controller_dd.value))
-            )
+            self.controller_dd.on_update(self.view.guarded(lambda e: app.set_controller(e.value)))
             self.fis_upload = gui.add_upload_button(
                 "Upload a .fis controller", icon=viser.Icon.UPLOAD, mime_type=".fis"
             )
@@ -128,9 +122,7 @@ class ControlPanel:
                 initial_value=app.sim.perception.mode,
                 hint="ideal: exact nearest obstacle; ultrasonic: the three beams",
             )
-            self.perception_dd.on_update(
-                self.view.guarded(lambda e: app.set_perception(self.perception_dd.value))
-            )
+            self.perception_dd.on_update(self.view.guarded(lambda e: app.set_perception(e.value)))
             self.geometry_dd = gui.add_dropdown(
                 "Geometry",
                 GEOMETRIES,
@@ -138,17 +130,13 @@ class ControlPanel:
                 hint="husky: the real 0.99 x 0.67 m footprint; paper: the paper's point robot, "
                 "inputs and distances centre to centre (ideal perception)",
             )
-            self.geometry_dd.on_update(
-                self.view.guarded(lambda e: app.set_geometry(self.geometry_dd.value))
-            )
+            self.geometry_dd.on_update(self.view.guarded(lambda e: app.set_geometry(e.value)))
             self.disturbance_cb = gui.add_checkbox(
                 "Disturbance",
                 app.disturbance_on,
                 hint="A sin(2t) added to every controller input (scenario 3: 25-35 s)",
             )
-            self.disturbance_cb.on_update(
-                self.view.guarded(lambda e: app.set_disturbance(self.disturbance_cb.value))
-            )
+            self.disturbance_cb.on_update(self.view.guarded(lambda e: app.set_disturbance(e.value)))
             self.noise = gui.add_slider(
                 "Sensor noise σ (m)", NOISE_RANGE_M[0], NOISE_RANGE_M[1], 0.01, app.noise_std_m
             )
@@ -167,9 +155,7 @@ class ControlPanel:
                         part.name, part.name not in app.parts_off, hint=f"Off: {part.what}"
                     )
                     box.on_update(
-                        self.view.guarded(
-                            lambda e, name=part.name: app.set_part(name, e.target.value)
-                        )
+                        self.view.guarded(lambda e, name=part.name: app.set_part(name, e.value))
                     )
                     self.part_boxes[part.name] = box
 
@@ -234,25 +220,25 @@ class ControlPanel:
 
     def _on_noise(self, event) -> None:
         try:
-            self.app.set_noise(self.noise.value)
+            self.app.set_noise(event.value)
         except ViewerError:
             self.noise.value = self.app.noise_std_m  # never leave the box blank or wrong
             raise
 
     def _on_handles(self, event) -> None:
-        self.view.show_handles = bool(self.handles_cb.value)
+        self.view.show_handles = bool(event.value)
         self.view.handles.show(self.view.show_handles)
 
     def _on_view_3d(self, event) -> None:
-        self.view.view_3d = bool(self.view_3d_cb.value)
+        self.view.view_3d = bool(event.value)
         if not self.view.view_3d:
             self.view.camera.fit_all()
 
     def _on_presentation(self, event) -> None:
-        self.view.set_presentation(bool(self.presentation_cb.value))
+        self.view.set_presentation(bool(event.value))
 
     def _on_run_button(self, event) -> None:
-        choice = self.run_buttons.value
+        choice = event.value
         {
             "Play": self.app.play,
             "Pause": self.app.pause,
@@ -261,20 +247,20 @@ class ControlPanel:
         }[choice]()
 
     def _on_obstacle_button(self, event) -> None:
-        if self.obstacle_buttons.value == "Add":
+        if event.value == "Add":
             self.app.add_obstacle()
         else:
             self.app.remove_obstacle()
 
     def _on_fis_upload(self, event) -> None:
-        uploaded = self.fis_upload.value
+        uploaded = event.value
         label = self.app.upload_fis(uploaded.content, uploaded.name)
         self.controller_dd.options = self.app.controller_options()
         self.controller_dd.value = label
         self.view.tell(event.client, f"Driving with {label}.", "success")
 
     def _on_scenario_upload(self, event) -> None:
-        uploaded = self.scenario_upload.value
+        uploaded = event.value
         label = self.app.upload_scenario(uploaded.content, uploaded.name)
         self.scenario_dd.options = self.app.scenario_options()
         self.scenario_dd.value = label

@@ -115,7 +115,7 @@ class EditorPanel:
                 )
                 dropdown.on_update(
                     self.view.guarded(
-                        lambda e, field=field: app.set_inference_choice(field, e.target.value)
+                        lambda e, field=field: app.set_inference_choice(field, e.value)
                     )
                 )
                 self.editor_choices[field] = dropdown
@@ -138,13 +138,13 @@ class EditorPanel:
                     )
                     slider.on_update(
                         self.view.guarded(
-                            lambda e, name=name: app.set_membership_parameter(name, e.target.value)
+                            lambda e, name=name: app.set_membership_parameter(name, e.value)
                         )
                     )
                     self.editor_sliders[name] = slider
 
     def _on_editor_button(self, event) -> None:
-        if self.editor_buttons.value == "Download .fis":
+        if event.value == "Download .fis":
             text = self.app.edited_fis_text()
             event.client.send_file_download(
                 "paper_edited.fis", text.encode("utf-8"), save_immediately=True

@@ -34,6 +34,35 @@ def _finite(value) -> bool:
     return True
 
 
+def _unchanged(handle, value) -> bool:
+    """Whether viser would take ``value`` as no change of an input's value."""
+    impl = handle._impl
+    current = impl.value
+    if impl.is_button or getattr(impl, "removed", False) or isinstance(current, tuple):
+        return False
+    try:
+        return current == type(current)(value)
+    except (TypeError, ValueError):
+        return False
+
+
+async def _run_callbacks(gui, client_id, handle) -> None:
+    """Call an input's update callbacks as viser does for a changed value."""
+    from viser import GuiEvent
+    from viser._threadpool_exceptions import print_threadpool_errors
+
+    client = gui._resolve_client(client_id)
+    if client is None:
+        return
+    for cb in list(handle._impl.update_cb):
+        if inspect.iscoroutinefunction(cb):
+            await cb(GuiEvent(client, client_id, handle))
+        else:
+            gui._thread_executor.submit(cb, GuiEvent(client, client_id, handle)).add_done_callback(
+                print_threadpool_errors
+            )
+
+
 def _wrap(interface, message_cls, make_guard) -> None:
     """Put a guard in front of each handler ``interface`` has for ``message_cls``."""
     handlers = interface._incoming_handlers.get(message_cls, [])
@@ -66,6 +95,13 @@ def install_message_guards(
                     say(f"refused a value that is not a finite number: {kept['value']!r}")
                     return
             message.updates = kept
+            if "value" in kept and handle is not None and _unchanged(handle, kept["value"]):
+                # viser drops a value equal to the widget's as "no change". But the render
+                # thread's sync may have just written a stale value into the widget (taken
+                # before a scenario load ended): the press that restores it was dropped.
+                # The client changed its widget, so its callbacks run (issue 27).
+                await _run_callbacks(gui, client_id, handle)
+                return
             result = handler(client_id, message)
             if inspect.isawaitable(result):
                 await result

@@ -1,6 +1,6 @@
 """The Inference tab: MATLAB's rule viewer for the controller at the step shown (the
 term plots, the rule table, the aggregated sets and centroids, from :mod:`.views`), the
-rule-firing strip of the run, and what-if mode (inputs typed by hand)."""
+rule-firing strip of the run, and what-if mode (inputs dragged or typed by hand)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from fuzzynav.app.viewer import views
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
 
+WHAT_IF_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")  # the what-if sliders, in this order
 TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
 
 
@@ -45,7 +46,7 @@ class InferencePanel:
         self.inference_html = gui.add_html("", order=1.0)
 
     def _build_what_if(self) -> None:
-        """What-if mode: pause, type an input's value, and the whole inference (rules,
+        """What-if mode: pause, drag or type an input's value, and the whole inference (rules,
         clipped sets, aggregate, centroids, the surface's dot) follows; the robot stays."""
         gui = self.view.server.gui
         with gui.add_folder("What-if", expand_by_default=False, order=0.6):
@@ -64,22 +65,23 @@ class InferencePanel:
                     ("phi_o", -math.pi, math.pi, "rad"),
                 )
             ):
-                box = gui.add_number(
+                # A slider per input: drag it (a real drag control) or type into its box.
+                box = gui.add_slider(
                     f"{name} ({unit})",
-                    initial_value=0.0,
                     min=round(lo, 2),
                     max=round(hi, 2),
                     step=0.01,
+                    initial_value=0.0,
                     disabled=True,
-                    hint="type a value (d_o, phi_o: none sensed until you do)",
+                    hint="drag, or type a value (d_o, phi_o: none sensed until you do)",
                 )
                 box.on_update(
-                    self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.target.value))
+                    self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.value))
                 )
                 self.what_if_boxes.append(box)
 
     def _on_what_if(self, event) -> None:
-        if self.what_if_cb.value:
+        if event.value:
             try:
                 self.app.start_what_if()
             except ViewerError:
@@ -100,8 +102,10 @@ class InferencePanel:
         for k, box in enumerate(self.what_if_boxes):
             if box.disabled == on:
                 box.disabled = not on
-            if on and math.isfinite(snap.what_if[k]) and abs(box.value - snap.what_if[k]) > 5e-3:
-                box.value = round(float(snap.what_if[k]), 2)
+            if on and math.isfinite(snap.what_if[k]):
+                shown = min(max(round(float(snap.what_if[k]), 2), box.min), box.max)
+                if abs(box.value - shown) > 5e-3:
+                    box.value = shown
 
     def _system_uid(self, fis, labels, output_labels) -> str:
         """An id prefix for this system's SVG definitions (new when the system changes)."""
@@ -178,7 +182,14 @@ class InferencePanel:
             return
         fis = info["fis"]
         only_firing = bool(self.firing_only_cb.value)
-        key = (id(fis), tuple(np.round(info["inputs"], 6)), self.view.presentation, only_firing)
+        what_if = snap.what_if is not None
+        key = (
+            id(fis),
+            tuple(np.round(info["inputs"], 6)),
+            self.view.presentation,
+            only_firing,
+            what_if,
+        )
         if key == self.last_inference:
             return
         self.last_inference = key
@@ -191,6 +202,14 @@ class InferencePanel:
                 "the bearing fuzzynav's planner steers to, fed to its goal block "
                 "(not the target bearing φ_t of the status line)"
             )
+        drag = None
+        if what_if:  # each input's plot drags its what-if slider (not fuzzynav's phi_plan)
+            drag = {
+                i: (box._impl.uuid, box.min, box.max)
+                for i, name in enumerate(labels)
+                if name in WHAT_IF_INPUTS
+                for box in (self.what_if_boxes[WHAT_IF_INPUTS.index(name)],)
+            }
         uid = self._system_uid(fis, labels, info["output_names"])
         inf = views.infer(fis, info["inputs"], labels, info["output_names"])
         set_html(
@@ -203,6 +222,7 @@ class InferencePanel:
                 only_firing=only_firing,
                 weights=self._output_weights(info),
                 notes=notes,
+                drag=drag,
             ),
         )
 

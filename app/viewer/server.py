@@ -17,6 +17,9 @@ GUI callbacks only call :class:`app.viewer.model.ViewerApp` methods (through
 
 from __future__ import annotations
 
+import concurrent.futures
+import threading
+import traceback
 import types
 
 import viser
@@ -69,12 +72,20 @@ class ClientSurface:
         pass  # the server is the classroom's
 
 
+def _report_errors(future) -> None:
+    """A callback's error that escaped :meth:`ViewerServer.guarded` (a failed notice)."""
+    if not future.cancelled() and future.exception() is not None:
+        traceback.print_exception(future.exception())
+
+
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
     def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080, *, surface=None):
         self.app = app
         self.host = host
+        self._worker = None  # the GUI callbacks' thread (guarded)
+        self._worker_lock = threading.Lock()
         if surface is None:
             with guarded_server_start(host):  # only its own page may connect (origin_guard)
                 self.server = viser.ViserServer(
@@ -140,6 +151,10 @@ class ViewerServer:
     def stop(self) -> None:
         """Stop rendering, the simulation thread and the server; the port is freed."""
         self.render.stop()
+        with self._worker_lock:
+            worker, self._worker = self._worker, None
+        if worker is not None:
+            worker.shutdown(wait=False, cancel_futures=True)
         self.app.stop()
         self.server.stop()
 
@@ -172,11 +187,18 @@ class ViewerServer:
         self.app._bump()
 
     def guarded(self, func):
-        """Run a GUI callback; a refused action becomes a message in the page."""
+        """Run a GUI callback; a refused action becomes a message in the page.
 
-        def callback(event):
-            if event.client is None:  # a value the server itself set (sync), not a user
-                return
+        ``func(event)`` gets ``event.value``: the value the client sent, read on viser's
+        event loop just after viser set it, before anything else can run. viser hands a
+        synchronous callback to a worker thread, which read the widget's value later, and
+        by then the render thread's sync (:meth:`ControlPanel.sync`) could have set it back
+        to the world's: the press was lost (CI: the teacher's controller press applied the
+        old controller, "Controller: p."). The callbacks then run one at a time, in the
+        order pressed, on this world's own worker (a press during a scenario load applies
+        after the load)."""
+
+        def run(event):
             try:
                 func(event)
             except ViewerError as exc:
@@ -184,7 +206,27 @@ class ViewerServer:
             except Exception as exc:  # never let a callback kill the viewer quietly
                 self.tell(event.client, f"unexpected error: {type(exc).__name__}: {exc}", "error")
 
+        async def callback(event):
+            if event.client is None:  # a value the server itself set (sync), not a user
+                return
+            sent = types.SimpleNamespace(
+                client=event.client,
+                client_id=event.client_id,
+                target=event.target,
+                value=event.target.value,  # now: nothing has run since viser set it
+            )
+            self._callback_worker().submit(run, sent).add_done_callback(_report_errors)
+
         return callback
+
+    def _callback_worker(self):
+        """This world's one GUI-callback thread (created at the first press)."""
+        with self._worker_lock:
+            if self._worker is None:
+                self._worker = concurrent.futures.ThreadPoolExecutor(
+                    max_workers=1, thread_name_prefix="fuzzynav-gui"
+                )
+            return self._worker
 
     def tell(self, client, text: str, level: str) -> None:
         self.app._notice(text, level)

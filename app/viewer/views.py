@@ -122,8 +122,38 @@ def defs_html(fis, uid: str, input_labels=None, output_labels=None) -> str:
     )
 
 
-def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
-    """Each input's terms with the value as a red line and each term's degree."""
+def _drag_handler(slider_id: str, lo: float, hi: float, smin: float, smax: float) -> str:
+    """The inline pointer handler of an input's term plot in what-if mode. viser's HTML
+    element sets its content as innerHTML: a <script> never runs, an event attribute
+    does. A drag across the plot becomes a drag of that input's what-if slider (its
+    element has the slider's id): mouse events at the matching place on the slider's
+    track (Mantine listens there), so the value travels as the slider's own (checked,
+    synced) update. The slider must be laid out: the What-if folder open."""
+    return (
+        "(function(ev){var s=document.getElementById('" + slider_id + "');if(!s)return;"
+        "s=s.querySelector('.mantine-Slider-trackContainer')||s;"
+        "var r=ev.currentTarget.getBoundingClientRect(),q=s.getBoundingClientRect();"
+        "if(!(r.width>0&&q.width>0))return;ev.preventDefault();"
+        f"function x(e){{var f=Math.min(1,Math.max(0,(e.clientX-r.left)/r.width));"
+        f"var v={lo!r}+f*({hi!r}-({lo!r}));var g=(v-({smin!r}))/({smax!r}-({smin!r}));"
+        "g=Math.min(1,Math.max(0,g));return q.left+g*q.width;}"
+        "function o(e){return {bubbles:true,cancelable:true,clientX:x(e),"
+        "clientY:q.top+q.height/2,button:0,buttons:1};}"
+        "s.dispatchEvent(new MouseEvent('mousedown',o(ev)));"
+        "function m(e){document.dispatchEvent(new MouseEvent('mousemove',o(e)));}"
+        "function u(e){window.removeEventListener('pointermove',m);"
+        "window.removeEventListener('pointerup',u);"
+        "document.dispatchEvent(new MouseEvent('mouseup',o(e)));}"
+        "window.addEventListener('pointermove',m);window.addEventListener('pointerup',u);"
+        "})(event)"
+    )
+
+
+def inputs_svg(inf: Inference, indices=None, uid: str = "fz", drag: dict | None = None) -> str:
+    """Each input's terms with the value as a red line and each term's degree.
+
+    ``drag``: input index -> (slider id, slider min, slider max): in what-if mode that
+    input's plot can be dragged across (:func:`_drag_handler`)."""
     fis = inf.fis
     indices = list(range(fis.n_inputs)) if indices is None else list(indices)
     w, h, gap = INPUT_W, INPUT_H, 40.0
@@ -171,6 +201,15 @@ def inputs_svg(inf: Inference, indices=None, uid: str = "fz") -> str:
                 f"<line x1='{xline:.1f}' x2='{xline:.1f}' y1='{y0:.0f}' y2='{y0 + h:.0f}' "
                 f"stroke='{input_colour(label)}' stroke-width='1.8'/>"
             )
+        if drag and i in drag:
+            slider_id, smin, smax = drag[i]
+            handler = html.escape(_drag_handler(slider_id, lo, hi, smin, smax), quote=True)
+            parts.append(
+                f"<rect class='fz-drag-input' data-input='{html.escape(label)}' x='{x0:.0f}' "
+                f"y='{y0:.0f}' width='{w:.0f}' height='{h:.0f}' fill='transparent' "
+                f"style='cursor:ew-resize;touch-action:none' onpointerdown=\"{handler}\">"
+                f"<title>drag: {html.escape(label)}</title></rect>"
+            )
         # The terms' degrees under the plot, in the curves' colours (two lines if need be).
         tx, ty = x0, y0 + h + 11
         for k, term in enumerate(var.terms):
@@ -199,6 +238,7 @@ def inference_html(
     only_firing: bool = False,
     weights: dict | None = None,
     notes: dict | None = None,
+    drag: dict | None = None,
 ) -> str:
     """The whole inference view: summary, inputs, rule grid(s), aggregated outputs.
 
@@ -281,7 +321,7 @@ def inference_html(
                 f"{len(rules)} rules → {html.escape(names)}</div>"
             )
         lines.append("<div style='font-weight:600;margin-top:6px'>Inputs and their terms</div>")
-        lines.append(inputs_svg(inf, ins, uid))
+        lines.append(inputs_svg(inf, ins, uid, drag))
         lines.append(
             "<div style='font-weight:600;margin-top:6px'>Rules"
             + (" that fire" if only_firing else "")
