@@ -99,9 +99,9 @@ class EditorPanel:
         gui.add_html(
             "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
             "choice and the robot drives with the edited <b>paper</b> controller at once (the "
-            "run goes on). Each number "
-            "places a term (where it starts, peaks or ends) or a gap after the term before "
-            f"it, so the terms stay in order whatever you do. {note}</div>"
+            "run goes on). Each number places a term (where it holds 1 or is centred) or "
+            "sets a spacing between terms, so the terms stay in order whatever you do. "
+            f"{note}</div>"
         )
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Reset to shipped")
