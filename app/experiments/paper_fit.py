@@ -28,11 +28,9 @@ import numpy as np
 
 from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
 from fuzzynav.app.provenance import reproduce_line
-from fuzzynav.resources import asset_path
+from fuzzynav.app.published import SCENARIOS, paper_results
 from fuzzynav.safe_files import write_text_atomically
 
-RESULTS_PATH = asset_path("paper", "results.toml")
-SCENARIOS = ("s1", "s2", "s3")
 HUSKY_PERCEPTION = ("ideal", "ultrasonic")
 # What the reconstruction aims at (issue 25): path 2 %, the other Table 4 numbers 10 %,
 # event times 3 s (about 10 %), event distances 0.05 m, phi_t at the end 0.05 rad.
@@ -48,13 +46,6 @@ HUSKY_SAFE_CLEARANCE_M = 0.25 + 0.03
 HUSKY_MAX_PATH_M = 13.0 - 0.2
 HUSKY_MAD_FACTOR = 2.0 * 0.95
 HUSKY_MAX_ARRIVAL_PHI_RAD = 0.3 - 0.05
-
-
-def paper_results(path: str | Path = RESULTS_PATH) -> dict:
-    """The paper's numbers: ``{"table4": {s: {...}}, "events": {s: [...]}}``."""
-    from fuzzynav.resources import loads_user_toml, read_user_text
-
-    return loads_user_toml(read_user_text(path, "results file"), str(path))
 
 
 def closest_approaches(time_s, center_distance_m) -> list[tuple[float, float]]:
