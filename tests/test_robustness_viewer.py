@@ -37,7 +37,10 @@ def test_a_gui_update_sets_only_the_value(served):
     assert callbacks
     _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"update_cb": []}))
     assert impl.update_cb == callbacks
-    # a value is still taken
+    # a value is still taken. This raw client is not connected, so viser calls no
+    # callback and the render thread's sync would soon put the world's s1 back: stop it
+    # first, so that what is checked is what the guard let through.
+    served.render.stop()
     _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": "s2"}))
     assert impl.value == "s2"
 
