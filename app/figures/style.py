@@ -1,5 +1,6 @@
 """The figures' shared style: colours, sizes and file types, a figure on the Agg canvas,
-files written whole, time axes, legends, and what a figure asks of a controller.
+files written whole, time axes, and legends (what a figure asks of a controller, its fuzzy
+system and name, is app.recordings.internals's).
 
 Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings);
 the right wheel and the heading take colours no obstacle has.
