@@ -1,6 +1,6 @@
 """The command line's vocabulary, below every command module: ``UsageError``, the exit
 statuses, argument types that name a refused value, the options several commands share
-(``--geometry``, ``--off``), and JSON printing.
+(``--geometry``, ``--perception``, ``--off``), and JSON printing.
 
 Command modules (``experiments``, ``tuning``, ``serve``, ...) import these from here, so
 nothing but the entry point imports :mod:`fuzzynav.app.cli`, and no import has to hide
@@ -95,6 +95,18 @@ def add_geometry_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_perception_option(parser: argparse.ArgumentParser) -> None:
+    """``--perception`` for the commands that drive many runs (sweep, compare)."""
+    from fuzzynav.world.perception import PERCEPTION_MODES
+
+    parser.add_argument(
+        "--perception",
+        default="ideal",
+        choices=PERCEPTION_MODES,
+        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
+    )
+
+
 def add_off_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--off",
@@ -105,9 +117,15 @@ def add_off_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def comma_list(text: str) -> list[str]:
+    """``"a, b,,c"`` -> ``["a", "b", "c"]``: a comma-separated option's items (an argparse
+    ``type``)."""
+    return [item.strip() for item in text.split(",") if item.strip()]
+
+
 def parse_off(off: str) -> list[str]:
     """``--off "echo memory, edge following"`` -> the part names."""
-    return [name.strip() for name in off.split(",") if name.strip()]
+    return comma_list(off)
 
 
 def off_flag(parts_off) -> str:

@@ -71,7 +71,7 @@ def fuzzy_controller_factory():
 
 def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
     from fuzzynav.app.recordings.live import LiveRecorder
-    from fuzzynav.app.recordings.record import record_run
+    from fuzzynav.app.recordings.record import record_simulation
     from fuzzynav.app.runs import build_simulation
 
     runs, records, lives, rows = [], [], [], 0
@@ -84,14 +84,7 @@ def time_controller(label, factory, repeats: int, out_dir: Path) -> dict:
         rows = len(result.log)
 
         started = [c() for c in clocks]
-        record_run(
-            result,
-            out_dir / f"{k}.rrd",
-            controller=sim.controller,
-            sensors=sim.sensors,
-            parameters=sim.model.parameters,
-            voltage_limit_v=sim.voltage_limit_v,
-        )
+        record_simulation(sim, result, out_dir / f"{k}.rrd")
         records.append([c() - s for c, s in zip(clocks, started)])
 
         started = [c() for c in clocks]

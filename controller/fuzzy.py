@@ -38,9 +38,13 @@ Speed (the numbers are in bench/bench_fuzzy.py):
   numpy calls on tiny arrays cost 1-3 us each), then a handful of numpy calls on the grid.
 
 Those tricks are the default inference's. Any other choice takes the plain path: each
-rule's implied set on the grid, folded over the rules in rule order, then
-:func:`controller.inference.defuzzify`; one code for one row and for many, so the two
-agree to the last bit there too.
+rule's implied set on the grid, folded over the rules in rule order
+(:func:`controller.inference.aggregate`), then :func:`controller.inference.defuzzify`;
+one code for one row and for many, so the two agree to the last bit there too.
+
+The membership parameters as one flat vector (what the optimisers change) and the copies
+built from one are :mod:`controller.fuzzy_params`'s; the ``FuzzySystem`` methods of the
+same names call it.
 
 ``evaluate_one(x)`` and ``evaluate(X)[i]`` are identical to the last bit: they do the
 same floating-point operations (min and max are exact; the membership formulas are the
@@ -59,10 +63,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import fuzzy_params
 from . import membership as mf
 from .fuzzy_front import generate_front
 from .inference import DEFAULT as DEFAULT_INFERENCE
-from .inference import Inference, defuzzify
+from .inference import Inference, aggregate, defuzzify
 
 __all__ = [
     "Term",
@@ -231,6 +236,43 @@ class _Workspace:
             self.one = np.ones(n)
 
 
+def _centroids(terms, levels, a, t, gridcol, mid: float, y) -> None:
+    """The batch path's crisp values of one output for a chunk of n rows, written into
+    ``y`` (n,): the aggregate, in ``a`` (grid point, sample), is the max over the output's
+    terms ``terms`` (compiled in :meth:`FuzzySystem._compile`) of min(level, MF) with the
+    slots' levels ``levels`` (slot, n); then its centroid on the grid ``gridcol`` (G, 1),
+    ``mid`` where it is zero everywhere. ``t`` is a work buffer shaped as ``a``."""
+    G = a.shape[0]
+    n = a.shape[1]
+    filled = False
+    for sl, g0, g1, mcol in terms:
+        s = levels[sl]
+        if not filled:
+            if g0 == 0 and g1 == G:
+                np.minimum(mcol, s, out=a)
+                filled = True
+                continue
+            a.fill(0.0)
+            filled = True
+        tt = t[g0:g1]
+        np.minimum(mcol, s, out=tt)
+        np.maximum(a[g0:g1], tt, out=a[g0:g1])
+    if not filled:
+        a.fill(0.0)
+    np.multiply(a, gridcol, out=t)
+    # sums over the grid in grid order, as in the single path: numpy reduces axis 0
+    # sequentially for >= 2 columns but pairwise for a single one, hence the cumsum
+    # (sequential) for n == 1
+    if n >= 2:
+        num = np.add.reduce(t, axis=0)
+        den = np.add.reduce(a, axis=0)
+    else:
+        num = np.cumsum(t[:, 0])[-1:]
+        den = np.cumsum(a[:, 0])[-1:]
+    y[:] = mid
+    np.divide(num, den, out=y, where=den > 0.0)
+
+
 def rule_sentence(inputs: Sequence[Variable], outputs: Sequence[Variable], rule: Rule) -> str:
     """A rule in words: 'IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS'
     (with ' WEIGHT w' if w != 1); the rule-base reader parses the same sentence back."""
@@ -244,6 +286,45 @@ def rule_sentence(inputs: Sequence[Variable], outputs: Sequence[Variable], rule:
     if rule.weight != 1.0:
         text += f" WEIGHT {float(rule.weight)!r}"
     return text
+
+
+def _check_structure(
+    inputs: tuple[Variable, ...], outputs: tuple[Variable, ...], rules: tuple[Rule, ...]
+) -> None:
+    """Refuse a system without inputs, outputs or rules, with duplicate variable names, or
+    with a rule that does not fit its variables (ValueError)."""
+    if not inputs:
+        raise ValueError("a fuzzy system needs at least one input")
+    if not outputs:
+        raise ValueError("a fuzzy system needs at least one output")
+    if not rules:
+        raise ValueError("a fuzzy system needs at least one rule")
+    for v in inputs + outputs:
+        if not isinstance(v, Variable):
+            raise ValueError(f"inputs and outputs must be Variable objects, got {v!r}")
+    names = [v.name for v in inputs + outputs]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise ValueError(f"duplicate variable names {sorted(dup)!r}")
+    for r_i, r in enumerate(rules):
+        if not isinstance(r, Rule):
+            raise ValueError(f"rule {r_i + 1}: not a Rule object: {r!r}")
+        if len(r.antecedent) != len(inputs):
+            raise ValueError(
+                f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
+                f"the system has {len(inputs)} inputs"
+            )
+        if len(r.consequent) != len(outputs):
+            raise ValueError(
+                f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
+                f"the system has {len(outputs)} outputs"
+            )
+        for var, idx in zip(inputs + outputs, r.antecedent + r.consequent):
+            if idx is not None and idx >= len(var.terms):
+                raise ValueError(
+                    f"rule {r_i + 1}: term index {idx} out of range for "
+                    f"{var.name!r} ({len(var.terms)} terms)"
+                )
 
 
 class FuzzySystem:
@@ -288,11 +369,11 @@ class FuzzySystem:
         ):
             raise ValueError(f"n_points must be an integer >= 2, got {n_points!r}")
         self.n_points = int(n_points)
-        self._validate()
+        _check_structure(self.inputs, self.outputs, self.rules)
         self._compile()
 
-    # pickling (e.g. for a multiprocessing optimiser): rebuild the compiled parts
-    def __getstate__(self):
+    def _arguments(self) -> dict:
+        """The constructor's arguments, by name (for :meth:`replace` and pickling)."""
         return dict(
             inputs=self.inputs,
             outputs=self.outputs,
@@ -303,43 +384,12 @@ class FuzzySystem:
             inference=self.inference,
         )
 
+    # pickling (e.g. for a multiprocessing optimiser): rebuild the compiled parts
+    def __getstate__(self):
+        return self._arguments()
+
     def __setstate__(self, state):
         self.__init__(state.pop("inputs"), state.pop("outputs"), state.pop("rules"), **state)
-
-    # ------------------------------------------------------------------ structure
-    def _validate(self):
-        if not self.inputs:
-            raise ValueError("a fuzzy system needs at least one input")
-        if not self.outputs:
-            raise ValueError("a fuzzy system needs at least one output")
-        if not self.rules:
-            raise ValueError("a fuzzy system needs at least one rule")
-        for v in self.inputs + self.outputs:
-            if not isinstance(v, Variable):
-                raise ValueError(f"inputs and outputs must be Variable objects, got {v!r}")
-        names = [v.name for v in self.inputs + self.outputs]
-        dup = {n for n in names if names.count(n) > 1}
-        if dup:
-            raise ValueError(f"duplicate variable names {sorted(dup)!r}")
-        for r_i, r in enumerate(self.rules):
-            if not isinstance(r, Rule):
-                raise ValueError(f"rule {r_i + 1}: not a Rule object: {r!r}")
-            if len(r.antecedent) != len(self.inputs):
-                raise ValueError(
-                    f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
-                    f"the system has {len(self.inputs)} inputs"
-                )
-            if len(r.consequent) != len(self.outputs):
-                raise ValueError(
-                    f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
-                    f"the system has {len(self.outputs)} outputs"
-                )
-            for var, idx in zip(self.inputs + self.outputs, r.antecedent + r.consequent):
-                if idx is not None and idx >= len(var.terms):
-                    raise ValueError(
-                        f"rule {r_i + 1}: term index {idx} out of range for "
-                        f"{var.name!r} ({len(var.terms)} terms)"
-                    )
 
     @property
     def input_names(self) -> list[str]:
@@ -533,7 +583,6 @@ class FuzzySystem:
         if N <= _ROW_BY_ROW_MAX:
             return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(N, len(self.outputs))
         Y = np.empty((N, len(self.outputs)))
-        G = self.n_points
         for b0 in range(0, N, _BLOCK):
             Xb = X[b0 : b0 + _BLOCK]
             nb = Xb.shape[0]
@@ -544,58 +593,20 @@ class FuzzySystem:
                 a = ws.a[:, :n]  # aggregated membership: (grid point, sample)
                 t = ws.t[:, :n]
                 for o, terms in enumerate(self._agg_terms):
-                    filled = False
-                    for sl, g0, g1, mcol in terms:
-                        s = S[sl, c0 : c0 + n]
-                        if not filled:
-                            if g0 == 0 and g1 == G:
-                                np.minimum(mcol, s, out=a)
-                                filled = True
-                                continue
-                            a.fill(0.0)
-                            filled = True
-                        tt = t[g0:g1]
-                        np.minimum(mcol, s, out=tt)
-                        np.maximum(a[g0:g1], tt, out=a[g0:g1])
-                    if not filled:
-                        a.fill(0.0)
-                    np.multiply(a, self._gridcol[o], out=t)
-                    # sums over the grid in grid order, as in the single path: numpy
-                    # reduces axis 0 sequentially for >= 2 columns but pairwise for
-                    # a single one, hence the cumsum (sequential) for n == 1
-                    if n >= 2:
-                        num = np.add.reduce(t, axis=0)
-                        den = np.add.reduce(a, axis=0)
-                    else:
-                        num = np.cumsum(t[:, 0])[-1:]
-                        den = np.cumsum(a[:, 0])[-1:]
                     y = Y[b0 + c0 : b0 + c0 + n, o]
-                    y[:] = self._mid[o]
-                    np.divide(num, den, out=y, where=den > 0.0)
+                    _centroids(terms, S[:, c0 : c0 + n], a, t, self._gridcol[o], self._mid[o], y)
         return Y
 
-    def _plain_aggregate(self, o: int, F: np.ndarray) -> np.ndarray:
-        """Output ``o``'s aggregate (grid point, sample) from the weighted firing
-        strengths ``F`` (rule, sample), with the system's implication and aggregation,
-        folded over the rules in rule order (MATLAB's order)."""
-        rules, terms = self._rule_terms[o]
-        if not rules:
-            return np.zeros((self.n_points, F.shape[1]))
-        imp = np.minimum if self.inference.imp_method == "min" else np.multiply
-        implied = imp(terms, F[rules][:, None, :])  # (rule, grid point, sample)
-        method = self.inference.agg_method
-        if method == "max":
-            return np.maximum.reduce(implied, axis=0)
-        if method == "sum":  # a reduce over the first axis adds the rules one by one
-            return np.add.reduce(implied, axis=0)
-        agg = implied[0].copy()  # probor: a + b - a * b, rule by rule
-        for nxt in implied[1:]:
-            agg = (agg + nxt) - agg * nxt
-        return agg
-
     def _plain_outputs(self, F: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-        """The aggregates (one (G, n) per output) and the crisp outputs (n, n_out)."""
-        aggs = [self._plain_aggregate(o, F) for o in range(len(self.outputs))]
+        """From the weighted firing strengths ``F`` (rule, sample): the aggregates (one
+        (G, n) per output, :func:`~controller.inference.aggregate`) and the crisp outputs
+        (n, n_out)."""
+        aggs = [
+            aggregate(self.inference, terms, F[rules])
+            if rules
+            else np.zeros((self.n_points, F.shape[1]))
+            for rules, terms in self._rule_terms
+        ]
         Y = np.empty((F.shape[1], len(self.outputs)))
         for o, agg in enumerate(aggs):
             Y[:, o] = defuzzify(self.inference.defuzz_method, self._grid[o], agg, self._mid[o])
@@ -647,96 +658,41 @@ class FuzzySystem:
 
     # ------------------------------------------------------------------ parameters
     def parameter_vector(self) -> np.ndarray:
-        """All membership-function parameters, flat: inputs then outputs, terms in order,
-        parameters in MATLAB order. See :meth:`parameter_names`."""
-        return np.array([p for v in self.inputs + self.outputs for t in v.terms for p in t.params])
+        """All membership-function parameters, flat (:func:`.fuzzy_params.parameter_vector`)."""
+        return fuzzy_params.parameter_vector(self)
 
     def parameter_names(self) -> list[str]:
         """Names for :meth:`parameter_vector`, e.g. 'd_t.VS.a', 'phi_t.Z.sigma'."""
-        return [
-            f"{v.name}.{t.name}.{pn}"
-            for v in self.inputs + self.outputs
-            for t in v.terms
-            for pn in mf.SHAPES[t.shape].param_names
-        ]
+        return fuzzy_params.parameter_names(self)
 
     def with_parameter_vector(self, vec) -> FuzzySystem:
         """A copy with the membership parameters replaced by ``vec`` (same layout as
-        :meth:`parameter_vector`). Raises ValueError for a wrong length or an invalid
-        shape (e.g. a trimf with a > b, a gaussmf with sigma <= 0)."""
-        vec = np.asarray(vec, dtype=float).ravel()
-        n = sum(len(t.params) for v in self.inputs + self.outputs for t in v.terms)
-        if vec.size != n:
-            raise ValueError(f"parameter vector must have {n} entries, got {vec.size}")
-        it = iter(vec.tolist())
-
-        def rebuild(v: Variable) -> Variable:
-            terms = []
-            for t in v.terms:
-                params = tuple(next(it) for _ in t.params)
-                try:
-                    terms.append(Term(t.name, t.shape, params))
-                except ValueError as e:
-                    raise ValueError(f"variable {v.name!r}: {e}") from None
-            return Variable(v.name, v.range, tuple(terms), v.unit, v.description)
-
-        ins = [rebuild(v) for v in self.inputs]
-        outs = [rebuild(v) for v in self.outputs]
-        return self._replace(inputs=ins, outputs=outs)
+        :meth:`parameter_vector`; :func:`.fuzzy_params.with_parameter_vector`)."""
+        return fuzzy_params.with_parameter_vector(self, vec)
 
     def with_term_params(
         self, variable: str, term: str, params: Sequence[float], shape: str | None = None
     ) -> FuzzySystem:
         """A copy with one term's parameters (and optionally its shape) replaced."""
-        found = False
-
-        def rebuild(v: Variable) -> Variable:
-            nonlocal found
-            if v.name != variable:
-                return v
-            k = v.term_index(term)
-            old = v.terms[k]
-            terms = list(v.terms)
-            terms[k] = Term(old.name, shape or old.shape, tuple(params))
-            found = True
-            return Variable(v.name, v.range, tuple(terms), v.unit, v.description)
-
-        ins = [rebuild(v) for v in self.inputs]
-        outs = [rebuild(v) for v in self.outputs]
-        if not found:
-            raise KeyError(
-                f"no variable {variable!r} (have {self.input_names + self.output_names})"
-            )
-        return self._replace(inputs=ins, outputs=outs)
+        return fuzzy_params.with_term_params(self, variable, term, params, shape)
 
     def replace(self, **kw) -> FuzzySystem:
         """A copy with some constructor arguments replaced (inputs, outputs, rules, name,
         description, n_points, inference)."""
-        return self._replace(**kw)
-
-    def _replace(self, **kw) -> FuzzySystem:
-        args = dict(
-            inputs=self.inputs,
-            outputs=self.outputs,
-            rules=self.rules,
-            name=self.name,
-            description=self.description,
-            n_points=self.n_points,
-            inference=self.inference,
-        )
+        args = self._arguments()
         args.update(kw)
         return FuzzySystem(args.pop("inputs"), args.pop("outputs"), args.pop("rules"), **args)
 
     def with_rules(self, rules: Sequence[Rule]) -> FuzzySystem:
-        return self._replace(rules=rules)
+        return self.replace(rules=rules)
 
     def with_n_points(self, n_points: int) -> FuzzySystem:
-        return self._replace(n_points=n_points)
+        return self.replace(n_points=n_points)
 
     def with_inference(self, **choices: str) -> FuzzySystem:
         """A copy with some inference choices replaced, e.g. ``defuzz_method="mom"``
         (:class:`~controller.inference.Inference`'s fields)."""
-        return self._replace(inference=self.inference.replace(**choices))
+        return self.replace(inference=self.inference.replace(**choices))
 
     def __eq__(self, other):
         """Same variables (names, ranges, terms), rules, grid and inference: the same

@@ -36,7 +36,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-__all__ = ["Inference", "CHOICES", "FIS_KEYS", "TOML_KEYS", "DEFAULT", "defuzzify"]
+__all__ = ["Inference", "CHOICES", "FIS_KEYS", "TOML_KEYS", "DEFAULT", "aggregate", "defuzzify"]
 
 #: The allowed values of each choice, the default first.
 CHOICES: dict[str, tuple[str, ...]] = {
@@ -105,6 +105,24 @@ class Inference:
 
 
 DEFAULT = Inference()
+
+
+def aggregate(inference: Inference, terms: np.ndarray, levels: np.ndarray) -> np.ndarray:
+    """One output's aggregate (grid point, sample) from the rules that conclude on it:
+    ``terms``, their consequent terms on the output's grid (rule, grid point, 1), and
+    ``levels``, their weighted firing strengths (rule, sample); the implication, then the
+    aggregation folded over the rules in rule order (MATLAB's order)."""
+    imp = np.minimum if inference.imp_method == "min" else np.multiply
+    implied = imp(terms, levels[:, None, :])  # (rule, grid point, sample)
+    method = inference.agg_method
+    if method == "max":
+        return np.maximum.reduce(implied, axis=0)
+    if method == "sum":  # a reduce over the first axis adds the rules one by one
+        return np.add.reduce(implied, axis=0)
+    agg = implied[0].copy()  # probor: a + b - a * b, rule by rule
+    for nxt in implied[1:]:
+        agg = (agg + nxt) - agg * nxt
+    return agg
 
 
 def _grid_sum(a: np.ndarray) -> np.ndarray:

@@ -93,7 +93,7 @@ class TableOneTunable:
     and the header lines that say where the numbers come from."""
 
     name = "paper"
-    #: ``fuzzynav tune`` adds a cost for holes (app/experiments/tuning.py): Table 1's two rule
+    #: ``fuzzynav tune`` adds a cost for holes (app/experiments/objective.py): Table 1's two rule
     #: families must each cover their inputs (controller/coverage.py).
     holes_penalised = True
     PARAMETERS: list[tuple[str, float, float, float]] = []
@@ -159,7 +159,7 @@ class TableOneTunable:
     def save(self, vector, path: str | Path, header: str = "") -> list[Path]:
         """Write the rule base with a header saying what is tuned and how to redo it."""
         path = Path(path)
-        fis = self.system(vector)._replace(description=self.DESCRIPTION)
+        fis = self.system(vector).replace(description=self.DESCRIPTION)
         names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
         lines = list(self.HEADER)
         lines += [f"# {line}" if line else "#" for line in header.splitlines()]

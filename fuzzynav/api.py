@@ -111,16 +111,12 @@ class Run:
     def save_rrd(self, path: str | Path) -> Path:
         """Write the run as a rerun recording (``rerun PATH`` opens it), whole or not
         at all. Returns the path written."""
-        from fuzzynav.app.recordings.record import record_run
+        from fuzzynav.app.recordings.record import record_simulation
 
-        sim = self._simulation
-        return record_run(
+        return record_simulation(
+            self._simulation,
             self.result,
             path,
-            controller=sim.controller,
-            sensors=sim.sensors,
-            parameters=sim.model.parameters,
-            voltage_limit_v=sim.voltage_limit_v,
             extra_metadata={"made by": "fuzzynav.simulate (Python)"},
         )
 

@@ -24,7 +24,7 @@ from fuzzynav.app.recordings import record as recording
 from fuzzynav.app.recordings.columns import plot_layout
 from fuzzynav.app.recordings.internals import RULES_HEATMAP_PATH, RULES_PATH, RULES_TEXT_PATH
 from fuzzynav.app.recordings.live import LiveRecorder
-from fuzzynav.app.recordings.record import record_run
+from fuzzynav.app.recordings.record import record_run, record_simulation
 from fuzzynav.app.runs import build_simulation
 from fuzzynav.world.geometry import footprint_outlines
 
@@ -174,15 +174,7 @@ def make_fuzzy_controller():
 
 
 def record(sim, result, path, **kw):
-    return record_run(
-        result,
-        path,
-        controller=sim.controller,
-        sensors=sim.sensors,
-        parameters=sim.model.parameters,
-        voltage_limit_v=sim.voltage_limit_v,
-        **kw,
-    )
+    return record_simulation(sim, result, path, **kw)
 
 
 @pytest.fixture(scope="module")
@@ -1250,7 +1242,7 @@ def s3_paper(tmp_path_factory):
 
 
 def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp_path):
-    from fuzzynav.app.figures.run_figures import paper_figure_number
+    from fuzzynav.app.figures.numbering import paper_figure_number
 
     names = list(_views(s3_paper[3]))
     for kind, key in (

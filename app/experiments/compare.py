@@ -9,6 +9,8 @@ from __future__ import annotations
 from fuzzynav.app.args import (
     UsageError,
     add_geometry_option,
+    add_perception_option,
+    comma_list,
     integer_in,
     print_json,
     seed_type,
@@ -260,15 +262,10 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def _csv(text: str) -> list[str]:
-    return [t.strip() for t in text.split(",") if t.strip()]
-
-
 def add_commands(subparsers) -> None:
     from fuzzynav.app.experiments.batch_runs import add_engine_option
     from fuzzynav.app.experiments.executor import add_executor_options
     from fuzzynav.world.layouts import FAMILIES
-    from fuzzynav.world.perception import PERCEPTION_MODES
 
     c = subparsers.add_parser(
         "compare", help="the paper's Table 4: controllers on s1-s3 beside the paper"
@@ -276,16 +273,11 @@ def add_commands(subparsers) -> None:
     add_geometry_option(c)
     c.add_argument(
         "--controllers",
-        type=_csv,
+        type=comma_list,
         default=None,
         help="comma-separated (default: paper,baseline,fuzzynav,p where available)",
     )
-    c.add_argument(
-        "--perception",
-        default="ideal",
-        choices=PERCEPTION_MODES,
-        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
-    )
+    add_perception_option(c)
     c.add_argument(
         "--sweep-n",
         type=integer_in(0, MAX_LAYOUTS),

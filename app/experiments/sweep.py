@@ -16,6 +16,7 @@ from pathlib import Path
 from fuzzynav.app.args import (
     add_geometry_option,
     add_off_option,
+    add_perception_option,
     integer_in,
     off_flag,
     parse_off,
@@ -149,7 +150,7 @@ def write_failures(out: dict, directory, progress=None, source: str = "") -> lis
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
-    from fuzzynav.app.recordings.record import record_run
+    from fuzzynav.app.recordings.record import record_simulation
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.safe_files import write_text_atomically
     from fuzzynav.world.layouts import generate_layout
@@ -191,13 +192,10 @@ def write_failures(out: dict, directory, progress=None, source: str = "") -> lis
                 + ": that row does not hold this run's result"
             )
         recording = directory / f"{stem}_{controller}_{perception}.rrd"
-        record_run(
+        record_simulation(
+            sim,
             result,
             recording,
-            controller=sim.controller,
-            sensors=sim.sensors,
-            parameters=sim.model.parameters,
-            voltage_limit_v=sim.voltage_limit_v,
             extra_metadata={"sweep": f"{family} layout #{run['index']} of seed {seed}"},
         )
         written.append(
@@ -329,7 +327,6 @@ def add_commands(subparsers) -> None:
     from fuzzynav.app.experiments.executor import add_executor_options
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
-    from fuzzynav.world.perception import PERCEPTION_MODES
 
     p = subparsers.add_parser(
         "sweep", help="run a controller on seeded random layouts; success rate"
@@ -351,12 +348,7 @@ def add_commands(subparsers) -> None:
         choices=controller_names(),
         help="the controller swept (default paper)",
     )
-    p.add_argument(
-        "--perception",
-        default="ideal",
-        choices=PERCEPTION_MODES,
-        help="ideal: exact nearest obstacle; ultrasonic: the three range sensors (default ideal)",
-    )
+    add_perception_option(p)
     add_executor_options(p)
     add_engine_option(p)
     add_study_output_options(p)

@@ -29,7 +29,14 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
+from fuzzynav.app.args import (
+    UsageError,
+    comma_list,
+    float_in,
+    integer_in,
+    print_json,
+    seed_type,
+)
 from fuzzynav.app.experiments.objective import (
     CLEARANCE_MARGIN_M,
     CLEARANCE_WEIGHT,
@@ -293,10 +300,6 @@ def check_output_file(path: Path, option: str, inputs=()) -> Path:
     return path
 
 
-def _csv(text: str) -> list[str]:
-    return [t.strip() for t in text.split(",") if t.strip()]
-
-
 def add_commands(subparsers) -> None:
     from fuzzynav.app.experiments.evolution import add_sigma_option
     from fuzzynav.app.experiments.executor import add_executor_options
@@ -317,7 +320,7 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument(
         "--scenarios",
-        type=_csv,
+        type=comma_list,
         default=["s1", "s2", "s3"],
         help="comma-separated scenarios (default s1,s2,s3; '' for none)",
     )
@@ -334,7 +337,7 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument(
         "--perception",
-        type=_csv,
+        type=comma_list,
         default=["ideal", "ultrasonic"],
         help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
     )
@@ -375,7 +378,7 @@ def add_commands(subparsers) -> None:
     )
     p.add_argument(
         "--free",
-        type=_csv,
+        type=comma_list,
         default=None,
         metavar="PREFIXES",
         help="tune only the parameters whose names start with one of these "

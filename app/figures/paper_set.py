@@ -22,7 +22,8 @@ from fuzzynav.app.figures.numbering import (
     paper_figure_stem,
 )
 from fuzzynav.app.figures.run_figures import write_run_figures
-from fuzzynav.app.figures.style import FORMATS, _fis, check_writable_dir
+from fuzzynav.app.figures.style import FORMATS, check_writable_dir
+from fuzzynav.app.recordings.internals import controller_fis
 from fuzzynav.safe_files import write_text_atomically
 
 
@@ -97,7 +98,7 @@ def write_paper_figures(
                     )
                 )
     for name in names_in_order:
-        fis = _fis(controllers.get(name))
+        fis = controller_fis(controllers.get(name), merged=True)
         if fis is None:
             continue
         files = write_membership_figures(

@@ -51,9 +51,7 @@ from fuzzynav.app.figures.style import (
     TARGET,
     WHEEL_LEFT,
     WHEEL_RIGHT,
-    _controller_label,
     _default_footprint,
-    _fis,
     _legend_outside,
     _new_figure,
     _obstacle_label,
@@ -63,6 +61,8 @@ from fuzzynav.app.figures.style import (
     disturbance_window_s,
 )
 from fuzzynav.app.figures.trajectory import closest_approaches, draw_trajectory
+from fuzzynav.app.recordings.internals import controller_fis
+from fuzzynav.app.recordings.internals import controller_label as label_of
 from fuzzynav.resources import escape_controls
 from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
@@ -293,7 +293,7 @@ def write_run_figures(
     Returns the files written, in order.
     """
     out_dir = check_writable_dir(out_dir, option="out_dir")
-    label = controller_label or _controller_label(controller)
+    label = controller_label or label_of(controller, unknown=None)
     written: list[Path] = []
     for kind in RUN_FIGURES:
         fig = run_figure(
@@ -305,7 +305,7 @@ def write_run_figures(
         )
         stem = names[kind] if names is not None else f"{prefix}{kind}"
         written += _save(fig, out_dir, stem, formats)
-    fis = _fis(controller) if membership else None
+    fis = controller_fis(controller, merged=True) if membership else None
     if fis is not None:
         written += write_membership_figures(fis, out_dir, prefix=prefix, formats=formats)
     return written
@@ -330,7 +330,7 @@ def run_hook(args, sim):
     def write(result, interrupted: bool) -> None:
         params = sim.model.parameters
         # Named as the report names them: by the paper's figure numbers (fig12_s1_...).
-        name = _controller_label(sim.controller) or "controller"
+        name = label_of(sim.controller, unknown="controller")
         try:
             paths = write_run_figures(
                 result,
@@ -341,7 +341,7 @@ def run_hook(args, sim):
                 voltage_limit_v=sim.voltage_limit_v,
                 membership=False,
             )
-            fis = _fis(sim.controller)
+            fis = controller_fis(sim.controller, merged=True)
             if fis is not None:
                 paths += write_membership_figures(
                     fis,

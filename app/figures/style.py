@@ -1,5 +1,6 @@
 """The figures' shared style: colours, sizes and file types, a figure on the Agg canvas,
-files written whole, time axes, legends, and what a figure asks of a controller.
+files written whole, time axes, and legends (what a figure asks of a controller, its fuzzy
+system and name, is app.recordings.internals's).
 
 Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings);
 the right wheel and the heading take colours no obstacle has.
@@ -143,22 +144,3 @@ def _default_footprint() -> tuple[float, float]:
         return (p.footprint_length_m, p.footprint_width_m)
     except Exception:  # the figures do not depend on the parameter file being readable
         return (0.99, 0.67)
-
-
-def _fis(controller):
-    """The controller's fuzzy system: its ``fis``, else (fuzzynav) its blocks merged into
-    one (``merged``: every block's inputs and outputs, under names unique across them)."""
-    if controller is None:
-        return None
-    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
-    fis = getattr(inner, "fis", None)
-    if fis is None and callable(getattr(inner, "rule_blocks", None)):
-        fis = getattr(inner, "merged", None)
-    return fis if fis is not None and hasattr(fis, "inputs") and hasattr(fis, "outputs") else None
-
-
-def _controller_label(controller) -> str | None:
-    if controller is None:
-        return None
-    name = getattr(controller, "name", None)
-    return name if isinstance(name, str) and name else type(controller).__name__

@@ -12,9 +12,10 @@ scenario's content>``, so recordings whose layouts differ keep their own in a vi
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
+
+from fuzzynav.app.figures.numbering import numbered_scenario, paper_figure_number, scenario_stem
 
 from .arrow import TIMELINE
 from .events import EVENTS_LANES, EVENTS_LOG_PATH
@@ -31,12 +32,6 @@ from .internals import (
 )
 
 APPLICATION_ID = "fuzzynav"
-
-
-def scenario_stem(scenario) -> str:
-    """A scenario's short name: its file's stem (s1) or its name."""
-    source = getattr(scenario, "source", "") or ""
-    return Path(source).stem if source and source != "<memory>" else scenario.name
 
 
 def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
@@ -161,7 +156,7 @@ def legend_placement(series: np.ndarray, n_entries: int):
     return corner, (float(value_range[0]), float(value_range[1]))
 
 
-#: The panels of a recording and the paper's figure each draws (app.figures.run_figures's kinds).
+#: The panels of a recording and the paper's figure each draws (app.figures.numbering's kinds).
 PAPER_KIND = {
     "/plots/distance": "distances",
     "/plots/angles": "angles",
@@ -172,9 +167,7 @@ PAPER_KIND = {
 
 def figure_tag(scenario_label: str, path: str) -> str:
     """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
-    draws (:func:`app.figures.run_figures.paper_figure_number`, one numbering everywhere), or ""."""
-    from fuzzynav.app.figures.run_figures import paper_figure_number
-
+    draws (:func:`app.figures.numbering.paper_figure_number`, one numbering everywhere), or ""."""
     kind = PAPER_KIND.get(path)
     number = paper_figure_number(scenario_label, kind) if kind else None
     return f" (Fig. {number})" if number is not None else ""
@@ -225,8 +218,6 @@ def blueprint(
         start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
     )
     placements = dict(legend_corners or {})
-    from fuzzynav.app.figures.run_figures import numbered_scenario
-
     label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
 
     def plot(origin, name, *, contents=None, legend=True, **kw):
@@ -396,8 +387,7 @@ def application_id(scenario, controller, geometry: str = "husky") -> str:
 
     from fuzzynav.app.runs import scenario_digest
 
-    source = getattr(scenario, "source", "") or ""
-    label = Path(source).stem if source and source != "<memory>" else scenario.name
+    label = scenario_stem(scenario)
     name = controller_label(controller)
     n_rules = len(getattr(rule_system(controller), "rules", ()))
     layout = "|".join(

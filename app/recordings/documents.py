@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 
+from fuzzynav.app.figures.numbering import scenario_stem
 from fuzzynav.app.provenance import command_line, package_versions, reproduce_run, wrap_command
 
 from .arrow import StaticBatch
-from .blueprint import scenario_stem
 from .internals import controller_label
 
 

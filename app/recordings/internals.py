@@ -17,12 +17,18 @@ from .arrow import StaticBatch, tensor_rows, time_column
 from .style import SERIES_PALETTE
 
 
-def controller_fis(controller):
-    """The controller's ``FuzzySystem`` (its ``fis`` attribute), or None."""
-    fis = getattr(controller, "fis", None) if controller is not None else None
-    if fis is None or not hasattr(fis, "firing_strengths"):
+def controller_fis(controller, *, merged: bool = False):
+    """The controller's ``FuzzySystem`` (its ``fis`` attribute), or None. With ``merged``
+    (the membership figures), a controller of fuzzy blocks (fuzzynav, the baseline: its
+    ``rule_blocks``) without a ``fis`` gives its blocks merged into one (``merged``: every
+    block's inputs and outputs, under names unique across them)."""
+    if controller is None:
         return None
-    return fis
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    fis = getattr(inner, "fis", None)
+    if fis is None and merged and callable(getattr(inner, "rule_blocks", None)):
+        fis = getattr(inner, "merged", None)
+    return fis if hasattr(fis, "firing_strengths") else None
 
 
 def has_internals(controller) -> bool:
@@ -66,9 +72,10 @@ INTERNALS = (
 )
 
 
-def controller_label(controller) -> str:
+def controller_label(controller, unknown: str | None = "unknown") -> str | None:
+    """The controller's name (its ``name``, else its class's); ``unknown`` for None."""
     if controller is None:
-        return "unknown"
+        return unknown
     name = getattr(controller, "name", None)
     if isinstance(name, str) and name:
         return name

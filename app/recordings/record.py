@@ -119,6 +119,7 @@ __all__ = [
     "add_run_options",
     "check_writable_file",
     "record_run",
+    "record_simulation",
     "run_hook",
 ]
 
@@ -258,6 +259,20 @@ def record_run(
     return write_recording_bytes(path, stream.read(flush=False) or b"")
 
 
+def record_simulation(sim, result, path, *, extra_metadata=None) -> Path:
+    """:func:`record_run` for a run of the simulation ``sim`` (its controller, sensors,
+    robot parameters and saturation). Returns the path written."""
+    return record_run(
+        result,
+        path,
+        controller=sim.controller,
+        sensors=sim.sensors,
+        parameters=sim.model.parameters,
+        voltage_limit_v=sim.voltage_limit_v,
+        extra_metadata=extra_metadata,
+    )
+
+
 # ---------------------------------------------------------------------------------------
 # Command line: fuzzynav run ... --rrd PATH
 
@@ -307,15 +322,7 @@ def run_hook(args, sim):
             )
             target = partial_path(path)
         try:
-            record_run(
-                result,
-                target,
-                controller=sim.controller,
-                sensors=sim.sensors,
-                parameters=sim.model.parameters,
-                voltage_limit_v=sim.voltage_limit_v,
-                extra_metadata=extra,
-            )
+            record_simulation(sim, result, target, extra_metadata=extra)
         except KeyboardInterrupt:
             print(
                 f"fuzzynav: interrupted while writing the recording: {shown} not written "
