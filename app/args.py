@@ -95,6 +95,20 @@ def add_geometry_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_field_of_view_option(parser: argparse.ArgumentParser) -> None:
+    """``--field-of-view DEG``: ideal perception's field, in place of the scenario's."""
+    parser.add_argument(
+        "--field-of-view",
+        dest="field_of_view",
+        type=float_in(1.0, 360.0, " degrees"),
+        default=None,
+        metavar="DEG",
+        help="ideal perception senses only obstacles whose centre bears within +-DEG/2 of "
+        "the heading (default: the scenario's: s1-s3 180, the front half-plane of the "
+        "paper's front sonars; generated layouts 360, all around)",
+    )
+
+
 def add_perception_option(parser: argparse.ArgumentParser) -> None:
     """``--perception`` for the commands that drive many runs (sweep, compare)."""
     from fuzzynav.world.perception import PERCEPTION_MODES

@@ -35,6 +35,7 @@ try:  # a Ctrl-C while even these load ends quietly, as one in main() does
         EXIT_INTERRUPTED,
         UsageError,
         _json_default,
+        add_field_of_view_option,
         add_geometry_option,
         add_off_option,
         describe_os_error,
@@ -119,6 +120,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
         help="ideal: exact nearest obstacle; ultrasonic: the three range sensors",
     )
     add_geometry_option(parser)
+    add_field_of_view_option(parser)
     parser.add_argument(
         "--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)"
     )
@@ -177,6 +179,7 @@ def cmd_run(args) -> int:
         control_period_s=args.dt,
         sensor_noise_std_m=args.noise,
         geometry=args.geometry,
+        field_of_view_deg=args.field_of_view,
     )
     from fuzzynav.resources import escape_controls
 

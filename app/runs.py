@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
@@ -46,15 +47,21 @@ def build_simulation(
     controller_object=None,
     stop_on_collision: bool = True,
     geometry: str = "husky",
+    field_of_view_deg: float | None = None,
 ) -> Simulation:
     """A simulation from user choices; both geometries start from the scenario's own
-    pose."""
+    pose. ``field_of_view_deg`` replaces the scenario's field of view (ideal perception
+    senses obstacles whose centre bears within half of it; None keeps the scenario's)."""
     check_geometry(geometry, perception)
     if not isinstance(scenario, Scenario):
         # the start is checked against the robot that drives: the paper's geometry is a
         # point robot, so a layout valid for it is not refused for the Husky's footprint
         footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
         scenario = load_scenario(scenario, footprint_m=footprint)
+    if field_of_view_deg is not None:
+        if not (math.isfinite(field_of_view_deg) and 0.0 < field_of_view_deg <= 360.0):
+            raise ValueError(f"field_of_view_deg = {field_of_view_deg!r}: must be in (0, 360]")
+        scenario = scenario.replace(field_of_view_deg=float(field_of_view_deg))
     ctrl = (
         controller_object
         if controller_object is not None

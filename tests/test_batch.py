@@ -111,10 +111,12 @@ COMBOS = [
 
 
 def _layouts(family: str, first: int, n: int, geometry: str):
+    """Every other layout with s1-s3's front half-plane as its field of view."""
     out = []
     for i in range(first, first + n):
         sc = generate_layout(family, 7, i)
-        out.append(sc.replace(duration_s=min(sc.duration_s, CAP_S)))
+        field = 180.0 if i % 2 else sc.field_of_view_deg
+        out.append(sc.replace(duration_s=min(sc.duration_s, CAP_S), field_of_view_deg=field))
     return out
 
 

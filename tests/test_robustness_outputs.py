@@ -196,6 +196,7 @@ def test_a_checkpoint_on_a_full_disk_warns_and_the_tune_goes_on(
 
     monkeypatch.setattr(safe_files, "commit", full_for_the_checkpoint)
     code, err = run_cli(capsys, *_tune(tmp_path, tiny, "--checkpoint", checkpoint))
+    err = " ".join(err.split())  # rich wraps the message where the path's length puts it
     assert code == 0 and "--checkpoint" in err and "not written" in err
     assert checkpoint.read_text() == "an old checkpoint\n"
     assert (tmp_path / "tuned.toml").read_text().count("[system]") == 1

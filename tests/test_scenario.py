@@ -34,6 +34,8 @@ def test_shipped_scenarios_match_the_paper():
     assert all(o.radius_m == 0.2 and o.is_static for o in s1.obstacles)
     assert s1.start == (0.0, 0.0) and s1.target == (8.0, 8.0)
     assert s1.heading_rad == pytest.approx(math.pi / 4)  # facing the target (issue 25)
+    # the paper's three front sonars: ideal perception senses the front half-plane
+    assert all(s.field_of_view_deg == pytest.approx(180.0) for s in (s1, s2, s3))
     static, moving = s2.obstacles
     assert static.position == (4.0, 3.58) and static.is_static
     assert moving.position == (8.0, 8.0) and moving.radius_m == 0.3
@@ -55,6 +57,15 @@ def test_round_trip_through_toml(write_toml):
 def test_valid_file_loads(write_toml):
     sc = load_scenario(write_toml(VALID))
     assert isinstance(sc, Scenario) and sc.duration_s == 60.0
+    assert sc.field_of_view_rad == 2 * math.pi  # all around unless the file says otherwise
+    assert "field_of_view_deg" not in sc.to_toml()
+
+
+def test_a_field_of_view_is_read_and_written_back(write_toml):
+    sc = load_scenario(write_toml(VALID.replace("heading_rad = 0.0", "field_of_view_deg = 120")))
+    assert sc.field_of_view_rad == pytest.approx(math.radians(120.0))
+    again = load_scenario(write_toml(sc.to_toml()))
+    assert again == sc and "field_of_view_deg = 120.0" in sc.to_toml()
 
 
 @pytest.mark.parametrize(
@@ -92,6 +103,10 @@ def test_valid_file_loads(write_toml):
         ("radius_m = 0.2", "radius_m = -0.3", "obstacles[0].radius_m", "-0.3"),
         ("tolerance_m = 0.15", "tolerance_m = 0.0", "target.tolerance_m", "0.0"),
         ("heading_rad = 0.0", "heading_rad = true", "robot.heading_rad", "True"),
+        ("heading_rad = 0.0", "field_of_view_deg = 0.0", "robot.field_of_view_deg", "0.0"),
+        ("heading_rad = 0.0", "field_of_view_deg = 400", "robot.field_of_view_deg", "400"),
+        ("heading_rad = 0.0", "field_of_view_deg = nan", "robot.field_of_view_deg", "nan"),
+        ("heading_rad = 0.0", 'field_of_view_deg = "front"', "robot.field_of_view_deg", "front"),
     ],
 )
 def test_bad_values_are_named(write_toml, old, new, key, value_text):

@@ -9,6 +9,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
+from fuzzynav.controller.registry import make_controller
 from fuzzynav.world.arena import Arena
 from fuzzynav.world.geometry import (
     HUSKY_WHEEL_RADIUS_M,
@@ -488,13 +489,53 @@ def test_ideal_perception_cutoff_and_bearing():
     assert ideal_obstacle_inputs(behind)[1] == pytest.approx(math.pi)
 
 
+def test_ideal_perception_senses_only_its_field_of_view():
+    """With a field of view, the nearest obstacle whose centre bears inside it (not the
+    nearest of all) gives d_o and phi_o; nothing inside it gives NaN (s1-s3: the front
+    half-plane of the paper's front sonars)."""
+    behind = ObstacleSpec((-1.2, 0.3), 0.2)  # nearer, but behind the axle line
+    ahead = ObstacleSpec((2.5, -1.0), 0.2)
+    arena = arena_with([behind, ahead])
+    all_around = Perception("ideal", RangeSensorArray())
+    front = Perception("ideal", RangeSensorArray(), field_of_view_rad=math.pi)
+    d_all, phi_all = all_around.inputs(arena, 0.0)[0][[1, 3]]
+    d_front, phi_front = front.inputs(arena, 0.0)[0][[1, 3]]
+    assert abs(phi_all) > math.pi / 2  # all around, the one behind is the nearest
+    assert phi_front == pytest.approx(math.atan2(-1.0, 2.5))
+    assert d_front > d_all
+    only_behind = arena_with([behind])
+    assert all(math.isnan(v) for v in front.inputs(only_behind, 0.0)[0][[1, 3]])
+    # the edge of the field counts: straight to the left at +-90 degrees is seen
+    side = arena_with([ObstacleSpec((0.0, 1.5), 0.2)])
+    assert front.inputs(side, 0.0)[0][3] == pytest.approx(math.pi / 2)
+    for bad in (0.0, -1.0, 7.0, math.nan):
+        with pytest.raises(ValueError, match="field_of_view_rad"):
+            Perception("ideal", RangeSensorArray(), field_of_view_rad=bad)
+
+
+def test_the_simulation_takes_the_scenario_s_field_of_view():
+    s1 = load_scenario("s1")
+    sim = Simulation(s1, make_controller("paper"))
+    assert sim.perception.field_of_view_rad == pytest.approx(math.pi)
+    sim.reset(scenario=s1.replace(field_of_view_deg=360.0))
+    assert sim.perception.field_of_view_rad == 2 * math.pi
+
+
 def test_ultrasonic_perception_uses_the_nearest_sensor():
-    arena = arena_with([ObstacleSpec((2.0, 1.6), 0.4)])  # ahead and to the left
+    arena = arena_with([ObstacleSpec((2.5, 0.79), 0.2)])  # on the left beam's axis
     sensors = RangeSensorArray()
     inputs, ranges = Perception("ultrasonic", sensors).inputs(arena, 0.0)
     k = int(np.argmin(ranges))
     assert sensors.config.mounts[k].name == "left"
-    assert inputs[1] == pytest.approx(ranges[k]) and inputs[3] == pytest.approx(math.radians(45))
+    assert inputs[1] == pytest.approx(ranges[k]) and inputs[3] == pytest.approx(math.radians(15))
+    # the three beams (15-degree cones, 15 degrees apart) leave no gap ahead: an obstacle
+    # anywhere within +-22.5 degrees is seen (a 0.2 m disc: wider than the rays' spacing)
+    for bearing_deg in range(-21, 22, 3):
+        a = math.radians(bearing_deg)
+        seen = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(a), 2.5 * math.sin(a)), 0.2)])
+        assert np.isfinite(RangeSensorArray().read(seen, 0.0)).any(), bearing_deg
+    aside = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(0.7), 2.5 * math.sin(0.7)), 0.2)])
+    assert not np.isfinite(RangeSensorArray().read(aside, 0.0)).any()
     empty = arena_with([])
     inputs, _ = Perception("ultrasonic", RangeSensorArray()).inputs(empty, 0.0)
     assert math.isnan(inputs[1]) and math.isnan(inputs[3])

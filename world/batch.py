@@ -58,6 +58,7 @@ from fuzzynav.world.arena import (
     SWEEP_SPACING_M,
     SWEEP_TOLERANCE_M,
 )
+from fuzzynav.world.geometry import FULL_CIRCLE_RAD
 from fuzzynav.world.husky import N_STATES, HuskyModel, step_product
 from fuzzynav.world.metrics import VOLTAGE_JUMP_V
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
@@ -459,6 +460,13 @@ def run_batch(
         has_window=has_window,
         duration=duration,
         tolerance=np.array([sc.tolerance_m for sc in scenarios], dtype=float),
+        # half the field of view of ideal perception (inf: all around)
+        half_field=np.array(
+            [
+                np.inf if sc.field_of_view_rad >= FULL_CIRCLE_RAD else 0.5 * sc.field_of_view_rad
+                for sc in scenarios
+            ]
+        ),
         ranges=np.full((n_runs, n_sensors), np.inf),
         prev_v=np.full((n_runs, 2), np.nan),
         best=np.full(n_runs, np.inf),  # the stall rule's best distance and its time
@@ -610,6 +618,13 @@ def run_batch(
             clear = np.where(a.present, a.clear, np.inf)
             if point_robot:
                 clear = clear + np.where(a.present, a.radius, 0.0)  # Eq. 8, centre to centre
+            limited = np.isfinite(a.half_field)
+            if limited.any():  # as Perception: obstacles outside the field are not sensed
+                bearings = _wrap(
+                    np.arctan2(a.cy - a.y[:, None], a.cx - a.x[:, None]) - a.h[:, None]
+                )
+                outside = limited[:, None] & (np.abs(bearings) > a.half_field[:, None])
+                clear = np.where(outside, np.inf, clear)
             k = np.argmin(clear, axis=1)
             rows_n = np.arange(n)
             nearest = clear[rows_n, k]

@@ -11,6 +11,9 @@ import math
 
 import numpy as np
 
+#: A full turn: the default field of view, all around the robot.
+FULL_CIRCLE_RAD = 2.0 * math.pi
+
 
 def wrap_angle(angle_rad):
     """Wrap to the half-open interval (-pi, pi]; works on floats and arrays."""

@@ -27,7 +27,11 @@ Two modes:
 
 ``ideal``
     The exact footprint-to-surface distance of the nearest obstacle and the bearing of
-    its centre, all around the robot: what the paper's Simulink model had.
+    its centre, among the obstacles whose centre bears within the field of view
+    (``field_of_view_rad``, centred on the heading; default all around the robot).
+    The paper's scenarios s1-s3 set the front half-plane (``robot.field_of_view_deg =
+    180`` in their files): its robot senses obstacles with three front-mounted US-100s,
+    which see nothing behind the axle line (docs/paper-controller.md).
 ``ultrasonic``
     From the three range sensors: ``d_o`` is the smallest reading and ``phi_o`` is the
     mounting angle of the sensor that reads it (an ultrasonic sensor cannot say where in
@@ -41,7 +45,7 @@ import math
 import numpy as np
 
 from fuzzynav.world.arena import Arena
-from fuzzynav.world.geometry import wrap_angle_scalar
+from fuzzynav.world.geometry import FULL_CIRCLE_RAD, wrap_angle_scalar
 from fuzzynav.world.sensors import RangeSensorArray
 
 _hypot, _atan2, _fmod = math.hypot, math.atan2, math.fmod
@@ -96,6 +100,20 @@ def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, 
     return d_o, phi_o, scene.ids[k]
 
 
+def in_field(bearing_rad: float, half_field_rad: float) -> bool:
+    """Whether a bearing (wrapped to (-pi, pi]) lies in a field of +- ``half_field_rad``."""
+    return abs(bearing_rad) <= half_field_rad
+
+
+def _outside_field_as_inf(clearances, centres, x, y, heading, half_field_rad):
+    """The clearances with every obstacle whose centre bears outside the field as inf."""
+    out = []
+    for c, (cx, cy) in zip(clearances, centres):
+        bearing = wrap_angle_scalar(_atan2(cy - y, cx - x) - heading)
+        out.append(c if in_field(bearing, half_field_rad) else math.inf)
+    return out
+
+
 def ultrasonic_obstacle_inputs(
     ranges_m, mount_angles_rad, cutoff_m: float = OBSTACLE_CUTOFF_M
 ) -> tuple[float, float]:
@@ -118,6 +136,7 @@ class Perception:
         sensors: RangeSensorArray,
         cutoff_m: float = OBSTACLE_CUTOFF_M,
         geometry: str = "husky",
+        field_of_view_rad: float = FULL_CIRCLE_RAD,
     ):
         if mode not in PERCEPTION_MODES:
             raise ValueError(f"perception = {mode!r}: must be one of {', '.join(PERCEPTION_MODES)}")
@@ -127,10 +146,21 @@ class Perception:
         self._centre_to_centre = geometry == "paper"
         self.sensors = sensors
         self.cutoff_m = cutoff_m
+        self.set_field_of_view(field_of_view_rad)
         self._mount_angles = [float(m.angle_rad) for m in sensors.config.mounts]
         self._no_ranges = np.full(len(self._mount_angles), math.inf)
         self._no_ranges.flags.writeable = False
         self._no_ranges_list = self._no_ranges.tolist()
+
+    def set_field_of_view(self, field_of_view_rad: float) -> None:
+        """Sense (ideal mode) only obstacles whose centre bears within +- half of it."""
+        if not (math.isfinite(field_of_view_rad) and 0.0 < field_of_view_rad <= FULL_CIRCLE_RAD):
+            raise ValueError(f"field_of_view_rad = {field_of_view_rad!r}: must be in (0, 2 pi]")
+        self.field_of_view_rad = float(field_of_view_rad)
+        # None: all around (the plain nearest obstacle, no bearing needed)
+        self._half_field = (
+            None if field_of_view_rad >= FULL_CIRCLE_RAD else 0.5 * float(field_of_view_rad)
+        )
 
     def inputs(self, arena: Arena, time_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(inputs (4,), sensor ranges (3,)); the sensors are read in both modes so that
@@ -174,6 +204,10 @@ class Perception:
             if self._centre_to_centre and clearances:
                 # Eq. 8: centre to centre (a point robot's clearance plus the radius).
                 clearances = [c + r for c, r in zip(clearances, scene[1])]
+            if clearances and self._half_field is not None:
+                clearances = _outside_field_as_inf(
+                    clearances, scene[2], x, y, heading, self._half_field
+                )
             if clearances:
                 k = clearances.index(min(clearances))  # np.argmin's first minimum
                 nearest = clearances[k]

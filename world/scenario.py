@@ -7,6 +7,7 @@ A scenario is a TOML file in ``assets/scenarios/`` (or anywhere, given by path):
     [robot]
     start = [0.0, 0.0]                 # m
     heading_rad = 0.0
+    field_of_view_deg = 360.0          # optional: the obstacle sensors' field (below)
     [target]
     position = [8.0, 8.0]              # m
     tolerance_m = 0.15                 # arrival when the centre is this close
@@ -20,6 +21,12 @@ A scenario is a TOML file in ``assets/scenarios/`` (or anywhere, given by path):
     angular_frequency_rad_s = 2.0
     start_s = 25.0
     stop_s = 35.0
+
+``robot.field_of_view_deg`` is the field, centred on the heading, in which ideal
+perception senses obstacles (by the bearing of an obstacle's centre; 0 < value <= 360,
+default 360: all around). s1-s3 set 180, the front half-plane of the paper's three
+front-mounted US-100 sensors (docs/paper-controller.md). Ultrasonic perception senses
+what the beams hit, whatever this says.
 
 Optional top-level key: ``description``. Every other key is rejected, and every error
 names the file, the key and the value, so a typo never silently changes a run.
@@ -101,9 +108,15 @@ class Scenario:
     disturbance: Disturbance | None = None
     description: str = ""
     source: str = field(default="<memory>", compare=False)
+    #: ideal perception senses obstacles whose centre bears within +- half of it
+    field_of_view_deg: float = 360.0
 
     def replace(self, **changes) -> Scenario:
         return replace(self, **changes)
+
+    @property
+    def field_of_view_rad(self) -> float:
+        return math.radians(self.field_of_view_deg)
 
     def to_dict(self) -> dict:
         """The scenario as the plain data of its TOML file (``from_dict`` reads it back)."""
@@ -124,6 +137,8 @@ class Scenario:
         }
         if self.description:
             data["description"] = self.description
+        if self.field_of_view_deg != 360.0:
+            data["robot"]["field_of_view_deg"] = self.field_of_view_deg
         if self.disturbance is not None:
             d = self.disturbance
             data["disturbance"] = {
@@ -150,6 +165,10 @@ class Scenario:
             "[robot]",
             f"start = {_toml_list(self.start)}",
             f"heading_rad = {self.heading_rad!r}",
+        ]
+        if "field_of_view_deg" in d["robot"]:
+            lines.append(f"field_of_view_deg = {d['robot']['field_of_view_deg']!r}")
+        lines += [
             "",
             "[target]",
             f"position = {_toml_list(self.target)}",
@@ -201,7 +220,7 @@ MAX_OBSTACLES = 1000
 #: integer anyway; Python cannot even print an integer of more than 4300 digits).
 _MAX_EXACT_INT = 2**63
 _TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
-_ROBOT_KEYS = {"start", "heading_rad"}
+_ROBOT_KEYS = {"start", "heading_rad", "field_of_view_deg"}
 _TARGET_KEYS = {"position", "tolerance_m"}
 _OBSTACLE_KEYS = {"position", "radius_m", "velocity", "acceleration"}
 _DISTURBANCE_KEYS = {"amplitude", "angular_frequency_rad_s", "start_s", "stop_s"}
@@ -307,6 +326,14 @@ def scenario_from_dict(
         robot.get("heading_rad", 0.0), "robot.heading_rad", limit=1000.0, unit=" rad"
     )
 
+    field_of_view_deg = r.number(
+        robot.get("field_of_view_deg", 360.0),
+        "robot.field_of_view_deg",
+        positive=True,
+        limit=360.0,
+        unit=" degrees",
+    )
+
     target_t = r.table(data["target"], "target", _TARGET_KEYS, {"position"})
     target = r.point(target_t["position"], "target.position")
     tolerance = r.number(
@@ -388,6 +415,7 @@ def scenario_from_dict(
         disturbance=disturbance,
         description=description,
         source=source,
+        field_of_view_deg=field_of_view_deg,
     )
     check_layout(scenario, footprint_m)
     return scenario

@@ -355,7 +355,12 @@ class Simulation:
             params.hull_inertia_kg_m2,
         )
         self.sensors = RangeSensorArray(sensor_config)
-        self.perception = Perception(perception, self.sensors, geometry=geometry)
+        self.perception = Perception(
+            perception,
+            self.sensors,
+            geometry=geometry,
+            field_of_view_rad=scenario.field_of_view_rad,
+        )
         self.voltage_limit_v = float(voltage_limit_v)
         self.stop_on_collision = stop_on_collision
         self.disturbance = scenario.disturbance
@@ -371,6 +376,8 @@ class Simulation:
         if seed is not None or not hasattr(self, "seed"):
             self.seed = seed
         sc = self.scenario
+        # The field of view is the scenario's (its robot's sensors), so it follows it.
+        self.perception.set_field_of_view(sc.field_of_view_rad)
         self.arena.reset(sc.start, sc.heading_rad, sc.target, sc.obstacles)
         self.sensors.reset(self.seed)
         self.controller.reset()

@@ -28,7 +28,7 @@ MAX_BATCH = 1000
 #: cost (a few hundred numpy calls) outweighs the runs it advances.
 MIN_BATCH = 100
 #: The options of app.runs.build_simulation a batch takes.
-_RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m")
+_RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m", "field_of_view_deg")
 
 
 def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
@@ -53,7 +53,9 @@ def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | N
 def _scenario(job):
     from fuzzynav.world.layouts import generate_layout
 
-    return generate_layout(job.family, job.seed, job.index)
+    scenario = generate_layout(job.family, job.seed, job.index)
+    field = dict(job.options).get("field_of_view_deg")
+    return scenario if field is None else scenario.replace(field_of_view_deg=field)
 
 
 def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> dict:

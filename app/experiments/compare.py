@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from fuzzynav.app.args import (
     UsageError,
+    add_field_of_view_option,
     add_geometry_option,
     add_perception_option,
     comma_list,
@@ -271,6 +272,7 @@ def add_commands(subparsers) -> None:
         "compare", help="the paper's Table 4: controllers on s1-s3 beside the paper"
     )
     add_geometry_option(c)
+    add_field_of_view_option(c)
     c.add_argument(
         "--controllers",
         type=comma_list,

@@ -490,9 +490,13 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
 def _options(args) -> dict:
     """Keyword options of build_simulation that a command passes to every run: its
     ``--geometry`` when it has one and it is not the default (so that a row of the
-    default study stays as it was)."""
+    default study stays as it was), and its ``--field-of-view`` when given."""
     geometry = getattr(args, "geometry", "husky")
-    return {} if geometry == "husky" else {"geometry": geometry}
+    options = {} if geometry == "husky" else {"geometry": geometry}
+    field = getattr(args, "field_of_view", None)
+    if field is not None:
+        options["field_of_view_deg"] = field
+    return options
 
 
 def add_study_output_options(parser) -> None:

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from fuzzynav.app.args import (
+    add_field_of_view_option,
     add_geometry_option,
     add_off_option,
     add_perception_option,
@@ -332,6 +333,7 @@ def add_commands(subparsers) -> None:
         "sweep", help="run a controller on seeded random layouts; success rate"
     )
     add_geometry_option(p)
+    add_field_of_view_option(p)
     p.add_argument(
         "--n",
         type=integer_in(1, MAX_LAYOUTS),

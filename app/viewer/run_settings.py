@@ -206,7 +206,12 @@ class RunSettings:
                 "only (switch the geometry to husky for the sonars)"
             )
         with app.lock:
-            app.sim.perception = Perception(mode, app.sim.sensors, geometry=app.geometry)
+            app.sim.perception = Perception(
+                mode,
+                app.sim.sensors,
+                geometry=app.geometry,
+                field_of_view_rad=app.sim.scenario.field_of_view_rad,
+            )
             app.driver._restart_if_finished_locked()
             app.results._note_change_locked()
             app._bump()
@@ -244,7 +249,12 @@ class RunSettings:
             )
             sensors = RangeSensorArray(config, seed=app.seed)
             sim.sensors = sensors
-            sim.perception = Perception(sim.perception.mode, sensors, geometry=app.geometry)
+            sim.perception = Perception(
+                sim.perception.mode,
+                sensors,
+                geometry=app.geometry,
+                field_of_view_rad=sim.scenario.field_of_view_rad,
+            )
             app.noise_std_m = std_m
             app.results._note_change_locked()
             app._bump()
