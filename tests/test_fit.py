@@ -182,3 +182,21 @@ def test_fit_paper_command_writes_a_design_valid_rule_base_with_its_reproduce_li
     assert faults == [], [str(f) for f in faults]
     assert main(["fit-paper", "--dt", "5", "--out", str(tmp_path / "x.toml")]) == 2
     assert main(["fit-paper", "--out", str(tmp_path / "no" / "x.toml")]) == 2
+
+
+def test_a_husky_only_fit_measures_the_husky_runs_alone(tmp_path):
+    """``--husky --husky-only`` (how rules/paper_husky.toml is made): the cost is the
+    Husky geometry's hinges alone, so it is the joint cost less the paper geometry's part."""
+    from fuzzynav.app.experiments.paper_fit import FitCost
+
+    vector = read_fitted(PAPER_RULES)
+    joint = FitCost(0.1, husky=True, husky_perception=("ideal",))
+    alone = FitCost(0.1, husky=True, husky_perception=("ideal",), paper_geometry=False)
+    paper = FitCost(0.1)
+    assert alone.modes() == [("husky", "ideal")]
+    assert alone(vector) == pytest.approx(joint(vector) - paper(vector), rel=1e-9, abs=1e-9)
+    with pytest.raises(ValueError, match="geometry"):
+        FitCost(0.1, paper_geometry=False)
+    out = tmp_path / "x.toml"
+    assert main(["fit-paper", "--husky-only", "--out", str(out)]) == 2  # needs --husky
+    assert not out.exists()

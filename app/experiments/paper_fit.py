@@ -250,8 +250,12 @@ class FitCost:
         husky: bool = False,
         husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
         husky_weight: float = 1.0,
+        paper_geometry: bool = True,
     ):
         from fuzzynav.controller.paper_design import PaperDesignTunable
+
+        if not (paper_geometry or husky):
+            raise ValueError("the fit needs the paper's geometry, the Husky's, or both")
         from fuzzynav.world.husky import HuskyModel
 
         self.tunable = PaperDesignTunable()
@@ -260,6 +264,8 @@ class FitCost:
         self.husky = husky
         self.husky_perception = tuple(husky_perception)
         self.husky_weight = float(husky_weight)
+        #: False: the Husky geometry's runs alone (its own rule base, rules/paper_husky.toml)
+        self.paper_geometry = bool(paper_geometry)
         self.paper = paper_results()
         self.model = HuskyModel.default()  # one plant: its ZOH matrices are computed once
 
@@ -283,13 +289,17 @@ class FitCost:
     def modes(self) -> list[tuple[str, str]]:
         """The (geometry, perception) of every set of s1-s3 runs the cost measures."""
         husky = [("husky", p) for p in self.husky_perception] if self.husky else []
-        return [("paper", "ideal"), *husky]
+        return ([("paper", "ideal")] if self.paper_geometry else []) + husky
 
     def combine(self, measured: list[list[dict]]) -> float:
         """The cost of one vector from its measured runs, one list per :meth:`modes`
         (either engine measures them: app.experiments.batch_runs does so on the batch engine)."""
-        paper, *husky = measured
-        cost = sum(run_cost(m, self.paper) for m in paper) + story_cost(paper)
+        cost = 0.0
+        if self.paper_geometry:
+            paper, *husky = measured
+            cost += sum(run_cost(m, self.paper) for m in paper) + story_cost(paper)
+        else:
+            husky = measured
         for runs in husky:
             cost += self.husky_weight * sum(husky_cost(m, self.paper) for m in runs)
         return float(cost)
@@ -335,6 +345,7 @@ def fit(
     husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
     engine: str = "pymunk",
     husky_weight: float = 1.0,
+    paper_geometry: bool = True,
 ):
     """Fit the 12 design numbers (:mod:`fuzzynav.controller.paper_design`) with a seeded
     CMA-ES (:func:`fuzzynav.app.experiments.evolution.cmaes`) from ``x0`` with step ``sigma0`` (a
@@ -356,6 +367,7 @@ def fit(
         husky=husky,
         husky_perception=husky_perception,
         husky_weight=husky_weight,
+        paper_geometry=paper_geometry,
     )
     start = tunable.initial_vector() if x0 is None else np.asarray(x0, float)
 
@@ -442,6 +454,8 @@ def cmd_fit_paper(args) -> int:
     from fuzzynav.app.experiments.tuning import check_output_file
     from fuzzynav.controller.paper_design import PaperDesignTunable
 
+    if args.husky_only and not args.husky:
+        raise UsageError("--husky-only: give --husky too (the Husky geometry's runs are its cost)")
     if not (math.isfinite(args.dt) and 0.001 <= args.dt <= 0.1):
         raise UsageError(f"--dt {args.dt!r}: must be from 0.001 to 0.1 s")
     out = args.out if args.out is not None else Path.cwd() / "paper.toml"
@@ -473,6 +487,7 @@ def cmd_fit_paper(args) -> int:
         husky_perception=tuple(args.husky_perception.split(",")),
         engine=args.engine,
         husky_weight=args.husky_weight,
+        paper_geometry=not args.husky_only,
     )
     elapsed = time.perf_counter() - started
     command = (
@@ -480,6 +495,7 @@ def cmd_fit_paper(args) -> int:
         f"--seed {args.seed} --dt {args.dt:g} --workers {args.workers} --sigma {args.sigma:g}"
         + (" --engine pymunk" if args.engine == "pymunk" else "")
         + (" --husky" if args.husky else "")
+        + (" --husky-only" if args.husky_only else "")
         + (
             f" --husky-perception {args.husky_perception}"
             if args.husky and args.husky_perception != ",".join(HUSKY_PERCEPTION)
@@ -561,6 +577,12 @@ def add_commands(subparsers) -> None:
         "--husky",
         action="store_true",
         help="also hold s1-s3 in the Husky geometry to its bounds",
+    )
+    p.add_argument(
+        "--husky-only",
+        action="store_true",
+        help="with --husky: the Husky geometry's runs alone, not the paper's (a rule base "
+        "for the Husky only, as rules/paper_husky.toml)",
     )
     p.add_argument(
         "--husky-perception",
