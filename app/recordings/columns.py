@@ -15,7 +15,7 @@ from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 from .arrow import RowBatch, StaticBatch
 from .blueprint import legend_placement
-from .internals import INTERNALS, ControllerColumns, has_internals, rule_system
+from .internals import INTERNALS, ControllerColumns, RuleHeat, has_internals, rule_system
 from .scene import SceneColumns
 from .style import (
     HEADING,
@@ -105,6 +105,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         controller=None,
         perception: str | None = None,
         geometry: str = "husky",
+        decisions: int | None = None,
     ):
         self.rec = rec
         # Ideal perception uses no range sensor: no beams are drawn, but the line to the
@@ -136,8 +137,9 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         self._target: tuple[float, float] | None = None
         self.obstacle_ids: list[int] = []
         self.n_rules = 0
-        self.rule_times: list[np.ndarray] = []  # for the heatmap, sent at the end
-        self.rule_strengths: list[np.ndarray] = []
+        # the heatmap, sent at the end: binned as the rows come when the number of
+        # decisions (rows with finite voltages) is known in advance (record_run)
+        self.rule_heat = RuleHeat(decisions)
         self._rings: set[int] = set()
         self._legend_samples: dict[str, list[np.ndarray]] = {}
 
