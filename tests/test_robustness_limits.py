@@ -5,6 +5,7 @@ and control characters never reach the terminal. Each test failed before the iss
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 import tracemalloc
@@ -274,3 +275,186 @@ def test_bidi_overrides_in_a_scenario_name_are_escaped(capsys, tmp_path):
     _no_raw_controls(captured.out + captured.err)
     assert "evil\\u202etxt.exe" in captured.out
     assert "[link=http://x]y[/link]" in captured.out  # text, not rich markup
+
+
+# --------------------------------------------------------------------------- item 5: recordings
+
+
+def _canonical(path) -> list:
+    """Every row of a recording's data store: (entity, static, time, component, value),
+    sorted; chunk and row ids, and how the rows were cut into chunks, left out."""
+    import json
+
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(path)
+    out = []
+    for store in reader.recordings():
+        for chunk in reader.stream(store=store):
+            if chunk.entity_path.startswith("/__properties"):  # start time, recording id
+                continue
+            batch = chunk.to_record_batch()
+            names = [n for n in batch.schema.names if ":" in n and not n.startswith("rerun.")]
+            times = (
+                batch.column("sim_time").cast(pa.int64()).to_pylist()
+                if "sim_time" in batch.schema.names
+                else [None] * batch.num_rows
+            )
+            for name in names:
+                for t, value in zip(times, batch.column(name).to_pylist()):
+                    if value is not None:
+                        out.append((chunk.entity_path, chunk.is_static, t, name, json.dumps(value)))
+    return sorted(out)
+
+
+def test_the_recording_streams_to_disk_as_it_is_made(tmp_path, monkeypatch):
+    """``record_run`` built the whole .rrd in rerun's in-memory stream (a 1,200 s run:
+    a 42 MB file, 630 MB more peak memory), then wrote it: now rerun's file sink writes
+    each block, through a pipe, into the temporary file beside the target while the
+    next is made, and the target appears only when whole."""
+    import rerun as rr
+
+    from fuzzynav.app.recordings import columns
+    from fuzzynav.app.recordings import record as recording
+    from fuzzynav.app.runs import build_simulation
+
+    def no_memory_stream(*args, **kwargs):
+        raise AssertionError("the recording went to rerun's in-memory stream")
+
+    monkeypatch.setattr(rr.RecordingStream, "binary_stream", no_memory_stream)
+    monkeypatch.setattr(rr, "binary_stream", no_memory_stream)
+    monkeypatch.setattr(recording, "SEND_ROWS", 200)
+    sim = build_simulation("s1", "paper")
+    result = sim.run()
+    target = tmp_path / "run.rrd"
+    sizes = []
+    send = columns.ColumnWriter.send
+
+    def send_and_look(self, log, start, end, **kwargs):
+        send(self, log, start, end, **kwargs)
+        self.rec.flush()  # what rerun's encoder has: on its way through the pipe
+        (tmp,) = tmp_path.glob(".run.rrd.*.writing")
+        deadline = time.monotonic() + 30  # the copier thread writes it: give it time
+        while time.monotonic() < deadline and sizes and tmp.stat().st_size <= sizes[-1]:
+            time.sleep(0.01)
+        sizes.append(tmp.stat().st_size)
+        assert not target.exists()
+
+    monkeypatch.setattr(columns.ColumnWriter, "send", send_and_look)
+    recording.record_simulation(sim, result, target)
+    assert len(sizes) == math.ceil(len(result.log) / 200) >= 4
+    assert sizes[0] > 0 and all(b > a for a, b in zip(sizes, sizes[1:]))
+    assert target.stat().st_size > sizes[-1]  # the statics, the layout, the footer
+    assert [p.name for p in tmp_path.iterdir()] == ["run.rrd"]
+
+
+def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkeypatch):
+    """The inference view's aggregated outputs were built for every decision at once
+    (300 MB of a 1,200 s run's peak) and every decision's rule strengths were kept for
+    the heatmap: both go a block at a time now, the heatmap binned as the decisions
+    come (:class:`RuleHeat`). Cut into blocks of 37 rows, with the heatmap binned into
+    50 columns, the recording is row for row the one sent in one block."""
+    from fuzzynav.app.recordings import internals
+    from fuzzynav.app.recordings import record as recording
+    from fuzzynav.app.runs import build_simulation
+
+    monkeypatch.setattr(internals, "HEATMAP_MAX_BINS", 50)
+    sim = build_simulation("s1", "paper")
+    result = sim.run()
+    assert len(result.log) > 50 * 37
+    paths = {}
+    for rows in (10**9, 37):
+        monkeypatch.setattr(recording, "SEND_ROWS", rows)
+        paths[rows] = recording.record_simulation(sim, result, tmp_path / f"r{rows}.rrd")
+    whole, blocks = _canonical(paths[10**9]), _canonical(paths[37])
+    entities = {row[0] for row in whole}
+    assert {"/rules/heatmap", "/rules/strongest", "/fuzzy/outputs/left/aggregated"} <= entities
+    assert whole == blocks
+
+
+@pytest.mark.parametrize("expected", [None, 1200, 5000])
+def test_the_rule_heatmap_binned_as_it_comes_is_rule_heatmap(expected):
+    from fuzzynav.app.recordings.internals import RuleHeat, rule_heatmap
+
+    rng = np.random.default_rng(7)
+    n = 5000 if expected is None else expected
+    strengths = rng.random((n, 9)).astype(np.float32)
+    strengths[rng.random(strengths.shape) < 0.05] = np.nan
+    heat = RuleHeat(expected, max_bins=1000)
+    start = 0
+    while start < n:
+        size = int(rng.integers(0, 300))
+        got = heat.add(np.arange(start, start + size) * 0.02, strengths[start : start + size])
+        assert not np.isnan(got).any()
+        start += size
+    want = rule_heatmap(np.nan_to_num(strengths[:n], nan=0.0), 1000)
+    assert heat.count == n and heat.heatmap().dtype == np.float32
+    assert np.array_equal(heat.heatmap(), want)
+    if expected is not None and expected > 1000:
+        assert heat._parts == []  # binned as they came: no decision kept
+
+
+# --------------------------------------------------------------------------- item 7: lazy jobs
+
+
+def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
+    """``sweep --n 100000`` of two controllers built and keyed 200,000 jobs (2 s,
+    80 MB) before its first run: the jobs are now made as the executor takes them,
+    and the executor is told how many there are."""
+    from fuzzynav.app.experiments import studies
+    from fuzzynav.app.experiments.executor import SerialExecutor
+
+    made = []
+
+    class CountedJob(studies.LayoutJob):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self.index)
+
+    monkeypatch.setattr(studies, "LayoutJob", CountedJob)
+    jobs = studies.sweep_jobs("p", studies.MAX_LAYOUTS, 1) + studies.sweep_jobs(
+        "paper", studies.MAX_LAYOUTS, 1
+    )
+    assert isinstance(jobs, studies.LayoutJobs) and len(jobs) == 2 * studies.MAX_LAYOUTS
+    assert made == []
+    assert jobs[studies.MAX_LAYOUTS + 3].controller == "paper" and jobs[-1].index == 99_999
+    keys = jobs.keys
+    assert jobs[5].key() in keys and jobs[-1].key() in keys
+    assert (*jobs[0].key()[:-1], studies.MAX_LAYOUTS) not in keys
+    made.clear()
+    seen = {}
+
+    class FirstRuns(SerialExecutor):
+        def imap_unordered(self, function, items, total=None):
+            seen["total"] = total
+            for item in itertools.islice(items, 3):
+                job = item[1][0] if isinstance(item, tuple) else item  # a batch: its first
+                seen.setdefault(engine, []).append(job.index)
+            raise KeyboardInterrupt  # stopped after its first runs: what was built?
+
+    for engine in ("pymunk", "batch"):
+        with pytest.raises(KeyboardInterrupt):
+            studies.run_jobs(jobs, FirstRuns(), engine=engine)
+        # three runs, or three batches of at most 1,000 runs: not 200,000
+        assert len(made) <= (3 if engine == "pymunk" else 3000), engine
+        assert seen["total"] == (len(jobs) if engine == "pymunk" else 200), engine
+        made.clear()
+    assert seen["pymunk"] == [0, 1, 2] and seen["batch"] == [0, 1000, 2000]
+
+
+def test_lazy_batch_tasks_are_the_listed_ones():
+    from fuzzynav.app.experiments.batch_runs import lazy_tasks, tasks
+    from fuzzynav.app.experiments.studies import sweep_jobs
+
+    jobs = sweep_jobs("paper", 2500, 1) + sweep_jobs("fuzzynav", 3, 1) + sweep_jobs("p", 7, 2)
+    for workers in (1, 2, 8):
+        items, fallbacks = tasks(list(jobs), workers)
+        lazy, lazy_fallbacks, n_items = lazy_tasks(iter(jobs), jobs.study_counts(), workers)
+        assert list(lazy) == items and lazy_fallbacks == fallbacks and n_items == len(items)
+    done = {job.key() for job in jobs[:1200]}
+    todo = [job for job in jobs if job.key() not in done]
+    counts = jobs.study_counts(done)
+    assert sum(counts.values()) == len(todo)
+    lazy, _, n_items = lazy_tasks(iter(todo), counts, 2)
+    assert list(lazy) == tasks(todo, 2)[0]

@@ -110,8 +110,8 @@ class RuleHeat:
     not depend on the order). Otherwise (a live recording, whose length nobody knows
     yet, or a short run) the decisions are kept and binned at the end."""
 
-    def __init__(self, expected: int | None = None, max_bins: int = HEATMAP_MAX_BINS):
-        self.max_bins = int(max_bins)
+    def __init__(self, expected: int | None = None, max_bins: int | None = None):
+        self.max_bins = int(HEATMAP_MAX_BINS if max_bins is None else max_bins)
         self.count = 0  # decisions seen
         self.first_s: float | None = None
         self.last_s: float | None = None
