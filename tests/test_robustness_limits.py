@@ -281,18 +281,29 @@ def test_bidi_overrides_in_a_scenario_name_are_escaped(capsys, tmp_path):
 
 
 def _canonical(path) -> list:
-    """Every row of a recording's data store: (entity, static, time, component, value),
-    sorted; chunk and row ids, and how the rows were cut into chunks, left out."""
+    """Every row of a recording's data and layout (blueprint) stores: (entity, static,
+    time, component, value), sorted; chunk and row ids, how the rows were cut into
+    chunks and the layout's random container ids left out."""
     import json
+    import re
 
     import pyarrow as pa
     from rerun.chunk import RrdReader
 
+    uuid = re.compile(r"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
     reader = RrdReader(path)
     out = []
-    for store in reader.recordings():
+    for store in reader.recordings() + reader.blueprints():
         for chunk in reader.stream(store=store):
             if chunk.entity_path.startswith("/__properties"):  # start time, recording id
+                continue
+            if store.kind != "recording":  # the layout: sent once, no sim_time
+                batch = chunk.to_record_batch()
+                for name in batch.schema.names:
+                    if ":" in name and name != "ViewportBlueprint:root_container":
+                        for value in batch.column(name).to_pylist():
+                            text = uuid.sub("id", json.dumps(value, default=str))
+                            out.append((uuid.sub("id", chunk.entity_path), None, None, name, text))
                 continue
             batch = chunk.to_record_batch()
             names = [n for n in batch.schema.names if ":" in n and not n.startswith("rerun.")]
@@ -353,9 +364,11 @@ def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkey
     """The inference view's aggregated outputs were built for every decision at once
     (300 MB of a 1,200 s run's peak) and every decision's rule strengths were kept for
     the heatmap: both go a block at a time now, the heatmap binned as the decisions
-    come (:class:`RuleHeat`). Cut into blocks of 37 rows, with the heatmap binned into
-    50 columns, the recording is row for row the one sent in one block."""
-    from fuzzynav.app.recordings import internals
+    come (:class:`RuleHeat`), and the legends are placed from the log read again in
+    blocks instead of every plotted row kept. Cut into blocks of 37 rows, with the
+    heatmap binned into 50 columns, the recording (its layout with the legends too) is
+    row for row the one sent in one block."""
+    from fuzzynav.app.recordings import columns, internals
     from fuzzynav.app.recordings import record as recording
     from fuzzynav.app.runs import build_simulation
 
@@ -366,10 +379,12 @@ def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkey
     paths = {}
     for rows in (10**9, 37):
         monkeypatch.setattr(recording, "SEND_ROWS", rows)
+        monkeypatch.setattr(columns, "LEGEND_BLOCK_ROWS", rows)
         paths[rows] = recording.record_simulation(sim, result, tmp_path / f"r{rows}.rrd")
     whole, blocks = _canonical(paths[10**9]), _canonical(paths[37])
     entities = {row[0] for row in whole}
     assert {"/rules/heatmap", "/rules/strongest", "/fuzzy/outputs/left/aggregated"} <= entities
+    assert any(row[3].startswith("PlotLegend") for row in whole)  # the layout is compared too
     assert whole == blocks
 
 
@@ -458,3 +473,35 @@ def test_lazy_batch_tasks_are_the_listed_ones():
     assert sum(counts.values()) == len(todo)
     lazy, _, n_items = lazy_tasks(iter(todo), counts, 2)
     assert list(lazy) == tasks(todo, 2)[0]
+
+
+def test_legends_placed_from_pieces_are_placed_as_from_every_row():
+    """record_run kept every plotted row (264 bytes a row for the paper's plots) to
+    place the legends at the end: it keeps each plot's value range and reads the rows
+    under the legends from the log again, in blocks (:class:`LegendFit`)."""
+    from fuzzynav.app.recordings.blueprint import LegendFit, legend_placement, unit_times
+
+    for n in (1, 2, 3, 7, 1000, 60_001, 123_457):
+        t = np.linspace(0.0, 1.0, n)
+        for a, b in ((0, n), (0, min(n, 5)), (n // 3, n), (n // 2, min(n, n // 2 + 3))):
+            assert np.array_equal(unit_times(n, a, b), t[a:b]), (n, a, b)
+        first, last = LegendFit.window(n)
+        assert first == np.count_nonzero(t < 0.24) and n - last == np.count_nonzero(t > 0.76)
+    rng = np.random.default_rng(3)
+    for case in range(40):
+        n, k = int(rng.integers(2, 3000)), int(rng.integers(1, 5))
+        values = np.cumsum(rng.normal(size=(n, k)), axis=0)
+        values[rng.random(values.shape) < 0.1] = np.nan
+        if case % 4 == 0:  # a series that starts with a gap, or a spike under a legend
+            values[: n // 3, 0] = np.nan
+        if case % 4 == 1:
+            values[: n // 10] += 50.0
+        entries = int(rng.integers(1, 7))
+        finite = values[np.isfinite(values)]
+        fit = LegendFit(float(finite.min()), float(finite.max()), entries)
+        start = 0
+        while start < n:
+            size = int(rng.integers(1, 400))
+            fit.add(n, start, values[start : start + size])
+            start += size
+        assert fit.placement() == legend_placement(values, entries), case
