@@ -75,10 +75,38 @@ class _Copier(threading.Thread):
             os.close(self.read_fd)
 
 
-def _write_file(tmp: Path, chunks) -> None:
+def write_file_chunks(tmp: Path, chunks) -> None:
     with open(tmp, "wb") as stream:
         for chunk in chunks:
             stream.write(chunk)
+
+
+class SinkPipe:
+    """A name for rerun's file sink (``rec.save(pipe.name)``) whose bytes a thread
+    copies, as rerun encodes them, into ``write(chunks)`` (e.g. a temporary file): a
+    failed write is kept in :attr:`error` instead of leaving rerun's writer stuck.
+    :meth:`close` once the recording stream is disconnected (that closes rerun's end)."""
+
+    def __init__(self, write):
+        read_fd, self._write_fd = os.pipe()
+        self.name = f"/dev/fd/{self._write_fd}"  # rerun opens its own descriptor of it
+        self._copier = _Copier(read_fd, write)
+        self._copier.start()
+
+    @property
+    def error(self) -> BaseException | None:
+        """The copier's first failure (a full disk), or None."""
+        return self._copier.error
+
+    def close(self) -> BaseException | None:
+        """Close this end, wait for the copier to write the rest; its error, or None."""
+        if self._write_fd is not None:
+            os.close(self._write_fd)  # with rerun's closed, the copier sees the end
+            self._write_fd = None
+        self._copier.join(SINK_END_TIMEOUT_S)
+        if self._copier.is_alive() and self._copier.error is None:
+            self._copier.error = OSError("the recording stream did not end")
+        return self._copier.error
 
 
 @contextlib.contextmanager
@@ -93,8 +121,9 @@ def recording_sink(path) -> Iterator[str]:
     A full disk or an unwritable folder raises :class:`RecordingError` and leaves
     ``path`` as it was; an exception in the block (Ctrl-C) removes the temporary file
     and propagates. (rerun's own file sink, given the temporary file's name, cannot be
-    used: after a failed write it neither raises nor returns, its flush and disconnect
-    wait for ever; its binary stream, read a block at a time, makes a file of several
+    used: after a failed write its flush at times never returns (3 of 6 tries with a
+    file-size limit; the others raise "File-writer thread shut down prematurely"); its
+    binary stream, read a block at a time, makes a file of several
     streams that rerun's reader refuses.)"""
     from fuzzynav.safe_files import (
         commit,
@@ -118,25 +147,19 @@ def recording_sink(path) -> Iterator[str]:
             raise not_written(path, f"cannot write in its folder: {exc.strerror or exc}") from None
 
         def write(chunks):
-            _write_file(tmp, chunks)
+            write_file_chunks(tmp, chunks)
 
-    read_fd, write_fd = os.pipe()
-    copier = _Copier(read_fd, write)
+    pipe = SinkPipe(write)
     done = False
     try:
-        copier.start()
-        yield f"/dev/fd/{write_fd}"  # rerun opens its own descriptor of the pipe
+        yield pipe.name
         done = True
     finally:
-        os.close(write_fd)  # with rerun's closed (disconnect), the copier sees the end
-        copier.join(SINK_END_TIMEOUT_S)
-        if copier.is_alive() and copier.error is None:
-            copier.error = OSError("the recording stream did not end")
-        if (not done or copier.error is not None) and tmp is not None:
+        error = pipe.close()
+        if (not done or error is not None) and tmp is not None:
             discard(tmp, path)
-    if copier.error is not None:
-        exc = copier.error
-        raise not_written(path, getattr(exc, "strerror", None) or str(exc)) from None
+    if error is not None:
+        raise not_written(path, getattr(error, "strerror", None) or str(error)) from None
     if tmp is not None:
         try:
             commit(tmp, path)
