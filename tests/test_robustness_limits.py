@@ -360,22 +360,31 @@ def test_the_recording_streams_to_disk_as_it_is_made(tmp_path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["run.rrd"]
 
 
-def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkeypatch):
+@pytest.mark.parametrize("controller", ["paper", "fuzzynav"])
+def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkeypatch, controller):
     """The inference view's aggregated outputs were built for every decision at once
     (300 MB of a 1,200 s run's peak) and every decision's rule strengths were kept for
     the heatmap: both go a block at a time now, the heatmap binned as the decisions
     come (:class:`RuleHeat`), and the legends are placed from the log read again in
     blocks instead of every plotted row kept. Cut into blocks of 37 rows, with the
-    heatmap binned into 50 columns, the recording (its layout with the legends too) is
+    heatmap binned into 20 columns, the recording (its layout with the legends too) is
     row for row the one sent in one block."""
     from fuzzynav.app.recordings import columns, internals
     from fuzzynav.app.recordings import record as recording
     from fuzzynav.app.runs import build_simulation
 
-    monkeypatch.setattr(internals, "HEATMAP_MAX_BINS", 50)
-    sim = build_simulation("s1", "paper")
+    monkeypatch.setattr(internals, "HEATMAP_MAX_BINS", 20)
+    sim = build_simulation("s1", controller)
     result = sim.run()
-    assert len(result.log) > 50 * 37
+    assert len(result.log) > 20 * 37
+    kept = []
+    corners = columns.ColumnWriter.legend_corners
+
+    def legend_corners(self, log=None):
+        kept.append(sorted(self._legend_samples))  # plotted rows kept for the legends
+        return corners(self, log)
+
+    monkeypatch.setattr(columns.ColumnWriter, "legend_corners", legend_corners)
     paths = {}
     for rows in (10**9, 37):
         monkeypatch.setattr(recording, "SEND_ROWS", rows)
@@ -383,7 +392,11 @@ def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkey
         paths[rows] = recording.record_simulation(sim, result, tmp_path / f"r{rows}.rrd")
     whole, blocks = _canonical(paths[10**9]), _canonical(paths[37])
     entities = {row[0] for row in whole}
-    assert {"/rules/heatmap", "/rules/strongest", "/fuzzy/outputs/left/aggregated"} <= entities
+    assert {"/rules/heatmap", "/rules/strongest"} <= entities
+    assert (
+        "/plots/internals" if controller == "fuzzynav" else "/fuzzy/outputs/left/aggregated"
+    ) in entities
+    assert kept == [[], []]  # every legend placed from the log (or the logged decisions)
     assert any(row[3].startswith("PlotLegend") for row in whole)  # the layout is compared too
     assert whole == blocks
 

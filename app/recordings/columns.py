@@ -181,7 +181,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
                 path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
             )
         self._rows.add_series(path, columns)
-        if self.total_rows is None or path == INTERNALS_PATH:  # (the replay's: not in the log)
+        replayed = path == INTERNALS_PATH and self.internals_source != "decisions"
+        if self.total_rows is None or replayed:  # (a replay's state is in no log: kept)
             self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
             return
         values = np.asarray(columns, dtype=float)
@@ -256,17 +257,23 @@ class ColumnWriter(SceneColumns, ControllerColumns):
             for a, b in spans:
                 for start in range(a, b, LEGEND_BLOCK_ROWS):
                     end = min(start + LEGEND_BLOCK_ROWS, b)
-                    pose = log.pose[start:end]
-                    target = log.target_xy[start:end]
-                    series = self._series(
-                        log,
-                        start,
-                        end,
-                        pose,
-                        target,
-                        log.ranges_m[start:end],
-                        log.inputs[start:end],
-                    )
+                    series = []
+                    if set(feeds) - {INTERNALS_PATH}:
+                        pose = log.pose[start:end]
+                        target = log.target_xy[start:end]
+                        series = self._series(
+                            log,
+                            start,
+                            end,
+                            pose,
+                            target,
+                            log.ranges_m[start:end],
+                            log.inputs[start:end],
+                        )
+                    if INTERNALS_PATH in feeds:
+                        series.append(
+                            (INTERNALS_PATH, 0, 0, 0, self._logged_state(log, start, end))
+                        )
                     for path, _, _, _, columns in series:
                         for fit in feeds.get(path, ()):
                             fit.add(n, start, columns)

@@ -304,6 +304,15 @@ class ControllerColumns:
                 )
             self._plot_rules(strengths, decided)
 
+    def _logged_state(self, log, start: int, end: int) -> np.ndarray:
+        """The inner state plotted on rows [start, end), read again from the driving
+        controller's own decisions (as :meth:`_internals` plotted it from them; NaN at a
+        row without a decision): for the legend of a run recorded whole."""
+        decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
+        out = np.full((end - start, len(INTERNALS)), np.nan)
+        out[decided] = self._logged_decisions(start, end, decided)[:, 2 : 2 + len(INTERNALS)]
+        return out
+
     def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)
         as an array (voltages, then the state); None to replay the rows instead (the
