@@ -71,7 +71,7 @@ def main(argv=None) -> int:
         run_jobs(jobs[:workers], executor)  # warm: imports in every worker
         # the cost of one task alone: an empty one (abs), sent one item per task
         t0 = time.perf_counter()
-        list(executor._chunked(abs, list(range(64)), 1))
+        list(executor._chunked(abs, list(range(64)), 1, 64))
         round_trip = (time.perf_counter() - t0) / 64 * workers
         executors.append((kind, workers, executor, startup, round_trip))
     # interleaved repeats: a shared machine's load changes hit every executor alike

@@ -5,6 +5,7 @@ and control characters never reach the terminal. Each test failed before the iss
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 import tracemalloc
@@ -274,3 +275,301 @@ def test_bidi_overrides_in_a_scenario_name_are_escaped(capsys, tmp_path):
     _no_raw_controls(captured.out + captured.err)
     assert "evil\\u202etxt.exe" in captured.out
     assert "[link=http://x]y[/link]" in captured.out  # text, not rich markup
+
+
+# --------------------------------------------------------------------------- item 5: recordings
+
+
+def _canonical(path) -> list:
+    """Every row of a recording's data and layout (blueprint) stores: (entity, static,
+    time, component, value), sorted; chunk and row ids, how the rows were cut into
+    chunks and the layout's random container ids left out."""
+    import json
+    import re
+
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    uuid = re.compile(r"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
+    reader = RrdReader(path)
+    out = []
+    for store in reader.recordings() + reader.blueprints():
+        for chunk in reader.stream(store=store):
+            if chunk.entity_path.startswith("/__properties"):  # start time, recording id
+                continue
+            if store.kind != "recording":  # the layout: sent once, no sim_time
+                batch = chunk.to_record_batch()
+                for name in batch.schema.names:
+                    if ":" in name and name != "ViewportBlueprint:root_container":
+                        for value in batch.column(name).to_pylist():
+                            text = uuid.sub("id", json.dumps(value, default=str))
+                            out.append((uuid.sub("id", chunk.entity_path), None, None, name, text))
+                continue
+            batch = chunk.to_record_batch()
+            names = [n for n in batch.schema.names if ":" in n and not n.startswith("rerun.")]
+            times = (
+                batch.column("sim_time").cast(pa.int64()).to_pylist()
+                if "sim_time" in batch.schema.names
+                else [None] * batch.num_rows
+            )
+            for name in names:
+                for t, value in zip(times, batch.column(name).to_pylist()):
+                    if value is not None:
+                        out.append((chunk.entity_path, chunk.is_static, t, name, json.dumps(value)))
+    return sorted(out)
+
+
+def test_the_recording_streams_to_disk_as_it_is_made(tmp_path, monkeypatch):
+    """``record_run`` built the whole .rrd in rerun's in-memory stream (a 1,200 s run:
+    a 42 MB file, 630 MB more peak memory), then wrote it: now rerun's file sink writes
+    each block, through a pipe, into the temporary file beside the target while the
+    next is made, and the target appears only when whole."""
+    import rerun as rr
+
+    from fuzzynav.app.recordings import columns
+    from fuzzynav.app.recordings import record as recording
+    from fuzzynav.app.runs import build_simulation
+
+    def no_memory_stream(*args, **kwargs):
+        raise AssertionError("the recording went to rerun's in-memory stream")
+
+    monkeypatch.setattr(rr.RecordingStream, "binary_stream", no_memory_stream)
+    monkeypatch.setattr(rr, "binary_stream", no_memory_stream)
+    monkeypatch.setattr(recording, "SEND_ROWS", 200)
+    sim = build_simulation("s1", "paper")
+    result = sim.run()
+    target = tmp_path / "run.rrd"
+    sizes = []
+    send = columns.ColumnWriter.send
+
+    def send_and_look(self, log, start, end, **kwargs):
+        send(self, log, start, end, **kwargs)
+        self.rec.flush()  # what rerun's encoder has: on its way through the pipe
+        (tmp,) = tmp_path.glob(".run.rrd.*.writing")
+        deadline = time.monotonic() + 30  # the copier thread writes it: give it time
+        while time.monotonic() < deadline and sizes and tmp.stat().st_size <= sizes[-1]:
+            time.sleep(0.01)
+        sizes.append(tmp.stat().st_size)
+        assert not target.exists()
+
+    monkeypatch.setattr(columns.ColumnWriter, "send", send_and_look)
+    recording.record_simulation(sim, result, target)
+    assert len(sizes) == math.ceil(len(result.log) / 200) >= 4
+    assert sizes[0] > 0 and all(b > a for a, b in zip(sizes, sizes[1:]))
+    assert target.stat().st_size > sizes[-1]  # the statics, the layout, the footer
+    assert [p.name for p in tmp_path.iterdir()] == ["run.rrd"]
+
+
+@pytest.mark.parametrize("controller", ["paper", "fuzzynav"])
+def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkeypatch, controller):
+    """The inference view's aggregated outputs were built for every decision at once
+    (300 MB of a 1,200 s run's peak) and every decision's rule strengths were kept for
+    the heatmap: both go a block at a time now, the heatmap binned as the decisions
+    come (:class:`RuleHeat`), and the legends are placed from the log read again in
+    blocks instead of every plotted row kept. Cut into blocks of 37 rows, with the
+    heatmap binned into 20 columns, the recording (its layout with the legends too) is
+    row for row the one sent in one block."""
+    from fuzzynav.app.recordings import columns, internals
+    from fuzzynav.app.recordings import record as recording
+    from fuzzynav.app.runs import build_simulation
+
+    monkeypatch.setattr(internals, "HEATMAP_MAX_BINS", 20)
+    sim = build_simulation("s1", controller)
+    result = sim.run()
+    assert len(result.log) > 20 * 37
+    kept = []
+    corners = columns.ColumnWriter.legend_corners
+
+    def legend_corners(self, log=None):
+        kept.append(sorted(self._legend_samples))  # plotted rows kept for the legends
+        return corners(self, log)
+
+    monkeypatch.setattr(columns.ColumnWriter, "legend_corners", legend_corners)
+    paths = {}
+    for rows in (10**9, 37):
+        monkeypatch.setattr(recording, "SEND_ROWS", rows)
+        monkeypatch.setattr(columns, "LEGEND_BLOCK_ROWS", rows)
+        paths[rows] = recording.record_simulation(sim, result, tmp_path / f"r{rows}.rrd")
+    whole, blocks = _canonical(paths[10**9]), _canonical(paths[37])
+    entities = {row[0] for row in whole}
+    assert {"/rules/heatmap", "/rules/strongest"} <= entities
+    assert (
+        "/plots/internals" if controller == "fuzzynav" else "/fuzzy/outputs/left/aggregated"
+    ) in entities
+    assert kept == [[], []]  # every legend placed from the log (or the logged decisions)
+    assert any(row[3].startswith("PlotLegend") for row in whole)  # the layout is compared too
+    assert whole == blocks
+
+
+@pytest.mark.parametrize("expected", [None, 1200, 5000])
+def test_the_rule_heatmap_binned_as_it_comes_is_rule_heatmap(expected):
+    from fuzzynav.app.recordings.internals import RuleHeat, rule_heatmap
+
+    rng = np.random.default_rng(7)
+    n = 5000 if expected is None else expected
+    strengths = rng.random((n, 9)).astype(np.float32)
+    strengths[rng.random(strengths.shape) < 0.05] = np.nan
+    heat = RuleHeat(expected, max_bins=1000)
+    start = 0
+    while start < n:
+        size = int(rng.integers(0, 300))
+        got = heat.add(np.arange(start, start + size) * 0.02, strengths[start : start + size])
+        assert not np.isnan(got).any()
+        start += size
+    want = rule_heatmap(np.nan_to_num(strengths[:n], nan=0.0), 1000)
+    assert heat.count == n and heat.heatmap().dtype == np.float32
+    assert np.array_equal(heat.heatmap(), want)
+    if expected is not None and expected > 1000:
+        assert heat._parts == []  # binned as they came: no decision kept
+
+
+# --------------------------------------------------------------------------- item 7: lazy jobs
+
+
+def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
+    """``sweep --n 100000`` of two controllers built and keyed 200,000 jobs (2 s,
+    80 MB) before its first run: the jobs are now made as the executor takes them,
+    and the executor is told how many there are."""
+    from fuzzynav.app.experiments import studies
+    from fuzzynav.app.experiments.executor import SerialExecutor
+
+    made = []
+
+    class CountedJob(studies.LayoutJob):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self.index)
+
+    monkeypatch.setattr(studies, "LayoutJob", CountedJob)
+    jobs = studies.sweep_jobs("p", studies.MAX_LAYOUTS, 1) + studies.sweep_jobs(
+        "paper", studies.MAX_LAYOUTS, 1
+    )
+    assert isinstance(jobs, studies.LayoutJobs) and len(jobs) == 2 * studies.MAX_LAYOUTS
+    assert made == []
+    assert jobs[studies.MAX_LAYOUTS + 3].controller == "paper" and jobs[-1].index == 99_999
+    keys = jobs.keys
+    assert jobs[5].key() in keys and jobs[-1].key() in keys
+    assert (*jobs[0].key()[:-1], studies.MAX_LAYOUTS) not in keys
+    made.clear()
+    seen = {}
+
+    class FirstRuns(SerialExecutor):
+        def imap_unordered(self, function, items, total=None):
+            seen["total"] = total
+            for item in itertools.islice(items, 3):
+                job = item[1][0] if isinstance(item, tuple) else item  # a batch: its first
+                seen.setdefault(engine, []).append(job.index)
+            raise KeyboardInterrupt  # stopped after its first runs: what was built?
+
+    for engine in ("pymunk", "batch"):
+        with pytest.raises(KeyboardInterrupt):
+            studies.run_jobs(jobs, FirstRuns(), engine=engine)
+        # three runs, or three batches of at most 1,000 runs: not 200,000
+        assert len(made) <= (3 if engine == "pymunk" else 3000), engine
+        assert seen["total"] == (len(jobs) if engine == "pymunk" else 200), engine
+        made.clear()
+    assert seen["pymunk"] == [0, 1, 2] and seen["batch"] == [0, 1000, 2000]
+
+
+def test_lazy_batch_tasks_are_the_listed_ones():
+    from fuzzynav.app.experiments.batch_runs import lazy_tasks, tasks
+    from fuzzynav.app.experiments.studies import sweep_jobs
+
+    jobs = sweep_jobs("paper", 2500, 1) + sweep_jobs("fuzzynav", 3, 1) + sweep_jobs("p", 7, 2)
+    for workers in (1, 2, 8):
+        items, fallbacks = tasks(list(jobs), workers)
+        lazy, lazy_fallbacks, n_items = lazy_tasks(iter(jobs), jobs.study_counts(), workers)
+        assert list(lazy) == items and lazy_fallbacks == fallbacks and n_items == len(items)
+    done = {job.key() for job in jobs[:1200]}
+    todo = [job for job in jobs if job.key() not in done]
+    counts = jobs.study_counts(done)
+    assert sum(counts.values()) == len(todo)
+    lazy, _, n_items = lazy_tasks(iter(todo), counts, 2)
+    assert list(lazy) == tasks(todo, 2)[0]
+
+
+def test_legends_placed_from_pieces_are_placed_as_from_every_row():
+    """record_run kept every plotted row (264 bytes a row for the paper's plots) to
+    place the legends at the end: it keeps each plot's value range and reads the rows
+    under the legends from the log again, in blocks (:class:`LegendFit`)."""
+    from fuzzynav.app.recordings.blueprint import LegendFit, legend_placement, unit_times
+
+    for n in (1, 2, 3, 7, 1000, 60_001, 123_457):
+        t = np.linspace(0.0, 1.0, n)
+        for a, b in ((0, n), (0, min(n, 5)), (n // 3, n), (n // 2, min(n, n // 2 + 3))):
+            assert np.array_equal(unit_times(n, a, b), t[a:b]), (n, a, b)
+        first, last = LegendFit.window(n)
+        assert first == np.count_nonzero(t < 0.24) and n - last == np.count_nonzero(t > 0.76)
+    rng = np.random.default_rng(3)
+    for case in range(40):
+        n, k = int(rng.integers(2, 3000)), int(rng.integers(1, 5))
+        values = np.cumsum(rng.normal(size=(n, k)), axis=0)
+        values[rng.random(values.shape) < 0.1] = np.nan
+        if case % 4 == 0:  # a series that starts with a gap, or a spike under a legend
+            values[: n // 3, 0] = np.nan
+        if case % 4 == 1:
+            values[: n // 10] += 50.0
+        entries = int(rng.integers(1, 7))
+        finite = values[np.isfinite(values)]
+        fit = LegendFit(float(finite.min()), float(finite.max()), entries)
+        start = 0
+        while start < n:
+            size = int(rng.integers(1, 400))
+            fit.add(n, start, values[start : start + size])
+            start += size
+        assert fit.placement() == legend_placement(values, entries), case
+
+
+# A write that fails mid-recording, for real: past a file-size limit the kernel refuses
+# it (EFBIG; SIGXFSZ ignored), as a full disk would (ENOSPC).
+CHILD_FULL = """
+import resource, signal, sys
+from pathlib import Path
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, resource.RLIM_INFINITY))
+target = Path(sys.argv[2])
+if sys.argv[1] == "run":
+    from fuzzynav.app.cli import main
+    sys.exit(main(["run", "s1", "--rrd", str(target)]))
+from fuzzynav.app.recordings.live import LiveRecorder
+from fuzzynav.app.recordings.files import RecordingError
+from fuzzynav.app.runs import build_simulation
+sim = build_simulation("s1", "paper")
+live = LiveRecorder(target, chunk_steps=50, min_interval_s=0.0)
+try:
+    while not sim.done:
+        sim.step()
+        live.update(sim)
+    live.close(sim)
+except RecordingError as exc:
+    print(exc, file=sys.stderr)
+    sys.exit(2)
+"""
+
+
+@pytest.mark.parametrize("how", ["run", "live"])
+def test_a_write_that_fails_mid_recording_is_reported_not_waited_on(tmp_path, how):
+    """rerun's file sink, given the recording's file, at times never returns from its
+    flush after a failed write (3 of 6 tries here, so ``serve --rrd``'s live recorder
+    could hang on a full disk; this test catches that only as often). Both recorders
+    write through a pipe now, copied by a thread that keeps the error: the old file stays, and the live recorder keeps what was written
+    as ``<stem>.partial.rrd``."""
+    import subprocess
+    import sys
+
+    target = tmp_path / "x.rrd"
+    target.write_bytes(b"an old recording")
+    try:
+        child = subprocess.run(
+            [sys.executable, "-c", CHILD_FULL, how, str(target)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail("the recorder waited for ever after a failed write")
+    assert child.returncode == 2, child.stderr
+    assert "File too large" in child.stderr and "Traceback" not in child.stderr
+    assert target.read_bytes() == b"an old recording"
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == (["x.rrd"] if how == "run" else ["x.partial.rrd", "x.rrd"])

@@ -15,8 +15,9 @@ the ones it can) run on the pymunk engine, one task per run, and the command say
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -157,6 +158,18 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
     ]
 
 
+def _study(job) -> tuple:
+    return (job.controller, job.perception, job.parts_off, job.options)
+
+
+def _batch_size(count: int, workers: int) -> int:
+    """Runs per batch for a study of ``count`` runs: about two batches per worker,
+    :data:`MIN_BATCH` to :data:`MAX_BATCH`, evened out."""
+    size = math.ceil(count / (2 * max(1, workers)))
+    size = max(min(MIN_BATCH, count), min(MAX_BATCH, size))
+    return math.ceil(count / math.ceil(count / size))
+
+
 def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
     """The executor items of ``jobs`` on the batch engine, and what falls back.
 
@@ -167,9 +180,7 @@ def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
     """
     studies: dict[tuple, list] = {}
     for job in jobs:
-        studies.setdefault((job.controller, job.perception, job.parts_off, job.options), []).append(
-            job
-        )
+        studies.setdefault(_study(job), []).append(job)
     items, fallbacks = [], []
     for (controller, _, parts_off, options), group in studies.items():
         reason = not_batchable_reason(controller, parts_off, dict(options))
@@ -177,11 +188,40 @@ def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
             fallbacks.append(f"{reason}: its {len(group)} runs use the pymunk engine")
             items += [("pymunk", job) for job in group]
             continue
-        size = math.ceil(len(group) / (2 * max(1, workers)))
-        size = max(min(MIN_BATCH, len(group)), min(MAX_BATCH, size))
-        size = math.ceil(len(group) / math.ceil(len(group) / size))  # even batches
+        size = _batch_size(len(group), workers)
         items += [("batch", tuple(group[k : k + size])) for k in range(0, len(group), size)]
     return items, fallbacks
+
+
+def lazy_tasks(jobs: Iterable, counts: dict, workers: int = 1):
+    """:func:`tasks` of jobs whose studies come one after the other (a sweep's
+    :class:`~fuzzynav.app.experiments.studies.LayoutJobs`), made as they are asked for:
+    ``counts`` gives how many jobs each study (controller, perception, parts off,
+    options) has. Returns (an iterator of the items, the fallback messages, how many
+    items it yields): the same items as :func:`tasks`, no list of them."""
+    fallbacks, n_items, sizes = [], 0, {}
+    for study, count in counts.items():
+        if not count:
+            continue
+        controller, _, parts_off, options = study
+        reason = not_batchable_reason(controller, parts_off, dict(options))
+        if reason is not None:
+            fallbacks.append(f"{reason}: its {count} runs use the pymunk engine")
+            n_items += count
+        else:
+            sizes[study] = size = _batch_size(count, workers)
+            n_items += math.ceil(count / size)
+
+    def items():
+        for study, group in itertools.groupby(jobs, key=_study):
+            size = sizes.get(study)
+            if size is None:
+                yield from (("pymunk", job) for job in group)
+                continue
+            while batch := tuple(itertools.islice(group, size)):
+                yield ("batch", batch)
+
+    return items(), fallbacks, n_items
 
 
 def run_layouts(

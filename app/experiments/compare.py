@@ -19,6 +19,7 @@ from fuzzynav.app.args import (
 from fuzzynav.app.experiments.batch_runs import run_benchmark
 from fuzzynav.app.experiments.studies import (
     MAX_LAYOUTS,
+    LayoutJobs,
     StudyInterrupted,
     _options,
     add_study_output_options,
@@ -123,12 +124,12 @@ def compare(
 
 
 def compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, options=None):
-    """The jobs of compare's sweep: every controller on the same layouts, in turn."""
-    return [
-        job
-        for name in controllers
-        for job in sweep_jobs(name, sweep_n, sweep_seed, family, perception, (), options)
-    ]
+    """The jobs of compare's sweep: every controller on the same layouts, in turn (made
+    as they run: :class:`~fuzzynav.app.experiments.studies.LayoutJobs`)."""
+    jobs = LayoutJobs()
+    for name in controllers:
+        jobs = jobs + sweep_jobs(name, sweep_n, sweep_seed, family, perception, (), options)
+    return jobs
 
 
 def cmd_compare(args) -> int:

@@ -32,6 +32,7 @@ runs in progress) and keeps what had arrived.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import multiprocessing
 import os
@@ -94,8 +95,13 @@ def chunk_size(n_items: int, n_workers: int) -> int:
     return max(1, min(MAX_CHUNK, math.ceil(n_items / (TASKS_PER_WORKER * max(1, n_workers)))))
 
 
-def _chunks(items: list, size: int) -> list[tuple[int, list]]:
-    return [(start, items[start : start + size]) for start in range(0, len(items), size)]
+def _chunks(items: Iterable, size: int) -> Iterator[tuple[int, list]]:
+    """(start, the next ``size`` items) until ``items`` (any iterable) is exhausted."""
+    items = iter(items)
+    start = 0
+    while chunk := list(itertools.islice(items, size)):
+        yield start, chunk
+        start += len(chunk)
 
 
 def run_chunk(function: Callable, items: list) -> list:
@@ -138,11 +144,17 @@ class Executor:
     kind = "?"
     workers = 1
 
-    def imap_unordered(self, function: Callable, items: Iterable) -> Iterator:
+    def imap_unordered(
+        self, function: Callable, items: Iterable, total: int | None = None
+    ) -> Iterator:
         """``function(item)`` for every item, yielded as each chunk finishes (in no set
-        order); stopping the iteration early (or Ctrl-C) cancels what is left."""
-        items = list(items)
-        for _, results in self._chunked(function, items, chunk_size(len(items), self.workers)):
+        order); stopping the iteration early (or Ctrl-C) cancels what is left. With
+        ``total`` (how many items there are) the items are taken as the workers need
+        them, never as a list: an iterator of a sweep's jobs is made as it runs."""
+        if total is None:
+            items = list(items)
+            total = len(items)
+        for _, results in self._chunked(function, items, chunk_size(total, self.workers), total):
             yield from results
 
     def map(self, function: Callable, items: Iterable) -> list:
@@ -151,11 +163,13 @@ class Executor:
         items = list(items)
         size = chunk_size(len(items), self.workers)
         out = [None] * len(items)
-        for start, results in self._chunked(function, items, size):
+        for start, results in self._chunked(function, items, size, len(items)):
             out[start : start + len(results)] = results
         return out
 
-    def _chunked(self, function, items, size) -> Iterator[tuple[int, list]]:
+    def _chunked(self, function, items, size, total) -> Iterator[tuple[int, list]]:
+        """(start, results) of chunks of ``size`` of the ``total`` ``items`` (an
+        iterable, taken as the chunks are sent)."""
         raise NotImplementedError
 
     def describe(self) -> str:
@@ -177,14 +191,14 @@ class SerialExecutor(Executor):
 
     kind = "serial"
 
-    def imap_unordered(self, function, items):
+    def imap_unordered(self, function, items, total=None):
         for item in items:
             yield function(item)
 
     def map(self, function, items):
         return [function(item) for item in items]
 
-    def _chunked(self, function, items, size):
+    def _chunked(self, function, items, size, total):
         yield 0, [function(item) for item in items]
 
 
@@ -216,12 +230,13 @@ class LocalExecutor(Executor):
                 self._pool = context.Pool(processes, initializer=_worker_init)
         return self._pool
 
-    def _chunked(self, function, items, size):
-        if not items:
+    def _chunked(self, function, items, size, total):
+        if not total:
             return
-        packed = [(function, start, chunk) for start, chunk in _chunks(items, size)]
-        pool = self._get_pool(len(packed))
+        packed = ((function, start, chunk) for start, chunk in _chunks(items, size))
+        pool = self._get_pool(math.ceil(total / size))
         try:
+            # the pool takes tasks from the generator as its queue to the workers drains
             yield from pool.imap_unordered(_pool_task, packed)
         except BaseException:
             self.terminate()  # Ctrl-C, an error in a run, or a consumer that stopped
@@ -275,7 +290,7 @@ class DaskExecutor(Executor):
             # the cluster decides how many run at once; --workers only sizes the chunks
             self.workers = _check_workers(workers) if workers is not None else threads
 
-    def _chunked(self, function, items, size):
+    def _chunked(self, function, items, size, total):
         from distributed import as_completed
 
         futures = [

@@ -28,6 +28,7 @@ import json
 import math
 import os
 from collections.abc import Callable, Iterable
+from collections.abc import Set as AbstractSet
 from pathlib import Path
 
 __all__ = ["ResultLog", "ResultLogError", "finite_or_none", "MAX_RESULTS_BYTES"]
@@ -202,7 +203,7 @@ class ResultLog:
     def check_belongs(self, keys: Iterable, describe: Callable[[dict], str] | None = None) -> None:
         """Refuse a file with rows of another study (another seed, family, controller,
         fuzzynav version, rule base...); ``describe(row)`` says what differs."""
-        wanted = set(keys)
+        wanted = keys if isinstance(keys, AbstractSet) else set(keys)  # (a sweep's: lazy)
         for k, row in self.rows.items():
             if k not in wanted:
                 if describe is not None:

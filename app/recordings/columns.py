@@ -14,8 +14,15 @@ import numpy as np
 from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 from .arrow import RowBatch, StaticBatch
-from .blueprint import legend_placement
-from .internals import INTERNALS, ControllerColumns, has_internals, rule_system
+from .blueprint import LegendFit, legend_placement
+from .internals import (
+    INTERNALS,
+    INTERNALS_PATH,
+    ControllerColumns,
+    RuleHeat,
+    has_internals,
+    rule_system,
+)
 from .scene import SceneColumns
 from .style import (
     HEADING,
@@ -27,6 +34,9 @@ from .style import (
     SERIES_PALETTE,
     TARGET,
 )
+
+#: Rows of the log read at a time to place the legends of a run recorded whole.
+LEGEND_BLOCK_ROWS = 5000
 
 
 def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> list[tuple]:
@@ -105,6 +115,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         controller=None,
         perception: str | None = None,
         geometry: str = "husky",
+        decisions: int | None = None,
+        total_rows: int | None = None,
     ):
         self.rec = rec
         # Ideal perception uses no range sensor: no beams are drawn, but the line to the
@@ -136,10 +148,16 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         self._target: tuple[float, float] | None = None
         self.obstacle_ids: list[int] = []
         self.n_rules = 0
-        self.rule_times: list[np.ndarray] = []  # for the heatmap, sent at the end
-        self.rule_strengths: list[np.ndarray] = []
+        # the heatmap, sent at the end: binned as the rows come when the number of
+        # decisions (rows with finite voltages) is known in advance (record_run)
+        self.rule_heat = RuleHeat(decisions)
         self._rings: set[int] = set()
         self._legend_samples: dict[str, list[np.ndarray]] = {}
+        # A run whose length is known (record_run): of the plots made from the log only
+        # the value range is kept as the rows go; legend_corners reads the rows under
+        # the legends from the log again. (A live recording keeps every plotted row.)
+        self.total_rows = total_rows
+        self._legend_ranges: dict[str, list] = {}  # path: [lo, hi, widths, rows]
 
     # -- low level ---------------------------------------------------------------------
 
@@ -163,20 +181,33 @@ class ColumnWriter(SceneColumns, ControllerColumns):
                 path, "SeriesLines", names=list(names), colors=list(colors), widths=list(widths)
             )
         self._rows.add_series(path, columns)
-        self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
+        replayed = path == INTERNALS_PATH and self.internals_source != "decisions"
+        if self.total_rows is None or replayed:  # (a replay's state is in no log: kept)
+            self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
+            return
+        values = np.asarray(columns, dtype=float)
+        stats = self._legend_ranges.setdefault(path, [np.inf, -np.inf, set(), 0])
+        stats[2].add(values.shape[1] if values.ndim == 2 else None)
+        stats[3] += len(values)
+        finite = values[np.isfinite(values)]
+        if finite.size:
+            stats[0] = min(stats[0], float(finite.min()))
+            stats[1] = max(stats[1], float(finite.max()))
 
-    def legend_corners(self) -> dict:
+    def legend_corners(self, log=None) -> dict:
         """Per plot view, where its legend goes and the value range that leaves it room
         (:func:`legend_placement`): ``{view origin: (corner, range or None)}``. The
-        two angle entities share one view (/plots/angles), as Fig. 14 shows both."""
+        two angle entities share one view (/plots/angles), as Fig. 14 shows both. With
+        ``total_rows`` (record_run) the plots made from the log are read again from
+        ``log``, the rows under the legends only, a block at a time
+        (:class:`LegendFit`: the same placements, without every row kept)."""
         samples = {}
         for path, parts in self._legend_samples.items():
             widths = {p.shape[1] for p in parts if p.ndim == 2}
             if len(widths) == 1:  # (obstacles added mid-run change the width: skip)
                 samples[path] = np.concatenate(parts)
-        angles = [
-            samples.pop(p) for p in ("/plots/angles/phi_t", "/plots/angles/heading") if p in samples
-        ]
+        angle_paths = ("/plots/angles/phi_t", "/plots/angles/heading")
+        angles = [samples.pop(p) for p in angle_paths if p in samples]
         if len(angles) == 2 and len(angles[0]) == len(angles[1]):
             samples["/plots/angles"] = np.hstack(angles)
         placements = {}
@@ -189,6 +220,67 @@ class ColumnWriter(SceneColumns, ControllerColumns):
                 lo, hi = float(finite.min()), float(finite.max())
                 pad = 0.05 * (hi - lo if hi > lo else max(abs(hi), 1.0))
                 placements[f"{path}#data"] = (lo - pad, hi + pad)  # (a view without legend)
+        if self._legend_ranges:
+            if log is None:
+                raise ValueError("legend_corners: the log is needed (total_rows was given)")
+            placements.update(self._fitted_corners(log))
+        return placements
+
+    def _fitted_corners(self, log) -> dict:
+        """:meth:`legend_corners` of the plots whose value ranges were kept."""
+        ranges = {p: r for p, r in self._legend_ranges.items() if len(r[2]) == 1 and r[2] != {None}}
+        angle_paths = ("/plots/angles/phi_t", "/plots/angles/heading")
+        angles = [ranges.pop(p) for p in angle_paths if p in ranges]
+        members = {path: [path] for path in ranges}
+        if len(angles) == 2 and angles[0][3] == angles[1][3]:
+            ranges["/plots/angles"] = [
+                min(angles[0][0], angles[1][0]),
+                max(angles[0][1], angles[1][1]),
+                None,
+                angles[0][3],
+            ]
+            members["/plots/angles"] = list(angle_paths)
+        fits, rows = {}, {}
+        for path, (lo, hi, _, n) in ranges.items():
+            if n and lo <= hi:  # (no finite value: no placement)
+                names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
+                fits[path] = LegendFit(lo, hi, len(set(names)))
+                rows[path] = n
+        for n in set(rows.values()):
+            feeds = {}  # entity -> the fits its rows go to
+            for path, fit in fits.items():
+                if rows[path] == n:
+                    for member in members[path]:
+                        feeds.setdefault(member, []).append(fit)
+            first, last = LegendFit.window(n)
+            spans = [(0, first), (last, n)] if first < last else [(0, n)]
+            for a, b in spans:
+                for start in range(a, b, LEGEND_BLOCK_ROWS):
+                    end = min(start + LEGEND_BLOCK_ROWS, b)
+                    series = []
+                    if set(feeds) - {INTERNALS_PATH}:
+                        pose = log.pose[start:end]
+                        target = log.target_xy[start:end]
+                        series = self._series(
+                            log,
+                            start,
+                            end,
+                            pose,
+                            target,
+                            log.ranges_m[start:end],
+                            log.inputs[start:end],
+                        )
+                    if INTERNALS_PATH in feeds:
+                        series.append(
+                            (INTERNALS_PATH, 0, 0, 0, self._logged_state(log, start, end))
+                        )
+                    for path, _, _, _, columns in series:
+                        for fit in feeds.get(path, ()):
+                            fit.add(n, start, columns)
+        placements = {}
+        for path, fit in fits.items():
+            placements[path] = fit.placement()
+            placements[f"{path}#data"] = (fit.lo - fit.pad, fit.hi + fit.pad)
         return placements
 
     def _series(self, log, start, end, pose, target, ranges, inputs):

@@ -1,5 +1,6 @@
 """The fuzzy logic at the time cursor (a controller with a ``fis``): the viewer's
-inference view, replayed from the recording under ``/fuzzy``."""
+inference view, replayed from the recording under ``/fuzzy``: its static part once
+(:func:`fuzzy_view`), the decisions a block of rows at a time (:func:`send_fuzzy_rows`)."""
 
 from __future__ import annotations
 
@@ -14,32 +15,42 @@ FUZZY_W = 4.0
 FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
 
 
-def send_fuzzy(rec, static: StaticBatch, fis, log) -> list[str]:
-    """The viewer's inference view, replayed from the recording: every input's and
-    output's membership functions (static), at each decision the input's value as a
-    vertical line on its terms (labelled with the value), and each output's aggregated
-    membership with its centroid (the controller's output then, labelled). Returns the
-    variables drawn (``inputs/d_t``, ``outputs/left``, ...)."""
+def _variables(fis):
+    variables = [("inputs", k, v) for k, v in enumerate(fis.inputs)]
+    return variables + [("outputs", k, v) for k, v in enumerate(fis.outputs)]
+
+
+def _decided(log, start: int = 0, end: int | None = None) -> np.ndarray:
+    """The rows of [start, end) with a decision (finite voltages: the last row has none)."""
+    end = len(log) if end is None else end
+    decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
+    return np.flatnonzero(decided) + start
+
+
+def _scale(var):
+    lo, hi = (float(v) for v in var.range)
+
+    def sx(value):
+        return FUZZY_W * (np.asarray(value, dtype=float) - lo) / (hi - lo)
+
+    return lo, hi, sx
+
+
+def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
+    """The static part of the viewer's inference view, replayed from the recording:
+    every input's and output's membership functions, labels and frame, and the styles of
+    the per-decision entities that :func:`send_fuzzy_rows` sends. Returns the variables
+    drawn (``inputs/d_t``, ``outputs/left``, ...); none for a run without a decision."""
     import rerun as rr
 
-    decided = np.all(np.isfinite(log.controller_output_v), axis=1)
-    rows = np.flatnonzero(decided)
-    if not len(rows):
+    if not len(_decided(log)):
         return []
     static.add_archetype(FUZZY_PATH, rr.Transform3D(scale=[1.0, -1.0, 1.0]))  # y up
-    tc = time_column(log.time_s[rows])
-    aggregated = [fis.aggregated(log.inputs[r]) for r in rows]
     drawn = []
-    variables = [("inputs", k, v) for k, v in enumerate(fis.inputs)]
-    variables += [("outputs", k, v) for k, v in enumerate(fis.outputs)]
-    for kind, k, var in variables:
-        lo, hi = (float(v) for v in var.range)
+    for kind, _, var in _variables(fis):
+        lo, hi, sx = _scale(var)
         unit = getattr(var, "unit", "") or ""
         base = f"{FUZZY_PATH}/{kind}/{var.name}"
-
-        def sx(value, lo=lo, hi=hi):
-            return FUZZY_W * (np.asarray(value, dtype=float) - lo) / (hi - lo)
-
         x = np.linspace(lo, hi, 401)
         curves = [np.asarray(t(x), float) for t in var.terms]
         colours = [SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))]
@@ -84,6 +95,27 @@ def send_fuzzy(rec, static: StaticBatch, fis, log) -> list[str]:
                 radii=0.005,
             ),
         )
+        if kind == "outputs":
+            static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
+        static.add(f"{base}/value", "LineStrips2D", colors=(20, 20, 20), radii=0.018)
+        drawn.append(f"{kind}/{var.name}")
+    return drawn
+
+
+def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
+    """The inference view at each decision of rows [start, end) (a block at a time: the
+    aggregated outputs of a long run are never all in memory): each input's value as a
+    vertical line on its terms (labelled with the value), and each output's aggregated
+    membership with its centroid (the controller's output then, labelled)."""
+    rows = _decided(log, start, end)
+    if not len(rows):
+        return
+    tc = time_column(log.time_s[rows])
+    aggregated = [fis.aggregated(log.inputs[r]) for r in rows]
+    for kind, k, var in _variables(fis):
+        _, _, sx = _scale(var)
+        unit = getattr(var, "unit", "") or ""
+        base = f"{FUZZY_PATH}/{kind}/{var.name}"
         if kind == "inputs":
             value = log.inputs[rows, k]
             text = [f"{var.name} = {v:.3g} {unit}" for v in value if np.isfinite(v)]
@@ -96,7 +128,6 @@ def send_fuzzy(rec, static: StaticBatch, fis, log) -> list[str]:
             heights = np.array([a.membership[k] for a in aggregated])[:, take]
             xs = np.broadcast_to(sx(grid[take]), heights.shape)
             shape = np.stack([xs, heights], axis=-1)
-            static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
             rec.send_columns(
                 f"{base}/aggregated",
                 indexes=[tc],
@@ -112,7 +143,6 @@ def send_fuzzy(rec, static: StaticBatch, fis, log) -> list[str]:
             ],
             axis=1,
         )
-        static.add(f"{base}/value", "LineStrips2D", colors=(20, 20, 20), radii=0.018)
         rec.send_columns(
             f"{base}/value",
             indexes=[tc],
@@ -122,5 +152,3 @@ def send_fuzzy(rec, static: StaticBatch, fis, log) -> list[str]:
             ],
             strict=True,
         )
-        drawn.append(f"{kind}/{var.name}")
-    return drawn

@@ -101,6 +101,67 @@ def rule_heatmap(strengths: np.ndarray, max_bins: int) -> np.ndarray:
     return np.ascontiguousarray(np.maximum.reduceat(strengths, edges[:-1], axis=0).T)
 
 
+class RuleHeat:
+    """The run's rule firing as it comes, a chunk of decisions at a time: what the
+    heatmap (:func:`rule_heatmap` of all of them) and its caption need, without keeping
+    every decision when their number is known in advance (``expected``, as
+    ``record_run`` knows it): above ``max_bins`` each bin's running maximum, which is
+    the same float32 maximum ``rule_heatmap`` takes over the whole run (a maximum does
+    not depend on the order). Otherwise (a live recording, whose length nobody knows
+    yet, or a short run) the decisions are kept and binned at the end."""
+
+    def __init__(self, expected: int | None = None, max_bins: int | None = None):
+        self.max_bins = int(HEATMAP_MAX_BINS if max_bins is None else max_bins)
+        self.count = 0  # decisions seen
+        self.first_s: float | None = None
+        self.last_s: float | None = None
+        self.last_state: int | None = None  # the strongest rule at the last decision
+        self.rules = 0
+        self.calls = 0
+        self._parts: list[np.ndarray] = []
+        self._bins: np.ndarray | None = None
+        self._starts: np.ndarray | None = None
+        self.expected = None if expected is None else int(expected)
+        if self.expected is not None and self.expected > self.max_bins:
+            edges = np.linspace(0, self.expected, self.max_bins + 1).astype(int)
+            self._starts = edges[:-1]  # strictly increasing: every bin has rows
+
+    def add(self, times: np.ndarray, strengths: np.ndarray) -> np.ndarray:
+        """Take the decisions at ``times`` (their ``strengths``, float32, NaN for a rule
+        not evaluated); returns them with NaN as 0, as the heatmap has them."""
+        strengths = np.nan_to_num(np.asarray(strengths, dtype=np.float32), nan=0.0)
+        self.calls += 1
+        if len(times):
+            self.first_s = float(times[0]) if self.first_s is None else self.first_s
+            self.last_s = float(times[-1])
+        m, self.rules = strengths.shape
+        if self._starts is None:
+            self._parts.append(strengths)
+        elif m:
+            if self.count + m > self.expected:
+                raise ValueError(f"{self.count + m} decisions, {self.expected} announced")
+            if self._bins is None:
+                self._bins = np.full((self.max_bins, self.rules), -np.inf, np.float32)
+            rows = np.arange(self.count, self.count + m)
+            bins = np.searchsorted(self._starts, rows, side="right") - 1
+            first = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+            maxima = np.maximum.reduceat(strengths, first, axis=0)
+            self._bins[bins[first]] = np.maximum(self._bins[bins[first]], maxima)
+        self.count += m
+        return strengths
+
+    def heatmap(self) -> np.ndarray:
+        """(rules, bins) float32, as :func:`rule_heatmap` of every decision taken."""
+        if self._starts is None:
+            return rule_heatmap(np.concatenate(self._parts), self.max_bins)
+        if self._bins is None:  # no decision came (the firing could not be evaluated)
+            return np.zeros((self.rules, 0), np.float32)
+        filled = self._bins
+        if self.count < self.expected:  # the firing stopped being recorded mid-run
+            filled = filled[: int(np.searchsorted(self._starts, self.count, side="left"))]
+        return np.ascontiguousarray(filled.T)
+
+
 class ControllerColumns:
     """The controller's inside, rows [start, end) at a time: every rule's firing and
     fuzzynav's inner state (:data:`INTERNALS`). A part of
@@ -111,8 +172,8 @@ class ControllerColumns:
 
     def _plot_rules(self, strengths: np.ndarray, decided: np.ndarray) -> None:
         """Every rule's firing strength at every row with a decision as one bar chart
-        (bar k-1 is rule Rk, its abscissa k; float32), and kept for the run's heatmap
-        (:meth:`send_heatmap`). A row without a decision (the last) has no strengths:
+        (bar k-1 is rule Rk, its abscissa k; float32), taken into the run's heatmap
+        (:class:`RuleHeat`, :meth:`send_heatmap`) and the strongest rule's lane. A row without a decision (the last) has no strengths:
         nothing is logged there, so the chart at the end shows the last decision's. One
         bar chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
         strengths = np.ascontiguousarray(strengths, dtype=np.float32)
@@ -130,23 +191,49 @@ class ControllerColumns:
             lengths=decided.astype(np.int32),
             absent=~decided,  # the chart at the final instant shows the last decision
         )
-        self.rule_times.append(np.asarray(self._rows_time, dtype=float)[decided])
-        self.rule_strengths.append(strengths[decided])
+        times = np.asarray(self._rows_time, dtype=float)[decided]
+        self._send_strongest(times, self.rule_heat.add(times, strengths[decided]))
+
+    def _send_strongest(self, times: np.ndarray, strengths: np.ndarray) -> None:
+        """The strongest rule at each decision, where it changes (from the chunk before
+        too): a labelled lane, sent a chunk at a time."""
+        if not len(times):
+            return
+        import rerun as rr
+
+        heat = self.rule_heat
+        top = np.argmax(strengths, axis=1)
+        fired = strengths[np.arange(len(top)), top] > 0
+        state = np.where(fired, top, -1)
+        change = np.ones(len(state), bool)
+        change[1:] = state[1:] != state[:-1]
+        change[0] = heat.last_state is None or state[0] != heat.last_state
+        heat.last_state = int(state[-1])
+        if not change.any():
+            return
+        labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
+        self.rec.send_columns(
+            RULES_STRONGEST_PATH,
+            indexes=[time_column(times[change])],
+            columns=rr.StateChange.columns(state=labels),
+            strict=True,
+        )
 
     def send_heatmap(self, static: StaticBatch) -> None:
         """The rule firing of the whole run as a heatmap: rules down, time across (at
         most :data:`HEATMAP_MAX_BINS` bins, each the max over its rows, so a brief
-        firing stays visible), with the rules in words beside it."""
-        if not self.rule_strengths:
+        firing stays visible), with the rules in words beside it (:class:`RuleHeat`
+        collected it; the lane of the strongest rule went with the chunks)."""
+        heat = self.rule_heat
+        if not heat.calls:
             return
         import rerun as rr
 
-        times = np.concatenate(self.rule_times)
-        strengths = np.nan_to_num(np.concatenate(self.rule_strengths), nan=0.0)
-        heatmap = rule_heatmap(strengths, HEATMAP_MAX_BINS)
+        heatmap = heat.heatmap()
         bins = heatmap.shape[1]
-        span = f"{times[0]:.2f} s to {times[-1]:.2f} s" if len(times) else "no rows"
-        per_bin = (times[-1] - times[0]) / max(bins - 1, 1) if len(times) > 1 else 0.0
+        first, last = heat.first_s, heat.last_s
+        span = f"{first:.2f} s to {last:.2f} s" if heat.count else "no rows"
+        per_bin = (last - first) / max(bins - 1, 1) if heat.count > 1 else 0.0
         static.add_archetype(
             RULES_HEATMAP_PATH,
             rr.Tensor(
@@ -158,25 +245,11 @@ class ControllerColumns:
                 value_range=[0.0, 1.0],
             ),
         )
-        # The strongest rule at each decision, where it changes: a labelled lane in s.
-        if len(times):
-            top = np.argmax(strengths, axis=1)
-            fired = strengths[np.arange(len(top)), top] > 0
-            state = np.where(fired, top, -1)
-            change = np.ones(len(state), bool)
-            change[1:] = state[1:] != state[:-1]
-            labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
-            self.rec.send_columns(
-                RULES_STRONGEST_PATH,
-                indexes=[time_column(times[change])],
-                columns=rr.StateChange.columns(state=labels),
-                strict=True,
-            )
         lines = [
             f"# Rule firing, {span}",
             "",
             f"Heatmap: row k is rule R(k+1), {bins} columns over the run "
-            f"({len(times)} steps, the largest strength in each column).",
+            f"({heat.count} steps, the largest strength in each column).",
             "Bar chart: bar k is rule R(k+1) at the time cursor.",
             "",
         ]
@@ -230,6 +303,15 @@ class ControllerColumns:
                     decisions[:, 2 + len(INTERNALS) :]
                 )
             self._plot_rules(strengths, decided)
+
+    def _logged_state(self, log, start: int, end: int) -> np.ndarray:
+        """The inner state plotted on rows [start, end), read again from the driving
+        controller's own decisions (as :meth:`_internals` plotted it from them; NaN at a
+        row without a decision): for the legend of a run recorded whole."""
+        decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
+        out = np.full((end - start, len(INTERNALS)), np.nan)
+        out[decided] = self._logged_decisions(start, end, decided)[:, 2 : 2 + len(INTERNALS)]
+        return out
 
     def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)

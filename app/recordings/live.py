@@ -3,6 +3,7 @@ time (the viewer's recording, or any stream the caller opened)."""
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from pathlib import Path
@@ -14,7 +15,7 @@ from . import documents
 from .blueprint import APPLICATION_ID, application_id
 from .columns import ColumnWriter
 from .events import send_events
-from .files import RecordingError, not_written, open_stream
+from .files import RecordingError, SinkPipe, not_written, open_stream, write_file_chunks
 from .internals import controller_fis, controller_label, rule_system
 from .scene import static_world
 
@@ -85,6 +86,7 @@ class LiveRecorder:
         # scenario and controller) is known.
         self._rec = stream
         self._owns_stream = stream is None
+        self._pipe: SinkPipe | None = None
         self._writer: ColumnWriter | None = None
         self._sim = None
         self.closed = False
@@ -100,7 +102,11 @@ class LiveRecorder:
                 if sim
                 else APPLICATION_ID
             )
-            self._rec = open_stream(self._tmp, app_id)
+            # rerun's file sink writes through a pipe that a thread copies into the
+            # temporary file: given the file itself, rerun's flush at times never
+            # returns after a failed write (a full disk): files.recording_sink
+            self._pipe = SinkPipe(functools.partial(write_file_chunks, self._tmp))
+            self._rec = open_stream(self._pipe.name, app_id)
 
     def _failed(self, exc: BaseException) -> RecordingError:
         """Close the file after a failed write (a full disk) and keep what was written
@@ -113,6 +119,8 @@ class LiveRecorder:
                 self._rec.disconnect()
         except Exception:  # the stream is broken already; what matters is the file
             pass
+        if self._pipe is not None:
+            self._pipe.close()  # what rerun wrote is in the file now
         reason = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
         if self._tmp is None:
             return RecordingError(f"recording stream failed ({reason})")
@@ -174,9 +182,12 @@ class LiveRecorder:
         if self._sim is not None and sim is not self._sim:
             raise ValueError("LiveRecorder records one simulation; open another for this one")
         try:
-            return self._update(sim, force)
+            sent = self._update(sim, force)
         except (OSError, RuntimeError) as exc:  # rerun's sink: "No space left on device"
             raise self._failed(exc) from None
+        if self._pipe is not None and self._pipe.error is not None:  # the copier's write
+            raise self._failed(self._pipe.error) from None
+        return sent
 
     def _update(self, sim, force: bool) -> int:
         if self._writer is None:
@@ -216,6 +227,9 @@ class LiveRecorder:
         except BaseException:  # Ctrl-C: keep what there is, under a name that says so
             self._failed(KeyboardInterrupt("interrupted"))
             raise
+        error = self._pipe.close() if self._pipe is not None else None
+        if error is not None:  # a write failed (a full disk): keep the partial file
+            raise self._failed(error) from None
         if self._tmp is not None:
             from fuzzynav.safe_files import commit
 

@@ -106,8 +106,8 @@ from . import documents
 from .blueprint import application_id
 from .columns import ColumnWriter
 from .events import send_events
-from .files import RecordingError, write_recording_bytes
-from .fuzzy import send_fuzzy
+from .files import RecordingError, recording_sink
+from .fuzzy import fuzzy_view, send_fuzzy_rows
 from .internals import controller_fis, controller_label, has_internals, rule_system
 from .live import LiveRecorder
 from .scene import static_world
@@ -176,29 +176,50 @@ def record_run(
     Returns the path written.
     """
     path = Path(path)
-    sensor_config = _sensor_config(sensors)
-    parameters = _parameters(parameters)
-    fis = controller_fis(controller)
-    scenario = result.scenario
-    log = result.log
-    import rerun as rr
-
     from fuzzynav.safe_files import is_stream_target
 
     if not is_stream_target(path):  # a pipe or a terminal is written as a stream
         check_writable_file(path)
-    # Everything goes to memory first, then to disk in one piece (write_recording_bytes):
-    # a full disk or a Ctrl-C can then never leave half a file, nor cost an old one.
+    # Streamed: rerun's file sink writes each block as it is encoded, through a pipe, to
+    # a temporary file beside the target that is renamed into place only when whole
+    # (recording_sink): a long run's recording is never held in memory, and a full disk
+    # or a Ctrl-C can never leave half a file, nor cost an old one.
+    with recording_sink(path) as sink:
+        _record(
+            result,
+            sink,
+            controller=controller,
+            sensor_config=_sensor_config(sensors),
+            parameters=_parameters(parameters),
+            extra_metadata=extra_metadata,
+            voltage_limit_v=voltage_limit_v,
+        )
+    return path
+
+
+def _record(
+    result, sink: str, *, controller, sensor_config, parameters, extra_metadata, voltage_limit_v
+) -> None:
+    """Send the recording of ``result`` to rerun's file sink ``sink``, a block of
+    :data:`SEND_ROWS` rows at a time: what is held is one block's (its Arrow arrays, the
+    aggregated outputs of its decisions), however long the run (issue 26)."""
+    import numpy as np
+    import rerun as rr
+
+    fis = controller_fis(controller)
+    scenario = result.scenario
+    log = result.log
     rec = rr.RecordingStream(
         application_id(scenario, controller, getattr(result, "geometry", "husky"))
     )
-    stream = rec.binary_stream()
-    rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
     try:
+        rec.save(sink)
+        rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
         # One layout, at the end with the legends placed: the file appears whole (renamed
         # into place), so no viewer sees it loading (LiveRecorder sends one first too).
         n_rules = len(getattr(rule_system(controller), "rules", ()))
         layout = (scenario, list(log.obstacle_ids), n_rules, log)
+        decided = np.all(np.isfinite(log.controller_output_v), axis=1)
         writer = ColumnWriter(
             rec,
             footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
@@ -209,9 +230,13 @@ def record_run(
             controller=controller,
             perception=result.perception,
             geometry=getattr(result, "geometry", "husky"),
+            # known in advance: the rule heatmap is binned as the rows come
+            decisions=int(np.count_nonzero(decided)),
+            total_rows=len(log),  # the legends are placed from the log, not kept rows
         )
-        # A block of rows at a time: the Arrow arrays built to send them stay as large
-        # as one block, however long the run (issue 26).
+        del decided
+        # A block of rows at a time: the Arrow arrays built to send them, and the bytes
+        # encoded from them, stay as large as one block, however long the run.
         for first in range(0, len(log), SEND_ROWS):
             writer.send(log, first, min(first + SEND_ROWS, len(log)), send_static=False)
         # Every static part in one record batch: styles, the world's statics, documents.
@@ -238,11 +263,11 @@ def record_run(
         documents.metrics(writer.static, result.metrics, result.outcome)
         events = send_events(rec, writer.static, result)
         documents.summary(writer.static, result, controller, events)
-        fuzzy = (
-            send_fuzzy(rec, writer.static, fis, log)
-            if fis is not None and writer.fis_error is None
-            else []
-        )
+        fuzzy = []
+        if fis is not None and writer.fis_error is None:
+            fuzzy = fuzzy_view(writer.static, fis, log)
+            for first in range(0, len(log) if fuzzy else 0, SEND_ROWS):
+                send_fuzzy_rows(rec, fis, log, first, min(first + SEND_ROWS, len(log)))
         writer.send_heatmap(writer.static)
         writer.static.send(rec)
         # Again, now with the legends placed where the data leave room.
@@ -250,13 +275,12 @@ def record_run(
             blueprints.blueprint(
                 *layout,
                 internals=has_internals(controller),
-                legend_corners=writer.legend_corners(),
+                legend_corners=writer.legend_corners(log),
                 fuzzy=fuzzy,
             )
         )
     finally:
-        rec.disconnect()  # flushes and ends the stream (its footer)
-    return write_recording_bytes(path, stream.read(flush=False) or b"")
+        rec.disconnect()  # flushes and ends the stream (its footer), closes the sink
 
 
 def record_simulation(sim, result, path, *, extra_metadata=None) -> Path:
