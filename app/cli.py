@@ -122,6 +122,13 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     add_geometry_option(parser)
     add_field_of_view_option(parser)
     parser.add_argument(
+        "--sonar-side",
+        type=float_in(1.0, 90.0, " degrees"),
+        default=None,
+        metavar="DEG",
+        help="mount the side sonars at +-DEG (default 45; 15 leaves no blind sector ahead)",
+    )
+    parser.add_argument(
         "--seed", type=seed_type, default=0, help="seeds the sensor noise (default 0)"
     )
     parser.add_argument(
@@ -180,6 +187,7 @@ def cmd_run(args) -> int:
         sensor_noise_std_m=args.noise,
         geometry=args.geometry,
         field_of_view_deg=args.field_of_view,
+        sonar_side_deg=args.sonar_side,
     )
     from fuzzynav.resources import escape_controls
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from fuzzynav.controller.registry import make_controller
 from fuzzynav.world.perception import check_geometry
 from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M, Scenario, load_scenario
-from fuzzynav.world.sensors import SensorConfig
+from fuzzynav.world.sensors import SensorConfig, default_mounts
 from fuzzynav.world.simulation import Simulation, SimulationResult
 
 SUMMARY_KEYS = (
@@ -48,10 +48,12 @@ def build_simulation(
     stop_on_collision: bool = True,
     geometry: str = "husky",
     field_of_view_deg: float | None = None,
+    sonar_side_deg: float | None = None,
 ) -> Simulation:
     """A simulation from user choices; both geometries start from the scenario's own
     pose. ``field_of_view_deg`` replaces the scenario's field of view (ideal perception
-    senses obstacles whose centre bears within half of it; None keeps the scenario's)."""
+    senses obstacles whose centre bears within half of it; None keeps the scenario's).
+    ``sonar_side_deg`` mounts the side sonars at +- that angle (None: the default 45)."""
     check_geometry(geometry, perception)
     if not isinstance(scenario, Scenario):
         # the start is checked against the robot that drives: the paper's geometry is a
@@ -73,7 +75,14 @@ def build_simulation(
         perception=perception,
         control_period_s=control_period_s,
         seed=seed,
-        sensor_config=SensorConfig(noise_std_m=sensor_noise_std_m),
+        sensor_config=SensorConfig(
+            noise_std_m=sensor_noise_std_m,
+            **(
+                {}
+                if sonar_side_deg is None
+                else {"mounts": default_mounts(side_angle_rad=math.radians(sonar_side_deg))}
+            ),
+        ),
         stop_on_collision=stop_on_collision,
         geometry=geometry,
     )

@@ -254,9 +254,9 @@ def test_sweep_writes_each_failed_run_to_run_again_and_to_open(tmp_path, capsys)
             [
                 "sweep",
                 "--n",
-                "6",
+                "4",
                 "--seed",
-                "2",
+                "1",
                 "--controller",
                 "p",
                 "--beside",
@@ -341,9 +341,9 @@ def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_pa
             [
                 "sweep",
                 "--n",
-                "6",
+                "4",
                 "--seed",
-                "2",
+                "1",
                 "--controller",
                 "fuzzynav",
                 "--off",
@@ -359,7 +359,7 @@ def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_pa
     )
     data = json.loads(capsys.readouterr().out)
     assert data["parts_off"] == ["echo memory"]
-    assert [(f["index"], f["outcome"]) for f in data["failures"]] == [(5, "timeout")]
+    assert [(f["index"], f["outcome"]) for f in data["failures"]] == [(3, "timeout")]
     scenario_file = data["failures"][0]["scenario_file"]
     command = f"fuzzynav run {scenario_file} --controller fuzzynav --off 'echo memory'"
     assert command in Path(scenario_file).read_text()
@@ -375,14 +375,14 @@ def test_sweep_off_switches_fuzzynav_parts_off_and_its_failures_run_again(tmp_pa
                 "--off",
                 "echo memory",
                 "--seed",
-                "2",
+                "1",
                 "--json",
             ]
         )
         == 0
     )
     assert json.loads(capsys.readouterr().out)["outcome"] == "timeout"
-    assert main(["run", scenario_file, "--controller", "fuzzynav", "--seed", "2", "--json"]) == 0
+    assert main(["run", scenario_file, "--controller", "fuzzynav", "--seed", "1", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["outcome"] == "reached"
 
 

@@ -102,11 +102,12 @@ def test_voltages_do_not_chatter_and_some_rule_always_fires(scenario, geometry):
 
 HUSKY_ULTRASONIC = pytest.mark.xfail(
     strict=True,
-    reason="not met: facing the target (pi/4), the sonars lose s1's and s2's first obstacle "
-    "(on or beside the start-target line) once the robot turns ~10 degrees out of the front "
-    "beam; steering back into the beam's edge keeps a constant bearing that spirals into "
-    "the obstacle (collides at 4.7-5.0 m); the best of about 2 500 vectors searched at pi/4 "
-    "(docs/paper-controller.md) still collides in s1 and scrapes s2/s3 at 0.003-0.014 m",
+    reason="not met: facing the target (pi/4), the sonars (45 degrees apart) lose s1's and "
+    "s2's first obstacle (on or beside the start-target line) once the robot turns ~10 "
+    "degrees out of the front beam; steering back into the beam's edge keeps a constant "
+    "bearing that spirals into the obstacle (collides at 4.7-5.0 m); with the side sonars "
+    "one beam width apart (--sonar-side 15) s1-s3 are reached at 0.046 / 0.194 / 0.263 m "
+    "(docs/paper-controller.md, 'Sensing')",
 )
 
 
@@ -136,7 +137,8 @@ def _not_met(reasons: dict, names=("s1", "s2", "s3")):
     "scenario",
     _not_met(
         {
-            "s1": "not met: phi_t -0.59 rad at arrival (bound 0.3; clearance 0.278 m, met)",
+            "s1": "not met: passes the first obstacle at 0.160 m clearance (bound 0.25; "
+            "phi_t at arrival -0.28 rad, met)",
         }
     ),
 )
@@ -209,9 +211,9 @@ DONE_FINAL_PHI_T_RAD = 0.1
     "scenario",
     _not_met(
         {
-            "s1": "not met: path -3.9 %, minimum distance +129 % (passes the first at 0.59 m)",
-            "s2": "not met: path -5.1 %, MAD -53 %, RMSE -58 %, minimum distance +85 %",
-            "s3": "not met: path -4.6 %, MAD -53 %, RMSE -54 %",
+            "s1": "not met: MAD +26.5 %, minimum distance +95 % (passes the first at 0.50 m)",
+            "s2": "not met: path -5.0 %, MAD -46 %, RMSE -52 %, minimum distance +82 %",
+            "s3": "not met: path -4.3 %, MAD -42 %, RMSE -42 %",
         }
     ),
 )
@@ -227,8 +229,9 @@ def test_paper_geometry_reproduces_table4_from_the_trace(traces, scenario):
     "scenario",
     _not_met(
         {
-            "s1": "not met: obstacles 2 and 3 passed at 1.16 and 1.21 m (paper 0.29, 0.26)",
-            "s2": "not met: the static obstacle passed at 38.6 s (+33 %), 0.71 m (+0.33 m)",
+            "s1": "not met: obstacles 2 and 3 passed at 1.25 and 1.55 m (paper 0.29, 0.26)",
+            "s2": "not met: the static obstacle passed at 0.70 m (+0.32 m; at 32.2 s, met)",
+            "s3": "not met: the moving obstacle passed at 0.94 m (+0.21 m; at 59.9 s, met)",
         }
     ),
 )
@@ -242,7 +245,7 @@ def test_paper_geometry_passes_the_obstacles_when_and_where_the_paper_says(trace
 
 
 @pytest.mark.parametrize(
-    "scenario", _not_met({"s1": "not met: s1 arrives with phi_t at -0.62 rad"})
+    "scenario", _not_met({"s1": "not met: s1 arrives with phi_t at -0.37 rad"})
 )
 def test_paper_geometry_target_bearing_settles_to_zero(traces, scenario):
     """ "After several oscillations, it finally reaches zero" (Fig. 14)."""
@@ -251,9 +254,9 @@ def test_paper_geometry_target_bearing_settles_to_zero(traces, scenario):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not met: s1's obstacles passed at 0.59, 1.16, 1.21 m (facing the target, rule "
-    "28 dodges the first to the left, away from the other two); s3's static pass at 35.5 s "
-    "against s2's 38.6 s",
+    reason="not met: s1's obstacles passed at 0.50, 1.25, 1.55 m (facing the target, rule "
+    "28 dodges the first to the left, away from the other two); s3's static pass at 31.7 s "
+    "against s2's 32.2 s",
 )
 def test_paper_geometry_tells_the_papers_story(traces):
     """s1's first obstacle is passed farthest of the three (0.46 against 0.29 and about

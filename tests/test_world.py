@@ -36,7 +36,7 @@ from fuzzynav.world.geometry import (
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.perception import Perception, ideal_obstacle_inputs, target_inputs
 from fuzzynav.world.scenario import ObstacleSpec, Scenario, load_scenario
-from fuzzynav.world.sensors import RangeSensorArray, SensorConfig, SensorMount
+from fuzzynav.world.sensors import RangeSensorArray, SensorConfig, SensorMount, default_mounts
 from fuzzynav.world.simulation import Simulation
 
 FOOTPRINT = (0.99, 0.67)
@@ -521,21 +521,30 @@ def test_the_simulation_takes_the_scenario_s_field_of_view():
     assert sim.perception.field_of_view_rad == 2 * math.pi
 
 
+def test_sonars_one_beam_width_apart_leave_no_gap_ahead():
+    """Side sonars at +-15 degrees (``--sonar-side 15``): the three 15-degree beams see
+    an obstacle anywhere within +-22.5 degrees (a 0.2 m disc: wider than the rays'
+    spacing); at the default +-45 degrees one at 20 degrees is in a gap."""
+    gapless = SensorConfig(mounts=default_mounts(side_angle_rad=math.radians(15.0)))
+    for bearing_deg in range(-21, 22, 3):
+        a = math.radians(bearing_deg)
+        seen = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(a), 2.5 * math.sin(a)), 0.2)])
+        assert np.isfinite(RangeSensorArray(gapless).read(seen, 0.0)).any(), bearing_deg
+    a = math.radians(20.0)
+    gap = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(a), 2.5 * math.sin(a)), 0.2)])
+    assert not np.isfinite(RangeSensorArray().read(gap, 0.0)).any()
+    assert np.isfinite(RangeSensorArray(gapless).read(gap, 0.0)).any()
+    with pytest.raises(ValueError, match="side_angle_rad"):
+        default_mounts(side_angle_rad=2.0)
+
+
 def test_ultrasonic_perception_uses_the_nearest_sensor():
-    arena = arena_with([ObstacleSpec((2.5, 0.79), 0.2)])  # on the left beam's axis
+    arena = arena_with([ObstacleSpec((2.0, 1.6), 0.4)])  # ahead and to the left
     sensors = RangeSensorArray()
     inputs, ranges = Perception("ultrasonic", sensors).inputs(arena, 0.0)
     k = int(np.argmin(ranges))
     assert sensors.config.mounts[k].name == "left"
-    assert inputs[1] == pytest.approx(ranges[k]) and inputs[3] == pytest.approx(math.radians(15))
-    # the three beams (15-degree cones, 15 degrees apart) leave no gap ahead: an obstacle
-    # anywhere within +-22.5 degrees is seen (a 0.2 m disc: wider than the rays' spacing)
-    for bearing_deg in range(-21, 22, 3):
-        a = math.radians(bearing_deg)
-        seen = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(a), 2.5 * math.sin(a)), 0.2)])
-        assert np.isfinite(RangeSensorArray().read(seen, 0.0)).any(), bearing_deg
-    aside = arena_with([ObstacleSpec((0.495 + 2.5 * math.cos(0.7), 2.5 * math.sin(0.7)), 0.2)])
-    assert not np.isfinite(RangeSensorArray().read(aside, 0.0)).any()
+    assert inputs[1] == pytest.approx(ranges[k]) and inputs[3] == pytest.approx(math.radians(45))
     empty = arena_with([])
     inputs, _ = Perception("ultrasonic", RangeSensorArray()).inputs(empty, 0.0)
     assert math.isnan(inputs[1]) and math.isnan(inputs[3])

@@ -53,29 +53,34 @@ class SensorMount:
     angle_rad: float
 
 
-#: The side sensors' mounting angle: one beam width (15 degrees) from the front one.
-SIDE_MOUNT_RAD = math.radians(15.0)
+#: The side sensors' mounting angle (left +, right -): 45 degrees from the front one.
+SIDE_MOUNT_RAD = math.radians(45.0)
+#: One beam width (15 degrees) from the front one: no blind sector ahead (``--sonar-side 15``).
+GAPLESS_SIDE_MOUNT_RAD = math.radians(15.0)
 
 
-def default_mounts(footprint_m=(0.99, 0.67)) -> tuple[SensorMount, ...]:
-    """Left, front and right sensors on the front edge, one beam width (15 degrees) apart.
+def default_mounts(
+    footprint_m=(0.99, 0.67), side_angle_rad: float = SIDE_MOUNT_RAD
+) -> tuple[SensorMount, ...]:
+    """Left, front and right sensors on the front edge, the side ones at +-``side_angle_rad``.
 
-    The paper names three US-100s (15-degree cones) and not how they are mounted. Spaced
-    by their beam width they leave no blind sector ahead: together they cover +-22.5
-    degrees, which holds the Husky's corridor (its half width and the 25 cm safe distance,
-    0.585 m each side) from 1.4 m out. Spaced 45 degrees apart, as fuzzynav first had
-    them, they left blind gaps of 7.5-37.5 degrees on each side, right where that
-    corridor lies 0.8-4 m ahead: an obstacle the robot turns from is lost until it is
-    close, and a memoryless controller (the paper's Table 1) steers back into it
-    (docs/paper-controller.md). fuzzynav's own navigator reaches the same share either
-    way (191 of 200 standard layouts, seed 5, ultrasonic).
+    The paper names three US-100s (15-degree cones) and not how they are mounted. 45
+    degrees apart (the default) they leave gaps between the beams (7.5-37.5 degrees each
+    side) but make the sensor that sees the nearest echo say clearly where the obstacle
+    is (left, ahead or right), which is what fuzzynav's navigator was designed on. One
+    beam width apart (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side 15``) they
+    cover +-22.5 degrees without a gap: the paper's memoryless controller then passes an
+    obstacle it loses between 45-degree beams, while fuzzynav's navigator keeps its
+    success rate but less often the safe distance (docs/paper-controller.md, "Sensing").
     """
+    if not (math.isfinite(side_angle_rad) and 0.0 < side_angle_rad <= math.pi / 2):
+        raise ValueError(f"side_angle_rad = {side_angle_rad!r}: must be in (0, pi/2]")
     half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
     corner_y = 0.75 * half_width
     return (
-        SensorMount("left", half_length, corner_y, SIDE_MOUNT_RAD),
+        SensorMount("left", half_length, corner_y, side_angle_rad),
         SensorMount("front", half_length, 0.0, 0.0),
-        SensorMount("right", half_length, -corner_y, -SIDE_MOUNT_RAD),
+        SensorMount("right", half_length, -corner_y, -side_angle_rad),
     )
 
 
