@@ -162,6 +162,8 @@ def simulate(
     control_period_s: float = 0.02,
     sensor_noise_std_m: float = 0.0,
     fis: str | Path | FuzzySystem | None = None,
+    field_of_view_deg: float | None = None,
+    sonar_side_deg: float | None = None,
 ) -> Run:
     """Run one scenario to its end (target reached, collision or time out).
 
@@ -188,6 +190,11 @@ def simulate(
         The sonars' noise standard deviation in metres (default 0).
     fis : str, Path or FuzzySystem, optional
         Drive with this fuzzy system instead (4 inputs, 2 outputs), as ``--fis``.
+    field_of_view_deg : float, optional
+        Ideal perception senses obstacles whose centre bears within +- half of it, in
+        place of the scenario's (s1-s3: 180, the front half-plane); as ``--field-of-view``.
+    sonar_side_deg : float, optional
+        Mount the side sonars at +- this angle (default 45); as ``--sonar-side``.
 
     Returns
     -------
@@ -231,6 +238,8 @@ def simulate(
         sensor_noise_std_m=sensor_noise_std_m,
         controller_object=controller_object,
         geometry=geometry,
+        field_of_view_deg=field_of_view_deg,
+        sonar_side_deg=sonar_side_deg,
     )
     result = sim.run()
     return Run(sim, result, str(label), _label_of_scenario(scenario))

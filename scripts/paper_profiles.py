@@ -2,7 +2,7 @@
 
 For the shipped rule base's 12 numbers (its ``# tuned vector:`` line), evaluates the
 cost of ``fuzzynav fit-paper`` (app/experiments/paper_fit.py, the same options as the shipped file's
-command: 0.05 s control period, ``--husky --husky-perception ideal --husky-weight 10``) at the fitted vector and with one
+command: 0.02 s control period, ``--husky --husky-perception ideal --husky-weight 10``) at the fitted vector and with one
 number at a time multiplied by 0.9 and 1.1 (clipped to its bounds, so the design rules
 still hold: a clipped step says so). A number whose moves barely change the cost is one
 the paper's results leave free. Writes a JSON file and prints a Markdown table.
@@ -30,7 +30,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rules", type=Path, default=PAPER_RULES)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--dt", type=float, default=0.05)
+    parser.add_argument("--dt", type=float, default=0.02)
     parser.add_argument("--no-husky", action="store_true")
     parser.add_argument("--husky-perception", default="ideal")
     parser.add_argument("--husky-weight", type=float, default=10.0)
@@ -54,7 +54,7 @@ def main() -> None:
         husky_weight=args.husky_weight,
     )
     if args.workers == 0:  # the batch engine, one process (the costs equal pymunk's)
-        from fuzzynav.app.batch_runs import fit_costs
+        from fuzzynav.app.experiments.batch_runs import fit_costs
 
         values = fit_costs(cost, vectors)
     else:

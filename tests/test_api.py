@@ -194,3 +194,24 @@ def test_example_read_recording(tmp_path):
     assert len(out["time_s"]) == len(run.result.log)
     np.testing.assert_array_equal(out["time_s"], np.round(run.trace["time_s"] * 1e9) / 1e9)
     np.testing.assert_array_equal(volts[:-1, 0], run.trace["v_left_v"][:-1])
+
+
+def test_simulate_takes_the_field_of_view_and_the_sonar_mounting():
+    """``field_of_view_deg`` and ``sonar_side_deg`` are ``run``'s ``--field-of-view`` and
+    ``--sonar-side``: the same run as the command line's, and a different one from the
+    defaults (s1: the front half-plane; the sonars 45 degrees apart)."""
+    from fuzzynav.app.cli import main
+
+    all_around = fuzzynav.simulate("s1", field_of_view_deg=360)
+    front = fuzzynav.simulate("s1")
+    assert front._simulation.perception.field_of_view_rad == math.pi
+    assert all_around._simulation.perception.field_of_view_rad == 2 * math.pi
+    assert all_around.metrics["path_length_m"] != front.metrics["path_length_m"]
+    gapless = fuzzynav.simulate("s1", perception="ultrasonic", sonar_side_deg=15)
+    mounts = [m.angle_rad for m in gapless._simulation.sensors.config.mounts]
+    assert mounts == pytest.approx([math.radians(15), 0.0, -math.radians(15)])
+    assert gapless.outcome == "reached"  # the shipped rule base passes with no blind sector
+    assert fuzzynav.simulate("s1", perception="ultrasonic").outcome == "collided"
+    with pytest.raises(ValueError, match="field_of_view_deg"):
+        fuzzynav.simulate("s1", field_of_view_deg=0.0)
+    assert main(["run", "s1", "--perception", "ultrasonic", "--sonar-side", "15", "--json"]) == 0

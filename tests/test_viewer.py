@@ -663,7 +663,7 @@ def test_the_previous_run_keeps_the_label_of_what_drove_it(served):
     # an Editor edit after the end: the ghost is the shipped paper's run
     a.set_controller("paper")
     run_to_end(a)
-    a.set_membership_parameter("d_o.far", a.editor().value("d_o.far") - 0.3)
+    a.set_membership_parameter("d_o.far", a.editor().value("d_o.far") + 0.3)
     assert a.ghost.label == "s1 · paper · ideal" and a.run_label == "s1 · paper (edited) · ideal"
     # a switch mid-run is part of this run's label, with its time
     for _ in range(100):
