@@ -100,18 +100,15 @@ def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, 
     return d_o, phi_o, scene.ids[k]
 
 
-def in_field(bearing_rad: float, half_field_rad: float) -> bool:
-    """Whether a bearing (wrapped to (-pi, pi]) lies in a field of +- ``half_field_rad``."""
-    return abs(bearing_rad) <= half_field_rad
-
-
 def _outside_field_as_inf(clearances, centres, x, y, heading, half_field_rad):
-    """The clearances with every obstacle whose centre bears outside the field as inf."""
-    out = []
-    for c, (cx, cy) in zip(clearances, centres):
-        bearing = wrap_angle_scalar(_atan2(cy - y, cx - x) - heading)
-        out.append(c if in_field(bearing, half_field_rad) else math.inf)
-    return out
+    """The clearances with every obstacle whose centre bears outside +- ``half_field_rad``
+    of the heading as inf (not sensed)."""
+    return [
+        c
+        if abs(wrap_angle_scalar(_atan2(cy - y, cx - x) - heading)) <= half_field_rad
+        else math.inf
+        for c, (cx, cy) in zip(clearances, centres)
+    ]
 
 
 def ultrasonic_obstacle_inputs(
