@@ -97,6 +97,29 @@ def test_dask_local_cluster_rows_equal_serial_rows(serial_rows):
         assert executor.map(abs, range(-5, 0)) == [5, 4, 3, 2, 1]
 
 
+def test_dask_keeps_a_bounded_window_of_chunks_in_flight():
+    """Issue 26: the Dask executor submitted every chunk at once (a future each)."""
+    pytest.importorskip("distributed")
+    from app.experiments.executor import DASK_CHUNKS_IN_FLIGHT_PER_WORKER, chunk_size
+
+    drawn = []
+
+    def items():
+        for k in range(2000):
+            drawn.append(k)
+            yield k
+
+    with DaskExecutor(1) as executor:
+        results = executor.imap_unordered(abs, items(), total=2000)
+        next(results)
+        size = chunk_size(2000, 1)
+        window = DASK_CHUNKS_IN_FLIGHT_PER_WORKER * executor.workers
+        # the first result came back with at most the window (and one more) drawn
+        assert len(drawn) <= (window + 1) * size < 2000
+        assert len([0, *results]) == 2000  # and every item still comes back
+        assert sorted(executor.imap_unordered(abs, range(-50, 0), total=50)) == list(range(1, 51))
+
+
 def test_tune_de_is_the_same_on_a_pool():
     sc = load_scenario("s1").replace(
         target=(2.5, 0.5), duration_s=4.0, obstacles=(ObstacleSpec((1.5, -1.2), 0.2),)

@@ -293,15 +293,27 @@ class DaskExecutor(Executor):
     def _chunked(self, function, items, size, total):
         from distributed import as_completed
 
-        futures = [
-            self.client.submit(_indexed_chunk, function, start, chunk, pure=False)
-            for start, chunk in _chunks(items, size)
-        ]
+        # A bounded window of chunks in flight: submitting every chunk at once built a
+        # future (and pickled its items) for each before the first result came back.
+        chunks = _chunks(items, size)
+        window = DASK_CHUNKS_IN_FLIGHT_PER_WORKER * self.workers
+        submitted = []
+
+        def submit(start, chunk):
+            future = self.client.submit(_indexed_chunk, function, start, chunk, pure=False)
+            submitted.append(future)
+            return future
+
+        pending = as_completed([submit(*c) for c in itertools.islice(chunks, window)])
         try:
-            for future in as_completed(futures):
+            for future in pending:
                 yield future.result()
+                submitted.remove(future)
+                following = next(chunks, None)
+                if following is not None:
+                    pending.add(submit(*following))
         finally:
-            self.client.cancel(futures)
+            self.client.cancel(submitted)
 
     def describe(self):
         where = self.scheduler or "a LocalCluster on this machine"
@@ -315,6 +327,11 @@ class DaskExecutor(Executor):
             self._cluster.close()
             self._cluster = None
 
+
+#: Chunks a Dask executor keeps submitted per worker: enough to keep every worker busy
+#: while results travel back, few enough that a 100,000-layout sweep is never a
+#: future per chunk before its first row.
+DASK_CHUNKS_IN_FLIGHT_PER_WORKER = 4
 
 #: The most worker processes (or, with a scheduler, chunks in flight per round) one
 #: command asks for: each process holds ~100 MB, and 150 of them on a laptop are a
