@@ -573,3 +573,134 @@ def test_a_write_that_fails_mid_recording_is_reported_not_waited_on(tmp_path, ho
     assert target.read_bytes() == b"an old recording"
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == (["x.rrd"] if how == "run" else ["x.partial.rrd", "x.rrd"])
+
+
+# ------------------------------------------------------------- item 5: the log streams
+
+
+def _long_scenario(duration_s: float):
+    """s1 with its obstacles moved off the path and the target kilometres away: it runs
+    to its time limit."""
+    from fuzzynav.world.scenario import ObstacleSpec, load_scenario
+
+    return load_scenario("s1").replace(
+        target=(5000.0, 5000.0),
+        duration_s=duration_s,
+        obstacles=tuple(ObstacleSpec((x, -y), 0.2) for x, y in ((4, 4), (5.7, 5), (7.5, 6.4))),
+    )
+
+
+def _same_logs(a, b):
+    import dataclasses
+
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True), f.name
+        else:
+            assert x == y, f.name
+
+
+def _small_blocks(monkeypatch, metrics_rows=None):
+    from fuzzynav.world import metrics, simulation
+
+    monkeypatch.setattr(simulation, "LOG_BLOCK_BYTES", 1024 * 8 * 40)  # 1,024 rows
+    if metrics_rows is not None:
+        monkeypatch.setattr(metrics, "METRICS_BLOCK_ROWS", metrics_rows)
+
+
+def test_a_long_run_s_log_leaves_memory_a_block_at_a_time(monkeypatch):
+    """The log of a run was kept whole in memory, twice at the end (a 2,000 s run at
+    1 ms peaked at 1.8 GB with --rrd --trace): rows beyond a block now go to an unnamed
+    temporary file and come back mapped, the same to the bit (s3: moving obstacles)."""
+    from fuzzynav.app.runs import build_simulation
+
+    whole = build_simulation("s3", "paper").run()
+    _small_blocks(monkeypatch)
+    spooled = build_simulation("s3", "paper").run()
+    assert isinstance(spooled.log.pose, np.memmap) and not isinstance(whole.log.pose, np.memmap)
+    _same_logs(whole.log, spooled.log)
+    assert {k: v for k, v in whole.metrics.items() if k != "wall_time_s"} == {
+        k: v for k, v in spooled.metrics.items() if k != "wall_time_s"
+    }
+    spooled.log.pose[0, 0] = 99.0  # a consumer that writes changes its own copy only
+    assert spooled.log.pose[0, 0] == 99.0
+
+
+def _drive_and_add(sim, steps_before, steps_after, look_between):
+    from fuzzynav.world.scenario import ObstacleSpec
+
+    for _ in range(steps_before):
+        sim.step()
+    seen = sim.log if look_between else None
+    sim.arena.add_obstacle(ObstacleSpec((30.0, 20.0), 0.4))
+    for _ in range(steps_after):
+        sim.step()
+    return seen, sim.log
+
+
+@pytest.mark.parametrize("look_between", [False, True])
+def test_an_obstacle_added_after_rows_left_memory_gets_its_column(monkeypatch, look_between):
+    """The viewer adds obstacles while a run goes on: the rows already on the disk get
+    the new column (NaN), and a log taken before stays what it was."""
+    from fuzzynav.app.runs import build_simulation
+
+    scenario = _long_scenario(200.0)
+    before_whole, whole = _drive_and_add(
+        build_simulation(scenario, "paper"), 3000, 1500, look_between
+    )
+    _small_blocks(monkeypatch)
+    before_spooled, spooled = _drive_and_add(
+        build_simulation(scenario, "paper"), 3000, 1500, look_between
+    )
+    assert isinstance(spooled.pose, np.memmap)
+    assert spooled.obstacle_xy.shape == (4500, 4, 2)
+    assert np.isnan(spooled.obstacle_xy[:3000, 3]).all()
+    _same_logs(whole, spooled)
+    if look_between:
+        _same_logs(before_whole, before_spooled)
+        assert before_spooled.obstacle_xy.shape[1] == 3
+
+
+def test_a_run_s_memory_does_not_grow_with_its_length(monkeypatch):
+    """What numpy holds at the peak of a run (tracemalloc sees every array; the mapped
+    log is the operating system's pages) is a block's, however long the run."""
+    from fuzzynav.app.runs import build_simulation
+
+    _small_blocks(monkeypatch, metrics_rows=1000)
+    peaks = {}
+    for duration_s in (60.0, 240.0):
+        sim = build_simulation(_long_scenario(duration_s), "paper")
+        tracemalloc.start()
+        result = sim.run()
+        peaks[duration_s] = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert result.outcome == "timeout" and len(result.log) > duration_s / 0.02
+    whole_log = 12_000 * (24 + 3 * 4) * 8  # bytes of the 240 s log's rows
+    assert peaks[240.0] < 1.25 * peaks[60.0]
+    assert peaks[240.0] < whole_log
+
+
+@pytest.mark.parametrize("name", ["s2", "s3"])
+def test_metrics_read_a_block_at_a_time_are_the_whole_log_s(monkeypatch, name):
+    """compute_metrics reads the log in blocks (a mapped log is not read whole): one block
+    is exactly what the whole-log formulas give; many blocks count every step once."""
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.world import metrics
+
+    result = build_simulation(name, "paper").run()
+    log, sc = result.log, result.scenario
+    whole = metrics.compute_metrics(result)
+    mad, rmse = metrics.deviation_from_line(log.pose[:, :2], sc.start, sc.target)
+    window = None if sc.disturbance is None else (sc.disturbance.start_s, sc.disturbance.stop_s)
+    assert whole["path_length_m"] == metrics.path_length(log.pose[:, :2])
+    assert (whole["mad_m"], whole["rmse_m"]) == (mad, rmse)
+    assert whole["voltage_jumps"] == metrics.voltage_jumps(log.time_s, log.voltages_v, window)
+    assert whole["min_center_distance_m"] == np.nanmin(log.center_distance_m)
+    monkeypatch.setattr(metrics, "METRICS_BLOCK_ROWS", 7)
+    blocks = metrics.compute_metrics(result)
+    for key, value in whole.items():
+        if isinstance(value, float) and key != "wall_time_s":
+            assert blocks[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
+        elif key != "wall_time_s":
+            assert blocks[key] == value, key

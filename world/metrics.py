@@ -76,10 +76,80 @@ def _finite_min(values: np.ndarray) -> float | None:
     return float(finite.min()) if finite.size else None
 
 
-def _min_clearance(logged: np.ndarray, swept: float | None) -> float | None:
+def _min_clearance(logged: float | None, swept: float | None) -> float | None:
     """The smaller of the logged clearances' minimum and the swept one (None: none)."""
-    found = [v for v in (_finite_min(logged), swept) if v is not None and math.isfinite(v)]
+    found = [v for v in (logged, swept) if v is not None and math.isfinite(v)]
     return min(found) if found else None
+
+
+#: Rows :func:`compute_metrics` reads at a time: a long run's log may be mapped from the
+#: disk (world.simulation.LOG_BLOCK_BYTES), and whole-log temporaries grew with the run.
+#: A log of at most this many rows is measured in one piece, as it always was.
+METRICS_BLOCK_ROWS = 65_536
+
+
+def row_blocks(n_rows: int) -> list[tuple[int, int]]:
+    """``[(start, stop), ...]`` covering ``range(n_rows)`` in :data:`METRICS_BLOCK_ROWS`."""
+    size = max(2, METRICS_BLOCK_ROWS)
+    return [(start, min(start + size, n_rows)) for start in range(0, n_rows, size)]
+
+
+def _min_or_none(a: float | None, b: float | None) -> float | None:
+    return b if a is None else a if b is None else min(a, b)
+
+
+class _LogSums:
+    """The whole-log metrics accumulated a block of rows at a time. Every step between
+    blocks is counted once (a block reads the row before it), so one block gives
+    exactly what the functions above give on the whole log."""
+
+    def __init__(self, n_rows: int):
+        self.n_rows = n_rows
+        self.path_length_m = 0.0
+        self.sum_abs = 0.0
+        self.sum_sq = 0.0
+        self.min_center_distance_m = None
+        self.min_clearance_m = None
+        self.max_abs_voltage_v = 0.0
+        self.voltage_jumps = 0
+        self._last_voltage = None  # the last finite (time, voltages) row seen
+
+    @property
+    def mad_m(self) -> float:
+        return self.sum_abs / self.n_rows
+
+    @property
+    def rmse_m(self) -> float:
+        return math.sqrt(self.sum_sq / self.n_rows)
+
+    def add(self, log, start: int, stop: int, scenario) -> None:
+        xy = np.asarray(log.pose[max(0, start - 1) : stop, :2], dtype=float)
+        self.path_length_m += path_length(xy)
+        d = point_segment_distance(xy[1:] if start else xy, scenario.start, scenario.target)
+        self.sum_abs += float(np.add.reduce(np.abs(d)))
+        self.sum_sq += float(np.add.reduce(d * d))
+        self.min_center_distance_m = _min_or_none(
+            self.min_center_distance_m, _finite_min(np.asarray(log.center_distance_m[start:stop]))
+        )
+        self.min_clearance_m = _min_or_none(
+            self.min_clearance_m, _finite_min(np.asarray(log.clearance_m[start:stop]))
+        )
+        v = np.asarray(log.voltages_v[start:stop], dtype=float)
+        applied = v[np.isfinite(v)]
+        if applied.size:
+            self.max_abs_voltage_v = max(self.max_abs_voltage_v, float(np.abs(applied).max()))
+        t = np.asarray(log.time_s[start:stop], dtype=float)
+        ok = np.all(np.isfinite(v), axis=1)
+        v, t = v[ok], t[ok]
+        if self._last_voltage is not None and len(v):
+            t = np.concatenate([[self._last_voltage[0]], t])
+            v = np.concatenate([self._last_voltage[1][None, :], v])
+        window = scenario.disturbance
+        self.voltage_jumps += voltage_jumps(
+            t, v, None if window is None else (window.start_s, window.stop_s)
+        )
+        if len(v):
+            self._last_voltage = (t[-1], v[-1])
 
 
 def compute_metrics(result) -> dict:
@@ -105,37 +175,33 @@ def compute_metrics(result) -> dict:
             "min_safety_distance_m": None,
         }
     geometry = getattr(result, "geometry", "husky")
-    xy = log.pose[:, :2]
     sc = result.scenario
-    mad, rmse = deviation_from_line(xy, sc.start, sc.target)
-    applied = log.voltages_v[np.isfinite(log.voltages_v)]
+    sums = _LogSums(len(log))
+    for start, stop in row_blocks(len(log)):
+        sums.add(log, start, stop, sc)
+    mad, rmse = sums.mad_m, sums.rmse_m
+    swept = getattr(result, "swept_min_clearance_m", None)
     reached = result.outcome == "reached"
     return {
         "reached": reached,
         "collided": bool(result.collisions),
         "outcome": result.outcome,
         "time_to_target_s": float(log.time_s[-1]) if reached else None,
-        "path_length_m": path_length(xy),
+        "path_length_m": sums.path_length_m,
         "mad_m": mad,
         "rmse_m": rmse,
-        "min_center_distance_m": _finite_min(log.center_distance_m),
-        "min_clearance_m": _min_clearance(
-            log.clearance_m, getattr(result, "swept_min_clearance_m", None)
-        ),
-        "max_abs_voltage_v": float(np.abs(applied).max()) if applied.size else 0.0,
+        "min_center_distance_m": sums.min_center_distance_m,
+        "min_clearance_m": _min_clearance(sums.min_clearance_m, swept),
+        "max_abs_voltage_v": sums.max_abs_voltage_v,
         "sim_time_s": float(log.time_s[-1]),
         "steps": int(len(log) - 1),
         "wall_time_s": float(result.wall_time_s),
-        "voltage_jumps": voltage_jumps(
-            log.time_s,
-            log.voltages_v,
-            None if sc.disturbance is None else (sc.disturbance.start_s, sc.disturbance.stop_s),
-        ),
+        "voltage_jumps": sums.voltage_jumps,
         "geometry": geometry,
         "min_safety_distance_m": (
-            _finite_min(log.center_distance_m)
+            sums.min_center_distance_m
             if geometry == "paper"
-            else _min_clearance(log.clearance_m, getattr(result, "swept_min_clearance_m", None))
+            else _min_clearance(sums.min_clearance_m, swept)
         ),
     }
 

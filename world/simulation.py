@@ -98,6 +98,21 @@ def check_run_size(duration_s: float, control_period_s: float, n_obstacles: int)
     return steps
 
 
+#: The most the log of one run keeps in memory (issue 26): a longer run's rows go to an
+#: unnamed temporary file a block at a time, and the finished log maps them back
+#: (read-only pages the operating system may drop and read again), so a run's memory
+#: does not grow with its length. Runs shorter than a block never touch the disk.
+LOG_BLOCK_BYTES = 16 * 1024**2
+
+
+def log_block_rows(n_obstacles: int) -> int:
+    """Rows of the log's in-memory block (:data:`LOG_BLOCK_BYTES`) for ``n_obstacles``
+    obstacle columns."""
+    floats = LOG_FLOATS_PER_STEP + LOG_FLOATS_PER_OBSTACLE * max(1, n_obstacles)
+    return max(_LOG_MIN_BLOCK_ROWS, LOG_BLOCK_BYTES // (8 * floats))
+
+
+_LOG_MIN_BLOCK_ROWS = 1024
 _FLOAT64 = np.dtype(np.float64)
 _pack_into = struct.pack_into
 
@@ -173,9 +188,16 @@ class _LogBuffer:
     }
     _FLUSH_ROWS = 512
 
-    def __init__(self, capacity: int):
+    def __init__(self, capacity: int, block_rows: int | None = None):
         self.n = 0
+        # block_rows: rows kept in memory at most (None: all of them); fuller blocks
+        # are written out to the spool, a pair of unnamed temporary files.
+        self.block_rows = None if block_rows is None else max(block_rows, self._FLUSH_ROWS)
+        if self.block_rows is not None:
+            capacity = min(capacity, self.block_rows)
         self.capacity = max(capacity, 16)
+        self._spool = None
+        self._spilled = 0  # rows in the spool, before those in the matrices
         self.width = sum(self._FIELDS.values())
         self.rows = np.full((self.capacity, self.width), np.nan)
         self.obstacle_ids: list[int] = []
@@ -191,8 +213,25 @@ class _LogBuffer:
         self._columns: list[int] = []
         self._direct = True  # those ids are exactly the columns, in order
 
+    def _make_room(self, rows: int) -> None:
+        while self._written + rows > self.capacity:
+            if self.block_rows is not None and self.capacity >= self.block_rows:
+                self._spill()
+            else:
+                self._grow()
+
+    def _spill(self) -> None:
+        """Write the matrices' rows to the spool and start the block again."""
+        if self._spool is None:
+            self._spool = _LogSpool()
+        self._spool.append(self.rows[: self._written], self.obstacles[: self._written])
+        self._spilled += self._written
+        self._written = 0
+
     def _grow(self) -> None:
         self.capacity *= 2
+        if self.block_rows is not None:
+            self.capacity = min(self.capacity, self.block_rows)
         self.rows = np.concatenate([self.rows, np.full_like(self.rows, np.nan)])
         self.obstacles = np.concatenate([self.obstacles, np.full_like(self.obstacles, np.nan)])
 
@@ -200,6 +239,10 @@ class _LogBuffer:
         new = [(i, r) for i, r in zip(ids, radii) if i not in self.obstacle_ids]
         if new:
             self._flush()  # the pending rows have the old number of columns
+            if self._spool is not None:
+                self._spool.widen(
+                    self._spilled, len(self.obstacle_ids), len(self.obstacle_ids) + len(new)
+                )
             for obstacle_id, radius in new:
                 self.obstacle_ids.append(obstacle_id)
                 self.obstacle_radii.append(float(radius))
@@ -241,9 +284,8 @@ class _LogBuffer:
         m = self._pending
         if not m:
             return
+        self._make_room(m)
         start, stop = self._written, self._written + m
-        while stop > self.capacity:
-            self._grow()
         # struct packs the flat lists straight into the arrays' memory: a plain float
         # loop, several times cheaper than numpy's conversion of nested lists.
         _pack_into(f"{m * self.width}d", self.rows, start * self.width * 8, *self._rows)
@@ -264,6 +306,8 @@ class _LogBuffer:
 
     def freeze(self) -> SimulationLog:
         self._flush()
+        if self._spool is not None:
+            return self._freeze_spooled()
         n = self.n
         fields, start = {}, 0
         for name, width in self._FIELDS.items():
@@ -280,6 +324,82 @@ class _LogBuffer:
             center_distance_m=self.obstacles[:n, :, 2].copy(),
             clearance_m=self.obstacles[:n, :, 3].copy(),
         )
+
+    def _freeze_spooled(self) -> SimulationLog:
+        """The log as views of the spool's memory maps (copy-on-write: a consumer
+        that writes into an array changes its own pages, never the file)."""
+        self._spill()
+        n, n_columns = self.n, len(self.obstacle_ids)
+        rows, obstacles = self._spool.maps(n, self.width, n_columns)
+        fields, start = {}, 0
+        for name, width in self._FIELDS.items():
+            column = rows[:, start : start + width]
+            fields[name] = column[:, 0] if name in ("time_s", "disturbance") else column
+            start += width
+        return SimulationLog(
+            **fields,
+            obstacle_xy=obstacles[:, :, 0:2],
+            obstacle_radii_m=np.asarray(self.obstacle_radii, dtype=float),
+            obstacle_ids=list(self.obstacle_ids),
+            center_distance_m=obstacles[:, :, 2],
+            clearance_m=obstacles[:, :, 3],
+        )
+
+
+class _LogSpool:
+    """The rows of a long run's log that left memory: per-step floats in one unnamed
+    temporary file, per obstacle column (x, y, centre distance, clearance) in another,
+    row after row as float64 (the bytes of the arrays, so the values are the same to the
+    bit). Unnamed: nothing is left behind however the process ends; the space is freed
+    when the last map of it is gone. The directory is Python's temporary one
+    (``TMPDIR``)."""
+
+    def __init__(self):
+        import tempfile
+
+        self.rows_file = tempfile.TemporaryFile(prefix="fuzzynav-log-")
+        self.obstacles_file = tempfile.TemporaryFile(prefix="fuzzynav-log-")
+
+    def append(self, rows: np.ndarray, obstacles: np.ndarray) -> None:
+        self.rows_file.write(np.ascontiguousarray(rows).data)
+        if obstacles.size:
+            self.obstacles_file.write(np.ascontiguousarray(obstacles).data)
+
+    def widen(self, spooled_rows: int, old_columns: int, new_columns: int) -> None:
+        """An obstacle appeared: the ``spooled_rows`` rows get NaN columns for it (a new
+        file, written a block at a time; maps of the old one stay valid)."""
+        import tempfile
+
+        old = self.obstacles_file
+        old.flush()
+        old.seek(0)
+        new = tempfile.TemporaryFile(prefix="fuzzynav-log-")
+        block = max(1, LOG_BLOCK_BYTES // (new_columns * 4 * 8))
+        done = 0
+        while done < spooled_rows:
+            m = min(block, spooled_rows - done)
+            wide = np.full((m, new_columns, 4), np.nan)
+            if old_columns:
+                part = np.frombuffer(old.read(m * old_columns * 4 * 8), dtype=np.float64)
+                wide[:, :old_columns] = part.reshape(m, old_columns, 4)
+            new.write(wide.data)
+            done += m
+        self.obstacles_file = new
+        old.close()
+
+    def maps(self, n: int, width: int, n_columns: int) -> tuple[np.ndarray, np.ndarray]:
+        """The first ``n`` rows: ``(n, width)`` per-step floats, ``(n, n_columns, 4)``
+        per obstacle."""
+        self.rows_file.flush()
+        self.obstacles_file.flush()
+        rows = np.memmap(self.rows_file, dtype=np.float64, mode="c", shape=(n, width))
+        if n_columns:
+            obstacles = np.memmap(
+                self.obstacles_file, dtype=np.float64, mode="c", shape=(n, n_columns, 4)
+            )
+        else:
+            obstacles = np.empty((n, 0, 4))
+        return rows, obstacles
 
 
 class Simulation:
@@ -384,10 +504,10 @@ class Simulation:
         self.x = np.zeros(6)
         self.outcome: str | None = None
         self._wall_time_s = 0.0
-        # The log grows by doubling; sized for the whole run only up to an hour's worth,
-        # so that a scenario built in code with a huge duration does not ask for terabytes.
+        # The log is sized for the whole run up to a block (LOG_BLOCK_BYTES); a longer
+        # run's earlier blocks go to the disk, so memory does not grow with the length.
         capacity = int(math.ceil(min(sc.duration_s, 3600.0) / self.control_period_s)) + 2
-        self._log = _LogBuffer(capacity)
+        self._log = _LogBuffer(capacity, log_block_rows(len(sc.obstacles)))
         self._pending: dict | None = None
 
     @property

@@ -34,6 +34,9 @@ from .internals import (
 APPLICATION_ID = "fuzzynav"
 
 
+_BOUNDS_BLOCK_ROWS = 65_536
+
+
 def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     """The world view's bounds: the robot's whole path (or, before it has one, the
     start), the target, and the obstacles near them, with a 1 m margin. A moving
@@ -41,8 +44,12 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     is the robot's, not the path of an obstacle that left for the horizon."""
     xs = [scenario.start[0], scenario.target[0]]
     ys = [scenario.start[1], scenario.target[1]]
-    if log is not None and len(log):
-        xy = log.pose[:, :2]
+    # A block of rows at a time: a long run's log may be mapped from the disk
+    # (world.simulation.LOG_BLOCK_BYTES), and its obstacle columns reshaped whole were
+    # several copies of them.
+    n = len(log) if log is not None else 0
+    for start in range(0, n, _BOUNDS_BLOCK_ROWS):
+        xy = np.asarray(log.pose[start : start + _BOUNDS_BLOCK_ROWS, :2])
         xy = xy[np.all(np.isfinite(xy), axis=1)]
         if len(xy):
             xs += [float(xy[:, 0].min()), float(xy[:, 0].max())]
@@ -57,21 +64,23 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
                 ys.extend((y - r, y + r))
 
     keep([o.position for o in scenario.obstacles], [o.radius_m for o in scenario.obstacles])
-    if log is not None and len(log) and log.obstacle_xy.size:
-        radii = np.repeat(log.obstacle_radii_m[None, :], len(log), axis=0).reshape(-1)
-        points = log.obstacle_xy.reshape(-1, 2)
-        finite = np.all(np.isfinite(points), axis=1)
-        inside = (
-            finite
-            & (points[:, 0] >= lo_x)
-            & (points[:, 0] <= hi_x)
-            & (points[:, 1] >= lo_y)
-            & (points[:, 1] <= hi_y)
-        )
-        if inside.any():
-            p, r = points[inside], radii[inside]
-            xs += [float((p[:, 0] - r).min()), float((p[:, 0] + r).max())]
-            ys += [float((p[:, 1] - r).min()), float((p[:, 1] + r).max())]
+    if n and log.obstacle_xy.size:
+        for start in range(0, n, _BOUNDS_BLOCK_ROWS):
+            block = np.asarray(log.obstacle_xy[start : start + _BOUNDS_BLOCK_ROWS])
+            radii = np.broadcast_to(log.obstacle_radii_m[None, :], block.shape[:2]).reshape(-1)
+            points = block.reshape(-1, 2)
+            finite = np.all(np.isfinite(points), axis=1)
+            inside = (
+                finite
+                & (points[:, 0] >= lo_x)
+                & (points[:, 0] <= hi_x)
+                & (points[:, 1] >= lo_y)
+                & (points[:, 1] <= hi_y)
+            )
+            if inside.any():
+                p, r = points[inside], radii[inside]
+                xs += [float((p[:, 0] - r).min()), float((p[:, 0] + r).max())]
+                ys += [float((p[:, 1] - r).min()), float((p[:, 1] + r).max())]
     margin = 1.0
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 

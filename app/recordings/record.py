@@ -239,6 +239,10 @@ def _record(
         # encoded from them, stay as large as one block, however long the run.
         for first in range(0, len(log), SEND_ROWS):
             writer.send(log, first, min(first + SEND_ROWS, len(log)), send_static=False)
+            # Wait until the block has left for the pipe: rerun's sink queues without
+            # bound, and on a slow disk (or a machine short of memory, whose page cache
+            # is written back slowly) a 2,000 s run at 1 ms queued 300 MB more there.
+            rec.flush()
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
         if writer.fis_error:
