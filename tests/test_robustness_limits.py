@@ -704,3 +704,38 @@ def test_metrics_read_a_block_at_a_time_are_the_whole_log_s(monkeypatch, name):
             assert blocks[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
         elif key != "wall_time_s":
             assert blocks[key] == value, key
+
+
+@pytest.mark.parametrize("controller", ["paper", "fuzzynav"])
+def test_a_live_recording_keeps_no_plotted_rows_and_places_legends_as_a_whole_one(
+    tmp_path, monkeypatch, controller
+):
+    """`serve --rrd` kept every plotted row for its legends, however long the run: the
+    live recorder now keeps their value ranges and reads the rows under the legends from
+    the simulation's log at its close: the same placements as record_run's."""
+    from fuzzynav.app.recordings import blueprint
+    from fuzzynav.app.recordings import record as recording
+    from fuzzynav.app.recordings.internals import INTERNALS_PATH
+    from fuzzynav.app.recordings.live import LiveRecorder
+    from fuzzynav.app.runs import build_simulation
+
+    corners = []
+    real = blueprint.blueprint
+
+    def spy(*args, legend_corners=None, **kwargs):
+        corners.append(legend_corners)
+        return real(*args, legend_corners=legend_corners, **kwargs)
+
+    monkeypatch.setattr(blueprint, "blueprint", spy)
+    sim = build_simulation("s2", controller)
+    live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=61, min_interval_s=0.0)
+    while not sim.done:
+        sim.step()
+        live.update(sim)
+    kept = {p for p, parts in live._writer._legend_samples.items() if parts}
+    assert kept <= {INTERNALS_PATH}  # (a replayed controller's state is in no log)
+    live.close(sim)
+    live_corners = corners[-1]
+    whole = build_simulation("s2", controller)
+    recording.record_simulation(whole, whole.run(), tmp_path / "whole.rrd")
+    assert live_corners and live_corners == corners[-1]

@@ -117,6 +117,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         geometry: str = "husky",
         decisions: int | None = None,
         total_rows: int | None = None,
+        legends_from_log: bool | None = None,
     ):
         self.rec = rec
         # Ideal perception uses no range sensor: no beams are drawn, but the line to the
@@ -153,10 +154,15 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         self.rule_heat = RuleHeat(decisions)
         self._rings: set[int] = set()
         self._legend_samples: dict[str, list[np.ndarray]] = {}
-        # A run whose length is known (record_run): of the plots made from the log only
-        # the value range is kept as the rows go; legend_corners reads the rows under
-        # the legends from the log again. (A live recording keeps every plotted row.)
+        # Of the plots made from the log only the value range is kept as the rows go,
+        # and legend_corners reads the rows under the legends from the log again: for a
+        # run whose length is known (record_run) and for a live recording, whose
+        # simulation still has the log at its close (LiveRecorder). Otherwise every
+        # plotted row is kept.
         self.total_rows = total_rows
+        self.legends_from_log = (
+            total_rows is not None if legends_from_log is None else bool(legends_from_log)
+        )
         self._legend_ranges: dict[str, list] = {}  # path: [lo, hi, widths, rows]
 
     # -- low level ---------------------------------------------------------------------
@@ -182,7 +188,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
             )
         self._rows.add_series(path, columns)
         replayed = path == INTERNALS_PATH and self.internals_source != "decisions"
-        if self.total_rows is None or replayed:  # (a replay's state is in no log: kept)
+        if not self.legends_from_log or replayed:  # (a replay's state is in no log: kept)
             self._legend_samples.setdefault(path, []).append(np.array(columns, dtype=float))
             return
         values = np.asarray(columns, dtype=float)
@@ -222,7 +228,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
                 placements[f"{path}#data"] = (lo - pad, hi + pad)  # (a view without legend)
         if self._legend_ranges:
             if log is None:
-                raise ValueError("legend_corners: the log is needed (total_rows was given)")
+                raise ValueError("legend_corners: the log is needed (legends_from_log)")
             placements.update(self._fitted_corners(log))
         return placements
 

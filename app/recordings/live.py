@@ -141,6 +141,9 @@ class LiveRecorder:
             controller=sim.controller,
             perception=sim.perception.mode,
             geometry=sim.geometry,
+            # the legends are placed from the simulation's log at the close: the rows
+            # plotted are not kept (a long live run kept every one)
+            legends_from_log=True,
         )
         self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
         ids = sim.arena.obstacle_arrays()[2]
@@ -263,7 +266,7 @@ class LiveRecorder:
                         w.n_rules,
                         result.log if result is not None else None,
                         internals=w.internals,
-                        legend_corners=w.legend_corners(),
+                        legend_corners=w.legend_corners(result.log if result is not None else None),
                     )
                 )
         finally:
