@@ -53,19 +53,20 @@ OUTCOMES = ("reached", "collided", "timeout")
 #: second the sensors (25 Hz) and the collision sub-steps lose their meaning.
 MIN_CONTROL_PERIOD_S = 1e-3
 MAX_CONTROL_PERIOD_S = 1.0
-#: The most steps :meth:`Simulation.run` takes (duration / period): the log holds 27
-#: floats a step plus 4 per obstacle, and grows by doubling, so 2 million steps of a
-#: run with a few obstacles stay under 1.5 GB (an hour at 2 ms; 1e-5 s asked 4.3 GB).
+#: The most steps :meth:`Simulation.run` takes (duration / period): the log holds 24
+#: floats a step plus 4 per obstacle, so 2 million steps of a run with a few obstacles
+#: write under 0.6 GB to the log's spool (an hour at 2 ms; 1e-5 s asked 4.3 GB).
 MAX_STEPS = 2_000_000
-#: The memory one run's log may take (issue 26): a legal scenario of 1000 obstacles and
-#: 3600 s reached 9.7 GB. Checked before the first step with :func:`log_bytes`.
+#: The size one run's log may reach (issue 26): a legal scenario of 1000 obstacles and
+#: 3600 s reached 9.7 GB of memory. Checked before the first step with
+#: :func:`log_bytes`; beyond :data:`LOG_BLOCK_BYTES` the log is on the disk.
 MEMORY_BUDGET_BYTES = 2 * 1024**3
 #: Floats the log keeps a step, besides those of the obstacles.
 LOG_FLOATS_PER_STEP = 24
 #: Floats the log keeps per obstacle and step: x, y, centre distance, clearance.
 LOG_FLOATS_PER_OBSTACLE = 4
-#: The log's peak over its final size: its arrays grow by doubling (up to 2x), and the
-#: result takes a copy of the obstacle columns.
+#: The log's peak over its final size when it was all in memory (its arrays grew by
+#: doubling, and the result took a copy): kept as the bound's margin.
 LOG_PEAK_FACTOR = 3
 
 
