@@ -401,9 +401,17 @@ def test_a_recording_sent_in_small_blocks_is_the_same_recording(tmp_path, monkey
     assert whole == blocks
 
 
+@pytest.mark.parametrize("memory_bytes", [None, 20_000, 200])
 @pytest.mark.parametrize("expected", [None, 1200, 5000])
-def test_the_rule_heatmap_binned_as_it_comes_is_rule_heatmap(expected):
+def test_the_rule_heatmap_binned_as_it_comes_is_rule_heatmap(monkeypatch, expected, memory_bytes):
+    """Known length: binned as the decisions come. Unknown (a live recording): kept up
+    to HEAT_MEMORY_BYTES, then in a temporary file, binned a block at a time at the end;
+    the same heatmap either way."""
+    from fuzzynav.app.recordings import internals
     from fuzzynav.app.recordings.internals import RuleHeat, rule_heatmap
+
+    if memory_bytes is not None:
+        monkeypatch.setattr(internals, "HEAT_MEMORY_BYTES", memory_bytes)
 
     rng = np.random.default_rng(7)
     n = 5000 if expected is None else expected
@@ -421,6 +429,13 @@ def test_the_rule_heatmap_binned_as_it_comes_is_rule_heatmap(expected):
     assert np.array_equal(heat.heatmap(), want)
     if expected is not None and expected > 1000:
         assert heat._parts == []  # binned as they came: no decision kept
+    elif memory_bytes is not None:
+        assert heat._spooled > 0 and heat._kept_bytes <= memory_bytes
+        wide = RuleHeat(None, max_bins=8000)  # fewer decisions than bins: a bin a row
+        for first in range(0, n, 700):
+            wide.add(np.arange(first, min(first + 700, n)) * 0.02, strengths[first : first + 700])
+        assert wide._spooled > 0
+        assert np.array_equal(wide.heatmap(), rule_heatmap(np.nan_to_num(strengths, nan=0.0), 8000))
 
 
 # --------------------------------------------------------------------------- item 7: lazy jobs
@@ -739,3 +754,36 @@ def test_a_live_recording_keeps_no_plotted_rows_and_places_legends_as_a_whole_on
     whole = build_simulation("s2", controller)
     recording.record_simulation(whole, whole.run(), tmp_path / "whole.rrd")
     assert live_corners and live_corners == corners[-1]
+
+
+def test_a_live_recording_reads_the_log_without_copying_it(tmp_path, monkeypatch):
+    """The live recorder read `sim.log` at every send: a copy of the whole log, so each
+    send cost more as the run went on. It reads a view now (valid until the next step),
+    the same rows."""
+    from fuzzynav.app.recordings.live import LiveRecorder
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.world import simulation
+
+    sim = build_simulation("s1", "paper")
+    for _ in range(300):
+        sim.step()
+    view, copy = sim.log_view(), sim.log
+    _same_logs(copy, view)
+    assert np.shares_memory(view.pose, sim._log.rows) and not np.shares_memory(
+        copy.pose, sim._log.rows
+    )
+    copies = []
+    freeze = simulation._LogBuffer.freeze
+
+    def counted(self):
+        copies.append(self.n)
+        return freeze(self)
+
+    monkeypatch.setattr(simulation._LogBuffer, "freeze", counted)
+    live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=25, min_interval_s=0.0)
+    while not sim.done:
+        sim.step()
+        live.update(sim)
+    assert copies == []  # every send read a view
+    live.close(sim)
+    assert len(copies) <= 2  # the close: the result's log and metrics

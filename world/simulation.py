@@ -306,44 +306,49 @@ class _LogBuffer:
         self._rows, self._xy, self._clearances = [], [], []
 
     def freeze(self) -> SimulationLog:
+        """The log so far, the caller's to keep: copies of the arrays (or, once rows
+        have left memory, copy-on-write maps of the spool)."""
         self._flush()
         if self._spool is not None:
             return self._freeze_spooled()
         n = self.n
-        fields, start = {}, 0
-        for name, width in self._FIELDS.items():
-            column = self.rows[:n, start : start + width]
-            fields[name] = (
-                column[:, 0].copy() if name in ("time_s", "disturbance") else column.copy()
-            )
-            start += width
-        return SimulationLog(
-            **fields,
-            obstacle_xy=self.obstacles[:n, :, 0:2].copy(),
-            obstacle_radii_m=np.asarray(self.obstacle_radii, dtype=float),
-            obstacle_ids=list(self.obstacle_ids),
-            center_distance_m=self.obstacles[:n, :, 2].copy(),
-            clearance_m=self.obstacles[:n, :, 3].copy(),
-        )
+        return self._log_of(self.rows[:n], self.obstacles[:n], copy=True)
+
+    def view(self) -> SimulationLog:
+        """The log so far without a copy: views of the arrays, valid until the next row
+        is appended (what a recorder reading the new rows now and then needs)."""
+        self._flush()
+        if self._spool is not None:
+            return self._freeze_spooled()
+        n = self.n
+        return self._log_of(self.rows[:n], self.obstacles[:n], copy=False)
 
     def _freeze_spooled(self) -> SimulationLog:
         """The log as views of the spool's memory maps (copy-on-write: a consumer
         that writes into an array changes its own pages, never the file)."""
         self._spill()
-        n, n_columns = self.n, len(self.obstacle_ids)
-        rows, obstacles = self._spool.maps(n, self.width, n_columns)
+        rows, obstacles = self._spool.maps(self.n, self.width, len(self.obstacle_ids))
+        return self._log_of(rows, obstacles, copy=False)
+
+    def _log_of(self, rows: np.ndarray, obstacles: np.ndarray, copy: bool) -> SimulationLog:
+        """A SimulationLog of the (n, width) per-step matrix and (n, columns, 4) obstacle
+        block."""
+
+        def take(array):
+            return array.copy() if copy else array
+
         fields, start = {}, 0
         for name, width in self._FIELDS.items():
             column = rows[:, start : start + width]
-            fields[name] = column[:, 0] if name in ("time_s", "disturbance") else column
+            fields[name] = take(column[:, 0] if name in ("time_s", "disturbance") else column)
             start += width
         return SimulationLog(
             **fields,
-            obstacle_xy=obstacles[:, :, 0:2],
+            obstacle_xy=take(obstacles[:, :, 0:2]),
             obstacle_radii_m=np.asarray(self.obstacle_radii, dtype=float),
             obstacle_ids=list(self.obstacle_ids),
-            center_distance_m=obstacles[:, :, 2],
-            clearance_m=obstacles[:, :, 3],
+            center_distance_m=take(obstacles[:, :, 2]),
+            clearance_m=take(obstacles[:, :, 3]),
         )
 
 
@@ -521,7 +526,13 @@ class Simulation:
 
     @property
     def log(self) -> SimulationLog:
+        """The log so far (a copy: the caller's to keep)."""
         return self._log.freeze()
+
+    def log_view(self) -> SimulationLog:
+        """The log so far without copying it: valid until the next :meth:`step` (for
+        readers of the new rows now and then, such as a live recording)."""
+        return self._log.view()
 
     # -- one control period ------------------------------------------------------------
 

@@ -101,14 +101,21 @@ def rule_heatmap(strengths: np.ndarray, max_bins: int) -> np.ndarray:
     return np.ascontiguousarray(np.maximum.reduceat(strengths, edges[:-1], axis=0).T)
 
 
+#: Rule strengths a live recording's heatmap keeps in memory (float32) before it writes
+#: them to an unnamed temporary file: how long a live run will be is not known while it
+#: runs, and the heatmap's bins are fractions of it.
+HEAT_MEMORY_BYTES = 8 * 1024**2
+
+
 class RuleHeat:
     """The run's rule firing as it comes, a chunk of decisions at a time: what the
     heatmap (:func:`rule_heatmap` of all of them) and its caption need, without keeping
-    every decision when their number is known in advance (``expected``, as
-    ``record_run`` knows it): above ``max_bins`` each bin's running maximum, which is
-    the same float32 maximum ``rule_heatmap`` takes over the whole run (a maximum does
-    not depend on the order). Otherwise (a live recording, whose length nobody knows
-    yet, or a short run) the decisions are kept and binned at the end."""
+    every decision. When their number is known in advance (``expected``, as
+    ``record_run`` knows it) and above ``max_bins``, each bin's running maximum is kept,
+    which is the same float32 maximum ``rule_heatmap`` takes over the whole run (a
+    maximum does not depend on the order). Otherwise (a live recording, whose length
+    nobody knows yet) the decisions are kept, beyond :data:`HEAT_MEMORY_BYTES` in an
+    unnamed temporary file, and binned a block at a time at the end."""
 
     def __init__(self, expected: int | None = None, max_bins: int | None = None):
         self.max_bins = int(HEATMAP_MAX_BINS if max_bins is None else max_bins)
@@ -119,12 +126,14 @@ class RuleHeat:
         self.rules = 0
         self.calls = 0
         self._parts: list[np.ndarray] = []
+        self._kept_bytes = 0
+        self._spool = None  # the decisions that left memory (float32 rows), in order
+        self._spooled = 0
         self._bins: np.ndarray | None = None
         self._starts: np.ndarray | None = None
         self.expected = None if expected is None else int(expected)
         if self.expected is not None and self.expected > self.max_bins:
-            edges = np.linspace(0, self.expected, self.max_bins + 1).astype(int)
-            self._starts = edges[:-1]  # strictly increasing: every bin has rows
+            self._starts = _bin_starts(self.expected, self.max_bins)
 
     def add(self, times: np.ndarray, strengths: np.ndarray) -> np.ndarray:
         """Take the decisions at ``times`` (their ``strengths``, float32, NaN for a rule
@@ -136,30 +145,77 @@ class RuleHeat:
             self.last_s = float(times[-1])
         m, self.rules = strengths.shape
         if self._starts is None:
-            self._parts.append(strengths)
+            self._keep(strengths)
         elif m:
             if self.count + m > self.expected:
                 raise ValueError(f"{self.count + m} decisions, {self.expected} announced")
             if self._bins is None:
                 self._bins = np.full((self.max_bins, self.rules), -np.inf, np.float32)
-            rows = np.arange(self.count, self.count + m)
-            bins = np.searchsorted(self._starts, rows, side="right") - 1
-            first = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
-            maxima = np.maximum.reduceat(strengths, first, axis=0)
-            self._bins[bins[first]] = np.maximum(self._bins[bins[first]], maxima)
+            _bin_maxima(self._bins, self._starts, self.count, strengths)
         self.count += m
         return strengths
 
+    def _keep(self, strengths: np.ndarray) -> None:
+        self._parts.append(strengths)
+        self._kept_bytes += strengths.nbytes
+        if self._kept_bytes > HEAT_MEMORY_BYTES:
+            if self._spool is None:
+                import tempfile
+
+                self._spool = tempfile.TemporaryFile(prefix="fuzzynav-heat-")
+            for part in self._parts:
+                if part.size:
+                    self._spool.write(np.ascontiguousarray(part).data)
+                    self._spooled += len(part)
+            self._parts, self._kept_bytes = [], 0
+
     def heatmap(self) -> np.ndarray:
         """(rules, bins) float32, as :func:`rule_heatmap` of every decision taken."""
-        if self._starts is None:
+        if self._starts is None and self._spool is None:
             return rule_heatmap(np.concatenate(self._parts), self.max_bins)
+        if self._starts is None and self.count <= self.max_bins:  # (a bin a row)
+            self._spool.seek(0)
+            raw = np.frombuffer(self._spool.read(), dtype=np.float32).reshape(-1, self.rules)
+            return rule_heatmap(np.concatenate([raw, *self._parts]), self.max_bins)
+        if self._starts is None:  # spooled: bin the file a block at a time, then the rest
+            starts = _bin_starts(self.count, self.max_bins)
+            bins = np.full((self.max_bins, self.rules), -np.inf, np.float32)
+            self._spool.flush()
+            self._spool.seek(0)
+            block = max(1, HEAT_MEMORY_BYTES // (4 * max(1, self.rules)))
+            done = 0
+            while done < self._spooled:
+                m = min(block, self._spooled - done)
+                raw = self._spool.read(m * self.rules * 4)
+                rows = np.frombuffer(raw, dtype=np.float32).reshape(m, self.rules)
+                _bin_maxima(bins, starts, done, rows)
+                done += m
+            for part in self._parts:
+                if len(part):
+                    _bin_maxima(bins, starts, done, part)
+                    done += len(part)
+            return np.ascontiguousarray(bins.T)
         if self._bins is None:  # no decision came (the firing could not be evaluated)
             return np.zeros((self.rules, 0), np.float32)
         filled = self._bins
         if self.count < self.expected:  # the firing stopped being recorded mid-run
             filled = filled[: int(np.searchsorted(self._starts, self.count, side="left"))]
         return np.ascontiguousarray(filled.T)
+
+
+def _bin_starts(n: int, max_bins: int) -> np.ndarray:
+    """The first row of each of :func:`rule_heatmap`'s bins of ``n`` rows (n > max_bins:
+    strictly increasing, every bin has rows)."""
+    return np.linspace(0, n, max_bins + 1).astype(int)[:-1]
+
+
+def _bin_maxima(bins: np.ndarray, starts: np.ndarray, first_row: int, rows: np.ndarray) -> None:
+    """Fold ``rows`` (rows ``first_row`` on) into the running maximum of their bins."""
+    index = np.arange(first_row, first_row + len(rows))
+    which = np.searchsorted(starts, index, side="right") - 1
+    first = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    maxima = np.maximum.reduceat(rows, first, axis=0)
+    bins[which[first]] = np.maximum(bins[which[first]], maxima)
 
 
 class ControllerColumns:

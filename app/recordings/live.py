@@ -210,7 +210,9 @@ class LiveRecorder:
                 return 0
             if time.monotonic() - self._last_send < self.min_interval_s:
                 return 0
-        self._writer.send(sim.log, sent, n)
+        # a view, not sim.log's copy: that copied the whole log at every send
+        view = getattr(sim, "log_view", None)
+        self._writer.send(view() if view is not None else sim.log, sent, n)
         self._last_send = time.monotonic()
         return n - sent
 
