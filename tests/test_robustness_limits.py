@@ -787,3 +787,26 @@ def test_a_live_recording_reads_the_log_without_copying_it(tmp_path, monkeypatch
     assert copies == []  # every send read a view
     live.close(sim)
     assert len(copies) <= 2  # the close: the result's log and metrics
+
+
+def test_a_run_ends_at_its_last_step_whatever_the_rounding(monkeypatch):
+    """The timeout was judged with 1 ns of slack: adding 6 ms 78,471 times falls 1.00005
+    ns short of 470.826 s, so the run took a step more (at 1 ms over 2,000 s it took one
+    step past MAX_STEPS). The slack now covers the rounding; both engines agree."""
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.simulation import TIMEOUT_SLACK_S, timeout_slack_s
+
+    dt, duration_s = 0.006, 470.826
+    t, steps = 0.0, 0
+    while steps < round(duration_s / dt):
+        t, steps = t + dt, steps + 1
+    assert t < duration_s - TIMEOUT_SLACK_S  # what the old test let through
+    assert timeout_slack_s(150.0, 0.02) == TIMEOUT_SLACK_S  # ordinary runs: as before
+    scenario = _long_scenario(duration_s)
+    result = build_simulation(scenario, "p", control_period_s=dt).run()
+    assert result.outcome == "timeout" and result.metrics["steps"] == round(duration_s / dt)
+    batch = run_batch([scenario], batch_controller(make_controller("p")), control_period_s=dt)
+    assert int(batch.steps[0]) == round(duration_s / dt)

@@ -64,7 +64,12 @@ from fuzzynav.world.metrics import VOLTAGE_JUMP_V
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SensorConfig
-from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S, OUTCOMES
+from fuzzynav.world.simulation import (
+    MAX_CONTROL_PERIOD_S,
+    MIN_CONTROL_PERIOD_S,
+    OUTCOMES,
+    timeout_slack_s,
+)
 
 __all__ = ["BatchController", "BatchResult", "run_batch", "OUTCOMES"]
 
@@ -458,7 +463,8 @@ def run_batch(
         seg_len2=seg_len2,
         disturbance=disturbance,
         has_window=has_window,
-        duration=duration,
+        # the first time that is the duration (the pymunk loop's test, to the bit)
+        timeout_at_s=duration - timeout_slack_s(duration, dt),
         tolerance=np.array([sc.tolerance_m for sc in scenarios], dtype=float),
         # half the field of view of ideal perception (inf: all around)
         half_field=np.array(
@@ -730,7 +736,7 @@ def run_batch(
         # -- the logged row after the step, and the ends ------------------------------
         to_target = np.hypot(a.target[:, 0] - a.x, a.target[:, 1] - a.y)
         reached = to_target <= a.tolerance
-        timeout = t >= a.duration - 1e-9
+        timeout = t >= a.timeout_at_s
         ended = reached | hit | timeout
         if stall_s is not None:
             # run_until_stalled, after every step (the last one too): a new best by

@@ -70,6 +70,22 @@ LOG_FLOATS_PER_OBSTACLE = 4
 LOG_PEAK_FACTOR = 3
 
 
+#: The smallest slack of the timeout test (s): a run ends as ``timeout`` at the first
+#: step whose accumulated time reaches its duration less the slack.
+TIMEOUT_SLACK_S = 1e-9
+
+
+def timeout_slack_s(duration_s, control_period_s):
+    """How far short of ``duration_s`` the accumulated time may end and still be the
+    duration [s]: :data:`TIMEOUT_SLACK_S`, or the rounding that adding the period
+    ``duration_s / control_period_s`` times can gather (each sum rounds by at most half
+    an ulp of ``duration_s``) when that is larger. 1 ns alone let a 2,000 s run at 1 ms
+    fall 2e-9 s short and take one step past :data:`MAX_STEPS`; an ordinary run's slack
+    stays 1 ns (150 s at 20 ms gather at most 5e-10 s). Works on arrays too."""
+    rounding = 2.0 * np.finfo(float).eps * duration_s * (duration_s / control_period_s)
+    return np.maximum(TIMEOUT_SLACK_S, rounding)
+
+
 def log_bytes(steps: float, n_obstacles: int) -> float:
     """The peak memory [bytes] of the log of a run of ``steps`` steps among
     ``n_obstacles`` obstacles (float64 columns, growth by doubling and the result's
@@ -504,6 +520,9 @@ class Simulation:
         sc = self.scenario
         # The field of view is the scenario's (its robot's sensors), so it follows it.
         self.perception.set_field_of_view(sc.field_of_view_rad)
+        self._timeout_at_s = sc.duration_s - float(
+            timeout_slack_s(sc.duration_s, self.control_period_s)
+        )
         self.arena.reset(sc.start, sc.heading_rad, sc.target, sc.obstacles)
         self.sensors.reset(self.seed)
         self.controller.reset()
@@ -622,7 +641,7 @@ class Simulation:
             self.outcome = "reached"
         elif new_contacts and self.stop_on_collision:
             self.outcome = "collided"
-        elif arena.time_s >= self.scenario.duration_s - 1e-9:
+        elif arena.time_s >= self._timeout_at_s:
             self.outcome = "timeout"
         if self.outcome is not None:
             d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
