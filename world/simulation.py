@@ -324,20 +324,19 @@ class _LogBuffer:
     def freeze(self) -> SimulationLog:
         """The log so far, the caller's to keep: copies of the arrays (or, once rows
         have left memory, copy-on-write maps of the spool)."""
-        self._flush()
-        if self._spool is not None:
-            return self._freeze_spooled()
-        n = self.n
-        return self._log_of(self.rows[:n], self.obstacles[:n], copy=True)
+        return self._snapshot(copy=True)
 
     def view(self) -> SimulationLog:
         """The log so far without a copy: views of the arrays, valid until the next row
         is appended (what a recorder reading the new rows now and then needs)."""
+        return self._snapshot(copy=False)
+
+    def _snapshot(self, copy: bool) -> SimulationLog:
         self._flush()
         if self._spool is not None:
             return self._freeze_spooled()
         n = self.n
-        return self._log_of(self.rows[:n], self.obstacles[:n], copy=False)
+        return self._log_of(self.rows[:n], self.obstacles[:n], copy=copy)
 
     def _freeze_spooled(self) -> SimulationLog:
         """The log as views of the spool's memory maps (copy-on-write: a consumer
