@@ -856,3 +856,30 @@ def test_run_history_replays_a_step_and_play_goes_on_from_the_live_end():
     assert a.history_times() == (0.0, 0.0)
     with pytest.raises(ViewerError, match="nothing recorded"):
         a.view_history(1.0)
+
+
+def test_the_field_of_view_is_drawn_where_ideal_perception_senses(served):
+    """s1-s3 sense in the front half-plane (ideal perception): the scene draws its two
+    edges at +-90 degrees from the heading and the arc between; with the sonars, or a
+    scenario that senses all around, it is not drawn."""
+
+    def wait_for(condition):
+        deadline = time.monotonic() + 10
+        while not condition():
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+
+    a = served.app
+    field = served.scene.field_of_view
+    assert a.snapshot().field_of_view_rad == pytest.approx(math.pi)
+    wait_for(lambda: field.visible)
+    edges = np.asarray(field.points)[:2, 1, :2]  # in the robot's frame, x ahead
+    bearings = sorted(math.degrees(math.atan2(y, x)) for x, y in edges)
+    assert bearings == pytest.approx([-90.0, 90.0], abs=1e-6)
+    a.set_perception("ultrasonic")
+    wait_for(lambda: not field.visible)
+    a.set_perception("ideal")
+    wait_for(lambda: field.visible)
+    a.load_scenario("crossing")  # senses all around
+    assert a.snapshot().field_of_view_rad == pytest.approx(2 * math.pi)
+    wait_for(lambda: not field.visible)

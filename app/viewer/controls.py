@@ -26,6 +26,7 @@ COLOUR_KEY = [
     ("#9333ea", "fuzzynav's echo memory (points it remembers)"),
     ("#16a34a", "fuzzynav's planned bearing (thick green line)"),
     ("#d97706", "safe-distance ring (red: an obstacle inside)"),
+    ("#64748b", "ideal perception's field of view: obstacles outside it are not sensed"),
     ("#0d9488", "d_t (line to the target) and phi_t (arc from the heading)"),
     ("#c026d3", "d_o (from the footprint's edge) and phi_o (arc from the heading)"),
     ("#606f88", "static obstacle"),

@@ -92,6 +92,7 @@ class Reading:
                 scenario_label=app.scenario_label,
                 controller_label=app.controller_label,
                 perception=sim.perception.mode,
+                field_of_view_rad=sim.perception.field_of_view_rad,
                 geometry=app.geometry,
                 disturbance_on=app.disturbance_on,
                 noise_std_m=app.noise_std_m,

@@ -44,6 +44,9 @@ STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
 TARGET_INPUT = (13, 148, 136)  # d_t, phi_t on the robot (views.TARGET_INPUT)
 OBSTACLE_INPUT = (192, 38, 211)  # d_o, phi_o (views.OBSTACLE_INPUT)
+FIELD_OF_VIEW = (100, 116, 139)  # the edges of ideal perception's field of view
+#: How far the field of view's edges are drawn from the robot's centre (m), and its arc.
+FIELD_OF_VIEW_DRAWN_M = 2.5
 ARC_SEGMENTS = 8
 INPUT_SEGMENTS = ARC_SEGMENTS + 2  # a distance, a radius along the heading, an arc
 
@@ -92,6 +95,19 @@ def arena_bounds(snap: Snapshot, start) -> tuple[int, int, int, int]:
     cx, cy = round(0.5 * (x0 + x1)), round(0.5 * (y0 + y1))
     half = size // 2
     return cx - half, cx + half, cy - half, cy + half
+
+
+def field_of_view_segments(field_of_view_rad: float, reach_m: float, z: float) -> np.ndarray:
+    """Line segments in the robot's frame: the two edges of a field of view centred on
+    the heading (x forward), ``reach_m`` long, and the arc between them."""
+    half = 0.5 * field_of_view_rad
+    arc = np.linspace(-half, half, max(8, int(math.degrees(field_of_view_rad) / 6)))
+    points = np.column_stack([reach_m * np.cos(arc), reach_m * np.sin(arc)])
+    edges = np.array([[[0.0, 0.0], points[0]], [[0.0, 0.0], points[-1]]])
+    segments = np.concatenate([edges, np.stack([points[:-1], points[1:]], axis=1)])
+    return np.concatenate([segments, np.full((*segments.shape[:2], 1), z)], axis=2).astype(
+        np.float32
+    )
 
 
 def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
@@ -194,6 +210,16 @@ class Scene:
             "/robot/free_beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.025
         )
         self.show_geometry(self.app.geometry)
+        # Ideal perception's field of view (s1-s3: the front half-plane of the paper's
+        # three front sonars): an obstacle outside it is not sensed, so it is drawn.
+        self.field_of_view = scene.add_line_segments(
+            "/robot/field_of_view",
+            np.zeros((1, 2, 3), np.float32),
+            FIELD_OF_VIEW,
+            thickness=0.02,
+            visible=False,
+        )
+        self._field_drawn = None
         # Target: a bullseye with a handle that slides on the ground.
         self.view.handles.build_target(scene)
         self.ideal = scene.add_line_segments(
@@ -361,9 +387,21 @@ class Scene:
             self.ideal.points = np.array(
                 [[[sx, sy, 0.008], [snap.target[0], snap.target[1], 0.008]]], dtype=np.float32
             )
+        self._draw_field_of_view(snap)
         self._draw_memory(snap)
         self._draw_trail()
         self._draw_ghost(snap)
+
+    def _draw_field_of_view(self, snap: Snapshot) -> None:
+        field = snap.field_of_view_rad
+        shown = snap.perception == "ideal" and field < 2.0 * math.pi
+        key = (shown, field)
+        if key == self._field_drawn:
+            return
+        self._field_drawn = key
+        if shown:
+            self.field_of_view.points = field_of_view_segments(field, FIELD_OF_VIEW_DRAWN_M, 0.02)
+        self.field_of_view.visible = shown
 
     def draw_inputs(self, snap: Snapshot) -> None:
         """The inputs the controller was given, on the robot (at the panels' rate, from

@@ -171,6 +171,9 @@ class Snapshot:
     # controller driving has such parts at all.
     parts_off: tuple[str, ...] = ()
     has_parts: bool = False
+    # Ideal perception senses obstacles whose centre bears within this angle, centred
+    # on the heading (the scenario's robot.field_of_view_deg; 2 pi: all around).
+    field_of_view_rad: float = 2.0 * math.pi
     ghost: Ghost | None = None
     ghost_id: int = 0
     run_label: str = ""
