@@ -146,3 +146,39 @@ def test_serve_rrd_writes_a_file_only_for_a_run_that_stepped(tmp_path):
     assert app.recorded_files == expected
     assert sorted(tmp_path.iterdir()) == sorted(expected)
     assert all(p.stat().st_size > 1000 for p in expected)
+
+
+def test_a_second_server_on_the_same_path_never_replaces_the_first_s_first_run(tmp_path):
+    """The first run went to --rrd itself in every server: a second serve --rrd on the
+    same path, while the first ran, replaced the first's first run. The path is held by
+    the server that wrote to it first until it stops; another numbers its runs."""
+    pytest.importorskip("fuzzynav.app.recordings.record")
+    import fcntl  # noqa: F401  (POSIX: the hold is an flock)
+
+    path = tmp_path / "session.rrd"
+
+    def one_run(app):
+        with app.lock:
+            for _ in range(5):
+                app.driver._step_locked()
+        app.reset()
+
+    first, second = ViewerApp("s1", "p", rrd_path=path), ViewerApp("s2", "p", rrd_path=path)
+    try:
+        one_run(first)
+        one_run(second)
+        one_run(first)
+        written = path.read_bytes()
+    finally:
+        second.stop()
+        first.stop()
+    assert first.recorded_files[0] == path
+    assert path not in second.recorded_files and len(second.recorded_files) == 1
+    assert len(set(first.recorded_files + second.recorded_files)) == 3
+    assert path.read_bytes() == written  # not replaced by the second server's close
+    third = ViewerApp("s1", "p", rrd_path=path)  # the first stopped: the path is free
+    try:
+        one_run(third)
+    finally:
+        third.stop()
+    assert third.recorded_files == [path]

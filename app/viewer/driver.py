@@ -52,6 +52,7 @@ class RunDriver:
             app._thread = None
         with app.lock:
             self._close_recorder_locked()
+            self._release_rrd_path()
 
     def _record_locked(self) -> None:
         app = self.app
@@ -79,9 +80,11 @@ class RunDriver:
         """The file of the next run: ``--rrd`` itself first, then ``<stem>-runK.rrd``
         with the first K whose file does not exist, reserved at once (created empty,
         exclusively), so that a second ``serve --rrd`` on the same path never takes,
-        nor overwrites, this one's runs (issue 26)."""
+        nor overwrites, this one's runs (issue 26). ``--rrd`` itself only while this
+        server holds it (:meth:`_hold_rrd_path`): a second server on the same path
+        while the first runs numbers its first run too."""
         app = self.app
-        if not app.recorded_files:
+        if not app.recorded_files and self._hold_rrd_path():
             return app.rrd_path
         suffix = app.rrd_path.suffix or ".rrd"
         k = len(app.recorded_files) + 1
@@ -92,6 +95,46 @@ class RunDriver:
                 return path
             except FileExistsError:
                 k += 1
+
+    def _hold_rrd_path(self) -> bool:
+        """Whether this server holds ``--rrd`` itself: an OS advisory lock (``flock``)
+        on ``.<name>.serving`` beside it, taken at the first run and kept until the
+        viewer stops, which removes the file (the lock goes with the process however it
+        ends; after a crash the empty file stays, free). False when another server
+        holds it; True where there is no ``flock`` (Windows: the first run then
+        replaces the path, as before)."""
+        app = self.app
+        if getattr(self, "_serving_fd", None) is not None:
+            return True
+        try:
+            import fcntl
+        except ImportError:
+            return True
+        marker = app.rrd_path.with_name(f".{app.rrd_path.name}.serving")
+        while True:
+            fd = os.open(marker, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                return False
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(marker))
+            except FileNotFoundError:
+                same = False
+            if same:  # (else its holder removed it as it stopped: take the new one)
+                self._serving_fd, self._serving_marker = fd, marker
+                return True
+            os.close(fd)
+
+    def _release_rrd_path(self) -> None:
+        fd, self._serving_fd = getattr(self, "_serving_fd", None), None
+        if fd is not None:
+            try:
+                os.unlink(self._serving_marker)  # still locked: nobody holds it now
+            except OSError:
+                pass
+            os.close(fd)  # the lock with it
 
     def _close_recorder_locked(self) -> None:
         app = self.app

@@ -109,7 +109,8 @@ class ViewerApp:
         As for :class:`world.simulation.Simulation`.
     rrd_path : str or Path, optional
         Record every run to a rerun file (``--rrd``): the first run to this path, later
-        runs (after a reset) to ``<stem>-run2.rrd``, ``<stem>-run3.rrd``... Each file is
+        runs (after a reset) to ``<stem>-run2.rrd``, ``<stem>-run3.rrd``... (the first
+        free number; every run while another viewer holds the path). Each file is
         completed when its run ends or is reset, and when the viewer stops.
     """
 

@@ -184,7 +184,8 @@ def add_commands(subparsers) -> None:
                 default=None,
                 metavar="PATH",
                 help="also record the session to rerun files: the first run "
-                "to PATH, later runs to <stem>-run2.rrd, ...",
+                "to PATH, later runs to <stem>-run2.rrd, ... (the first free number; "
+                "while another server records to PATH, every run is numbered)",
             )
             parser.add_argument(
                 "--controller",
