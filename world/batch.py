@@ -64,12 +64,7 @@ from fuzzynav.world.metrics import VOLTAGE_JUMP_V
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SensorConfig
-from fuzzynav.world.simulation import (
-    MAX_CONTROL_PERIOD_S,
-    MIN_CONTROL_PERIOD_S,
-    OUTCOMES,
-    timeout_slack_s,
-)
+from fuzzynav.world.simulation import OUTCOMES, check_loop_settings, timeout_slack_s
 
 __all__ = ["BatchController", "BatchResult", "run_batch", "OUTCOMES"]
 
@@ -337,16 +332,7 @@ def run_batch(
     n_runs = len(scenarios)
     if n_runs == 0:
         raise ValueError("scenarios: the batch is empty")
-    if not (
-        math.isfinite(control_period_s)
-        and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
-    ):
-        raise ValueError(
-            f"control_period_s = {control_period_s!r}: must be from "
-            f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
-        )
-    if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
-        raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
+    check_loop_settings(control_period_s, voltage_limit_v)
     check_geometry(geometry, perception)
     if perception not in ("ideal", "ultrasonic"):
         raise ValueError(f"perception = {perception!r}: must be one of ideal, ultrasonic")

@@ -70,6 +70,22 @@ LOG_FLOATS_PER_OBSTACLE = 4
 LOG_PEAK_FACTOR = 3
 
 
+def check_loop_settings(control_period_s: float, voltage_limit_v: float) -> None:
+    """ValueError naming the value when the control period is outside
+    [:data:`MIN_CONTROL_PERIOD_S`, :data:`MAX_CONTROL_PERIOD_S`] or the voltage limit
+    is not a positive number (both engines' check)."""
+    if not (
+        math.isfinite(control_period_s)
+        and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
+    ):
+        raise ValueError(
+            f"control_period_s = {control_period_s!r}: must be from "
+            f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
+        )
+    if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
+        raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
+
+
 #: The smallest slack of the timeout test (s): a run ends as ``timeout`` at the first
 #: step whose accumulated time reaches its duration less the slack.
 TIMEOUT_SLACK_S = 1e-9
@@ -468,16 +484,7 @@ class Simulation:
         stop_on_collision: bool = True,
         geometry: str = "husky",
     ):
-        if not (
-            math.isfinite(control_period_s)
-            and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
-        ):
-            raise ValueError(
-                f"control_period_s = {control_period_s!r}: must be from "
-                f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
-            )
-        if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
-            raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
+        check_loop_settings(control_period_s, voltage_limit_v)
         self.scenario = scenario
         self.controller = controller
         self.control_period_s = float(control_period_s)
