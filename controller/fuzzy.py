@@ -656,6 +656,37 @@ class FuzzySystem:
         agg, out = self._agg_one(x)
         return Aggregation(self._grid.copy(), agg[:, 0, :], np.array(out))
 
+    def aggregated_many(self, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`aggregated` of every row of a batch X (N, n_inputs), through the batch
+        path: the output grids (n_out, G), the aggregated memberships (N, n_out, G) and
+        the crisp outputs (N, n_out), the same bits as row by row (module docstring)."""
+        X = self._check_X(X)
+        n_rows, n_out = X.shape[0], len(self.outputs)
+        memberships = np.empty((n_rows, n_out, self.n_points))
+        Y = np.empty((n_rows, n_out))
+        if self._plain:
+            step = 128  # as _plain_evaluate
+            for b0 in range(0, n_rows, step):
+                Xb = X[b0 : b0 + step]
+                aggs, Y[b0 : b0 + len(Xb)] = self._plain_outputs(
+                    self._block_levels(Xb).F[:, : len(Xb)]
+                )
+                for o, agg in enumerate(aggs):
+                    memberships[b0 : b0 + len(Xb), o] = agg.T
+            return self._grid.copy(), memberships, Y
+        for b0 in range(0, n_rows, _BLOCK):
+            Xb = X[b0 : b0 + _BLOCK]
+            ws = self._block_levels(Xb)
+            for c0 in range(0, len(Xb), _CHUNK):
+                n = min(_CHUNK, len(Xb) - c0)
+                rows = slice(b0 + c0, b0 + c0 + n)
+                a, t = ws.a[:, :n], ws.t[:, :n]
+                for o, terms in enumerate(self._agg_terms):
+                    levels = ws.S[:, c0 : c0 + n]
+                    _centroids(terms, levels, a, t, self._gridcol[o], self._mid[o], Y[rows, o])
+                    memberships[rows, o] = a.T
+        return self._grid.copy(), memberships, Y
+
     # ------------------------------------------------------------------ parameters
     def parameter_vector(self) -> np.ndarray:
         """All membership-function parameters, flat (:func:`.fuzzy_params.parameter_vector`)."""

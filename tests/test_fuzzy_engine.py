@@ -837,3 +837,36 @@ def test_toml_syntax_error_names_file(tmp_path):
     p.write_text("[system\nname = 1\n")
     with pytest.raises(ValueError, match="broken.toml: not valid TOML"):
         read_toml(p)
+
+
+@pytest.mark.parametrize(
+    "change", [{}, {"and_method": "prod"}, {"defuzz_method": "bisector"}, {"agg_method": "sum"}]
+)
+def test_aggregated_many_is_aggregated_row_by_row(change):
+    """The recording's inference view takes every decision's aggregated outputs through
+    the batch path (row by row was most of a paper run's recording): the same bits, NaN
+    inputs (nothing sensed) included, for the default and the plain inference."""
+    import dataclasses
+
+    from fuzzynav.controller.registry import make_controller
+
+    fis = make_controller("paper").fis
+    fis = fis.replace(inference=dataclasses.replace(fis.inference, **change))
+    rng = np.random.default_rng(3)
+    X = np.column_stack(
+        [
+            rng.uniform(0, 15, 700),
+            rng.uniform(0, 3, 700),
+            rng.uniform(-3.2, 3.2, 700),
+            rng.uniform(-3.2, 3.2, 700),
+        ]
+    )
+    X[::5, 1] = X[::5, 3] = np.nan
+    grids, memberships, outputs = fis.aggregated_many(X)
+    assert memberships.shape == (700, 2, fis.n_points) and outputs.shape == (700, 2)
+    for i in range(len(X)):
+        one = fis.aggregated(X[i])
+        assert np.array_equal(one.grid, grids)
+        assert np.array_equal(one.membership, memberships[i]), i
+        assert np.array_equal(one.output, outputs[i]), i
+    assert np.array_equal(outputs, fis.evaluate(X))

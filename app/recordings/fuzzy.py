@@ -102,6 +102,22 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
     return drawn
 
 
+def _aggregated_rows(fis, inputs: np.ndarray):
+    """(grids (n_out, G), memberships (n, n_out, G), outputs (n, n_out)) of the rows'
+    inputs: the fuzzy engine's batch path (the same bits as row by row, a tenth of the
+    time: row by row it was most of a paper run's recording), else ``aggregated`` a row
+    at a time for a system that has only that."""
+    many = getattr(fis, "aggregated_many", None)
+    if many is not None:
+        return many(inputs)
+    rows = [fis.aggregated(x) for x in inputs]
+    return (
+        rows[0].grid,
+        np.array([a.membership for a in rows]),
+        np.array([a.output for a in rows]),
+    )
+
+
 def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
     """The inference view at each decision of rows [start, end) (a block at a time: the
     aggregated outputs of a long run are never all in memory): each input's value as a
@@ -111,7 +127,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
     if not len(rows):
         return
     tc = time_column(log.time_s[rows])
-    aggregated = [fis.aggregated(log.inputs[r]) for r in rows]
+    grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):
         _, _, sx = _scale(var)
         unit = getattr(var, "unit", "") or ""
@@ -120,12 +136,12 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             value = log.inputs[rows, k]
             text = [f"{var.name} = {v:.3g} {unit}" for v in value if np.isfinite(v)]
         else:
-            value = np.array([a.output[k] for a in aggregated])
+            value = outputs[:, k]
             method = getattr(getattr(fis, "inference", None), "defuzz_method", "centroid")
             text = [f"{var.name} = {v:.2f} {unit} ({method})" for v in value]
-            grid = aggregated[0].grid[k]
+            grid = grids[k]
             take = np.linspace(0, len(grid) - 1, FUZZY_POINTS).round().astype(int)
-            heights = np.array([a.membership[k] for a in aggregated])[:, take]
+            heights = memberships[:, k, take]
             xs = np.broadcast_to(sx(grid[take]), heights.shape)
             shape = np.stack([xs, heights], axis=-1)
             rec.send_columns(
