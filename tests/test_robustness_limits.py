@@ -810,3 +810,28 @@ def test_a_run_ends_at_its_last_step_whatever_the_rounding(monkeypatch):
     assert result.outcome == "timeout" and result.metrics["steps"] == round(duration_s / dt)
     batch = run_batch([scenario], batch_controller(make_controller("p")), control_period_s=dt)
     assert int(batch.steps[0]) == round(duration_s / dt)
+
+
+def test_a_full_disk_under_the_log_s_spool_is_said_and_where(capsys, tmp_path, monkeypatch):
+    """The rows beyond the log's block go to a temporary file: a full disk there is one
+    line naming the folder and TMPDIR, exit 2 (it was a bare 'No space left on device')."""
+    import errno
+
+    from fuzzynav.world import simulation
+
+    class FullDisk:
+        def write(self, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def flush(self):
+            pass
+
+    _small_blocks(monkeypatch)
+    monkeypatch.setattr(simulation, "_spool_file", FullDisk)
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
+    path = tmp_path / "long.toml"
+    path.write_text(_long_scenario(60.0).to_toml())
+    code, err = run_cli(capsys, "run", path, "--controller", "p")
+    assert code == 2 and "No space left on device" in err and str(tmp_path) in err
+    assert "TMPDIR" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1

@@ -33,6 +33,7 @@ runs are the same to the bit.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import struct
 import time
@@ -383,6 +384,30 @@ class _LogBuffer:
         )
 
 
+def _spool_file():
+    import tempfile
+
+    return tempfile.TemporaryFile(prefix="fuzzynav-log-")
+
+
+@contextlib.contextmanager
+def _spool_errors():
+    """An OSError of the log's spool (a full disk) said as what it is and where."""
+    try:
+        yield
+    except OSError as exc:
+        import tempfile
+
+        raise OSError(
+            exc.errno,
+            f"{exc.strerror or exc}: the run's log did not fit in memory's block "
+            f"({LOG_BLOCK_BYTES / 1024**2:g} MiB) and the rest could not be written to its "
+            "temporary file in this folder; free space there, or set TMPDIR to a folder "
+            "with room",
+            tempfile.gettempdir(),
+        ) from exc
+
+
 class _LogSpool:
     """The rows of a long run's log that left memory: per-step floats in one unnamed
     temporary file, per obstacle column (x, y, centre distance, clearance) in another,
@@ -392,43 +417,43 @@ class _LogSpool:
     (``TMPDIR``)."""
 
     def __init__(self):
-        import tempfile
-
-        self.rows_file = tempfile.TemporaryFile(prefix="fuzzynav-log-")
-        self.obstacles_file = tempfile.TemporaryFile(prefix="fuzzynav-log-")
+        with _spool_errors():
+            self.rows_file = _spool_file()
+            self.obstacles_file = _spool_file()
 
     def append(self, rows: np.ndarray, obstacles: np.ndarray) -> None:
-        self.rows_file.write(np.ascontiguousarray(rows).data)
-        if obstacles.size:
-            self.obstacles_file.write(np.ascontiguousarray(obstacles).data)
+        with _spool_errors():
+            self.rows_file.write(np.ascontiguousarray(rows).data)
+            if obstacles.size:
+                self.obstacles_file.write(np.ascontiguousarray(obstacles).data)
 
     def widen(self, spooled_rows: int, old_columns: int, new_columns: int) -> None:
         """An obstacle appeared: the ``spooled_rows`` rows get NaN columns for it (a new
         file, written a block at a time; maps of the old one stay valid)."""
-        import tempfile
-
         old = self.obstacles_file
-        old.flush()
-        old.seek(0)
-        new = tempfile.TemporaryFile(prefix="fuzzynav-log-")
-        block = max(1, LOG_BLOCK_BYTES // (new_columns * 4 * 8))
-        done = 0
-        while done < spooled_rows:
-            m = min(block, spooled_rows - done)
-            wide = np.full((m, new_columns, 4), np.nan)
-            if old_columns:
-                part = np.frombuffer(old.read(m * old_columns * 4 * 8), dtype=np.float64)
-                wide[:, :old_columns] = part.reshape(m, old_columns, 4)
-            new.write(wide.data)
-            done += m
+        with _spool_errors():
+            old.flush()
+            old.seek(0)
+            new = _spool_file()
+            block = max(1, LOG_BLOCK_BYTES // (new_columns * 4 * 8))
+            done = 0
+            while done < spooled_rows:
+                m = min(block, spooled_rows - done)
+                wide = np.full((m, new_columns, 4), np.nan)
+                if old_columns:
+                    part = np.frombuffer(old.read(m * old_columns * 4 * 8), dtype=np.float64)
+                    wide[:, :old_columns] = part.reshape(m, old_columns, 4)
+                new.write(wide.data)
+                done += m
         self.obstacles_file = new
         old.close()
 
     def maps(self, n: int, width: int, n_columns: int) -> tuple[np.ndarray, np.ndarray]:
         """The first ``n`` rows: ``(n, width)`` per-step floats, ``(n, n_columns, 4)``
         per obstacle."""
-        self.rows_file.flush()
-        self.obstacles_file.flush()
+        with _spool_errors():
+            self.rows_file.flush()
+            self.obstacles_file.flush()
         rows = np.memmap(self.rows_file, dtype=np.float64, mode="c", shape=(n, width))
         if n_columns:
             obstacles = np.memmap(
