@@ -120,6 +120,13 @@ def input_segments(pose, distance, bearing, radius, start=0.0) -> np.ndarray:
     return seg
 
 
+def empty_lines(scene, path: str, colour, thickness: float, visible: bool = True):
+    """A line-segments node with nothing to draw yet (its points are set later)."""
+    return scene.add_line_segments(
+        path, np.zeros((1, 2, 3), np.float32), colour, thickness=thickness, visible=visible
+    )
+
+
 class Scene:
     """The scene nodes of one :class:`app.viewer.server.ViewerServer`, and how a
     snapshot moves them."""
@@ -203,31 +210,19 @@ class Scene:
         )
         self._shown_geometry = "husky"
         # Beams that echo: thick, coloured by the reading; beams that do not: thin grey.
-        self.beams = scene.add_line_segments(
-            "/robot/beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.07
-        )
-        self.free_beams = scene.add_line_segments(
-            "/robot/free_beams", np.zeros((1, 2, 3), np.float32), NO_ECHO, thickness=0.025
-        )
+        self.beams = empty_lines(scene, "/robot/beams", NO_ECHO, 0.07)
+        self.free_beams = empty_lines(scene, "/robot/free_beams", NO_ECHO, 0.025)
         self.show_geometry(self.app.geometry)
         # Ideal perception's field of view (s1-s3: the front half-plane of the paper's
         # three front sonars): an obstacle outside it is not sensed, so it is drawn.
-        self.field_of_view = scene.add_line_segments(
-            "/robot/field_of_view",
-            np.zeros((1, 2, 3), np.float32),
-            FIELD_OF_VIEW,
-            thickness=0.02,
-            visible=False,
+        self.field_of_view = empty_lines(
+            scene, "/robot/field_of_view", FIELD_OF_VIEW, 0.02, visible=False
         )
         self._field_drawn = None
         # Target: a bullseye with a handle that slides on the ground.
         self.view.handles.build_target(scene)
-        self.ideal = scene.add_line_segments(
-            "/ideal_line", np.zeros((1, 2, 3), np.float32), (150, 150, 150), thickness=0.02
-        )
-        self.start_marker = scene.add_line_segments(
-            "/start", np.zeros((1, 2, 3), np.float32), (90, 90, 90), thickness=0.04
-        )
+        self.ideal = empty_lines(scene, "/ideal_line", (150, 150, 150), 0.02)
+        self.start_marker = empty_lines(scene, "/start", (90, 90, 90), 0.04)
         # fuzzynav's memory: the echoes it remembers, and the bearing its planner steers to.
         self.memory = scene.add_point_cloud(
             "/memory/echoes",
@@ -237,13 +232,7 @@ class Scene:
             point_shape="circle",
             visible=False,
         )
-        self.steer = scene.add_line_segments(
-            "/memory/steer",
-            np.zeros((1, 2, 3), np.float32),
-            STEER_GREEN,
-            thickness=0.06,
-            visible=False,
-        )
+        self.steer = empty_lines(scene, "/memory/steer", STEER_GREEN, 0.06, visible=False)
         # The controller's inputs drawn on the robot, in the term plots' colours: d_t as
         # the line to the target, phi_t as the arc from the heading to it; d_o as the gap
         # from the footprint's edge along phi_o, phi_o as its arc. A fixed number of
@@ -259,13 +248,7 @@ class Scene:
             for kind, colour in (("target", TARGET_INPUT), ("obstacle", OBSTACLE_INPUT))
         }
         self._inputs_drawn = None
-        self.ghost_node = scene.add_line_segments(
-            "/ghost/trail",
-            np.zeros((1, 2, 3), np.float32),
-            GHOST_GREY,
-            thickness=0.035,
-            visible=False,
-        )
+        self.ghost_node = empty_lines(scene, "/ghost/trail", GHOST_GREY, 0.035, visible=False)
 
     def frame_arena(self, bounds) -> None:
         """Ground grid, metre marks and the top-down camera for these bounds."""
