@@ -242,7 +242,9 @@ def _record(
             # Wait until the block has left for the pipe: rerun's sink queues without
             # bound, and on a slow disk (or a machine short of memory, whose page cache
             # is written back slowly) a 2,000 s run at 1 ms queued 300 MB more there.
-            rec.flush()
+            # (Not after the last block: the close flushes, and a short run has one.)
+            if first + SEND_ROWS < len(log):
+                rec.flush()
         # Every static part in one record batch: styles, the world's statics, documents.
         extra = dict(extra_metadata or {})
         if writer.fis_error:
