@@ -36,6 +36,7 @@ from __future__ import annotations
 import contextlib
 import math
 import struct
+import tempfile
 import time
 from dataclasses import dataclass, field
 
@@ -222,14 +223,12 @@ class _LogBuffer:
     }
     _FLUSH_ROWS = 512
 
-    def __init__(self, capacity: int, block_rows: int | None = None):
+    def __init__(self, capacity: int, block_rows: int):
         self.n = 0
-        # block_rows: rows kept in memory at most (None: all of them); fuller blocks
-        # are written out to the spool, a pair of unnamed temporary files.
-        self.block_rows = None if block_rows is None else max(block_rows, self._FLUSH_ROWS)
-        if self.block_rows is not None:
-            capacity = min(capacity, self.block_rows)
-        self.capacity = max(capacity, 16)
+        # block_rows: rows kept in memory at most; fuller blocks are written out to the
+        # spool, a pair of unnamed temporary files.
+        self.block_rows = max(block_rows, self._FLUSH_ROWS)
+        self.capacity = max(min(capacity, self.block_rows), 16)
         self._spool = None
         self._spilled = 0  # rows in the spool, before those in the matrices
         self.width = sum(self._FIELDS.values())
@@ -249,7 +248,7 @@ class _LogBuffer:
 
     def _make_room(self, rows: int) -> None:
         while self._written + rows > self.capacity:
-            if self.block_rows is not None and self.capacity >= self.block_rows:
+            if self.capacity >= self.block_rows:
                 self._spill()
             else:
                 self._grow()
@@ -263,9 +262,7 @@ class _LogBuffer:
         self._written = 0
 
     def _grow(self) -> None:
-        self.capacity *= 2
-        if self.block_rows is not None:
-            self.capacity = min(self.capacity, self.block_rows)
+        self.capacity = min(2 * self.capacity, self.block_rows)
         self.rows = np.concatenate([self.rows, np.full_like(self.rows, np.nan)])
         self.obstacles = np.concatenate([self.obstacles, np.full_like(self.obstacles, np.nan)])
 
@@ -385,8 +382,6 @@ class _LogBuffer:
 
 
 def _spool_file():
-    import tempfile
-
     return tempfile.TemporaryFile(prefix="fuzzynav-log-")
 
 
@@ -396,8 +391,6 @@ def _spool_errors():
     try:
         yield
     except OSError as exc:
-        import tempfile
-
         raise OSError(
             exc.errno,
             f"{exc.strerror or exc}: the run's log did not fit in memory's block "

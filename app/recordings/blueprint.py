@@ -16,6 +16,7 @@ import re
 import numpy as np
 
 from fuzzynav.app.figures.numbering import numbered_scenario, paper_figure_number, scenario_stem
+from fuzzynav.world.metrics import row_blocks
 
 from .arrow import TIMELINE
 from .events import EVENTS_LANES, EVENTS_LOG_PATH
@@ -34,9 +35,6 @@ from .internals import (
 APPLICATION_ID = "fuzzynav"
 
 
-_BOUNDS_BLOCK_ROWS = 65_536
-
-
 def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     """The world view's bounds: the robot's whole path (or, before it has one, the
     start), the target, and the obstacles near them, with a 1 m margin. A moving
@@ -44,12 +42,12 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     is the robot's, not the path of an obstacle that left for the horizon."""
     xs = [scenario.start[0], scenario.target[0]]
     ys = [scenario.start[1], scenario.target[1]]
-    # A block of rows at a time: a long run's log may be mapped from the disk
-    # (world.simulation.LOG_BLOCK_BYTES), and its obstacle columns reshaped whole were
-    # several copies of them.
-    n = len(log) if log is not None else 0
-    for start in range(0, n, _BOUNDS_BLOCK_ROWS):
-        xy = np.asarray(log.pose[start : start + _BOUNDS_BLOCK_ROWS, :2])
+    # A block of rows at a time (the metrics' blocks): a long run's log may be mapped
+    # from the disk (world.simulation.LOG_BLOCK_BYTES), and its obstacle columns
+    # reshaped whole were several copies of them.
+    blocks = row_blocks(len(log)) if log is not None else []
+    for start, stop in blocks:
+        xy = np.asarray(log.pose[start:stop, :2])
         xy = xy[np.all(np.isfinite(xy), axis=1)]
         if len(xy):
             xs += [float(xy[:, 0].min()), float(xy[:, 0].max())]
@@ -64,9 +62,9 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
                 ys.extend((y - r, y + r))
 
     keep([o.position for o in scenario.obstacles], [o.radius_m for o in scenario.obstacles])
-    if n and log.obstacle_xy.size:
-        for start in range(0, n, _BOUNDS_BLOCK_ROWS):
-            block = np.asarray(log.obstacle_xy[start : start + _BOUNDS_BLOCK_ROWS])
+    if blocks and log.obstacle_xy.size:
+        for start, stop in blocks:
+            block = np.asarray(log.obstacle_xy[start:stop])
             radii = np.broadcast_to(log.obstacle_radii_m[None, :], block.shape[:2]).reshape(-1)
             points = block.reshape(-1, 2)
             finite = np.all(np.isfinite(points), axis=1)

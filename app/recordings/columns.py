@@ -116,8 +116,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         perception: str | None = None,
         geometry: str = "husky",
         decisions: int | None = None,
-        total_rows: int | None = None,
-        legends_from_log: bool | None = None,
+        legends_from_log: bool = False,
     ):
         self.rec = rec
         # Ideal perception uses no range sensor: no beams are drawn, but the line to the
@@ -159,10 +158,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         # run whose length is known (record_run) and for a live recording, whose
         # simulation still has the log at its close (LiveRecorder). Otherwise every
         # plotted row is kept.
-        self.total_rows = total_rows
-        self.legends_from_log = (
-            total_rows is not None if legends_from_log is None else bool(legends_from_log)
-        )
+        self.legends_from_log = bool(legends_from_log)
         self._legend_ranges: dict[str, list] = {}  # path: [lo, hi, widths, rows]
 
     # -- low level ---------------------------------------------------------------------
@@ -204,8 +200,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         """Per plot view, where its legend goes and the value range that leaves it room
         (:func:`legend_placement`): ``{view origin: (corner, range or None)}``. The
         two angle entities share one view (/plots/angles), as Fig. 14 shows both. With
-        ``total_rows`` (record_run) the plots made from the log are read again from
-        ``log``, the rows under the legends only, a block at a time
+        ``legends_from_log`` (record_run, LiveRecorder) the plots made from the log are
+        read again from ``log``, the rows under the legends only, a block at a time
         (:class:`LegendFit`: the same placements, without every row kept)."""
         samples = {}
         for path, parts in self._legend_samples.items():

@@ -174,26 +174,14 @@ class RuleHeat:
         if self._starts is None and self._spool is None:
             return rule_heatmap(np.concatenate(self._parts), self.max_bins)
         if self._starts is None and self.count <= self.max_bins:  # (a bin a row)
-            self._spool.seek(0)
-            raw = np.frombuffer(self._spool.read(), dtype=np.float32).reshape(-1, self.rules)
-            return rule_heatmap(np.concatenate([raw, *self._parts]), self.max_bins)
-        if self._starts is None:  # spooled: bin the file a block at a time, then the rest
+            return rule_heatmap(np.concatenate(list(self._kept_blocks())), self.max_bins)
+        if self._starts is None:  # spooled: bin a block at a time
             starts = _bin_starts(self.count, self.max_bins)
             bins = np.full((self.max_bins, self.rules), -np.inf, np.float32)
-            self._spool.flush()
-            self._spool.seek(0)
-            block = max(1, HEAT_MEMORY_BYTES // (4 * max(1, self.rules)))
             done = 0
-            while done < self._spooled:
-                m = min(block, self._spooled - done)
-                raw = self._spool.read(m * self.rules * 4)
-                rows = np.frombuffer(raw, dtype=np.float32).reshape(m, self.rules)
+            for rows in self._kept_blocks():
                 _bin_maxima(bins, starts, done, rows)
-                done += m
-            for part in self._parts:
-                if len(part):
-                    _bin_maxima(bins, starts, done, part)
-                    done += len(part)
+                done += len(rows)
             return np.ascontiguousarray(bins.T)
         if self._bins is None:  # no decision came (the firing could not be evaluated)
             return np.zeros((self.rules, 0), np.float32)
@@ -201,6 +189,19 @@ class RuleHeat:
         if self.count < self.expected:  # the firing stopped being recorded mid-run
             filled = filled[: int(np.searchsorted(self._starts, self.count, side="left"))]
         return np.ascontiguousarray(filled.T)
+
+    def _kept_blocks(self):
+        """The kept decisions in order, a block at a time: the spool's, then memory's."""
+        self._spool.flush()
+        self._spool.seek(0)
+        block = max(1, HEAT_MEMORY_BYTES // (4 * max(1, self.rules)))
+        done = 0
+        while done < self._spooled:
+            m = min(block, self._spooled - done)
+            raw = self._spool.read(m * self.rules * 4)
+            yield np.frombuffer(raw, dtype=np.float32).reshape(m, self.rules)
+            done += m
+        yield from (part for part in self._parts if len(part))
 
 
 def _bin_starts(n: int, max_bins: int) -> np.ndarray:

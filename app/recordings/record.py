@@ -232,7 +232,7 @@ def _record(
             geometry=getattr(result, "geometry", "husky"),
             # known in advance: the rule heatmap is binned as the rows come
             decisions=int(np.count_nonzero(decided)),
-            total_rows=len(log),  # the legends are placed from the log, not kept rows
+            legends_from_log=True,  # placed from the log, not from kept rows
         )
         del decided
         # A block of rows at a time: the Arrow arrays built to send them, and the bytes

@@ -32,6 +32,9 @@ class RunDriver:
 
     def __init__(self, app):
         self.app = app
+        # the lock on ``.<name>.serving`` while this server holds --rrd (_hold_rrd_path)
+        self._serving_fd: int | None = None
+        self._serving_marker: Path | None = None
 
     def start(self):
         """Start the simulation thread (it idles until :meth:`play`)."""
@@ -104,7 +107,7 @@ class RunDriver:
         holds it; True where there is no ``flock`` (Windows: the first run then
         replaces the path, as before)."""
         app = self.app
-        if getattr(self, "_serving_fd", None) is not None:
+        if self._serving_fd is not None:
             return True
         try:
             import fcntl
@@ -128,7 +131,7 @@ class RunDriver:
             os.close(fd)
 
     def _release_rrd_path(self) -> None:
-        fd, self._serving_fd = getattr(self, "_serving_fd", None), None
+        fd, self._serving_fd = self._serving_fd, None
         if fd is not None:
             try:
                 os.unlink(self._serving_marker)  # still locked: nobody holds it now
