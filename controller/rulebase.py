@@ -360,23 +360,18 @@ def _num(x: float) -> str:
     return s
 
 
+_TOML_ESCAPES = {'"': '\\"', "\\": "\\\\", "\n": "\\n", "\t": "\\t"}
+_TOML_NEEDS_ESCAPE = re.compile(r'["\\\x00-\x1f\x7f]')
+
+
+def _toml_escape(match: re.Match) -> str:
+    ch = match.group()
+    return _TOML_ESCAPES.get(ch) or f"\\u{ord(ch):04x}"
+
+
 def _str(s: str) -> str:
-    out = ['"']
-    for ch in s:
-        if ch == '"':
-            out.append('\\"')
-        elif ch == "\\":
-            out.append("\\\\")
-        elif ch == "\n":
-            out.append("\\n")
-        elif ch == "\t":
-            out.append("\\t")
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04x}")
-        else:
-            out.append(ch)
-    out.append('"')
-    return "".join(out)
+    """A TOML basic string (a rule base's long header text went a character at a time)."""
+    return '"' + _TOML_NEEDS_ESCAPE.sub(_toml_escape, s) + '"'
 
 
 def dumps_toml(system: FuzzySystem) -> str:

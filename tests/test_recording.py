@@ -4,6 +4,7 @@ the time span, the metadata, live chunked recording, Ctrl-C and unwritable paths
 from __future__ import annotations
 
 import json
+import os
 import re
 import shlex
 import tomllib
@@ -1096,6 +1097,45 @@ def test_reproduce_says_when_the_controller_is_not_a_shipped_one(tmp_path):
     result = sim.run()
     meta = Recording(record(sim, result, tmp_path / "edited.rrd")).text("/meta/run")
     assert "| reproduce needs | the controller (paper) is not one 'run' builds" in meta
+
+
+def test_reproduce_reads_a_shipped_rule_file_again_when_it_changes(tmp_path, monkeypatch):
+    """The fresh controller a run is compared with is built once per set of rule files
+    (it cost a sixth of a recording): a rule file changed on disk (an editable install)
+    is read again, so a controller read before the change is no longer named."""
+    import shutil
+
+    from fuzzynav import resources
+    from fuzzynav.app.runs import reproduce
+    from fuzzynav.controller import paper
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.scenario import load_scenario
+
+    rules = tmp_path / "rules"
+    shutil.copytree(resources.asset_path("rules"), rules)
+    shipped = resources.asset_path
+    monkeypatch.setattr(
+        resources,
+        "asset_path",
+        lambda *parts: rules.joinpath(*parts[1:]) if parts[:1] == ("rules",) else shipped(*parts),
+    )
+    monkeypatch.setattr(
+        paper, "RULES_BY_GEOMETRY", {g: rules / "paper.toml" for g in ("husky", "paper")}
+    )
+    before = make_controller("paper")
+    scenario = load_scenario("s1")
+    assert reproduce(scenario, before).complete
+    assert reproduce(scenario, before).complete  # the cached fingerprint
+    text = (rules / "paper.toml").read_text()
+    first_number = re.search(r"params = \[([0-9.]+)", text)
+    changed = float(first_number.group(1)) + 0.01
+    (rules / "paper.toml").write_text(
+        text[: first_number.start(1)] + repr(changed) + text[first_number.end(1) :]
+    )
+    os.utime(rules / "paper.toml", ns=(1, 1))  # a new signature even on a coarse clock
+    notes = reproduce(scenario, before).notes
+    assert notes and "not one 'run' builds" in notes[0]
+    assert reproduce(scenario, make_controller("paper")).complete
 
 
 # ---------------------------------------------------------------------------------------
