@@ -325,6 +325,46 @@ def test_a_press_applies_the_value_sent_even_when_the_render_thread_syncs_first(
         clients.close()
 
 
+@pytest.mark.parametrize(
+    "name, pressed, now",
+    [
+        ("controller_dd", "fuzzynav", lambda app: app.controller_label),
+        ("perception_dd", "ultrasonic", lambda app: app.sim.perception.mode),
+        ("scenario_dd", "crossing", lambda app: app.scenario_label),
+        ("disturbance_cb", True, lambda app: app.disturbance_on),
+    ],
+)
+def test_a_press_applies_the_value_sent_when_the_sync_comes_before_the_callback_reads_it(
+    served, name, pressed, now
+):
+    """CI saw the controller press lost a second time (a press during a scenario load):
+    the render thread, another OS thread, set the widget back to the world's value just
+    after viser set it and before the callback read it. Here the sync lands exactly
+    there, every time (viser calls the handle's sync_cb between the two)."""
+    handle = getattr(served.controls, name)
+    before = now(served.app)
+    assert before != pressed
+    real_sync = handle._impl.sync_cb
+
+    def sync_in_between(client_id, updates):
+        handle._impl.value = before  # what ControlPanel.sync does, at the worst moment
+        if real_sync is not None:
+            real_sync(client_id, updates)
+
+    handle._impl.sync_cb = sync_in_between
+    clients = ScriptedClients(served.url)
+    try:
+        (ws,) = clients.connect(1)
+        clients.press(ws, handle, pressed)
+        assert wait_until(lambda: now(served.app) == pressed, 10), (
+            now(served.app),
+            served.app.message,
+        )
+    finally:
+        handle._impl.sync_cb = real_sync
+        clients.close()
+
+
 def test_a_controller_press_while_a_scenario_loads_applies_after_the_load(served):
     """issue 27: a press that arrived while a scenario loaded could be lost; now the two
     apply in the order they were pressed, without waiting in between."""

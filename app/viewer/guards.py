@@ -13,11 +13,16 @@ A raw websocket client can send any message a browser could, with any values (is
 
 from __future__ import annotations
 
+import contextvars
 import inspect
 import math
 from collections.abc import Callable
 
-__all__ = ["install_message_guards", "ALLOWED_GUI_PROPS"]
+__all__ = ["install_message_guards", "value_sent", "ALLOWED_GUI_PROPS"]
+
+#: (handle, value) of the GUI update being handled: the value the client sent, as viser
+#: casts it. Set on viser's event loop for the length of the update's handling.
+_SENT: contextvars.ContextVar = contextvars.ContextVar("fuzzynav_value_sent", default=None)
 
 #: The only property of a GUI component a client may change.
 ALLOWED_GUI_PROPS = frozenset({"value"})
@@ -32,6 +37,25 @@ def _finite(value) -> bool:
     if isinstance(value, list | tuple):
         return all(_finite(v) for v in value)
     return True
+
+
+def _cast_as_viser(current, value):
+    """``value`` cast to the type of the widget's ``current`` value, as viser does."""
+    if isinstance(current, tuple):
+        return tuple(type(current[0])(v) for v in value) if current else tuple(value)
+    return type(current)(value)
+
+
+def value_sent(handle):
+    """The value a client sent for ``handle`` in the update being handled, else the
+    widget's value. Read in an update callback: the render thread (another OS thread)
+    may set the widget back to the world's value at any moment after viser set it, even
+    before the callback's first line (CI: a controller press applied the old
+    controller, "Controller: p.")."""
+    sent = _SENT.get()
+    if sent is not None and sent[0] is handle:
+        return sent[1]
+    return handle.value
 
 
 def _unchanged(handle, value) -> bool:
@@ -95,16 +119,27 @@ def install_message_guards(
                     say(f"refused a value that is not a finite number: {kept['value']!r}")
                     return
             message.updates = kept
-            if "value" in kept and handle is not None and _unchanged(handle, kept["value"]):
-                # viser drops a value equal to the widget's as "no change". But the render
-                # thread's sync may have just written a stale value into the widget (taken
-                # before a scenario load ended): the press that restores it was dropped.
-                # The client changed its widget, so its callbacks run (issue 27).
-                await _run_callbacks(gui, client_id, handle)
-                return
-            result = handler(client_id, message)
-            if inspect.isawaitable(result):
-                await result
+            token = None
+            if "value" in kept and handle is not None:
+                try:
+                    token = _SENT.set((handle, _cast_as_viser(handle._impl.value, kept["value"])))
+                except (TypeError, ValueError, IndexError):
+                    pass  # viser refuses it as it would have
+            try:
+                if "value" in kept and handle is not None and _unchanged(handle, kept["value"]):
+                    # viser drops a value equal to the widget's as "no change". But the
+                    # render thread's sync may have just written a stale value into the
+                    # widget (taken before a scenario load ended): the press that restores
+                    # it was dropped. The client changed its widget, so its callbacks run
+                    # (issue 27).
+                    await _run_callbacks(gui, client_id, handle)
+                    return
+                result = handler(client_id, message)
+                if inspect.isawaitable(result):
+                    await result
+            finally:
+                if token is not None:
+                    _SENT.reset(token)
 
         return guarded
 

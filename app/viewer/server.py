@@ -27,7 +27,7 @@ import viser
 from fuzzynav.app.viewer.camera import Camera
 from fuzzynav.app.viewer.controls import ControlPanel
 from fuzzynav.app.viewer.editor_panel import EditorPanel
-from fuzzynav.app.viewer.guards import install_message_guards
+from fuzzynav.app.viewer.guards import install_message_guards, value_sent
 from fuzzynav.app.viewer.handles import DragHandles
 from fuzzynav.app.viewer.inference_panel import InferencePanel
 from fuzzynav.app.viewer.model import MAX_UPLOAD_BYTES, ViewerApp, ViewerError
@@ -189,14 +189,14 @@ class ViewerServer:
     def guarded(self, func):
         """Run a GUI callback; a refused action becomes a message in the page.
 
-        ``func(event)`` gets ``event.value``: the value the client sent, read on viser's
-        event loop just after viser set it, before anything else can run. viser hands a
-        synchronous callback to a worker thread, which read the widget's value later, and
-        by then the render thread's sync (:meth:`ControlPanel.sync`) could have set it back
-        to the world's: the press was lost (CI: the teacher's controller press applied the
-        old controller, "Controller: p."). The callbacks then run one at a time, in the
-        order pressed, on this world's own worker (a press during a scenario load applies
-        after the load)."""
+        ``func(event)`` gets ``event.value``: the value the client sent, as the message
+        guard kept it (:func:`app.viewer.guards.value_sent`), not the widget's. The render
+        thread's sync (:meth:`ControlPanel.sync`) sets a widget back to the world's value
+        from another thread at any moment: read in viser's worker thread, and later even
+        on its event loop just after viser set it, the widget gave the old value and the
+        press was lost (CI, twice: a controller press applied the old controller,
+        "Controller: p."). The callbacks then run one at a time, in the order pressed, on
+        this world's own worker (a press during a scenario load applies after the load)."""
 
         def run(event):
             try:
@@ -213,7 +213,7 @@ class ViewerServer:
                 client=event.client,
                 client_id=event.client_id,
                 target=event.target,
-                value=event.target.value,  # now: nothing has run since viser set it
+                value=value_sent(event.target),  # as sent, whatever the render thread did
             )
             self._callback_worker().submit(run, sent).add_done_callback(_report_errors)
 
