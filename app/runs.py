@@ -146,21 +146,46 @@ def _shipped_name(scenario: Scenario) -> str | None:
     return path.stem if shipped else None
 
 
+def _file_signature(path) -> tuple | None:
+    """What tells a file's versions apart without reading it (None: cannot stat it)."""
+    try:
+        stat = Path(path).stat()
+    except OSError:
+        return None
+    return (stat.st_ino, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns)
+
+
+@functools.lru_cache(maxsize=64)
+def _file_scenario_digest(source: str, signature: tuple | None) -> str | None:
+    """:func:`scenario_digest` of the scenario file ``source`` as it is now, read once
+    per version of the file (``signature``); None when it cannot be read."""
+    from fuzzynav.world.scenario import ScenarioError, load_scenario
+
+    if signature is None:
+        return None
+    try:
+        return scenario_digest(load_scenario(source))
+    except (ScenarioError, OSError):
+        return None
+
+
+@functools.lru_cache(maxsize=4)
+def _default_parameters(signature: tuple | None):
+    """The robot's parameters in husky.toml, read once per version of the file."""
+    from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE, HuskyParameters
+
+    return HuskyParameters.from_toml(DEFAULT_PARAMETER_FILE)
+
+
 def _scenario_part(scenario: Scenario, geometry: str) -> tuple[list[str], list[str]]:
     """(arguments, notes): the scenario as ``run`` takes it. A shipped scenario by its
     name when the run drove it unchanged; a file by its path with its digest (``run``
     refuses a file that changed since); a scenario made in memory (the viewer's, an
     edited one) as ``scenario.toml``, the recording's ``/meta/scenario`` saved."""
-    from fuzzynav.world.scenario import ScenarioError, load_scenario
-
     digest = scenario_digest(scenario)
     source = getattr(scenario, "source", "") or ""
     if source and source != "<memory>":
-        try:
-            loaded = load_scenario(source)
-        except (ScenarioError, OSError):
-            loaded = None
-        if loaded is not None and scenario_digest(loaded) == digest:
+        if _file_scenario_digest(source, _file_signature(source)) == digest:
             name = _shipped_name(scenario)
             if name is not None:
                 return [name], []
@@ -236,15 +261,11 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
 
 
 def _rule_files_signature() -> tuple:
-    """(name, mtime_ns, size) of every shipped rule file: what a fresh controller is
+    """(name, signature) of every shipped rule file: what a fresh controller is
     built from, so that a file changed on disk (an editable install) is read again."""
     from fuzzynav.resources import asset_path
 
-    signature = []
-    for path in sorted(asset_path("rules").glob("*.toml")):
-        stat = path.stat()
-        signature.append((path.name, stat.st_mtime_ns, stat.st_size))
-    return tuple(signature)
+    return tuple((p.name, _file_signature(p)) for p in sorted(asset_path("rules").glob("*.toml")))
 
 
 @functools.lru_cache(maxsize=16)
@@ -306,9 +327,9 @@ def reproduce(
     if float(voltage_limit_v) != 12.0:
         notes.append(f"voltage limit {voltage_limit_v:g} V ('run' drives with 12 V)")
     if parameters is not None:
-        from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE, HuskyParameters
+        from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE
 
-        if parameters != HuskyParameters.from_toml(DEFAULT_PARAMETER_FILE):
+        if parameters != _default_parameters(_file_signature(DEFAULT_PARAMETER_FILE)):
             notes.append("the robot's parameters differ from husky.toml (see /meta/robot)")
     return Reproduction("fuzzynav run " + " ".join(shlex.quote(a) for a in argv), tuple(notes))
 

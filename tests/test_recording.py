@@ -1059,6 +1059,22 @@ def test_reproduce_of_a_scenario_file_carries_its_digest(tmp_path, short_scenari
     assert "--scenario-sha256" in err and "changed" in err
 
 
+def test_reproduce_reads_a_scenario_file_again_when_it_changes(short_scenario):
+    """A scenario file's digest is taken once per version of the file: a run of the
+    file as it was is no longer named by it once it changed."""
+    from fuzzynav.app.runs import reproduce
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario, controller = load_scenario(short_scenario), make_controller("paper")
+    for _ in range(2):  # read, then from the cache
+        named = reproduce(scenario, controller)
+        assert named.complete and str(short_scenario) in named.command
+    short_scenario.write_text(SHORT_SCENARIO.replace("radius_m = 0.2\n", "radius_m = 0.21\n"))
+    changed = reproduce(scenario, controller)
+    assert not changed.complete and "scenario.toml" in changed.command
+
+
 def test_reproduce_of_a_scenario_made_in_memory_runs_from_meta_scenario(
     tmp_path, capsys, monkeypatch
 ):
