@@ -241,7 +241,7 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     parts_off = tuple(getattr(inner, "parts_off", None) or ())
     mine = _fingerprint(controller)
     if mine is not None and isinstance(name, str) and name in controller_names():
-        if _fresh_fingerprint(name, geometry, parts_off, _rule_files_signature()) == mine:
+        if _fresh_fingerprint(name, geometry, parts_off, _controller_files_signature()) == mine:
             args = ["--controller", name]
             if parts_off:
                 args += ["--off", ",".join(parts_off)]
@@ -260,18 +260,21 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     )
 
 
-def _rule_files_signature() -> tuple:
-    """(name, signature) of every shipped rule file: what a fresh controller is
-    built from, so that a file changed on disk (an editable install) is read again."""
+def _controller_files_signature() -> tuple:
+    """(name, signature) of every shipped rule file and of husky.toml: what a fresh
+    controller is built from, so that a file changed on disk (an editable install) is
+    read again."""
     from fuzzynav.resources import asset_path
+    from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE
 
-    return tuple((p.name, _file_signature(p)) for p in sorted(asset_path("rules").glob("*.toml")))
+    files = [*sorted(asset_path("rules").glob("*.toml")), Path(DEFAULT_PARAMETER_FILE)]
+    return tuple((p.name, _file_signature(p)) for p in files)
 
 
 @functools.lru_cache(maxsize=16)
 def _fresh_fingerprint(name: str, geometry: str, parts_off: tuple, signature: tuple):
     """The fingerprint of a fresh controller of that name (those parts off), built once
-    per set of rule files: reading and writing out the paper's rule base took about a
+    per version of the files it is built from: reading and writing out the paper's rule base took about a
     sixth of a recording's time, the same every run."""
     del signature  # the cache's key only
     fresh = make_controller(name, geometry=geometry)

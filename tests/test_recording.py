@@ -1116,7 +1116,7 @@ def test_reproduce_says_when_the_controller_is_not_a_shipped_one(tmp_path):
 
 
 def test_reproduce_reads_a_shipped_rule_file_again_when_it_changes(tmp_path, monkeypatch):
-    """The fresh controller a run is compared with is built once per set of rule files
+    """The fresh controller a run is compared with is built once per version of its files
     (it cost a sixth of a recording): a rule file changed on disk (an editable install)
     is read again, so a controller read before the change is no longer named."""
     import shutil
