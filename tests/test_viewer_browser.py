@@ -206,7 +206,9 @@ JS_ARENA_STATE = """
     return [Math.round(rect.left + (v.x + 1) / 2 * rect.width), Math.round(rect.top + (1 - v.y) / 2 * rect.height),
             n.visible];
   };
+  // (viser fades the canvas in from an opacity of 0.05 while an environment map loads)
   return {canvas: [rect.left, rect.top, rect.width, rect.height], aspect: cam.aspect,
+          opacity: getComputedStyle(m.canvas).opacity,
           camera: cam.position.toArray().map((x) => +x.toFixed(3)), robot: at('/robot/body'), target: at('/target')};
 }
 """
@@ -245,8 +247,9 @@ def test_page_connects_and_draws_the_arena(served, page):
         if pixels.std() > 15 and len(colours) > 50:
             break
         page.wait_for_timeout(330)
-    # Where the camera looks and where the robot and target fall on the canvas, to tell
-    # a camera that cropped the robot from a robot not drawn, should this ever fail.
+    # Where the camera looks, where the robot and target fall on the canvas and the
+    # canvas's opacity, to tell a camera that cropped the robot, a robot not drawn and a
+    # canvas left half faded in, should this ever fail.
     state = page.evaluate(JS_ARENA_STATE)
     assert pixels.shape[0] > 300 and pixels.shape[1] > 300, state
     # Not blank: the grid, the robot, the obstacles and the target give contrast and colour.
