@@ -367,6 +367,19 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     assert "goal_speed" in html_text and "avoid_turn" in html_text
 
 
+@pytest.mark.parametrize(
+    "degree, shown",
+    [(0.0, "0"), (0.87, "0.87"), (0.095, "0.10"), (0.031, "0.031"), (0.0004, "0.0004")]
+    + [(1e-4, "0.0001"), (9.4e-9, "<0.0001"), (1e-300, "<0.0001")],
+)
+def test_a_degree_is_never_shown_as_zero_nor_as_noise(degree, shown):
+    """A rule of strength > 0 fires, so a degree is never a bare 0.00; a Gaussian's far
+    tail (the viewer showed "medium 9.4e-09") reads as below a ten-thousandth."""
+    from fuzzynav.app.viewer.drawing import _fmt_degree
+
+    assert _fmt_degree(degree) == shown
+
+
 def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):
     """The remembered echoes are drawn in the world from the robot's own frame: after a
     few seconds of s1 they lie near the obstacles' surfaces; the steering line starts

@@ -182,11 +182,14 @@ def _fmt_value(value: float, unit: str) -> str:
 
 
 def _fmt_degree(d: float) -> str:
-    """A degree readable however small: 0.55, 0.031, 0.0004 (never a bare 0.00)."""
+    """A degree readable however small: 0.55, 0.031, 0.0004, <0.0001 (never a bare 0.00:
+    a rule of strength > 0 fires; but a Gaussian's far tail, 9.4e-09, read as noise)."""
     if d <= 0.0:
         return "0"
     if d >= 0.095:
         return f"{d:.2f}"
+    if d < 1e-4:
+        return "<0.0001"
     return f"{d:.2g}"
 
 
