@@ -8,7 +8,9 @@ scenario (with its layout as edited) and settings to every other tab.
 
 The worlds are built one after the other on a thread of their own, not on viser's
 worker threads: forty tabs joining at once then wait their turn for their page, while
-every tab already there keeps its buttons.
+every tab already there keeps its buttons. A tab whose world fails to build is tried
+again (up to :data:`BUILD_ATTEMPTS` times, the traceback printed each time) and, if it
+still fails, told so on its page: never left without a world and without a word.
 """
 
 from __future__ import annotations
@@ -16,11 +18,14 @@ from __future__ import annotations
 import queue
 import secrets
 import threading
+import traceback
 
 import viser
 
 from fuzzynav.app.viewer.model import ViewerError
 from fuzzynav.app.viewer.origin_guard import guarded_server_start
+
+BUILD_ATTEMPTS = 3  # a tab's world is built at most this many times before it is told
 
 
 class ClassroomServer:
@@ -65,11 +70,50 @@ class ClassroomServer:
                 continue
             try:
                 if kind == "connect":
-                    self._open(client)
+                    self._open_with_retries(client)
                 else:
                     self._close(client.client_id)
             except Exception as exc:  # one tab's trouble must not end the class
+                traceback.print_exc()
                 print(f"fuzzynav classroom: tab {client.client_id}: {exc}", flush=True)
+
+    def _open_with_retries(self, client) -> None:
+        """Build a tab's world; a failed build is cleared away and tried again, and a
+        tab whose world cannot be built is told so on its page."""
+        for attempt in range(1, BUILD_ATTEMPTS + 1):
+            try:
+                self._open(client)
+                return
+            except Exception as exc:
+                traceback.print_exc()
+                print(
+                    f"fuzzynav classroom: tab {client.client_id}: building its world failed "
+                    f"(attempt {attempt} of {BUILD_ATTEMPTS}): {type(exc).__name__}: {exc}",
+                    flush=True,
+                )
+                self._close(client.client_id)
+                self._clear_page(client)
+                failure = exc
+        try:
+            client.add_notification(
+                "fuzzynav: this tab has no world",
+                f"Building this tab's world failed {BUILD_ATTEMPTS} times "
+                f"({type(failure).__name__}: {failure}). Reload the page to try again, "
+                "and tell the teacher.",
+                color="red",
+                with_close_button=True,
+            )
+        except Exception:  # the tab went away meanwhile
+            traceback.print_exc()
+
+    @staticmethod
+    def _clear_page(client) -> None:
+        """What a failed build put on a tab's page goes, so a retry starts clean."""
+        try:
+            client.gui.reset()
+            client.scene.reset()
+        except Exception:  # the tab went away meanwhile
+            traceback.print_exc()
 
     def _open(self, client) -> None:
         from fuzzynav.app.viewer.server import ClientSurface, ViewerServer
@@ -77,9 +121,9 @@ class ClassroomServer:
         if client.client_id not in self.server.get_clients():
             return  # gone before its turn
         view = ViewerServer(self.make_app(), surface=ClientSurface(self.server, client))
-        self._add_teacher_folder(view, client.client_id)
-        with self._lock:
+        with self._lock:  # registered before anything else can fail: a retry stops it
             self.sessions[client.client_id] = view
+        self._add_teacher_folder(view, client.client_id)
         if client.client_id not in self.server.get_clients():  # left while being built
             self._close(client.client_id)
 

@@ -1,7 +1,12 @@
 """The render loop: one thread per :class:`app.viewer.server.ViewerServer` that alone
 writes the scene, from :meth:`ViewerApp.snapshot`, at up to ``FRAME_HZ`` while something
 changes and not at all while nothing does; the panels (status line, plots, inference,
-surface, the inputs on the robot, the result) at ``PANEL_HZ``, the plots at ``PLOT_HZ``."""
+surface, the inputs on the robot, the result) at ``PANEL_HZ``, the plots at ``PLOT_HZ``.
+
+Threads: the render thread alone owns the frame times (a deque it appends to); what other
+threads may read of them is published as one immutable tuple, replaced whole
+(:attr:`RenderLoop.frame_window`). A reader that iterated the deque itself raced the
+appends ("deque mutated during iteration", issue 34)."""
 
 from __future__ import annotations
 
@@ -23,7 +28,10 @@ class RenderLoop:
         self.view = view
         self.app = view.app
         self._stop = threading.Event()
-        self._frame_times: deque[float] = deque(maxlen=120)
+        self._frame_times: deque[float] = deque(maxlen=120)  # the render thread's own
+        #: (frames, first, last): the frame times as the render thread last published
+        #: them, one tuple replaced whole (read by any thread without a lock)
+        self.frame_window: tuple[int, float, float] = (0, 0.0, 0.0)
         self._last_panel_version = -1
         self._next_plot = 0.0
         self._thread = threading.Thread(target=self._run, name="fuzzynav-render", daemon=True)
@@ -40,11 +48,18 @@ class RenderLoop:
         self._thread.join(timeout=5.0)
 
     def scene_hz(self) -> float:
-        """Scene updates per second over the last frames (0 when idle)."""
-        times = list(self._frame_times)
-        if len(times) < 2 or time.perf_counter() - times[-1] > 0.5:
+        """Scene updates per second over the last frames (0 when idle); safe from any
+        thread (it reads only the published :attr:`frame_window`)."""
+        frames, first, last = self.frame_window
+        if frames < 2 or time.perf_counter() - last > 0.5 or last <= first:
             return 0.0
-        return (len(times) - 1) / (times[-1] - times[0])
+        return (frames - 1) / (last - first)
+
+    def _frame_drawn(self, started: float) -> None:
+        """The render thread's record of a frame: appended, then published whole."""
+        times = self._frame_times
+        times.append(started)
+        self.frame_window = (len(times), times[0], times[-1])
 
     def _run(self) -> None:
         period = 1.0 / FRAME_HZ
@@ -60,7 +75,7 @@ class RenderLoop:
                 except Exception as exc:  # keep rendering whatever one frame did
                     self.app._notice(f"scene update failed: {type(exc).__name__}: {exc}", "warning")
                 drawn_version = snap.version
-                self._frame_times.append(started)
+                self._frame_drawn(started)
             if snap.version != self._last_panel_version and (
                 started >= next_panels or not snap.playing
             ):
