@@ -30,7 +30,7 @@ from fuzzynav.controller.baseline import (
     SIDE_LIMIT_RAD,
     BaselineController,
 )
-from fuzzynav.controller.fis_controller import FisController
+from fuzzynav.controller.fis_controller import GATED_INPUT, FisController
 from fuzzynav.controller.fuzzy_batch import BatchFuzzy
 from fuzzynav.controller.proportional import ProportionalController
 
@@ -55,10 +55,25 @@ class FisBatch:
 
     def __init__(self, controllers: Sequence[FisController], run_sets=None):
         self.fuzzy = BatchFuzzy([c.fis for c in controllers])
+        readings = {c.none_reading for c in controllers}
+        if len(readings) > 1:
+            raise NotBatchable("one batch reads NONE one way: the controllers mix readings")
+        # the text's reading of NONE: the obstacle rules alone where d_o is sensed
+        self.sensed = (
+            BatchFuzzy([c.sensed_fis for c in controllers]) if readings == {"unsensed"} else None
+        )
         self.run_sets = None if run_sets is None else np.asarray(run_sets, dtype=np.intp)
 
     def decide(self, inputs, runs, ranges_m=None) -> np.ndarray:
-        return self.fuzzy.evaluate(inputs, _groups(runs, self.run_sets))
+        groups = _groups(runs, self.run_sets)
+        if self.sensed is None:
+            return self.fuzzy.evaluate(inputs, groups)
+        sensed = ~np.isnan(inputs[:, GATED_INPUT])
+        out = np.empty((len(inputs), 2))
+        for mask, fuzzy in ((sensed, self.sensed), (~sensed, self.fuzzy)):
+            if mask.any():
+                out[mask] = fuzzy.evaluate(inputs[mask], None if groups is None else groups[mask])
+        return out
 
 
 class BaselineBatch:

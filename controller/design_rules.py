@@ -30,6 +30,15 @@ Fuzzy Logic Designer; one that fails has a fault a reviewer would see in the fig
 ``mirror``
     The angle inputs (phi_t, phi_o) are mirrored about zero: VN(x) = VP(-x),
     N(x) = P(-x), Z(x) = Z(-x).
+``span``
+    The terms span their universe: the first term's centre lies in the lower half of
+    the universe, the last term's in the upper half (voltage terms that all stop at
+    6 V of a -0.28..14 V universe leave the robot's top half of speeds unused).
+``rates``
+    Neighbours change at comparable rates: the graded part of each term (where it is
+    neither 0 nor 1, measured as ``GRADED_LOW < mu < GRADED_HIGH`` within the universe)
+    is within a factor :data:`MAX_RATE_RATIO` (4) of each neighbour's (a 0.13 rad ramp
+    beside a 1.0 rad one is a near-crisp switch among fuzzy sets).
 ``wheels``
     One set of voltage terms for both wheels: the outputs ``left`` and ``right`` have
     the same range and the same terms (Table 1's rules are mirror images).
@@ -56,6 +65,7 @@ __all__ = [
     "MIN_OVERLAP",
     "MAX_AT_NEIGHBOUR_CENTRE",
     "MIN_COVER",
+    "MAX_RATE_RATIO",
     "Violation",
     "violations",
     "centre",
@@ -74,6 +84,9 @@ MIN_WIDTH_FRACTION = 0.02
 MIN_OVERLAP = 0.2
 MAX_AT_NEIGHBOUR_CENTRE = 0.7
 MIN_COVER = 0.1
+MAX_RATE_RATIO = 4.0
+# what counts as "graded" (neither 0 nor 1): a Gaussian is never exactly either
+GRADED_LOW, GRADED_HIGH = 0.01, 0.99
 #: Samples per universe (plus every shape's parameters): 1e-4 of the range.
 GRID_POINTS = 10_001
 _HALF = 0.5
@@ -205,6 +218,30 @@ def _variable_violations(variable: Variable, is_input: bool) -> list[Violation]:
                     f"holds {level:.3f} at {there.name}'s centre "
                     f"{centre(there):.4g} (> {MAX_AT_NEIGHBOUR_CENTRE})",
                 )
+    middle = 0.5 * (lo + hi)
+    if not centres[0] <= middle + _TOL:
+        fault(
+            "span",
+            variable.terms[0].name,
+            f"the first term's centre {centres[0]:.4g} is above the universe's middle {middle:.4g}",
+        )
+    if not centres[-1] >= middle - _TOL:
+        fault(
+            "span",
+            variable.terms[-1].name,
+            f"the last term's centre {centres[-1]:.4g} is below the universe's middle "
+            f"{middle:.4g}: the terms leave the upper half of [{lo:g}, {hi:g}] unused",
+        )
+    graded = [_measure(x, (m > GRADED_LOW) & (m < GRADED_HIGH)) for m in mu]
+    for k in range(len(graded) - 1):
+        a, b = graded[k], graded[k + 1]
+        if min(a, b) <= 0.0 or max(a, b) / min(a, b) > MAX_RATE_RATIO + _TOL:
+            fault(
+                "rates",
+                variable.terms[k + 1].name,
+                f"graded over {b:.4g} beside {variable.terms[k].name}'s {a:.4g} "
+                f"(more than {MAX_RATE_RATIO:g} times apart)",
+            )
     if is_input:
         cover = mu.max(axis=0)
         worst = int(np.argmin(cover))

@@ -19,6 +19,12 @@ N_INPUTS, N_OUTPUTS = 4, 2
 #: The controller's inputs and outputs, in the order the loop passes and takes them.
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
 OUTPUT_NAMES = ("left", "right")
+#: The readings of Table 1's NONE (issue 35). "matlab": MATLAB's rule editor's "none",
+#: the input takes no part in the rule (the engine's own semantics). "unsensed": the
+#: paper's text, "for more distance, it is 'none'": a rule with NONE for d_o holds only
+#: while no obstacle is sensed (d_o NaN), so the goal rules 1-25 are off while one is.
+NONE_READINGS = ("matlab", "unsensed")
+GATED_INPUT = INPUT_NAMES.index("d_o")
 
 
 def binding(names, expected, what: str, source: str) -> tuple[int, ...] | None:
@@ -88,7 +94,13 @@ class FisController:
 
     needs_ranges = False
 
-    def __init__(self, fis: FuzzySystem, name: str | None = None, source: str = "<memory>"):
+    def __init__(
+        self,
+        fis: FuzzySystem,
+        name: str | None = None,
+        source: str = "<memory>",
+        none_reading: str = "matlab",
+    ):
         if fis.n_inputs != N_INPUTS or fis.n_outputs != N_OUTPUTS:
             raise ValueError(
                 f"{source}: fuzzy system {fis.name!r} has {fis.n_inputs} inputs and "
@@ -106,6 +118,14 @@ class FisController:
         self.fis = fis
         self.name = name or fis.name
         self.source = source
+        if none_reading not in NONE_READINGS:
+            raise ValueError(
+                f"{source}: none_reading {none_reading!r}: choose from {', '.join(NONE_READINGS)}"
+            )
+        #: how Table 1's NONE for d_o reads (:data:`NONE_READINGS`)
+        self.none_reading = none_reading
+        #: with the "unsensed" reading, the rules that hold while an obstacle is sensed
+        self.sensed_fis = sensed_system(fis) if none_reading == "unsensed" else fis
 
     @classmethod
     def from_fis(cls, path: str | Path) -> FisController:
@@ -118,5 +138,21 @@ class FisController:
     def reset(self) -> None:
         """Stateless: nothing to reset."""
 
+    def system_for(self, inputs) -> FuzzySystem:
+        """The system that decides at ``inputs``: with the "unsensed" reading of NONE,
+        the obstacle rules alone while d_o is sensed."""
+        return self.fis if np.isnan(inputs[GATED_INPUT]) else self.sensed_fis
+
     def __call__(self, inputs) -> np.ndarray:
-        return self.fis.evaluate_one(np.asarray(inputs, dtype=float))
+        x = np.asarray(inputs, dtype=float)
+        return self.system_for(x).evaluate_one(x)
+
+
+def sensed_system(fis: FuzzySystem) -> FuzzySystem:
+    """``fis`` without the rules that have NONE for d_o: what decides while an obstacle is
+    sensed under the text's reading of NONE. (While none is sensed, d_o is NaN, every rule
+    that uses it is 0 and the whole system gives the same answer.)"""
+    rules = [r for r in fis.rules if r.antecedent[GATED_INPUT] is not None]
+    if not rules:
+        raise ValueError(f"{fis.name}: no rule uses d_o, so NONE cannot gate anything")
+    return fis.with_rules(rules)

@@ -16,13 +16,15 @@ other's centres (distinct), and some term holds >= 0.5 everywhere (no hole).
 
 Parameters (:data:`DESIGN_PARAMETERS`; metres, radians, volts):
 
-* ``d_t`` (3): ``c0``, where VS stops holding 1; ``h``, the spacing VS -> S; ``r``,
-  the growth of each further spacing (S -> M is ``h r``, and so on): far distances need
-  less resolution. Centres ``c0, c0 + h, c0 + h (1 + r), ...``.
+* ``d_t`` (3): ``c0``, where VS stops holding 1; ``top``, where VL starts holding 1;
+  ``r``, the growth of each spacing over the one before (far distances need less
+  resolution). Centres ``c0, c0 + h, c0 + h (1 + r), ..., top`` with ``h`` set so that
+  the last is ``top``.
 * ``d_o`` (2): ``near``, where "near" stops holding 1; ``far``, where "far" holds 1
   (<= 3 m, the sensing limit); "medium" half-way.
 * ``phi_t`` (2) and ``phi_o`` (2), mirrored (Table 1 is): ``p``, the centre of P (N at
-  ``-p``); ``w``, how much further VP holds 1 (VN mirrored). Z is a Gaussian at 0.
+  ``-p``); ``q``, how much further VP holds 1, as a multiple of ``p`` (VP at
+  ``p (1 + q)``, kept inside the universe; VN mirrored). Z is a Gaussian at 0.
 * the outputs (3), one set for both wheels: ``e0``, where VS holds 1 (the slow wheel of a
   turn); ``top``, where VL holds 1; ``r``, the growth of the spacing from one term to the
   next (centres ``e0 + g (1 + r + ... )`` with ``g`` set so that the last is ``top``).
@@ -44,19 +46,25 @@ from fuzzynav.controller.paper_partition import TableOneTunable
 _SIGMA_PER_SPACING = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 
 # name, lower, upper, start (a hand layout: turns from +-0.6 rad, obstacles felt from
-# 2.4 m, a slow wheel near 0 V and a top speed near 9 V).
+# 2.4 m, a slow wheel near 0 V and a top speed near 10 V). The bounds keep the design
+# rules by construction, the two added by issue 35 included: ``span`` (d_t's VL and the
+# wheels' VL in the upper half of their universes: ``d_t.top`` >= 14.5 m of [-1.13, 30],
+# ``v.top`` >= 7 V of [-0.28, 14]) and ``rates`` (an angle's outer ramp from once to
+# 8 times its inner spacing, ``phi_*.q``; d_t's and the wheels' growth ratios keep each
+# term's graded part within 4x of its neighbours'); every ramp stays >= 2 % of its
+# universe (``width``: hence q >= 1 and d_t.r <= 2.2).
 DESIGN_PARAMETERS: list[tuple[str, float, float, float]] = [
     ("d_t.c0", -0.8, 1.5, 0.3),
-    ("d_t.h", 0.65, 2.4, 1.5),
-    ("d_t.r", 1.0, 1.8, 1.5),
+    ("d_t.top", 14.5, 30.0, 20.0),
+    ("d_t.r", 1.0, 2.2, 1.5),
     ("d_o.near", 0.0, 1.4, 0.5),
     ("d_o.far", 1.6, 3.0, 2.4),
     ("phi_t.p", 0.26, 1.5, 0.6),
-    ("phi_t.w", 0.26, 3.0, 0.8),
+    ("phi_t.q", 1.0, 3.0, 1.3),
     ("phi_o.p", 0.13, 1.5, 0.6),
-    ("phi_o.w", 0.13, 1.6, 0.8),
+    ("phi_o.q", 1.0, 8.0, 1.3),
     ("v.e0", -0.15, 1.0, 0.3),
-    ("v.top", 6.0, 14.0, 10.0),
+    ("v.top", 7.0, 14.0, 10.0),
     ("v.r", 0.6, 2.0, 1.0),
 ]
 
@@ -86,12 +94,15 @@ def design_partition(centres, gaussian_middle: bool) -> list[tuple[str, tuple[fl
     return terms
 
 
-def _mirrored(p: float, w: float) -> list[float]:
-    return [-(p + w), -p, 0.0, p, p + w]
+def _mirrored(p: float, q: float, half_range: float) -> list[float]:
+    """N at -p, VN at -p (1 + q), clipped at the universe's edge; mirrored."""
+    outer = min(p * (1.0 + q), half_range)
+    return [-outer, -p, 0.0, p, outer]
 
 
 def output_centres(e0: float, top: float, ratio: float) -> list[float]:
-    """VS .. VL centres from ``e0`` to ``top``, spacings growing by ``ratio``."""
+    """Five centres from ``e0`` to ``top``, spacings growing by ``ratio`` (the wheels'
+    VS .. VL, and d_t's)."""
     first = (top - e0) / sum(ratio**k for k in range(4))
     return _spaced(e0, first, ratio, 5)
 
@@ -121,14 +132,14 @@ class PaperDesignTunable(TableOneTunable):
 
     def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
         v = self._vector(vector)
-        d_t = _spaced(v[0], v[1], v[2], 5)
+        d_t = output_centres(v[0], v[1], v[2])
         d_o = [v[3], (v[3] + v[4]) / 2.0, v[4]]
         outputs = design_partition(output_centres(v[9], v[10], v[11]), gaussian_middle=False)
         return {
             "d_t": design_partition(d_t, gaussian_middle=True),
             "d_o": design_partition(d_o, gaussian_middle=True),
-            "phi_t": design_partition(_mirrored(v[5], v[6]), gaussian_middle=True),
-            "phi_o": design_partition(_mirrored(v[7], v[8]), gaussian_middle=True),
+            "phi_t": design_partition(_mirrored(v[5], v[6], 2 * math.pi), gaussian_middle=True),
+            "phi_o": design_partition(_mirrored(v[7], v[8], math.pi), gaussian_middle=True),
             "left": outputs,
             "right": outputs,
         }

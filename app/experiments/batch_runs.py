@@ -382,9 +382,11 @@ def fit_measures(
         except ValueError:
             continue
         built.append(k)
-        controllers.append(FisController(system, name="paper"))
+        controllers.append(
+            FisController(system, name="paper", none_reading=fit_cost.reading.none_reading)
+        )
         for name in scenario_names:
-            scenario = load_scenario(name)
+            scenario = fit_cost.reading.applied(load_scenario(name))
             if fit_cost.stall_s is not None:  # as app.experiments.paper_fit.run_paper_geometry
                 scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
             scenarios.append(scenario)
@@ -401,6 +403,7 @@ def fit_measures(
         model=fit_cost.model,
         stall_s=fit_cost.stall_s,
         trace=True,
+        record_poses=True,
     )
     for i, scenario in enumerate(scenarios):
         m = result.metrics(i)
@@ -427,10 +430,22 @@ def fit_measures(
             "final_distance_m": float(result.final_target_distance_m[i]),
             "closest_to_target_m": float(result.min_target_distance_m[i]),
             "max_voltage_v": tuple(float(v) for v in result.max_voltage_v[i]),
+            "largest_right_offset_m": largest_right_offset(scenario, result.poses[i]),
         }
         k = built[int(run_sets[i])]
         out[k] = (out[k] or []) + [measured]
     return out
+
+
+def largest_right_offset(scenario, poses) -> float:
+    """How far right of the start-target line the robot's centre went (m, 0 if never):
+    the paper's s1 comes at its obstacles from the right of that line."""
+    start = np.asarray(scenario.start, dtype=float)
+    line = np.asarray(scenario.target, dtype=float) - start
+    xy = np.asarray(poses, dtype=float)[:, :2] - start
+    # the cross product's sign: negative = right of the line, looking along it
+    side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
+    return float(max(0.0, -side.min()))
 
 
 def fit_costs(fit_cost, vectors, scenario_names=("s1", "s2", "s3")) -> list[float]:

@@ -22,11 +22,13 @@ from __future__ import annotations
 import math
 import re
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from fuzzynav.app.args import UsageError, float_in, integer_in, print_json, seed_type
+from fuzzynav.app.experiments.batch_runs import largest_right_offset
 from fuzzynav.app.provenance import reproduce_line
 from fuzzynav.app.published import SCENARIOS, paper_results
 from fuzzynav.safe_files import write_text_atomically
@@ -46,6 +48,37 @@ HUSKY_SAFE_CLEARANCE_M = 0.25 + 0.03
 HUSKY_MAX_PATH_M = 13.0 - 0.2
 HUSKY_MAD_FACTOR = 2.0 * 0.95
 HUSKY_MAX_ARRIVAL_PHI_RAD = 0.3 - 0.05
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One reading of what the paper leaves open (issue 35), never a fitted number:
+    the start heading (0: a Simulink state's default; pi/4: facing the target), Table
+    1's NONE (:data:`fuzzynav.controller.fis_controller.NONE_READINGS`) and what ideal
+    perception senses (180: the front half-plane; 360: all around). ``None`` for the
+    heading or the field keeps the scenario file's own."""
+
+    heading_rad: float | None = None
+    none_reading: str = "matlab"
+    field_of_view_deg: float | None = None
+
+    def applied(self, scenario):
+        """``scenario`` as this reading runs it."""
+        changes = {}
+        if self.heading_rad is not None:
+            changes["heading_rad"] = float(self.heading_rad)
+        if self.field_of_view_deg is not None:
+            changes["field_of_view_deg"] = float(self.field_of_view_deg)
+        return scenario.replace(**changes) if changes else scenario
+
+    @property
+    def label(self) -> str:
+        heading = "file" if self.heading_rad is None else f"{self.heading_rad:.4g}"
+        fov = "file" if self.field_of_view_deg is None else f"{self.field_of_view_deg:g}"
+        return f"heading {heading} rad, NONE {self.none_reading}, field {fov} deg"
+
+
+SCENARIO_FILE_READING = Reading()
 
 
 def closest_approaches(time_s, center_distance_m) -> list[tuple[float, float]]:
@@ -82,6 +115,7 @@ def measure(result) -> dict:
             float(np.nanmax(log.voltages_v[:, 0])),
             float(np.nanmax(log.voltages_v[:, 1])),
         ),
+        "largest_right_offset_m": largest_right_offset(result.scenario, log.pose),
     }
 
 
@@ -93,20 +127,21 @@ def run_once(
     perception: str = "ideal",
     stall_s=None,
     model=None,
+    reading: Reading = SCENARIO_FILE_READING,
 ):
     """One run of ``system`` from the scenario's own start (its heading included: a
-    reading of the text, never fitted); with ``stall_s``, stopped as a timeout once it
-    makes no progress for that long (as tuning does)."""
+    reading of the text, never fitted), or as ``reading`` changes it; with ``stall_s``,
+    stopped as a timeout once it makes no progress for that long (as tuning does)."""
     from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.world.scenario import load_scenario
     from fuzzynav.world.simulation import Simulation
 
-    scenario = load_scenario(scenario_name)
+    scenario = reading.applied(load_scenario(scenario_name))
     if stall_s is not None:  # fitting: an orbit or a dead end ends the run early
         scenario = scenario.replace(duration_s=min(scenario.duration_s, 120.0))
     sim = Simulation(
         scenario,
-        FisController(system, name="paper"),
+        FisController(system, name="paper", none_reading=reading.none_reading),
         perception=perception,
         control_period_s=control_period_s,
         geometry=geometry,
@@ -203,15 +238,27 @@ def run_cost(measured: dict, paper: dict) -> float:
     return float(sum(terms) + (50.0 if measured["collided"] else 0.0))
 
 
+SATURATION_V = 12.0  # the paper's saturation after the controller
+MIN_RIGHT_OFFSET_M = 0.1  # "coming from the right of the start-target line" (s1)
+
+
 def story_cost(measured: list[dict]) -> float:
     """The story across runs (paper geometry, s1-s3 in order): s1's first obstacle
-    passed farthest of the three (by 2 cm), s3's static obstacle passed later than
-    s2's (by 1 s); each a squared hinge in units of 5 cm / 1 s, capped."""
+    passed farthest of the three (by 2 cm) and s1 coming from the right of the
+    start-target line (at least 0.1 m right of it), s3's static obstacle passed later
+    than s2's (by 1 s), s3's right wheel reaching the 12 V saturation; each a squared
+    hinge in units of 5 cm / 1 s / 0.5 V, capped."""
     by_name = {m["scenario"]: m for m in measured}
     cost = 0.0
     if "s1" in by_name:
         d = [p[1] for p in by_name["s1"]["passes"]]
         cost += min((max(0.0, max(d[1:]) - d[0] + 0.02) / 0.05) ** 2, DONE_PENALTY_CAP)
+        right = by_name["s1"].get("largest_right_offset_m")
+        if right is not None:  # s1 comes at its obstacles from the right of the line
+            cost += min((max(0.0, MIN_RIGHT_OFFSET_M - right) / 0.05) ** 2, DONE_PENALTY_CAP)
+    if "s3" in by_name:  # Fig. 26's text: s3's right wheel is clipped at 12 V
+        top = by_name["s3"]["max_voltage_v"][1]
+        cost += min((max(0.0, SATURATION_V - 0.05 - top) / 0.5) ** 2, DONE_PENALTY_CAP)
     if "s2" in by_name and "s3" in by_name:
         late = by_name["s2"]["passes"][0][0] - by_name["s3"]["passes"][0][0] + 1.0
         cost += min(max(0.0, late) ** 2, DONE_PENALTY_CAP)
@@ -251,6 +298,7 @@ class FitCost:
         husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
         husky_weight: float = 1.0,
         paper_geometry: bool = True,
+        reading: Reading = SCENARIO_FILE_READING,
     ):
         from fuzzynav.controller.paper_design import PaperDesignTunable
 
@@ -266,6 +314,8 @@ class FitCost:
         self.husky_weight = float(husky_weight)
         #: False: the Husky geometry's runs alone (its own rule base, rules/paper_husky.toml)
         self.paper_geometry = bool(paper_geometry)
+        #: the reading of the text the runs take (heading, NONE, field of view)
+        self.reading = reading
         self.paper = paper_results()
         self.model = HuskyModel.default()  # one plant: its ZOH matrices are computed once
 
@@ -281,6 +331,7 @@ class FitCost:
                     perception,
                     self.stall_s,
                     self.model,
+                    self.reading,
                 )
             )
             for name in SCENARIOS
