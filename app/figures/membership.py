@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.figures.style import FORMATS, _new_figure, _save, check_writable_dir
+from fuzzynav.app.figures.style import FORMATS, TERMS, _new_figure, _save, check_writable_dir
 from fuzzynav.safe_files import atomic_output
 
 
@@ -38,9 +38,12 @@ def write_membership_figures(
         x = np.linspace(lo, hi, points)
         fig, ax = _new_figure(7.6, 3.2 if title_suffix else 3.0)
         a = ax[0, 0]
-        for _k, term in enumerate(var.terms):
+        for k, term in enumerate(var.terms):
             y = np.asarray(term(x), dtype=float)
-            (line,) = a.plot(x, y, lw=1.6, label=f"{term.name} ({term.shape})")
+            # app.palette's term colours: S, M, L... as the recording's fuzzy-logic tab
+            (line,) = a.plot(
+                x, y, lw=1.6, color=TERMS[k % len(TERMS)], label=f"{term.name} ({term.shape})"
+            )
             peak = int(np.argmax(y))
             # a peak at an end of the range (VL at 14 V) is labelled inward, not cut off
             where = (x[peak] - lo) / (hi - lo) if hi > lo else 0.5
@@ -87,8 +90,14 @@ def write_membership_overview(
         lo, hi = var.range
         shown = min(hi, d_t_shown_m) if var.name == "d_t" else hi
         x = np.linspace(lo, shown, points)
-        for term in var.terms:
-            a.plot(x, np.asarray(term(x), dtype=float), lw=1.6, label=f"{term.name} ({term.shape})")
+        for k, term in enumerate(var.terms):
+            a.plot(
+                x,
+                np.asarray(term(x), dtype=float),
+                lw=1.6,
+                color=TERMS[k % len(TERMS)],
+                label=f"{term.name} ({term.shape})",
+            )
         unit = f" [{var.unit}]" if getattr(var, "unit", "") else ""
         note = f" (shown to {shown:g} of {hi:g})" if shown < hi else ""
         a.set_title(f"{var.name}{unit}{note}", fontsize=9)

@@ -43,12 +43,12 @@ from fuzzynav.app.figures.numbering import (
     run_figure_stem,
 )
 from fuzzynav.app.figures.style import (
+    D_T,
     FORMATS,
     HEADING,
     OBSTACLE_COLORS,
-    ROBOT,
+    PHI_T,
     SAFE_DISTANCE_M,
-    TARGET,
     WHEEL_LEFT,
     WHEEL_RIGHT,
     _default_footprint,
@@ -146,7 +146,7 @@ def run_figure(
         fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
         top, bottom = ax[0, 0], ax[1, 0]
         d_t = np.hypot(log.target_xy[:, 0] - log.pose[:, 0], log.target_xy[:, 1] - log.pose[:, 1])
-        top.plot(t, d_t, color=TARGET, lw=1.6, label="to the target")
+        top.plot(t, d_t, color=D_T, lw=1.6, label="to the target")
         for col in range(len(log.obstacle_ids)):
             color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
             name = _obstacle_label(log, col)
@@ -183,7 +183,7 @@ def run_figure(
                 lw=0.7,
                 label="phi_t as the controller received it",
             )
-        top.plot(t, phi_t, color=ROBOT, lw=1.4, label="phi_t")
+        top.plot(t, phi_t, color=PHI_T, lw=1.4, label="phi_t")
         bottom.plot(t, log.pose[:, 2], color=HEADING, lw=1.4, label="heading")
         _time_axes(top, "target angle phi_t (rad)", scenario, xlabel=False)
         _time_axes(bottom, "heading (rad)", scenario)

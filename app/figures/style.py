@@ -2,8 +2,9 @@
 files written whole, time axes, and legends (what a figure asks of a controller, its fuzzy
 system and name, is app.recordings.internals's).
 
-Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings);
-the right wheel and the heading take colours no obstacle has.
+The colours are :mod:`app.palette`'s: red, orange, purple... mean obstacles 0, 1, 2...
+everywhere (figures, recordings, viewer); the right wheel and the heading take colours no
+obstacle has.
 """
 
 from __future__ import annotations
@@ -12,34 +13,28 @@ import os
 import tempfile
 from pathlib import Path
 
+from fuzzynav.app import palette
 from fuzzynav.safe_files import atomic_output
 
 SAFE_DISTANCE_M = 0.25
 FORMATS = ("png", "svg")
 DPI = 150
 
-ROBOT = "#1f77b4"
-TARGET = "#2ca02c"
-OBSTACLE = "#d62728"
-SAFE = "#555555"
-MOVING = "#9467bd"
-WHEEL_LEFT = "#1f77b4"
-# Red, orange, purple... mean obstacles 0, 1, 2... everywhere (figures and recordings):
-# the right wheel and the heading take colours no obstacle has.
-WHEEL_RIGHT = "#222222"
-HEADING = "#008c78"  # teal, as the recording's heading arrow
-EVENT = "#222222"
-DISTURBANCE = "#f2a900"
-OBSTACLE_COLORS = [
-    "#d62728",
-    "#ff7f0e",
-    "#9467bd",
-    "#8c564b",
-    "#e377c2",
-    "#bcbd22",
-    "#17becf",
-    "#7f7f7f",
-]
+# Colours: app.palette's, one palette for the figures, the recordings and the viewer.
+ROBOT = palette.ROBOT
+TARGET = palette.TARGET
+OBSTACLE = palette.OBSTACLES[0]
+SAFE = palette.SAFE
+WHEEL_LEFT = palette.WHEEL_LEFT
+WHEEL_RIGHT = palette.WHEEL_RIGHT
+HEADING = palette.HEADING
+EVENT = palette.EVENT
+DISTURBANCE = palette.DISTURBANCE
+BREACH = palette.BREACH
+PHI_T = palette.PHI_T
+D_T = palette.D_T
+TERMS = palette.TERMS
+OBSTACLE_COLORS = list(palette.OBSTACLES)
 
 
 def check_writable_dir(path, option: str = "--figures") -> Path:

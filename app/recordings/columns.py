@@ -25,14 +25,17 @@ from .internals import (
 )
 from .scene import SceneColumns
 from .style import (
+    DISTURBANCE,
     HEADING,
+    INPUT_COLORS,
     LIMIT,
-    OBSTACLE_PALETTE,
     RIGHT,
+    SAFE,
     SAFE_DISTANCE_M,
     SENSOR_COLORS,
     SERIES_PALETTE,
     TARGET,
+    obstacle_color,
 )
 
 #: Rows of the log read at a time to place the legends of a run recorded whole.
@@ -43,14 +46,14 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
     """(path, series names, colours, widths) of every plot but the rules."""
     ids = list(obstacle_ids)
     obstacles = [f"obstacle {i}" for i in ids]
-    obstacle_colors = [OBSTACLE_PALETTE[c % len(OBSTACLE_PALETTE)] for c in range(len(ids))]
+    obstacle_colors = [obstacle_color(c) for c in range(len(ids))]  # app.palette's
     grey = (120, 120, 120)
     p = SERIES_PALETTE
     limit = voltage_limit_v
     k = len(ids)
     return [
         ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
-        ("/plots/angles/phi_t", ["phi_t"], [p[0]], [1.5]),
+        ("/plots/angles/phi_t", ["phi_t"], [INPUT_COLORS["phi_t"]], [1.5]),
         ("/plots/angles/heading", ["heading"], [HEADING], [1.5]),
         ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
         (
@@ -61,16 +64,26 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
             [p[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
             [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
         ),
-        ("/plots/inputs/distances", ["d_t", "d_o"], [p[0], p[1]], [1.5] * 2),
-        ("/plots/inputs/angles", ["phi_t", "phi_o"], [p[2], p[3]], [1.5] * 2),
+        (
+            "/plots/inputs/distances",
+            ["d_t", "d_o"],
+            [INPUT_COLORS["d_t"], INPUT_COLORS["d_o"]],
+            [1.5] * 2,
+        ),
+        (
+            "/plots/inputs/angles",
+            ["phi_t", "phi_o"],
+            [INPUT_COLORS["phi_t"], INPUT_COLORS["phi_o"]],
+            [1.5] * 2,
+        ),
         (
             "/plots/clearance",
             obstacles + [f"safe {SAFE_DISTANCE_M} m"],
-            obstacle_colors + [grey],
-            [1.5] * k + [1.0],
+            obstacle_colors + [SAFE],
+            [1.5] * k + [2.0],
         ),
         ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], [p[0], RIGHT], [1.5] * 2),
-        ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], p[2:4], [1.5] * 2),
+        ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], [p[0], HEADING], [1.5] * 2),
         ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], [p[0], RIGHT], [1.5] * 2),
         (
             "/plots/ranges",
@@ -78,7 +91,7 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
             [SENSOR_COLORS.get(m, grey) for m in sensor_names],
             [1.5] * len(sensor_names),
         ),
-        ("/plots/disturbance", ["disturbance"], [p[7]], [1.5]),
+        ("/plots/disturbance", ["disturbance"], [DISTURBANCE], [1.5]),
     ]
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arrow import StaticBatch, column, strips_array, text_array, time_column
-from .style import SERIES_PALETTE
+from .style import AGGREGATED, TERM_PALETTE, VALUE
 
 FUZZY_PATH = "/fuzzy"
 #: Each variable's membership plot spans FUZZY_W x 1 in its view (x: its range).
@@ -53,7 +53,7 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
         base = f"{FUZZY_PATH}/{kind}/{var.name}"
         x = np.linspace(lo, hi, 401)
         curves = [np.asarray(t(x), float) for t in var.terms]
-        colours = [SERIES_PALETTE[j % len(SERIES_PALETTE)] for j in range(len(var.terms))]
+        colours = [TERM_PALETTE[j % len(TERM_PALETTE)] for j in range(len(var.terms))]
         static.add_archetype(
             f"{base}/terms",
             rr.LineStrips2D(
@@ -96,8 +96,8 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
             ),
         )
         if kind == "outputs":
-            static.add(f"{base}/aggregated", "LineStrips2D", colors=(230, 160, 40), radii=0.02)
-        static.add(f"{base}/value", "LineStrips2D", colors=(20, 20, 20), radii=0.018)
+            static.add(f"{base}/aggregated", "LineStrips2D", colors=AGGREGATED, radii=0.02)
+        static.add(f"{base}/value", "LineStrips2D", colors=VALUE, radii=0.018)
         drawn.append(f"{kind}/{var.name}")
     return drawn
 

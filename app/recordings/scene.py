@@ -29,8 +29,6 @@ from .style import (
     HEADING_ARROW_M,
     HEADING_ORDER,
     OBSTACLE_ORDER,
-    OBSTACLE_PALETTE,
-    OBSTACLE_PATH,
     RING_SEGMENTS,
     ROBOT,
     ROBOT_ORDER,
@@ -43,6 +41,7 @@ from .style import (
     TARGET,
     TRAIL,
     TRAIL_ORDER,
+    obstacle_color,
 )
 
 
@@ -212,7 +211,7 @@ class SceneColumns:
             self._style(
                 f"{base}/body",
                 "Points2D",
-                colors=OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)],
+                colors=obstacle_color(col),
                 radii=radius,
                 labels=f"obstacle {oid}",
                 draw_order=float(OBSTACLE_ORDER),
@@ -273,7 +272,13 @@ class SceneColumns:
                 moved = ~gap & np.any(before != points, axis=1)
                 if moved.any():
                     segs = np.stack([before[moved], points[moved]], axis=1)
-                    self._style(f"{base}/path", "LineStrips2D", colors=OBSTACLE_PATH, radii=0.015)
+                    # (the obstacle's own colour, paler: app.palette's)
+                    self._style(
+                        f"{base}/path",
+                        "LineStrips2D",
+                        colors=(*obstacle_color(col), 150),
+                        radii=0.015,
+                    )
                     self._send(
                         f"{base}/path",
                         time_column(t[present_rows[moved]]),

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fuzzynav.app import palette
+
 CELL_W = 66.0  # width of one variable's column in the rule grid (SVG units)
 CELL_H = 17.0  # height of one rule row
 NUM_W = 46.0  # width of the rule-number column
@@ -21,8 +23,8 @@ INPUT_LINE = "#dc2626"
 # The paper's four inputs each have a colour, the same in the term plots, in the rule
 # grid and on the arena (where d_t, phi_t, d_o and phi_o are drawn on the robot): the
 # target's pair teal, the obstacle's pair magenta.
-TARGET_INPUT = "#0d9488"
-OBSTACLE_INPUT = "#c026d3"
+TARGET_INPUT = palette.TARGET_INPUT  # (app.palette: one palette everywhere)
+OBSTACLE_INPUT = palette.OBSTACLE_INPUT
 INPUT_COLOURS = {
     "d_t": TARGET_INPUT,
     "phi_t": TARGET_INPUT,
@@ -194,7 +196,7 @@ def _fmt_degree(d: float) -> str:
 
 
 INPUT_W, INPUT_H = 150.0, 46.0
-PALETTE = ("#7c3aed", "#0891b2", "#16a34a", "#ea580c", "#db2777", "#475569", "#65a30d")
+PALETTE = palette.VIEWER_SERIES
 
 
 def _choice(fis, field: str, default: str) -> str:

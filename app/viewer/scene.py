@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from fuzzynav.app import palette
 from fuzzynav.app.viewer.model import SAFE_DISTANCE_M, Snapshot
 from fuzzynav.world.geometry import (
     HUSKY_WHEEL_RADIUS_M,
@@ -42,8 +43,8 @@ NO_ECHO = (175, 175, 175)
 MEMORY_PURPLE = (147, 51, 234)  # fuzzynav's remembered echoes
 STEER_GREEN = (22, 163, 74)  # the bearing its planner steers to
 GROUND = (255, 255, 255)
-TARGET_INPUT = (13, 148, 136)  # d_t, phi_t on the robot (views.TARGET_INPUT)
-OBSTACLE_INPUT = (192, 38, 211)  # d_o, phi_o (views.OBSTACLE_INPUT)
+TARGET_INPUT = palette.rgb(palette.TARGET_INPUT)  # d_t, phi_t on the robot (app.palette)
+OBSTACLE_INPUT = palette.rgb(palette.OBSTACLE_INPUT)  # d_o, phi_o (app.palette)
 FIELD_OF_VIEW = (100, 116, 139)  # the edges of ideal perception's field of view
 #: How far the field of view's edges are drawn from the robot's centre (m), and its arc.
 FIELD_OF_VIEW_DRAWN_M = 2.5
