@@ -79,6 +79,24 @@ def command_line() -> str:
     return " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name] + sys.argv[1:])
 
 
+#: The options that pin a run's reproduce command to what it ran (issue 39, defect 9):
+#: ``run`` refuses to run when the scenario, the controller's rules and parameters, or
+#: fuzzynav's version differ from the recorded ones.
+RULES_DIGEST_OPTION = "--rules-sha256"
+VERSION_OPTION = "--fuzzynav-version"
+
+
+def rules_digest(controller) -> str | None:
+    """sha256 of what a controller drives with (its rule base(s) and crisp parameters,
+    as ``app.runs``'s fingerprint writes them), or None (none can be written out)."""
+    import hashlib
+
+    from fuzzynav.app.runs import _fingerprint
+
+    text = _fingerprint(controller) if controller is not None else None
+    return None if text is None else hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def reproduce_run(
     scenario,
     controller,
@@ -92,10 +110,16 @@ def reproduce_run(
     parameters=None,
 ):
     """The run's :class:`app.runs.Reproduction`: the ``fuzzynav run`` command with every
-    option that changes the run, and what it cannot carry."""
-    from fuzzynav.app.runs import reproduce
+    option that changes the run, and what it cannot carry, pinned to what it ran: the
+    scenario's digest (a shipped one too: ``s3.toml`` may change), the controller's
+    rules' digest (:func:`rules_digest`) and fuzzynav's version, which ``run`` checks
+    before it runs (:func:`check_pins`)."""
+    import dataclasses
+    import shlex
 
-    return reproduce(
+    from fuzzynav.app.runs import SCENARIO_DIGEST_OPTION, reproduce, scenario_digest
+
+    again = reproduce(
         scenario,
         controller,
         perception=perception,
@@ -106,6 +130,52 @@ def reproduce_run(
         voltage_limit_v=voltage_limit_v,
         parameters=parameters,
     )
+    argv = shlex.split(again.command)
+    if SCENARIO_DIGEST_OPTION not in argv:
+        argv += [SCENARIO_DIGEST_OPTION, scenario_digest(scenario)]
+    digest = rules_digest(controller)
+    if digest is not None:
+        argv += [RULES_DIGEST_OPTION, digest]
+    argv += [VERSION_OPTION, fuzzynav_version()]
+    return dataclasses.replace(again, command=shlex.join(argv))
+
+
+def add_pin_options(parser) -> None:
+    """``run --rules-sha256 HEX --fuzzynav-version V`` (a recording's reproduce
+    command gives them)."""
+    parser.add_argument(
+        RULES_DIGEST_OPTION,
+        default=None,
+        metavar="HEX",
+        help="refuse to run unless the controller's rules and parameters have this sha256 "
+        "(a recording's reproduce command gives it)",
+    )
+    parser.add_argument(
+        VERSION_OPTION,
+        default=None,
+        metavar="VERSION",
+        help="refuse to run unless this is fuzzynav's version (a recording's reproduce "
+        "command gives it)",
+    )
+
+
+def check_pins(args, sim) -> None:
+    """``run --rules-sha256 / --fuzzynav-version``: refuse (ValueError, said why) a run
+    whose controller or fuzzynav differs from the one recorded."""
+    want = getattr(args, "rules_sha256", None)
+    if want:
+        have = rules_digest(sim.controller) or "(none: its rules cannot be written out)"
+        if have != want.lower():
+            raise ValueError(
+                f"{RULES_DIGEST_OPTION} {want}: the controller's rules or parameters are not "
+                f"the ones recorded (their sha256 is {have}): the rule base changed since"
+            )
+    want = getattr(args, "fuzzynav_version", None)
+    if want and want != fuzzynav_version():
+        raise ValueError(
+            f"{VERSION_OPTION} {want}: this is fuzzynav {fuzzynav_version()}, not the "
+            "version the run was recorded with (install that one to repeat it)"
+        )
 
 
 def wrap_command(command: str, width: int = 72) -> str:
@@ -117,14 +187,21 @@ def wrap_command(command: str, width: int = 72) -> str:
     while k < len(words):
         piece = shlex.quote(words[k])
         if words[k].startswith("--") and k + 1 < len(words) and not words[k + 1].startswith("--"):
-            piece += " " + shlex.quote(words[k + 1])
+            value = shlex.quote(words[k + 1])
             k += 1
-        k += 1
-        if current and len(current) + 1 + len(piece) > width:
-            lines.append(current)
-            current = "    " + piece
+            if 4 + len(piece) + 1 + len(value) > width:  # (a digest: the value a line)
+                pieces = [piece, value]
+            else:
+                pieces = [piece + " " + value]
         else:
-            current = f"{current} {piece}" if current else piece
+            pieces = [piece]
+        k += 1
+        for piece in pieces:
+            if current and len(current) + 1 + len(piece) > width:
+                lines.append(current)
+                current = "    " + piece
+            else:
+                current = f"{current} {piece}" if current else piece
     lines.append(current)
     return " \\\n".join(lines)
 

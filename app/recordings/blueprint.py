@@ -31,8 +31,12 @@ from .internals import (
     has_internals,
     rule_system,
 )
+from .style import SAFE_DISTANCE_M
 
 APPLICATION_ID = "fuzzynav"
+#: How far below the start the world view reaches at least (m): the scale bar (0.75 m
+#: below) and its label, under it, inside the view's 1 m margin.
+SCALE_BELOW_START_M = 1.2
 
 
 def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
@@ -40,8 +44,9 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     start), the target, and the obstacles near them, with a 1 m margin. A moving
     obstacle counts only where it comes within 2 m of that area, so a long run's view
     is the robot's, not the path of an obstacle that left for the horizon."""
-    xs = [scenario.start[0], scenario.target[0]]
-    ys = [scenario.start[1], scenario.target[1]]
+    # (the start, its label and the 1 m scale bar below it, with its label: scene.py)
+    xs = [scenario.start[0], scenario.target[0], scenario.start[0] - 0.8]
+    ys = [scenario.start[1], scenario.target[1], scenario.start[1] - SCALE_BELOW_START_M]
     # A block of rows at a time (the metrics' blocks): a long run's log may be mapped
     # from the disk (world.simulation.LOG_BLOCK_BYTES), and its obstacle columns
     # reshaped whole were several copies of them.
@@ -224,6 +229,27 @@ class LegendFit:
         return corner, (float(value_range[0]), float(value_range[1]))
 
 
+#: The clearance panel shows at most this much (m): the 0.25 m safe distance must be
+#: seen, and a clearance of 10 m would flatten it onto zero (issue 39, defect 7).
+CLEARANCE_SHOWN_M = 2.0
+
+
+def clearance_range(data_range) -> tuple[float, float]:
+    """The clearance panel's value range: from the data's lowest value (or just below
+    zero) to the highest, at most :data:`CLEARANCE_SHOWN_M`, and always with room on
+    both sides of the safe distance's line."""
+    from .style import SAFE_DISTANCE_M
+
+    if data_range is None:
+        return (-0.05, 1.0)
+    lo_p, hi_p = float(data_range[0]), float(data_range[1])
+    pad = (hi_p - lo_p) / 22.0  # (the data's range came with 5 % of its span each side)
+    lo, hi = lo_p + pad, hi_p - pad
+    hi = min(max(hi_p, 3.0 * SAFE_DISTANCE_M), CLEARANCE_SHOWN_M)
+    lo = min(lo - 0.05 * (hi - min(lo, 0.0)), -0.05)
+    return (lo, hi)
+
+
 #: The panels of a recording and the paper's figure each draws (app.figures.numbering's kinds).
 PAPER_KIND = {
     "/plots/distance": "distances",
@@ -288,11 +314,11 @@ def blueprint(
     placements = dict(legend_corners or {})
     label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
 
-    def plot(origin, name, *, contents=None, legend=True, **kw):
+    def plot(origin, name, *, contents=None, legend=True, value_range=None, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
         axis = rrb.TimeAxis(view_range=whole_run)
         placement = placements.get(origin)
-        corner, value_range = None, None
+        corner, fixed = None, value_range
         if placement is not None:
             corner, value_range = placement if isinstance(placement, tuple) else (placement, None)
         if not legend:  # the panel's name says what its series are
@@ -300,6 +326,8 @@ def blueprint(
             value_range = placements.get(f"{origin}#data", value_range)
         elif corner is not None:
             kw["plot_legend"] = rrb.PlotLegend(corner=corner)
+        if fixed is not None:  # (a panel sized for what it must show: the clearance)
+            value_range = fixed
         if value_range is not None:
             kw["axis_y"] = rrb.ScalarAxis(range=value_range)
         if contents is not None:
@@ -308,9 +336,12 @@ def blueprint(
             origin=origin, name=name + figure_tag(label, origin), axis_x=axis, **kw
         )
 
+    # The lanes over the whole run too, as the plots below them (without a time range
+    # rerun shows a window around the cursor: the last ~27 s of a run at opening).
     lanes = rrb.StateTimelineView(
         origin=EVENTS_LANES,
-        name="events: closest approach (centre to centre), disturbance, outcome",
+        name="events: closest approach (centre to centre), safe distance, disturbance, outcome",
+        time_view=rrb.TimeAxis(view_range=whole_run),
     )
     paper = rrb.Vertical(
         lanes,
@@ -346,7 +377,13 @@ def blueprint(
     )
     sensing = rrb.Vertical(
         plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
-        plot("/plots/clearance", "footprint clearance, m, and the 0.25 m safe distance"),
+        plot(
+            "/plots/clearance",
+            f"footprint clearance, m, up to {CLEARANCE_SHOWN_M:g} m shown, obstacles in their "
+            f"colours, grey the {SAFE_DISTANCE_M:g} m safe distance",
+            legend=False,
+            value_range=clearance_range(placements.get("/plots/clearance#data")),
+        ),
         plot(
             "/plots/disturbance",
             "disturbance added to every input (m on d_t, d_o; rad on phi_t, phi_o)",
@@ -361,6 +398,7 @@ def blueprint(
                 rrb.StateTimelineView(
                     origin=RULES_STRONGEST_PATH,
                     name="the strongest rule at each decision (s)",
+                    time_view=rrb.TimeAxis(view_range=whole_run),
                 ),
                 rrb.BarChartView(
                     origin=RULES_PATH,
@@ -442,26 +480,80 @@ def _id_part(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]+", "_", str(text)).strip("_")[:60] or "run"
 
 
-def application_id(scenario, controller, geometry: str = "husky") -> str:
+def application_id(
+    scenario,
+    controller,
+    geometry: str = "husky",
+    *,
+    perception: str | None = None,
+    seed=None,
+    noise_std_m: float = 0.0,
+    control_period_s: float | None = None,
+    voltage_limit_v: float = 12.0,
+    parameters=None,
+) -> str:
     """``fuzzynav-<scenario>-<controller>-<geometry>-<key>``: rerun keeps one layout per
-    application id, so every recording whose layout can differ gets its own. The
-    scenario is its file's stem (s1) or its name; ``key`` is 8 hex digits of a sha256 over
-    what fixes the layout besides: the scenario's content (its obstacles and the world
-    view's bounds: two ``layout.toml`` files in different folders differ here), the
-    geometry, and the controller's rule count and internals (the rules tab). Two runs of
-    one scenario, geometry and controller share a layout; their bounds and legend
-    corners come from their runs, so they may differ a little (the later one's wins)."""
+    application id, and a layout holds value ranges sized from its run's data, so every
+    recording whose data can differ gets its own. The scenario is its file's stem (s1)
+    or its name; ``key`` is 8 hex digits of a sha256 over everything that changes what
+    the layout shows: the scenario's content (two ``layout.toml`` files in different
+    folders differ here), the geometry, the controller's rules and parameters
+    (:func:`app.provenance.rules_digest`), its rule count and internals (the rules tab),
+    the perception, the seed, the sensor noise, the control period, the voltage limit
+    and the robot's parameters (issue 39: s2 ideal and s2 ultrasonic shared a layout,
+    and the later one's ranges clipped the first's curves)."""
     import hashlib
 
+    from fuzzynav.app.provenance import rules_digest
     from fuzzynav.app.runs import scenario_digest
 
     label = scenario_stem(scenario)
     name = controller_label(controller)
     n_rules = len(getattr(rule_system(controller), "rules", ()))
     layout = "|".join(
-        (scenario_digest(scenario), geometry, name, str(n_rules), str(has_internals(controller)))
+        str(part)
+        for part in (
+            scenario_digest(scenario),
+            geometry,
+            name,
+            n_rules,
+            has_internals(controller),
+            rules_digest(controller),
+            perception,
+            seed,
+            repr(float(noise_std_m)),
+            None if control_period_s is None else repr(float(control_period_s)),
+            repr(float(voltage_limit_v)),
+            parameters,
+        )
     )
     key = hashlib.sha256(layout.encode("utf-8")).hexdigest()[:8]
     # (rerun 0.41 takes letters, digits, "-" and "_" in an application id.)
     parts = (APPLICATION_ID, _id_part(label), _id_part(name), _id_part(geometry), key)
     return "-".join(parts)
+
+
+def recording_name(
+    scenario,
+    controller,
+    geometry: str = "husky",
+    *,
+    perception: str | None = None,
+    seed=None,
+    noise_std_m: float = 0.0,
+    control_period_s: float | None = None,
+) -> str:
+    """The name a viewer lists a recording under: the scenario and the controller, then
+    what tells two runs of them apart (the perception; the geometry, the noise and its
+    seed, the control period where not the default), so that two recordings of s2 with
+    different perception are not listed under one name."""
+    parts = [scenario.name, controller_label(controller)]
+    if perception:
+        parts.append(f"{perception} perception")
+    if geometry != "husky":
+        parts.append(f"{geometry} geometry")
+    if float(noise_std_m or 0.0) > 0.0:
+        parts.append(f"noise {float(noise_std_m):g} m, seed {seed}")
+    if control_period_s is not None and abs(float(control_period_s) - 0.02) > 1e-12:
+        parts.append(f"dt {float(control_period_s):g} s")
+    return " · ".join(parts)

@@ -241,6 +241,7 @@ def summary(static: StaticBatch, result, controller, events) -> None:
                 paper_events[int(ev["obstacle"])] = ev
         except Exception:
             paper_events = {}
+    lines += ["", "## Safety and saturation", ""] + _safety_lines(result, events)
     lines += ["", "## Events", ""]
     for e in events:
         extra = ""
@@ -256,3 +257,42 @@ def summary(static: StaticBatch, result, controller, events) -> None:
     static.add_archetype(
         "/meta/summary", rr.TextDocument("\n".join(lines) + "\n", media_type=rr.MediaType.MARKDOWN)
     )
+
+
+#: What the paper says of its wheel voltages (section 4): s3's saturate at the limit.
+PAPER_SATURATES = {"s3": True}
+
+
+def _safety_lines(result, events) -> list[str]:
+    """The safe distance (inside it from when to when, how close; or never, and the
+    closest) and the largest |V| beside the limit and the paper's claim."""
+    from .style import SAFE_DISTANCE_M
+
+    log = result.log
+    lines = []
+    breaches = [e for e in events if e.kind == "safe distance"]
+    if breaches:
+        for e in breaches:
+            lines.append(f"- **{e.text}**")
+    elif len(log) and len(log.obstacle_ids):
+        c = np.asarray(log.clearance_m, dtype=float)
+        c = c[np.isfinite(c)]
+        closest = f" (closest {float(c.min()):.2f} m)" if c.size else ""
+        lines.append(f"- never inside the {SAFE_DISTANCE_M:g} m safe distance{closest}")
+    v = np.asarray(log.controller_output_v, dtype=float) if len(log) else np.zeros((0, 2))
+    v = v[np.isfinite(v)]
+    if v.size:
+        limit = float(getattr(result, "voltage_limit_v", 12.0) or 12.0)
+        peak = float(np.abs(v).max())
+        saturated = peak >= limit
+        stem = scenario_stem(result.scenario)
+        claim = PAPER_SATURATES.get(stem)
+        paper = ""
+        if claim is not None:
+            agree = "as" if claim == saturated else "unlike"
+            paper = f"; {agree} the paper, which says {stem}'s voltages saturate"
+        lines.append(
+            f"- max |V| before the limit {peak:.2f} V: "
+            f"{'saturated at' if saturated else 'within'} the ±{limit:g} V limit{paper}"
+        )
+    return lines

@@ -16,7 +16,7 @@ from .blueprint import APPLICATION_ID, application_id
 from .columns import ColumnWriter
 from .events import send_events
 from .files import RecordingError, SinkPipe, not_written, open_stream, write_file_chunks
-from .internals import controller_fis, controller_label, rule_system
+from .internals import controller_fis, rule_system
 from .scene import static_world
 
 
@@ -98,7 +98,14 @@ class LiveRecorder:
     def _open(self, sim=None) -> None:
         if self._rec is None:
             app_id = (
-                application_id(sim.scenario, sim.controller, sim.geometry)
+                application_id(
+                    sim.scenario,
+                    sim.controller,
+                    sim.geometry,
+                    voltage_limit_v=sim.voltage_limit_v,
+                    parameters=sim.model.parameters,
+                    **_run_options(sim),
+                )
                 if sim
                 else APPLICATION_ID
             )
@@ -145,7 +152,11 @@ class LiveRecorder:
             # plotted are not kept (a long live run kept every one)
             legends_from_log=True,
         )
-        self._rec.send_recording_name(f"{sim.scenario.name} · {controller_label(sim.controller)}")
+        self._rec.send_recording_name(
+            blueprints.recording_name(
+                sim.scenario, sim.controller, sim.geometry, **_run_options(sim)
+            )
+        )
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(rule_system(sim.controller), "rules", ()))
         self._rec.send_blueprint(
@@ -290,3 +301,14 @@ def _log_length(sim) -> int:
     buffer = getattr(sim, "_log", None)
     n = getattr(buffer, "n", None)
     return int(n) if isinstance(n, int) else len(sim.log)
+
+
+def _run_options(sim) -> dict:
+    """What tells two runs of one scenario and controller apart (the layout's key and
+    the recording's name: :mod:`.blueprint`)."""
+    return dict(
+        perception=sim.perception.mode,
+        seed=sim.seed,
+        noise_std_m=sim.sensors.config.noise_std_m,
+        control_period_s=sim.control_period_s,
+    )

@@ -108,7 +108,7 @@ from .columns import ColumnWriter
 from .events import send_events
 from .files import RecordingError, recording_sink
 from .fuzzy import fuzzy_view, send_fuzzy_rows
-from .internals import controller_fis, controller_label, has_internals, rule_system
+from .internals import controller_fis, has_internals, rule_system
 from .live import LiveRecorder
 from .scene import static_world
 
@@ -209,12 +209,28 @@ def _record(
     fis = controller_fis(controller)
     scenario = result.scenario
     log = result.log
+    geometry = getattr(result, "geometry", "husky")
+    run_options = dict(
+        perception=result.perception,
+        seed=result.seed,
+        noise_std_m=sensor_config.noise_std_m,
+        control_period_s=result.control_period_s,
+    )
     rec = rr.RecordingStream(
-        application_id(scenario, controller, getattr(result, "geometry", "husky"))
+        application_id(
+            scenario,
+            controller,
+            geometry,
+            voltage_limit_v=voltage_limit_v,
+            parameters=parameters,
+            **run_options,
+        )
     )
     try:
         rec.save(sink)
-        rec.send_recording_name(f"{scenario.name} · {controller_label(controller)}")
+        rec.send_recording_name(
+            blueprints.recording_name(scenario, controller, geometry, **run_options)
+        )
         # One layout, at the end with the legends placed: the file appears whole (renamed
         # into place), so no viewer sees it loading (LiveRecorder sends one first too).
         n_rules = len(getattr(rule_system(controller), "rules", ()))
@@ -315,9 +331,11 @@ def add_run_options(parser) -> None:
         metavar="PATH",
         help="write a rerun recording of the run (open it with: rerun PATH)",
     )
+    from fuzzynav.app.provenance import add_pin_options
     from fuzzynav.app.runs import add_digest_options
 
     add_digest_options(parser)
+    add_pin_options(parser)
 
 
 def run_hook(args, sim):
@@ -325,10 +343,13 @@ def run_hook(args, sim):
     of any old file; after Ctrl-C the partial run goes to ``<stem>.partial.rrd`` (marked
     interrupted inside) and PATH is left as it was. First, with or without ``--rrd``,
     ``--scenario-sha256`` and ``--fis-sha256`` (a recording's reproduce command) are
-    checked: a scenario or rule base other than the recorded one is refused."""
+    checked, and ``--rules-sha256`` and ``--fuzzynav-version``: a scenario, rule base,
+    controller or fuzzynav other than the recorded one is refused."""
+    from fuzzynav.app.provenance import check_pins
     from fuzzynav.app.runs import check_digests
 
     check_digests(args, sim)
+    check_pins(args, sim)
     path = getattr(args, "rrd", None)
     if path is None:
         return None
