@@ -397,3 +397,112 @@ def test_a_paper_rule_base_that_changed_is_refused(tmp_path, capsys, monkeypatch
     monkeypatch.setattr(runs, "make_controller", refitted)
     assert main([*command[1:]]) == 2
     assert "--rules-sha256" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 4: the world view
+
+
+def test_a_collided_run_marks_its_collision_not_a_stack_of_closest_approaches(s2_collided):
+    """In a collided run an obstacle the robot was still approaching at the end has no
+    "closest approach" (it was "closest to obstacle 1" at the last step), the collision
+    has its own marker, and no two closest-approach markers share a place."""
+    _, result, rec, _ = s2_collided
+    log = result.log
+    assert result.outcome == "collided"
+    last = len(log) - 1
+    times, texts = rec.rows("/events/log", "TextLog:text")
+    texts = [x[0] for x in texts]
+    at_end = [x for t, x in zip(times, texts) if t == nanos(log.time_s[last])]
+    clear = np.where(np.isfinite(log.clearance_m[last]), log.clearance_m[last], np.inf)
+    hit = log.obstacle_ids[int(np.argmin(clear))]
+    for col, oid in enumerate(log.obstacle_ids):
+        d = log.center_distance_m[:, col]
+        if oid != hit and int(np.nanargmin(d)) == last:
+            assert not any(f"closest to obstacle {oid}:" in x for x in at_end)
+            assert any(f"obstacle {oid}:" in x and "still approaching" in x for x in at_end)
+    collision = rec.static["/world/events/collision"]
+    assert np.allclose(collision["Points2D:positions"][0], log.pose[last, :2], atol=1e-5)
+    assert f"collided with obstacle {hit}" in collision["Points2D:labels"][0]
+    marks = np.array(rec.static.get("/world/events/closest", {}).get("Points2D:positions", []))
+    for k in range(len(marks)):
+        assert np.hypot(*(marks[k] - log.pose[last, :2])) > 0.05  # not on the collision
+        for j in range(k):
+            assert np.hypot(*(marks[k] - marks[j])) > 0.3
+
+
+def test_closest_approach_labels_stay_off_the_safety_rings(s1_paper):
+    """Each closest approach's label sits beyond its obstacle's safe ring (the ring is
+    the obstacle's radius plus 0.25 m), not over it; the marker stays where the robot
+    was."""
+    _, result, rec, _ = s1_paper
+    log = result.log
+    ids = list(log.obstacle_ids)
+    marks = rec.static["/world/events/closest"]["Points2D:positions"]
+    labelled = rec.static["/world/events/closest_labels"]
+    for xy, text in zip(labelled["Points2D:positions"], labelled["Points2D:labels"]):
+        t = float(re.search(r"at ([0-9.]+) s", text).group(1))
+        k = int(np.argmin(np.abs(log.time_s - t)))
+        for col in range(len(ids)):
+            centre = log.obstacle_xy[k, col]
+            ring = log.obstacle_radii_m[col] + SAFE_DISTANCE_M
+            assert np.hypot(*(np.asarray(xy) - centre)) > ring + 0.05, text
+    assert "Points2D:labels" not in rec.static["/world/events/closest"]
+    assert len(marks) == len(labelled["Points2D:positions"])
+
+
+def test_the_start_and_the_scale_can_be_read(s1_paper):
+    """The start's label is dark (it was near-white on light grey) and the world view
+    reaches far enough below the start for the scale bar's "1 m" label (it was cut)."""
+    from fuzzynav.app.recordings.blueprint import SCALE_BELOW_START_M, world_bounds
+
+    _, result, rec, _ = s1_paper
+    start = rec.static["/world/start"]["Points2D:colors"]
+    for packed in start:
+        r, g, b = (packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255
+        assert 0.299 * r + 0.587 * g + 0.114 * b < 110
+    _, y_range = world_bounds(result.scenario, result.log)
+    bar_y = result.scenario.start[1] - 0.75
+    assert y_range[0] <= bar_y - 0.45 - 1.0 + 1e-9  # the label's room, then the margin
+    assert SCALE_BELOW_START_M >= 1.2
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 9: compare-runs
+
+
+def test_compare_runs_finds_a_reproduction_the_same_and_another_run_different(tmp_path, capsys):
+    """The recording and the recording of its reproduce command: the same run (their
+    NaNs, command lines, wall times and recording ids differ or are NaN; ``rerun rrd
+    compare`` called them a mismatch). Another seed and noise: said to differ, entity
+    by entity, exit 1."""
+    a, b, c = (tmp_path / f"{k}.rrd" for k in "abc")
+    assert main(["run", "s1", "--controller", "p", "--rrd", str(a)]) == 0
+    text = Recording(a).text("/meta/run")
+    command = shlex.split(re.search(r"\| reproduce \| `([^`]*)` \|", text).group(1))
+    assert main([*command[1:], "--rrd", str(b)]) == 0
+    options = ["--perception", "ultrasonic", "--noise", "0.02", "--seed", "3"]
+    assert main(["run", "s1", "--controller", "p", *options, "--rrd", str(c)]) == 0
+    capsys.readouterr()
+    _, voltages = Recording(a).scalars("/plots/voltage")
+    assert np.isnan(voltages).any()  # (NaN against NaN below)
+    assert main(["compare-runs", str(a), str(b)]) == 0
+    assert "the same run" in capsys.readouterr().out
+    assert main(["compare-runs", str(a), str(c)]) == 1
+    out = capsys.readouterr().out
+    assert "/plots/inputs/distances" in out and "difference(s)" in out
+    assert main(["compare-runs", str(a), str(tmp_path / "missing.rrd")]) == 2
+
+
+def test_compare_runs_counts_nan_as_equal_and_names_what_differs():
+    import pyarrow as pa
+
+    from fuzzynav.app.recordings.compare import _column_difference
+
+    times = np.arange(3, dtype=np.int64)
+    x = pa.array([[1.0, float("nan")], [2.0, 3.0], [float("nan"), 4.0]])
+    y = pa.array([[1.0, float("nan")], [2.0, 3.5], [float("nan"), 4.0]])
+    assert _column_difference("s", (times, x), (times, x)) is None
+    said = _column_difference("s", (times, x), (times, y))
+    assert "1 values differ" in said and "0.5" in said
+    assert "rows against" in _column_difference("s", (times, x), (times[:2], x[:2]))

@@ -395,3 +395,10 @@ def run_hook(args, sim):
             )
 
     return write
+
+
+def add_commands(subparsers) -> None:
+    """``fuzzynav compare-runs A.rrd B.rrd`` (:mod:`.compare`)."""
+    from .compare import add_compare_command
+
+    add_compare_command(subparsers)
