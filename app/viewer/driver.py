@@ -350,6 +350,39 @@ class RunDriver:
         self._anchor()
         app._bump()
 
+    def _resense_locked(self) -> None:
+        """Paused, or after the run's end: read the world again as it stands now (the
+        beams, the four inputs, from the robot where it is) and ask a stateless
+        controller again, so that every drag, switch and edit shows at once, with no
+        Step (issue 38). While the run plays the next step does it anyway.
+
+        The read leaves the run as it was: the sensors' noise stream and their update
+        cadence are put back afterwards (the next step draws the same noise it would
+        have drawn); only the held readings are the fresh ones, as the world now is."""
+        app = self.app
+        if app.playing and not app.sim.done:
+            return
+        sim = app.sim
+        sensors = sim.sensors
+        rng = getattr(sensors, "_rng", None)
+        rng_state = rng.bit_generator.state if rng is not None else None
+        has_cadence = hasattr(sensors, "_next_update_s")
+        cadence = sensors._next_update_s if has_cadence else None
+        try:
+            if has_cadence:
+                sensors._next_update_s = -math.inf  # a read now, not the held one
+            inputs = np.asarray(sim.sense()[0], dtype=float)
+        except Exception:
+            return  # (a broken perception: the panels keep what they had)
+        finally:
+            if rng_state is not None:
+                rng.bit_generator.state = rng_state
+            if has_cadence:
+                sensors._next_update_s = cadence
+        app.controller.last_inputs = inputs
+        app._input_pose = tuple(sim.arena.pose)
+        app.setup._answer_again_locked()
+
     def _restart_if_finished_locked(self) -> None:
         """After a change of controller, perception or part: a finished run's outcome
         belonged to what drove it, so a finished run restarts (and becomes the ghost)."""

@@ -266,6 +266,7 @@ class ScenarioEditing:
             new_target = getattr(app.controller.inner, "new_target", None)
             if new_target is not None:
                 new_target()
+            app.driver._resense_locked()
             app._bump()
 
     def move_obstacle(self, obstacle_id: int, xy) -> None:
@@ -287,6 +288,7 @@ class ScenarioEditing:
                         i,
                         ObstacleSpec(moved, spec.radius_m, spec.velocity, spec.acceleration),
                     )
+            app.driver._resense_locked()
             app._bump()
 
     def suggest_obstacle_position(self) -> tuple[float, float]:
@@ -325,6 +327,7 @@ class ScenarioEditing:
             obstacle_id = app.sim.arena.add_obstacle(spec)
             app._layout.append((obstacle_id, spec))
             app.layout_id += 1
+            app.driver._resense_locked()
             app._bump()
         self.check_target()
         return obstacle_id
@@ -343,6 +346,7 @@ class ScenarioEditing:
             arena.remove_obstacle(obstacle_id)
             app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
             app.layout_id += 1
+            app.driver._resense_locked()
             app._bump()
         self.check_target()
         return obstacle_id

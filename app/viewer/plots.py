@@ -21,6 +21,7 @@ class SignalPlots:
         self.app = view.app
         self.plot_distance = None
         self._distance_top = None
+        self._drawn_key = None  # (rows, last time, range): what the plots show
 
     def build(self, tab) -> None:
         gui = self.view.server.gui
@@ -101,6 +102,10 @@ class SignalPlots:
         rows = rows[::step]
         t = rows[:, 0]
         top = self._distance_range()
+        key = (len(rows), float(rows[-1, 0]), float(rows[0, 0]), top)
+        if key == self._drawn_key and top == self._distance_top:
+            return  # nothing new (a paused drag): the window is not sent again
+        self._drawn_key = key
         if top != self._distance_top:
             self._make_distance_plot(top)
         self.plot_distance.data = (t, rows[:, 1], rows[:, 2], np.full(len(t), SAFE_DISTANCE_M))

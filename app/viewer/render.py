@@ -95,17 +95,19 @@ class RenderLoop:
 
     def _draw_panels(self, snap: Snapshot) -> None:
         view = self.view
+        # What answers a drag first (issue 38: paused, the page answers at once): the
+        # status, the inference, the inputs on the robot; then the rest.
         view.status_line.draw(snap)
-        view.controls.sync(snap)
         view.inference.sync(snap)
+        view.inference.draw(snap)
+        with view.server.atomic():
+            view.scene.draw_inputs(snap)
+        view.controls.sync(snap)
         view.editor.sync()
         now = time.perf_counter()
         if now >= self._next_plot or not snap.playing:
             self._next_plot = now + 1.0 / PLOT_HZ
             view.plots.draw()
-        view.inference.draw(snap)
         view.inference.draw_timeline(snap)
         view.surface.draw(snap)
-        with view.server.atomic():
-            view.scene.draw_inputs(snap)
         view.status_line.draw_result(snap)

@@ -79,7 +79,10 @@ class RunSettings:
                 app.what_if = None  # nothing to try inputs on
             app.driver._restart_if_finished_locked()
             app.results._note_change_locked()
-            self._answer_again_locked()
+            if app.playing:
+                self._answer_again_locked()
+            else:
+                app.driver._resense_locked()
             if not quiet:
                 app._notice(f"Controller: {label}.", "info")
             else:
@@ -214,6 +217,7 @@ class RunSettings:
             )
             app.driver._restart_if_finished_locked()
             app.results._note_change_locked()
+            app.driver._resense_locked()
             app._bump()
 
     def set_disturbance(self, on: bool) -> None:
@@ -222,6 +226,7 @@ class RunSettings:
             app.disturbance_on = bool(on)
             self._apply_disturbance_locked()
             app.results._note_change_locked()
+            app.driver._resense_locked()
             app._bump()
 
     def disturbance_in_use(self) -> Disturbance:
@@ -257,6 +262,7 @@ class RunSettings:
             )
             app.noise_std_m = std_m
             app.results._note_change_locked()
+            app.driver._resense_locked()
             app._bump()
 
     def settings(self) -> dict:

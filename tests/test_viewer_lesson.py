@@ -1,0 +1,100 @@
+"""Issue 38, without a browser: the viewer answers while paused (every drag, switch and
+edit re-senses and re-infers at once, and so after a run has ended), without touching
+the run's noise stream.
+
+The page side of the same is in tests/test_viewer_lesson_browser.py."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fuzzynav.app.viewer.model import ViewerApp
+from fuzzynav.controller.registry import controller_names
+
+pytestmark = pytest.mark.skipif("paper" not in controller_names(), reason="no paper controller")
+
+
+def ahead(app: ViewerApp, metres: float) -> tuple[float, float]:
+    x, y, heading = app.sim.arena.pose
+    return (x + metres * math.cos(heading), y + metres * math.sin(heading))
+
+
+@pytest.mark.parametrize("perception", ["ideal", "ultrasonic"])
+def test_paused_an_obstacle_dragged_ahead_is_sensed_and_inferred_at_once(perception):
+    """Defect 1: paused at t = 0, an obstacle dragged a metre ahead of the robot left
+    "d_o none sensed", the beams and the rules as they were until Step."""
+    app = ViewerApp("s1", "paper", perception=perception)
+    before = app.snapshot()
+    strengths_before = app.teaching()["strengths"].copy()
+    assert not math.isfinite(before.inputs[1])  # nothing sensed at the start of s1
+    first = next(iter(app.sim.arena.obstacles))
+    app.move_obstacle(first, ahead(app, 1.6))
+    snap = app.snapshot()
+    assert snap.time_s == 0.0 and not snap.playing  # no step was taken
+    assert math.isfinite(snap.inputs[1]) and snap.inputs[1] < 1.5
+    if perception == "ultrasonic":
+        assert np.isfinite(snap.ranges_m).any()  # the beams see it
+    assert not np.allclose(app.teaching()["strengths"], strengths_before)
+    assert np.all(np.isfinite(snap.voltages_v))  # the controller answered again
+    # the drawn inputs are read from where the robot stands
+    assert snap.input_pose == tuple(app.sim.arena.pose)
+
+
+def test_paused_a_dragged_target_moves_d_t_and_after_the_end_too():
+    """Defect 1: after a paused drag of the target, status said 11.31 m where the target
+    was 9.22 m away; after a run ended, the status stopped following the target."""
+    app = ViewerApp("s1", "paper")
+    for _ in range(50):
+        app.step_once()
+    app.move_target((3.0, 6.0))
+    x, y, _ = app.sim.arena.pose
+    assert app.snapshot().inputs[0] == pytest.approx(math.hypot(3.0 - x, 6.0 - y))
+    # a run that has ended: its last pose, and the target still answers
+    app.add_obstacle(ahead(app, 0.9))
+    while not app.sim.done:
+        app.driver._step_locked()
+    assert app.sim.done
+    app.move_target((1.0, 9.0))
+    x, y, _ = app.sim.arena.pose
+    snap = app.snapshot()
+    assert snap.inputs[0] == pytest.approx(math.hypot(1.0 - x, 9.0 - y))
+    assert snap.outcome is not None  # the outcome stays until Play starts a new run
+
+
+def test_switches_and_edits_while_paused_re_sense():
+    """Perception, noise and disturbance switched while paused: the inputs are read
+    again at once."""
+    app = ViewerApp("s1", "paper")
+    app.move_obstacle(next(iter(app.sim.arena.obstacles)), ahead(app, 1.2))
+    ideal = app.snapshot().inputs[1]
+    app.set_perception("ultrasonic")
+    sonar = app.snapshot().inputs[1]
+    assert math.isfinite(sonar)
+    app.set_noise(0.1)  # the beams read again, with noise
+    noisy = app.snapshot().inputs[1]
+    assert math.isfinite(noisy) and noisy != sonar
+    app.set_perception("ideal")
+    assert app.snapshot().inputs[1] == pytest.approx(ideal)
+
+
+def test_a_paused_read_leaves_the_runs_noise_stream_as_it_was():
+    """The extra reads while paused draw no noise of the run's: two runs with sensor
+    noise, one of them dragged about while paused (and put back), stay the same."""
+    runs = []
+    for drag in (False, True):
+        app = ViewerApp("s1", "paper", perception="ultrasonic", noise_std_m=0.05, seed=3)
+        for _ in range(30):
+            app.step_once()
+        if drag:
+            ob = next(iter(app.sim.arena.obstacles))
+            home = tuple(app.sim.arena.obstacles[ob].position_at(app.sim.time_s))
+            for metres in (0.8, 1.0, 1.2):
+                app.move_obstacle(ob, ahead(app, metres))
+            app.move_obstacle(ob, home)
+        for _ in range(200):
+            app.step_once()
+        runs.append(np.array(app.sim.arena.pose))
+    np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)
