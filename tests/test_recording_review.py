@@ -506,3 +506,86 @@ def test_compare_runs_counts_nan_as_equal_and_names_what_differs():
     said = _column_difference("s", (times, x), (times, y))
     assert "1 values differ" in said and "0.5" in said
     assert "rows against" in _column_difference("s", (times, x), (times[:2], x[:2]))
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 10: the trace's optional columns
+
+
+def _csv(path) -> dict:
+    import csv
+
+    with path.open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    return {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
+
+
+def test_the_trace_can_hold_obstacle_positions_and_rule_strengths(tmp_path, capsys):
+    """``--trace-columns obstacles,rules``: each obstacle's centre at every row (equal to
+    the run's log), and each rule's firing strength at the inputs the controller
+    received (equal to the rule base's at the trace's own inputs; empty on the last
+    row). Without the option the trace keeps its columns."""
+    from fuzzynav.app.recordings.trace import TRACE_COLUMNS
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.scenario import load_scenario
+
+    scenario = tmp_path / "short.toml"
+    scenario.write_text(load_scenario("s2").replace(duration_s=3.0).to_toml(), encoding="utf-8")
+    plain, full = tmp_path / "plain.csv", tmp_path / "full.csv"
+    argv = ["run", str(scenario), "--controller", "paper"]
+    assert main([*argv, "--trace", str(plain)]) == 0
+    assert main([*argv, "--trace", str(full), "--trace-columns", "obstacles,rules"]) == 0
+    capsys.readouterr()
+    assert plain.read_text().splitlines()[0] == ",".join(TRACE_COLUMNS)
+    col = _csv(full)
+    sim = build_simulation(str(scenario), "paper")
+    log = sim.run().log
+    for k, oid in enumerate(log.obstacle_ids):
+        assert np.array_equal(col[f"obstacle_{oid}_x_m"], log.obstacle_xy[:, k, 0], equal_nan=True)
+        assert np.array_equal(col[f"obstacle_{oid}_y_m"], log.obstacle_xy[:, k, 1], equal_nan=True)
+    assert np.ptp(col[f"obstacle_{log.obstacle_ids[-1]}_x_m"]) >= 0  # (s2's moving one)
+    fis = make_controller("paper").fis
+    names = [f"rule_R{k + 1}_strength" for k in range(len(fis.rules))]
+    got = np.column_stack([col[n] for n in names])
+    inputs = np.column_stack([col[n] for n in ("d_t_m", "d_o_m", "phi_t_rad", "phi_o_rad")])
+    want = np.asarray(fis.firing_strengths(inputs[:-1]), dtype=float)
+    assert np.allclose(got[:-1], want, rtol=0, atol=1e-12)
+    assert np.isnan(got[-1]).all()
+    assert main([*argv, "--trace", str(full), "--trace-columns", "speed"]) == 2
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 5: the rules' numbering said one way
+
+
+def test_the_rules_page_numbers_the_bars_as_the_chart_does(s1_paper):
+    """The bars stand at abscissae 1 to n and the panel says "bar k = rule Rk": the
+    rules' page says the same (it said "bar k is rule R(k+1)")."""
+    _, _, rec, path = s1_paper
+    text = rec.text("/rules/texts")
+    assert "R(k+1)" not in text and "R(k + 1)" not in text
+    assert "is rule Rk" in text
+    abscissa = rec.static["/rules/firing"]["BarChart:abscissa"][0]
+    n = len(abscissa["buffer"])
+    assert list(abscissa["buffer"]) == list(range(1, n + 1))
+    assert any("bar k = rule Rk" in name for name in _views(path))
+
+
+def test_an_ideal_run_says_its_sensor_ranges_were_not_used(s1_paper, s2_two_perceptions):
+    """Ideal perception drives on the true obstacles: its "sensor ranges" panel says the
+    readings were not used; an ultrasonic run's does not."""
+    ideal = [n for n in _views(s1_paper[3]) if n.startswith("sensor ranges")]
+    assert len(ideal) == 1 and "not used" in ideal[0] and "ideal perception" in ideal[0]
+    sonar = s2_two_perceptions[1]
+    assert sonar[1].perception == "ultrasonic"
+    [name] = [n for n in _views(sonar[3]) if n.startswith("sensor ranges")]
+    assert "not used" not in name
+
+
+def test_the_summary_holds_max_voltage_against_the_limit_and_the_paper(s1_paper):
+    """The summary gives the largest |V| the controller asked for against the limit
+    (and, for s3, the paper's claim that its voltages saturate)."""
+    _, result, rec, _ = s1_paper
+    v = result.log.controller_output_v
+    peak = float(np.nanmax(np.abs(v)))
+    assert f"max |V| before the limit {peak:.2f} V" in rec.text("/meta/summary")

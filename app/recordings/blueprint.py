@@ -275,6 +275,7 @@ def blueprint(
     internals: bool = False,
     legend_corners=None,
     fuzzy=(),
+    perception: str | None = None,
 ):
     """The default layout: the world on the left, the paper's plots stacked on the right
     (further tabs: plant, sensors, rules, internals, run information).
@@ -376,7 +377,15 @@ def blueprint(
         name="plant and inputs",
     )
     sensing = rrb.Vertical(
-        plot("/plots/ranges", "sensor ranges, m (gap: no echo)"),
+        plot(
+            "/plots/ranges",
+            "sensor ranges, m (gap: no echo)"
+            + (
+                " — not used: ideal perception drives on the true obstacles"
+                if perception == "ideal"
+                else ""
+            ),
+        ),
         plot(
             "/plots/clearance",
             f"footprint clearance, m, up to {CLEARANCE_SHOWN_M:g} m shown, obstacles in their "

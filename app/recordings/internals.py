@@ -236,7 +236,7 @@ class ControllerColumns:
         strengths = np.ascontiguousarray(strengths, dtype=np.float32)
         decided = np.asarray(decided, bool)
         self.n_rules = strengths.shape[1]
-        if RULES_PATH not in self._styled:  # bar k at abscissa k + 1: rule R(k+1)
+        if RULES_PATH not in self._styled:  # rule Rk at abscissa k (1 to n)
             self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
             numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
             self._static.add_array(RULES_PATH, "BarChart", "abscissa", tensor_rows(numbers))
@@ -305,9 +305,9 @@ class ControllerColumns:
         lines = [
             f"# Rule firing, {span}",
             "",
-            f"Heatmap: row k is rule R(k+1), {bins} columns over the run "
-            f"({heat.count} steps, the largest strength in each column).",
-            "Bar chart: bar k is rule R(k+1) at the time cursor.",
+            f"Heatmap: row k, counted from 1 at the top, is rule Rk; {bins} columns over "
+            f"the run ({heat.count} steps, the largest strength in each column).",
+            "Bar chart: the bar at k (1 to n on its axis) is rule Rk, at the time cursor.",
             "",
         ]
         lines += [f"- **R{k + 1}**: {text}" for k, text in enumerate(self.rule_texts())]

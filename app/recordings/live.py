@@ -160,7 +160,13 @@ class LiveRecorder:
         ids = sim.arena.obstacle_arrays()[2]
         n_rules = len(getattr(rule_system(sim.controller), "rules", ()))
         self._rec.send_blueprint(
-            blueprints.blueprint(sim.scenario, ids, n_rules, internals=self._writer.internals)
+            blueprints.blueprint(
+                sim.scenario,
+                ids,
+                n_rules,
+                internals=self._writer.internals,
+                perception=sim.perception.mode,
+            )
         )
         # Sent with the first chunk's styles.
         static_world(self._writer.static, sim.scenario)
@@ -280,6 +286,7 @@ class LiveRecorder:
                         result.log if result is not None else None,
                         internals=w.internals,
                         legend_corners=w.legend_corners(result.log if result is not None else None),
+                        perception=sim.perception.mode,
                     )
                 )
         finally:

@@ -299,6 +299,7 @@ def _record(
                 internals=has_internals(controller),
                 legend_corners=writer.legend_corners(log),
                 fuzzy=fuzzy,
+                perception=result.perception,
             )
         )
     finally:
