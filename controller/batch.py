@@ -54,11 +54,11 @@ class FisBatch:
     needs_ranges = False
 
     def __init__(self, controllers: Sequence[FisController], run_sets=None):
-        self.fuzzy = BatchFuzzy([c.fis for c in controllers])
         readings = {c.none_reading for c in controllers}
         if len(readings) > 1:
             raise NotBatchable("one batch reads NONE one way: the controllers mix readings")
         # the text's reading of NONE: the obstacle rules alone where d_o is sensed
+        self.fuzzy = BatchFuzzy([c.fis.replace(unsensed_none=()) for c in controllers])
         self.sensed = (
             BatchFuzzy([c.sensed_fis for c in controllers]) if readings == {"unsensed"} else None
         )

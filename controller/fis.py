@@ -381,7 +381,22 @@ def _quoted(s: str, what: str) -> str:
 
 
 def dumps_fis(system: FuzzySystem) -> str:
-    """The system as .fis text (numbers written so that they read back exactly)."""
+    """The system as .fis text (numbers written so that they read back exactly).
+
+    Raises
+    ------
+    ValueError
+        The system reads NONE as "sensed nothing" for some input (``unsensed_none``):
+        MATLAB's rule editor knows only its own NONE, so a .fis would drive differently.
+    """
+    if system.unsensed_none:
+        raise ValueError(
+            f"{system.name}: its rules read NONE for {', '.join(system.unsensed_none)} as "
+            "'sensed nothing' (the paper's text), which a .fis cannot say: MATLAB reads "
+            "NONE as 'takes no part', and the exported system would drive differently. "
+            "Use the TOML rule base instead (fuzzynav.write_toml), or drop "
+            "unsensed_none (system.replace(unsensed_none=())) to export MATLAB's reading"
+        )
     L = [
         "[System]",
         f"Name={_quoted(system.name, 'system name')}",

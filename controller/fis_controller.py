@@ -20,9 +20,10 @@ N_INPUTS, N_OUTPUTS = 4, 2
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
 OUTPUT_NAMES = ("left", "right")
 #: The readings of Table 1's NONE (issue 35). "matlab": MATLAB's rule editor's "none",
-#: the input takes no part in the rule (the engine's own semantics). "unsensed": the
-#: paper's text, "for more distance, it is 'none'": a rule with NONE for d_o holds only
-#: while no obstacle is sensed (d_o NaN), so the goal rules 1-25 are off while one is.
+#: the input takes no part in the rule (the engine's default). "unsensed": the paper's
+#: text, "for more distance, it is 'none'": a rule with NONE for d_o holds only while no
+#: obstacle is sensed (d_o NaN), so the goal rules 1-25 are off while one is
+#: (``FuzzySystem(unsensed_none=("d_o",))``; a rule base file says it in its [system]).
 NONE_READINGS = ("matlab", "unsensed")
 GATED_INPUT = INPUT_NAMES.index("d_o")
 
@@ -79,6 +80,7 @@ def reordered(fis: FuzzySystem, inputs=None, outputs=None) -> FuzzySystem:
         description=fis.description,
         n_points=fis.n_points,
         inference=fis.inference,
+        unsensed_none=fis.unsensed_none,
     )
 
 
@@ -101,6 +103,31 @@ class FisController:
         source: str = "<memory>",
         none_reading: str = "matlab",
     ):
+        if none_reading not in NONE_READINGS:
+            raise ValueError(
+                f"{source}: none_reading {none_reading!r}: choose from {', '.join(NONE_READINGS)}"
+            )
+        if none_reading == "unsensed" and isinstance(fis, FuzzySystem) and not fis.unsensed_none:
+            fis = fis.replace(unsensed_none=(INPUT_NAMES[GATED_INPUT],))
+        self.source = source
+        self._bind(fis, source)
+        self.name = name or self.fis.name
+
+    @property
+    def fis(self) -> FuzzySystem:
+        return self._fis
+
+    @fis.setter
+    def fis(self, system: FuzzySystem) -> None:
+        # ``c.fis = read_fis(f)`` binds as FisController(read_fis(f)) does (issue 37: an
+        # assigned system was bound by position, its inputs renumbered drove wrongly).
+        self._bind(system, "controller.fis")
+
+    def _bind(self, fis: FuzzySystem, source: str) -> None:
+        """Take ``fis`` as the controller's system: 4 inputs and 2 outputs, bound by name
+        when they are the robot's names in another order (:func:`binding`)."""
+        if not isinstance(fis, FuzzySystem):
+            raise ValueError(f"{source}: {type(fis).__name__} is not a fuzzy system")
         if fis.n_inputs != N_INPUTS or fis.n_outputs != N_OUTPUTS:
             raise ValueError(
                 f"{source}: fuzzy system {fis.name!r} has {fis.n_inputs} inputs and "
@@ -112,20 +139,18 @@ class FisController:
         # (the viewer's panel, the recordings' firing strengths) sees the same order.
         inputs = binding([v.name for v in fis.inputs], INPUT_NAMES, "inputs", source)
         outputs = binding([v.name for v in fis.outputs], OUTPUT_NAMES, "outputs", source)
-        self.bound_by_name = inputs is not None or outputs is not None
-        if self.bound_by_name:
+        if inputs is not None or outputs is not None:
             fis = reordered(fis, inputs, outputs)
-        self.fis = fis
-        self.name = name or fis.name
-        self.source = source
-        if none_reading not in NONE_READINGS:
-            raise ValueError(
-                f"{source}: none_reading {none_reading!r}: choose from {', '.join(NONE_READINGS)}"
-            )
-        #: how Table 1's NONE for d_o reads (:data:`NONE_READINGS`)
-        self.none_reading = none_reading
-        #: with the "unsensed" reading, the rules that hold while an obstacle is sensed
-        self.sensed_fis = sensed_system(fis) if none_reading == "unsensed" else fis
+        sensed = sensed_system(fis)  # may refuse: nothing is changed then
+        self.bound_by_name = inputs is not None or outputs is not None
+        self._fis = fis
+        #: the rules that hold while an obstacle is sensed (all of them under MATLAB's NONE)
+        self.sensed_fis = sensed
+
+    @property
+    def none_reading(self) -> str:
+        """How Table 1's NONE for d_o reads (:data:`NONE_READINGS`): the system's own."""
+        return "unsensed" if self._fis.unsensed_none else "matlab"
 
     @classmethod
     def from_fis(cls, path: str | Path) -> FisController:
@@ -138,21 +163,17 @@ class FisController:
     def reset(self) -> None:
         """Stateless: nothing to reset."""
 
-    def system_for(self, inputs) -> FuzzySystem:
-        """The system that decides at ``inputs``: with the "unsensed" reading of NONE,
-        the obstacle rules alone while d_o is sensed."""
-        return self.fis if np.isnan(inputs[GATED_INPUT]) else self.sensed_fis
-
     def __call__(self, inputs) -> np.ndarray:
-        x = np.asarray(inputs, dtype=float)
-        return self.system_for(x).evaluate_one(x)
+        return self.fis.evaluate_one(np.asarray(inputs, dtype=float))
 
 
 def sensed_system(fis: FuzzySystem) -> FuzzySystem:
-    """``fis`` without the rules that have NONE for d_o: what decides while an obstacle is
-    sensed under the text's reading of NONE. (While none is sensed, d_o is NaN, every rule
-    that uses it is 0 and the whole system gives the same answer.)"""
-    rules = [r for r in fis.rules if r.antecedent[GATED_INPUT] is not None]
-    if not rules:
-        raise ValueError(f"{fis.name}: no rule uses d_o, so NONE cannot gate anything")
-    return fis.with_rules(rules)
+    """What decides while an obstacle is sensed: ``fis`` itself under MATLAB's NONE;
+    under the text's reading, ``fis`` without the rules that have NONE for d_o (while
+    none is sensed, d_o is NaN, every rule that uses it is 0 and ``fis`` decides)."""
+    if not fis.unsensed_none:
+        return fis
+    system, _ = fis.gated_system([True] * len(fis.unsensed_none))
+    if system is None:
+        raise ValueError(f"{fis.name}: no rule uses {', '.join(fis.unsensed_none)}")
+    return system

@@ -18,6 +18,12 @@ Conventions that are not obvious:
 
 * **NaN input = nothing sensed.** Every membership of a NaN input is 0, so a rule that
   uses that input does not fire, while a rule with NONE for it is unaffected.
+* **NONE, two readings.** By default (MATLAB's rule editor) a rule's NONE for an input
+  means the input takes no part in the rule. ``unsensed_none`` names inputs for which
+  NONE reads as the paper's text has it for d_o ("for more distance, it is 'none'"): a
+  rule with NONE for such an input holds only while that input sensed nothing (NaN).
+  Evaluated exactly: each row is decided by the rules its sensed inputs allow (the
+  others fire at 0); a ``.fis`` cannot say this, and the writer refuses it.
 * **No rule fired -> middle of the range.** When the aggregated membership of an output
   is zero over the whole grid (no rule fired for that output, or the fired terms vanish on
   every grid point), the output is ``(lo + hi) / 2``, which is MATLAB's ``evalfis``
@@ -353,6 +359,7 @@ class FuzzySystem:
         description: str = "",
         n_points: int = DEFAULT_POINTS,
         inference: Inference = DEFAULT_INFERENCE,
+        unsensed_none: Sequence[str] = (),
     ):
         if not isinstance(inference, Inference):
             raise ValueError(f"inference must be an Inference, got {inference!r}")
@@ -370,6 +377,15 @@ class FuzzySystem:
             raise ValueError(f"n_points must be an integer >= 2, got {n_points!r}")
         self.n_points = int(n_points)
         _check_structure(self.inputs, self.outputs, self.rules)
+        names = [v.name for v in self.inputs]
+        if isinstance(unsensed_none, str) or any(n not in names for n in unsensed_none):
+            raise ValueError(
+                f"unsensed_none = {unsensed_none!r}: must name inputs of the system ({', '.join(names)})"
+            )
+        #: inputs whose NONE in a rule means "sensed nothing" (module doc); () = MATLAB's
+        self.unsensed_none: tuple[str, ...] = tuple(dict.fromkeys(unsensed_none))
+        self._gated = [names.index(n) for n in self.unsensed_none]
+        self._gated_systems: dict[tuple[bool, ...], tuple[FuzzySystem | None, list[int]]] = {}
         self._compile()
 
     def _arguments(self) -> dict:
@@ -382,6 +398,7 @@ class FuzzySystem:
             description=self.description,
             n_points=self.n_points,
             inference=self.inference,
+            unsensed_none=self.unsensed_none,
         )
 
     # pickling (e.g. for a multiprocessing optimiser): rebuild the compiled parts
@@ -545,11 +562,49 @@ class FuzzySystem:
                 np.maximum(out, F[q, :n], out=out)
         return ws
 
+    # ------------------------------------------------------------------ NONE = unsensed
+    def gated_system(self, sensed: Sequence[bool]) -> tuple[FuzzySystem | None, list[int]]:
+        """With ``unsensed_none``: the system that decides where each gated input is
+        sensed (True) or not, and the indices of its rules in this one. A rule with NONE
+        for a sensed gated input is left out; None if no rule is left (nothing fires)."""
+        key = tuple(bool(b) for b in sensed)
+        if key not in self._gated_systems:
+            kept = [
+                k
+                for k, rule in enumerate(self.rules)
+                if all(rule.antecedent[i] is not None for i, on in zip(self._gated, key) if on)
+            ]
+            system = (
+                self.replace(rules=[self.rules[k] for k in kept], unsensed_none=())
+                if kept
+                else None
+            )
+            self._gated_systems[key] = (system, kept)
+        return self._gated_systems[key]
+
+    def _gated_groups(self, X: np.ndarray):
+        """Rows of X by which gated inputs they sensed: (rows, system, its rule indices)."""
+        sensed = ~np.isnan(X[:, self._gated])
+        patterns, which = np.unique(sensed, axis=0, return_inverse=True)
+        for k, pattern in enumerate(patterns):
+            system, kept = self.gated_system(pattern.tolist())
+            yield np.flatnonzero(which.reshape(-1) == k), system, kept
+
+    def _gated_one(self, x) -> FuzzySystem | None:
+        row = np.asarray(x, dtype=float)
+        return self.gated_system((~np.isnan(row[self._gated])).tolist())[0]
+
     def firing_strengths(self, X) -> np.ndarray:
         """(N, n_rules) firing strengths: the AND (min or product) over the inputs a rule
         uses, times the rule weight (the level at which the rule clips, or by which it
         scales, its consequent terms)."""
         X = self._check_X(X)
+        if self._gated:
+            out = np.zeros((X.shape[0], len(self.rules)))
+            for rows, system, kept in self._gated_groups(X):
+                if system is not None:
+                    out[np.ix_(rows, kept)] = system.firing_strengths(X[rows])
+            return out
         out = np.empty((X.shape[0], len(self.rules)))
         for b0 in range(0, X.shape[0], _BLOCK):
             Xb = X[b0 : b0 + _BLOCK]
@@ -578,6 +633,11 @@ class FuzzySystem:
         the same bits (module docstring)."""
         X = self._check_X(X)
         N = X.shape[0]
+        if self._gated:
+            Y = np.empty((N, len(self.outputs)))
+            for rows, system, _ in self._gated_groups(X):
+                Y[rows] = self._mid if system is None else system.evaluate(X[rows])
+            return Y
         if self._plain:
             return self._plain_evaluate(X)
         if N <= _ROW_BY_ROW_MAX:
@@ -627,6 +687,11 @@ class FuzzySystem:
         operation the batch's arithmetic (min/max are exact; the sums run in grid order:
         an accumulate here, a reduce over axis 0 of >= 2 columns there). The ufuncs are
         called directly: the ndarray methods and np.cumsum add a Python wrapper each."""
+        if self._gated:
+            system = self._gated_one(x)
+            if system is None:
+                return np.zeros((len(self.outputs), 1, self.n_points)), list(self._mid)
+            return system._agg_one(x)
         if type(x) is np.ndarray:
             x = x.tolist()  # Python floats: much faster than numpy scalars below
         if self._plain:
@@ -664,6 +729,13 @@ class FuzzySystem:
         n_rows, n_out = X.shape[0], len(self.outputs)
         memberships = np.empty((n_rows, n_out, self.n_points))
         Y = np.empty((n_rows, n_out))
+        if self._gated:
+            for rows, system, _ in self._gated_groups(X):
+                if system is None:
+                    memberships[rows], Y[rows] = 0.0, self._mid
+                else:
+                    _, memberships[rows], Y[rows] = system.aggregated_many(X[rows])
+            return self._grid.copy(), memberships, Y
         if self._plain:
             step = 128  # as _plain_evaluate
             for b0 in range(0, n_rows, step):
@@ -709,7 +781,7 @@ class FuzzySystem:
 
     def replace(self, **kw) -> FuzzySystem:
         """A copy with some constructor arguments replaced (inputs, outputs, rules, name,
-        description, n_points, inference)."""
+        description, n_points, inference, unsensed_none)."""
         args = self._arguments()
         args.update(kw)
         return FuzzySystem(args.pop("inputs"), args.pop("outputs"), args.pop("rules"), **args)
@@ -731,12 +803,20 @@ class FuzzySystem:
         ignored."""
         if not isinstance(other, FuzzySystem):
             return NotImplemented
-        return (self.inputs, self.outputs, self.rules, self.n_points, self.inference) == (
+        return (
+            self.inputs,
+            self.outputs,
+            self.rules,
+            self.n_points,
+            self.inference,
+            self.unsensed_none,
+        ) == (
             other.inputs,
             other.outputs,
             other.rules,
             other.n_points,
             other.inference,
+            other.unsensed_none,
         )
 
     __hash__ = None  # type: ignore[assignment]

@@ -11,6 +11,8 @@ Format (every key below is allowed; any other key is an error)::
     # every rule is an AND rule), implication = "min" | "prod",
     # aggregation = "max" | "sum" | "probor",
     # defuzzification = "centroid" | "bisector" | "mom" | "som" | "lom"
+    # unsensed_none = ["d_o"]            # optional: inputs whose NONE in a rule means
+    #   "sensed nothing" (the paper's text for d_o), not MATLAB's "takes no part"
 
     [[inputs]]                           # one table per input, in column order
     name = "d_t"
@@ -58,7 +60,7 @@ from .inference import CHOICES, TOML_KEYS, Inference
 
 __all__ = ["read_toml", "write_toml", "parse_rule", "format_rule", "loads_toml", "dumps_toml"]
 
-_SYSTEM_KEYS = {"name", "description", "points"} | set(TOML_KEYS.values())
+_SYSTEM_KEYS = {"name", "description", "points", "unsensed_none"} | set(TOML_KEYS.values())
 _VAR_KEYS = {"name", "range", "unit", "description", "terms"}
 _VAR_REQUIRED = ("name", "range", "terms")
 _TERM_KEYS = {"name", "shape", "params"}
@@ -310,6 +312,12 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
         raise err(
             "rulebase.rules", rules_raw, f"{len(rules_raw)} rules: at most {MAX_RULES} allowed"
         )
+    unsensed = sysd.get("unsensed_none", [])
+    names = [v.name for v in groups["inputs"]]
+    if not isinstance(unsensed, list) or any(n not in names for n in unsensed):
+        raise err(
+            "system.unsensed_none", unsensed, f"must be a list of input names ({', '.join(names)})"
+        )
     rules = []
     for i, text in enumerate(rules_raw):
         key = f"rulebase.rules[{i}]"
@@ -327,6 +335,7 @@ def _from_dict(data: dict, source: str) -> FuzzySystem:
         description=desc,
         n_points=points,
         inference=Inference(**choices),
+        unsensed_none=tuple(unsensed),
     )
 
 
@@ -396,6 +405,8 @@ def dumps_toml(system: FuzzySystem) -> str:
     if inference["or_method"] == "max":  # the default, without effect: left out
         del inference["or_method"]
     lines += [f"{TOML_KEYS[field]} = {_str(value)}" for field, value in inference.items()]
+    if system.unsensed_none:
+        lines.append(f"unsensed_none = [{', '.join(_str(n) for n in system.unsensed_none)}]")
     for side, vs in (("inputs", system.inputs), ("outputs", system.outputs)):
         for v in vs:
             lines += [

@@ -181,6 +181,12 @@ def main(argv=None) -> int:
     p.add_argument("--dt", type=float, default=0.05)
     p.add_argument("--only", type=str, default=None, help="comma-separated reading indices 0-7")
     p.add_argument("--json", type=Path, required=True)
+    p.add_argument(
+        "--x0",
+        type=lambda text: [float(v) for v in text.split(",")],
+        default=None,
+        help="start from this vector (12 numbers, comma-separated) instead of the hand layout",
+    )
     args = p.parse_args(argv)
     picked = range(len(READINGS)) if args.only is None else [int(k) for k in args.only.split(",")]
     results = []
@@ -195,7 +201,9 @@ def main(argv=None) -> int:
             flush=True,
         )
         results.append(found)
-    budget = {k: getattr(args, k) for k in ("screen", "popsize", "maxiter", "sigma", "seed", "dt")}
+    budget = {
+        k: getattr(args, k) for k in ("screen", "popsize", "maxiter", "sigma", "seed", "dt", "x0")
+    }
     args.json.write_text(json.dumps({"budget": budget, "results": results}, indent=1) + "\n")
     print("selected:", selected(results)["reading"])
     return 0
