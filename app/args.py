@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import numbers
 import shlex
 from pathlib import Path
 
@@ -21,13 +22,66 @@ EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, as a shell reports a process its pipe closed on
 
 
+#: The run options' ranges (``--noise``, ``--field-of-view``, ``--sonar-side``; ``--dt``'s
+#: are world.simulation's MIN/MAX_CONTROL_PERIOD_S): the command line's options and the
+#: Python interface's arguments (app.runs.check_run_options) are held to the same ones,
+#: by the same rule (:func:`float_in` / :func:`number_value`).
+SENSOR_NOISE_LIMITS_M = (0.0, 10.0)
+FIELD_OF_VIEW_LIMITS_DEG = (1.0, 360.0)
+SONAR_SIDE_LIMITS_DEG = (1.0, 90.0)
+
+
 class UsageError(Exception):
     """Bad input from the user: printed on stderr, exit status 2."""
 
 
+def _integer_rule(low: int, high: int | None) -> str:
+    return f"must be an integer {f'>= {low}' if high is None else f'from {low} to {high}'}"
+
+
+def _number_rule(low: float, high: float, unit: str) -> str:
+    return f"must be a number from {low:g} to {high:g}{unit}"
+
+
+def _shown(value) -> str:
+    text = repr(value) if not isinstance(value, int) or value.bit_length() < 200 else "<a huge int>"
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def integer_value(value, name: str, low: int, high: int | None = None) -> int:
+    """An integer argument of the Python interface, checked as the command line's
+    :func:`integer_in` checks its option (the same bounds, the same words): ValueError
+    ``n = 2.5: must be an integer from 1 to 100000``. A bool (``True``) and a float
+    (``2.5``, even ``2.0``) are refused, never taken as a count."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Integral)
+        or value < low
+        or (high is not None and value > high)
+    ):
+        raise ValueError(f"{name} = {_shown(value)}: {_integer_rule(low, high)}")
+    return int(value)
+
+
+def number_value(value, name: str, low: float, high: float, unit: str = "") -> float:
+    """A number argument of the Python interface, checked as the command line's
+    :func:`float_in` checks its option (the same bounds, the same words): ValueError
+    ``sensor_noise_std_m = 1e+300: must be a number from 0 to 10 m``. A bool, NaN,
+    inf and anything that is not a real number are refused."""
+    if not isinstance(value, bool) and isinstance(value, numbers.Real):
+        try:
+            number = float(value)
+        except (OverflowError, ValueError):
+            number = math.nan
+        if math.isfinite(number) and low <= number <= high:
+            return number
+    raise ValueError(f"{name} = {_shown(value)}: {_number_rule(low, high, unit)}")
+
+
 def integer_in(low: int, high: int | None = None):
     """An argparse ``type``: an integer in ``[low, high]``; anything else is refused
-    with the value named (``argument --seed: '-3': must be an integer >= 0``)."""
+    with the value named (``argument --seed: '-3': must be an integer >= 0``). The
+    Python interface checks its arguments with :func:`integer_value`, the same rule."""
 
     def parse(text: str) -> int:
         try:
@@ -35,8 +89,7 @@ def integer_in(low: int, high: int | None = None):
         except ValueError:
             value = None
         if value is None or value < low or (high is not None and value > high):
-            bound = f">= {low}" if high is None else f"from {low} to {high}"
-            raise argparse.ArgumentTypeError(f"{text!r}: must be an integer {bound}")
+            raise argparse.ArgumentTypeError(f"{text!r}: {_integer_rule(low, high)}")
         return value
 
     parse.__name__ = "integer"
@@ -49,7 +102,8 @@ seed_type = integer_in(0)
 def float_in(low: float, high: float, unit: str = ""):
     """An argparse ``type``: a finite number in ``[low, high]``; NaN, inf and anything
     out of range are refused with the value and the bounds named
-    (``argument --dt: '1e-05': must be a number from 0.001 to 1 s``)."""
+    (``argument --dt: '1e-05': must be a number from 0.001 to 1 s``). The Python
+    interface checks its arguments with :func:`number_value`, the same rule."""
 
     def parse(text: str) -> float:
         try:
@@ -57,9 +111,7 @@ def float_in(low: float, high: float, unit: str = ""):
         except ValueError:
             value = math.nan
         if not (math.isfinite(value) and low <= value <= high):
-            raise argparse.ArgumentTypeError(
-                f"{text[:40]!r}: must be a number from {low:g} to {high:g}{unit}"
-            )
+            raise argparse.ArgumentTypeError(f"{text[:40]!r}: {_number_rule(low, high, unit)}")
         return value
 
     parse.__name__ = "number"
@@ -96,11 +148,12 @@ def add_geometry_option(parser: argparse.ArgumentParser) -> None:
 
 
 def add_field_of_view_option(parser: argparse.ArgumentParser) -> None:
-    """``--field-of-view DEG``: ideal perception's field, in place of the scenario's."""
+    """``--field-of-view DEG``: ideal perception's field, in place of the scenario's
+    (its range, :data:`FIELD_OF_VIEW_LIMITS_DEG`, is the Python interface's too)."""
     parser.add_argument(
         "--field-of-view",
         dest="field_of_view",
-        type=float_in(1.0, 360.0, " degrees"),
+        type=float_in(*FIELD_OF_VIEW_LIMITS_DEG, " degrees"),
         default=None,
         metavar="DEG",
         help="ideal perception senses only obstacles whose centre bears within +-DEG/2 of "

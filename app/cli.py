@@ -97,6 +97,7 @@ def _on_sigterm(signum, frame):
 
 
 def add_run_options(parser: argparse.ArgumentParser) -> None:
+    from fuzzynav.app.args import SENSOR_NOISE_LIMITS_M, SONAR_SIDE_LIMITS_DEG
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.perception import PERCEPTION_MODES
     from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
@@ -123,7 +124,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     add_field_of_view_option(parser)
     parser.add_argument(
         "--sonar-side",
-        type=float_in(1.0, 90.0, " degrees"),
+        type=float_in(*SONAR_SIDE_LIMITS_DEG, " degrees"),
         default=None,
         metavar="DEG",
         help="mount the side sonars at +-DEG (default 45; 15 leaves no blind sector ahead)",
@@ -133,7 +134,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--noise",
-        type=float_in(0.0, 10.0, " m"),
+        type=float_in(*SENSOR_NOISE_LIMITS_M, " m"),
         default=0.0,
         metavar="STD_M",
         help="sensor noise standard deviation in metres (default 0)",

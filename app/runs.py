@@ -36,6 +36,38 @@ SUMMARY_KEYS = (
 )
 
 
+def check_run_options(
+    control_period_s,
+    sensor_noise_std_m,
+    field_of_view_deg=None,
+    sonar_side_deg=None,
+) -> tuple[float, float, float | None, float | None]:
+    """The run options, checked (ValueError naming the argument and its range) and as
+    floats; None (the scenario's field of view, the default mounting) stays None.
+    :func:`build_simulation` calls it, for the command line (whose options argparse
+    has checked against the same ranges) and the Python interface alike (issue 37:
+    ``sensor_noise_std_m=1e300`` and ``control_period_s=True`` were taken from Python)."""
+    from fuzzynav.app.args import (
+        FIELD_OF_VIEW_LIMITS_DEG,
+        SENSOR_NOISE_LIMITS_M,
+        SONAR_SIDE_LIMITS_DEG,
+        number_value,
+    )
+    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+
+    def optional(value, name, limits, unit):
+        return None if value is None else number_value(value, name, *limits, unit)
+
+    return (
+        number_value(
+            control_period_s, "control_period_s", MIN_CONTROL_PERIOD_S, MAX_CONTROL_PERIOD_S, " s"
+        ),
+        number_value(sensor_noise_std_m, "sensor_noise_std_m", *SENSOR_NOISE_LIMITS_M, " m"),
+        optional(field_of_view_deg, "field_of_view_deg", FIELD_OF_VIEW_LIMITS_DEG, " degrees"),
+        optional(sonar_side_deg, "sonar_side_deg", SONAR_SIDE_LIMITS_DEG, " degrees"),
+    )
+
+
 def build_simulation(
     scenario: Scenario | str | Path,
     controller: str = "paper",
@@ -56,15 +88,16 @@ def build_simulation(
     senses obstacles whose centre bears within half of it; None keeps the scenario's).
     ``sonar_side_deg`` mounts the side sonars at +- that angle (None: the default 45)."""
     check_geometry(geometry, perception)
+    control_period_s, sensor_noise_std_m, field_of_view_deg, sonar_side_deg = check_run_options(
+        control_period_s, sensor_noise_std_m, field_of_view_deg, sonar_side_deg
+    )
     if not isinstance(scenario, Scenario):
         # the start is checked against the robot that drives: the paper's geometry is a
         # point robot, so a layout valid for it is not refused for the Husky's footprint
         footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
         scenario = load_scenario(scenario, footprint_m=footprint)
     if field_of_view_deg is not None:
-        if not (math.isfinite(field_of_view_deg) and 0.0 < field_of_view_deg <= 360.0):
-            raise ValueError(f"field_of_view_deg = {field_of_view_deg!r}: must be in (0, 360]")
-        scenario = scenario.replace(field_of_view_deg=float(field_of_view_deg))
+        scenario = scenario.replace(field_of_view_deg=field_of_view_deg)
     ctrl = (
         controller_object
         if controller_object is not None

@@ -221,11 +221,9 @@ def simulate(
     elif fis is not None:
         label = Path(fis).name
     elif not isinstance(controller, str):
-        if not callable(controller):
-            raise ValueError(
-                f"controller = {controller!r}: must be a name or a controller object "
-                "(callable on the four inputs)"
-            )
+        from fuzzynav.world.perception import check_controller
+
+        check_controller(controller)  # the loop's own check, before anything is built
         controller_object = controller
         label = getattr(controller, "name", type(controller).__name__)
     sim = build_simulation(
@@ -288,9 +286,11 @@ def sweep(
         (index, outcome, success, path_length_m, min_clearance_m, time_to_target_s,
         shortest_path_m, ...). A number that does not apply is None.
     """
+    from fuzzynav.app.args import integer_value
     from fuzzynav.app.experiments.executor import make_executor
     from fuzzynav.app.experiments.sweep import sweep as run_sweep
 
+    integer_value(seed, "seed", 0)  # as --seed (n: the sweep's own check, as --n)
     options = {} if geometry == "husky" else {"geometry": geometry}
     executor = make_executor("local" if workers > 1 else "serial", workers=workers)
     try:

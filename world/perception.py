@@ -69,6 +69,29 @@ def check_geometry(geometry: str, perception: str = "ideal") -> None:
         )
 
 
+def check_controller(controller) -> None:
+    """ValueError, with a sentence, unless ``controller`` is what the loop drives with
+    these inputs: an object with ``reset()`` (called at every start) and
+    ``__call__(inputs) -> voltages``. The simulation checks it before anything starts
+    (issue 37: one without ``reset()`` failed deep inside with an AttributeError)."""
+    missing = [
+        what
+        for what, present in (
+            ("reset() method", callable(getattr(controller, "reset", None))),
+            ("__call__(inputs)", callable(controller)),
+        )
+        if not present
+    ]
+    if missing:
+        from fuzzynav.resources import shown
+
+        raise ValueError(
+            f"controller = {shown(controller)}: has no {' and no '.join(missing)}; a "
+            "controller is an object with reset() (called at every start) and "
+            "__call__(inputs) -> (left, right) voltages"
+        )
+
+
 def target_inputs(pose, target) -> tuple[float, float]:
     """(d_t, phi_t) of a target seen from a pose (x, y, heading)."""
     dx, dy = target[0] - pose[0], target[1] - pose[1]

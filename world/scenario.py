@@ -111,6 +111,13 @@ class Scenario:
     #: ideal perception senses obstacles whose centre bears within +- half of it
     field_of_view_deg: float = 360.0
 
+    def __post_init__(self):
+        # A scenario made or replaced in code is held to the file's rule for its
+        # duration, a positive finite number of seconds (issue 37: NaN failed deep inside
+        # with "cannot convert float NaN to integer", a negative one ran one step); only
+        # the file's hour-long cap is left to files (the log spools a longer run).
+        _Reader(self.source).number(self.duration_s, "duration_s", positive=True)
+
     def replace(self, **changes) -> Scenario:
         return replace(self, **changes)
 
@@ -189,8 +196,24 @@ class Scenario:
         return "\n".join(lines) + "\n"
 
 
+#: TOML's short escapes; every other control character is written as \uXXXX.
+_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
 def _toml_str(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """``text`` as a TOML basic string that reads back as ``text``: quotes, backslashes
+    and control characters escaped (a multi-line description was written with its line
+    breaks raw, which TOML refuses, issue 37). A tab stays as it is (TOML allows it),
+    so that a scenario's digest (app/runs.py) is unchanged wherever it was valid."""
+    out = []
+    for ch in text:
+        if ch in _TOML_ESCAPES:
+            out.append(_TOML_ESCAPES[ch])
+        elif (ord(ch) < 0x20 and ch != "\t") or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def _toml_list(values) -> str:

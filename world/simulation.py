@@ -45,7 +45,7 @@ import numpy as np
 from fuzzynav.world.arena import Arena, Collision
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.metrics import compute_metrics
-from fuzzynav.world.perception import Perception, check_geometry
+from fuzzynav.world.perception import Perception, check_controller, check_geometry
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
@@ -503,6 +503,7 @@ class Simulation:
         geometry: str = "husky",
     ):
         check_loop_settings(control_period_s, voltage_limit_v)
+        check_controller(controller)
         self.scenario = scenario
         self.controller = controller
         self.control_period_s = float(control_period_s)

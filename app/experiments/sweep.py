@@ -19,6 +19,7 @@ from fuzzynav.app.args import (
     add_off_option,
     add_perception_option,
     integer_in,
+    integer_value,
     off_flag,
     parse_off,
     print_json,
@@ -52,8 +53,7 @@ def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     from fuzzynav.controller.registry import controller_names, make_controller
     from fuzzynav.world.layouts import FAMILIES
 
-    if not 1 <= n <= MAX_LAYOUTS:
-        raise ValueError(f"n = {n}: must be from 1 to {MAX_LAYOUTS}")
+    integer_value(n, "n", 1, MAX_LAYOUTS)  # --n's rule: 2.5 and True are no counts
     if family not in FAMILIES:
         raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
     if controller not in controller_names():
