@@ -46,7 +46,7 @@ bench: $(VENV)/.installed-test
 	for b in bench/bench_*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 report: $(VENV)/.installed
-	$(VENV)/bin/fuzzynav report out/report --geometry both --readme-images docs/img
+	$(VENV)/bin/fuzzynav report out/report --geometry both --readme-images docs/img --force
 	$(PY) scripts/fuzzynav_figure.py
 	$(PY) scripts/crossing_figure.py
 	$(PY) scripts/jitter_figure.py

@@ -177,6 +177,12 @@ def cmd_run(args) -> int:
     from rich.table import Table
 
     from fuzzynav.app.runs import build_simulation, summary
+    from fuzzynav.safe_files import check_distinct_outputs
+
+    # before anything runs: two outputs on one file would lose one of them (issue 37)
+    check_distinct_outputs(
+        (f"--{name}", getattr(args, name, None)) for name in ("trace", "rrd", "figures")
+    )
 
     sim = build_simulation(
         args.scenario,
@@ -426,8 +432,32 @@ def build_parser() -> argparse.ArgumentParser:
             module.add_run_options(run)
         if hasattr(module, "add_commands"):
             module.add_commands(sub)
+    if "fit-paper" in sub.choices:  # see _check_fit_paper_default
+        from fuzzynav.app.args import add_force_option
+
+        add_force_option(sub.choices["fit-paper"], "the default ./paper.toml")
     _finish_help(sub)
     return parser
+
+
+#: fit-paper's output without --out (app/experiments/paper_fit.py's default).
+FIT_PAPER_DEFAULT_OUT = "paper.toml"
+
+
+def _check_fit_paper_default(args) -> None:
+    """``fit-paper`` without ``--out`` writes ./paper.toml: an earlier fit there is never
+    replaced unless ``--force`` (issue 37), checked by the one output guard before the
+    fit starts. (Here, not in paper_fit.py, which is another piece of work's.)"""
+    if getattr(args, "command", None) != "fit-paper" or getattr(args, "out", None) is not None:
+        return
+    from fuzzynav.safe_files import check_output_path
+
+    check_output_path(
+        Path.cwd() / FIT_PAPER_DEFAULT_OUT,
+        "--out",
+        replace=getattr(args, "force", False),
+        folder=True,  # fit-paper itself checks that it can be written
+    )
 
 
 def _escaped(message) -> str:
@@ -473,6 +503,7 @@ def _main(argv) -> int:
 
 def _dispatch(args) -> int:
     try:
+        _check_fit_paper_default(args)
         return args.func(args) or 0
     except (UsageError, ValueError) as exc:  # ScenarioError, FisFormatError are ValueErrors
         print(f"fuzzynav: error: {_escaped(exc)}", file=sys.stderr)

@@ -14,16 +14,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fuzzynav.app.args import add_force_option
 from fuzzynav.controller.fis import dumps_fis, read_fis
+from fuzzynav.safe_files import check_output_path
 
 FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
 
 
-def export_fis(path: str | Path, controller: str = "paper", geometry: str = "husky") -> list[Path]:
+def export_fis(
+    path: str | Path, controller: str = "paper", geometry: str = "husky", *, replace: bool = True
+) -> list[Path]:
     """Write ``controller``'s fuzzy systems under ``path`` (MATLAB .fis); returns the files.
 
     One system (``paper``): ``path`` is the file, ending in ``.fis``. Several blocks
     (``fuzzynav``, ``baseline``): ``path`` is a directory, made if its parent exists.
+    ``replace=False`` (a default name, no ``--force``): an existing file is refused,
+    before anything is written.
     """
     from fuzzynav.controller.registry import make_controller
 
@@ -37,7 +43,7 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
             raise ValueError(f"{path}: the file name must end in .fis")
         if not path.parent.exists():
             raise ValueError(f"{path}: directory {path.parent} does not exist")
-        _write(ctrl.fis, path)
+        _write(ctrl.fis, path, replace)
         return [path]
     systems = blocks()
     if path.suffix.lower() == ".fis":
@@ -49,23 +55,27 @@ def export_fis(path: str | Path, controller: str = "paper", geometry: str = "hus
         raise ValueError(f"{path}: not a directory")
     if not path.parent.exists():
         raise ValueError(f"{path}: directory {path.parent} does not exist")
+    files = {path / f"{controller}_{name}.fis": system for name, system in systems.items()}
+    for file in files:  # every file checked before the folder is made or one is written
+        check_output_path(file, "fis export", replace=replace, folder=True)
     try:
         path.mkdir(exist_ok=True)
     except OSError as exc:
         raise ValueError(f"{path}: cannot create the directory ({exc.strerror or exc})") from None
-    written = []
-    for name, system in systems.items():
-        written.append(path / f"{controller}_{name}.fis")
-        _write(system, written[-1])
-    return written
+    for file, system in files.items():
+        _write(system, file, replace)
+    return list(files)
 
 
-def _write(system, path: Path) -> None:
+def _write(system, path: Path, replace: bool = True) -> None:
     """Write one .fis whole or not at all (:mod:`fuzzynav.safe_files`): a full disk or a
-    read-only folder leaves any old file as it was, and says so (ValueError)."""
-    from fuzzynav.safe_files import refuse_installed, write_text_atomically
+    read-only folder leaves any old file as it was, and says so (ValueError). Through
+    the one output guard: never over a shipped file, nor (``replace=False``) over an
+    existing one."""
+    from fuzzynav.safe_files import write_text_atomically
 
-    refuse_installed(path, "fis export")  # never over a shipped file
+    # (folder=True: not probed here; the write itself says why it failed)
+    check_output_path(path, "fis export", replace=replace, folder=True)
     try:
         write_text_atomically(path, dumps_fis(system))
     except OSError as exc:
@@ -84,7 +94,9 @@ def default_export_path(controller: str) -> Path:
 
 def cmd_fis_export(args) -> int:
     target = args.path if args.path is not None else default_export_path(args.controller)
-    for path in export_fis(target, args.controller, args.geometry):
+    # a path given is asked for; the default name never replaces a file unless --force
+    replace = args.path is not None or getattr(args, "force", False)
+    for path in export_fis(target, args.controller, args.geometry, replace=replace):
         # Read back: what is printed is what the file holds.
         from fuzzynav.resources import escape_controls
 
@@ -121,4 +133,5 @@ def add_commands(subparsers) -> None:
         help="the paper controller's rule base for this geometry: tuned for the Husky's "
         "footprint (default) or fitted to Table 4 in the paper's point-robot geometry",
     )
+    add_force_option(export, "the default paper.fis (CONTROLLER_fis/ files)")
     export.set_defaults(func=cmd_fis_export)

@@ -112,7 +112,11 @@ class Run:
         """Write the run as a rerun recording (``rerun PATH`` opens it), whole or not
         at all. Returns the path written."""
         from fuzzynav.app.recordings.record import record_simulation
+        from fuzzynav.safe_files import check_output_path
 
+        # the one output guard: never into the installed package, never over the run's
+        # own scenario or rule base file
+        check_output_path(path, "save_rrd: path", self._inputs())
         return record_simulation(
             self._simulation,
             self.result,
@@ -124,7 +128,9 @@ class Run:
         """Write the paper's figures of the run (PNG and SVG) into ``folder`` (created
         if needed), as ``fuzzynav run --figures`` does. Returns the files written."""
         from fuzzynav.app.figures.run_figures import write_run_figures
+        from fuzzynav.app.figures.style import check_writable_dir
 
+        check_writable_dir(folder, option="figures: folder")  # the one output guard within
         sim = self._simulation
         params = sim.model.parameters
         return write_run_figures(
@@ -134,6 +140,18 @@ class Run:
             footprint_m=(params.footprint_length_m, params.footprint_width_m),
             voltage_limit_v=sim.voltage_limit_v,
         )
+
+    def _inputs(self) -> list[Path]:
+        """The files this run read (its scenario's, a ``.fis`` or rule base file): no
+        output may replace them."""
+        found = []
+        for source in (
+            getattr(self.result.scenario, "source", None),
+            getattr(self.controller, "source", None),
+        ):
+            if isinstance(source, str | Path) and str(source) not in ("", "<memory>"):
+                found.append(Path(source))
+        return found
 
     def __repr__(self) -> str:
         m = self.result.metrics
@@ -332,7 +350,9 @@ def read_fis(path: str | Path) -> FuzzySystem:
 
 def write_fis(system: FuzzySystem, path: str | Path) -> Path:
     """Write ``system`` as a MATLAB ``.fis`` file (GNU Octave reads it as the same
-    system). Returns the path."""
-    from fuzzynav.safe_files import write_text_atomically
+    system). Returns the path. A path inside the installed package (its shipped rule
+    bases) is refused (ValueError), as ``fuzzynav fis export`` refuses it."""
+    from fuzzynav.safe_files import check_output_path, write_text_atomically
 
+    check_output_path(path, "write_fis: path")  # never into the installed package
     return write_text_atomically(path, dumps_fis(system))

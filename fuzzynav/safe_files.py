@@ -41,6 +41,7 @@ __all__ = [
     "atomic_output",
     "check_writable_file",
     "check_output_path",
+    "check_distinct_outputs",
     "installed_package_dir",
     "refuse_installed",
     "is_stream_target",
@@ -240,11 +241,31 @@ def refuse_installed(path, option: str) -> None:
             )
 
 
-def check_output_path(path, option: str, inputs: Iterable = (), *, stream_ok: bool = True):
-    """Raise ValueError (naming ``option``, the path and why) when ``path`` must not be
-    written: one of the run's ``inputs`` (the same file, through links too), a file
-    inside the installed package (its rule bases and scenarios), or a target that is
-    not a regular file (a pipe or terminal is accepted with ``stream_ok``)."""
+def check_output_path(
+    path,
+    option: str,
+    inputs: Iterable = (),
+    *,
+    stream_ok: bool = True,
+    replace: bool = True,
+    folder: bool = False,
+):
+    """The one output guard (issues 26 and 37): every writer of the command line and of
+    the Python interface asks it before it writes. Raise ValueError (naming ``option``,
+    the path and why) when ``path`` must not be written:
+
+    - a file or folder inside the installed package (its rule bases and scenarios,
+      which every later run reads): :func:`refuse_installed`;
+    - one of the run's ``inputs`` (the same file, through links too);
+    - with ``replace=False``, a file that exists already: a name the command chose
+      itself (a default such as ``./paper.fis``, or a file beside the folder named) is
+      never written over unless asked (``--force``); a path the user gave is asked for;
+    - a target that is not a regular file (a pipe or terminal is accepted with
+      ``stream_ok``), or a folder where no file can be made.
+
+    With ``folder`` the path is a folder to write files into, or a file in a folder
+    not made yet: whether it can be written is not probed here
+    (``app.figures.style.check_writable_dir`` makes the folder and probes it)."""
     from fuzzynav.resources import escape_controls
 
     path = Path(path)
@@ -265,9 +286,46 @@ def check_output_path(path, option: str, inputs: Iterable = (), *, stream_ok: bo
                 f"{option} {shown}: is one of this run's inputs "
                 f"({escape_controls(str(source))}); it would be overwritten: give another path"
             )
+    if not replace and os.path.lexists(path):
+        raise ValueError(
+            f"{option} {shown}: exists already, and a name the command chose is never "
+            "written over unless asked: give --force to replace it, or another path"
+        )
+    if folder:
+        return path
     if stream_ok and is_stream_target(path):
         return path
     return check_writable_file(path, option)
+
+
+def _same_file(a, b) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (links followed; hard links too)."""
+    if _target(a) == _target(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_distinct_outputs(outputs: Iterable) -> None:
+    """ValueError when two of one command's outputs, ``(option, path)`` pairs (a None
+    path is skipped), name the same file (through links too): one would overwrite the
+    other (``run --trace same.out --rrd same.out`` lost the recording, issue 37)."""
+    from fuzzynav.resources import escape_controls
+
+    seen: list[tuple[str, object]] = []
+    for option, path in outputs:
+        if path is None:
+            continue
+        for other_option, other in seen:
+            if _same_file(path, other):
+                raise ValueError(
+                    f"{option} {escape_controls(str(path))}: is also {other_option}'s output "
+                    f"({escape_controls(str(other))}); two outputs of one command on one file "
+                    "would lose one of them: give each its own path"
+                )
+        seen.append((option, path))
 
 
 def check_writable_file(path, option: str = "--rrd") -> Path:

@@ -31,6 +31,7 @@ import numpy as np
 
 from fuzzynav.app.args import (
     UsageError,
+    add_force_option,
     comma_list,
     float_in,
     integer_in,
@@ -268,10 +269,11 @@ def tune(
     return result
 
 
-def check_output_file(path: Path, option: str, inputs=()) -> Path:
+def check_output_file(path: Path, option: str, inputs=(), *, replace: bool = True) -> Path:
     """Refuse (UsageError) an output path that cannot be written: a directory, a
     missing or read-only folder, a device or pipe, a file inside the installed package,
-    or one of ``inputs`` (the files the command reads). Creates nothing that stays."""
+    one of ``inputs`` (the files the command reads), or with ``replace=False`` (a
+    default name, no ``--force``) a file that exists. Creates nothing that stays."""
     import tempfile
 
     from fuzzynav.safe_files import check_output_path
@@ -280,7 +282,7 @@ def check_output_file(path: Path, option: str, inputs=()) -> Path:
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a directory, not a file")
     try:  # not the --x0 it starts from, nor a shipped rule base, nor a device
-        check_output_path(path, option, inputs, stream_ok=False)
+        check_output_path(path, option, inputs, stream_ok=False, replace=replace)
     except ValueError as exc:
         if "does not exist" not in str(exc) and "cannot write there" not in str(exc):
             raise UsageError(str(exc)) from None
@@ -414,8 +416,10 @@ def add_commands(subparsers) -> None:
         default=None,
         metavar="PATH",
         help="where to write the tuned file (default: ./CONTROLLER_tuned.toml in the "
-        "current folder; the shipped files are never overwritten)",
+        "current folder, never over an existing one unless --force; the shipped files "
+        "are never overwritten)",
     )
+    add_force_option(p, "the default ./CONTROLLER_tuned.toml")
     p.add_argument(
         "--checkpoint",
         type=Path,
@@ -449,10 +453,13 @@ def cmd_tune(args) -> int:
     if args.radius is not None and args.radius <= 0:
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
+    # a path given is asked for; the default name never replaces an earlier result
+    # unless --force (issue 37)
+    replace = args.out is not None or getattr(args, "force", False)
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"
     # Before the tuning: an hour of tuning must not end in "cannot write there".
-    check_output_file(args.out, "--out", [args.x0])
+    check_output_file(args.out, "--out", [args.x0], replace=replace)
     if args.checkpoint is not None:
         check_output_file(args.checkpoint, "--checkpoint", [args.out])
     for name in ("clearance_weight", "radius"):

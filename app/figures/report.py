@@ -17,11 +17,11 @@ import json
 import math
 from pathlib import Path
 
-from fuzzynav.app.args import UsageError
+from fuzzynav.app.args import UsageError, add_force_option
 from fuzzynav.app.experiments.compare import SCENARIOS, TABLE4_ROWS, table4_row
 from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
-from fuzzynav.safe_files import write_bytes_atomically, write_text_atomically
+from fuzzynav.safe_files import check_output_path, write_bytes_atomically, write_text_atomically
 from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
@@ -179,6 +179,7 @@ def write_report(
     progress=True,
     geometries=GEOMETRIES,
     formats=None,
+    force: bool = False,
 ) -> dict:
     """Run, record and draw every (geometry, scenario, controller); returns the table.
 
@@ -191,6 +192,8 @@ def write_report(
     progress : show a progress bar
     geometries : any of ``husky`` and ``paper``
     formats : figure file types (default PNG and SVG)
+    force : replace an existing ``table4.md`` beside ``readme_images`` (a file outside
+        the folders named, never replaced unless asked)
     """
     from rich.progress import Progress
 
@@ -203,6 +206,10 @@ def write_report(
     geometries = tuple(geometries)
     for geometry in geometries:
         check_geometry(geometry, perception)
+    if readme_images is not None:  # before the runs, through the one output guard
+        images = Path(readme_images)
+        check_output_path(images, "--readme-images", folder=True)  # not in the package
+        check_output_path(readme_table_path(images), "--readme-images", replace=force, folder=True)
     out = check_writable_dir(out_dir, option="OUT_DIR")
     fig_dir = out / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
@@ -260,6 +267,11 @@ def _copy(source: Path, target: Path) -> None:
     write_bytes_atomically(target, read_user_bytes(source, "figure", 64 * 1024 * 1024))
 
 
+def readme_table_path(images: Path) -> Path:
+    """Where ``--readme-images DIR`` puts the README's copy of Table 4: beside DIR."""
+    return Path(images).parent / "table4.md"
+
+
 def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geometries):
     """The docs' pictures under the names they use: the husky geometry's trajectories
     (``s1_paper_trajectory.png``), its Fig. 27 (``comparison.png``), the paper
@@ -277,7 +289,7 @@ def _copy_readme_images(out: Path, fig_dir: Path, images: Path, controllers, geo
         if (husky / "fig27_comparison.png").exists():
             _copy(husky / "fig27_comparison.png", images / "comparison.png")
     # the README's table lives beside its images' folder (docs/table4.md)
-    _copy(out / "table4.md", images.parent / "table4.md")
+    _copy(out / "table4.md", readme_table_path(images))
     if "paper" in controllers:
         from fuzzynav.app.figures.membership import write_membership_overview
         from fuzzynav.controller.paper import PAPER_RULES
@@ -313,7 +325,14 @@ def cmd_report(args) -> int:
             f"--perception {args.perception} with --geometry {args.geometry}: the paper's "
             "geometry (a point robot) takes ideal perception only; use --geometry husky"
         )
-    write_report(args.out_dir, wanted, args.perception, args.readme_images, geometries=geometries)
+    write_report(
+        args.out_dir,
+        wanted,
+        args.perception,
+        args.readme_images,
+        geometries=geometries,
+        force=getattr(args, "force", False),
+    )
     print(
         f"report written to {args.out_dir} (table4.md, table4.json, figures/index.md, "
         "figures/, rrd/)"
@@ -353,6 +372,7 @@ def add_commands(subparsers) -> None:
         type=Path,
         default=None,
         help="also copy the husky geometry's trajectories and Fig. 27 here (the docs' "
-        "docs/img), and table4.md beside it",
+        "docs/img), and table4.md beside it (an existing one only with --force)",
     )
+    add_force_option(p, "the table4.md beside --readme-images DIR")
     p.set_defaults(func=cmd_report)

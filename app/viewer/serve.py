@@ -24,7 +24,7 @@ def _check_rrd(path):
     if path is None:
         return None
     try:
-        from fuzzynav.app.recordings.record import check_writable_file
+        import fuzzynav.app.recordings.record  # noqa: F401 - the recorder is installed
     except ModuleNotFoundError as exc:
         if exc.name not in ("fuzzynav.app.recordings.record", "rerun"):
             raise
@@ -33,10 +33,11 @@ def _check_rrd(path):
             "--rrd: live recording needs app/recordings/record.py and rerun-sdk, "
             "which are not available in this installation"
         ) from None
-    from fuzzynav.safe_files import refuse_installed
+    from fuzzynav.safe_files import check_output_path
 
-    refuse_installed(path, "--rrd")  # never among the shipped rule bases and scenarios
-    return check_writable_file(path)
+    # the one output guard: never among the shipped rule bases and scenarios, and a file
+    # that can be written (the live recording is renamed into place)
+    return check_output_path(path, "--rrd", stream_ok=False)
 
 
 def check_host(host: str) -> None:
