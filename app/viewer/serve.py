@@ -6,6 +6,7 @@ side (:mod:`fuzzynav.app.viewer.server`) uses the model; this module starts both
 
 from __future__ import annotations
 
+import os
 import signal
 import socket
 import threading
@@ -61,6 +62,48 @@ def check_host(host: str) -> None:
             ) from None
 
 
+#: The highest port there is; the server takes the next free port above a taken one.
+MAX_PORT = 65535
+#: How many ports above a taken one the server tries (viser's own search).
+PORT_SEARCH = 1000
+
+
+def _port_free(family, address, port: int) -> bool:
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        # as the server's own socket (asyncio sets it on Unix): a port whose last
+        # connection is in TIME_WAIT is free, one another program listens on is not
+        if os.name != "nt":  # (there, SO_REUSEADDR would let it take a port in use)
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((address[0], port))
+        except OSError:
+            return False
+        return True
+
+
+def check_port(host: str, port: int) -> int:
+    """The port the viewer will listen on: ``port`` when free, else the next free one
+    above it (as the server would search), found before the server starts; 0 stays 0
+    (any free port). ViewerError (exit status 2) when every port from ``port`` up to
+    the last one the search reaches is taken: viser's own search ran past 65535 into
+    ``OverflowError`` in a thread and waited for ever (issue 37)."""
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= MAX_PORT:
+        raise ViewerError(f"--port {port!r}: must be an integer from 0 to {MAX_PORT}")
+    if port == 0:
+        return 0
+    family, _, _, _, address = socket.getaddrinfo(host, None, type=socket.SOCK_STREAM)[0]
+    last = min(port + PORT_SEARCH - 1, MAX_PORT)
+    for candidate in range(port, last + 1):
+        if _port_free(family, address, candidate):
+            return candidate
+    taken = f"port {port} is in use" if last == port else f"ports {port} to {last} are all in use"
+    raise ViewerError(
+        f"--port {port}: {taken} on {host} (from a taken port the viewer moves to the next "
+        f"free one, and there is none up to {last}): give another port, or --port 0 for "
+        "any free one"
+    )
+
+
 def _print_url(server, host: str, open_message: bool) -> None:
     if not open_message:
         return
@@ -94,6 +137,7 @@ def serve(
         raise UsageError("--rrd records one world: it cannot be used with --classroom")
     rrd = _check_rrd(rrd)
     check_host(host)
+    port = check_port(host, port)
     app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)  # checks them
     if classroom:
         from fuzzynav.app.viewer.classroom import ClassroomServer
