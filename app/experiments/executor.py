@@ -87,6 +87,76 @@ def default_start_method() -> str:
     return "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
 
 
+def _is_main_guard(node) -> bool:
+    """Whether ``node`` is ``if __name__ == "__main__":`` (either side of the ``==``)."""
+    import ast
+
+    test = getattr(node, "test", None)
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1):
+        return False
+    if not isinstance(test.ops[0], ast.Eq):
+        return False
+    sides = [test.left, test.comparators[0]]
+    names = [s for s in sides if isinstance(s, ast.Name) and s.id == "__name__"]
+    texts = [s for s in sides if isinstance(s, ast.Constant) and s.value == "__main__"]
+    return bool(names and texts)
+
+
+def _unguarded_main_line() -> tuple[str, int] | None:
+    """(script, line) when a pool is being started from the top-level code of the
+    ``__main__`` script outside ``if __name__ == "__main__":``; None otherwise (the
+    guard is there, no script is running, or its source cannot be read).
+
+    ``spawn`` and ``forkserver`` start each worker by running that script again (as
+    ``__mp_main__``): without the guard every worker starts the pool again, fails
+    ("An attempt has been made to start a new process before the current process has
+    finished its bootstrapping phase"), and the pool replaces it, for ever (issue 37:
+    ``fuzzynav.sweep('paper', n=4, workers=2)`` at the top of a script printed 626
+    tracebacks in 45 s and never ended)."""
+    import ast
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if main is None or not path:
+        return None  # python -c, a notebook, an interactive session: nothing re-runs
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_globals is vars(main) and frame.f_code.co_name == "<module>":
+            break
+        frame = frame.f_back
+    if frame is None:
+        return None  # the script's top level has finished: nothing calls this again
+    line = frame.f_lineno
+    try:
+        with open(path, encoding="utf-8") as stream:
+            tree = ast.parse(stream.read(), filename=path)
+    except (OSError, SyntaxError, ValueError, UnicodeDecodeError):
+        return None
+    for node in ast.walk(tree):
+        if _is_main_guard(node) and node.body:
+            if node.body[0].lineno <= line <= node.body[-1].end_lineno:
+                return None
+    return path, line
+
+
+def check_main_guard(start_method: str, what: str) -> None:
+    """RuntimeError, at once and with a sentence, when starting worker processes now
+    would start them again in every worker for ever (:func:`_unguarded_main_line`);
+    ``fork`` does not run the script again, so it needs no guard."""
+    if start_method == "fork":
+        return
+    found = _unguarded_main_line()
+    if found is None:
+        return
+    path, line = found
+    raise RuntimeError(
+        f"{path}, line {line}: {what} is started here, and each worker runs this "
+        'script again from the top, so without `if __name__ == "__main__":` every worker '
+        "would start the workers again, for ever; put the script's work under "
+        '`if __name__ == "__main__":`, or use workers=1'
+    )
+
+
 def chunk_size(n_items: int, n_workers: int) -> int:
     """Items per task: about :data:`TASKS_PER_WORKER` tasks per worker, at most
     :data:`MAX_CHUNK` items each, at least one."""
@@ -226,6 +296,7 @@ class LocalExecutor(Executor):
             # never more processes than the first use has tasks for (tune maps the same
             # number every generation)
             processes = self.workers if tasks is None else max(1, min(self.workers, tasks))
+            check_main_guard(self.start_method, "a pool of worker processes")
             with _single_threaded_children():  # the fork server and workers start here
                 self._pool = context.Pool(processes, initializer=_worker_init)
         return self._pool
@@ -273,6 +344,8 @@ class DaskExecutor(Executor):
         self._cluster = None
         if scheduler is None:
             self.workers = _check_workers(workers if workers is not None else available_cpus())
+            # the LocalCluster's workers are spawned processes too
+            check_main_guard("spawn", "a Dask LocalCluster")
             self._cluster = LocalCluster(
                 n_workers=self.workers,
                 threads_per_worker=1,
