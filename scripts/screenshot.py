@@ -115,7 +115,7 @@ def main(argv=None) -> int:
                 lambda a: a.sim.time_s >= args.seconds or a.sim.done,
                 timeout=args.seconds / args.speed * 4 + 20,
             )
-            app.set_speed(0.2)  # still running in the picture, barely moving
+            app.set_speed(0.1)  # still running in the picture, barely moving (a Speed button)
             if args.presentation:
                 page.get_by_text("View", exact=True).click()
                 page.get_by_role("checkbox", name="Presentation mode (large type)").click()

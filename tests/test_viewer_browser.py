@@ -1182,6 +1182,8 @@ def test_what_if_mode_follows_dragged_inputs_without_moving_the_robot(served, pa
     index = fis.input_names.index("d_o")
     lo, hi = fis.inputs[index].range
     plot = page.locator(".fz-inference .fz-drag-input[data-input='d_o']")
+    plot.scroll_into_view_if_needed()  # (below the rule grid, issue 38)
+    page.wait_for_timeout(300)
     area = plot.bounding_box()
     y = area["y"] + area["height"] / 2
     page.mouse.move(area["x"] + 0.8 * area["width"], y)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from test_viewer_browser import (  # noqa: F401  (browser: a fixture)
     JS_NODE_SCREEN,
+    VIEWPORT,
     browser,
     obstacle_node,
     open_page,
@@ -158,3 +159,169 @@ def test_paused_an_obstacle_dragged_ahead_changes_d_o_beams_and_rules_within_200
     assert elapsed < limit, (
         f"the page took {times} s to answer the drag (limit {limit:.2f} s, load x{busy:.1f})"
     )
+
+
+# The rule rows a reader sees in the Inference tab without scrolling: each row's hit area
+# wholly inside the tab's scrolled area, below the sticky headers and above the pinned
+# aggregate, and at least 12 px tall.
+JS_READABLE_ROWS = """
+() => {
+  const view = document.querySelector('.fz-inference');
+  if (!view) return {rows: 0, height: 0};
+  let box = view.parentElement;
+  while (box && !(box.scrollHeight > box.clientHeight + 2
+                  && /(auto|scroll)/.test(getComputedStyle(box).overflowY))) box = box.parentElement;
+  const area = box ? box.getBoundingClientRect()
+                   : {top: 0, bottom: window.innerHeight, left: 0, right: window.innerWidth};
+  const head = view.querySelector('.fz-rule-head').getBoundingClientRect();
+  const agg = view.querySelector('.fz-rule-agg').getBoundingClientRect();
+  const top = Math.max(area.top, head.bottom), bottom = Math.min(area.bottom, agg.top, window.innerHeight);
+  let rows = 0, height = 0;
+  for (const r of view.querySelectorAll('.fz-hit rect[data-rule]')) {
+    const b = r.getBoundingClientRect();
+    height = Math.max(height, b.height);
+    if (b.top >= top - 0.5 && b.bottom <= bottom + 0.5 && b.height >= 12) rows += 1;
+  }
+  return {rows, height};
+}
+"""
+
+
+def _state_clipped(page) -> float:
+    """How far (px) the status line's state reaches past what its panel shows."""
+    return page.evaluate(
+        """() => { const s = [...document.querySelectorAll('.fz-status span')]
+            .find((e) => e.innerText.startsWith('●'));
+          let box = s.parentElement;
+          while (box && !(/(auto|scroll|hidden)/.test(getComputedStyle(box).overflowX)
+                 || /(auto|scroll)/.test(getComputedStyle(box).overflowY))) box = box.parentElement;
+          const right = box.getBoundingClientRect().left + box.clientWidth;
+          return Math.max(s.getBoundingClientRect().right - right,
+                          s.getBoundingClientRect().right - window.innerWidth); }"""
+    )
+
+
+@pytest.mark.parametrize("mode", ["what-if", "presentation", "presentation-1920"])
+def test_the_rule_grid_keeps_eight_readable_rows(lesson, mode):
+    """Defect 3: with What-if open at 1280x800, or in presentation mode, the rule grid
+    showed its header and its aggregate and no row at all (the term plots and the rule
+    strip above it took the height)."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(40):
+        app.step_once()
+    size = {"width": 1920, "height": 1080} if mode == "presentation-1920" else VIEWPORT
+    page.set_viewport_size(size)
+    open_tab(page, "Inference")
+    try:
+        if mode == "what-if":
+            page.get_by_text("What-if", exact=True).click()
+            page.get_by_role("checkbox", name="What-if mode").click()
+            assert app.wait_for(lambda a: a.what_if is not None, timeout=10)
+        else:
+            server.set_presentation(True)
+            app._bump()
+        page.wait_for_timeout(1500)
+        page.evaluate(  # the tab scrolled to its top, as a tab opened for the lesson
+            "() => { let b = document.querySelector('.fz-inference');"
+            " while (b) { b.scrollTop = 0; b = b.parentElement; } }"
+        )
+        page.wait_for_timeout(300)
+        seen = page.evaluate(JS_READABLE_ROWS)
+        page.screenshot(path=f"/tmp/fz-rules-{mode}.png")
+        assert seen["rows"] >= 8, seen
+        assert _state_clipped(page) <= 0.5  # defect 5: the status's state is not cut
+    finally:
+        if mode == "what-if":
+            app.stop_what_if()
+            page.get_by_text("What-if", exact=True).click()
+        else:
+            server.set_presentation(False)
+        page.set_viewport_size(VIEWPORT)
+        page.wait_for_timeout(500)
+
+
+@pytest.mark.parametrize("state", ["looking back", "reached"])
+def test_the_status_lines_state_is_never_cut_at_the_panels_edge(lesson, state):
+    """Defect 5: "t = 98.54 s● reached the target" and "looking back (paused" were cut
+    at the control panel's edge (in presentation mode worst)."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(60):
+        app.step_once()
+    if state == "reached":
+        x, y, _ = app.sim.arena.pose
+        app.move_target((x + 0.9, y + 0.9))
+        app.play()
+        assert app.wait_for(lambda a: a.sim.done, timeout=30)
+        expected = "reached the target"
+    else:
+        app.view_history(0.4)
+        expected = "looking back (paused)"
+    try:
+        for presentation in (False, True):
+            server.set_presentation(presentation)
+            app._bump()
+            page.wait_for_function(
+                "(t) => [...document.querySelectorAll('.fz-status span')]"
+                ".some((e) => e.innerText.startsWith('●') && e.innerText.includes(t))",
+                arg=expected,
+                timeout=10_000,
+            )
+            page.wait_for_timeout(800)
+            assert _state_clipped(page) <= 0.5, (presentation, _state_clipped(page))
+    finally:
+        server.set_presentation(False)
+        app.leave_history()
+
+
+def test_a_click_on_a_rule_opens_it_large_and_it_follows_the_world(lesson):
+    """Issue 38: a rule you can zoom into: a click on its row opens it large (its
+    antecedents with today's degrees, its clipped consequents, its share of the firing
+    strength); paused, a drag that changes it changes the open rule; Escape closes it."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(40):
+        app.step_once()
+    open_tab(page, "Inference")
+    page.wait_for_function("() => document.querySelectorAll('.fz-firing').length > 0")
+    page.wait_for_timeout(500)
+    info = app.teaching()
+    best = int(np.argmax(info["strengths"])) + 1
+    row = page.locator(f".fz-hit rect[data-rule='{best}']")
+    row.scroll_into_view_if_needed()
+    small = row.bounding_box()
+    row.click()
+    zoom = page.locator("#fz-zoom")
+    zoom.wait_for(state="visible", timeout=5_000)
+    text = zoom.inner_text()
+    assert f"Rule {best}" in text
+    from fuzzynav.app.viewer.drawing import rule_sentence
+
+    fis = info["fis"]
+    assert rule_sentence(fis, best - 1, info["input_names"], info["output_names"]) in text
+    share = 100 * info["strengths"][best - 1] / info["strengths"].sum()
+    page.wait_for_function(
+        "(t) => document.querySelector('#fz-zoom').innerText.includes(t)",
+        arg=f"{share:.0f} % of the firing strength",
+        timeout=5_000,
+    )
+    big = page.locator("#fz-zoom .fz-zoom-row").bounding_box()
+    assert big["height"] >= 2.5 * small["height"] and big["width"] >= 2 * small["width"] * 0.9
+    page.screenshot(path="/tmp/fz-rule-zoom.png")
+    # paused, the world changes: the open rule follows (its share, read again)
+    before = zoom.inner_text()
+    ob = next(iter(app.sim.arena.obstacles))
+    x, y, heading = app.sim.arena.pose
+    app.move_obstacle(ob, (x + 1.2 * np.cos(heading), y + 1.2 * np.sin(heading)))
+    page.wait_for_function(
+        "(t) => document.querySelector('#fz-zoom').innerText !== t", arg=before, timeout=5_000
+    )
+    page.keyboard.press("Escape")
+    zoom.wait_for(state="detached", timeout=5_000)

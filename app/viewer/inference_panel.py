@@ -42,8 +42,9 @@ class InferencePanel:
         )
         self.firing_only_cb.on_update(self.view.guarded(lambda e: self.redraw()))
         self._build_what_if()
-        self.timeline_html = gui.add_html("", order=0.8)
         self.inference_html = gui.add_html("", order=1.0)
+        # Under the inference (issue 38: above it, it pushed the rule grid off screen).
+        self.timeline_html = gui.add_html("", order=1.2)
 
     def _build_what_if(self) -> None:
         """What-if mode: pause, drag or type an input's value, and the whole inference (rules,
@@ -150,17 +151,28 @@ class InferencePanel:
         png = base64.b64encode(views.timeline_png(times, strengths)).decode()
         t0, t1 = float(times[0]), float(times[-1])
         where = 100.0 * (snap.time_s - t0) / (t1 - t0) if t1 > t0 else 100.0
+        n = int(np.asarray(strengths).shape[1]) if np.ndim(strengths) == 2 else 1
+        # 4 px a rule (40 rules: 160 px), rule numbers at the left every 5 rules.
+        height = max(60, 4 * n)
+        ticks = "".join(
+            f"<span style='position:absolute;right:2px;top:{100.0 * (k - 0.5) / n:.2f}%;"
+            f"transform:translateY(-50%);line-height:1'>{k}</span>"
+            for k in ([1] + list(range(5, n + 1, 5)) if n > 1 else [1])
+        )
         set_html(
             self.timeline_html,
             "<div class='fz-timeline' style='font-family:system-ui,sans-serif;font-size:0.8em;"
-            "padding:0 6px'><b>Rules over this run</b> (a row per rule, rule 1 at the top; "
-            "orange: firing)<div style='position:relative'>"
-            f"<img src='data:image/png;base64,{png}' style='width:100%;height:60px;"
+            "padding:0 6px'><b>Rules over this run</b> (a row per rule, numbered at the left; "
+            "orange: firing)<div style='display:flex;margin-top:2px'>"
+            f"<div style='position:relative;width:20px;height:{height}px;font-size:0.85em;"
+            f"color:#475569'>{ticks}</div><div style='position:relative;flex:1'>"
+            f"<img class='fz-timeline-img' src='data:image/png;base64,{png}' "
+            f"style='width:100%;height:{height}px;"
             "display:block;image-rendering:pixelated;border:1px solid #cbd5e1'/>"
             f"<div class='fz-timeline-cursor' style='position:absolute;top:0;bottom:0;"
             f"left:{min(max(where, 0.0), 100.0):.1f}%;width:2px;background:#0f172a'></div></div>"
-            "<div style='display:flex;justify-content:space-between;color:#475569'>"
-            f"<span>{t0:.1f} s</span><span>{t1:.1f} s</span></div></div>",
+            "</div><div style='display:flex;justify-content:space-between;color:#475569;"
+            f"padding-left:20px'><span>{t0:.1f} s</span><span>{t1:.1f} s</span></div></div>",
         )
 
     def draw(self, snap: Snapshot) -> None:

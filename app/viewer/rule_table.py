@@ -37,6 +37,11 @@ from fuzzynav.app.viewer.drawing import (
 )
 
 
+def _and_word(fis) -> str:
+    """How a rule's strength comes from its degrees, in words (the AND method)."""
+    return "their product" if _choice(fis, "and_method", "min") == "prod" else "the smallest"
+
+
 def _rule_columns(fis, ins, outs):
     """(width, x of column c): the rule grid's geometry, shared by the header, the rows
     and the aggregated row (three SVGs that must line up)."""
@@ -48,19 +53,79 @@ def _rule_columns(fis, ins, outs):
     return width, col_x
 
 
-def _svg_open(width: float, height: float, cls: str) -> str:
+def _svg_open(width: float, height: float, cls: str, extra: str = "") -> str:
     return (
         f"<svg viewBox='0 0 {width:.0f} {height:.0f}' style='width:100%;display:block'"
-        f" font-family='system-ui,sans-serif' class='{cls}'>"
+        f" font-family='system-ui,sans-serif' class='{cls}'{extra}>"
     )
 
 
-def rules_head_svg(inf: Inference, ins, outs) -> str:
+# The rule grid's click handler (an event attribute: viser's HTML element sets its
+# content as innerHTML, where a <script> never runs). A click on a row opens that rule
+# large in an overlay of the page's own (``#fz-zoom``, outside the replaced HTML): the
+# row and the column headers drawn again by SVG ``<use>`` of the live grid (so the
+# zoomed row follows every step and every paused drag), the rule as a sentence, its
+# antecedents' degrees and its share of the block's firing strength, read again from
+# the grid four times a second. Close: its button, Escape, or a click outside it.
+_ZOOM_JS = (
+    "(function(ev){var t=ev.target,k=t&&t.getAttribute&&t.getAttribute('data-rule');"
+    "if(!k)return;var G='@G',H='@H',g=document.getElementById(G);if(!g)return;"
+    "var y=+t.getAttribute('y'),vb=g.viewBox.baseVal;"
+    "var old=document.getElementById('fz-zoom');if(old&&old.fzClose)old.fzClose();"
+    "var d=document.createElement('div');d.id='fz-zoom';d.className='fz-zoom';"
+    "d.setAttribute('data-rule',k);d.style.cssText='position:fixed;left:50%;top:50%;"
+    "transform:translate(-50%,-50%);width:min(94vw,1100px);max-height:92vh;overflow:auto;"
+    "background:#fff;border:2px solid #0f172a;border-radius:8px;box-shadow:0 8px 32px #0007;"
+    "z-index:10000;padding:12px 16px;font:17px system-ui,sans-serif;color:#0f172a';"
+    "d.innerHTML=\"<div style='display:flex;justify-content:space-between;align-items:center'>"
+    "<b style='font-size:1.35em'>Rule \"+k+\"</b><button class='fz-zoom-close' "
+    "style='font-size:0.9em;padding:2px 10px'>close \u2715</button></div>"
+    "<div class='fz-zoom-sentence' style='margin:6px 0 10px;font-size:1.1em'></div>"
+    "<svg viewBox='0 0 @W 26' style='width:100%;display:block'><use href='#@H' width='@W' "
+    "height='26'/></svg><svg class='fz-zoom-row' viewBox='0 \"+y+\" @W @R' "
+    "style='width:100%;display:block;border:1px solid #94a3b8'><use href='#@G' width='@W' "
+    "height='\"+vb.height+\"'/></svg><div class='fz-zoom-numbers' style='margin-top:10px;"
+    "line-height:1.5'></div>\";"
+    "var s=document.getElementById('@Us'+k);"
+    "d.querySelector('.fz-zoom-sentence').textContent=s?s.textContent:'';"
+    "function upd(){var g=document.getElementById(G);if(!g)return;var f=g.querySelectorAll("
+    "'.fz-firing'),sum=0,me=null;for(var i=0;i<f.length;i++){var v=+f[i].getAttribute("
+    "'data-strength');sum+=v;if(f[i].getAttribute('data-rule')==k)me=f[i];}"
+    "var n=d.querySelector('.fz-zoom-numbers');if(!me){n.textContent='It does not fire now "
+    "(strength 0): it adds nothing to the outputs.';return;}var st=+me.getAttribute("
+    "'data-strength');n.textContent='If: '+me.getAttribute('data-degrees')+'. Strength '+"
+    "me.getAttribute('data-shown')+' ('+me.getAttribute('data-and')+'): '+"
+    "(100*st/sum).toFixed(0)+' % of the firing strength of its block, which its '+"
+    "'consequents carry into the aggregated sets.';}"
+    "function esc(e){if(e.key==='Escape')close();}"
+    "function out(e){if(!d.contains(e.target))close();}"
+    "function close(){clearInterval(d.fzTimer);document.removeEventListener('keydown',esc);"
+    "document.removeEventListener('pointerdown',out,true);d.remove();}"
+    "d.fzClose=close;d.querySelector('.fz-zoom-close').onclick=close;"
+    "document.addEventListener('keydown',esc);"
+    "setTimeout(function(){document.addEventListener('pointerdown',out,true);},0);"
+    "document.body.appendChild(d);upd();d.fzTimer=setInterval(upd,250);})(event)"
+)
+
+
+def _zoom_attr(grid_id: str, head_id: str, uid: str, width: float) -> str:
+    js = (
+        _ZOOM_JS.replace("@G", grid_id)
+        .replace("@H", head_id)
+        .replace("@U", uid)
+        .replace("@W", f"{width:.0f}")
+        .replace("@R", f"{CELL_H:.0f}")
+    )
+    return f" id='{grid_id}' onclick=\"{html.escape(js, quote=True)}\""
+
+
+def rules_head_svg(inf: Inference, ins, outs, head_id: str | None = None) -> str:
     """The rule grid's column headers: each variable's name and value (the centroid for
     an output). Sticky: it stays at the top of the panel while the rules scroll."""
     fis = inf.fis
     width, col_x = _rule_columns(fis, ins, outs)
-    parts = [_svg_open(width, 26.0, "fz-rule-head-svg")]
+    extra = f" id='{head_id}'" if head_id else ""
+    parts = [_svg_open(width, 26.0, "fz-rule-head-svg", extra)]
     parts.append("<text x='2' y='11' font-size='8.5' fill='#475569'>rule</text>")
     for c, i in enumerate(ins):
         var = fis.inputs[i]
@@ -116,7 +181,9 @@ def rows_skeleton(fis, uid: str) -> str:
     )
 
 
-def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=None) -> str:
+def rules_rows_svg(
+    inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=None, block_id=None
+) -> str:
     """MATLAB's rule viewer for one block: a row per rule in ``rules``, a column per
     variable. Each row has a transparent hit area (``fz-hit``, ``data-rule``): hovering
     it shows the rule as a sentence (:func:`defs_html`). ``skeleton``: the id of this
@@ -125,7 +192,8 @@ def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=N
     fis = inf.fis
     width, col_x = _rule_columns(fis, ins, outs)
     height = max(len(rules), 1) * CELL_H + 2.0
-    parts = [_svg_open(width, height, "fz-rules")]
+    extra = _zoom_attr(f"{block_id}g", f"{block_id}h", uid, width) if block_id else ""
+    parts = [_svg_open(width, height, "fz-rules", extra)]
     if not rules:
         parts.append(
             f"<text x='4' y='{CELL_H - 4:.0f}' font-size='9' fill='#64748b'>"
@@ -142,8 +210,17 @@ def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=N
         hits.append(f"<rect data-rule='{r + 1}' y='{y0:.0f}'/>")
         if s <= 0.0:
             continue
+        degrees = "; ".join(
+            f"{inf.input_labels[i]} is {fis.inputs[i].terms[k].name} "
+            f"{_fmt_degree(float(inf.memberships[i][k]))}"
+            for i in ins
+            for k in (rule.antecedent[i],)
+            if k is not None
+        )
         parts.append(
-            f"<rect class='fz-firing' data-rule='{r + 1}' data-strength='{s:.6g}' x='0'"
+            f"<rect class='fz-firing' data-rule='{r + 1}' data-strength='{s:.6g}'"
+            f" data-shown='{_fmt_degree(s)}' data-degrees='{html.escape(degrees, quote=True)}'"
+            f" data-and='{_and_word(fis)}' x='0'"
             f" y='{y0:.1f}' width='{width:.0f}' height='{CELL_H:.0f}' fill='{FIRING_ROW}'/>"
         )
         labels.append(
@@ -207,7 +284,7 @@ def rules_rows_svg(inf: Inference, rules, ins, outs, uid: str = "fz", skeleton=N
             )
     # Hover areas, one per row, on top (transparent).
     parts.append(
-        "<g class='fz-hit' fill='transparent' pointer-events='all' style='cursor:help'>"
+        "<g class='fz-hit' fill='transparent' pointer-events='all' style='cursor:zoom-in'>"
         f"{''.join(hits)}</g>".replace(
             "<rect ", f"<rect width='{width:.0f}' height='{CELL_H:.0f}' "
         )
@@ -287,6 +364,7 @@ def rules_html(
     only_firing=False,
     weights=None,
     skeleton=None,
+    block_id=None,
 ) -> str:
     """One block's rule grid: the headers stuck to the top of the panel, the rows (all,
     or the firing ones only), the aggregated sets and centroids pinned at the bottom.
@@ -299,10 +377,10 @@ def rules_html(
         "<div class='fz-rule-block'>"
         "<div class='fz-rule-head' style='position:sticky;top:0;z-index:3;background:#fff;"
         "border-bottom:1px solid #cbd5e1'>"
-        f"{rules_head_svg(inf, ins, outs)}</div>"
+        f"{rules_head_svg(inf, ins, outs, f'{block_id}h' if block_id else None)}</div>"
         "<div class='fz-rule-rows'>"
-        f"{rules_rows_svg(inf, shown, ins, outs, uid, None if only_firing else skeleton)}</div>"
-        "<div class='fz-rule-agg' style='position:sticky;bottom:0;z-index:3;background:#fff;"
-        "border-top:1px solid #cbd5e1'>"
+        + rules_rows_svg(inf, shown, ins, outs, uid, None if only_firing else skeleton, block_id)
+        + "</div><div class='fz-rule-agg' style='position:sticky;bottom:0;z-index:3;"
+        "background:#fff;border-top:1px solid #cbd5e1'>"
         f"{rules_aggregate_svg(inf, ins, outs, weights)}</div></div>"
     )

@@ -110,13 +110,18 @@ class StatusLine:
             extras += " · layout edited"
         big = self.view.presentation
         return (
+            # The time and the state wrap onto two lines where one is too narrow (issue
+            # 38: "looking back (paused" was cut at the panel's edge), and keep clear of
+            # the panel's scrollbar.
             "<div class='fz-status' style='font-family:system-ui,sans-serif;line-height:1.35;"
-            f"padding:0 8px;font-size:{'1.3em' if big else '1em'}'>"
-            f"<div style='display:flex;justify-content:space-between;align-items:baseline'>"
+            f"padding:0 14px 0 8px;font-size:{'1.3em' if big else '1em'}'>"
+            "<div style='display:flex;flex-wrap:wrap;column-gap:10px;"
+            "justify-content:space-between;align-items:baseline'>"
             f"<span class='fz-time' style='font-size:1.6em;font-weight:600;"
             "font-variant-numeric:tabular-nums;white-space:nowrap'>"
             f"t = {snap.time_s:.2f} s</span>"
-            f"<span style='font-weight:600;color:{colour};white-space:nowrap'>● {state}</span></div>"
+            f"<span class='fz-state' style='font-weight:600;color:{colour};white-space:nowrap'>"
+            f"● {state}</span></div>"
             f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
             f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception}"
             f" · ×{snap.speed:g}{extras}</div>"

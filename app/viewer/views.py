@@ -289,19 +289,6 @@ def inference_html(
         lines.append(
             f"<div style='color:#475569'><b>{html.escape(name)}</b>: {html.escape(text)}</div>"
         )
-    if large and n:
-        order = [int(r) for r in np.argsort(-inf.strengths, kind="stable") if inf.strengths[r] > 0]
-        items = "".join(
-            f"<li><b>{_fmt_degree(float(inf.strengths[r]))}</b> "
-            f"{html.escape(rule_sentence(inf.fis, r, inf.input_labels, inf.output_labels))}</li>"
-            for r in order[:6]
-        )
-        more = f"<div>… and {len(order) - 6} more</div>" if len(order) > 6 else ""
-        lines.append(
-            "<div class='fz-firing-sentences' style='margin-top:4px'><b>Firing rules, "
-            f"strongest first</b><ul style='margin:2px 0 0 18px;padding:0'>{items}</ul>"
-            f"{more}</div>"
-        )
     if crisp:
         rows = "".join(
             f"<tr><td style='white-space:nowrap;padding-right:6px'><b>{html.escape(k)}</b></td>"
@@ -320,14 +307,15 @@ def inference_html(
                 f"<div style='font-weight:700;margin-top:8px'>Block {b + 1}: "
                 f"{len(rules)} rules → {html.escape(names)}</div>"
             )
-        lines.append("<div style='font-weight:600;margin-top:6px'>Inputs and their terms</div>")
-        lines.append(inputs_svg(inf, ins, uid, drag))
+        # The rules first, right under the summary: at 1280 x 800, with What-if open or
+        # in presentation mode, the grid still shows its rows without a scroll (issue
+        # 38: below the term plots it showed its header and its aggregate only).
         lines.append(
             "<div style='font-weight:600;margin-top:6px'>Rules"
             + (" that fire" if only_firing else "")
             + " (yellow: antecedent degree, blue: consequent "
             + ("scaled by" if _choice(inf.fis, "imp_method", "min") == "prod" else "clipped at")
-            + " the rule's strength; hover a row to read it)</div>"
+            + " the rule's strength; hover a row to read it, click it to open it large)</div>"
         )
         lines.append(
             rules_html(
@@ -339,7 +327,23 @@ def inference_html(
                 only_firing=only_firing,
                 weights=weights,
                 skeleton=f"{uid}rows{b}",
+                block_id=f"{uid}b{b}",
             )
+        )
+        lines.append("<div style='font-weight:600;margin-top:6px'>Inputs and their terms</div>")
+        lines.append(inputs_svg(inf, ins, uid, drag))
+    if large and n:
+        order = [int(r) for r in np.argsort(-inf.strengths, kind="stable") if inf.strengths[r] > 0]
+        items = "".join(
+            f"<li><b>{_fmt_degree(float(inf.strengths[r]))}</b> "
+            f"{html.escape(rule_sentence(inf.fis, r, inf.input_labels, inf.output_labels))}</li>"
+            for r in order[:6]
+        )
+        more = f"<div>… and {len(order) - 6} more</div>" if len(order) > 6 else ""
+        lines.append(
+            "<div class='fz-firing-sentences' style='margin-top:4px'><b>Firing rules, "
+            f"strongest first</b><ul style='margin:2px 0 0 18px;padding:0'>{items}</ul>"
+            f"{more}</div>"
         )
     return (
         f"<div class='fz-inference' style='font-family:system-ui,sans-serif;font-size:{fs};"
