@@ -390,6 +390,16 @@ COMMAND_DOCS = {
         "The browser viewer on scenario s1 with default settings (what 'make demo' runs).",
         ["fuzzynav demo"],
     ),
+    "compare-runs": (
+        "Compare two recordings entity by entity on the run's timeline, a NaN equal to a "
+        "NaN, leaving out the wall time, the command line and the recording's id: exit 0 "
+        "when they hold the same run, 1 when they differ (each difference a line), 2 when "
+        "one cannot be read.",
+        [
+            "fuzzynav run s1 --rrd a.rrd",
+            "fuzzynav compare-runs a.rrd b.rrd",
+        ],
+    ),
 }
 
 

@@ -72,6 +72,7 @@ import numpy as np
 from . import fuzzy_params
 from . import membership as mf
 from .fuzzy_front import generate_front
+from .fuzzy_none import UnsensedNone
 from .inference import DEFAULT as DEFAULT_INFERENCE
 from .inference import Inference, aggregate, defuzzify
 
@@ -333,7 +334,7 @@ def _check_structure(
                 )
 
 
-class FuzzySystem:
+class FuzzySystem(UnsensedNone):
     """A Mamdani FIS. Immutable: the ``with_*`` methods return new systems.
 
     Parameters
@@ -561,38 +562,6 @@ class FuzzySystem:
             for q in rs[1:]:
                 np.maximum(out, F[q, :n], out=out)
         return ws
-
-    # ------------------------------------------------------------------ NONE = unsensed
-    def gated_system(self, sensed: Sequence[bool]) -> tuple[FuzzySystem | None, list[int]]:
-        """With ``unsensed_none``: the system that decides where each gated input is
-        sensed (True) or not, and the indices of its rules in this one. A rule with NONE
-        for a sensed gated input is left out; None if no rule is left (nothing fires)."""
-        key = tuple(bool(b) for b in sensed)
-        if key not in self._gated_systems:
-            kept = [
-                k
-                for k, rule in enumerate(self.rules)
-                if all(rule.antecedent[i] is not None for i, on in zip(self._gated, key) if on)
-            ]
-            system = (
-                self.replace(rules=[self.rules[k] for k in kept], unsensed_none=())
-                if kept
-                else None
-            )
-            self._gated_systems[key] = (system, kept)
-        return self._gated_systems[key]
-
-    def _gated_groups(self, X: np.ndarray):
-        """Rows of X by which gated inputs they sensed: (rows, system, its rule indices)."""
-        sensed = ~np.isnan(X[:, self._gated])
-        patterns, which = np.unique(sensed, axis=0, return_inverse=True)
-        for k, pattern in enumerate(patterns):
-            system, kept = self.gated_system(pattern.tolist())
-            yield np.flatnonzero(which.reshape(-1) == k), system, kept
-
-    def _gated_one(self, x) -> FuzzySystem | None:
-        row = np.asarray(x, dtype=float)
-        return self.gated_system((~np.isnan(row[self._gated])).tolist())[0]
 
     def firing_strengths(self, X) -> np.ndarray:
         """(N, n_rules) firing strengths: the AND (min or product) over the inputs a rule

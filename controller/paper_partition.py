@@ -156,10 +156,15 @@ class TableOneTunable:
     def build(self, vector) -> FisController:
         return FisController(self.system(vector), name="paper")
 
-    def save(self, vector, path: str | Path, header: str = "") -> list[Path]:
-        """Write the rule base with a header saying what is tuned and how to redo it."""
+    def save(
+        self, vector, path: str | Path, header: str = "", unsensed_none: bool = False
+    ) -> list[Path]:
+        """Write the rule base with a header saying what is tuned and how to redo it;
+        ``unsensed_none``: Table 1's NONE for d_o read as the paper's text has it."""
         path = Path(path)
-        fis = self.system(vector).replace(description=self.DESCRIPTION)
+        fis = self.system(vector).replace(
+            description=self.DESCRIPTION, unsensed_none=("d_o",) if unsensed_none else ()
+        )
         names = ", ".join(f"{n}={x:.6g}" for n, x in zip(self.parameter_names(), np.ravel(vector)))
         lines = list(self.HEADER)
         lines += [f"# {line}" if line else "#" for line in header.splitlines()]

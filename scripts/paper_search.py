@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-import fuzzynav.world.scenario as scenario_module
 from fuzzynav.app.experiments import paper_fit
 from fuzzynav.app.experiments.batch_runs import fit_measures
 from fuzzynav.app.experiments.evolution import cmaes
@@ -35,20 +34,9 @@ MODES = {
 }
 
 
-def with_heading(heading_rad: float) -> None:
-    """Every scenario loaded from here on starts at ``heading_rad`` (fit_measures loads
-    them by name)."""
-    original = scenario_module.load_scenario
-
-    def load(name, *args, **kwargs):
-        return original(name, *args, **kwargs).replace(heading_rad=heading_rad)
-
-    scenario_module.load_scenario = load
-
-
 class SearchCost:
-    def __init__(self, modes, husky_weight: float, dt: float):
-        self.fit = paper_fit.FitCost(dt, husky=True)
+    def __init__(self, modes, husky_weight: float, dt: float, reading=paper_fit.SCENARIO_FILE_READING):
+        self.fit = paper_fit.FitCost(dt, husky=True, reading=reading)
         self.modes = [MODES[m] for m in modes]
         self.husky_weight = husky_weight
 
@@ -79,6 +67,12 @@ class SearchCost:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--heading", type=float, required=True, help="start heading, rad")
+    p.add_argument(
+        "--none",
+        choices=("matlab", "unsensed"),
+        default="matlab",
+        help="how Table 1's NONE reads (docs/paper-controller.md, 'Readings of the text')",
+    )
     p.add_argument("--maxiter", type=int, default=40)
     p.add_argument("--popsize", type=int, default=24)
     p.add_argument("--seed", type=int, default=0)
@@ -97,11 +91,11 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args(argv)
 
-    with_heading(args.heading)
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     modes = args.modes.split(",")
-    cost = SearchCost(modes, args.husky_weight, args.dt)
+    reading = paper_fit.Reading(heading_rad=args.heading, none_reading=args.none)
+    cost = SearchCost(modes, args.husky_weight, args.dt, reading)
     x0 = paper_fit.read_fitted(args.x0) if args.x0 else tunable.initial_vector()
     started = time.perf_counter()
     if args.screen:
@@ -144,7 +138,7 @@ def main(argv=None) -> int:
     print("best", best, "vector", ", ".join(f"{k}={v:.6g}" for k, v in zip(names, x)))
     if args.out:
         command = (
-            f"python scripts/paper_search.py --heading {args.heading:.6g} "
+            f"python scripts/paper_search.py --heading {args.heading:.6g} --none {args.none} "
             f"--maxiter {args.maxiter} --popsize {args.popsize} --seed {args.seed} "
             f"--sigma {args.sigma:g} --dt {args.dt:g} --husky-weight {args.husky_weight:g} "
             f"--modes {args.modes}" + (f" --x0 {args.x0.name}" if args.x0 else "")
@@ -156,7 +150,7 @@ def main(argv=None) -> int:
             f"The start heading is the scenarios' ({args.heading:.6g} rad, a reading of the "
             "text), never fitted."
         )
-        tunable.save(x, args.out, header=header)
+        tunable.save(x, args.out, header=header, unsensed_none=args.none == "unsensed")
         print("wrote", args.out)
     return 0
 

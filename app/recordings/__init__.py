@@ -13,7 +13,8 @@
 - :mod:`.blueprint`  the default layout, legend placement and the application id;
 - :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;
 - :mod:`.style`      colours, draw orders and sizes;
-- :mod:`.trace`      ``run --trace PATH.csv``: one row per control step.
+- :mod:`.trace`      ``run --trace PATH.csv``: one row per control step;
+- :mod:`.compare`    ``fuzzynav compare-runs A.rrd B.rrd``: what differs between two runs.
 
 Provenance (versions, git revision, reproduce commands) is :mod:`fuzzynav.app.provenance`'s,
 shared with the sweeps and the tuning; the geometry drawn (footprints, beams, bearings)

@@ -178,8 +178,8 @@ def add_compare_command(subparsers) -> None:
         "id: exit 0 when they hold the same run, 1 when they differ (each difference a "
         "line), 2 when one cannot be read.",
     )
-    parser.add_argument("a", metavar="A.rrd")
-    parser.add_argument("b", metavar="B.rrd")
+    parser.add_argument("a", metavar="A.rrd", help="the first recording")
+    parser.add_argument("b", metavar="B.rrd", help="the second recording")
     parser.set_defaults(func=cmd_compare_runs)
 
 
