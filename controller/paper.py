@@ -1,9 +1,19 @@
 """The paper's controller: Table 1's 40 rules with our membership functions.
 
 The rules, ranges, term names and shape families are the paper's; the membership
-parameters are ours (the paper's figures are missing) and live in
-``assets/rules/paper.toml``: one rule base for both geometries, the Husky's footprint and
-the paper's point robot. Its membership functions are drawn from the 12 numbers of
+parameters are ours (the paper's figures are missing). Two rule bases, one per world:
+
+* ``assets/rules/paper.toml``, **the paper's controller**, fitted in the paper's own
+  geometry (a point robot, ideal perception of the front half-plane) to its Table 4,
+  events and story, under the reading of the text its results support (start heading
+  0; NONE for d_o read as the text has it: the goal rules hold only while no obstacle
+  is sensed; docs/paper-controller.md, "Readings of the text");
+* ``assets/rules/paper_husky.toml``, **the paper's controller adapted to the Husky's
+  body** (its twin): the same Table 1, layout and reading, fitted for the 0.99 x 0.67 m
+  footprint, the 25 cm safe distance from it and both perception modes; what
+  ``--controller paper`` drives in the Husky geometry (the viewer's, the sweeps').
+
+Their membership functions are drawn from the 12 numbers of
 :mod:`fuzzynav.controller.paper_design` (what ``fuzzynav tune --controller paper`` and
 ``fuzzynav fit-paper`` search), so they keep the design rules of
 :mod:`fuzzynav.controller.design_rules`; the command that made it is in its header and
@@ -42,9 +52,15 @@ from fuzzynav.resources import asset_path
 
 ASSETS = asset_path("rules")
 PAPER_RULES = ASSETS / "paper.toml"
+PAPER_HUSKY_RULES = ASSETS / "paper_husky.toml"
 FIRST_DESIGN = ASSETS / "paper_first_design.toml"
-#: One rule base serves both geometries (docs/paper-controller.md shows the numbers).
-RULES_BY_GEOMETRY = {"husky": PAPER_RULES, "paper": PAPER_RULES}
+#: The paper's controller in its own geometry, and its twin fitted for the Husky's body.
+RULES_BY_GEOMETRY = {"husky": PAPER_HUSKY_RULES, "paper": PAPER_RULES}
+#: What each geometry's rule base is, in words (the viewer and the docs say it).
+RULE_BASE_NAMES = {
+    "paper": "the paper's controller, fitted in the paper's geometry",
+    "husky": "the paper's controller adapted to the Husky's body (its twin)",
+}
 
 _K = 4.71  # 2 * sqrt(2 ln 2) * 2: Gaussian at 0.5 half-way to the neighbouring peaks
 

@@ -166,11 +166,6 @@ def judge(reading, vector) -> dict:
     }
 
 
-def selected(results: list[dict]) -> dict:
-    """The selection rule (module doc)."""
-    return min(results, key=lambda r: (-r["bounds_met"], r["worst_scaled"], r["fit_cost"]))
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--screen", type=int, default=160)
@@ -205,7 +200,7 @@ def main(argv=None) -> int:
         k: getattr(args, k) for k in ("screen", "popsize", "maxiter", "sigma", "seed", "dt", "x0")
     }
     args.json.write_text(json.dumps({"budget": budget, "results": results}, indent=1) + "\n")
-    print("selected:", selected(results)["reading"])
+    print("selected:", paper_fit.select_reading(results)["reading"])
     return 0
 
 

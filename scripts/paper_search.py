@@ -101,9 +101,9 @@ def main(argv=None) -> int:
     if args.screen:
         rng = np.random.default_rng(args.seed)
         lo, hi = np.array(tunable.bounds()).T
-        draws = lo + rng.random((args.screen, len(lo))) * (hi - lo)
+        draws = np.vstack([x0, lo + rng.random((args.screen, len(lo))) * (hi - lo)])
         costs = []
-        for k in range(0, args.screen, 48):
+        for k in range(0, len(draws), 48):
             costs += cost.costs(list(draws[k : k + 48]))
             print(f"screen {k + 48}: best {min(costs):.2f}", flush=True)
         x0 = draws[int(np.argmin(costs))]

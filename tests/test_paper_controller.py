@@ -2,6 +2,7 @@
 acceptance test (s1-s3 x both perception modes with the SHIPPED rule base)."""
 
 import pickle
+import re
 from pathlib import Path
 
 import numpy as np
@@ -10,10 +11,17 @@ import pytest
 from fuzzynav.app.experiments.tuning import read_vector
 from fuzzynav.app.runs import run_scenario
 from fuzzynav.controller.fuzzy import FuzzySystem
-from fuzzynav.controller.paper import FIRST_DESIGN, PAPER_RULES, paper_controller
+from fuzzynav.controller.paper import (
+    FIRST_DESIGN,
+    PAPER_HUSKY_RULES,
+    PAPER_RULES,
+    paper_controller,
+)
 from fuzzynav.controller.paper_design import PaperDesignTunable
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.controller.tuning import Tunable, tunable
+
+ROOT = Path(__file__).resolve().parents[1]
 
 PAPER_TEXT = Path(__file__).resolve().parents[2] / "shared" / "paper" / "fuzzy-husky-paper.txt"
 
@@ -75,14 +83,19 @@ def test_table1_here_matches_the_papers_text():
     assert all(r[7].strip() == "1" for r in rows)
 
 
-def test_shipped_file_differs_from_first_design_only_in_membership_parameters():
-    shipped, first = read_toml(PAPER_RULES), read_toml(FIRST_DESIGN)
+@pytest.mark.parametrize("path", [PAPER_RULES, PAPER_HUSKY_RULES], ids=lambda p: p.name)
+def test_shipped_file_differs_from_first_design_only_in_membership_parameters(path):
+    """Both shipped rule bases (the paper's and its Husky twin) are Table 1 with the
+    first design's variables, their own membership parameters, and NONE for d_o read as
+    the text has it (the reading issue 35 selected)."""
+    shipped, first = read_toml(path), read_toml(FIRST_DESIGN)
     assert shipped.rules == first.rules and shipped.n_points == first.n_points
+    assert shipped.unsensed_none == ("d_o",) and first.unsensed_none == ()
     for a, b in zip(shipped.inputs + shipped.outputs, first.inputs + first.outputs):
         assert (a.name, a.range, a.term_names) == (b.name, b.range, b.term_names)
-    assert (
-        "Reproduce with: fuzzynav " in PAPER_RULES.read_text(encoding="utf-8").split("[system]")[0]
-    )
+    header = path.read_text(encoding="utf-8").split("[system]")[0]
+    script = re.search(r"python (scripts/\w+\.py)", header)
+    assert "Reproduce with" in header and script and (ROOT / script.group(1)).is_file()
 
 
 def test_sign_convention_target_left_speeds_up_right_wheel():
@@ -95,23 +108,13 @@ def test_sign_convention_target_left_speeds_up_right_wheel():
     assert left == pytest.approx(right)
 
 
-@pytest.mark.parametrize(
-    "d_t",
-    [
-        8.0,  # within s1-s3 (11.3 m at the start)
-        pytest.param(
-            30.0,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="not met by the shipped rule base: at d_t 30 m rule 3 (VL, Z -> VL VL) "
-                "fires at 1, and VL's shoulder (6.0-14.3 V) outweighs the obstacle rule's "
-                "M or S in both wheels' centroids: 8.30 V left against 8.33 V right",
-            ),
-        ),
-    ],
-)
-def test_sign_convention_obstacle_left_turns_right(d_t):
-    c = paper_controller()
+@pytest.mark.parametrize("geometry", ["paper", "husky"])
+@pytest.mark.parametrize("d_t", [8.0, 30.0])  # within s1-s3 (11.3 m at the start), and far
+def test_sign_convention_obstacle_left_turns_right(d_t, geometry):
+    """With the text's reading of NONE (issue 35) the goal rules are off while an
+    obstacle is sensed, so however far the target, the obstacle rules steer (under
+    MATLAB's reading the far-target rule VL, Z -> VL VL outweighed them at 30 m)."""
+    c = paper_controller(geometry=geometry)
     # where the shipped phi_o "P" (obstacle ahead-left) term is strongest
     phi_o = next(v for v in c.fis.inputs if v.name == "phi_o")
     grid = np.linspace(0.0, np.pi / 2, 500)
@@ -141,11 +144,12 @@ def test_tunable_protocol_and_construction():
         tunable("nope")
 
 
-def test_the_shipped_rule_base_is_its_tuned_vector():
-    """rules/paper.toml's header vector (6 digits) rebuilds the shipped system."""
+@pytest.mark.parametrize("path", [PAPER_RULES, PAPER_HUSKY_RULES], ids=lambda p: p.name)
+def test_the_shipped_rule_base_is_its_tuned_vector(path):
+    """A shipped rule base's header vector (6 digits) rebuilds its system."""
     t = tunable("paper")
-    vector = read_vector(PAPER_RULES, t.parameter_names())
-    shipped = read_toml(PAPER_RULES)
+    vector = read_vector(path, t.parameter_names())
+    shipped = read_toml(path)
     assert np.allclose(t.system(vector).parameter_vector(), shipped.parameter_vector(), atol=1e-4)
 
 

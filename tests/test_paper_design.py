@@ -4,7 +4,7 @@ fault it names."""
 
 from __future__ import annotations
 
-import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,8 +26,20 @@ def test_the_shipped_paper_controller_keeps_every_design_rule(path):
     assert faults == [], "\n".join(map(str, faults))
 
 
-def test_one_rule_base_drives_both_geometries():
-    assert RULES_BY_GEOMETRY["paper"] == RULES_BY_GEOMETRY["husky"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_each_geometry_has_its_rule_base_of_one_layout():
+    """The paper's controller in its own geometry and its Husky twin (issue 35): two
+    files, Table 1 and the 12-number layout in both, told apart by name."""
+    from fuzzynav.controller.paper import RULE_BASE_NAMES
+
+    assert RULES_BY_GEOMETRY["paper"].name == "paper.toml"
+    assert RULES_BY_GEOMETRY["husky"].name == "paper_husky.toml"
+    assert set(RULE_BASE_NAMES) == set(RULES_BY_GEOMETRY)
+    first = read_toml(RULES_BY_GEOMETRY["paper"])
+    twin = read_toml(RULES_BY_GEOMETRY["husky"])
+    assert first.rules == twin.rules and first != twin
 
 
 def test_every_vector_of_the_layout_keeps_the_design_rules():
@@ -127,15 +139,22 @@ def test_angle_inputs_must_be_mirrored_and_the_wheels_share_their_terms(good):
     assert _rules(good.with_term_params("right", "M", [a, b + 0.1, c])) == {"wheels"}
 
 
-def test_the_scenarios_start_facing_the_target_in_both_geometries():
-    """The start heading is a reading of the text (docs/paper-controller.md), pi/4 in
-    s1-s3, never fitted, and the same for the Husky and the paper's point robot."""
+def test_the_scenarios_start_as_the_selected_reading_in_both_geometries():
+    """The start heading is a reading of the text, never fitted: the one the readings
+    table selected (docs/data/paper_readings.json, by the rule written before the fits),
+    the same for the Husky and the paper's point robot, with the reading's field of view."""
+    import json
+
+    from fuzzynav.app.experiments.paper_fit import select_reading
+
+    table = json.loads((ROOT / "docs" / "data" / "paper_readings.json").read_text())
+    chosen = select_reading(table["results"])
+    heading = float(chosen["reading"].split("heading ")[1].split(" rad")[0])
+    field = float(chosen["reading"].split("field ")[1].split(" deg")[0])
     for name in ("s1", "s2", "s3"):
         scenario = load_scenario(name)
-        facing = math.atan2(
-            scenario.target[1] - scenario.start[1], scenario.target[0] - scenario.start[0]
-        )
-        assert scenario.heading_rad == pytest.approx(facing, abs=1e-12)
+        assert scenario.heading_rad == pytest.approx(heading, abs=1e-4)
+        assert scenario.field_of_view_deg == pytest.approx(field)
         for geometry in ("paper", "husky"):
             sim = build_simulation(name, "p", geometry=geometry)
-            assert sim.arena.pose[2] == pytest.approx(math.pi / 4, abs=1e-12)
+            assert sim.arena.pose[2] == pytest.approx(scenario.heading_rad, abs=1e-12)

@@ -13,8 +13,9 @@ from hypothesis import strategies as st
 from fuzzynav.app.cli import main
 from fuzzynav.app.recordings.trace import TRACE_COLUMNS
 from fuzzynav.app.runs import build_simulation
-from fuzzynav.controller.fis import read_fis
+from fuzzynav.controller.fis import read_fis, write_fis
 from fuzzynav.controller.proportional import ProportionalController
+from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.world.scenario import ObstacleSpec, Scenario
 from fuzzynav.world.simulation import Simulation
 
@@ -162,19 +163,25 @@ def test_trace_to_a_missing_folder_is_refused_before_the_run(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("geometry", ["paper", "husky"])
-def test_logged_voltages_are_the_exported_fis_at_the_logged_inputs(tmp_path, geometry):
-    """The trace's voltages are what the exported .fis gives at the trace's inputs,
-    through an independent evaluator (simpful) on a sample of the steps."""
+def test_logged_voltages_are_the_rule_base_at_the_logged_inputs(tmp_path, geometry, capsys):
+    """The trace's voltages are what the shipped rule base gives at the trace's inputs,
+    checked through an independent evaluator (simpful) on a sample of the steps. The
+    rule base reads NONE for d_o as the text has it, which a .fis cannot say, so ``fis
+    export`` refuses it with a sentence; the two systems that reading splits into (rules
+    26-40 while an obstacle is sensed, all 40 while none is) are MATLAB systems, and
+    each goes through a .fis to simpful."""
     pytest.importorskip("simpful")
-    fis_path = tmp_path / "paper.fis"
-    assert main(["fis", "export", str(fis_path), "--geometry", geometry]) == 0
+    from fuzzynav.controller.paper import RULES_BY_GEOMETRY
+
+    assert main(["fis", "export", str(tmp_path / "paper.fis"), "--geometry", geometry]) == 2
+    assert "a .fis cannot say" in capsys.readouterr().err
+    assert not (tmp_path / "paper.fis").exists()
     trace = tmp_path / "s2.csv"
     assert main(["run", "s2", "--geometry", geometry, "--trace", str(trace)]) == 0
     rows = _read_trace(trace)
     col = {name: i for i, name in enumerate(rows[0])}
     body = rows[1:-1]
-    system = read_fis(fis_path)
-    ours = [float(r[col["controller_left_v"]]) for r in body]
+    shipped = read_toml(RULES_BY_GEOMETRY[geometry])
     inputs = np.array(
         [
             [
@@ -184,14 +191,26 @@ def test_logged_voltages_are_the_exported_fis_at_the_logged_inputs(tmp_path, geo
             for r in body
         ]
     )
-    left_right = system.evaluate(inputs)
-    np.testing.assert_allclose(left_right[:, 0], ours, atol=1e-9)
+    ours = np.array(
+        [[float(r[col[k]]) for k in ("controller_left_v", "controller_right_v")] for r in body]
+    )
+    np.testing.assert_allclose(shipped.evaluate(inputs), ours, atol=1e-9)
     applied = np.array([[float(r[col["v_left_v"]]), float(r[col["v_right_v"]])] for r in body])
-    np.testing.assert_allclose(np.clip(left_right, -12, 12), applied, atol=1e-9)
-    # The same rows through simpful, an evaluator that shares no code with ours.
+    np.testing.assert_allclose(np.clip(ours, -12, 12), applied, atol=1e-9)
+    # The same rows through simpful, an evaluator that shares no code with ours, each
+    # row through the MATLAB system its reading of NONE picks (written as .fis and read).
     from test_fuzzy_engine import build_simpful, simpful_eval
 
-    oracle = build_simpful(system)
+    split = {}
+    for sensed in (False, True):
+        matlab = shipped.gated_system([sensed])[0]
+        path = tmp_path / f"sensed_{sensed}.fis"
+        write_fis(matlab, path)
+        system = read_fis(path)
+        split[sensed] = (system, build_simpful(system))
+    sensed_rows = ~np.isnan(inputs[:, 1])
+    assert sensed_rows.any() and (~sensed_rows).any()
     for k in np.linspace(0, len(body) - 1, 25).astype(int):
+        system, oracle = split[bool(sensed_rows[k])]
         want = simpful_eval(system, *oracle, inputs[k])
-        np.testing.assert_allclose(want, left_right[k], atol=1e-9)
+        np.testing.assert_allclose(want, ours[k], atol=1e-9)

@@ -79,6 +79,17 @@ class Reading:
 
 
 SCENARIO_FILE_READING = Reading()
+#: The reading shipped (issue 35's table selected it): the scenario files' heading and
+#: field of view, and Table 1's NONE for d_o read as the text has it.
+SHIPPED_READING = Reading(none_reading="unsensed")
+
+
+def select_reading(results: list[dict]) -> dict:
+    """The selection rule of issue 35, written down before the fits ran
+    (docs/paper-controller.md, "Readings of the text"): of every reading's judged best
+    fit (``bounds_met``, ``worst_scaled``, ``fit_cost``), the one that meets the most
+    done bounds; ties broken by the smaller worst scaled residual, then the fit cost."""
+    return min(results, key=lambda r: (-r["bounds_met"], r["worst_scaled"], r["fit_cost"]))
 
 
 def closest_approaches(time_s, center_distance_m) -> list[tuple[float, float]]:
@@ -127,7 +138,7 @@ def run_once(
     perception: str = "ideal",
     stall_s=None,
     model=None,
-    reading: Reading = SCENARIO_FILE_READING,
+    reading: Reading = SHIPPED_READING,
 ):
     """One run of ``system`` from the scenario's own start (its heading included: a
     reading of the text, never fitted), or as ``reading`` changes it; with ``stall_s``,
@@ -298,7 +309,7 @@ class FitCost:
         husky_perception: tuple[str, ...] = HUSKY_PERCEPTION,
         husky_weight: float = 1.0,
         paper_geometry: bool = True,
-        reading: Reading = SCENARIO_FILE_READING,
+        reading: Reading = SHIPPED_READING,
     ):
         from fuzzynav.controller.paper_design import PaperDesignTunable
 
@@ -563,9 +574,12 @@ def cmd_fit_paper(args) -> int:
         reproduce_line(command) + "\n"
         f"(best cost {best:.6f} after {nit} generations, {nfev} candidates, "
         f"{elapsed:.0f} s on {args.workers} workers; cost: app/experiments/paper_fit.py)\n"
-        "The start heading is the scenarios' (pi/4, a reading of the text), never fitted."
+        "The start heading is the scenarios' (a reading of the text), never fitted; Table 1's "
+        "NONE for d_o reads as the text has it (docs/paper-controller.md)."
     )
-    [path] = PaperDesignTunable().save(x, out, header=header)
+    [path] = PaperDesignTunable().save(
+        x, out, header=header, unsensed_none=SHIPPED_READING.none_reading == "unsensed"
+    )
     summary = {"out": str(path), "cost": best, "generations": nit, "seconds": elapsed}
     if args.json:
         print_json(summary)

@@ -1,0 +1,295 @@
+"""What docs/paper-controller.md states about the shipped paper controller, computed.
+
+Every number the page gives about the shipped rule bases comes from here:
+:func:`shipped_runs` runs s1-s3 the way ``fuzzynav run sN --controller paper`` does (the
+paper's geometry with ``rules/paper.toml``; the Husky's with its twin
+``rules/paper_husky.toml``, ideal and ultrasonic), :func:`bound_checks` holds them to
+issue 35's done bounds, and :func:`render` writes the page's generated blocks (between
+``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``) from that data, from the
+readings table (``docs/data/paper_readings.json``) and from the held-out layouts
+(``docs/data/paper_generalise.json``). ``scripts/paper_check.py`` writes
+``docs/data/paper_controller.json`` and the page; ``tests/test_paper_docs.py`` runs
+them again and fails when the page, the data or the rule bases drifted apart.
+"""
+
+from __future__ import annotations
+
+import re
+
+from fuzzynav.app.experiments.paper_fit import MIN_RIGHT_OFFSET_M, SATURATION_V, measure
+from fuzzynav.app.published import SCENARIOS, paper_results
+
+HUSKY_PERCEPTION = ("ideal", "ultrasonic")
+# issue 35's done bounds (paper geometry) and the twin's (Husky geometry)
+PATH_BOUND, TABLE4_BOUND = 0.03, 0.25
+EVENT_TIME_BOUND, EVENT_DISTANCE_BOUND_M = 0.20, 0.15
+FINAL_PHI_BOUND_RAD, MAX_JUMPS = 0.1, 2
+TWIN_CLEARANCE_M, TWIN_PATH_M, TWIN_MAD_FACTOR, TWIN_PHI_RAD = 0.25, 13.0, 2.0, 0.3
+KEYS = (
+    "reached",
+    "collided",
+    "time_to_target_s",
+    "path_length_m",
+    "mad_m",
+    "rmse_m",
+    "min_center_distance_m",
+    "min_clearance_m",
+    "passes",
+    "final_phi_t_rad",
+    "max_voltage_v",
+    "largest_right_offset_m",
+    "chatter_steps",
+)
+
+
+def _run(name: str, geometry: str, perception: str) -> dict:
+    from fuzzynav.app.runs import run_scenario
+
+    result = run_scenario(name, "paper", perception=perception, geometry=geometry)
+    measured = measure(result)
+    return {k: _plain(measured[k]) for k in KEYS}
+
+
+def _plain(value):
+    if isinstance(value, tuple | list):
+        return [_plain(v) for v in value]
+    return value
+
+
+def shipped_runs() -> dict:
+    """s1-s3 with the shipped rule bases: ``{"paper": {s: run}, "husky": {perception:
+    {s: run}}}``, each run the measures of :func:`app.experiments.paper_fit.measure`."""
+    return {
+        "paper": {name: _run(name, "paper", "ideal") for name in SCENARIOS},
+        "husky": {
+            perception: {name: _run(name, "husky", perception) for name in SCENARIOS}
+            for perception in HUSKY_PERCEPTION
+        },
+    }
+
+
+def bound_checks(runs: dict, paper: dict | None = None) -> list[dict]:
+    """Issue 35's done bounds on paper-geometry runs ``{s: run}``: name, met, and for a
+    numeric bound the residual in units of its bound (|error| / bound)."""
+    paper = paper or paper_results()
+    out = []
+
+    def add(name, met, scaled=None):
+        out.append({"name": name, "met": bool(met), "scaled": scaled})
+
+    for name, m in runs.items():
+        table = paper["table4"][name]
+        add(f"{name}.reached", m["reached"] and not m["collided"])
+        path = abs(m["path_length_m"] / table["path_length_m"] - 1) / PATH_BOUND
+        add(f"{name}.path", path <= 1, path)
+        for key in ("mad_m", "rmse_m", "min_center_distance_m"):
+            r = abs(m[key] / table[key] - 1) / TABLE4_BOUND
+            add(f"{name}.{key}", r <= 1, r)
+        for event in paper["events"].get(name, []):
+            t, d = m["passes"][event["obstacle"]]
+            if "time_s" in event:
+                r = abs(t / event["time_s"] - 1) / EVENT_TIME_BOUND
+                add(f"{name}.pass{event['obstacle']}.time", r <= 1, r)
+            r = abs(d - event["distance_m"]) / EVENT_DISTANCE_BOUND_M
+            add(f"{name}.pass{event['obstacle']}.distance", r <= 1, r)
+        r = abs(m["final_phi_t_rad"]) / FINAL_PHI_BOUND_RAD
+        add(f"{name}.final_phi_t", r <= 1, r)
+        add(f"{name}.no_chatter", m["chatter_steps"] <= MAX_JUMPS)
+    s1 = [d for _, d in runs["s1"]["passes"]]
+    add("s1.first_passed_farthest", s1[0] > max(s1[1:]))
+    add("s1.from_the_right", runs["s1"]["largest_right_offset_m"] >= MIN_RIGHT_OFFSET_M)
+    add("s3.static_later_than_s2", runs["s3"]["passes"][0][0] > runs["s2"]["passes"][0][0])
+    add("s3.right_wheel_12V", runs["s3"]["max_voltage_v"][1] >= SATURATION_V - 0.01)
+    return out
+
+
+def twin_checks(run: dict, name: str, paper: dict | None = None) -> dict[str, bool]:
+    """The Husky twin's bounds on one run (issue 35)."""
+    paper = paper or paper_results()
+    reached = run["reached"] and not run["collided"]
+    return {
+        "reached": reached,
+        "clearance": reached and run["min_clearance_m"] >= TWIN_CLEARANCE_M,
+        "path": reached and run["path_length_m"] <= TWIN_PATH_M,
+        "mad": reached and run["mad_m"] <= TWIN_MAD_FACTOR * paper["table4"][name]["mad_m"],
+        "phi_t": reached and abs(run["final_phi_t_rad"]) <= TWIN_PHI_RAD,
+        "no_chatter": run["chatter_steps"] <= MAX_JUMPS,
+    }
+
+
+# -- the page's generated blocks --------------------------------------------------------
+
+
+def _pct(ours, paper):
+    return f"{ours:.3f} ({paper:g}; {100 * (ours / paper - 1):+.1f} %)"
+
+
+def _yes(met: bool) -> str:
+    return "met" if met else "**not met**"
+
+
+def render_paper(data: dict) -> str:
+    paper = paper_results()
+    runs = data["paper"]
+    lines = [
+        "| | path m | MAD m | RMSE m | min centre distance m | time s | final phi_t rad | max V (left, right) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, m in runs.items():
+        t4 = paper["table4"][name]
+        if not m["reached"]:
+            lines.append(f"| {name} | {'collided' if m['collided'] else 'timeout'} |||||||")
+            continue
+        lines.append(
+            f"| {name} | {_pct(m['path_length_m'], t4['path_length_m'])} "
+            f"| {_pct(m['mad_m'], t4['mad_m'])} | {_pct(m['rmse_m'], t4['rmse_m'])} "
+            f"| {_pct(m['min_center_distance_m'], t4['min_center_distance_m'])} "
+            f"| {m['time_to_target_s']:.1f} | {m['final_phi_t_rad']:+.3f} "
+            f"| {m['max_voltage_v'][0]:.2f}, {m['max_voltage_v'][1]:.2f} |"
+        )
+    lines += ["", "| event | paper | ours | difference |", "|---|---|---|---|"]
+    for name, m in runs.items():
+        for event in paper["events"].get(name, []):
+            t, d = m["passes"][event["obstacle"]]
+            label = f"{name} obstacle {event['obstacle'] + 1}"
+            if "time_s" in event:
+                lines.append(
+                    f"| {label} passed at | {event['time_s']:g} s | {t:.1f} s "
+                    f"| {t - event['time_s']:+.1f} s ({100 * (t / event['time_s'] - 1):+.1f} %) |"
+                )
+            lines.append(
+                f"| {label} passed by | {event['distance_m']:g} m | {d:.3f} m "
+                f"| {d - event['distance_m']:+.3f} m |"
+            )
+    checks = bound_checks(runs, paper)
+    met = sum(c["met"] for c in checks)
+    failed = [c for c in checks if not c["met"]]
+    s1 = [d for _, d in runs["s1"]["passes"]]
+    lines += [
+        "",
+        f"Story: s1's obstacles passed at {', '.join(f'{d:.2f}' for d in s1)} m, the robot "
+        f"at most {runs['s1']['largest_right_offset_m']:.2f} m right of the start-target line; "
+        f"s3's static obstacle passed at {runs['s3']['passes'][0][0]:.1f} s against s2's "
+        f"{runs['s2']['passes'][0][0]:.1f} s; s3's right wheel at most "
+        f"{runs['s3']['max_voltage_v'][1]:.2f} V.",
+        "",
+        f"**Issue 35's done bounds: {met} of {len(checks)} met.** Not met: "
+        + (
+            "; ".join(
+                f"{c['name']}" + (f" ({c['scaled']:.2f} x its bound)" if c["scaled"] else "")
+                for c in failed
+            )
+            or "none"
+        )
+        + ".",
+    ]
+    return "\n".join(lines)
+
+
+def render_twin(data: dict) -> str:
+    paper = paper_results()
+    lines = [
+        "| perception | scenario | outcome | path m (<= 13) | MAD m (<= 2 x paper) | clearance m (>= 0.25) | phi_t at arrival rad (<= 0.3) | time s | jumps (<= 2) | bounds |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    total = met = 0
+    for perception, runs in data["husky"].items():
+        for name, m in runs.items():
+            checks = twin_checks(m, name, paper)
+            total += len(checks)
+            met += sum(checks.values())
+            outcome = "reached" if m["reached"] else "collided" if m["collided"] else "timeout"
+            time_s = "—" if m["time_to_target_s"] is None else f"{m['time_to_target_s']:.1f}"
+            lines.append(
+                f"| {perception} | {name} | {outcome} | {m['path_length_m']:.2f} "
+                f"| {m['mad_m']:.3f} ({2 * paper['table4'][name]['mad_m']:.3f}) "
+                f"| {m['min_clearance_m']:.3f} | {m['final_phi_t_rad']:+.3f} | {time_s} "
+                f"| {m['chatter_steps']} | {sum(checks.values())} of {len(checks)} |"
+            )
+    lines += ["", f"**The twin's bounds: {met} of {total} met.**"]
+    return "\n".join(lines)
+
+
+def render_readings(table: dict) -> str:
+    from fuzzynav.app.experiments.paper_fit import select_reading
+
+    chosen = select_reading(table["results"])
+    lines = [
+        "| reading | bounds met (of 36) | worst residual (x its bound) | fit cost | s1 passes m | s2 / s3 static pass s | s3 right wheel max V |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in table["results"]:
+        runs = r["runs"]
+        passes = ", ".join(f"{d:.2f}" for _, d in runs["s1"]["passes"])
+        mark = " **(selected)**" if r is chosen else ""
+        lines.append(
+            f"| {r['reading']}{mark} | {r['bounds_met']} | {r['worst_scaled']:.2f} "
+            f"| {r['fit_cost']:.1f} | {passes} "
+            f"| {runs['s2']['passes'][0][0]:.1f} / {runs['s3']['passes'][0][0]:.1f} "
+            f"| {runs['s3']['max_voltage_v'][1]:.2f} |"
+        )
+    budget = table["budget"]
+    lines += [
+        "",
+        f"Budget per reading: {budget['screen']} seeded uniform draws plus the hand layout, "
+        f"then CMA-ES {budget['popsize']} x {budget['maxiter']} (seed {budget['seed']}, "
+        f"sigma {budget['sigma']}) at {budget['dt']} s; judged on the pymunk engine at 0.02 s.",
+    ]
+    return "\n".join(lines)
+
+
+def render_generalise(table: dict) -> str:
+    lines = [
+        "| controller | rule base | geometry | perception | reached safely (budget) | reached safely (4x budget) | reached (budget) | collided (budget) | failures within the budget |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in table["rows"]:
+        if r["controller"] == "fuzzynav":
+            lines.append(
+                f"| fuzzynav | — | {r['geometry']} | {r['perception']} "
+                f"| {r['reached_safely_pct']:.1f} % | (not run) | {r['reached_pct']:.1f} % | | |"
+            )
+            continue
+        kinds = ", ".join(f"{k} {v}" for k, v in r["failures_within_budget"].items())
+        lines.append(
+            f"| paper | {r['rule_base']} | {r['geometry']} | {r['perception']} "
+            f"| {r['reached_safely_pct']:.1f} % | {r['reached_safely_4x_pct']:.1f} % "
+            f"| {r['reached_pct']:.1f} % | {r['within_budget']['collided']} | {kinds} |"
+        )
+    lines += [
+        "",
+        f"Seed {table['seed']} (held out: no fit used it), family {table['family']}, "
+        f"{table['rows'][0]['n']} layouts; 'reached safely': the target reached with at "
+        "least 0.25 m between the robot (its footprint in the Husky geometry) and every "
+        "obstacle.",
+    ]
+    return "\n".join(lines)
+
+
+def blocks(data: dict, readings: dict, generalise: dict | None) -> dict[str, str]:
+    out = {
+        "paper-results": render_paper(data),
+        "twin-results": render_twin(data),
+        "readings-table": render_readings(readings),
+    }
+    if generalise is not None:
+        out["generalise"] = render_generalise(generalise)
+    return out
+
+
+def generated(text: str) -> dict[str, str]:
+    """The generated blocks of a page, by name."""
+    return {
+        m.group(1): m.group(2).strip("\n")
+        for m in re.finditer(r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", text, re.S)
+    }
+
+
+def with_blocks(text: str, new: dict[str, str]) -> str:
+    """``text`` with each generated block replaced by ``new``'s (a missing one is an error)."""
+    for name, body in new.items():
+        pattern = re.compile(rf"(<!-- generated:{name} -->\n).*?(<!-- /generated:{name} -->)", re.S)
+        if not pattern.search(text):
+            raise ValueError(f"the page has no generated block {name!r}")
+        text = pattern.sub(lambda m, b=body: m.group(1) + b + "\n" + m.group(2), text)
+    return text
