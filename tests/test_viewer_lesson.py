@@ -98,3 +98,31 @@ def test_a_paused_read_leaves_the_runs_noise_stream_as_it_was():
             app.step_once()
         runs.append(np.array(app.sim.arena.pose))
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)
+
+
+def test_a_refusal_in_what_if_or_looking_back_goes_when_that_mode_ends():
+    """Defect 5: the red message of a refused what-if value (or time) outlived what-if
+    mode and the time slider."""
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper")
+    for _ in range(10):
+        app.step_once()
+    app.start_what_if()
+    with pytest.raises(ViewerError) as refused:
+        app.set_what_if_input(0, 1e6)
+    app._notice(str(refused.value), "error")  # as the page's guard tells it
+    assert app.snapshot().message
+    app.stop_what_if()
+    assert app.snapshot().message == ""
+    # the time slider: a refusal said while looking back goes with Live, and with Play
+    for leave in (app.leave_history, app.step_once):
+        app.view_history(0.1)
+        app._notice("time 'x': must be a number of seconds", "error")
+        leave()
+        assert app.snapshot().message == ""
+    # a message said outside those modes stays
+    app._notice("Obstacle 1 is on the robot", "warning")
+    app.start_what_if()
+    app.stop_what_if()
+    assert app.snapshot().message == "Obstacle 1 is on the robot"

@@ -26,6 +26,7 @@ from fuzzynav.app.viewer.model import ViewerError
 from fuzzynav.app.viewer.origin_guard import guarded_server_start
 
 BUILD_ATTEMPTS = 3  # a tab's world is built at most this many times before it is told
+TEACHER_ORDER = 1e15  # the Teacher folder's place: after every component viser numbers
 
 
 class ClassroomServer:
@@ -121,9 +122,13 @@ class ClassroomServer:
         if client.client_id not in self.server.get_clients():
             return  # gone before its turn
         view = ViewerServer(self.make_app(), surface=ClientSurface(self.server, client))
-        with self._lock:  # registered before anything else can fail: a retry stops it
+        try:  # a tab is a session once its panel is whole, Teacher folder and all
+            self._add_teacher_folder(view, client.client_id)
+        except BaseException:
+            view.stop()  # (not registered yet: a retry would not stop it)
+            raise
+        with self._lock:
             self.sessions[client.client_id] = view
-        self._add_teacher_folder(view, client.client_id)
         if client.client_id not in self.server.get_clients():  # left while being built
             self._close(client.client_id)
 
@@ -136,8 +141,19 @@ class ClassroomServer:
 
     def _add_teacher_folder(self, view, client_id: int) -> None:
         gui = view.server.gui
-        with gui.add_folder("Teacher", expand_by_default=False, order=1000.0):
+        # Last in the panel whatever else the tab holds: viser numbers the components of
+        # the whole server with one counter (1, 2, 3, ...), which passed the folder's
+        # order of 1000 after a few tabs, and the folder jumped above the clock.
+        with gui.add_folder("Teacher", expand_by_default=False, order=TEACHER_ORDER):
             box = gui.add_text("Teacher's token", "", hint="printed by fuzzynav serve --classroom")
+            # Never readable on the projected page: the box shows discs (viser's text box
+            # has no password kind), and it is emptied once the token is taken.
+            # (viser labels the box with <label for=uuid> beside it: the row that holds
+            # that label holds the box.)
+            gui.add_html(
+                f"<style>div:has(> div > p > label[for='{box._impl.uuid}']) input"
+                "{-webkit-text-security:disc;text-security:disc}</style>"
+            )
             push = gui.add_button(
                 "Push my world's setup to the class",
                 visible=False,
@@ -151,6 +167,8 @@ class ClassroomServer:
                 with self._lock:
                     self.teachers.add(client_id)
                 push.visible = True
+                box.value = ""  # (a server-side set: on_token sees no client, and returns)
+                box.visible = False
                 view.tell(
                     event.client, "You are the teacher: you can push to the class.", "success"
                 )

@@ -231,6 +231,7 @@ class RunDriver:
     def play(self) -> None:
         app = self.app
         with app.lock:
+            self._end_modes_locked()
             app.what_if = None  # Play leaves what-if mode ...
             app.history_index = None  # ... and the time slider's past
             if app.sim.done:
@@ -239,6 +240,15 @@ class RunDriver:
             self._anchor()
             app._bump()
         app._wake.set()
+
+    def _end_modes_locked(self) -> None:
+        """Play and Step leave what-if mode and the time slider's past, and what was
+        refused in them goes with them."""
+        app = self.app
+        if app.what_if is not None:
+            app._end_mode_message_locked("what-if")
+        if app.history_index is not None:
+            app._end_mode_message_locked("history")
 
     def pause(self) -> None:
         app = self.app
@@ -257,6 +267,7 @@ class RunDriver:
         """Pause and advance exactly one control period."""
         app = self.app
         with app.lock:
+            self._end_modes_locked()
             app.what_if = None
             app.history_index = None
             app.playing = False

@@ -72,6 +72,8 @@ class RunHistory:
             times = np.array([h.time_s for h in app._history])
             k = int(np.argmin(np.abs(times - time_s)))
             app.playing = False
+            if app.what_if is not None:
+                app._end_mode_message_locked("what-if")
             app.what_if = None
             app.history_index = k
             app._bump()
@@ -102,6 +104,7 @@ class RunHistory:
         with app.lock:
             if app.history_index is not None:
                 app.history_index = None
+                app._end_mode_message_locked("history")
                 app._bump()
 
     def _finish_locked(self) -> None:

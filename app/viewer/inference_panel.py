@@ -28,6 +28,7 @@ class InferencePanel:
         self._system_count = 0
         self._uid = "fz0"
         self.last_inference = None
+        self._ranges_for = None  # the rule base the what-if sliders' ranges are from
         self._timeline_key = None
         self._next_timeline = 0.0
 
@@ -95,8 +96,26 @@ class InferencePanel:
         self.last_inference = None
         self.app._bump()
 
+    def _fit_what_if_ranges(self) -> None:
+        """Each what-if slider spans its input's range in the rule base now driving (the
+        one :meth:`ViewerApp.set_what_if_input` checks against), rounded inwards to the
+        slider's 0.01 steps: a value the slider or its box offers is never refused
+        (issue 38: the d_t box refused 50 as "between -1.13 and 30", its slider ran 0-20)."""
+        fis = self.app.what_if_system()
+        if fis is None or id(fis) == self._ranges_for:
+            return
+        self._ranges_for = id(fis)
+        for box, var in zip(self.what_if_boxes, fis.inputs):
+            lo, hi = (float(v) for v in var.range)
+            lo, hi = math.ceil(lo * 100 - 1e-9) / 100, math.floor(hi * 100 + 1e-9) / 100
+            if (box.min, box.max) != (lo, hi) and lo < hi:
+                box.min, box.max = lo, hi
+                if not lo <= box.value <= hi:
+                    box.value = min(max(box.value, lo), hi)
+
     def sync(self, snap: Snapshot) -> None:
         """What-if mode's box and numbers as the world has them."""
+        self._fit_what_if_ranges()
         on = snap.what_if is not None
         if self.what_if_cb.value != on:
             self.what_if_cb.value = on

@@ -241,12 +241,31 @@ class ViewerApp:
     def _notice(self, text: str, level: str = "info") -> None:
         with self.lock:
             self.message, self.message_level = text, level
+            # said while trying inputs or looking back: it goes when that mode ends
+            self._message_mode = (
+                "what-if"
+                if self.what_if is not None
+                else "history"
+                if self.history_index is not None
+                else None
+            )
             self._bump()
         for listener in list(self._listeners):
             try:
                 listener(text, level)
             except Exception:
                 pass
+
+    def _end_mode_message_locked(self, mode: str) -> None:
+        """What-if mode or the time slider's past ended: a warning or an error said in
+        it (a refused value) goes with it (issue 38: the red message outlived both)."""
+        if (
+            self.message
+            and getattr(self, "_message_mode", None) == mode
+            and self.message_level in ("error", "warning")
+        ):
+            self.message, self.message_level = "", "info"
+            self._message_mode = None
 
     def on_message(self, func) -> None:
         """``func(text, level)`` whenever the app has something to tell the user."""

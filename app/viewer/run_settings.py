@@ -279,6 +279,7 @@ class RunSettings:
             return {
                 "scenario_label": app.scenario_label,
                 "scenario": app.editing._layout_scenario(),
+                "base_scenario": app.base_scenario,
                 "controller": app.controller_label,
                 "fis": None if named else fis,
                 "perception": app.sim.perception.mode,
@@ -298,12 +299,19 @@ class RunSettings:
         if settings["geometry"] != app.geometry:
             self.set_geometry(settings["geometry"])
         label = settings["scenario_label"]
+        # The teacher's scenario as loaded, then the teacher's edits on it: the students'
+        # status then says "layout edited" when the teacher's did (issue 38), and their
+        # Restore goes back to the scenario as loaded.
+        base = settings.get("base_scenario", settings["scenario"])
         with app.lock:
-            if label in scenario_names() and settings["scenario"] == load_scenario(label):
+            if label in scenario_names() and base == load_scenario(label):
                 app.uploaded_scenarios.pop(label, None)  # the shipped file as it is
-            else:  # the teacher's layout (edited, or uploaded) under the teacher's name
-                app.uploaded_scenarios[label] = settings["scenario"]
+            else:  # the teacher's scenario (uploaded) under the teacher's name
+                app.uploaded_scenarios[label] = base
         app.editing.load_scenario(label)
+        if settings["scenario"] != base:
+            with app.lock:
+                app.driver._reset_locked(settings["scenario"])
         for name in [p.name for p in self.part_options()]:
             if (name in settings["parts_off"]) != (name in app.parts_off):
                 self.set_part(name, name not in settings["parts_off"])

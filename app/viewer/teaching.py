@@ -53,6 +53,8 @@ class Teaching:
                 )
             if app.what_if is not None:
                 return
+            if app.history_index is not None:
+                app._end_mode_message_locked("history")
             app.history_index = None
             app._resume_after_what_if = app.playing
             app.playing = False
@@ -93,6 +95,7 @@ class Teaching:
             if app.what_if is None:
                 return
             app.what_if = None
+            app._end_mode_message_locked("what-if")
             resume = app._resume_after_what_if
             app._bump()
         if resume:
