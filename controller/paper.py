@@ -61,6 +61,8 @@ RULE_BASE_NAMES = {
     "paper": "the paper's controller, fitted in the paper's geometry",
     "husky": "the paper's controller adapted to the Husky's body (its twin)",
 }
+#: ... in a few words (the viewer's status line)
+RULE_BASE_SHORT = {"paper": "fitted in the paper's geometry", "husky": "Husky twin"}
 
 _K = 4.71  # 2 * sqrt(2 ln 2) * 2: Gaussian at 0.5 half-way to the neighbouring peaks
 

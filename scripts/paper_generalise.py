@@ -37,8 +37,9 @@ MODES = [("paper", "ideal"), ("husky", "ideal"), ("husky", "ultrasonic")]
 
 def outcomes(result, layouts, budgets) -> dict:
     """Counts within the budget and within 4x it, and the failures' kinds."""
-    within, within4 = {"reached": 0, "collided": 0, "timeout": 0}, dict.fromkeys(
-        ("reached", "collided", "timeout"), 0
+    within, within4 = (
+        {"reached": 0, "collided": 0, "timeout": 0},
+        dict.fromkeys(("reached", "collided", "timeout"), 0),
     )
     kinds = {"collided": 0, "slow (arrives within 4x)": 0, "stuck or orbiting": 0}
     safe, safe4 = 0, 0

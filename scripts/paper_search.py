@@ -35,7 +35,9 @@ MODES = {
 
 
 class SearchCost:
-    def __init__(self, modes, husky_weight: float, dt: float, reading=paper_fit.SCENARIO_FILE_READING):
+    def __init__(
+        self, modes, husky_weight: float, dt: float, reading=paper_fit.SCENARIO_FILE_READING
+    ):
         self.fit = paper_fit.FitCost(dt, husky=True, reading=reading)
         self.modes = [MODES[m] for m in modes]
         self.husky_weight = husky_weight

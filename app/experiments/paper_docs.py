@@ -266,8 +266,127 @@ def render_generalise(table: dict) -> str:
     return "\n".join(lines)
 
 
+def render_readme_headline(data: dict, generalise: dict | None) -> str:
+    """The README's headline paragraph on the paper's controller, from the same data."""
+    paper = paper_results()
+    runs = data["paper"]
+    checks = bound_checks(runs, paper)
+    met = sum(c["met"] for c in checks)
+    pct = {
+        name: {
+            key: 100 * (m[key] / paper["table4"][name][key] - 1)
+            for key in ("path_length_m", "mad_m", "rmse_m", "min_center_distance_m")
+        }
+        for name, m in runs.items()
+    }
+    worst = {key: max(abs(pct[n][key]) for n in pct) for key in pct["s1"]}
+    twin_total = twin_met = twin_reached = 0
+    for twin_runs in data["husky"].values():
+        for name, m in twin_runs.items():
+            c = twin_checks(m, name, paper)
+            twin_total += len(c)
+            twin_met += sum(c.values())
+            twin_reached += c["reached"]
+    s1 = ", ".join(f"{d:.2f}" for _, d in runs["s1"]["passes"])
+    text = (
+        "**The paper's controller, in the paper's own world.** Table 1's 40 rules with "
+        "membership functions drawn from 12 numbers under design rules a reviewer would ask "
+        "of a hand-drawn controller (`controller/design_rules.py`), fitted in the paper's "
+        "geometry (a point robot, `--geometry paper`) under the reading of the text its "
+        "results support, chosen among eight by a rule written down before the fits: a start "
+        "facing +x, ideal perception of the front half-plane, and Table 1's NONE as the "
+        "text has it (the goal rules hold only while no obstacle is sensed). It reaches "
+        f"s1-s3 and meets **{met} of issue 35's {len(checks)} bounds**: Table 4's MAD, RMSE "
+        f"and minimum distance within {max(worst['mad_m'], worst['rmse_m'], worst['min_center_distance_m']):.0f} % "
+        f"(paths {worst['path_length_m']:.1f} % short at most), s1's obstacles passed at "
+        f"{s1} m coming from the right of the line, the target bearing settling to "
+        f"{max(abs(m['final_phi_t_rad']) for m in runs.values()):.3f} rad; s3's right wheel "
+        f"stays at {runs['s3']['max_voltage_v'][1]:.1f} V (the paper: clipped at 12 V). "
+        "On the Husky's footprint (the default world, the viewer's) drives its twin, "
+        "`rules/paper_husky.toml`, fitted for that body: it reaches "
+        f"{twin_reached} of s1-s3's six runs (ideal and sonars) and meets {twin_met} of its "
+        f"{twin_total} bounds."
+    )
+    if generalise is not None:
+        rows = {(r["geometry"], r["perception"]): r for r in generalise["rows"]}
+        twin = rows.get(("husky", "ideal"))
+        if twin is not None:
+            text += (
+                f" On {twin['n']} held-out random layouts the twin reaches "
+                f"{twin['reached_safely_pct']:.0f} % safely within their time budget "
+                f"({twin['reached_safely_4x_pct']:.0f} % with four times it)."
+            )
+    return text + (
+        " Every residual, the readings table and what binds: "
+        "[docs/paper-controller.md](docs/paper-controller.md); every controller beside the "
+        "paper's numbers: [docs/table4.md](docs/table4.md)."
+    )
+
+
+def render_readme_compare(compare: dict) -> str:
+    """The README's table of ``fuzzynav compare`` sweeps (ideal and ultrasonic)."""
+    by = {(r["controller"], r["perception"]): r for c in compare.values() for r in c["sweeps"]}
+    names = {"baseline": "baseline (stand-in)", "p": "p (obstacle-blind)"}
+    lines = [
+        "| controller | ideal: success / safe | ultrasonic: success / safe |",
+        "|---|---|---|",
+    ]
+    for controller in compare["ideal"]["controllers"]:
+        cells = []
+        for perception in ("ideal", "ultrasonic"):
+            r = by[(controller, perception)]
+            cell = f"{100 * r['success_rate']:.0f} % / {100 * r['safe_success_rate']:.0f} %"
+            cells.append(f"**{cell}**" if controller == "fuzzynav" else cell)
+        lines.append(f"| {names.get(controller, controller)} | {cells[0]} | {cells[1]} |")
+    n = compare["ideal"]["sweeps"][0]["n"]
+    seed = compare["ideal"]["sweeps"][0]["seed"]
+    lines += [
+        "",
+        f"({n} standard layouts of held-out seed {seed}, Husky geometry; `paper` is its "
+        "twin there.)",
+    ]
+    return "\n".join(lines)
+
+
+LAYOUT_MEANINGS = {
+    "d_t.c0": "where VS stops holding 1 (m)",
+    "d_t.top": "where VL starts holding 1 (m)",
+    "d_t.r": "growth of each d_t spacing over the one before",
+    "d_o.near": "where near stops holding 1 (m)",
+    "d_o.far": "where far starts holding 1 (m; medium half-way)",
+    "phi_t.p": "centre of P (N at -p; rad)",
+    "phi_t.q": "VP holds 1 from p (1 + q) (VN mirrored), kept inside the universe",
+    "phi_o.p": "the same for the obstacle bearing (rad)",
+    "phi_o.q": "the same for the obstacle bearing",
+    "v.e0": "where the wheels' VS holds 1 (V; the slow wheel of a turn)",
+    "v.top": "where VL starts holding 1 (V)",
+    "v.r": "growth of the voltage spacing from one term to the next",
+}
+
+
+def render_layout() -> str:
+    """The 12 numbers, their meaning, bounds and the shipped values (both rule bases)."""
+    from fuzzynav.app.experiments.tuning import read_vector
+    from fuzzynav.controller.paper import RULES_BY_GEOMETRY
+    from fuzzynav.controller.paper_design import DESIGN_PARAMETERS
+
+    names = [p[0] for p in DESIGN_PARAMETERS]
+    shipped = {g: read_vector(path, names) for g, path in RULES_BY_GEOMETRY.items()}
+    lines = [
+        "| number | meaning | bounds | paper.toml | paper_husky.toml |",
+        "|---|---|---|---|---|",
+    ]
+    for k, (name, lo, hi, _) in enumerate(DESIGN_PARAMETERS):
+        lines.append(
+            f"| `{name}` | {LAYOUT_MEANINGS[name]} | {lo:g} .. {hi:g} "
+            f"| {shipped['paper'][k]:.4g} | {shipped['husky'][k]:.4g} |"
+        )
+    return "\n".join(lines)
+
+
 def blocks(data: dict, readings: dict, generalise: dict | None) -> dict[str, str]:
     out = {
+        "layout": render_layout(),
         "paper-results": render_paper(data),
         "twin-results": render_twin(data),
         "readings-table": render_readings(readings),
@@ -277,11 +396,20 @@ def blocks(data: dict, readings: dict, generalise: dict | None) -> dict[str, str
     return out
 
 
+def readme_blocks(data: dict, generalise: dict | None, compare: dict | None) -> dict[str, str]:
+    out = {"readme-headline": render_readme_headline(data, generalise)}
+    if compare is not None:
+        out["readme-compare"] = render_readme_compare(compare)
+    return out
+
+
 def generated(text: str) -> dict[str, str]:
     """The generated blocks of a page, by name."""
     return {
         m.group(1): m.group(2).strip("\n")
-        for m in re.finditer(r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", text, re.S)
+        for m in re.finditer(
+            r"<!-- generated:([\w-]+) -->\n(.*?)<!-- /generated:\1 -->", text, re.S
+        )
     }
 
 

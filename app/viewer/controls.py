@@ -44,6 +44,31 @@ def colour_key_html() -> str:
     return f"<div class='fz-colour-key' style='font-size:0.8em;padding:0 6px'>{rows}</div>"
 
 
+# The keyboard (issue 38): space plays or pauses, the right arrow steps, R resets. viser
+# offers no key events, and its HTML element sets innerHTML, where a <script> never
+# runs: an image that cannot load runs its onerror once, which installs one listener on
+# the page. A key presses the Run button of that name, so it travels as the button's own
+# click (guarded, in order, like a mouse press). Not while typing in a box, nor with
+# Ctrl, Alt or Meta (the browser's own shortcuts).
+_KEYS_JS = (
+    "if(!window.__fzKeys){window.__fzKeys=1;document.addEventListener('keydown',function(e){"
+    "var t=e.target,g=(t&&t.tagName)||'';if(/^(INPUT|TEXTAREA|SELECT)$/.test(g)||"
+    "(t&&t.isContentEditable)||e.ctrlKey||e.metaKey||e.altKey||e.repeat)return;var n=null;"
+    "if(e.key===' '){var s=[].slice.call(document.querySelectorAll('.fz-status span'))"
+    ".filter(function(x){return x.textContent.indexOf('\u25cf')===0;})[0];"
+    "n=s&&s.textContent.indexOf('running')>=0?'Pause':'Play';}"
+    "else if(e.key==='ArrowRight')n='Step';else if(e.key==='r'||e.key==='R')n='Reset';"
+    "if(!n)return;var b=[].slice.call(document.querySelectorAll('button')).filter("
+    "function(x){return x.textContent.trim()===n;})[0];if(!b)return;e.preventDefault();"
+    "e.stopPropagation();b.click();},true);}"
+)
+KEYS_HTML = (
+    "<img class='fz-keys' alt='' src='data:,' style='display:none' onerror=\""
+    + html.escape(_KEYS_JS, quote=True)
+    + '">'
+)
+
+
 class ControlPanel:
     """The right-hand panel of one :class:`app.viewer.server.ViewerServer`."""
 
@@ -87,7 +112,8 @@ class ControlPanel:
         gui.add_html(
             "<div class='fz-drag-hint' style='font-size:0.8em;color:#475569;padding:0 8px'>"
             "Drag the <b>target</b> or an <b>obstacle</b> by its body; the robot reacts at "
-            "once. Scroll to zoom, right-drag to pan.</div>"
+            "once. Scroll to zoom, right-drag to pan. Keys: <b>space</b> play / pause, "
+            "<b>→</b> step, <b>R</b> reset.</div>" + KEYS_HTML
         )
 
         with gui.add_folder("Scenario"):
@@ -110,7 +136,10 @@ class ControlPanel:
 
         with gui.add_folder("Controller and sensing"):
             self.controller_dd = gui.add_dropdown(
-                "Controller", app.controller_options(), initial_value=app.controller_label
+                "Controller",
+                app.controller_options(),
+                initial_value=app.controller_label,
+                hint=paper_rule_base_hint(app.geometry),
             )
             self.controller_dd.on_update(self.view.guarded(lambda e: app.set_controller(e.value)))
             self.fis_upload = gui.add_upload_button(
@@ -265,3 +294,14 @@ class ControlPanel:
         label = self.app.upload_scenario(uploaded.content, uploaded.name)
         self.scenario_dd.options = self.app.scenario_options()
         self.scenario_dd.value = label
+
+
+def paper_rule_base_hint(geometry: str) -> str:
+    """Which rule base ``paper`` drives in this world (issue 35: the paper's controller
+    in its own geometry, its twin fitted for the Husky's body in the Husky's)."""
+    from fuzzynav.controller.paper import RULE_BASE_NAMES, RULES_BY_GEOMETRY
+
+    return (
+        f"paper: {RULE_BASE_NAMES[geometry]} (rules/{RULES_BY_GEOMETRY[geometry].name}); "
+        "the others as --controller describes them"
+    )

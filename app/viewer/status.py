@@ -123,7 +123,8 @@ class StatusLine:
             f"<span class='fz-state' style='font-weight:600;color:{colour};white-space:nowrap'>"
             f"● {state}</span></div>"
             f"<div style='font-size:0.85em;color:#475569'>{html.escape(snap.scenario_label)} · "
-            f"{html.escape(snap.controller_label)}{self._parts_note(snap)} · {snap.perception}"
+            f"{html.escape(snap.controller_label)}{self._rule_base_note(snap)}"
+            f"{self._parts_note(snap)} · {snap.perception}"
             f" · ×{snap.speed:g}{extras}</div>"
             "<table style='width:100%;font-size:0.85em;margin-top:4px;"
             "font-variant-numeric:tabular-nums;white-space:nowrap'><tr>"
@@ -134,6 +135,15 @@ class StatusLine:
             f"{_fmt(phi_o, 'rad') + mark if math.isfinite(phi_o) else 'none'}</td>"
             f"<td>V<sub>R</sub> {_fmt(v_r, 'V', 1)}</td></tr></table></div>"
         )
+
+    def _rule_base_note(self, snap: Snapshot) -> str:
+        """Which of the paper's rule bases drives (issue 35): its twin in the Husky's
+        world, the paper-geometry fit in the paper's."""
+        if snap.controller_label != "paper":
+            return ""
+        from fuzzynav.controller.paper import RULE_BASE_SHORT
+
+        return html.escape(f" ({RULE_BASE_SHORT[self.view.app.geometry]})")
 
     @staticmethod
     def _parts_note(snap: Snapshot) -> str:

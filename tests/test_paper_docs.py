@@ -1,0 +1,112 @@
+"""docs/paper-controller.md cannot drift (issue 35): its generated blocks are what
+``scripts/paper_check.py`` renders from docs/data/*.json, and the data are what the
+shipped rule bases do today; the viewer names the rule base that drives."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from fuzzynav.app.experiments import paper_docs
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "docs" / "data"
+PAGE = ROOT / "docs" / "paper-controller.md"
+
+
+def _load(name):
+    path = DATA / name
+    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+
+
+def _close(a, b, path="") -> None:
+    """Equal, floats to 1e-9 relative (the same runs on another machine's libm)."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), path
+        for k in a:
+            _close(a[k], b[k], f"{path}.{k}")
+    elif isinstance(a, list):
+        assert len(a) == len(b), path
+        for k, (x, y) in enumerate(zip(a, b)):
+            _close(x, y, f"{path}[{k}]")
+    elif isinstance(a, float) and isinstance(b, float):
+        assert math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12), (path, a, b)
+    else:
+        assert a == b, (path, a, b)
+
+
+@pytest.fixture(scope="module")
+def fresh():
+    return paper_docs.shipped_runs()
+
+
+def test_the_data_are_what_the_shipped_rule_bases_do(fresh):
+    """docs/data/paper_controller.json holds today's runs (run scripts/paper_check.py
+    after changing a rule base, a scenario or the loop)."""
+    _close(json.loads(json.dumps(fresh)), _load("paper_controller.json"))
+
+
+def test_the_page_is_rendered_from_the_data():
+    blocks = paper_docs.blocks(
+        _load("paper_controller.json"),
+        _load("paper_readings.json"),
+        _load("paper_generalise.json"),
+    )
+    found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
+    assert set(blocks) <= set(found), set(blocks) - set(found)
+    for name, body in blocks.items():
+        assert found[name] == body.strip("\n"), (
+            f"block {name!r} is stale: run scripts/paper_check.py"
+        )
+
+
+def test_the_readme_headline_is_rendered_from_the_data():
+    blocks = paper_docs.readme_blocks(
+        _load("paper_controller.json"),
+        _load("paper_generalise.json"),
+        _load("readme_compare.json"),
+    )
+    found = paper_docs.generated((ROOT / "README.md").read_text(encoding="utf-8"))
+    assert set(blocks) <= set(found), set(blocks) - set(found)
+    for name, body in blocks.items():
+        assert found[name] == body.strip("\n"), f"README block {name!r} is stale"
+
+
+def test_the_readings_table_selects_what_ships():
+    """The shipped paper rule base reads NONE as the selected reading does."""
+    from fuzzynav.app.experiments.paper_fit import select_reading
+    from fuzzynav.controller.paper import PAPER_RULES
+    from fuzzynav.controller.rulebase import read_toml
+
+    chosen = select_reading(_load("paper_readings.json")["results"])
+    unsensed = "NONE unsensed" in chosen["reading"]
+    assert (read_toml(PAPER_RULES).unsensed_none == ("d_o",)) == unsensed
+
+
+def test_a_stale_block_is_found():
+    text = "a\n<!-- generated:x -->\nold\n<!-- /generated:x -->\nb\n"
+    assert paper_docs.generated(text) == {"x": "old"}
+    new = paper_docs.with_blocks(text, {"x": "new"})
+    assert paper_docs.generated(new) == {"x": "new"} and new.startswith("a\n")
+    with pytest.raises(ValueError, match="no generated block"):
+        paper_docs.with_blocks(text, {"y": "z"})
+
+
+def test_the_viewer_names_the_rule_base_that_drives():
+    from fuzzynav.app.viewer.model import ViewerApp
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    for geometry, words, file in (
+        ("husky", "paper (Husky twin)", "paper_husky.toml"),
+        ("paper", "paper (fitted in the paper&#x27;s geometry)", "paper.toml"),
+    ):
+        server = ViewerServer(ViewerApp("s1", "paper", geometry=geometry), port=0)
+        try:
+            status = server.status_line._status_html(server.app.snapshot())
+            assert words in status, status
+            assert f"rules/{file}" in server.controls.controller_dd.hint
+        finally:
+            server.stop()
