@@ -455,3 +455,43 @@ def test_what_ifs_boxes_take_every_value_their_sliders_offer_and_the_refusal_goe
         page.get_by_text("What-if", exact=True).click()
     assert app.wait_for(lambda a: a.what_if is None, timeout=10)
     page.wait_for_function("() => !document.querySelector('.fz-message')", timeout=10_000)
+
+
+def test_keyboard_space_plays_and_pauses_right_arrow_steps_r_resets(lesson):
+    """Issue 38: keyboard control, as a teacher at the projector expects it: space plays
+    and pauses, the right arrow steps one control period, R resets; not while typing in
+    a box."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    page.wait_for_timeout(500)
+    page.mouse.click(5, 795)  # the page has the focus, no box does
+    page.keyboard.press("ArrowRight")
+    assert app.wait_for(lambda a: a.sim.time_s > 0.0, timeout=10)
+    assert abs(app.sim.time_s - app.sim.control_period_s) < 1e-9 and not app.playing
+    page.keyboard.press(" ")
+    assert app.wait_for(lambda a: a.playing, timeout=10)
+    page.wait_for_function(
+        "() => document.querySelector('.fz-status').innerText.includes('running')",
+        timeout=10_000,
+    )
+    page.keyboard.press(" ")
+    assert app.wait_for(lambda a: not a.playing, timeout=10)
+    assert app.sim.time_s > app.sim.control_period_s
+    page.keyboard.press("r")
+    assert app.wait_for(lambda a: a.sim.time_s == 0.0, timeout=10)
+    # typing in a box is typing, not a key of the run
+    open_tab(page, "Inference")
+    page.get_by_text("What-if", exact=True).click()
+    try:
+        box = page.locator(".fz-inference >> xpath=ancestor::*[.//input][1]").locator(
+            "input[inputmode='decimal']:visible"
+        )
+        box.nth(0).focus()
+        page.keyboard.press("ArrowRight")
+        page.keyboard.press(" ")
+        page.wait_for_timeout(800)
+        assert app.sim.time_s == 0.0 and not app.playing
+    finally:
+        page.get_by_text("What-if", exact=True).click()
