@@ -349,7 +349,8 @@ def test_teaching_panel_shows_fuzzynav_blocks_and_crisp_state(app):
     from fuzzynav.app.viewer import views
 
     app.set_controller("fuzzynav")
-    assert app.teaching() is None  # not called yet
+    # paused, it is asked at once (through a copy of itself, issue 38)
+    assert app.teaching()["inputs"][1] == pytest.approx(app.controller.last_inputs[0])
     for _ in range(5):
         app.step_once()
     info = app.teaching()

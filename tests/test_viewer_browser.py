@@ -642,13 +642,24 @@ def test_a_finished_runs_message_goes_at_reset_and_never_moves_the_buttons(serve
 
 
 def test_fuzzynavs_planned_bearing_line_goes_at_reset(served, page):
-    """Defect 2."""
+    """Defect 2: the last run's planned bearing stayed on the arena after Reset. Since
+    issue 38 a paused fuzzynav is asked at once (through a copy of itself), so after
+    Reset the line is the new run's plan from the start, never the old run's."""
+    from fuzzynav.controller.registry import make_controller
+
     app = served.app
     app.set_controller("fuzzynav")
     step(app, 10)
     page.wait_for_function(f"() => ({JS_VISIBLE})('/memory/steer')", timeout=15_000)
+    old = app.snapshot().steer_heading_rad
     page.get_by_role("button", name="Reset", exact=True).click()
-    page.wait_for_function(f"() => !({JS_VISIBLE})('/memory/steer')", timeout=15_000)
+    assert app.wait_for(lambda a: a.sim.time_s == 0.0, timeout=10)
+    fresh = make_controller("fuzzynav")
+    fresh(app.controller.last_inputs.copy(), ranges_m=app.sim.sensors.ranges_m.copy())
+    x, y, heading = app.sim.arena.pose
+    expected = heading + fresh.teaching_points()[1]
+    assert app.snapshot().steer_heading_rad == pytest.approx(expected)
+    assert expected != pytest.approx(old)
 
 
 def test_a_change_after_the_end_restarts_the_run_and_drops_the_old_outcome(served, page):

@@ -126,3 +126,30 @@ def test_a_refusal_in_what_if_or_looking_back_goes_when_that_mode_ends():
     app.start_what_if()
     app.stop_what_if()
     assert app.snapshot().message == "Obstacle 1 is on the robot"
+
+
+def test_paused_fuzzynav_answers_a_drag_through_a_copy_of_itself():
+    """Defect 1 for a controller with a memory (fuzzynav): paused, a drag re-infers
+    through a copy (its answer and its blocks shown), and the driving controller is
+    not called: a run dragged about while paused and put back stays the same."""
+    runs = []
+    for drag in (False, True):
+        app = ViewerApp("s1", "fuzzynav")
+        for _ in range(40):
+            app.step_once()
+        inner_t = app.controller.inner.t
+        if drag:
+            before = app.teaching()
+            ob = next(iter(app.sim.arena.obstacles))
+            home = tuple(app.sim.arena.obstacles[ob].position_at(app.sim.time_s))
+            app.move_obstacle(ob, ahead(app, 1.0))
+            snap = app.snapshot()
+            assert np.all(np.isfinite(snap.voltages_v))  # it answered
+            after = app.teaching()
+            assert after is not None and not np.allclose(after["inputs"], before["inputs"])
+            assert app.controller.inner.t == inner_t  # the driving one was not called
+            app.move_obstacle(ob, home)
+        for _ in range(150):
+            app.step_once()
+        runs.append(np.array(app.sim.arena.pose))
+    np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)

@@ -192,6 +192,7 @@ class RunDriver:
         app = self.app
         sim = app.sim
         app._input_pose = tuple(sim.arena.pose)  # where the controller reads its inputs
+        app._probe = None  # the driving controller answers again
         try:
             outcome = sim.step()
         except Exception as exc:  # a controller that fails must not kill the thread

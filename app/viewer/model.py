@@ -157,6 +157,9 @@ class ViewerApp:
         self.run_label = ""
         self._run_changes: list = []
         self.paper_edit = None  # the membership editor (PaperEditor), built on first use
+        # paused: a copy of a controller with a memory, asked at the inputs read now
+        # (its answer and inference shown; the driving controller is not called)
+        self._probe = None
         self.what_if: np.ndarray | None = None  # what-if mode: the inputs tried
         self.history_index: int | None = None  # the time slider's step, or None (live)
         self._history: list[HistoryStep] = []

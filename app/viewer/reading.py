@@ -139,7 +139,8 @@ class Reading:
         memory (``teaching_points``), placed from its own frame by the true pose; else
         (None, nan). Called under the lock."""
         app = self.app
-        view = getattr(app.controller.inner, "teaching_points", None)
+        shown = app._probe if app._probe is not None else app.controller.inner
+        view = getattr(shown, "teaching_points", None)
         if view is None:
             return None, math.nan
         points, bearing = view()

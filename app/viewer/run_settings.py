@@ -95,11 +95,28 @@ class RunSettings:
         until the next step."""
         app = self.app
         c = app.controller
+        app._probe = None
         if not np.isfinite(c.last_inputs[0]):
             return
         inner = c.inner
         if getattr(inner, "fis", None) is not None and not hasattr(inner, "teaching_view"):
             c.last_output = np.asarray(inner(c.last_inputs), dtype=float).reshape(2)
+        elif hasattr(inner, "teaching_view") and not app.playing:
+            # Paused, a controller with a memory (fuzzynav) is asked through a copy of
+            # itself: its answer and its inference are shown (issue 38), and the
+            # controller that drives is not disturbed by the extra call.
+            import copy
+
+            try:
+                probe = copy.deepcopy(inner)
+                if getattr(probe, "needs_ranges", False):
+                    out = probe(c.last_inputs.copy(), ranges_m=app.sim.sensors.ranges_m.copy())
+                else:
+                    out = probe(c.last_inputs.copy())
+                c.last_output = np.asarray(out, dtype=float).reshape(2)
+                app._probe = probe
+            except Exception:
+                c.last_output = np.full(2, np.nan)
         else:
             c.last_output = np.full(2, np.nan)
 

@@ -107,7 +107,9 @@ class Teaching:
         None when the controller has no fuzzy system or has not been called yet.
         """
         app = self.app
-        view = getattr(app.controller.inner, "teaching_view", None)
+        with app.lock:
+            shown = app._probe if app._probe is not None else app.controller.inner
+        view = getattr(shown, "teaching_view", None)
         state = None
         with app.lock:
             inputs = app.controller.last_inputs.copy()
