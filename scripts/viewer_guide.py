@@ -139,8 +139,34 @@ def facts() -> dict:
     }
 
 
+def starter_runs() -> dict:
+    """The starter system (app/viewer/starter.py) on s1 as shipped, and with its
+    obstacles removed (Remove newest, as in the page)."""
+    from fuzzynav.app.viewer.model import ViewerApp
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    out = {}
+    for case in ("obstacles", "no obstacles"):
+        app = ViewerApp(SCENARIO, "paper")
+        app.set_controller(STARTER_LABEL)
+        if case == "no obstacles":
+            for obstacle_id in list(app.sim.arena.obstacles):
+                app.remove_obstacle(obstacle_id)
+        while not app.sim.done:
+            app.driver._step_locked()
+        out[case] = {"outcome": app.sim.outcome, "time_s": round(float(app.sim.time_s), 2)}
+    fis = app.controller.inner.fis
+    out["rules"] = len(fis.rules)
+    return out
+
+
 def compute() -> dict:
-    return {"scenario": SCENARIO, "facts": facts(), "choices": choice_runs()}
+    return {
+        "scenario": SCENARIO,
+        "facts": facts(),
+        "choices": choice_runs(),
+        "starter": starter_runs(),
+    }
 
 
 def _m(value: float) -> str:
@@ -153,7 +179,9 @@ def _said(run: dict) -> str:
         return f"arrives after {run['time_s']:.2f} s"
     if run["outcome"] == "collided":
         return f"collides at {run['time_s']:.2f} s"
-    return f"{run['outcome']} at {run['time_s']:.2f} s"
+    if run["outcome"] == "timeout":
+        return f"times out at {run['time_s']:.2f} s"
+    return f"ends ({run['outcome']}) at {run['time_s']:.2f} s"
 
 
 def render_blocks(data: dict) -> dict[str, str]:
@@ -199,7 +227,20 @@ def render_blocks(data: dict) -> dict[str, str]:
         "(Computed by `scripts/viewer_guide.py`, which runs the viewer itself; rerun it "
         "after a rule base changes. `tests/test_viewer_guide.py` checks this table.)"
     )
-    return {"choices": "\n".join(text) + "\n", "editor": _editor_block(data["facts"])}
+    return {
+        "choices": "\n".join(text) + "\n",
+        "editor": _editor_block(data["facts"]),
+        "starter": _starter_block(data),
+    }
+
+
+def _starter_block(data: dict) -> str:
+    st = data["starter"]
+    return (
+        f"On {data['scenario']}, driven by the starter's {st['rules']} rules, the robot "
+        f"{_said(st['obstacles'])}; with the obstacles removed (**Remove newest** until "
+        f"none is left) it {_said(st['no obstacles'])}.\n"
+    )
 
 
 def _editor_block(f: dict) -> str:

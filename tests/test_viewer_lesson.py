@@ -153,3 +153,31 @@ def test_paused_fuzzynav_answers_a_drag_through_a_copy_of_itself():
             app.step_once()
         runs.append(np.array(app.sim.arena.pose))
     np.testing.assert_allclose(runs[0], runs[1], atol=1e-9)
+
+
+def test_the_starter_system_is_offered_reads_two_inputs_and_drives():
+    """Issue 38: a small two-input system to start a lesson with, beside the paper's:
+    six rules over d_t and phi_t only; without obstacles it reaches the target."""
+    from fuzzynav.app.viewer import views
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    assert STARTER_LABEL in app.controller_options()
+    app.set_controller(STARTER_LABEL)
+    fis = app.fuzzy_system()
+    assert len(fis.rules) == 6
+    used = {i for r in fis.rules for i, a in enumerate(r.antecedent) if a is not None}
+    assert {fis.input_names[i] for i in used} == {"d_t", "phi_t"}
+    info = app.teaching()  # paused, it answered at once
+    assert info is not None and np.all(np.isfinite(app.snapshot().voltages_v))
+    page = views.inference_html(views.infer(fis, info["inputs"]))
+    assert "of 6 rules fire" in page
+    for obstacle_id in list(app.sim.arena.obstacles):
+        app.remove_obstacle(obstacle_id)
+    while not app.sim.done:
+        app.driver._step_locked()
+    assert app.sim.outcome == "reached"
+    # and a teacher's push names it, and a student's world builds it
+    student = ViewerApp("s1", "paper")
+    student.apply_settings(app.settings())
+    assert student.controller_label == STARTER_LABEL

@@ -495,3 +495,31 @@ def test_keyboard_space_plays_and_pauses_right_arrow_steps_r_resets(lesson):
         assert app.sim.time_s == 0.0 and not app.playing
     finally:
         page.get_by_text("What-if", exact=True).click()
+
+
+def test_the_starter_system_is_chosen_in_the_page_and_its_grid_has_two_inputs(lesson):
+    """Issue 38: the small two-input system, selectable beside the paper's; its rule
+    grid shows only the columns its six rules use."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    open_tab(page, "Inference")
+    try:
+        page.get_by_role("combobox", name="Controller").click()
+        page.get_by_role("option", name=STARTER_LABEL, exact=True).click()
+        assert app.wait_for(lambda a: a.controller_label == STARTER_LABEL, timeout=10)
+        page.wait_for_function(
+            "() => document.querySelector('.fz-inference')?.innerText.includes('of 6 rules fire')",
+            timeout=10_000,
+        )
+        heads = page.evaluate(
+            "() => [...document.querySelectorAll('.fz-rule-head .fz-col-name')]"
+            ".map((e) => e.textContent.trim())"
+        )
+        assert heads[:2] == ["d_t", "phi_t"] and "d_o" not in heads and "phi_o" not in heads
+        assert page.locator(".fz-hit [data-rule]").count() == 6
+    finally:
+        app.set_controller("paper")

@@ -37,9 +37,11 @@ class RunSettings:
 
     def controller_options(self) -> list[str]:
         app = self.app
+        from fuzzynav.app.viewer.starter import STARTER_LABEL
         from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
+        options.append(STARTER_LABEL)  # a lesson's first system (issue 38)
         if app.paper_edit is not None and app.paper_edit.edited:
             options.append(EDITED_LABEL)
         if app.uploaded_label:
@@ -49,8 +51,12 @@ class RunSettings:
     def set_controller(self, name: str) -> None:
         """Swap the controller by name; the run goes on from where it is."""
         app = self.app
+        from fuzzynav.app.viewer.starter import STARTER_LABEL, starter_controller
+
         if app.uploaded_label and name == app.uploaded_label:
             inner = app.uploaded_controller
+        elif name == STARTER_LABEL:
+            inner = starter_controller()
         elif name == EDITED_LABEL and app.paper_edit is not None:
             inner = app.paper_edit.controller()
         else:
