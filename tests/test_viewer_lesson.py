@@ -181,3 +181,66 @@ def test_the_starter_system_is_offered_reads_two_inputs_and_drives():
     student = ViewerApp("s1", "paper")
     student.apply_settings(app.settings())
     assert student.controller_label == STARTER_LABEL
+
+
+def test_a_lesson_saved_and_opened_again_is_the_same_world(tmp_path):
+    """Issue 38: a lesson file keeps the scenario and its layout (still "edited"), the
+    controller and its Editor edits, the settings, the view and the time; opened in
+    another world it gives the same state."""
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper")
+    ob = next(iter(app.sim.arena.obstacles))
+    app.move_obstacle(ob, (3.0, 1.0))
+    app.set_inference_choice("defuzz_method", "bisector")
+    app.set_perception("ultrasonic")
+    app.set_speed(3.0)
+    for _ in range(150):
+        app.step_once()
+    text = app.lesson_text({"presentation": True, "firing_only": True})
+    other = ViewerApp("s2", "p")
+    view = other.open_lesson(text, "my-lesson.json")
+    assert view == {"presentation": True, "firing_only": True}
+    assert other.scenario_label == "s1" and other.layout_edited
+    assert other.controller_label == app.controller_label == "paper (edited)"
+    assert other.fuzzy_system().inference.defuzz_method == "bisector"
+    assert other.sim.perception.mode == "ultrasonic" and other.speed == 3.0
+    assert other.sim.time_s == pytest.approx(app.sim.time_s) and not other.playing
+    np.testing.assert_allclose(other.sim.arena.pose, app.sim.arena.pose, atol=1e-9)
+    other.restore_layout()
+    assert not other.layout_edited
+    # a file from elsewhere is refused with its reason, the world kept
+    before = other.snapshot().scenario_label
+    for bad, why in (
+        (b"{", "not a lesson file"),
+        (b'{"a": 1}', "not a fuzzynav lesson"),
+        (text.replace('"time_s": ', '"time_s": 1e9 + ').encode(), "not a lesson file"),
+        (text.replace('"perception": "ultrasonic"', '"perception": 7').encode(), "perception"),
+    ):
+        with pytest.raises(ViewerError, match=why):
+            other.open_lesson(bad, "bad.json")
+    assert other.snapshot().scenario_label == before
+
+
+def test_serve_opens_a_lesson_file(tmp_path):
+    """``fuzzynav serve --lesson FILE``: the lesson's world, view and time at start."""
+    from fuzzynav.app.viewer.serve import serve
+
+    app = ViewerApp("s1", "paper")
+    app.add_obstacle((2.0, 2.0))
+    for _ in range(50):
+        app.step_once()
+    path = tmp_path / "lesson.json"
+    path.write_text(app.lesson_text({"firing_only": True}), encoding="utf-8")
+    server = serve("s2", port=0, block=False, open_message=False, lesson=path)
+    try:
+        assert server.app.scenario_label == "s1" and server.app.layout_edited
+        assert server.app.sim.time_s == pytest.approx(1.0)
+        assert server.inference.firing_only_cb.value is True
+    finally:
+        server.stop()
+    from fuzzynav.app.args import UsageError
+
+    (tmp_path / "bad.json").write_text("{}", encoding="utf-8")
+    with pytest.raises(UsageError, match="--lesson"):
+        serve("s1", port=0, block=False, open_message=False, lesson=tmp_path / "bad.json")

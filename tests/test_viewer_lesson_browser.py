@@ -523,3 +523,43 @@ def test_the_starter_system_is_chosen_in_the_page_and_its_grid_has_two_inputs(le
         assert page.locator(".fz-hit [data-rule]").count() == 6
     finally:
         app.set_controller("paper")
+
+
+def test_a_lesson_is_saved_from_the_page_and_opened_again_from_it(lesson, tmp_path):
+    """Issue 38: Lesson → Save lesson downloads the world as a file; Lesson → Open
+    lesson brings it back (layout, controller, view, time) after the world changed."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    ob = next(iter(app.sim.arena.obstacles))
+    app.move_obstacle(ob, (2.5, 1.0))
+    for _ in range(100):
+        app.step_once()
+    saved_pose = np.array(app.sim.arena.pose)
+    page.get_by_text("Lesson", exact=True).click()
+    try:
+        with page.expect_download(timeout=15_000) as download:
+            page.get_by_role("button", name="Save lesson (.json)").click()
+        path = tmp_path / "lesson.json"
+        download.value.save_as(path)
+        assert '"fuzzynav_lesson": 1' in path.read_text(encoding="utf-8")
+        # the world moves on elsewhere
+        app.load_scenario("s2")
+        app.set_controller("p")
+        with page.expect_file_chooser(timeout=15_000) as chooser:
+            page.get_by_role("button", name="Open lesson (.json)").click()
+        chooser.value.set_files(path)
+        assert app.wait_for(lambda a: a.message.startswith("Opened the lesson"), timeout=20), (
+            app.message
+        )
+        assert app.scenario_label == "s1" and app.controller_label == "paper"
+        assert app.layout_edited and not app.playing
+        np.testing.assert_allclose(app.sim.arena.pose, saved_pose, atol=1e-9)
+        page.wait_for_function(
+            "() => document.querySelector('.fz-status').innerText.includes('layout edited')"
+            " && document.querySelector('.fz-status').innerText.includes('t = 2.00 s')",
+            timeout=10_000,
+        )
+    finally:
+        page.get_by_text("Lesson", exact=True).click()

@@ -69,6 +69,11 @@ KEYS_HTML = (
 )
 
 
+def safe_file_name(name: str) -> str:
+    """A download's name: letters, digits, dot, dash and underscore only."""
+    return "".join(c if c.isalnum() or c in "._-" else "-" for c in name)[:120]
+
+
 class ControlPanel:
     """The right-hand panel of one :class:`app.viewer.server.ViewerServer`."""
 
@@ -189,6 +194,20 @@ class ControlPanel:
                     )
                     self.part_boxes[part.name] = box
 
+        with gui.add_folder("Lesson", expand_by_default=False):
+            # A lesson saved and opened again (issue 38): scenario, layout, controller
+            # and its edits, settings, view and time, in one JSON file.
+            self.lesson_save = gui.add_button(
+                "Save lesson (.json)",
+                icon=viser.Icon.DOWNLOAD,
+                hint="The scenario and its layout, the controller and its edits, the "
+                "settings, the view and the time, to open again (or fuzzynav serve --lesson)",
+            )
+            self.lesson_save.on_click(self.view.guarded(self._on_lesson_save))
+            self.lesson_open = gui.add_upload_button(
+                "Open lesson (.json)", icon=viser.Icon.UPLOAD, mime_type=".json"
+            )
+            self.lesson_open.on_upload(self.view.guarded(self._on_lesson_open))
         with gui.add_folder("View", expand_by_default=False):
             self.handles_cb = gui.add_checkbox(
                 "Show drag handles",
@@ -288,6 +307,22 @@ class ControlPanel:
         self.controller_dd.options = self.app.controller_options()
         self.controller_dd.value = label
         self.view.tell(event.client, f"Driving with {label}.", "success")
+
+    def _on_lesson_save(self, event) -> None:
+        if event.client is None:
+            return
+        text = self.app.lesson_text(self.view.current_view())
+        name = f"fuzzynav-lesson-{self.app.scenario_label}-t{self.app.sim.time_s:.0f}s.json"
+        event.client.send_file_download(
+            safe_file_name(name), text.encode("utf-8"), save_immediately=True
+        )
+
+    def _on_lesson_open(self, event) -> None:
+        uploaded = event.value
+        view = self.app.open_lesson(uploaded.content, uploaded.name)
+        self.scenario_dd.options = self.app.scenario_options()
+        self.controller_dd.options = self.app.controller_options()
+        self.view.apply_view(view)
 
     def _on_scenario_upload(self, event) -> None:
         uploaded = event.value

@@ -457,6 +457,21 @@ class ViewerApp:
     def teaching(self) -> dict | None:
         return self.inference.teaching()
 
+    # -- Lessons (:mod:`.lesson`) ------------------------------------------------------
+
+    def lesson_text(self, view: dict | None = None) -> str:
+        """This world as a lesson file (JSON): scenario, layout, controller, settings,
+        ``view`` and time."""
+        from fuzzynav.app.viewer.lesson import dumps_lesson
+
+        return dumps_lesson(self, view)
+
+    def open_lesson(self, content, source: str = "lesson.json") -> dict:
+        """Open a lesson file's content; returns its view (presentation, firing only)."""
+        from fuzzynav.app.viewer.lesson import open_lesson
+
+        return open_lesson(self, content, source)
+
     # -- Reading (:mod:`.reading`) -----------------------------------------------------
 
     def snapshot(self) -> Snapshot:

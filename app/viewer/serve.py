@@ -127,6 +127,7 @@ def serve(
     block: bool = True,
     geometry: str = "husky",
     classroom: bool = False,
+    lesson=None,
 ):
     """Start the viewer. With ``block`` it runs until Ctrl-C and then stops cleanly;
     otherwise it returns the running :class:`app.viewer.server.ViewerServer` (or, with
@@ -139,13 +140,30 @@ def serve(
     check_host(host)
     port = check_port(host, port)
     app = ViewerApp(scenario, controller, rrd_path=rrd, geometry=geometry)  # checks them
+    lesson_text = None
+    if lesson is not None:  # a lesson file (--lesson): read and checked before serving
+        from fuzzynav.resources import read_user_text
+
+        try:
+            lesson_text = read_user_text(lesson, "lesson file")
+        except ValueError as exc:
+            raise UsageError(f"--lesson: {exc}") from None
+        try:
+            view = app.open_lesson(lesson_text, str(lesson))
+        except ViewerError as exc:
+            raise UsageError(f"--lesson: {exc}") from None
     if classroom:
         from fuzzynav.app.viewer.classroom import ClassroomServer
 
         app = None
-        server = ClassroomServer(
-            lambda: ViewerApp(scenario, controller, geometry=geometry), host=host, port=port
-        )
+
+        def make_app():
+            world = ViewerApp(scenario, controller, geometry=geometry)
+            if lesson_text is not None:  # every tab opens the lesson in its own world
+                world.open_lesson(lesson_text, str(lesson))
+            return world
+
+        server = ClassroomServer(make_app, host=host, port=port)
         if open_message:
             print(
                 "fuzzynav viewer: classroom mode, every tab drives a world of its own; "
@@ -154,6 +172,8 @@ def serve(
             )
     else:
         server = ViewerServer(app, host=host, port=port)
+        if lesson is not None:
+            server.apply_view(view)
     if not block:
         _print_url(server, host, open_message)
         return server
@@ -193,6 +213,7 @@ def cmd_serve(args) -> int:
         controller=getattr(args, "controller", None),
         geometry=getattr(args, "geometry", "husky"),
         classroom=getattr(args, "classroom", False),
+        lesson=getattr(args, "lesson", None),
     )
     return 0
 
@@ -245,6 +266,13 @@ def add_commands(subparsers) -> None:
                 help="every tab drives a world of its own; a teacher's tab (with the "
                 "token printed at start) can push its setup to all",
             )
+            parser.add_argument(
+                "--lesson",
+                metavar="FILE",
+                default=None,
+                help="open a lesson saved from the page (Lesson → Save lesson): its "
+                "scenario, layout, controller, settings, view and time",
+            )
         else:
             parser.set_defaults(
                 scenario="s1",
@@ -254,5 +282,6 @@ def add_commands(subparsers) -> None:
                 controller=None,
                 geometry="husky",
                 classroom=False,
+                lesson=None,
             )
         parser.set_defaults(func=cmd_serve)

@@ -168,6 +168,22 @@ class ViewerServer:
         """Arena labels are larger in presentation mode."""
         return scale * (1.6 if self.presentation else 1.0)
 
+    def current_view(self) -> dict:
+        """What a lesson file keeps of the page's view."""
+        return {
+            "presentation": bool(self.presentation),
+            "firing_only": bool(self.inference.firing_only_cb.value),
+        }
+
+    def apply_view(self, view: dict) -> None:
+        """A lesson's view: presentation mode and *Firing rules only* as it had them."""
+        if "presentation" in view and bool(view["presentation"]) != self.presentation:
+            self.set_presentation(bool(view["presentation"]))
+            self.controls.presentation_cb.value = self.presentation
+        if "firing_only" in view:
+            self.inference.firing_only_cb.value = bool(view["firing_only"])
+            self.inference.redraw()
+
     def set_presentation(self, on: bool) -> None:
         """Large type for a projector: a wide inference panel, a wider control panel,
         the status line and the arena's labels larger, and every tab's camera refitted
