@@ -244,3 +244,64 @@ def test_serve_opens_a_lesson_file(tmp_path):
     (tmp_path / "bad.json").write_text("{}", encoding="utf-8")
     with pytest.raises(UsageError, match="--lesson"):
         serve("s1", port=0, block=False, open_message=False, lesson=tmp_path / "bad.json")
+
+
+@pytest.mark.parametrize(
+    "choice",
+    [None]
+    + [("and_method", "prod"), ("imp_method", "prod"), ("agg_method", "sum")]
+    + [("agg_method", "probor"), ("defuzz_method", "mom"), ("defuzz_method", "bisector")],
+)
+def test_one_inference_step_by_step_says_the_engines_numbers(choice):
+    """Issue 38: the five stages of one inference, each said with its numbers, for
+    every inference choice: the degrees, each rule's AND (its strength), the implied
+    sets (clipped or scaled), the aggregate and the crisp outputs are the engine's."""
+    from fuzzynav.app.viewer import views
+    from fuzzynav.app.viewer.drawing import _fmt_degree
+    from fuzzynav.app.viewer.stepwise import N_STAGES, implied_sets, stage_html
+
+    app = ViewerApp("s1", "paper")
+    if choice is not None:
+        app.set_inference_choice(*choice)
+    for _ in range(30):
+        app.step_once()
+    info = app.teaching()
+    inf = views.infer(info["fis"], info["inputs"])
+    fis = inf.fis
+    pages = [stage_html(inf, k) for k in range(1, N_STAGES + 1)]
+    for k, page in enumerate(pages, 1):
+        assert f"Step {k} of {N_STAGES}" in page
+    # 1: every sensed input's degrees
+    for i, var in enumerate(fis.inputs):
+        for t, d in zip(var.terms, inf.memberships[i]):
+            if d > 0:
+                assert f"{t.name} {_fmt_degree(float(d))}" in pages[0]
+    # 2: each listed rule's AND equals the engine's strength
+    and_prod = fis.inference.and_method == "prod"
+    for r in np.flatnonzero(inf.strengths > 0)[:8]:
+        degrees = [
+            inf.memberships[i][k] for i, k in enumerate(fis.rules[r].antecedent) if k is not None
+        ]
+        combined = (np.prod(degrees) if and_prod else min(degrees)) * fis.rules[r].weight
+        assert combined == pytest.approx(inf.strengths[r], rel=1e-9, abs=1e-12)
+        assert f"= <b>{_fmt_degree(float(inf.strengths[r]))}</b>" in pages[1]
+    # 3: the implied sets, aggregated by the system's method, are the engine's aggregate
+    sets = [implied_sets(inf, int(r)) for r in np.flatnonzero(inf.strengths > 0)]
+    for o in range(fis.n_outputs):
+        parts = [s[o] for s in sets if o in s]
+        if not parts:
+            continue
+        method = fis.inference.agg_method
+        if method == "max":
+            mine = np.max(parts, axis=0)
+        elif method == "sum":
+            mine = np.sum(parts, axis=0)
+        else:
+            mine = 1.0 - np.prod([1.0 - p for p in parts], axis=0)
+        np.testing.assert_allclose(mine, inf.aggregate[o], atol=1e-9)
+    assert ("scaled by" if fis.inference.imp_method == "prod" else "clipped at") in pages[2]
+    assert f"aggregation {fis.inference.agg_method}" in pages[3]
+    # 5: the crisp outputs are the controller's voltages
+    for c in inf.centroids:
+        assert f"{c:.2f}" in pages[4]
+    np.testing.assert_allclose(inf.centroids, fis.evaluate_one(inf.inputs), atol=1e-9)

@@ -563,3 +563,49 @@ def test_a_lesson_is_saved_from_the_page_and_opened_again_from_it(lesson, tmp_pa
         )
     finally:
         page.get_by_text("Lesson", exact=True).click()
+
+
+def test_one_inference_is_walked_step_by_step_in_the_page(lesson):
+    """Issue 38: Step by step → Next walks the moment through the five stages, each
+    drawn and said with its numbers; Back goes back; Off leaves; the run pauses."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(30):
+        app.step_once()
+    open_tab(page, "Inference")
+    page.get_by_text("Step by step", exact=True).click()
+    try:
+        titles = []
+        for stage in range(1, 6):
+            page.get_by_role("button", name="Next ▶").click()
+            page.wait_for_function(
+                "(k) => document.querySelector('.fz-stepwise')?.dataset.stage == k",
+                arg=str(stage),
+                timeout=10_000,
+            )
+            titles.append(page.locator(".fz-step-title").inner_text())
+        assert titles == [
+            "Step 1 of 5: Fuzzification",
+            "Step 2 of 5: The rules' AND",
+            "Step 3 of 5: Implication",
+            "Step 4 of 5: Aggregation",
+            "Step 5 of 5: Defuzzification",
+        ]
+        # the last stage: the crisp outputs drawn and said, the voltages of the status
+        v = app.snapshot().voltages_v
+        text = page.locator(".fz-stepwise").inner_text()
+        assert f"{v[0]:.2f}" in text and f"{v[1]:.2f}" in text
+        assert page.locator(".fz-stepwise .fz-step-crisp").count() == 2
+        page.screenshot(path="/tmp/fz-stepwise.png")
+        page.get_by_role("button", name="◀ Back").click()
+        page.wait_for_function(
+            "() => document.querySelector('.fz-stepwise')?.dataset.stage == '4'", timeout=10_000
+        )
+        assert not app.playing
+        page.get_by_role("button", name="Off").click()
+        page.wait_for_function("() => !document.querySelector('.fz-stepwise')", timeout=10_000)
+    finally:
+        server.inference.stage = 0
+        page.get_by_text("Step by step", exact=True).click()

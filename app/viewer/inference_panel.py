@@ -18,6 +18,12 @@ WHAT_IF_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")  # the what-if sliders, in thi
 TIMELINE_PERIOD_S = 2.0  # the rule-firing strip is redrawn at most this often while playing
 
 
+STEPWISE_HINT = (
+    "Take the inference shown apart: fuzzification, the rules' AND, implication, "
+    "aggregation, defuzzification, one stage at a time (the run pauses)"
+)
+
+
 class InferencePanel:
     """The Inference tab of one :class:`app.viewer.server.ViewerServer`."""
 
@@ -43,6 +49,8 @@ class InferencePanel:
         )
         self.firing_only_cb.on_update(self.view.guarded(lambda e: self.redraw()))
         self._build_what_if()
+        self._build_stepwise()
+        self.stage_html = gui.add_html("", order=0.9)
         self.inference_html = gui.add_html("", order=1.0)
         # Under the inference (issue 38: above it, it pushed the rule grid off screen).
         self.timeline_html = gui.add_html("", order=1.2)
@@ -81,6 +89,31 @@ class InferencePanel:
                     self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.value))
                 )
                 self.what_if_boxes.append(box)
+
+    def _build_stepwise(self) -> None:
+        """One inference step by step (issue 38): Next walks the moment shown through
+        fuzzification, AND, implication, aggregation and defuzzification (the run
+        pauses, so the moment stays); Back goes a stage back; Off leaves."""
+        gui = self.view.server.gui
+        self.stage = 0  # 0: off; 1..N_STAGES: the stage shown
+        with gui.add_folder("Step by step", expand_by_default=False, order=0.7):
+            self.stage_buttons = gui.add_button_group(
+                "Inference", ("◀ Back", "Next ▶", "Off"), hint=STEPWISE_HINT
+            )
+            self.stage_buttons.on_click(self.view.guarded(self._on_stage))
+
+    def _on_stage(self, event) -> None:
+        from fuzzynav.app.viewer.stepwise import N_STAGES
+
+        if event.value == "Off":
+            self.stage = 0
+        elif event.value == "Next ▶":
+            if self.stage == 0:
+                self.app.pause()  # the moment stays while it is taken apart
+            self.stage = min(self.stage + 1, N_STAGES)
+        else:
+            self.stage = max(self.stage - 1, 0)
+        self.redraw()
 
     def _on_what_if(self, event) -> None:
         if event.value:
@@ -197,6 +230,7 @@ class InferencePanel:
     def draw(self, snap: Snapshot) -> None:
         info = self.app.teaching()
         if info is None:
+            set_html(self.stage_html, "")
             fis = self.app.fuzzy_system()
             if fis is None:
                 text = (
@@ -220,6 +254,7 @@ class InferencePanel:
             self.view.presentation,
             only_firing,
             what_if,
+            self.stage,
         )
         if key == self.last_inference:
             return
@@ -243,6 +278,12 @@ class InferencePanel:
             }
         uid = self._system_uid(fis, labels, info["output_names"])
         inf = views.infer(fis, info["inputs"], labels, info["output_names"])
+        if self.stage:
+            from fuzzynav.app.viewer.stepwise import stage_html
+
+            set_html(self.stage_html, stage_html(inf, self.stage))
+        else:
+            set_html(self.stage_html, "")
         set_html(
             self.inference_html,
             views.inference_html(
