@@ -160,7 +160,7 @@ def test_moving_the_target_changes_where_the_robot_goes():
         return np.array(a.sim.arena.pose[:2]), a
 
     reference, _ = drive()
-    # s1 starts facing the old target (pi/4): turning to the new one takes a few seconds
+    # s1 starts facing +x (heading 0): turning to the new target takes a few seconds
     moved, a = drive((8.0, -4.0), steps=450)
     # The target moved from up-right to down-right of the start: so did the robot.
     assert reference[1] > 0.5 and moved[1] < -0.3, (reference, moved)
@@ -484,7 +484,7 @@ def test_a_target_dragged_out_of_reach_is_flagged_and_cleared(app):
     assert app.check_target() is None
     app.move_target((4.1, 4.0))
     warning = app.check_target()
-    assert warning is not None and "inside static obstacle obstacle 1 " in warning
+    assert warning is not None and "inside static obstacle 1 " in warning
     assert app.snapshot().message == warning and app.snapshot().message_level == "warning"
     app.move_target((4.0, 4.3))  # 0.1 m off its surface: outside, still out of reach
     assert "cannot be reached" in app.check_target()
@@ -770,7 +770,7 @@ def test_obstacles_have_one_name_everywhere(app):
     """Defect 11: "Obstacle 0" in one message, "obstacles[1]" in another, and the arena
     labelled neither. Now the k-th obstacle of the layout is "obstacle k" everywhere."""
     app.move_target((4.1, 4.0))  # s1's first obstacle (obstacles[0] in the file)
-    assert "inside static obstacle obstacle 1 " in app.check_target()
+    assert "inside static obstacle 1 " in app.check_target()  # (not "obstacle obstacle 1")
     assert app.snapshot().obstacle_numbers == {
         i: k + 1 for k, i in enumerate(app.sim.arena.obstacles)
     }

@@ -609,3 +609,35 @@ def test_one_inference_is_walked_step_by_step_in_the_page(lesson):
     finally:
         server.inference.stage = 0
         page.get_by_text("Step by step", exact=True).click()
+
+
+@pytest.mark.parametrize("controller", ["paper", "fuzzynav"])
+def test_the_inference_shows_at_once_after_a_scenario_switch_and_the_hint_goes(lesson, controller):
+    """Defect 5: the inference was blank after a scenario switch (until Play or Step);
+    the arena's drag hint stayed until someone dragged, and covered the robot near the
+    end of the run."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.set_controller(controller)
+    open_tab(page, "Inference")
+    try:
+        page.get_by_role("combobox", name="Scenario").click()
+        page.get_by_role("option", name="s2", exact=True).click()
+        assert app.wait_for(lambda a: a.scenario_label == "s2", timeout=10)
+        page.wait_for_function(
+            "() => document.querySelectorAll('.fz-inference .fz-firing').length > 0",
+            timeout=10_000,
+        )
+        assert app.sim.time_s == 0.0
+        # the hint: on the arena at the start, gone once the robot nears the target
+        server.handles.drag_hint.visible = True  # as on a fresh server
+        app._bump()
+        page.wait_for_timeout(500)
+        assert server.handles.drag_hint.visible  # far from the target: it stays
+        x, y, heading = app.sim.arena.pose
+        app.move_target((x + 2.0 * np.cos(heading), y + 2.0 * np.sin(heading)))
+        assert app.wait_for(lambda a: not server.handles.drag_hint.visible, timeout=10)
+    finally:
+        app.set_controller("paper")
+        app.load_scenario("s1")

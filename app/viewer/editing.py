@@ -144,7 +144,13 @@ class ScenarioEditing:
     @staticmethod
     def plain_names(text: str) -> str:
         """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1."""
-        return re.sub(r"obstacles\[(\d+)\]", lambda m: f"obstacle {int(m.group(1)) + 1}", text)
+        # "static obstacle obstacles[1]" (the file's wording) reads "static obstacle 2",
+        # not "static obstacle obstacle 2" (issue 38)
+        return re.sub(
+            r"(?:\bobstacle\s+)?obstacles\[(\d+)\]",
+            lambda m: f"obstacle {int(m.group(1)) + 1}",
+            text,
+        )
 
     def check_target(self) -> str | None:
         """After an edit (a drag ended, an obstacle added): tell the user when the target

@@ -18,6 +18,7 @@ TARGET_HEIGHT_M = OBSTACLE_HEIGHT_M + 0.08
 STATIC_COLOUR = (96, 112, 136)
 MOVING_COLOUR = (234, 88, 12)
 TARGET_RED = (220, 38, 38)
+HINT_CLEAR_M = 3.5  # the arena's hint goes once the robot is this near the target
 
 
 def _xy(position) -> np.ndarray:
@@ -88,6 +89,14 @@ class DragHandles:
         """The target's handle where the world has it (unless a tab is dragging it)."""
         if "/target" not in self.dragging:
             self.target.position = (target[0], target[1], TARGET_HEIGHT_M)
+
+    def hint_follow(self, snap: Snapshot) -> None:
+        """The arena's drag hint goes once the robot nears the target (issue 38: it
+        stayed until someone dragged, and covered the robot at the end of the run)."""
+        if self.drag_hint.visible and not snap.history:
+            x, y, _ = snap.pose
+            if math.hypot(snap.target[0] - x, snap.target[1] - y) < HINT_CLEAR_M:
+                self.drag_hint.visible = False
 
     def show(self, on: bool) -> None:
         """viser's arrows on the target and the obstacles, or none."""

@@ -364,6 +364,7 @@ class Scene:
                 np.array(colour, np.uint8), self.ring.points.shape
             ).copy()
 
+        self.view.handles.hint_follow(snap)
         if snap.target != self._last_target:
             self._last_target = snap.target
             self.view.handles.place_target(snap.target)
