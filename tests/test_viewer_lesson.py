@@ -306,3 +306,30 @@ def test_one_inference_step_by_step_says_the_engines_numbers(choice):
     for c in inf.centroids:
         assert f"{c:.2f}" in pages[4]
     np.testing.assert_allclose(inf.centroids, fis.evaluate_one(inf.inputs), atol=1e-9)
+
+
+def test_baseline_shows_its_two_blocks_in_the_inference():
+    """Defect 5: baseline is a fuzzy controller (its two rule files ship), yet the
+    Inference tab said it had no rules. Now its blocks show at the inputs they read,
+    with the blend's weight, and the outputs' blend is the controller's answer."""
+    from fuzzynav.app.viewer import views
+
+    app = ViewerApp("s1", "baseline")
+    info = app.teaching()
+    assert info is not None
+    fis = info["fis"]
+    assert fis is app.fuzzy_system()  # one system, kept (the views key on it)
+    html_text = views.inference_html(views.infer(fis, info["inputs"]), crisp=info["state"])
+    assert html_text.count("Block ") == 2 and "goal_left" in html_text
+    ob = next(iter(app.sim.arena.obstacles))
+    app.move_obstacle(ob, ahead(app, 1.0))
+    info = app.teaching()
+    alpha = float(info["state"]["avoidance weight alpha"])
+    assert alpha > 0
+    c = views.infer(info["fis"], info["inputs"]).centroids
+    names = list(info["output_names"])
+    goal = c[[names.index("goal_left"), names.index("goal_right")]]
+    avoid = c[[names.index("avoid_left"), names.index("avoid_right")]]
+    np.testing.assert_allclose(
+        (1 - alpha) * goal + alpha * avoid, app.snapshot().voltages_v, atol=0.01
+    )

@@ -107,10 +107,10 @@ class RunSettings:
         inner = c.inner
         if getattr(inner, "fis", None) is not None and not hasattr(inner, "teaching_view"):
             c.last_output = np.asarray(inner(c.last_inputs), dtype=float).reshape(2)
-        elif hasattr(inner, "teaching_view") and not app.playing:
-            # Paused, a controller with a memory (fuzzynav) is asked through a copy of
-            # itself: its answer and its inference are shown (issue 38), and the
-            # controller that drives is not disturbed by the extra call.
+        elif not app.playing:
+            # Paused, any other controller (fuzzynav, with a memory; baseline; p) is
+            # asked through a copy of itself: its answer and its inference are shown
+            # (issue 38), and the controller that drives is not disturbed by the call.
             import copy
 
             try:
@@ -120,7 +120,8 @@ class RunSettings:
                 else:
                     out = probe(c.last_inputs.copy())
                 c.last_output = np.asarray(out, dtype=float).reshape(2)
-                app._probe = probe
+                if hasattr(probe, "teaching_view"):
+                    app._probe = probe
             except Exception:
                 c.last_output = np.full(2, np.nan)
         else:

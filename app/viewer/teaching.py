@@ -25,9 +25,19 @@ class Teaching:
         app = self.app
         inner = app.controller.inner
         fis = getattr(inner, "fis", None)
+        if fis is None and self._blended(inner):
+            return self._merged(inner)
         if fis is None and hasattr(inner, "teaching_view"):
             fis = getattr(inner, "merged", None)
         return fis
+
+    def _merged(self, inner):
+        """A blended controller's merged system, built once per controller (the views
+        key their drawings by the system's identity)."""
+        if getattr(self, "_merged_for", None) is not inner:
+            self._merged_fis = inner.merged
+            self._merged_for = inner
+        return self._merged_fis
 
     def what_if_system(self):
         """The rule base what-if mode works on: a plain system over the four inputs
@@ -128,6 +138,13 @@ class Teaching:
                 if seen is None:
                     return None
                 fis, x, state = seen
+        if view is None and self._blended(shown):
+            # a stateless controller of two blocks blended (baseline): its merged
+            # system at the inputs its blocks read (issue 38: listed as fuzzy, yet the
+            # Inference tab said it had no rules)
+            if not np.isfinite(inputs[0]):
+                return None
+            return self._blended_teaching(shown, inputs)
         if view is None:
             fis = self.fuzzy_system()
             what_if = app.what_if
@@ -136,6 +153,38 @@ class Teaching:
             if fis is None or not np.isfinite(inputs[0]):
                 return None
             x = inputs[: len(fis.input_names)]
+        return self._teaching_of(fis, x, state)
+
+    @staticmethod
+    def _blended(inner) -> bool:
+        return (
+            getattr(inner, "fis", None) is None
+            and not hasattr(inner, "teaching_view")
+            and hasattr(inner, "merged")
+            and hasattr(inner, "sectors")
+        )
+
+    def _blended_teaching(self, inner, inputs) -> dict | None:
+        d_t, d_o, phi_t, phi_o = (float(v) for v in inputs[:4])
+        left, front, right = inner.sectors(d_o, phi_o)
+        values = {
+            "d_t": d_t,
+            "phi_t": phi_t,
+            "d_o": d_o,
+            "phi_o": phi_o,
+            "d_left": left,
+            "d_front": front,
+            "d_right": right,
+        }
+        fis = self._merged(inner)
+        if any(name not in values for name in fis.input_names):
+            return None
+        x = np.array([values[name] for name in fis.input_names], dtype=float)
+        avoid = getattr(inner, "avoid", None)
+        weight = 0.0
+        if avoid is not None and not all(math.isnan(v) for v in (left, front, right)):
+            weight = float(np.max(avoid.firing_strengths(np.array([[left, front, right, phi_o]]))))
+        state = {"avoidance weight alpha": f"{weight:.2f}"}
         return self._teaching_of(fis, x, state)
 
     @staticmethod
