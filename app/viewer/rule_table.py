@@ -108,15 +108,34 @@ _ZOOM_JS = (
 )
 
 
-def _zoom_attr(grid_id: str, head_id: str, uid: str, width: float) -> str:
-    js = (
-        _ZOOM_JS.replace("@G", grid_id)
-        .replace("@H", head_id)
-        .replace("@U", uid)
-        .replace("@W", f"{width:.0f}")
-        .replace("@R", f"{CELL_H:.0f}")
+def _zoom_function_js() -> str:
+    """:data:`_ZOOM_JS` as one page-wide function, ``fzZoom(event, G, H, U, W, R)``."""
+    js = _ZOOM_JS.replace(
+        "var G='@G',H='@H',g=document.getElementById(G)", "var g=document.getElementById(G)"
+    ).replace("'@Us'+k", "U+'s'+k")
+    for token, name in (("@W", "W"), ("@H", "H"), ("@G", "G"), ("@R", "R")):
+        js = js.replace(token, f'"+{name}+"')
+    assert js.startswith("(function(ev){") and js.endswith("})(event)")
+    return (
+        "window.fzZoom=function(ev,G,H,U,W,R){"
+        + js[len("(function(ev){") : -len("})(event)")]
+        + "};"
     )
-    return f" id='{grid_id}' onclick=\"{html.escape(js, quote=True)}\""
+
+
+#: Defines ``fzZoom`` once, with the system's definitions (:func:`views.defs_html`): an
+#: image that cannot load runs its onerror (a <script> in viser's HTML never runs). Each
+#: step's rows then carry a short onclick calling it, not the whole handler.
+ZOOM_DEFINITION_HTML = (
+    "<img class='fz-zoom-def' alt='' src='data:,' style='display:none' onerror=\""
+    + html.escape(_zoom_function_js(), quote=True)
+    + '">'
+)
+
+
+def _zoom_attr(grid_id: str, head_id: str, uid: str, width: float) -> str:
+    call = f"window.fzZoom&&fzZoom(event,'{grid_id}','{head_id}','{uid}',{width:.0f},{CELL_H:.0f})"
+    return f" id='{grid_id}' onclick=\"{call}\""
 
 
 def rules_head_svg(inf: Inference, ins, outs, head_id: str | None = None) -> str:

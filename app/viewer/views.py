@@ -48,7 +48,7 @@ from fuzzynav.app.viewer.drawing import (
     rule_blocks,
     rule_sentence,
 )
-from fuzzynav.app.viewer.rule_table import rows_skeleton, rules_html
+from fuzzynav.app.viewer.rule_table import ZOOM_DEFINITION_HTML, rows_skeleton, rules_html
 from fuzzynav.app.viewer.surface_view import (
     Surface,
     marker_fraction,
@@ -118,7 +118,7 @@ def defs_html(fis, uid: str, input_labels=None, output_labels=None) -> str:
         f"<style>.fz-sentence{{display:none;position:fixed;left:12px;bottom:64px;z-index:1000;"
         "max-width:380px;padding:6px 8px;border-radius:4px;background:#0f172a;color:#fff;"
         f"font:13px system-ui,sans-serif;box-shadow:0 2px 8px #0005}}{hover}</style>"
-        f"<div class='fz-sentences'>{sentences}</div>"
+        f"<div class='fz-sentences'>{sentences}</div>{ZOOM_DEFINITION_HTML}"
     )
 
 
