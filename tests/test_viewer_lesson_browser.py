@@ -641,3 +641,41 @@ def test_the_inference_shows_at_once_after_a_scenario_switch_and_the_hint_goes(l
     finally:
         app.set_controller("paper")
         app.load_scenario("s1")
+
+
+def test_the_panels_scrollbar_hides_no_part_of_the_plots(lesson):
+    """Defect 5: the Inference panel's scrollbar hid the right 6 px of the term plots
+    and of the rule grid."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(20):
+        app.step_once()
+    open_tab(page, "Inference")
+    page.wait_for_function("() => document.querySelectorAll('.fz-inference svg').length > 3")
+    page.wait_for_timeout(500)
+    overlap = page.evaluate(
+        """() => { const view = document.querySelector('.fz-inference');
+          let box = view.parentElement;
+          while (box && !(box.scrollHeight > box.clientHeight + 2
+                 && /(auto|scroll)/.test(getComputedStyle(box).overflowY))) box = box.parentElement;
+          let right = box.getBoundingClientRect().left + box.clientLeft + box.clientWidth;
+          // an overlay scrollbar (Mantine's ScrollArea) covers the content without
+          // narrowing it: its left edge is the limit
+          let el = view;
+          while (el) {
+            const bar = el.querySelector && el.querySelector(
+              ':scope > .mantine-ScrollArea-scrollbar[data-orientation="vertical"]');
+            if (bar && bar.getBoundingClientRect().width > 0) {
+              right = Math.min(right, bar.getBoundingClientRect().left); break; }
+            el = el.parentElement;
+          }
+          let worst = -1e9;
+          for (const s of view.querySelectorAll('svg')) {
+            const r = s.getBoundingClientRect();
+            if (r.width > 0) worst = Math.max(worst, r.right - right);
+          }
+          return worst; }"""
+    )
+    assert overlap <= 0.5, f"the plots reach {overlap:.1f} px under the scrollbar"

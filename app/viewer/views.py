@@ -346,6 +346,7 @@ def inference_html(
             f"{more}</div>"
         )
     return (
+        # (14 px on the right: the panel's overlay scrollbar covered the plots' edge)
         f"<div class='fz-inference' style='font-family:system-ui,sans-serif;font-size:{fs};"
-        f"padding:0 4px'>{''.join(lines)}</div>"
+        f"padding:0 14px 0 4px'>{''.join(lines)}</div>"
     )
