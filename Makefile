@@ -47,6 +47,10 @@ bench: $(VENV)/.installed-test
 
 report: $(VENV)/.installed
 	$(VENV)/bin/fuzzynav report out/report --geometry both --readme-images docs/img --force
+	cp out/report/figures/paper/fig12_s1_trajectory_paper.png docs/img/paper_geometry_s1_trajectory.png
+	cp out/report/figures/paper/fig19_s2_angles_paper.png docs/img/paper_geometry_s2_angles.png
+	cp out/report/figures/paper/fig26_s3_voltages_paper.png docs/img/paper_geometry_s3_voltages.png
+	$(PY) scripts/paper_design_figure.py
 	$(PY) scripts/fuzzynav_figure.py
 	$(PY) scripts/crossing_figure.py
 	$(PY) scripts/jitter_figure.py

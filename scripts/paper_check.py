@@ -66,7 +66,12 @@ def main(argv=None) -> int:
     )
     args = p.parse_args(argv)
     data = paper_docs.shipped_runs()
-    blocks = paper_docs.blocks(data, load("paper_readings.json"), load("paper_generalise.json"))
+    blocks = paper_docs.blocks(
+        data,
+        load("paper_readings.json"),
+        load("paper_generalise.json"),
+        load("paper_profiles.json"),
+    )
     text = PAGE.read_text(encoding="utf-8")
     new = paper_docs.with_blocks(text, blocks)
     if args.compare:

@@ -4,15 +4,17 @@
 Both shipped rule bases of the paper's controller on ``--n`` layouts of the standard
 family, seed ``--seed`` (5: held out, never used by any fit): ``paper.toml`` in the
 paper's geometry (a point robot, ideal perception), its Husky twin ``paper_husky.toml``
-in the Husky's geometry with ideal perception and with the sonars; fuzzynav's navigator
-beside it in the Husky geometry. Each run is given 4x its layout's time budget; its
-outcome within the budget itself is read off the same run (the runs are deterministic:
-a run that arrives by the budget's end arrives then; one that collides before it,
-collided). A failure that is not slowness is classified: a collision, or a timeout
-that never came within 1 m of the target (stuck or orbiting).
+in the Husky's geometry with ideal perception and with the sonars (ideal perception
+senses the front half-plane, the shipped reading, unless ``--field-of-view``);
+fuzzynav's navigator beside it in the Husky geometry (its own sensing, within the
+budget). Each run is given 4x its layout's time budget; its outcome within the budget
+itself is read off the same run (the runs are deterministic: a run that arrives by the
+budget's end arrives then; one that collides before it, collided). Each failure within
+the budget is classified by what the same run did with 4x the budget: it collides, it
+arrives (slow), or it never arrives (stuck or orbiting).
 
     .venv/bin/python scripts/paper_generalise.py --json docs/data/paper_generalise.json \\
-        [--n 500 --seed 5] [--fuzzynav-n 200]
+        [--n 500 --seed 5] [--fuzzynav-n 500 | --keep-fuzzynav]
 """
 
 from __future__ import annotations
@@ -79,9 +81,12 @@ def outcomes(result, layouts, budgets) -> dict:
     }
 
 
-def paper_modes(layouts) -> list[dict]:
+def paper_modes(layouts, field_of_view_deg: float) -> list[dict]:
     budgets = [s.duration_s for s in layouts]
-    longer = [s.replace(duration_s=BUDGET_FACTOR * s.duration_s) for s in layouts]
+    longer = [
+        s.replace(duration_s=BUDGET_FACTOR * s.duration_s, field_of_view_deg=field_of_view_deg)
+        for s in layouts
+    ]
     out = []
     for geometry, perception in MODES:
         started = time.perf_counter()
@@ -97,7 +102,8 @@ def paper_modes(layouts) -> list[dict]:
             "controller": "paper",
             "rule_base": RULES_BY_GEOMETRY[geometry].name,
             "geometry": geometry,
-            "perception": perception,
+            "perception": perception
+            + (f", front {field_of_view_deg:g} deg" if perception == "ideal" else ""),
             **outcomes(result, layouts, budgets),
             "wall_s": round(time.perf_counter() - started, 1),
         }
@@ -139,11 +145,25 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=5)
     p.add_argument("--fuzzynav-n", type=int, default=0, help="0: leave fuzzynav out")
     p.add_argument("--json", type=Path, required=True)
+    p.add_argument(
+        "--field-of-view",
+        type=float,
+        default=180.0,
+        help="what ideal perception senses, as the shipped reading (s1-s3: 180)",
+    )
+    p.add_argument(
+        "--keep-fuzzynav",
+        action="store_true",
+        help="keep the fuzzynav rows of the existing --json file instead of running them",
+    )
     args = p.parse_args(argv)
     SEED = args.seed
     layouts = generate_layouts("standard", args.n, args.seed)
-    rows = paper_modes(layouts)
-    if args.fuzzynav_n:
+    rows = paper_modes(layouts, args.field_of_view)
+    if args.keep_fuzzynav:
+        old = json.loads(args.json.read_text(encoding="utf-8"))
+        rows += [r for r in old["rows"] if r["controller"] == "fuzzynav"]
+    elif args.fuzzynav_n:
         rows += fuzzynav_modes(layouts, args.fuzzynav_n)
     args.json.write_text(
         json.dumps(

@@ -608,20 +608,7 @@ def test_a_target_that_moves_and_stays_is_taken_after_settling():
     assert all(abs(phi - new[1]) < 1e-6 for phi in steered[settle_steps + 1 :])
 
 
-@pytest.mark.parametrize(
-    "mode",
-    [
-        "ideal",
-        pytest.param(
-            "ultrasonic",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="not met from the pi/4 start (issue 25): s3 12.89 m against s2 "
-                "12.64 m; fuzzynav is not retuned for the new start",
-            ),
-        ),
-    ],
-)
+@pytest.mark.parametrize("mode", ["ideal", "ultrasonic"])
 def test_s3s_disturbance_costs_next_to_nothing(scenario_runs, mode):
     """s3 is s2 plus the disturbance: with the target check it is driven as s2 is
     (before it: 13.06 / 12.60 m against 12.44 / 12.54 m)."""

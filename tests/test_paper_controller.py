@@ -86,11 +86,13 @@ def test_table1_here_matches_the_papers_text():
 @pytest.mark.parametrize("path", [PAPER_RULES, PAPER_HUSKY_RULES], ids=lambda p: p.name)
 def test_shipped_file_differs_from_first_design_only_in_membership_parameters(path):
     """Both shipped rule bases (the paper's and its Husky twin) are Table 1 with the
-    first design's variables, their own membership parameters, and NONE for d_o read as
-    the text has it (the reading issue 35 selected)."""
+    first design's variables and their own membership parameters; the paper's reads NONE
+    for d_o as the text has it (the reading issue 35 selected), the twin as MATLAB does
+    (docs/paper-controller.md, 'The Husky twin')."""
     shipped, first = read_toml(path), read_toml(FIRST_DESIGN)
     assert shipped.rules == first.rules and shipped.n_points == first.n_points
-    assert shipped.unsensed_none == ("d_o",) and first.unsensed_none == ()
+    assert shipped.unsensed_none == (("d_o",) if path == PAPER_RULES else ())
+    assert first.unsensed_none == ()
     for a, b in zip(shipped.inputs + shipped.outputs, first.inputs + first.outputs):
         assert (a.name, a.range, a.term_names) == (b.name, b.range, b.term_names)
     header = path.read_text(encoding="utf-8").split("[system]")[0]
@@ -108,12 +110,24 @@ def test_sign_convention_target_left_speeds_up_right_wheel():
     assert left == pytest.approx(right)
 
 
-@pytest.mark.parametrize("geometry", ["paper", "husky"])
-@pytest.mark.parametrize("d_t", [8.0, 30.0])  # within s1-s3 (11.3 m at the start), and far
+_TWIN_SIGN = pytest.mark.xfail(
+    strict=True,
+    reason="not met by the Husky twin (MATLAB's NONE): with the target ahead the target "
+    "rules outweigh the obstacle rules for a near obstacle at P's centre (0.19 rad): at 8 m "
+    "5.61 V left against 5.54 V right for an obstacle ahead-right, at 30 m 8.89 against "
+    "9.23 V for one ahead-left",
+)
+
+
+@pytest.mark.parametrize(
+    ("d_t", "geometry"),
+    [(8.0, "paper"), (30.0, "paper")]
+    + [pytest.param(d, "husky", marks=_TWIN_SIGN) for d in (8.0, 30.0)],
+)
 def test_sign_convention_obstacle_left_turns_right(d_t, geometry):
-    """With the text's reading of NONE (issue 35) the goal rules are off while an
-    obstacle is sensed, so however far the target, the obstacle rules steer (under
-    MATLAB's reading the far-target rule VL, Z -> VL VL outweighed them at 30 m)."""
+    """With the text's reading of NONE (the paper's rule base, issue 35) the goal rules
+    are off while an obstacle is sensed, so however far the target, the obstacle rules
+    steer; under MATLAB's (the twin's) the target rules can outweigh them."""
     c = paper_controller(geometry=geometry)
     # where the shipped phi_o "P" (obstacle ahead-left) term is strongest
     phi_o = next(v for v in c.fis.inputs if v.name == "phi_o")
@@ -160,13 +174,11 @@ def test_save_writes_a_loadable_rule_base(tmp_path):
     assert "Reproduce with: test" in path.read_text()
 
 
-# Not met by the design-rule rule base started facing the target (issue 25); the numbers
-# and the searches are in docs/paper-controller.md ("How close it comes").
+# Not met by the Husky twin (rules/paper_husky.toml, issue 35); its numbers are in
+# docs/paper-controller.md ("The Husky twin"), generated and tested.
 _NOT_MET = {
-    ("ideal", "s1"): "the first obstacle (dead ahead) passed at 0.160 m, under the safe distance",
-    ("ultrasonic", "s1"): "the sonars lose the first obstacle, dead ahead, between beams",
-    ("ultrasonic", "s2"): "the sonars lose the static obstacle, ahead, between beams",
-    ("ultrasonic", "s3"): "the sonars lose the static obstacle, ahead, between beams",
+    ("ultrasonic", "s1"): "the twin passes s1's first obstacle at 0.146 m clearance with the "
+    "sonars (45 degrees apart), inside the 0.25 m safe distance",
 }
 ACCEPTANCE = [
     pytest.param(
@@ -181,7 +193,8 @@ ACCEPTANCE = [
 
 @pytest.mark.parametrize(("perception", "scenario"), ACCEPTANCE)
 def test_acceptance_shipped_rule_base_reaches_safely(scenario, perception):
-    """Issue 3's acceptance: the shipped assets/rules/paper.toml, the real loop (0.02 s)."""
+    """Issue 3's acceptance: the shipped Husky rule base (the twin,
+    assets/rules/paper_husky.toml), the real loop (0.02 s)."""
     result = run_scenario(scenario, "paper", perception=perception, seed=0)
     m = result.metrics
     assert result.outcome == "reached", m

@@ -49,11 +49,17 @@ def test_the_data_are_what_the_shipped_rule_bases_do(fresh):
     _close(json.loads(json.dumps(fresh)), _load("paper_controller.json"))
 
 
+def test_the_profiles_are_the_shipped_rule_bases():
+    """docs/data/paper_profiles.json: each number moved +-10 %, today's rule base."""
+    _close(json.loads(json.dumps(paper_docs.profiles())), _load("paper_profiles.json"))
+
+
 def test_the_page_is_rendered_from_the_data():
     blocks = paper_docs.blocks(
         _load("paper_controller.json"),
         _load("paper_readings.json"),
         _load("paper_generalise.json"),
+        _load("paper_profiles.json"),
     )
     found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
     assert set(blocks) <= set(found), set(blocks) - set(found)

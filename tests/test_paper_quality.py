@@ -86,8 +86,24 @@ def test_no_hole_hides_between_the_grid_points(name, path):
     assert weakest_cover(system, "obstacle", max_angle_rad=FRONT_HALF_PLANE_RAD) >= MIN_STRONGEST
 
 
-@pytest.mark.parametrize("geometry", ["paper", "husky"])
-@pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
+@pytest.mark.parametrize(
+    ("scenario", "geometry"),
+    [
+        pytest.param(
+            s,
+            g,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="not met by the twin: 63 jumps over 2 V in ideal s1 (it hesitates "
+                "between the obstacle rules and the target rules past the third obstacle)",
+            )
+            if (s, g) == ("s1", "husky")
+            else (),
+        )
+        for g in ("paper", "husky")
+        for s in ("s1", "s2", "s3")
+    ],
+)
 def test_voltages_do_not_chatter_and_some_rule_always_fires(scenario, geometry):
     """At most 20 control steps per run where a wheel jumps by more than 2 V (outside
     s3's 25-35 s disturbance, where the paper's own voltages are noisy), and at every
@@ -98,17 +114,6 @@ def test_voltages_do_not_chatter_and_some_rule_always_fires(scenario, geometry):
     system = read_toml(RULES_BY_GEOMETRY[geometry])
     strongest = system.firing_strengths(result.log.inputs[:-1]).max(axis=1)
     assert strongest.min() >= MIN_STRONGEST
-
-
-HUSKY_ULTRASONIC = pytest.mark.xfail(
-    strict=True,
-    reason="not met: facing the target (pi/4), the sonars (45 degrees apart) lose s1's and "
-    "s2's first obstacle (on or beside the start-target line) once the robot turns ~10 "
-    "degrees out of the front beam; steering back into the beam's edge keeps a constant "
-    "bearing that spirals into the obstacle (collides at 4.7-5.0 m); with the side sonars "
-    "one beam width apart (--sonar-side 15) s1-s3 are reached at 0.046 / 0.194 / 0.263 m "
-    "(docs/paper-controller.md, 'Sensing')",
-)
 
 
 def _husky_bounds(scenario, perception):
@@ -137,8 +142,9 @@ def _not_met(reasons: dict, names=("s1", "s2", "s3")):
     "scenario",
     _not_met(
         {
-            "s1": "not met: passes the first obstacle at 0.160 m clearance (bound 0.25; "
-            "phi_t at arrival -0.28 rad, met)",
+            "s1": "not met by the twin: path 13.36 m (<= 13), MAD 1.387 m (<= 0.731); "
+            "clearance 0.918 m and phi_t 0.299 rad at arrival, met",
+            "s2": "not met by the twin: MAD 1.191 m (<= 1.145)",
         }
     ),
 )
@@ -146,8 +152,15 @@ def test_husky_geometry_reaches_safely_and_short_ideal(scenario):
     _husky_bounds(scenario, "ideal")
 
 
-@pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
-@HUSKY_ULTRASONIC
+@pytest.mark.parametrize(
+    "scenario",
+    _not_met(
+        {
+            "s1": "not met by the twin: clearance 0.146 m (>= 0.25) past the first obstacle "
+            "with the sonars 45 degrees apart, MAD 1.127 m (<= 0.731)",
+        }
+    ),
+)
 def test_husky_geometry_reaches_safely_and_short_ultrasonic(scenario):
     _husky_bounds(scenario, "ultrasonic")
 
@@ -211,9 +224,9 @@ DONE_FINAL_PHI_T_RAD = 0.1
     "scenario",
     _not_met(
         {
-            "s1": "not met: path -3.9 % (MAD +13.4 %, RMSE -1.8 %, minimum distance +15.7 %, met)",
-            "s2": "not met: path -3.7 %, minimum distance +26.5 % (MAD -9.5 %, RMSE -23.1 %, met)",
-            "s3": "not met: path -3.1 % (MAD -13.9 %, RMSE -19.6 %, minimum distance -17.4 %, met)",
+            "s1": "not met: path -3.9 % (MAD +17.9 %, RMSE +0.0 %, minimum distance +6.7 %, met)",
+            "s2": "not met: path -3.7 % (MAD -6.0 %, RMSE -21.2 %, minimum distance +23.4 %, met)",
+            "s3": "not met: path -3.3 % (MAD -12.4 %, RMSE -19.5 %, minimum distance -20.0 %, met)",
         }
     ),
 )
@@ -229,11 +242,11 @@ def test_paper_geometry_reproduces_table4_from_the_trace(traces, scenario):
     "scenario",
     _not_met(
         {
-            "s1": "not met: the first obstacle passed at 0.67 m (paper 0.46; the second and "
-            "third at 0.30 and 0.35 m, met)",
-            "s2": "not met: the moving obstacle passed at 0.49 m (paper 0.72) and at 51.2 s "
-            "(paper 61 s, met); the static one at 0.53 m and 28.2 s, met",
-            "s3": "not met: the moving obstacle passed at 0.55 m (paper 0.73; at 49.4 s, met)",
+            "s1": "not met: the first obstacle passed at 0.64 m (paper 0.46; the second and "
+            "third at 0.27 and 0.34 m, met)",
+            "s2": "not met: the moving obstacle passed at 0.47 m (paper 0.72; at 51.9 s, met); "
+            "the static one at 0.52 m and 28.8 s, met",
+            "s3": "not met: the moving obstacle passed at 0.51 m (paper 0.73; at 50.4 s, met)",
         }
     ),
 )
@@ -254,8 +267,8 @@ def test_paper_geometry_target_bearing_settles_to_zero(traces, scenario):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not met: s3's static pass at 26.7 s against s2's 28.2 s (the paper: 33 s against "
-    "29 s); s1's first obstacle is passed farthest (0.67 against 0.30 and 0.35 m), met",
+    reason="not met: s3's static pass at 27.4 s against s2's 28.8 s (the paper: 33 s against "
+    "29 s); s1's first obstacle is passed farthest (0.64 against 0.27 and 0.34 m), met",
 )
 def test_paper_geometry_tells_the_papers_story(traces):
     """s1's first obstacle is passed farthest of the three (0.46 against 0.29 and about
@@ -280,20 +293,20 @@ def test_paper_geometry_s1_comes_at_its_obstacles_from_the_right(traces):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not met: s3's right wheel reaches 8.80 V at most, not the 12 V saturation "
-    "(Fig. 26's text): the centroid of the wheels' terms (VL from 13.9 V) does not get there",
+    reason="not met: s3's right wheel reaches 8.23 V at most, not the 12 V saturation "
+    "(Fig. 26's text; docs/paper-controller.md says why)",
 )
 def test_paper_geometry_s3_right_wheel_reaches_the_saturation(traces):
     """Fig. 26's text: s3's right wheel 'attempts to exceed 12 volts' and is clipped."""
     assert np.nanmax(traces["s3"]["v_right_v"]) >= 12.0 - 0.01
 
 
-@pytest.mark.parametrize(
-    "scenario",
-    _not_met({"s3": "not met: 4 jumps over 2 V (the disturbance's sin(2t) on every input)"}),
-)
+@pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
 def test_paper_geometry_voltages_jump_at_most_twice(traces, scenario):
-    """Issue 35: voltages without chatter, at most 2 jumps over 2 V a run (the trace)."""
-    v = np.column_stack([traces[scenario]["v_left_v"], traces[scenario]["v_right_v"]])
-    jumps = int(np.sum(np.abs(np.diff(v, axis=0)).max(axis=1) > 2.0))
+    """Issue 35: voltages without chatter, at most 2 jumps over 2 V a run (the trace),
+    outside s3's disturbance, where the paper's own voltages are noisy (Fig. 26)."""
+    t = traces[scenario]
+    v = np.column_stack([t["v_left_v"], t["v_right_v"]])
+    quiet = (t["disturbance_m_or_rad"][1:] == 0) & (t["disturbance_m_or_rad"][:-1] == 0)
+    jumps = int(np.sum((np.abs(np.diff(v, axis=0)).max(axis=1) > 2.0) & quiet))
     assert jumps <= 2, jumps

@@ -240,7 +240,7 @@ def render_readings(table: dict) -> str:
 
 def render_generalise(table: dict) -> str:
     lines = [
-        "| controller | rule base | geometry | perception | reached safely (budget) | reached safely (4x budget) | reached (budget) | collided (budget) | failures within the budget |",
+        "| controller | rule base | geometry | perception | reached safely (budget) | reached safely (4x budget) | reached (budget) | collided (budget) | failures within the budget, by what they do with 4x |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table["rows"]:
@@ -250,7 +250,10 @@ def render_generalise(table: dict) -> str:
                 f"| {r['reached_safely_pct']:.1f} % | (not run) | {r['reached_pct']:.1f} % | | |"
             )
             continue
-        kinds = ", ".join(f"{k} {v}" for k, v in r["failures_within_budget"].items())
+        words = {"collided": "collide", "slow (arrives within 4x)": "arrive later"}
+        kinds = ", ".join(
+            f"{words.get(k, 'never arrive')} {v}" for k, v in r["failures_within_budget"].items()
+        )
         lines.append(
             f"| paper | {r['rule_base']} | {r['geometry']} | {r['perception']} "
             f"| {r['reached_safely_pct']:.1f} % | {r['reached_safely_4x_pct']:.1f} % "
@@ -262,6 +265,87 @@ def render_generalise(table: dict) -> str:
         f"{table['rows'][0]['n']} layouts; 'reached safely': the target reached with at "
         "least 0.25 m between the robot (its footprint in the Husky geometry) and every "
         "obstacle.",
+    ]
+    return "\n".join(lines)
+
+
+PROFILE_STEP = 0.10
+
+
+def profiles() -> dict:
+    """Each of the shipped paper rule base's 12 numbers moved by -10 % and +10 % (clipped
+    to the layout's bounds): the done bounds met and the fit's cost (batch engine, 0.02 s)."""
+    import numpy as np
+
+    from fuzzynav.app.experiments.batch_runs import fit_measures
+    from fuzzynav.app.experiments.paper_fit import FitCost, read_fitted
+    from fuzzynav.controller.paper import PAPER_RULES
+    from fuzzynav.controller.paper_design import PaperDesignTunable
+
+    tunable = PaperDesignTunable()
+    names = tunable.parameter_names()
+    lo, hi = np.array(tunable.bounds()).T
+    x = read_fitted(PAPER_RULES)
+    vectors = [x]
+    for k in range(len(names)):
+        for factor in (1.0 - PROFILE_STEP, 1.0 + PROFILE_STEP):
+            v = x.copy()
+            v[k] = float(np.clip(x[k] * factor, lo[k], hi[k]))
+            vectors.append(v)
+    fit = FitCost(0.02, stall_s=None)
+    measured = fit_measures(fit, SCENARIOS, vectors, "paper", "ideal")
+
+    def judged(k):
+        runs = {m["scenario"]: m for m in measured[k]}
+        return {
+            "bounds_met": sum(c["met"] for c in bound_checks(runs)),
+            "cost": round(fit.combine([measured[k]]), 3),
+        }
+
+    rows = []
+    for k, name in enumerate(names):
+        row = {"name": name, "fitted": float(x[k])}
+        for side, index in (("minus_10pct", 1 + 2 * k), ("plus_10pct", 2 + 2 * k)):
+            value = float(vectors[index][k])
+            row[side] = {
+                "value": value,
+                "clipped": not np.isclose(
+                    value, x[k] * (1 + (-1 if side[0] == "m" else 1) * PROFILE_STEP)
+                ),
+                **judged(index),
+            }
+        rows.append(row)
+    return {"rules": PAPER_RULES.name, "fitted": judged(0), "profiles": rows}
+
+
+def render_profiles(table: dict) -> str:
+    base = table["fitted"]
+    lines = [
+        f"The shipped vector (header's 6 digits) meets {base['bounds_met']} bounds at a fit "
+        f"cost of {base['cost']:.1f}.",
+        "",
+        "| number | fitted | -10 %: bounds met, cost | +10 %: bounds met, cost |",
+        "|---|---|---|---|",
+    ]
+    for row in table["profiles"]:
+        cells = []
+        for side in ("minus_10pct", "plus_10pct"):
+            r = row[side]
+            cells.append(
+                f"{r['bounds_met']}, {r['cost']:.1f}" + (" (clipped)" if r["clipped"] else "")
+            )
+        lines.append(f"| `{row['name']}` | {row['fitted']:.4g} | {cells[0]} | {cells[1]} |")
+    free = [
+        f"`{row['name']}`"
+        for row in table["profiles"]
+        if min(row["minus_10pct"]["bounds_met"], row["plus_10pct"]["bounds_met"])
+        >= base["bounds_met"] - 1
+    ]
+    lines += [
+        "",
+        "Left free by the paper's results (both moves lose at most one bound): "
+        + (", ".join(free) or "none")
+        + "; every other number is pinned (a 10 % move loses two bounds or more).",
     ]
     return "\n".join(lines)
 
@@ -302,19 +386,25 @@ def render_readme_headline(data: dict, generalise: dict | None) -> str:
         f"{s1} m coming from the right of the line, the target bearing settling to "
         f"{max(abs(m['final_phi_t_rad']) for m in runs.values()):.3f} rad; s3's right wheel "
         f"stays at {runs['s3']['max_voltage_v'][1]:.1f} V (the paper: clipped at 12 V). "
-        "On the Husky's footprint (the default world, the viewer's) drives its twin, "
+        "The Husky's footprint (the default world, the viewer's) is driven by its twin, "
         "`rules/paper_husky.toml`, fitted for that body: it reaches "
         f"{twin_reached} of s1-s3's six runs (ideal and sonars) and meets {twin_met} of its "
         f"{twin_total} bounds."
     )
     if generalise is not None:
-        rows = {(r["geometry"], r["perception"]): r for r in generalise["rows"]}
-        twin = rows.get(("husky", "ideal"))
-        if twin is not None:
+        rows = {
+            (r["geometry"], r["perception"].split(",")[0]): r
+            for r in generalise["rows"]
+            if r["controller"] == "paper"
+        }
+        own, twin = rows.get(("paper", "ideal")), rows.get(("husky", "ideal"))
+        if own is not None and twin is not None:
             text += (
-                f" On {twin['n']} held-out random layouts the twin reaches "
-                f"{twin['reached_safely_pct']:.0f} % safely within their time budget "
-                f"({twin['reached_safely_4x_pct']:.0f} % with four times it)."
+                f" On {twin['n']} held-out random layouts the paper's rule base reaches "
+                f"{own['reached_safely_pct']:.0f} % safely within their time budget in its own "
+                f"geometry ({own['reached_safely_4x_pct']:.0f} % with four times it), the "
+                f"twin {twin['reached_safely_pct']:.0f} % on the Husky's body "
+                f"({twin['reached_safely_4x_pct']:.0f} %)."
             )
     return text + (
         " Every residual, the readings table and what binds: "
@@ -384,7 +474,9 @@ def render_layout() -> str:
     return "\n".join(lines)
 
 
-def blocks(data: dict, readings: dict, generalise: dict | None) -> dict[str, str]:
+def blocks(
+    data: dict, readings: dict, generalise: dict | None, profiles_table: dict | None = None
+) -> dict[str, str]:
     out = {
         "layout": render_layout(),
         "paper-results": render_paper(data),
@@ -393,6 +485,8 @@ def blocks(data: dict, readings: dict, generalise: dict | None) -> dict[str, str
     }
     if generalise is not None:
         out["generalise"] = render_generalise(generalise)
+    if profiles_table is not None:
+        out["profiles"] = render_profiles(profiles_table)
     return out
 
 

@@ -267,7 +267,8 @@ def story_cost(measured: list[dict]) -> float:
         right = by_name["s1"].get("largest_right_offset_m")
         if right is not None:  # s1 comes at its obstacles from the right of the line
             cost += min((max(0.0, MIN_RIGHT_OFFSET_M - right) / 0.05) ** 2, DONE_PENALTY_CAP)
-    if "s3" in by_name:  # Fig. 26's text: s3's right wheel is clipped at 12 V
+    if "s3" in by_name and "max_voltage_v" in by_name["s3"]:
+        # Fig. 26's text: s3's right wheel is clipped at 12 V
         top = by_name["s3"]["max_voltage_v"][1]
         cost += min((max(0.0, SATURATION_V - 0.05 - top) / 0.5) ** 2, DONE_PENALTY_CAP)
     if "s2" in by_name and "s3" in by_name:
