@@ -1174,7 +1174,9 @@ def test_what_if_mode_follows_dragged_inputs_without_moving_the_robot(served, pa
     for frac in (0.6, 0.45, 0.3, 0.25):  # a real drag, through the values in between
         page.mouse.move(box["x"] + frac * box["width"], y, steps=4)
     page.mouse.up()
-    lo, hi = -3.14, 3.14
+    # the slider spans phi_t's range in the rule base (issue 38: it was -3.14..3.14
+    # whatever the rule base said)
+    lo, hi = served.inference.what_if_boxes[index].min, served.inference.what_if_boxes[index].max
     assert app.wait_for(
         lambda a: abs(a.what_if[index] - (lo + 0.25 * (hi - lo))) < 0.35, timeout=10
     ), app.what_if

@@ -333,3 +333,36 @@ def test_baseline_shows_its_two_blocks_in_the_inference():
     np.testing.assert_allclose(
         (1 - alpha) * goal + alpha * avoid, app.snapshot().voltages_v, atol=0.01
     )
+
+
+def test_crowded_obstacles_are_labelled_by_their_number_on_their_top():
+    """Defect 5: in trap the posts' labels ("obstacle 7" beside each) overlapped, and a
+    tall post away from the middle showed its side beside its top (a double circle)."""
+    import time
+
+    from fuzzynav.app.viewer.handles import OBSTACLE_HEIGHT_M
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    assert OBSTACLE_HEIGHT_M <= 0.25
+    server = ViewerServer(ViewerApp("trap", "paper"), port=0)
+    try:
+
+        def labels():
+            return {
+                n["number"]: (n["label"].text, n["label"].anchor)
+                for n in server.handles.obstacle_nodes.values()
+            }
+
+        deadline = time.monotonic() + 10
+        while len(labels()) < 10 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert labels() == {k: (str(k), "center-center") for k in range(1, 11)}
+        # s1's obstacles stand apart: labelled in full, beside them
+        server.app.load_scenario("s1")
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and set(labels()) != {1, 2, 3}:
+            time.sleep(0.1)
+        time.sleep(0.3)
+        assert labels() == {k: (f"obstacle {k}", "center-left") for k in (1, 2, 3)}
+    finally:
+        server.stop()

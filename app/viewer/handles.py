@@ -11,7 +11,10 @@ import numpy as np
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.resources import shorten
 
-OBSTACLE_HEIGHT_M = 0.5
+# Low posts: seen from above in perspective, a tall one away from the middle showed its
+# side beside its top, a double circle (issue 38, in trap).
+OBSTACLE_HEIGHT_M = 0.2
+CROWDED_M = 1.5  # an obstacle this near another is labelled by its number, on its top
 # The target is drawn (and picked) above the obstacles: dropped on one, it is still
 # the target that a press on it grabs.
 TARGET_HEIGHT_M = OBSTACLE_HEIGHT_M + 0.08
@@ -165,10 +168,34 @@ class DragHandles:
             number = snap.obstacle_numbers.get(ob.id, ob.id + 1)
             if node["number"] != number:  # an obstacle before it was removed
                 node["number"] = number
-                node["label"].text = self._obstacle_label(number, ob.is_static)
+                node["crowded"] = None  # (its label is written again below)
             elif node["xy"] != ob.xy and node["name"] not in self.dragging:
                 node["handle"].position = (ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01)
                 node["xy"] = ob.xy
+        self._label_crowded(wanted)
+
+    def _label_crowded(self, wanted: dict) -> None:
+        """Obstacles close together (trap's posts) are labelled by their number on their
+        top, not "obstacle k" beside them (the labels overlapped); the others in full."""
+        for key, node in self.obstacle_nodes.items():
+            ob = wanted.get(key)
+            if ob is None:
+                continue
+            crowded = any(
+                math.dist(ob.xy, other.xy) < CROWDED_M for k, other in wanted.items() if k != key
+            )
+            if node.get("crowded") == crowded:
+                continue
+            node["crowded"] = crowded
+            label = node["label"]
+            if crowded:
+                label.text = str(node["number"])
+                label.anchor = "center-center"
+                label.position = (0.0, 0.0, 0.02)
+            else:
+                label.text = self._obstacle_label(node["number"], ob.is_static)
+                label.anchor = "center-left"
+                label.position = (ob.radius_m + 0.08, 0.0, 0.0)
 
     @staticmethod
     def _obstacle_label(number: int, static: bool) -> str:
