@@ -679,3 +679,67 @@ def test_the_panels_scrollbar_hides_no_part_of_the_plots(lesson):
           return worst; }"""
     )
     assert overlap <= 0.5, f"the plots reach {overlap:.1f} px under the scrollbar"
+
+
+def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  # noqa: F811
+    """Issue 38: the teacher's tab lists every student's world (scenario, controller,
+    time, state, edits) and can lock and unlock the students' controls: a locked tab's
+    Play and drags are refused with a word; unlocked, they work again."""
+    from fuzzynav.app.viewer.classroom import ClassroomServer
+
+    classroom = ClassroomServer(lambda: ViewerApp("s1", "paper"), port=0, token="teach-me")
+    pages = []
+    try:
+        teacher = open_page(browser, classroom.url)
+        pages.append(teacher)
+        student = open_page(browser, classroom.url)
+        pages.append(student)
+        first, second = sorted(classroom.sessions)
+        t_view, s_view = classroom.sessions[first], classroom.sessions[second]
+        teacher.wait_for_function(
+            f"() => ({JS_FOLLOWS})(['.fz-status', 'Teacher']) !== null", timeout=30_000
+        )
+        teacher.get_by_text("Teacher", exact=True).click()
+        box = teacher.locator(
+            f"div:has(> div > p > label[for='{t_view.teacher_token_box._impl.uuid}']) input"
+        )
+        box.scroll_into_view_if_needed()
+        box.fill("teach-me")
+        lock = teacher.get_by_role("checkbox", name="Lock the students' controls")
+        lock.wait_for(state="visible", timeout=10_000)
+        # the overview lists the student's world, and follows it
+        s_view.app.move_obstacle(next(iter(s_view.app.sim.arena.obstacles)), (2.0, 3.0))
+        for _ in range(25):
+            s_view.app.step_once()
+        teacher.wait_for_function(
+            "() => { const r = document.querySelector('.fz-class-row');"
+            " return r && r.innerText.includes('0.5 s') && r.innerText.includes('layout'); }",
+            timeout=15_000,
+        )
+        teacher.locator(".fz-class").scroll_into_view_if_needed()
+        teacher.screenshot(path="/tmp/fz-class.png")
+        row = teacher.locator(".fz-class-row").inner_text()
+        assert "s1" in row and "paper" in row and "paused" in row
+        # locked: the student's Play is refused, and said
+        lock.click()
+        assert s_view.locked and not t_view.locked
+        student.get_by_role("button", name="Play", exact=True).click()
+        student.wait_for_timeout(1000)
+        assert not s_view.app.playing
+        student.wait_for_function(
+            "() => document.body.innerText.includes('locked the controls')", timeout=10_000
+        )
+        # the teacher's own tab still plays
+        t_view.app.play()
+        assert t_view.app.wait_for(lambda a: a.sim.time_s > 0.1, timeout=10)
+        t_view.app.pause()
+        # unlocked: the student's Play works
+        lock.click()
+        assert not s_view.locked
+        student.get_by_role("button", name="Play", exact=True).click()
+        assert s_view.app.wait_for(lambda a: a.playing, timeout=10)
+        s_view.app.pause()
+    finally:
+        for page in pages:
+            page.context.close()
+        classroom.stop()

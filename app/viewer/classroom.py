@@ -29,6 +29,11 @@ BUILD_ATTEMPTS = 3  # a tab's world is built at most this many times before it i
 TEACHER_ORDER = 1e15  # the Teacher folder's place: after every component viser numbers
 
 
+class ServerLockText:
+    LOCKED = "The teacher has locked the controls: watch, and wait for the teacher."
+    UNLOCKED = "The teacher has unlocked the controls."
+
+
 class ClassroomServer:
     """The viser server of a classroom: one world per tab (see the module doc)."""
 
@@ -41,6 +46,7 @@ class ClassroomServer:
         self.port = self.server.get_port()
         self.sessions: dict = {}  # client id -> ViewerServer
         self.teachers: set[int] = set()
+        self.locked = False  # the teacher has locked the students' controls
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue()
         self._stop = threading.Event()
@@ -48,6 +54,10 @@ class ClassroomServer:
             target=self._build_loop, name="fuzzynav-classroom", daemon=True
         )
         self._builder.start()
+        self._overview = threading.Thread(
+            target=self._overview_loop, name="fuzzynav-classroom-overview", daemon=True
+        )
+        self._overview.start()
         self.server.on_client_connect(lambda client: self._queue.put(("connect", client)))
         self.server.on_client_disconnect(self._on_disconnect)
 
@@ -128,6 +138,7 @@ class ClassroomServer:
             view.stop()  # (not registered yet: a retry would not stop it)
             raise
         with self._lock:
+            view.locked = self.locked  # a tab that joins a locked class is locked
             self.sessions[client.client_id] = view
         if client.client_id not in self.server.get_clients():  # left while being built
             self._close(client.client_id)
@@ -159,6 +170,13 @@ class ClassroomServer:
                 visible=False,
                 hint="Every tab restarts in this tab's scenario, layout and settings",
             )
+            lock = gui.add_checkbox(
+                "Lock the students' controls",
+                self.locked,
+                visible=False,
+                hint="Every other tab's buttons, boxes and drags are refused until unticked",
+            )
+            overview = gui.add_html("", visible=False)
 
         def on_token(event) -> None:
             if event.client is None:
@@ -167,8 +185,13 @@ class ClassroomServer:
                 with self._lock:
                     self.teachers.add(client_id)
                 push.visible = True
+                lock.visible = True
+                overview.visible = True
                 box.value = ""  # (a server-side set: on_token sees no client, and returns)
                 box.visible = False
+                # the class, drawn with this tab's panels (by its render thread)
+                view.class_overview = lambda: self._draw_overview(client_id, overview)
+                view.app._bump()
                 view.tell(
                     event.client, "You are the teacher: you can push to the class.", "success"
                 )
@@ -185,10 +208,121 @@ class ClassroomServer:
                 return
             view.tell(event.client, f"Pushed to {n} tab{'s' if n != 1 else ''}.", "success")
 
-        # in this tab's order, after its earlier presses (ViewerServer.guarded)
-        box.on_update(view.guarded(on_token))
-        push.on_click(view.guarded(on_push))
+        def on_lock(event) -> None:
+            if event.client is None:
+                return
+            if client_id not in self.teachers:
+                raise ViewerError("only the teacher's tab can lock the class")
+            n = self.lock_class(bool(event.value), client_id)
+            state = "locked" if event.value else "unlocked"
+            view.tell(event.client, f"Controls {state} in {n} tab{'s' if n != 1 else ''}.", "info")
+
+        # in this tab's order, after its earlier presses (ViewerServer.guarded); the
+        # Teacher folder answers even in a locked tab (the teacher may sit at one)
+        box.on_update(view.guarded(on_token, always=True))
+        push.on_click(view.guarded(on_push, always=True))
+        lock.on_update(view.guarded(on_lock, always=True))
         view.teacher_token_box, view.teacher_push = box, push
+        view.teacher_lock, view.teacher_overview = lock, overview
+
+    def lock_class(self, locked: bool, teacher_id: int | None = None) -> int:
+        """Lock (or unlock) every tab's controls but the teacher's; returns how many
+        tabs. Tabs that join later take the class's state."""
+        with self._lock:
+            self.locked = bool(locked)
+            others = [v for cid, v in self.sessions.items() if cid != teacher_id]
+        for view in others:
+            view.locked = self.locked
+            view.app._notice(
+                ServerLockText.LOCKED if self.locked else ServerLockText.UNLOCKED, "info"
+            )
+        return len(others)
+
+    def overview_rows(self, teacher_id: int | None = None) -> list[dict]:
+        """Every other tab's world as the teacher's overview lists it."""
+        with self._lock:
+            items = sorted(
+                ((cid, v) for cid, v in self.sessions.items() if cid != teacher_id),
+                key=lambda item: item[0],
+            )
+        rows = []
+        for number, (_, view) in enumerate(items, 1):
+            snap = view.app.snapshot()
+            m = snap.metrics or {}
+            state = snap.outcome if snap.outcome else "running" if snap.playing else "paused"
+            rows.append(
+                {
+                    "tab": number,
+                    "scenario": snap.scenario_label,
+                    "controller": snap.controller_label,
+                    "time_s": snap.time_s,
+                    "state": state,
+                    "time_to_target_s": m.get("time_to_target_s"),
+                    "min_clearance_m": m.get("min_clearance_m"),
+                    "edited": ", ".join(
+                        e
+                        for e, on in (
+                            ("layout", snap.layout_edited),
+                            ("rules", snap.controller_label.endswith("(edited)")),
+                        )
+                        if on
+                    ),
+                    "locked": view.locked,
+                }
+            )
+        return rows
+
+    def _draw_overview(self, teacher_id: int, element) -> None:
+        """The teacher's overview of the class (called by the teacher tab's render
+        thread, with its panels)."""
+        import html as html_module
+
+        rows = self.overview_rows(teacher_id)
+
+        def num(value, unit):
+            return "—" if value is None else f"{value:.2f} {unit}"
+
+        colour = {"reached": "#15803d", "collided": "#b91c1c", "timeout": "#b45309"}
+
+        def result(r) -> str:
+            parts = [r["state"]]
+            if r["time_to_target_s"] is not None:
+                parts.append(num(r["time_to_target_s"], "s"))
+            if r["min_clearance_m"] is not None:
+                parts.append("clearance " + num(r["min_clearance_m"], "m"))
+            return " · ".join(parts)
+
+        body = "".join(
+            f"<tr class='fz-class-row'><td>{r['tab']}</td>"
+            f"<td>{html_module.escape(r['scenario'])} · {html_module.escape(r['controller'])}"
+            f"</td><td style='text-align:right;white-space:nowrap'>{r['time_s']:.1f} s</td>"
+            f"<td style='color:{colour.get(r['state'], '#334155')}'>"
+            f"{html_module.escape(result(r))}</td>"
+            f"<td>{html_module.escape(r['edited']) or '—'}"
+            f"{' 🔒' if r['locked'] else ''}</td></tr>"
+            for r in rows
+        )
+        content = (
+            "<div class='fz-class' style='font-family:system-ui,sans-serif;font-size:0.78em;"
+            "padding:0 14px 0 6px;overflow-x:auto'>"
+            f"<b>The class: {len(rows)} other tab{'s' if len(rows) != 1 else ''}"
+            f"{' (locked)' if self.locked else ''}</b>"
+            "<table style='width:100%;border-collapse:collapse;"
+            "font-variant-numeric:tabular-nums'><tr style='text-align:left;color:#475569'>"
+            "<th>tab</th><th>world</th><th>t</th><th>state</th><th>edits</th></tr>"
+            f"{body}</table></div>"
+        )
+        if element.content != content:
+            element.content = content
+
+    def _overview_loop(self) -> None:
+        """Once a second, the teachers' tabs draw their overview again (their render
+        threads draw it, with their panels, when their world's version moves)."""
+        while not self._stop.wait(1.0):
+            with self._lock:
+                views = [self.sessions[c] for c in self.teachers if c in self.sessions]
+            for view in views:
+                view.app._bump()
 
     def push_from(self, client_id: int) -> int:
         """The teacher's scenario (as edited) and settings to every other tab's world;
@@ -206,6 +340,7 @@ class ClassroomServer:
     def stop(self) -> None:
         self._stop.set()
         self._builder.join(timeout=5.0)
+        self._overview.join(timeout=5.0)
         with self._lock:
             views = list(self.sessions.values())
             self.sessions.clear()

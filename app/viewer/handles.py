@@ -218,6 +218,10 @@ class DragHandles:
         async def on_drag(event) -> None:
             if event.client is None:
                 return
+            if self.view.locked:  # a classroom's teacher locked the controls
+                if event.phase == "start":
+                    self.view.tell(event.client, self.view.LOCKED_TEXT, "warning")
+                return
             try:
                 self._first_drag()
                 if event.phase == "start" or "xy" not in grab:
@@ -252,6 +256,9 @@ class DragHandles:
 
         async def on_update(event) -> None:
             if event.client is None:
+                return
+            if self.view.locked:  # drawn back where the world has it
+                self._snap_back(event.target, obstacle_id)
                 return
             if event.phase == "start":
                 self.dragging.add(name)

@@ -111,3 +111,5 @@ class RenderLoop:
         view.inference.draw_timeline(snap)
         view.surface.draw(snap)
         view.status_line.draw_result(snap)
+        if view.class_overview is not None:  # a classroom teacher's tab
+            view.class_overview()

@@ -84,6 +84,11 @@ class ViewerServer:
     def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080, *, surface=None):
         self.app = app
         self.host = host
+        #: a classroom's teacher has locked this tab's controls (issue 38): presses and
+        #: drags are refused with a word; the teacher's own folder still answers
+        self.locked = False
+        #: () -> None, drawn with the panels (the classroom's overview, in a teacher's tab)
+        self.class_overview = None
         self._worker = None  # the GUI callbacks' thread (guarded)
         self._worker_lock = threading.Lock()
         if surface is None:
@@ -202,7 +207,9 @@ class ViewerServer:
         self.status_line.last_metrics_run = -1
         self.app._bump()
 
-    def guarded(self, func):
+    LOCKED_TEXT = "The teacher has locked the controls for now."
+
+    def guarded(self, func, always: bool = False):
         """Run a GUI callback; a refused action becomes a message in the page.
 
         ``func(event)`` gets ``event.value``: the value the client sent, as the message
@@ -215,6 +222,10 @@ class ViewerServer:
         this world's own worker (a press during a scenario load applies after the load)."""
 
         def run(event):
+            if self.locked and not always:
+                self.tell(event.client, self.LOCKED_TEXT, "warning")
+                self.app._bump()  # the widgets are drawn back as the world has them
+                return
             try:
                 func(event)
             except ViewerError as exc:
