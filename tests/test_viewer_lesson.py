@@ -366,3 +366,57 @@ def test_crowded_obstacles_are_labelled_by_their_number_on_their_top():
         assert labels() == {k: (f"obstacle {k}", "center-left") for k in (1, 2, 3)}
     finally:
         server.stop()
+
+
+def test_rules_are_added_changed_removed_and_undone_validated_and_exported():
+    """Issue 38: the Editor edits the rules like a designer: a sentence read by the rule
+    base's own parser (a wrong term or variable refused with its reason), applied at
+    once to the driving controller, undoable, and exported in TOML and .fis."""
+    from fuzzynav.app.viewer.model import ViewerError
+    from fuzzynav.controller.rulebase import loads_toml
+
+    app = ViewerApp("s1", "paper")
+    editor = app.editor()
+    n = len(app.fuzzy_system().rules)
+    first = editor.rule_text(1)
+    # change rule 1's consequent, with a weight
+    import re
+
+    changed = (
+        re.split(r"\s+then\s+", first, flags=re.I)[0]
+        + " then left is VS and right is VS weight 0.5"
+    )
+    app.edit_rules("set", 1, changed)
+    assert app.controller_label == "paper (edited)"
+    rule = app.fuzzy_system().rules[0]
+    assert rule.weight == 0.5 and "0.5" in app.editor().rule_text(1)
+    # add one, remove one
+    app.edit_rules("add", text="if d_t is VS then left is VS and right is VS")
+    assert len(app.fuzzy_system().rules) == n + 1
+    app.edit_rules("remove", 2)
+    assert len(app.fuzzy_system().rules) == n
+    # refused with the reason, nothing changed
+    before = app.fuzzy_system().rules
+    for bad, why in (
+        ("if d_t is HUGE then left is S", "unknown term"),
+        ("if speed is S then left is S", "unknown variable"),
+        ("d_t is S then left is S", "must start with IF"),
+    ):
+        with pytest.raises(ViewerError, match=why):
+            app.edit_rules("add", text=bad)
+    assert app.fuzzy_system().rules == before
+    # a slider move keeps the edited rules
+    name = editor.names[0]
+    lo, hi = editor.bounds[name]
+    app.set_membership_parameter(name, 0.5 * (lo + hi))
+    assert app.fuzzy_system().rules == before
+    # undo, back to the shipped rules
+    app.edit_rules("undo")
+    app.edit_rules("undo")
+    app.edit_rules("undo")
+    assert app.fuzzy_system().rules == app.editor().shipped.fis.rules
+    with pytest.raises(ViewerError, match="no rule edit"):
+        app.edit_rules("undo")
+    # exported in TOML, read back the same
+    app.edit_rules("set", 1, changed)
+    assert loads_toml(app.editor().toml_text()).rules == app.fuzzy_system().rules

@@ -743,3 +743,51 @@ def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  #
         for page in pages:
             page.context.close()
         classroom.stop()
+
+
+def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
+    """Issue 38: Editor → Rules: pick a rule, change its sentence and Apply (the robot's
+    controller and the Inference tab take it at once), Add as new, Undo."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    open_tab(page, "Editor")
+    page.get_by_text("Rules (add, change, remove)", exact=True).click()
+    try:
+        n = len(app.fuzzy_system().rules)
+        number = page.locator(
+            f"div:has(> div > p > label[for='{server.editor.rule_number._impl.uuid}']) input"
+        )
+        number.fill("3")
+        number.press("Enter")
+        box = page.locator(
+            f"div:has(> div > p > label[for='{server.editor.rule_text._impl.uuid}']) input"
+        )
+        page.wait_for_function(
+            "(e) => e.value.startsWith('IF')", arg=box.element_handle(), timeout=10_000
+        )
+        assert box.input_value() == app.editor().rule_text(3)
+        box.fill("if d_t is VS then left is VS and right is VS")
+        page.get_by_role("button", name="Add as new").click()
+        assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == n + 1, timeout=10)
+        assert app.controller_label == "paper (edited)"
+        open_tab(page, "Inference")
+        page.wait_for_function(
+            "(n) => document.querySelectorAll('.fz-hit [data-rule]').length == n",
+            arg=n + 1,
+            timeout=10_000,
+        )
+        open_tab(page, "Editor")
+        page.get_by_role("button", name="Undo").click()
+        assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == n, timeout=10)
+        # a sentence with a wrong term is refused with its reason
+        box.fill("if d_t is HUGE then left is VS")
+        page.get_by_role("button", name="Apply").click()
+        page.wait_for_function(
+            "() => document.body.innerText.includes('unknown term')", timeout=10_000
+        )
+        assert len(app.fuzzy_system().rules) == n
+    finally:
+        app.reset_membership_editor()
+        page.get_by_text("Rules (add, change, remove)", exact=True).click()

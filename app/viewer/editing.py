@@ -250,6 +250,27 @@ class ScenarioEditing:
             raise ViewerError(str(exc)) from None
         app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
 
+    def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
+        """Change the paper controller's rules (issue 38): ``set`` rule ``number`` to
+        ``text``, ``add`` ``text`` as a new rule, ``remove`` rule ``number``, ``undo`` the
+        last rule edit; the robot drives with the edited system at once."""
+        app = self.app
+        editor = self.editor()
+        try:
+            if action == "set":
+                controller = editor.set_rule(number, text)
+            elif action == "add":
+                controller = editor.add_rule(text)
+            elif action == "remove":
+                controller = editor.remove_rule(number)
+            elif action == "undo":
+                controller = editor.undo_rule_edit()
+            else:
+                raise ValueError(f"rule edit {action!r}: set, add, remove or undo")
+        except (TypeError, ValueError) as exc:
+            raise ViewerError(str(exc)) from None
+        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+
     def reset_membership_editor(self) -> None:
         """Back to the shipped paper controller (and its parameters in the editor)."""
         app = self.app

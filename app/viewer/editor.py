@@ -85,6 +85,8 @@ class PaperEditor:
         self.edited = False
         self._controller = self.shipped
         self.inference = self.shipped.fis.inference
+        self.rules = None  # the rules as edited (issue 38); None: the shipped ones
+        self._rule_undo: list = []  # the rules before each rule edit
 
     def choice(self, field: str) -> str:
         """The current value of an inference choice (an Inference field name)."""
@@ -140,12 +142,87 @@ class PaperEditor:
                 fis = shaped
         except ValueError:
             fis = shaped
-        return FisController(fis.replace(inference=self.inference), name="paper (edited)")
+        fis = fis.replace(inference=self.inference)
+        if self.rules is not None:
+            fis = fis.replace(rules=self.rules)
+        return FisController(fis, name="paper (edited)")
+
+    # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
+
+    def rule_text(self, number: int) -> str:
+        """Rule ``number`` (from 1) as a sentence the editor reads back."""
+        from fuzzynav.controller.rulebase import format_rule
+
+        fis = self._controller.fis
+        if not 1 <= int(number) <= len(fis.rules):
+            raise ValueError(f"rule {number}: there are rules 1 to {len(fis.rules)}")
+        return format_rule(fis, fis.rules[int(number) - 1])
+
+    def _with_rules(self, rules):
+        from fuzzynav.controller.fis_controller import FisController
+
+        fis = self._controller.fis.replace(rules=tuple(rules))  # checks the structure
+        controller = FisController(fis, name="paper (edited)")
+        self._rule_undo.append(self._controller.fis.rules)
+        self.rules, self._controller, self.edited = tuple(rules), controller, True
+        return controller
+
+    def _parse(self, text: str):
+        from fuzzynav.controller.rulebase import parse_rule
+
+        fis = self._controller.fis
+        try:
+            return parse_rule(str(text), list(fis.inputs), list(fis.outputs))
+        except ValueError as exc:
+            raise ValueError(f"rule {text!r}: {exc}") from None
+
+    def set_rule(self, number: int, text: str):
+        """Rule ``number`` (from 1) becomes ``text`` ("if d_t is L and phi_t is Z then
+        left is M and right is M", optionally "weight 0.5"); returns the controller."""
+        rules = list(self._controller.fis.rules)
+        if not 1 <= int(number) <= len(rules):
+            raise ValueError(f"rule {number}: there are rules 1 to {len(rules)}")
+        rules[int(number) - 1] = self._parse(text)
+        return self._with_rules(rules)
+
+    def add_rule(self, text: str):
+        """A new rule at the end; returns the controller."""
+        return self._with_rules(list(self._controller.fis.rules) + [self._parse(text)])
+
+    def remove_rule(self, number: int):
+        rules = list(self._controller.fis.rules)
+        if not 1 <= int(number) <= len(rules):
+            raise ValueError(f"rule {number}: there are rules 1 to {len(rules)}")
+        if len(rules) == 1:
+            raise ValueError("the last rule cannot be removed")
+        del rules[int(number) - 1]
+        return self._with_rules(rules)
+
+    def undo_rule_edit(self):
+        """The rules as they were before the last rule edit; returns the controller."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        if not self._rule_undo:
+            raise ValueError("no rule edit to undo")
+        rules = self._rule_undo.pop()
+        fis = self._controller.fis.replace(rules=rules)
+        self.rules, self._controller = rules, FisController(fis, name="paper (edited)")
+        self.edited = True
+        return self._controller
+
+    def toml_text(self) -> str:
+        """The edited system as a TOML rule base (``fuzzynav`` reads it back)."""
+        from fuzzynav.controller.rulebase import dumps_toml
+
+        fis = self._controller.fis
+        return dumps_toml(fis.replace(name="paper_edited" if self.edited else fis.name))
 
     def reset(self):
         """Back to the shipped controller."""
         from fuzzynav.controller.paper import paper_controller
 
+        self.rules = None
+        self._rule_undo = []
         self.vector = self.start.copy()
         self.edited = False
         self._controller = paper_controller(geometry=self.geometry)

@@ -104,9 +104,10 @@ class EditorPanel:
             f"{note}</div>"
         )
         self.editor_buttons = gui.add_button_group(
-            "Edited system", ("Download .fis", "Reset to shipped")
+            "Edited system", ("Download .fis", "Download .toml", "Reset to shipped")
         )
         self.editor_buttons.on_click(self.view.guarded(self._on_editor_button))
+        self._build_rules(gui, editor)
         self.editor_choices = {}
         with gui.add_folder("Inference (MATLAB's choices)", expand_by_default=True):
             for field, label, hint in EDITOR_CHOICES:
@@ -143,7 +144,57 @@ class EditorPanel:
                     )
                     self.editor_sliders[name] = slider
 
+    def _build_rules(self, gui, editor) -> None:
+        """The rules, edited like a designer's (issue 38): pick a rule by its number, its
+        sentence in the box; change it and Apply, or Add it as a new rule, Remove the
+        rule picked, Undo the last rule edit. Every sentence is read by the rule base's
+        own parser (terms and variables checked); the robot drives with it at once."""
+        n = len(editor.controller().fis.rules)
+        with gui.add_folder("Rules (add, change, remove)", expand_by_default=False):
+            self.rule_number = gui.add_number(
+                "Rule", 1, min=1, max=n, step=1, hint="the rule to read, change or remove"
+            )
+            self.rule_text = gui.add_text(
+                "Sentence",
+                editor.rule_text(1),
+                hint="if <input> is <term> and ... then <output> is <term> and ... [weight w]",
+            )
+            self.rule_buttons = gui.add_button_group(
+                "Rule edit", ("Apply", "Add as new", "Remove", "Undo")
+            )
+        self.rule_number.on_update(self.view.guarded(self._on_rule_number))
+        self.rule_buttons.on_click(self.view.guarded(self._on_rule_button))
+
+    def _show_rule(self, number: int) -> None:
+        editor = self.app.editor()
+        n = len(editor.controller().fis.rules)
+        number = min(max(int(number), 1), n)
+        if self.rule_number.max != n:
+            self.rule_number.max = n
+        if self.rule_number.value != number:
+            self.rule_number.value = number
+        self.rule_text.value = editor.rule_text(number)
+
+    def _on_rule_number(self, event) -> None:
+        self._show_rule(int(event.value))
+
+    def _on_rule_button(self, event) -> None:
+        number = int(self.rule_number.value)
+        text = str(self.rule_text.value)
+        action = {"Apply": "set", "Add as new": "add", "Remove": "remove", "Undo": "undo"}[
+            event.value
+        ]
+        self.app.edit_rules(action, number, text)
+        n = len(self.app.editor().controller().fis.rules)
+        self._show_rule(n if action == "add" else number)
+
     def _on_editor_button(self, event) -> None:
+        if event.value == "Download .toml":
+            text = self.app.editor().toml_text()
+            event.client.send_file_download(
+                "paper_edited.toml", text.encode("utf-8"), save_immediately=True
+            )
+            return
         if event.value == "Download .fis":
             text = self.app.edited_fis_text()
             event.client.send_file_download(
@@ -156,6 +207,7 @@ class EditorPanel:
             slider.value = round(editor.value(name), 2)
         for field, dropdown in self.editor_choices.items():
             dropdown.value = editor.choice(field)
+        self._show_rule(1)
 
     def sync(self) -> None:
         """The sliders at the edited system's numbers (another tab may have moved them)."""
