@@ -791,3 +791,44 @@ def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
     finally:
         app.reset_membership_editor()
         page.get_by_text("Rules (add, change, remove)", exact=True).click()
+
+
+def test_a_3d_surface_beside_the_arena_with_the_operating_point_on_it(lesson):
+    """Issue 38: the Surface tab's first map as a 3-D surface in the scene, which the
+    class turns (it ticks View → 3D view); the robot's operating point moves on it."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    open_tab(page, "Surface")
+    box = page.get_by_role("checkbox", name="3D surface beside the arena")
+    box.click()
+    try:
+        page.wait_for_function(
+            "() => !!window.__viserMutable.nodeRefFromName['/surface3d/lines']", timeout=15_000
+        )
+        assert server.view_3d  # the camera may turn
+        js_point = (
+            "() => { const n = window.__viserMutable.nodeRefFromName['/surface3d/point'];"
+            " return n ? n.position.toArray().map((v) => +v.toFixed(3)) : null; }"
+        )
+        page.wait_for_function(f"() => ({js_point})() !== null", timeout=10_000)
+        first = page.evaluate(js_point)
+        for _ in range(200):
+            app.step_once()
+        page.wait_for_function(
+            f"(p) => JSON.stringify(({js_point})()) !== JSON.stringify(p)",
+            arg=first,
+            timeout=10_000,
+        )
+        # the point stands on the surface: its height is the map's value there
+        x, y, z = server.surface._nodes_3d[1]["point"].position
+        assert abs(z) > 1e-3
+        page.wait_for_timeout(1000)
+        page.screenshot(path="/tmp/fz-surface3d.png")
+    finally:
+        box.click()
+        page.wait_for_function(
+            "() => !window.__viserMutable.nodeRefFromName['/surface3d/lines']", timeout=15_000
+        )
+        assert not server.view_3d  # back to the top-down arena

@@ -29,6 +29,17 @@ class SurfacePanel:
     def build(self) -> None:
         gui = self.view.server.gui
         self._build_surface_choice()
+        # The first plane as a 3-D surface in the scene, beside the arena (issue 38):
+        # with View → 3D view the class turns it; the operating point moves on it.
+        self.surface_3d_cb = gui.add_checkbox(
+            "3D surface beside the arena",
+            False,
+            hint="The first map's speed as a surface in the scene, the robot's operating "
+            "point on it; turn it with the mouse (this also ticks View → 3D view)",
+            order=0.5,
+        )
+        self.surface_3d_cb.on_update(self.view.guarded(self._on_surface_3d))
+        self._nodes_3d = None  # (key, {name: handle}) while the surface is drawn
         self.surface_html = gui.add_html("", order=1.0)
         self.marker_html = gui.add_html("", order=2.0)
 
@@ -150,6 +161,105 @@ class SurfacePanel:
             ]
         return []
 
+    def _on_surface_3d(self, event) -> None:
+        on = bool(event.value)
+        if on and not self.view.view_3d:  # a surface is for turning
+            self.view.view_3d = True
+            self.view.controls.view_3d_cb.value = True
+        bounds = self.view.scene.bounds
+        if on and bounds is not None:
+            # every tab looks at the arena and the surface beside it, from the south
+            x0, x1, y0, y1 = bounds
+            size = y1 - y0
+            cx, cy = 0.5 * (x0 + x1 + 1.0 + size), 0.5 * (y0 + y1)
+            width = (x1 - x0) + 1.0 + size
+            for client in self.view.server.get_clients().values():
+                try:
+                    client.camera.position = (cx, cy - 1.5 * width, 1.2 * width)
+                    client.camera.look_at = (cx, cy, 0.0)
+                except Exception:  # the tab went away meanwhile
+                    pass
+        elif not on:
+            self.view.view_3d = False
+            self.view.controls.view_3d_cb.value = False
+            self.view.camera.fit_all()
+        self.app._bump()
+
+    def _draw_3d(self, snap: Snapshot) -> None:
+        """The first plane's speed (or first output) as a surface beside the arena, and
+        the operating point on it; drawn by the render thread, with the panels."""
+        scene = self.view.server.scene
+        wanted = bool(self.surface_3d_cb.value) and bool(self._surface_planes)
+        bounds = self.view.scene.bounds
+        if not wanted or bounds is None:
+            if self._nodes_3d is not None:
+                for node in self._nodes_3d[1].values():
+                    node.remove()
+                self._nodes_3d = None
+            return
+        title, fis, xi, yi, x_range, y_range, held, kind = self._surface_planes[0]
+        key = (id(fis), xi, yi, x_range, y_range, tuple(np.nan_to_num(held, nan=-9e9)), bounds)
+        x0, x1, y0, y1 = bounds
+        size = float(y1 - y0)
+        ox, oy = x1 + 1.0, y0  # beside the arena, to its right
+        if self._nodes_3d is None or self._nodes_3d[0] != key:
+            if self._nodes_3d is not None:
+                for node in self._nodes_3d[1].values():
+                    node.remove()
+            xs, ys, out = surface_view.surface_grid(fis, xi, yi, x_range, y_range, held, n=31)
+            values = 0.5 * (out[..., 0] + out[..., 1]) if kind == "wheels" else out[..., 0]
+            limit = float(np.nanmax(np.abs(values))) or 1.0
+            gx = ox + (xs - x_range[0]) / (x_range[1] - x_range[0]) * size
+            gy = oy + (ys - y_range[0]) / (y_range[1] - y_range[0]) * size
+            gz = np.nan_to_num(values) / limit * 0.35 * size
+            pts = np.stack(np.broadcast_arrays(gx[None, :], gy[:, None], gz), axis=-1)
+            segs = np.concatenate(
+                [
+                    np.stack([pts[:, :-1], pts[:, 1:]], axis=2).reshape(-1, 2, 3),
+                    np.stack([pts[:-1, :], pts[1:, :]], axis=2).reshape(-1, 2, 3),
+                ]
+            ).astype(np.float32)
+            mid = 0.5 * (segs[:, 0, 2] + segs[:, 1, 2]) / (0.35 * size) * limit
+            rgb = surface_view.diverging_rgb(mid, limit)
+            colours = np.repeat(rgb[:, None, :], 2, axis=1)
+            nodes = {
+                "lines": scene.add_line_segments("/surface3d/lines", segs, colours, line_width=2.5),
+                "label": scene.add_label(
+                    "/surface3d/label",
+                    f"{title}: speed (V) over {fis.input_names[xi]} → , {fis.input_names[yi]} ↑",
+                    position=(ox, oy + size + 0.4, 0.0),
+                    anchor="bottom-left",
+                    font_screen_scale=self.view.label_scale(0.8),
+                ),
+                "point": scene.add_icosphere(
+                    "/surface3d/point", radius=0.18, color=(250, 204, 21), position=(ox, oy, 0)
+                ),
+            }
+            self._nodes_3d = (key, nodes, (xs, ys, values, limit, ox, oy, size))
+        xs, ys, values, limit, ox, oy, size = self._nodes_3d[2]
+        d_t, d_o, phi_t, phi_o = snap.inputs if snap.what_if is None else snap.what_if
+        vx, vy = ((d_t, d_o, phi_t, phi_o)[xi], (d_t, d_o, phi_t, phi_o)[yi])
+        point = self._nodes_3d[1]["point"]
+        inside = (
+            math.isfinite(vx)
+            and math.isfinite(vy)
+            and x_range[0] <= vx <= x_range[1]
+            and y_range[0] <= vy <= y_range[1]
+        )
+        if inside:
+            x = held.copy()
+            x[xi], x[yi] = vx, vy
+            out = np.asarray(fis.evaluate_one(x), dtype=float)
+            value = 0.5 * (out[0] + out[1]) if kind == "wheels" else out[0]
+            where = (
+                ox + (vx - x_range[0]) / (x_range[1] - x_range[0]) * size,
+                oy + (vy - y_range[0]) / (y_range[1] - y_range[0]) * size,
+                float(np.nan_to_num(value)) / limit * 0.35 * size,
+            )
+            point.position = where
+        if point.visible != inside:
+            point.visible = inside
+
     def draw(self, snap: Snapshot) -> None:
         inner = self.app.controller.inner
         key = (id(getattr(inner, "fis", None)), id(inner))
@@ -172,6 +282,8 @@ class SurfacePanel:
             for k in range(2):
                 markers[f"fz-op{p}{k}"] = where
         set_html(self.marker_html, surface_view.marker_style(markers))
+        with self.view.server.atomic():
+            self._draw_3d(snap)
 
     def _surface_html(self, snap: Snapshot) -> str:
         if not self._surface_planes:
