@@ -168,9 +168,9 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
             raise rd.err(lineno, "expected Key=Value in [System]", line)
         key, val = m.group(1), m.group(2).strip()
         if key not in _SYSTEM_KEYS:
-            raise rd.err(lineno, f"unknown [System] key {key!r}", line)
+            raise rd.err(lineno, f"unknown [System] key {shorten(repr(key))}", line)
         if key in sysd:
-            raise rd.err(lineno, f"duplicate [System] key {key!r}", line)
+            raise rd.err(lineno, f"duplicate [System] key {shorten(repr(key))}", line)
         sysd[key] = (lineno, val)
     for key in ("Name", "Type", "NumInputs", "NumOutputs", "NumRules"):
         if key not in sysd:
@@ -181,7 +181,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     if got.lower() != "mamdani":
         raise rd.err(
             lineno,
-            f"unsupported system type {got!r}: only Mamdani systems are supported (no Sugeno)",
+            f"unsupported system type {shorten(repr(got))}: only Mamdani systems are supported (no Sugeno)",
             val,
         )
     choices = {}
@@ -192,7 +192,9 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         lineno, val = sysd[key]
         got = rd.string(lineno, val, key)
         if got.lower() not in CHOICES[field]:
-            raise rd.err(lineno, f"unsupported {key} {got!r}: supported are {allowed}", val)
+            raise rd.err(
+                lineno, f"unsupported {key} {shorten(repr(got))}: supported are {allowed}", val
+            )
         choices[field] = got.lower()
     if "Version" in sysd:
         lineno, val = sysd["Version"]
@@ -228,9 +230,9 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                     mfs[k] = (lineno, val)
                     continue
                 if key not in _VAR_KEYS:
-                    raise rd.err(lineno, f"unknown [{kind}{idx}] key {key!r}", line)
+                    raise rd.err(lineno, f"unknown [{kind}{idx}] key {shorten(repr(key))}", line)
                 if key in kv:
-                    raise rd.err(lineno, f"duplicate [{kind}{idx}] key {key!r}", line)
+                    raise rd.err(lineno, f"duplicate [{kind}{idx}] key {shorten(repr(key))}", line)
                 kv[key] = (lineno, val)
             for key in ("Name", "Range", "NumMFs"):
                 if key not in kv:
@@ -257,7 +259,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                     raise rd.err(
                         lineno,
                         f"MF{k}: unsupported membership function type "
-                        f"{shape!r} (supported: {', '.join(mf.SHAPES)})",
+                        f"{shorten(repr(shape))} (supported: {', '.join(mf.SHAPES)})",
                         val,
                     )
                 params = [

@@ -14,7 +14,10 @@ from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
 from fuzzynav.controller.rulebase import read_toml
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_TOML = ROOT / "assets" / "rules" / "paper.toml"
+# The Husky twin: the paper's Table 1 with MATLAB's NONE, a system a .fis can hold (the
+# paper-geometry rule base reads NONE as the text does, and its export is refused:
+# tests/test_none_reading.py).
+PAPER_TOML = ROOT / "assets" / "rules" / "paper_husky.toml"
 nan = float("nan")
 
 

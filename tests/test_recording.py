@@ -200,7 +200,7 @@ def s2_p(tmp_path_factory):
 def fuzzy_run(tmp_path_factory):
     from fuzzynav.world.scenario import load_scenario
 
-    scenario = load_scenario("s1").replace(duration_s=8.0)
+    scenario = load_scenario("s1").replace(duration_s=25.0)
     sim = build_simulation(scenario, controller_object=make_fuzzy_controller())
     result = sim.run()
     path = tmp_path_factory.mktemp("rrd") / "fuzzy.rrd"

@@ -6,6 +6,7 @@
 - :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
 - :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
+- :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
 - :mod:`.resultlog`   ``--out``/``--resume``: rows written as they arrive, read back safely;
