@@ -90,7 +90,7 @@ def facts() -> dict:
     import numpy as np
 
     from fuzzynav.app.viewer.editor import PaperEditor
-    from fuzzynav.controller.paper import paper_controller
+    from fuzzynav.controller.paper import RULES_BY_GEOMETRY, paper_controller
 
     fis = paper_controller().fis
     editor = PaperEditor()
@@ -134,6 +134,7 @@ def facts() -> dict:
         "paper.editor_numbers": len(editor.names),
         "paper.editor_layout": EDITOR_LAYOUTS.get(type(editor.tunable).__name__, "?"),
         "paper.editor_exact": "yes" if editor.exact else "no",
+        "paper.rule_file": f"rules/{RULES_BY_GEOMETRY['husky'].name}",
         "paper.gap": "a gap" if gap else "no gap",
         "paper.choices": ", ".join(f"{FIELDS[f]} {getattr(inference, f)}" for f in FIELDS),
     }
@@ -248,13 +249,13 @@ def _editor_block(f: dict) -> str:
     n, layout = f["paper.editor_numbers"], f["paper.editor_layout"]
     if f["paper.editor_exact"] == "yes":
         start = (
-            "They start from the numbers the shipped `rules/paper.toml` records in its "
-            "header (`# tuned vector:`), which rebuild it exactly."
+            f"They start from the numbers the shipped `{f['paper.rule_file']}` records in "
+            "its header (`# tuned vector:`), which rebuild it exactly."
         )
     else:
         start = (
-            "The shipped `rules/paper.toml` records no numbers of a layout that rebuild it, "
-            "so they start from the tuner's starting point, and the Editor says so; Reset "
+            f"The shipped `{f['paper.rule_file']}` records no numbers of a layout that "
+            "rebuild it, so they start from the tuner's starting point, and the Editor says so; Reset "
             "to shipped drives with the shipped system itself."
         )
     holds = (
@@ -267,7 +268,7 @@ def _editor_block(f: dict) -> str:
         'Inference tab then shows "No rule fires: fallback".'
     )
     return (
-        f"For the shipped paper rule base the sliders hold the {n} numbers of the "
+        f"For the shipped paper rule base (the Husky's) the sliders hold the {n} numbers of the "
         f"{layout} layout, each named by what it does, in two decimals. {start}{holds}\n"
     )
 
