@@ -567,7 +567,7 @@ def test_editor_sliders_change_the_driving_controller_and_download_and_reset(ser
     app.set_controller("paper")
     open_tab(page, "Editor")
     shipped = app.controller.inner.fis
-    name = "d_t.h"  # the spacing VS -> S: moves S
+    name = "d_t.top"  # where VL starts: every d_t spacing, S with them
     editor = app.editor()
     low, high = editor.bounds[name]
     # a step the slider allows, up or down, whatever the shipped value
@@ -1071,7 +1071,7 @@ def test_the_small_things_a_class_noticed(served, page):
     # the Editor: words, no repository path, whole numbers in the boxes
     open_tab(page, "Editor")
     text = page.locator("body").inner_text()
-    assert "controller/paper" not in text and "VS to S spacing (m)" in text
+    assert "controller/paper" not in text and "VL holds 1 from (m)" in text
     assert "\nh\n" not in text and "\nc0\n" not in text
     boxes = page.evaluate(
         "() => [...document.querySelectorAll(\"input[inputmode='decimal']\")]"

@@ -34,14 +34,14 @@ EDITOR_CHOICES = (
 # partition (controller/paper_partition.py) layouts.
 EDITOR_LABELS = {
     "d_t.c0": "VS holds 1 up to (m)",
-    "d_t.h": "VS to S spacing (m)",
+    "d_t.top": "VL holds 1 from (m)",
     "d_t.r": "each next spacing grows (×)",
     "d_o.near": "near holds 1 up to (m)",
     "d_o.far": "far holds 1 from (m)",
     "phi_t.p": "P, N centre (rad)",
-    "phi_t.w": "VP, VN full after P (rad)",
+    "phi_t.q": "VP, VN full from P's centre × (1 + q)",
     "phi_o.p": "P, N centre (rad)",
-    "phi_o.w": "VP, VN full after P (rad)",
+    "phi_o.q": "VP, VN full from P's centre × (1 + q)",
     "v.e0": "VS holds 1 at (V)",
     "v.top": "VL holds 1 at (V)",
     "v.r": "each next spacing grows (×)",
