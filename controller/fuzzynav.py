@@ -155,7 +155,7 @@ from fuzzynav.controller.fuzzynav_params import (
 )
 from fuzzynav.controller.fuzzynav_parts import load_parts
 from fuzzynav.controller.fuzzynav_planner import BearingPlanner
-from fuzzynav.controller.fuzzynav_robot import _AXES, VOLTAGE_LIMIT_V
+from fuzzynav.controller.fuzzynav_robot import _AXES, VOLTAGE_LIMIT_V, mounts_of
 from fuzzynav.controller.fuzzynav_tracker import Tracker
 from fuzzynav.controller.rulebase import read_toml
 
@@ -229,6 +229,9 @@ class FuzzyNavController:
     """
 
     needs_ranges = True
+    #: the simulation gives it the robot's sonar mounts (set_sensor_mounts) before each
+    #: start: its memory places echoes on their axes (``--sonar-side`` moves them)
+    needs_sensor_mounts = True
     name = "fuzzynav"
 
     # The parts' state that teaching, recording and tests read (see the parts' modules).
@@ -273,7 +276,18 @@ class FuzzyNavController:
         self.memory = PerceptionMemory(self.params)
         self.planner = BearingPlanner(self.params)
         self.tracker = Tracker(self.params)
+        self.axes = _AXES  # the sonars' axes (set_sensor_mounts)
         self.reset()
+
+    def set_sensor_mounts(self, sensor_mounts) -> None:
+        """The robot's sonars (:class:`~fuzzynav.world.sensors.SensorMount` s, left, front,
+        right): the memory, the planner and the tracker read their axes from these."""
+        mounts = mounts_of(sensor_mounts)
+        axes = frozenset(m[2] for m in mounts)
+        self.axes = axes
+        self.memory.mounts, self.memory.axes = mounts, axes
+        self.planner.axes = axes
+        self.tracker.axes = axes
 
     def set_parts_off(self, names=()) -> None:
         """Switch the named parts off and every other part on again
@@ -484,7 +498,7 @@ class FuzzyNavController:
             backing_away = (
                 d_o_raw == d_o_raw
                 and phi_o == phi_o
-                and phi_o not in _AXES
+                and phi_o not in self.axes
                 and abs(phi_o) < 0.5 * math.pi
                 and memory.closing_o > _CLOSING_MPS
             )

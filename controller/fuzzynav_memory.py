@@ -42,6 +42,8 @@ class PerceptionMemory:
 
     def __init__(self, params: dict):
         self.params = params
+        #: the sonars (x, y, angle) and their axes: the robot's (set_sensor_mounts)
+        self.mounts, self.axes = _MOUNTS, _AXES
         self.reset()
 
     def reset(self) -> None:
@@ -97,12 +99,12 @@ class PerceptionMemory:
             # remembered as an arc (the axis and both edges), or a point placed on
             # the axis would follow the robot as it turns away.
             spread = math.radians(p["echo_spread_deg"])
-            for (mx, my, ma), r in zip(_MOUNTS, ranges):
+            for (mx, my, ma), r in zip(self.mounts, ranges):
                 if r < store_range:
                     for a in (ma - spread, ma, ma + spread):
                         bx, by = mx + r * math.cos(a), my + r * math.sin(a)
                         self.remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, t)
-            if d_o == d_o and phi_o in _AXES:
+            if d_o == d_o and phi_o in self.axes:
                 # A sonar's nearest echo also as the point on its axis that is d_o
                 # from the footprint. Only sonar sightings (bearing on a beam axis)
                 # are remembered: the all-around nearest obstacle of ideal

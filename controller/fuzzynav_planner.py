@@ -81,6 +81,7 @@ class BearingPlanner:
 
     def __init__(self, params: dict):
         self.params = params
+        self.axes = _AXES  # the sonars' axes: the robot's (set_sensor_mounts)
         self.reset()
 
     def reset(self) -> None:
@@ -133,7 +134,7 @@ class BearingPlanner:
             # unseen, and runs came nearer obstacles (docs/fuzzynav-log.md).
             turn_w = (
                 p["plan_turn_weight"]
-                if near_block and phi_o == phi_o and phi_o not in _AXES
+                if near_block and phi_o == phi_o and phi_o not in self.axes
                 else 0.0
             )
             if abs(other - phi_t) + turn_w * abs(other) + p["plan_switch_rad"] < abs(

@@ -11,18 +11,25 @@ from __future__ import annotations
 
 import math
 
+from fuzzynav.world.sensors import default_mounts
+
 VOLTAGE_LIMIT_V = 12.0
 # Plant constants for dead reckoning (notes section 1): 12 V both -> 0.617 m/s,
 # (-12, +12) -> 0.62 rad/s; and the sensor mounts (x, y, angle) on the front edge.
 _V_PER_VOLT = 0.617 / 12.0
 _W_PER_VOLT = 0.62 / 12.0
 _HX, _HY = 0.495, 0.335
-_MOUNTS = (
-    (0.495, 0.75 * 0.335, math.radians(45.0)),
-    (0.495, 0.0, 0.0),
-    (0.495, -0.75 * 0.335, math.radians(-45.0)),
-)
 
+
+def mounts_of(sensor_mounts) -> tuple[tuple[float, float, float], ...]:
+    """``(x, y, angle)`` of each sonar (robot frame) from the world's
+    :class:`~fuzzynav.world.sensors.SensorMount` list: the robot's own mounts, not a copy
+    (``--sonar-side 15`` moves them, and the memory must follow: issue 36)."""
+    return tuple((float(m.x_m), float(m.y_m), float(m.angle_rad)) for m in sensor_mounts)
+
+
+# The default mounts, the world's (left, front, right at +-45 degrees).
+_MOUNTS = mounts_of(default_mounts())
 _AXES = frozenset(m[2] for m in _MOUNTS)
 
 

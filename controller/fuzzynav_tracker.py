@@ -70,6 +70,7 @@ class Tracker:
     (``params``, shared)."""
 
     def __init__(self, params: dict):
+        self.axes = _AXES  # the sonars' axes: the robot's (set_sensor_mounts)
         self.params = params
         self.reset()
 
@@ -192,7 +193,7 @@ class Tracker:
         prev = self.obs_centre
         if (
             prev is not None
-            and phi_o not in _AXES
+            and phi_o not in self.axes
             and (cx - prev[0]) ** 2 + (cy - prev[1]) ** 2 < 0.3**2
         ):
             h = store_dt

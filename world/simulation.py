@@ -14,6 +14,10 @@ A controller is any object with ``reset()`` and ``__call__(inputs) -> voltages``
 ``inputs`` is a float array (4,) and ``voltages`` any sequence of two floats. A
 controller that sets ``needs_ranges = True`` is called as
 ``controller(inputs, ranges_m=ranges)`` with the three sensor readings (m, inf = none).
+A controller that sets ``needs_sensor_mounts = True`` gets the robot's sensor mounts
+(:class:`~fuzzynav.world.sensors.SensorMount` s) through
+``controller.set_sensor_mounts(mounts)`` before each start, so that what it knows of its
+sonars is the robot's (``--sonar-side`` moves them).
 The world never imports a controller: it only calls what it is given.
 
 Row ``k`` of the log holds the state at ``time_s[k]``, the inputs sensed then and the
@@ -550,6 +554,8 @@ class Simulation:
         )
         self.arena.reset(sc.start, sc.heading_rad, sc.target, sc.obstacles)
         self.sensors.reset(self.seed)
+        if getattr(self.controller, "needs_sensor_mounts", False):
+            self.controller.set_sensor_mounts(self.sensors.config.mounts)
         self.controller.reset()
         self.x = np.zeros(6)
         self.outcome: str | None = None
