@@ -57,7 +57,7 @@ class Run:
     Attributes
     ----------
     outcome : str
-        ``"reached"``, ``"collision"`` or ``"timeout"``.
+        ``"reached"``, ``"collided"`` or ``"timeout"``.
     metrics : dict
         The fields of ``fuzzynav run --json``: path_length_m, mad_m, rmse_m,
         min_clearance_m, time_to_target_s, ... (SI units in the names; a number that

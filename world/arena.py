@@ -141,15 +141,6 @@ class Obstacle:
     def velocity_at(self, time_s: float) -> np.ndarray:
         return self.initial_velocity + self.acceleration * (time_s - self.law_start_s)
 
-    def spec_at(self, time_s: float) -> ObstacleSpec:
-        """The obstacle as a scenario entry, as if its law started at ``time_s``."""
-        return ObstacleSpec(
-            tuple(self.position_at(time_s)),
-            self.radius_m,
-            tuple(self.velocity_at(time_s)),
-            tuple(self.acceleration),
-        )
-
 
 def _arc_pose(pose0, v: float, w: float, tau: float) -> tuple[float, float, float]:
     """The pose ``tau`` seconds into a step at constant forward speed v and yaw rate w."""

@@ -678,10 +678,6 @@ class HuskyModel:
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.parameters!r})"
 
-    def derivative(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        r""":math:`\dot x = A x + B u`."""
-        return self.A @ x + self.B @ u
-
     def discrete(self, dt_s: float) -> DiscreteHusky:
         """The exact ZOH matrices for step ``dt_s`` [s], computed once per step size."""
         try:

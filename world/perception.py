@@ -134,19 +134,6 @@ def _outside_field_as_inf(clearances, centres, x, y, heading, half_field_rad):
     ]
 
 
-def ultrasonic_obstacle_inputs(
-    ranges_m, mount_angles_rad, cutoff_m: float = OBSTACLE_CUTOFF_M
-) -> tuple[float, float]:
-    """(d_o, phi_o) from range readings; NaN, NaN when every reading is beyond the cutoff."""
-    if type(ranges_m) is not list:
-        ranges_m = np.asarray(ranges_m, dtype=float).tolist()
-    k = ranges_m.index(min(ranges_m))  # np.argmin's first minimum
-    d_o = float(ranges_m[k])
-    if not d_o <= cutoff_m:
-        return math.nan, math.nan
-    return d_o, float(mount_angles_rad[k])
-
-
 class Perception:
     """Turns the arena (and the sensors' readings) into the controller's four inputs."""
 
@@ -192,9 +179,10 @@ class Perception:
     def _sense(self, arena: Arena, time_s: float, target_xy=None):
         """The inputs as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges as a list)``.
 
-        :func:`target_inputs`, :func:`ideal_obstacle_inputs` and
-        :func:`ultrasonic_obstacle_inputs` inlined (with ``wrap_angle_scalar``): the
-        same operations in the same order, without five Python calls per step.
+        :func:`target_inputs` and :func:`ideal_obstacle_inputs` inlined (with
+        ``wrap_angle_scalar``), and with the sonars the nearest reading at its mount's
+        angle (NaN, NaN beyond the cutoff): the same operations in the same order,
+        without five Python calls per step.
         ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
         """
         sensors = self.sensors

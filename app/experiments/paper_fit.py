@@ -461,41 +461,6 @@ def fit(
     return x, best, nit, nfev + 1
 
 
-def residual_table(vector, control_period_s: float = 0.02) -> list[dict]:
-    """Rows (scenario, quantity, paper, fitted, difference %) for the docs, paper geometry."""
-    cost = FitCost(control_period_s, stall_s=None)
-    rows = []
-    for measured in cost.measure_all(np.asarray(vector)):
-        name = measured["scenario"]
-        table = cost.paper["table4"][name]
-        for key, paper_value in table.items():
-            rows.append(_row(name, key, paper_value, measured[key]))
-        for event in cost.paper["events"].get(name, []):
-            t, d = measured["passes"][event["obstacle"]]
-            if "time_s" in event:
-                rows.append(
-                    _row(
-                        name, f"obstacle {event['obstacle'] + 1} passed at (s)", event["time_s"], t
-                    )
-                )
-            rows.append(
-                _row(
-                    name, f"obstacle {event['obstacle'] + 1} passed by (m)", event["distance_m"], d
-                )
-            )
-    return rows
-
-
-def _row(scenario, quantity, paper_value, fitted):
-    return {
-        "scenario": scenario,
-        "quantity": quantity,
-        "paper": paper_value,
-        "fitted": fitted,
-        "difference_pct": 100.0 * (fitted / paper_value - 1.0),
-    }
-
-
 def read_fitted(path: str | Path) -> np.ndarray:
     """The design vector from a fitted file's (or a checkpoint's) 'tuned vector:' line."""
     from fuzzynav.controller.paper_design import DESIGN_PARAMETERS

@@ -219,10 +219,6 @@ class ResultLog:
                     f"give another --out, or the options it was written with"
                 )
 
-    def line_of(self, row: dict) -> int | None:
-        """The line of the file a row read back came from (None for a new row)."""
-        return self._lines.get(self.key(row))
-
     # ----------------------------------------------------------------------- writing
 
     def lock(self) -> ResultLog:
