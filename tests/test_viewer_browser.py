@@ -754,7 +754,8 @@ def test_speed_choices_noise_box_colour_key(served, page):
     for words in ("beam", "trail", "echo memory", "planned bearing", "ghost"):
         assert words in key
     style = page.locator(".fz-status").first.get_attribute("style")
-    assert "padding:0 8px" in style.replace(" 8px", " 8px")
+    # 8 px on the left, and 14 px on the right, clear of the panel's scrollbar (issue 38)
+    assert "padding:0 14px 0 8px" in style
 
 
 def test_geometry_control_shows_the_paper_point_robot(served, page):
