@@ -832,3 +832,47 @@ def test_a_3d_surface_beside_the_arena_with_the_operating_point_on_it(lesson):
             "() => !window.__viserMutable.nodeRefFromName['/surface3d/lines']", timeout=15_000
         )
         assert not server.view_3d  # back to the top-down arena
+
+
+def test_a_membership_functions_corner_is_dragged_on_its_plot(lesson):
+    """Issue 38: membership functions shaped by dragging: each Editor folder's plot has a
+    handle on every corner a slider moves; dragging one moves that slider (as its own,
+    checked update) and the robot drives with the edited system at once."""
+    from fuzzynav.app.viewer.term_drag import corner_sliders
+
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    app.reset_membership_editor()
+    open_tab(page, "Editor")
+    editor = app.editor()
+    names = [n for n in editor.names if n.startswith("d_t.")]
+    corners = corner_sliders(editor, "d_t", names)
+    x, name, rate = next(c for c in corners if abs(c[2] - 1.0) < 1e-6)  # moves 1:1
+    before = editor.value(name)
+    handle = page.locator(f".fz-term-drag[data-group='d_t'] .fz-corner[data-slider='{name}']")
+    handle.scroll_into_view_if_needed()
+    page.wait_for_timeout(300)
+    box = handle.bounding_box()
+    plot = page.locator(".fz-term-drag[data-group='d_t'] .fz-term-area").bounding_box()
+    lo, hi = editor.controller().fis.inputs[0].range
+    s_lo, s_hi = editor.bounds[name]
+    shift_m = 0.5 if s_hi - before > before - s_lo else -0.5  # toward the room it has
+    dx = shift_m / (hi - lo) * plot["width"]
+    cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+    page.mouse.move(cx, cy)
+    page.mouse.down()
+    for k in range(1, 6):
+        page.mouse.move(cx + dx * k / 5, cy)
+        page.wait_for_timeout(30)
+    page.mouse.up()
+    try:
+        assert app.wait_for(lambda a: a.controller_label == "paper (edited)", timeout=10)
+        page.wait_for_timeout(500)
+        moved = app.editor().value(name) - before
+        page.screenshot(path="/tmp/fz-terms.png")
+        assert moved == pytest.approx(shift_m / rate, abs=0.15), (moved, name)
+    finally:
+        app.reset_membership_editor()
+        app.set_controller("paper")

@@ -125,8 +125,10 @@ class EditorPanel:
         for name in editor.names:
             groups.setdefault(name.split(".")[0], []).append(name)
         titles = {"v": "outputs left, right (V)"}
+        self.term_plots = {}  # group -> (html element, slider names): drag the corners
         for group, names in groups.items():
             with gui.add_folder(titles.get(group, group), expand_by_default=group == "d_t"):
+                self.term_plots[group] = (gui.add_html(""), names)
                 for name in names:
                     lo, hi = editor.bounds[name]
                     slider = gui.add_slider(
@@ -143,6 +145,27 @@ class EditorPanel:
                         )
                     )
                     self.editor_sliders[name] = slider
+
+    def _draw_term_plots(self) -> None:
+        """Each slider group's terms with a handle on every corner a slider moves
+        (issue 38: shaped by dragging, beside the sliders); drawn again when the
+        edited system changes."""
+        from fuzzynav.app.viewer.term_drag import terms_drag_svg
+
+        editor = self.app.editor()
+        key = id(editor.controller().fis)
+        if key == getattr(self, "_term_plots_for", None):
+            return
+        self._term_plots_for = key
+        ids = {name: slider._impl.uuid for name, slider in self.editor_sliders.items()}
+        ranges = {name: (s.min, s.max) for name, s in self.editor_sliders.items()}
+        for group, (element, names) in self.term_plots.items():
+            try:
+                content = terms_drag_svg(editor, group, names, ids, ranges)
+            except Exception:  # a layout without positions: the sliders alone
+                content = ""
+            if element.content != content:
+                element.content = content
 
     def _build_rules(self, gui, editor) -> None:
         """The rules, edited like a designer's (issue 38): pick a rule by its number, its
@@ -211,6 +234,8 @@ class EditorPanel:
 
     def sync(self) -> None:
         """The sliders at the edited system's numbers (another tab may have moved them)."""
+        if getattr(self, "term_plots", None):
+            self._draw_term_plots()
         if self.app.paper_edit is not None:
             editor = self.app.paper_edit
             for name, slider in self.editor_sliders.items():
