@@ -23,7 +23,7 @@ for needed in ("fuzzynav/assets/husky.toml", "fuzzynav/assets/rules/paper.toml",
                "fuzzynav/assets/scenarios/s1.toml",
                "fuzzynav/assets/paper/results.toml", "fuzzynav/app/cli.py",
                "fuzzynav/world/husky.py", "fuzzynav/controller/fuzzy.py", "fuzzynav/__main__.py",
-               "fuzzynav/api.py"):
+               "fuzzynav/api.py", "fuzzynav/py.typed"):
     assert needed in names, f"the wheel lacks {needed}"
 assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names), "no LICENSE in the wheel"
 print(f"wheel contents: {len(names)} files, top level {sorted(tops)}")
@@ -34,6 +34,31 @@ python3 -m venv "$work/venv"
 "$work/venv/bin/pip" install --quiet "$wheel"
 mkdir "$work/empty"
 cd "$work/empty"
+
+# Type checkers see the installed package (py.typed, the lazy exports declared for them):
+# a user's script type-checks, and a wrong use of the API is caught (issue 40).
+"$work/venv/bin/pip" install --quiet "mypy>=1.10"
+cat >typed_ok.py <<'PYEOF'
+import fuzzynav
+
+run = fuzzynav.simulate("s1", controller="paper")
+outcome: str = run.outcome
+controller = fuzzynav.make_controller("paper")
+scenario = fuzzynav.load_scenario("s2")
+print(outcome, scenario, controller)
+PYEOF
+cat >typed_wrong.py <<'PYEOF'
+import fuzzynav
+
+wrong: int = fuzzynav.simulate("s1").outcome
+PYEOF
+"$work/venv/bin/mypy" --no-incremental typed_ok.py
+if "$work/venv/bin/mypy" --no-incremental typed_wrong.py >mypy_wrong.txt 2>&1; then
+    echo "mypy saw no types in the installed package (a wrong use passed)"; cat mypy_wrong.txt; exit 1
+fi
+grep -q "Incompatible types in assignment" mypy_wrong.txt || { cat mypy_wrong.txt; exit 1; }
+echo "mypy: the installed package is typed (a wrong use is caught)"
+rm -f typed_ok.py typed_wrong.py mypy_wrong.txt
 
 use_it() {
     local fz="$work/venv/bin/fuzzynav"

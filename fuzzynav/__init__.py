@@ -23,6 +23,21 @@ This folder holds the package's front door (``__init__``, ``__main__``, ``api``)
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
+    from fuzzynav.api import (
+        Run,
+        load_scenario,
+        make_controller,
+        read_fis,
+        simulate,
+        sweep,
+        write_fis,
+    )
+
+    __version__: str
+
 __all__ = [
     "__version__",
     "Run",

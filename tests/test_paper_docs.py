@@ -116,3 +116,24 @@ def test_the_viewer_names_the_rule_base_that_drives():
             assert f"rules/{file}" in server.controls.controller_dd.hint
         finally:
             server.stop()
+
+
+def test_the_readme_table_is_todays_compare(capsys):
+    """The README's random-layouts table (docs/data/readme_compare.json) is what
+    ``fuzzynav compare`` gives today, for the controllers the batch engine sweeps fast
+    (fuzzynav's row is its guard, measured by tests/test_fuzzynav.py's sweeps)."""
+    from fuzzynav.app.cli import main
+
+    stored = _load("readme_compare.json")
+    for perception in ("ideal", "ultrasonic"):
+        argv = ["compare", "--json", "--perception", perception, "--controllers", "paper,p"]
+        assert main(argv + ["--executor", "serial"]) == 0
+        fresh = {r["controller"]: r for r in json.loads(capsys.readouterr().out)["sweeps"]}
+        for row in stored[perception]["sweeps"]:
+            if row["controller"] in fresh:
+                for key in ("n", "seed", "success_rate", "safe_success_rate"):
+                    assert fresh[row["controller"]][key] == row[key], (
+                        perception,
+                        row["controller"],
+                        key,
+                    )
