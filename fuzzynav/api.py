@@ -329,29 +329,76 @@ def sweep(
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
-    """A scenario by shipped name (``"s1"``) or by the path of a scenario TOML file,
-    validated (unknown keys, overlaps and out-of-range values are refused with the
-    file, key and value named: :class:`~fuzzynav.world.scenario.ScenarioError`)."""
+    """A scenario by shipped name or by the path of a scenario TOML file, validated.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped scenario's name (``"s1"``) or the path of a scenario TOML file.
+
+    Returns
+    -------
+    Scenario
+        Unknown keys, overlaps and out-of-range values are refused with the file, key
+        and value named (:class:`~fuzzynav.world.scenario.ScenarioError`).
+    """
     return _load_scenario(name_or_path)
 
 
 def make_controller(name: str = "paper", *, fis: str | Path | None = None, geometry: str = "husky"):
-    """A fresh controller: by name (``"paper"``, ``"fuzzynav"``, ``"baseline"``,
-    ``"p"``), or a fuzzy controller read from a MATLAB ``.fis`` file. ``geometry``
-    picks the paper controller's rule base for that geometry. The fuzzy controllers
-    expose their system as ``.fis``; give the controller to :func:`simulate`."""
+    """A fresh controller, by name or from a MATLAB ``.fis`` file.
+
+    Parameters
+    ----------
+    name : str
+        ``"paper"``, ``"fuzzynav"``, ``"baseline"`` or ``"p"``.
+    fis : str or Path, optional
+        A MATLAB ``.fis`` file: a fuzzy controller of it instead of ``name``.
+    geometry : {"husky", "paper"}
+        Which of the paper controller's rule bases: its Husky twin (``rules/paper_husky.toml``)
+        or the paper's own fit (``rules/paper.toml``).
+
+    Returns
+    -------
+    controller object
+        The fuzzy controllers expose their system as ``.fis``; give the controller to
+        :func:`simulate`.
+    """
     return _make_controller(name, fis, geometry=geometry)
 
 
 def read_fis(path: str | Path) -> FuzzySystem:
-    """A MATLAB Fuzzy Logic Toolbox ``.fis`` file, parsed (never evaluated)."""
+    """A MATLAB Fuzzy Logic Toolbox ``.fis`` file, parsed (never evaluated).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.fis`` file.
+
+    Returns
+    -------
+    FuzzySystem
+    """
     return _read_fis(path)
 
 
 def write_fis(system: FuzzySystem, path: str | Path) -> Path:
-    """Write ``system`` as a MATLAB ``.fis`` file (GNU Octave reads it as the same
-    system). Returns the path. A path inside the installed package (its shipped rule
-    bases) is refused (ValueError), as ``fuzzynav fis export`` refuses it."""
+    """Write ``system`` as a MATLAB ``.fis`` file (GNU Octave reads it as the same system).
+
+    Parameters
+    ----------
+    system : FuzzySystem
+        The system; one that reads NONE as "sensed nothing" (``unsensed_none``) is
+        refused, since a .fis cannot say it.
+    path : str or Path
+        Where; a path inside the installed package (its shipped rule bases) is refused
+        (ValueError), as ``fuzzynav fis export`` refuses it.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
     from fuzzynav.safe_files import check_output_path, write_text_atomically
 
     check_output_path(path, "write_fis: path")  # never into the installed package
