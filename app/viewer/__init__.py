@@ -33,6 +33,10 @@ The teaching views as pure functions, and the rest:
 - :mod:`.surface_view` the control surface and the rule-firing strip as images;
 - :mod:`.drawing`      what they draw with (Inference, sizes, colours, paths, sentences);
 - :mod:`.editor`       the membership-function editor's layout;
+- :mod:`.stepwise`     one inference taken apart, stage by stage;
+- :mod:`.term_drag`    membership functions shaped by dragging their corners;
+- :mod:`.starter`      a small two-input system to start a lesson with;
+- :mod:`.lesson`       lesson files, saved from the page and opened again;
 - :mod:`.classroom`    ``serve --classroom``: a world per tab, a teacher's push;
 - :mod:`.guards`, :mod:`.origin_guard`  what the server takes from a browser;
 - :mod:`.serve`        the ``fuzzynav serve`` command.
