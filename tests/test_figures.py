@@ -480,3 +480,61 @@ def test_fig27_has_one_legend_and_its_own_limits_per_panel():
         draw_trajectory(alone[0, 0], grid[scenario][controller], footprints=False, events=False)
         alone[0, 0].autoscale_view()
         assert ax.get_ylim() == alone[0, 0].get_ylim() and ax.get_xlim() == alone[0, 0].get_xlim()
+
+
+# ---------------------------------------------------------------------------------------
+# Issue 39 item 8: trajectory labels that never collide, every disc in the legend
+
+
+def _label_boxes(fig, ax):
+    from matplotlib.text import Text
+
+    from fuzzynav.app.figures.trajectory import LABEL_GID
+
+    renderer = fig.canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_gid() == LABEL_GID]
+    boxes = []
+    for label in labels:
+        label.update_positions(renderer)
+        boxes.append((label.get_text(), Text.get_window_extent(label, renderer)))
+    return boxes
+
+
+def _assert_apart(fig, ax, where) -> None:
+    boxes = _label_boxes(fig, ax)
+    legend = ax.get_legend()
+    if legend is not None:
+        boxes.append(("legend", legend.get_window_extent(fig.canvas.get_renderer())))
+    for i, (a, box_a) in enumerate(boxes):
+        for b, box_b in boxes[i + 1 :]:
+            assert not box_a.overlaps(box_b), (where, a, b)
+    for label in ax.texts:
+        assert _inside(fig, label, ax), (where, label.get_text())
+
+
+@pytest.mark.parametrize("geometry", ["husky", "paper"])
+def test_trajectory_labels_never_overlap(geometry):
+    """Fig. 22's "obstacle 0" sat under a closest-approach label, the collided baseline's
+    Fig. 12 stacked three, Fig. 27 (a)/(b) wrote "obstacle 1" over obstacle 0's; and the
+    pale disc of a moving obstacle at its closest approach was not in the legend."""
+    from fuzzynav.app.figures.comparison import comparison_figure
+    from fuzzynav.app.figures.numbering import FIG27_COLUMNS
+    from fuzzynav.app.figures.run_figures import run_figure
+    from fuzzynav.app.figures.trajectory import _moving_columns
+
+    grid = {}
+    for s in ("s1", "s2", "s3"):
+        grid[s] = {c: build_simulation(s, c, geometry=geometry).run() for c in FIG27_COLUMNS}
+        for c, result in grid[s].items():
+            fig = run_figure("trajectory", result, controller_label=c)
+            fig.canvas.draw()
+            ax = fig.axes[0]
+            _assert_apart(fig, ax, (s, c))
+            labels = ax.get_legend_handles_labels()[1]
+            for col in _moving_columns(result.log):
+                name = f"obstacle {result.log.obstacle_ids[col]}"
+                assert f"{name} at its closest approach" in labels, (s, c, labels)
+    fig = comparison_figure(grid, controllers=FIG27_COLUMNS)
+    fig.canvas.draw()
+    for ax in fig.axes:
+        _assert_apart(fig, ax, ax.get_gid())

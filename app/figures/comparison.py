@@ -13,7 +13,7 @@ from fuzzynav.app.figures.style import (
     _save,
     check_writable_dir,
 )
-from fuzzynav.app.figures.trajectory import draw_trajectory
+from fuzzynav.app.figures.trajectory import draw_trajectory, separate_labels
 
 
 def _orient(results: dict) -> dict:
@@ -107,6 +107,7 @@ def comparison_figure(
             fontsize=7,
         )
     fig.suptitle(title or "Trajectories while reaching the target (paper Fig. 27)", fontsize=10)
+    separate_labels(fig)
     return fig
 
 

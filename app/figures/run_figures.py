@@ -60,7 +60,11 @@ from fuzzynav.app.figures.style import (
     check_writable_dir,
     disturbance_window_s,
 )
-from fuzzynav.app.figures.trajectory import closest_approaches, draw_trajectory
+from fuzzynav.app.figures.trajectory import (
+    closest_approaches,
+    draw_trajectory,
+    separate_labels,
+)
 from fuzzynav.app.recordings.internals import controller_fis
 from fuzzynav.app.recordings.internals import controller_label as label_of
 from fuzzynav.resources import escape_controls
@@ -140,6 +144,7 @@ def run_figure(
             footprints=not paper_geometry,
             title=f"{_figure_prefix(result, 'trajectory')}Trajectory — {title}",
         )
+        separate_labels(fig)
         return fig
 
     if kind == "distances":

@@ -172,6 +172,7 @@ def draw_trajectory(
                     alpha=0.35,
                     edgecolor="none",
                     zorder=3,
+                    label=f"{_obstacle_label(log, col)} at its closest approach",
                 )
             )
         labels.append((f"{distance:.2f} m, {log.time_s[row]:.1f} s", xy[row], EVENT))
@@ -203,14 +204,22 @@ def closest_approaches(result) -> list[tuple[int, int, float]]:
     return out
 
 
+LABEL_GID = "trajectory-label"
+# Where a label may go from its point: the eight compass directions at growing distances
+# (points); the first candidate is the side facing the axes' middle.
+_DIRECTIONS = ((1, 1), (1, -1), (-1, 1), (-1, -1), (1, 0), (-1, 0), (0, 1), (0, -1))
+_RADII_PT = (6.0, 13.0, 22.0, 32.0)
+
+
 def _place_labels(ax, labels) -> None:
-    """Annotate each (text, point, colour) on the side that faces the axes' middle, so
-    that no label runs off the axes (a label at the right edge reads to the left)."""
+    """Annotate each (text, point, colour) on the side that faces the axes' middle (a
+    first guess; :func:`separate_labels` moves them apart once the figure's layout is
+    known). The labels take no part in the layout."""
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     for text, (x, y), color in labels:
         right = x > 0.5 * (x0 + x1)
         up = y < 0.5 * (y0 + y1)
-        ax.annotate(
+        label = ax.annotate(
             text,
             (x, y),
             xytext=(-6 if right else 6, 6 if up else -6),
@@ -220,4 +229,124 @@ def _place_labels(ax, labels) -> None:
             fontsize=7,
             color=color,
             zorder=8,
+            gid=LABEL_GID,
         )
+        label.set_in_layout(False)
+
+
+def _set_offset(label, dx: float, dy: float) -> None:
+    label.xyann = (dx, dy)
+    label.set_horizontalalignment("left" if dx > 0 else "right" if dx < 0 else "center")
+    label.set_verticalalignment("bottom" if dy > 0 else "top" if dy < 0 else "center")
+
+
+def _text_box(label, renderer):
+    """The label's text alone (an Annotation's extent includes its leader line)."""
+    from matplotlib.text import Text
+
+    label.update_positions(renderer)
+    return Text.get_window_extent(label, renderer)
+
+
+def _overlap(a, b) -> float:
+    w = min(a.x1, b.x1) - max(a.x0, b.x0)
+    h = min(a.y1, b.y1) - max(a.y0, b.y0)
+    return w * h if w > 0 and h > 0 else 0.0
+
+
+def separate_labels(fig) -> None:
+    """Move every trajectory label (gid ``trajectory-label``) of ``fig`` to where it
+    overlaps no other label and no legend, stays inside its axes and covers as little of
+    the discs, markers and curves as it can; a label moved far from its point gets a
+    leader line. Runs the figure's layout first (the labels take no part in it) and pins
+    each axes legend where "best" put it, so that the next draw leaves both in place."""
+    from matplotlib.patches import Circle
+
+    labelled = [ax for ax in fig.axes if any(t.get_gid() == LABEL_GID for t in ax.texts)]
+    if not labelled:
+        return
+    fig.draw_without_rendering()
+    renderer = fig.canvas.get_renderer()
+    for ax in labelled:
+        frame = ax.get_window_extent(renderer)
+        taken = []
+        legend = ax.get_legend()
+        if legend is not None:
+            box = legend.get_window_extent(renderer)
+            taken.append(box)
+            # pinned: "best" would otherwise move it away from the labels' new places
+            legend.set_loc(tuple(ax.transAxes.inverted().transform((box.x0, box.y0))))
+        discs, rings = [], []
+        for patch in ax.patches:
+            box = patch.get_window_extent(renderer)
+            filled = patch.get_fill() and patch.get_facecolor()[3] > 0
+            (discs if filled or not isinstance(patch, Circle) else rings).append(box)
+        points = []
+        for line in ax.lines:
+            xy = line.get_xydata()
+            if len(xy):
+                points.append(ax.transData.transform(xy[np.all(np.isfinite(xy), axis=1)]))
+        points = np.concatenate(points) if points else np.empty((0, 2))
+        scale = fig.dpi / 72.0
+        for label in [t for t in ax.texts if t.get_gid() == LABEL_GID]:
+            first = label.xyann
+            order = sorted(
+                _DIRECTIONS,
+                key=lambda d: (
+                    (np.sign(d[0]) != np.sign(first[0])) + (np.sign(d[1]) != np.sign(first[1]))
+                ),
+            )
+            best = None
+            for r_index, radius in enumerate(_RADII_PT):
+                for d_index, (ux, uy) in enumerate(order):
+                    norm = radius / math.hypot(ux, uy) if ux and uy else radius
+                    _set_offset(label, ux * norm, uy * norm)
+                    box = _text_box(label, renderer)
+                    outside = (
+                        box.x0 < frame.x0 + scale
+                        or box.x1 > frame.x1 - scale
+                        or box.y0 < frame.y0 + scale
+                        or box.y1 > frame.y1 - scale
+                    )
+                    inside = (
+                        (points[:, 0] >= box.x0)
+                        & (points[:, 0] <= box.x1)
+                        & (points[:, 1] >= box.y0)
+                        & (points[:, 1] <= box.y1)
+                    ).sum()
+                    cost = (
+                        1e9 * outside
+                        + 1e6 * sum(_overlap(box, b) > 0 for b in taken)
+                        + 50.0
+                        * sum(_overlap(box, b) for b in discs)
+                        / max(box.width * box.height, 1.0)
+                        + 10.0 * sum(_overlap(box, b) > 0 for b in rings)
+                        + 2.0 * inside
+                        + 4.0 * r_index
+                        + 0.5 * d_index
+                    )
+                    if best is None or cost < best[0]:
+                        best = (cost, ux * norm, uy * norm)
+                if best[0] < 4.0 * (r_index + 1):  # nothing better further out
+                    break
+            _, dx, dy = best
+            _set_offset(label, dx, dy)
+            if math.hypot(dx, dy) > _RADII_PT[1]:  # far from its point: a leader line
+                label.remove()
+                label = ax.annotate(
+                    label.get_text(),
+                    label.xy,
+                    xytext=(dx, dy),
+                    textcoords="offset points",
+                    ha=label.get_horizontalalignment(),
+                    va=label.get_verticalalignment(),
+                    fontsize=label.get_fontsize(),
+                    color=label.get_color(),
+                    zorder=label.get_zorder(),
+                    gid=LABEL_GID,
+                    arrowprops=dict(
+                        arrowstyle="-", lw=0.5, color=label.get_color(), shrinkA=1, shrinkB=2
+                    ),
+                )
+                label.set_in_layout(False)
+            taken.append(_text_box(label, renderer))
