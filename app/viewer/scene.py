@@ -281,7 +281,7 @@ class Scene:
             receive_shadow=0.25,
         )
         scene.remove_by_name("/marks")
-        step = 1 if size <= 16 else 2
+        step = mark_step_m(size)
         for x in range(x0, x1 + 1, step):
             scene.add_label(
                 f"/marks/x{x}",
@@ -508,3 +508,21 @@ class Scene:
         self._trail_points = points
 
     # -- panels ------------------------------------------------------------------------
+
+
+#: At most this many metre marks along each side of the arena (issue 37: a legal scenario
+#: 20 km wide sent 20,007 labels to every tab).
+MAX_MARKS_PER_SIDE = 24
+
+
+def mark_step_m(size_m: float) -> int:
+    """Metres between the arena's marks: 1 up to 16 m, then 2, 5, 10, 20, 50, ... so that
+    a side never carries more than :data:`MAX_MARKS_PER_SIDE` marks."""
+    if size_m <= 16:
+        return 1
+    step, decade = 2, 1
+    while size_m / (step * decade) > MAX_MARKS_PER_SIDE:
+        step = {2: 5, 5: 10}.get(step, 2)
+        if step == 2:
+            decade *= 10
+    return step * decade
