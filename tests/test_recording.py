@@ -1518,7 +1518,7 @@ def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
         assert np.allclose(x, want, atol=1e-5)
     for k, var in enumerate(fis.outputs):
         base = f"/fuzzy/outputs/{var.name}"
-        t, labels = rec.rows(f"{base}/value", "LineStrips2D:labels")
+        t, labels = rec.rows(f"{base}/value_label", "Points2D:labels")
         assert np.array_equal(t, decided)
         got = [float(x[0].split("=")[1].split()[0]) for x in labels]
         assert np.allclose(got, log.controller_output_v[:-1, k], rtol=0, atol=0.0051)

@@ -589,3 +589,50 @@ def test_the_summary_holds_max_voltage_against_the_limit_and_the_paper(s1_paper)
     v = result.log.controller_output_v
     peak = float(np.nanmax(np.abs(v)))
     assert f"max |V| before the limit {peak:.2f} V" in rec.text("/meta/summary")
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 6: the fuzzy-logic tab's labels: not cut at the view's edge, not crossed by the
+# line they name, the term names apart
+
+
+def test_the_fuzzy_tabs_labels_are_not_clipped_crossed_or_merged(s1_paper):
+    """The value's text sat on its line ("right = 0.69 V (centroid)" cut to "ight = ..."
+    at the view's right edge, the line through it); phi_t's N, Z and P sat 0.09 apart
+    and read "NZP"."""
+    from fuzzynav.app.recordings.fuzzy import FUZZY_W, TERM_NAME_GAP
+
+    sim, result, rec, path = s1_paper
+    fis = sim.controller.fis
+    bounds = [
+        v["VisualBounds2D/VisualBounds2D:range"][0]
+        for n, v in _views(path).items()
+        if n.endswith("at the cursor")
+    ]
+    assert bounds
+    decided = int(np.all(np.isfinite(result.log.controller_output_v), axis=1).sum())
+    for kind, variables in (("inputs", fis.inputs), ("outputs", fis.outputs)):
+        for var in variables:
+            base = f"/fuzzy/{kind}/{var.name}"
+            # the line carries no text: nothing to cross
+            assert not rec.rows(f"{base}/value", "LineStrips2D:labels")[0].size, base
+            _, labels = rec.rows(f"{base}/value_label", "Points2D:labels")
+            assert len(labels) == decided and any(labels), base
+            # written at a fixed place, the middle of the axis: half the view each side
+            [(x, y)] = rec.static[f"{base}/value_label"]["Points2D:positions"]
+            assert x == pytest.approx(0.5 * FUZZY_W) and y < 0.0
+            for box in bounds:  # inside the view (y flipped: up), as far from either edge
+                lo, hi = box["x_range"]
+                assert x - lo == pytest.approx(hi - x)
+                assert -box["y_range"][1] < y < -box["y_range"][0]
+            # the term names at least TERM_NAME_GAP apart unless on different rows
+            names = rec.static[f"{base}/term_names"]["Points2D:positions"]
+            for i, (xa, ya) in enumerate(names):
+                for xb, yb in names[i + 1 :]:
+                    assert abs(xa - xb) >= TERM_NAME_GAP - 1e-6 or ya != yb, (base, names)
+                assert 0.0 <= xa <= FUZZY_W
+    # phi_t's N, Z, P: each pair apart, whatever the rows
+    [phi_t] = [v for v in fis.inputs if v.name == "phi_t"]
+    names = rec.static["/fuzzy/inputs/phi_t/term_names"]["Points2D:positions"]
+    xs = sorted(x for x, _ in names)
+    assert min(np.diff(xs)) >= TERM_NAME_GAP - 1e-6, (phi_t.term_names, names)

@@ -15,6 +15,41 @@ FUZZY_W = 4.0
 FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
 
 
+#: Where a variable's value is written: under the middle of its axis.
+VALUE_LABEL_AT = (0.5 * FUZZY_W, -0.12)
+#: The least distance between two term names in a row (a name of two letters is about
+#: 0.25 wide in a view of the tab).
+TERM_NAME_GAP = 0.4
+TERM_NAME_ROWS = (1.04, 1.16)
+
+
+def term_name_positions(peaks) -> list[tuple[float, float]]:
+    """Where the term names go: above their peaks (x in 0..FUZZY_W), pushed apart to at
+    least TERM_NAME_GAP within 0..FUZZY_W, and a name whose neighbour had to move is put
+    on alternating rows."""
+    xs = np.asarray(peaks, dtype=float)
+    order = np.argsort(xs, kind="stable")
+    placed = xs[order].copy()
+    for _ in range(200):
+        gaps = np.diff(placed)
+        short = gaps < TERM_NAME_GAP - 1e-9
+        if not short.any():
+            break
+        push = np.where(short, 0.5 * (TERM_NAME_GAP - gaps), 0.0)
+        placed[:-1] -= push
+        placed[1:] += push
+        placed = np.clip(placed, 0.0, FUZZY_W)
+    moved = np.abs(placed - xs[order]) > 1e-9
+    rows = np.full(len(xs), TERM_NAME_ROWS[0])
+    for i in range(1, len(placed)):
+        if moved[i] or moved[i - 1]:
+            rows[i] = TERM_NAME_ROWS[1] if rows[i - 1] == TERM_NAME_ROWS[0] else TERM_NAME_ROWS[0]
+    out = [(0.0, 0.0)] * len(xs)
+    for k, i in enumerate(order):
+        out[i] = (float(placed[k]), float(rows[k]))
+    return out
+
+
 def _variables(fis):
     variables = [("inputs", k, v) for k, v in enumerate(fis.inputs)]
     return variables + [("outputs", k, v) for k, v in enumerate(fis.outputs)]
@@ -64,15 +99,16 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
                 show_labels=False,  # (a strip's label sits mid-range: at the peaks instead)
             ),
         )
-        # each term's name above its peak (the middle of a plateau)
+        # each term's name above its peak (the middle of a plateau), moved apart where
+        # peaks crowd (phi_t's N, Z and P read "NZP") and staggered in two rows
         peaks = []
         for y in curves:
             top = np.flatnonzero(y >= y.max() - 1e-9)
-            peaks.append((float(sx(x[top[len(top) // 2]])), 1.0))
+            peaks.append(float(sx(x[top[len(top) // 2]])))
         static.add_archetype(
             f"{base}/term_names",
             rr.Points2D(
-                positions=peaks,
+                positions=term_name_positions(peaks),
                 radii=0.001,
                 colors=colours,
                 labels=[t.name for t in var.terms],
@@ -98,6 +134,15 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
         if kind == "outputs":
             static.add(f"{base}/aggregated", "LineStrips2D", colors=AGGREGATED, radii=0.02)
         static.add(f"{base}/value", "LineStrips2D", colors=VALUE, radii=0.018)
+        # the value's text: centred under the axis, between its end labels (on the line
+        # it was cut at the view's edge and crossed by the line it names)
+        static.add(
+            f"{base}/value_label",
+            "Points2D",
+            positions=[VALUE_LABEL_AT],
+            colors=VALUE,
+            radii=0.001,
+        )
         drawn.append(f"{kind}/{var.name}")
     return drawn
 
@@ -164,9 +209,12 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
         rec.send_columns(
             f"{base}/value",
             indexes=[tc],
-            columns=[
-                column("LineStrips2D", "strips", strips_array(marker), seen.astype(np.int32)),
-                column("LineStrips2D", "labels", text_array(text), seen.astype(np.int32)),
-            ],
+            columns=[column("LineStrips2D", "strips", strips_array(marker), seen.astype(np.int32))],
+            strict=True,
+        )
+        rec.send_columns(
+            f"{base}/value_label",
+            indexes=[tc],
+            columns=[column("Points2D", "labels", text_array(text), seen.astype(np.int32))],
             strict=True,
         )
