@@ -100,12 +100,16 @@ class Run:
             # whatever columns it has, and equal to it (the cells are exact reprs).
             from fuzzynav.app.recordings.trace import TRACE_COLUMNS, trace_rows
 
-            rows = list(trace_rows(self.result.log))
-            table = np.array(
-                [[float(cell) if cell != "" else math.nan for cell in row] for row in rows],
-                dtype=float,
-            ).reshape(len(rows), len(TRACE_COLUMNS))
-            self._trace = {name: table[:, k].copy() for k, name in enumerate(TRACE_COLUMNS)}
+            # Streamed into the columns, a row at a time (issue 37: a list of every row's
+            # strings first took 1.3 GB beside 86 MB of arrays at 720,000 steps).
+            n_rows = len(self.result.log)
+            columns = np.empty((len(TRACE_COLUMNS), n_rows))
+            k = -1
+            for k, row in enumerate(trace_rows(self.result.log)):
+                columns[:, k] = [float(cell) if cell != "" else math.nan for cell in row]
+            if k + 1 != n_rows:  # one row per logged step: anything else is a bug
+                raise RuntimeError(f"the trace has {k + 1} rows for {n_rows} logged steps")
+            self._trace = dict(zip(TRACE_COLUMNS, columns))
         return self._trace
 
     def save_rrd(self, path: str | Path) -> Path:
