@@ -636,3 +636,25 @@ def test_the_fuzzy_tabs_labels_are_not_clipped_crossed_or_merged(s1_paper):
     names = rec.static["/fuzzy/inputs/phi_t/term_names"]["Points2D:positions"]
     xs = sorted(x for x, _ in names)
     assert min(np.diff(xs)) >= TERM_NAME_GAP - 1e-6, (phi_t.term_names, names)
+
+
+# ---------------------------------------------------------------------------------------
+# Defect 7, the rest: the distance panel is as tall as its data, not its legend
+
+
+def test_the_distance_panel_spans_its_data_not_a_legend(s1_paper):
+    """The distance panel stretched its axis to about twice the data's span to give its
+    legend room (rerun draws the legend over the plot): to about 22 m in s1. It now has
+    no legend, its name says which colour is which, and its range is its data's with
+    rerun's 5 % margin."""
+    _, result, rec, path = s1_paper
+    [(name, view)] = [(n, v) for n, v in _views(path).items() if n.startswith("distance to")]
+    lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
+    values = _series_of_view(rec, "/plots/distance")
+    span = values.max() - values.min()
+    assert lo <= values.min() and values.max() <= hi
+    assert hi - lo <= 1.15 * span, (name, lo, hi, values.min(), values.max())
+    assert view.get("PlotLegend/PlotLegend:visible") == [False], name
+    for oid in result.log.obstacle_ids:
+        assert f"obstacle {oid} (" in name, name
+    assert "target (green)" in name

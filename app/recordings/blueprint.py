@@ -259,6 +259,17 @@ PAPER_KIND = {
 }
 
 
+def distance_colours(obstacle_ids) -> str:
+    """``obstacle 0 (red), obstacle 1 (orange)...``: the distance panel's key."""
+    from .style import OBSTACLE_NAMES
+
+    parts = [
+        f"obstacle {oid} ({OBSTACLE_NAMES[col % len(OBSTACLE_NAMES)]})"
+        for col, oid in enumerate(obstacle_ids)
+    ]
+    return ", ".join(parts) if parts else "no obstacle"
+
+
 def figure_tag(scenario_label: str, path: str) -> str:
     """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
     draws (:func:`app.figures.numbering.paper_figure_number`, one numbering everywhere), or ""."""
@@ -346,7 +357,16 @@ def blueprint(
     )
     paper = rrb.Vertical(
         lanes,
-        plot("/plots/distance", "distance to the target and each obstacle, centre to centre, m"),
+        # No legend: rerun draws it over the plot, and the room made for it stretched
+        # the axis to about twice the data's span (the safe distance sat on zero); the
+        # name says which colour is which.
+        plot(
+            "/plots/distance",
+            "distance to the target (green) and to "
+            + distance_colours(obstacle_ids)
+            + ", centre to centre, m",
+            legend=False,
+        ),
         plot(
             "/plots/angles",
             "target angle phi_t and heading, rad",

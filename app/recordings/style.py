@@ -38,6 +38,10 @@ INPUT_COLORS = {name: rgb(c) for name, c in palette.INPUTS.items()}
 DISTURBANCE = rgb(palette.DISTURBANCE)
 #: Obstacle k's colour by its column (no green: the target's; no blue: the robot's).
 OBSTACLE_PALETTE = [rgb(c) for c in palette.OBSTACLES]
+#: What app.palette's obstacle colours are called, in its order (a panel without a
+#: legend names them).
+OBSTACLE_NAMES = ("red", "orange", "purple", "brown", "pink", "olive", "cyan", "grey")
+assert len(OBSTACLE_NAMES) == len(palette.OBSTACLES)
 
 
 def obstacle_color(col: int) -> tuple[int, int, int]:
