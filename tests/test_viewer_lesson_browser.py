@@ -721,8 +721,9 @@ def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  #
         row = teacher.locator(".fz-class-row").inner_text()
         assert "s1" in row and "paper" in row and "paused" in row
         # locked: the student's Play is refused, and said
-        lock.click()
-        assert s_view.locked and not t_view.locked
+        lock.click()  # the press reaches the server over its websocket: wait for it
+        assert _eventually(lambda: s_view.locked), "the lock never reached the student's world"
+        assert not t_view.locked
         student.get_by_role("button", name="Play", exact=True).click()
         student.wait_for_timeout(1000)
         assert not s_view.app.playing
@@ -735,7 +736,7 @@ def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  #
         t_view.app.pause()
         # unlocked: the student's Play works
         lock.click()
-        assert not s_view.locked
+        assert _eventually(lambda: not s_view.locked), "the unlock never reached it"
         student.get_by_role("button", name="Play", exact=True).click()
         assert s_view.app.wait_for(lambda a: a.playing, timeout=10)
         s_view.app.pause()
@@ -743,6 +744,19 @@ def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  #
         for page in pages:
             page.context.close()
         classroom.stop()
+
+
+def _eventually(predicate, timeout_s: float = 10.0) -> bool:
+    """``predicate()`` true within ``timeout_s`` (a press is handled on the server's
+    threads after the browser's click returns)."""
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
 
 
 def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
