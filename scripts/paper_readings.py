@@ -41,6 +41,7 @@ import numpy as np
 from fuzzynav.app.experiments import paper_fit
 from fuzzynav.app.experiments.batch_runs import fit_measures
 from fuzzynav.app.experiments.evolution import cmaes
+from fuzzynav.app.experiments.paper_docs import bound_checks
 from fuzzynav.controller.paper_design import PaperDesignTunable
 
 READINGS = [
@@ -100,45 +101,10 @@ def fit_reading(reading, args) -> dict:
     }
 
 
-def checks(runs: list[dict], paper: dict) -> list[dict]:
-    """Every done bound of issue 35 on the pymunk runs (s1-s3): name, met, and for a
-    numeric bound the scaled residual |error| / bound."""
-    out = []
-
-    def add(name, met, scaled=None):
-        out.append({"name": name, "met": bool(met), "scaled": scaled})
-
-    by = {m["scenario"]: m for m in runs}
-    for name, m in by.items():
-        table = paper["table4"][name]
-        add(f"{name}.reached", m["reached"] and not m["collided"])
-        path = abs(m["path_length_m"] / table["path_length_m"] - 1) / 0.03
-        add(f"{name}.path", path <= 1, path)
-        for key in ("mad_m", "rmse_m", "min_center_distance_m"):
-            r = abs(m[key] / table[key] - 1) / 0.25
-            add(f"{name}.{key}", r <= 1, r)
-        for event in paper["events"].get(name, []):
-            t, d = m["passes"][event["obstacle"]]
-            if "time_s" in event:
-                r = abs(t / event["time_s"] - 1) / 0.20
-                add(f"{name}.pass{event['obstacle']}.time", r <= 1, r)
-            r = abs(d - event["distance_m"]) / 0.15
-            add(f"{name}.pass{event['obstacle']}.distance", r <= 1, r)
-        r = abs(m["final_phi_t_rad"]) / 0.1
-        add(f"{name}.final_phi_t", r <= 1, r)
-        add(f"{name}.no_chatter", m["chatter_steps"] <= 2)
-    s1 = [d for _, d in by["s1"]["passes"]]
-    add("s1.first_passed_farthest", s1[0] > max(s1[1:]))
-    add("s1.from_the_right", by["s1"]["largest_right_offset_m"] >= paper_fit.MIN_RIGHT_OFFSET_M)
-    add("s3.static_later_than_s2", by["s3"]["passes"][0][0] > by["s2"]["passes"][0][0])
-    add("s3.right_wheel_12V", by["s3"]["max_voltage_v"][1] >= paper_fit.SATURATION_V - 0.01)
-    return out
-
-
 def judge(reading, vector) -> dict:
     fit = paper_fit.FitCost(CHECK_PERIOD_S, stall_s=None, reading=reading)
     runs = fit.measure_all(np.asarray(vector, float))
-    found = checks(runs, fit.paper)
+    found = bound_checks({m["scenario"]: m for m in runs}, fit.paper)
     numeric = [c["scaled"] for c in found if c["scaled"] is not None]
     summary = {
         m["scenario"]: {
