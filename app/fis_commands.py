@@ -18,8 +18,6 @@ from fuzzynav.app.args import add_force_option
 from fuzzynav.controller.fis import dumps_fis, read_fis
 from fuzzynav.safe_files import check_output_path
 
-FIS_CONTROLLERS = ("paper", "fuzzynav", "baseline")
-
 
 def export_fis(
     path: str | Path, controller: str = "paper", geometry: str = "husky", *, replace: bool = True
@@ -31,10 +29,11 @@ def export_fis(
     ``replace=False`` (a default name, no ``--force``): an existing file is refused,
     before anything is written.
     """
-    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.controller.registry import controller_names, make_controller
 
-    if controller not in FIS_CONTROLLERS:
-        raise ValueError(f"controller = {controller!r}: choose one of {', '.join(FIS_CONTROLLERS)}")
+    exportable = controller_names(fis_export=True)
+    if controller not in exportable:
+        raise ValueError(f"controller = {controller!r}: choose one of {', '.join(exportable)}")
     path = Path(path)
     ctrl = make_controller(controller, geometry=geometry)
     blocks = getattr(ctrl, "rule_blocks", None)
@@ -105,6 +104,8 @@ def cmd_fis_export(args) -> int:
 
 
 def add_commands(subparsers) -> None:
+    from fuzzynav.controller.registry import controller_names
+
     fis = subparsers.add_parser("fis", help="MATLAB .fis files")
     sub = fis.add_subparsers(dest="fis_command", required=True)
     export = sub.add_parser(
@@ -123,7 +124,7 @@ def add_commands(subparsers) -> None:
     export.add_argument(
         "--controller",
         default="paper",
-        choices=FIS_CONTROLLERS,
+        choices=controller_names(fis_export=True),
         help="whose rule base (default paper; fuzzynav and baseline have two blocks each)",
     )
     export.add_argument(

@@ -20,10 +20,13 @@ Its numbers are NOT the paper's ref. [19] numbers; ``fuzzynav compare`` prints b
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from fuzzynav.controller.batch import run_groups
 from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.fuzzy_batch import BatchFuzzy
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.resources import asset_path
 
@@ -44,6 +47,12 @@ class BaselineController:
     def __init__(self, goal: FuzzySystem | None = None, avoid: FuzzySystem | None = None):
         self.goal = goal or read_toml(GOAL_RULES)
         self.avoid = avoid or read_toml(AVOID_RULES)
+
+    @classmethod
+    def batched(cls, controllers, run_sets=None):
+        """The batch engine's form of ``controllers`` (one parameter set each; run ``i``
+        uses ``controllers[run_sets[i]]``): :class:`BaselineBatch`."""
+        return BaselineBatch(controllers, run_sets)
 
     def reset(self) -> None:
         """Stateless."""
@@ -87,3 +96,57 @@ class BaselineController:
 
 def baseline_controller() -> BaselineController:
     return BaselineController()
+
+
+class BaselineBatch:
+    """:class:`BaselineController`'s goal and avoidance blocks and their blend."""
+
+    needs_ranges = False
+
+    def __init__(self, controllers: Sequence[BaselineController], run_sets=None):
+        self.goal = BatchFuzzy([c.goal for c in controllers])
+        self.avoid = BatchFuzzy([c.avoid for c in controllers])
+        self._avoid_systems = [c.avoid for c in controllers]
+        self.run_sets = None if run_sets is None else np.asarray(run_sets, dtype=np.intp)
+
+    def decide(self, inputs, runs, ranges_m=None) -> np.ndarray:
+        groups = run_groups(runs, self.run_sets)
+        d_t, d_o, phi_t, phi_o = inputs.T
+        u = self.goal.evaluate(np.stack([d_t, phi_t], axis=1), groups)
+        # BaselineController.sectors: d_o in the nearest obstacle's sector, NaN elsewhere
+        seen = np.isfinite(d_o) & np.isfinite(phi_o) & ~(np.abs(phi_o) > SIDE_LIMIT_RAD)
+        left = seen & (phi_o > FRONT_HALF_WIDTH_RAD)
+        right = seen & ~left & (phi_o < -FRONT_HALF_WIDTH_RAD)
+        front = seen & ~left & ~right
+        rows = np.flatnonzero(seen)
+        if rows.size == 0:
+            return u
+        nan = np.nan
+        x = np.stack(
+            [
+                np.where(left, d_o, nan)[rows],
+                np.where(front, d_o, nan)[rows],
+                np.where(right, d_o, nan)[rows],
+                phi_o[rows],
+            ],
+            axis=1,
+        )
+        sub = None if groups is None else groups[rows]
+        weight = self._firing_max(x, sub)
+        blend = weight > 0.0
+        if not blend.any():
+            return u
+        rows, x, weight = rows[blend], x[blend], weight[blend]
+        avoid = self.avoid.evaluate(x, None if sub is None else sub[blend])
+        u[rows] = (1.0 - weight)[:, None] * u[rows] + weight[:, None] * avoid
+        return u
+
+    def _firing_max(self, x: np.ndarray, groups) -> np.ndarray:
+        """The strongest firing of the avoidance block per row (its parameter set's)."""
+        if groups is None or len(self._avoid_systems) == 1:
+            return self._avoid_systems[0].firing_strengths(x).max(axis=1)
+        weight = np.empty(len(x))
+        for k in np.unique(groups).tolist():
+            mask = groups == k
+            weight[mask] = self._avoid_systems[k].firing_strengths(x[mask]).max(axis=1)
+        return weight

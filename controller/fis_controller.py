@@ -7,12 +7,15 @@ outputs works, so a MATLAB user can drive the robot with a ``.fis`` file of thei
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.controller.batch import NotBatchable, run_groups
 from fuzzynav.controller.fis import read_fis
 from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.fuzzy_batch import BatchFuzzy
 from fuzzynav.controller.rulebase import read_toml
 
 N_INPUTS, N_OUTPUTS = 4, 2
@@ -160,6 +163,12 @@ class FisController:
     def from_toml(cls, path: str | Path, name: str | None = None) -> FisController:
         return cls(read_toml(path), name=name, source=str(path))
 
+    @classmethod
+    def batched(cls, controllers, run_sets=None):
+        """The batch engine's form of ``controllers`` (one parameter set each; run ``i``
+        uses ``controllers[run_sets[i]]``): :class:`FisBatch`."""
+        return FisBatch(controllers, run_sets)
+
     def reset(self) -> None:
         """Stateless: nothing to reset."""
 
@@ -177,3 +186,31 @@ def sensed_system(fis: FuzzySystem) -> FuzzySystem:
     if system is None:
         raise ValueError(f"{fis.name}: no rule uses {', '.join(fis.unsensed_none)}")
     return system
+
+
+class FisBatch:
+    """Mamdani systems (4 inputs -> 2 voltages) of one structure, a set per run."""
+
+    needs_ranges = False
+
+    def __init__(self, controllers: Sequence[FisController], run_sets=None):
+        readings = {c.none_reading for c in controllers}
+        if len(readings) > 1:
+            raise NotBatchable("one batch reads NONE one way: the controllers mix readings")
+        # the text's reading of NONE: the obstacle rules alone where d_o is sensed
+        self.fuzzy = BatchFuzzy([c.fis.replace(unsensed_none=()) for c in controllers])
+        self.sensed = (
+            BatchFuzzy([c.sensed_fis for c in controllers]) if readings == {"unsensed"} else None
+        )
+        self.run_sets = None if run_sets is None else np.asarray(run_sets, dtype=np.intp)
+
+    def decide(self, inputs, runs, ranges_m=None) -> np.ndarray:
+        groups = run_groups(runs, self.run_sets)
+        if self.sensed is None:
+            return self.fuzzy.evaluate(inputs, groups)
+        sensed = ~np.isnan(inputs[:, GATED_INPUT])
+        out = np.empty((len(inputs), 2))
+        for mask, fuzzy in ((sensed, self.sensed), (~sensed, self.fuzzy)):
+            if mask.any():
+                out[mask] = fuzzy.evaluate(inputs[mask], None if groups is None else groups[mask])
+        return out

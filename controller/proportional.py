@@ -16,8 +16,11 @@ behind it, so that it never orbits the target.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+
+from fuzzynav.controller.batch import run_groups
 
 
 class ProportionalController:
@@ -43,6 +46,12 @@ class ProportionalController:
         self.max_forward_v = max_forward_v
         self.gain_heading_v_per_rad = gain_heading_v_per_rad
 
+    @classmethod
+    def batched(cls, controllers, run_sets=None):
+        """The batch engine's form of ``controllers`` (one parameter set each; run ``i``
+        uses ``controllers[run_sets[i]]``): :class:`ProportionalBatch`."""
+        return ProportionalBatch(controllers, run_sets)
+
     def reset(self) -> None:
         """Stateless: nothing to reset."""
 
@@ -52,3 +61,31 @@ class ProportionalController:
         forward *= max(math.cos(phi_t), 0.0)
         turn = self.gain_heading_v_per_rad * phi_t
         return np.array((forward - turn, forward + turn))
+
+
+class ProportionalBatch:
+    """:class:`ProportionalController`'s law on arrays (gains per run)."""
+
+    needs_ranges = False
+
+    def __init__(self, controllers: Sequence[ProportionalController], run_sets=None):
+        self.gains = np.array(
+            [
+                (c.gain_distance_v_per_m, c.max_forward_v, c.gain_heading_v_per_rad)
+                for c in controllers
+            ],
+            dtype=float,
+        )
+        self.run_sets = None if run_sets is None else np.asarray(run_sets, dtype=np.intp)
+
+    def decide(self, inputs, runs, ranges_m=None) -> np.ndarray:
+        groups = run_groups(runs, self.run_sets)
+        g = self.gains[0 if groups is None else groups]
+        g = np.broadcast_to(g, (len(inputs), 3))
+        d_t, phi_t = inputs[:, 0], inputs[:, 2]
+        forward = g[:, 0] * np.where(0.0 > d_t, 0.0, d_t)
+        forward = np.where(g[:, 1] < forward, g[:, 1], forward)  # min(forward, max_v)
+        cos = np.cos(phi_t)
+        forward = forward * np.where(0.0 > cos, 0.0, cos)
+        turn = g[:, 2] * phi_t
+        return np.stack([forward - turn, forward + turn], axis=1)

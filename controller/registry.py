@@ -1,62 +1,286 @@
-"""Controllers by name, as the command line and the viewer offer them.
+"""The controllers fuzzynav offers: each registered once, here, with what it can do.
 
-Each factory is imported lazily so that choosing ``p`` never loads the fuzzy engine.
+Every list of controller names (``--controller`` choices, the viewer's dropdown,
+``sweep``, ``compare``, ``tune``, ``fis export``, the batch engine) reads this registry;
+none is written anywhere else. A controller of your own joins them all with one call::
+
+    from fuzzynav.controller.registry import register_controller
+    register_controller("mine", MyController, description="my go-to-goal law")
+
+after which ``fuzzynav.simulate("s1", "mine")``, ``fuzzynav.sweep("mine")`` and the
+viewer offer it. A ``"package.module:factory"`` name needs no registration: the factory
+is imported where it runs (worker processes and dask workers included).
+
+Factories of the shipped controllers are imported lazily, so that choosing ``p``
+never loads the fuzzy engine.
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
+from typing import Any
 
-# name -> (module, factory function, one-line description)
-_FACTORIES: dict[str, tuple[str, str, str]] = {
-    "paper": (
-        "fuzzynav.controller.paper",
-        "paper_controller",
-        "the paper's Table 1: 40 Mamdani rules, our tuned membership functions",
-    ),
-    "baseline": (
-        "fuzzynav.controller.baseline",
-        "baseline_controller",
-        "stand-in for the paper's reference [19]: goal-seeking + avoidance blocks",
-    ),
-    "fuzzynav": (
-        "fuzzynav.controller.fuzzynav",
-        "fuzzynav_controller",
-        "fuzzynav's own navigator: sector avoidance that takes precedence",
-    ),
-    "p": (
-        "fuzzynav.controller.proportional",
-        "ProportionalController",
-        "proportional go-to-goal, obstacle-blind (a teaching contrast)",
-    ),
-}
+__all__ = [
+    "ControllerEntry",
+    "register_controller",
+    "unregister_controller",
+    "controller_names",
+    "controller_entry",
+    "describe",
+    "make_controller",
+    "import_factory",
+]
+
+#: A registered name: a letter, then letters, digits, ``_`` or ``-``.
+NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,39}")
+#: ``package.module:factory``: a factory found by import, not by registration.
+IMPORT_PATTERN = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
 
 
-def controller_names() -> list[str]:
-    """Names whose module is present (a controller still being written is not offered)."""
+@dataclass(frozen=True)
+class ControllerEntry:
+    """One registered controller.
+
+    Attributes
+    ----------
+    name : str
+        What ``--controller`` and the API call it.
+    description : str
+        One line, shown in ``--help`` and the viewer.
+    factory : callable or str
+        Makes a fresh controller (no arguments, or ``geometry=`` when
+        ``geometry_aware``); a ``"module:attribute"`` string is imported on first use.
+    geometry_aware : bool
+        The factory takes ``geometry`` (``"husky"`` or ``"paper"``) and builds the
+        design for that robot.
+    batchable : bool
+        Its controllers have a batch form (:class:`controller.interface.Batchable`), so
+        the lockstep batch engine can drive it.
+    tunable : str or None
+        ``"module:attribute"`` of a function returning its
+        :class:`controller.tuning.Tunable` (``fuzzynav tune``), or None.
+    fis_export : bool
+        Made of fuzzy systems ``fuzzynav fis export`` can write.
+    """
+
+    name: str
+    description: str
+    factory: Callable[..., Any] | str
+    geometry_aware: bool = False
+    batchable: bool = False
+    tunable: str | None = None
+    fis_export: bool = False
+
+    def build(self, geometry: str = "husky") -> Any:
+        """A fresh controller for ``geometry`` (other controllers have one design).
+
+        Parameters
+        ----------
+        geometry : str
+            ``"husky"`` or ``"paper"``; passed to the factory when it is
+            geometry-aware.
+        """
+        factory = import_factory(self.factory) if isinstance(self.factory, str) else self.factory
+        return factory(geometry=geometry) if self.geometry_aware else factory()
+
+
+_REGISTRY: dict[str, ControllerEntry] = {}
+
+
+def register_controller(
+    name: str,
+    factory: Callable[..., Any] | str,
+    *,
+    description: str,
+    geometry_aware: bool = False,
+    batchable: bool = False,
+    tunable: str | None = None,
+    fis_export: bool = False,
+    replace: bool = False,
+) -> ControllerEntry:
+    """Offer a controller everywhere fuzzynav offers controllers.
+
+    Parameters
+    ----------
+    name : str
+        Its name (a letter, then up to 39 letters, digits, ``_`` or ``-``).
+    factory : callable or str
+        Makes a fresh controller (a class or a function of no arguments), or its
+        ``"module:attribute"``.
+    description : str
+        One line saying what it is.
+    geometry_aware : bool
+        The factory takes ``geometry=``.
+    batchable : bool
+        Its class declares ``batched`` (the batch engine can drive it).
+    tunable : str, optional
+        ``"module:attribute"`` of its :class:`controller.tuning.Tunable` factory.
+    fis_export : bool
+        ``fuzzynav fis export`` can write its fuzzy systems.
+    replace : bool
+        Replace a registration of the same name (else that is refused).
+
+    Returns
+    -------
+    ControllerEntry
+        The registration.
+
+    Raises
+    ------
+    ValueError
+        A malformed name, a name taken (without ``replace``), a factory that is not
+        callable, or an empty description.
+    """
+    if not isinstance(name, str) or not NAME_PATTERN.fullmatch(name):
+        raise ValueError(
+            f"controller name {name!r}: a letter, then up to 39 letters, digits, _ or -"
+        )
+    if name in _REGISTRY and not replace:
+        raise ValueError(f"controller name {name!r}: already registered (pass replace=True)")
+    if isinstance(factory, str):
+        if not IMPORT_PATTERN.fullmatch(factory):
+            raise ValueError(f"factory {factory!r}: give a callable or 'module:attribute'")
+    elif not callable(factory):
+        raise ValueError(f"factory {factory!r}: not callable")
+    if not isinstance(description, str) or not description.strip():
+        raise ValueError(f"controller {name!r}: give a one-line description")
+    entry = ControllerEntry(
+        name, description.strip(), factory, geometry_aware, batchable, tunable, fis_export
+    )
+    _REGISTRY[name] = entry
+    return entry
+
+
+def unregister_controller(name: str) -> None:
+    """Withdraw a registration (a test's, a notebook's).
+
+    Parameters
+    ----------
+    name : str
+        A registered name; an unknown one is refused.
+    """
+    if name not in _REGISTRY:
+        raise ValueError(f"controller {name!r}: not registered")
+    del _REGISTRY[name]
+
+
+def import_factory(spec: str) -> Callable[..., Any]:
+    """The attribute ``spec = "module:attribute"`` names, imported.
+
+    Parameters
+    ----------
+    spec : str
+        ``"package.module:attribute"``.
+    """
+    module, _, attribute = spec.partition(":")
+    return getattr(import_module(module), attribute)
+
+
+def _present(entry: ControllerEntry) -> bool:
+    if not isinstance(entry.factory, str):
+        return True
+    try:
+        import_module(entry.factory.partition(":")[0])
+    except ModuleNotFoundError:
+        return False
+    return True
+
+
+def controller_names(
+    *,
+    batchable: bool | None = None,
+    tunable: bool | None = None,
+    fis_export: bool | None = None,
+) -> list[str]:
+    """Registered names whose module is present, in registration order.
+
+    Parameters
+    ----------
+    batchable, tunable, fis_export : bool, optional
+        Keep only the controllers that have (True) or lack (False) that capability.
+
+    Returns
+    -------
+    list of str
+        The names.
+    """
+    wanted = {"batchable": batchable, "tunable": tunable, "fis_export": fis_export}
     names = []
-    for name, (module, _, _) in _FACTORIES.items():
-        try:
-            import_module(module)
-        except ModuleNotFoundError:
+    for entry in _REGISTRY.values():
+        has = {
+            "batchable": entry.batchable,
+            "tunable": entry.tunable is not None,
+            "fis_export": entry.fis_export,
+        }
+        if any(want is not None and has[key] != want for key, want in wanted.items()):
             continue
-        names.append(name)
+        if _present(entry):
+            names.append(entry.name)
     return names
 
 
+def controller_entry(name: str) -> ControllerEntry:
+    """The registration of ``name``, or of a ``"module:factory"`` name (unregistered).
+
+    Parameters
+    ----------
+    name : str
+        A registered name or ``"module:factory"``.
+
+    Returns
+    -------
+    ControllerEntry
+        Its registration.
+
+    Raises
+    ------
+    ValueError
+        Unknown name (the message lists the known ones).
+    """
+    if isinstance(name, str) and name in _REGISTRY:
+        return _REGISTRY[name]
+    if isinstance(name, str) and IMPORT_PATTERN.fullmatch(name):
+        return ControllerEntry(name, f"imported from {name}", name)
+    raise ValueError(
+        f"controller = {name!r}: unknown (choose from {', '.join(controller_names())}, or "
+        "give 'module:factory')"
+    )
+
+
 def describe(name: str) -> str:
-    return _FACTORIES[name][2]
+    """The one-line description of ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A registered name.
+    """
+    return controller_entry(name).description
 
 
 def make_controller(
     name: str = "paper", fis_path: str | Path | None = None, geometry: str = "husky"
-):
+) -> Any:
     """A fresh controller by name, or a fuzzy controller read from a MATLAB ``.fis`` file.
 
-    ``geometry`` picks the paper controller's rule base: the one tuned for the Husky's
-    footprint, or the one fitted to the paper's Table 4 in its point-robot geometry.
-    Other controllers have one design for both.
+    Parameters
+    ----------
+    name : str
+        A registered name or ``"module:factory"``.
+    fis_path : str or Path, optional
+        A ``.fis`` file: its fuzzy system drives (``name`` is then ignored).
+    geometry : str
+        Picks the design of a geometry-aware controller (the paper's rule base tuned
+        for the Husky's footprint, or fitted in the paper's point-robot geometry).
+
+    Returns
+    -------
+    object
+        The controller.
 
     Raises
     ------
@@ -67,9 +291,36 @@ def make_controller(
         from fuzzynav.controller.fis_controller import FisController
 
         return FisController.from_fis(fis_path)
-    if name not in _FACTORIES:
-        raise ValueError(f"controller = {name!r}: unknown (choose from {', '.join(_FACTORIES)})")
-    module, factory, _ = _FACTORIES[name]
-    if name == "paper":
-        return getattr(import_module(module), factory)(geometry=geometry)
-    return getattr(import_module(module), factory)()
+    return controller_entry(name).build(geometry)
+
+
+# The shipped controllers: registered once, here (the order is the order offered).
+register_controller(
+    "paper",
+    "fuzzynav.controller.paper:paper_controller",
+    description="the paper's Table 1: 40 Mamdani rules, our tuned membership functions",
+    geometry_aware=True,
+    batchable=True,
+    tunable="fuzzynav.controller.paper:tunable",
+    fis_export=True,
+)
+register_controller(
+    "baseline",
+    "fuzzynav.controller.baseline:baseline_controller",
+    description="stand-in for the paper's reference [19]: goal-seeking + avoidance blocks",
+    batchable=True,
+    fis_export=True,
+)
+register_controller(
+    "fuzzynav",
+    "fuzzynav.controller.fuzzynav:fuzzynav_controller",
+    description="fuzzynav's own navigator: sector avoidance that takes precedence",
+    tunable="fuzzynav.controller.fuzzynav_tuning:tunable",
+    fis_export=True,
+)
+register_controller(
+    "p",
+    "fuzzynav.controller.proportional:ProportionalController",
+    description="proportional go-to-goal, obstacle-blind (a teaching contrast)",
+    batchable=True,
+)

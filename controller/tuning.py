@@ -9,17 +9,12 @@ worker processes).
 
 from __future__ import annotations
 
-from importlib import import_module
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Tunable", "tunable", "TUNABLE_NAMES"]
-
-# name -> module whose ``tunable()`` returns the Tunable (imported lazily)
-_MODULES = {"paper": "fuzzynav.controller.paper", "fuzzynav": "fuzzynav.controller.fuzzynav_tuning"}
-TUNABLE_NAMES = tuple(_MODULES)
+__all__ = ["Tunable", "tunable"]
 
 
 @runtime_checkable
@@ -40,24 +35,24 @@ class Tunable(Protocol):
 
 
 def tunable(name: str) -> Tunable:
-    """The :class:`Tunable` of controller ``name`` ("paper" or "fuzzynav").
+    """The :class:`Tunable` of controller ``name`` (the registry's ``tunable`` entry).
+
+    Parameters
+    ----------
+    name : str
+        A registered controller that declares a tunable.
 
     Raises
     ------
     ValueError
-        Unknown name, or a controller whose module does not exist (yet).
+        Unknown name, or a controller with no tunable (the message lists those with one).
     """
-    if name not in _MODULES:
-        raise ValueError(f"controller = {name!r}: not tunable (choose from {', '.join(_MODULES)})")
-    try:
-        module = import_module(_MODULES[name])
-    except ModuleNotFoundError as exc:
-        if exc.name != _MODULES[name]:
-            raise
+    from fuzzynav.controller.registry import controller_entry, controller_names, import_factory
+
+    spec = controller_entry(name).tunable
+    if spec is None:
         raise ValueError(
-            f"controller = {name!r}: module {_MODULES[name]} does not exist yet"
-        ) from None
-    factory = getattr(module, "tunable", None)
-    if factory is None:
-        raise ValueError(f"controller = {name!r}: {_MODULES[name]} defines no tunable()")
-    return factory()
+            f"controller = {name!r}: not tunable (choose from "
+            f"{', '.join(controller_names(tunable=True))})"
+        )
+    return import_factory(spec)()

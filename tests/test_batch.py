@@ -276,7 +276,7 @@ def test_controllers_that_cannot_be_batched_are_refused_with_the_reason():
         def __call__(self, inputs):
             return np.zeros(2)
 
-    with pytest.raises(NotBatchable, match="Python controller of your own"):
+    with pytest.raises(NotBatchable, match="declares no batched"):
         batch_controller(Mine())
     with pytest.raises(NotBatchable, match="several kinds"):
         batch_controller([make_controller("paper"), make_controller("p")])

@@ -9,7 +9,7 @@ every run's numbers row by row (no operation mixes runs), so a run gives the sam
 whatever batch it is in, and ``--resume`` and any number of workers give the same
 rows (tests/test_batch.py).
 
-Controllers the batch engine cannot drive (:data:`controller.batch.BATCHABLE` lists
+Controllers the batch engine cannot drive (the registry's ``batchable`` flag lists
 the ones it can) run on the pymunk engine, one task per run, and the command says so.
 """
 
@@ -34,14 +34,14 @@ _RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m", "field_of_
 
 def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
     """Why ``controller`` (a registry name) cannot run on the batch engine, or None."""
-    from fuzzynav.controller.batch import BATCHABLE
+    from fuzzynav.controller.registry import controller_entry, controller_names
 
     options = dict(options or {})
-    if controller not in BATCHABLE:
+    if not controller_entry(controller).batchable:
         return (
             f"controller {controller!r} cannot be batched (the batch engine drives "
-            f"{', '.join(BATCHABLE)}: stateless controllers; fuzzynav's navigator keeps a "
-            "memory and plans)"
+            f"{', '.join(controller_names(batchable=True))}: stateless controllers; "
+            "fuzzynav's navigator keeps a memory and plans)"
         )
     if parts_off:
         return f"parts_off {list(parts_off)}: only fuzzynav has parts to switch off"

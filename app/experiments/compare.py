@@ -140,7 +140,7 @@ def cmd_compare(args) -> int:
     from fuzzynav.controller.registry import controller_names
 
     offered = controller_names()
-    wanted = args.controllers or [c for c in ("paper", "baseline", "fuzzynav", "p") if c in offered]
+    wanted = args.controllers or offered
     for name in wanted:
         if name not in offered:
             raise UsageError(

@@ -311,13 +311,13 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser(
         "tune", help="tune a controller's membership functions (differential evolution)"
     )
-    from fuzzynav.controller.tuning import TUNABLE_NAMES
+    from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
 
     p.add_argument(
         "--controller",
         default="paper",
-        choices=TUNABLE_NAMES,
+        choices=controller_names(tunable=True),
         help="the controller whose parameters are tuned (default paper)",
     )
     p.add_argument(

@@ -1,0 +1,206 @@
+"""Does an object meet the controller interface? (as gymnasium's ``env_checker``).
+
+:func:`check_controller` drives a controller through what the world and the batch
+engine will ask of it (``reset``, calls on inputs with and without an obstacle sensed,
+the optional capabilities it declares) and says, in one message, everything that is
+wrong. :func:`check_registered` does the same for a registry entry and checks that the
+entry's flags say what its controllers do. The tests run both on every registered
+controller.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from fuzzynav.controller.interface import (
+    BatchController,
+    MountAwareController,
+    PartsController,
+    RuleBlocksController,
+    capabilities,
+)
+
+__all__ = ["ControllerCheckError", "check_controller", "check_registered", "SAMPLE_INPUTS"]
+
+_NAN = math.nan
+#: Inputs ``[d_t, d_o, phi_t, phi_o]`` a check decides on: obstacle ahead, beside,
+#: none sensed, the target behind, at the target, far away.
+SAMPLE_INPUTS = np.array(
+    [
+        [5.0, 1.0, 0.0, 0.0],
+        [5.0, 0.3, 0.5, -0.8],
+        [5.0, 0.05, -0.5, 1.2],
+        [3.0, _NAN, 0.2, _NAN],
+        [3.0, _NAN, math.pi, _NAN],
+        [0.0, _NAN, 0.0, _NAN],
+        [40.0, 2.0, -3.0, 3.0],
+    ]
+)
+#: Sonar readings (left, front, right; m, inf = nothing) that go with them.
+SAMPLE_RANGES_M = np.array(
+    [
+        [math.inf, 1.0, math.inf],
+        [0.3, math.inf, math.inf],
+        [math.inf, math.inf, 0.05],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [2.0, 2.5, math.inf],
+    ]
+)
+
+
+class ControllerCheckError(ValueError):
+    """A controller does not meet the interface (the message lists every problem)."""
+
+
+def _decisions(controller, caps) -> np.ndarray:
+    out = []
+    for inputs, ranges in zip(SAMPLE_INPUTS, SAMPLE_RANGES_M):
+        if "ranges" in caps:
+            voltages = controller(inputs.copy(), ranges_m=ranges.copy())
+        else:
+            voltages = controller(inputs.copy())
+        out.append(np.asarray(voltages, dtype=float))
+    return np.array(out)
+
+
+def check_controller(controller: object) -> frozenset[str]:
+    """Check ``controller`` against :mod:`controller.interface`; its capabilities.
+
+    Parameters
+    ----------
+    controller : object
+        What would drive the robot.
+
+    Returns
+    -------
+    frozenset of str
+        The capabilities it declares (:func:`controller.interface.capabilities`).
+
+    Raises
+    ------
+    ControllerCheckError
+        Each problem found, one per line: no ``reset()``, not callable, a decision that
+        is not two finite numbers, decisions that differ after ``reset()`` (state not
+        reset), a declared capability that fails, a batch form that decides otherwise.
+    """
+    label = getattr(controller, "name", None) or type(controller).__name__
+    problems = []
+    if not callable(getattr(controller, "reset", None)):
+        problems.append("has no reset() method (called before every run)")
+    if not callable(controller):
+        problems.append("is not callable as controller(inputs) -> (left, right) volts")
+    if problems:
+        raise ControllerCheckError(f"controller {label!r}: " + "; ".join(problems))
+    caps = capabilities(controller)
+    if isinstance(controller, MountAwareController) and controller.needs_sensor_mounts:
+        from fuzzynav.world.sensors import default_mounts
+
+        try:
+            controller.set_sensor_mounts(default_mounts())
+        except Exception as exc:  # noqa: BLE001 - reported, with its type
+            problems.append(f"set_sensor_mounts(default mounts) raised {exc!r}")
+    first = second = None
+    try:
+        controller.reset()
+        first = _decisions(controller, caps)
+        controller.reset()
+        second = _decisions(controller, caps)
+    except Exception as exc:  # noqa: BLE001 - reported, with its type
+        problems.append(f"deciding on the sample inputs raised {exc!r}")
+    if first is not None and second is not None:
+        if first.shape != (len(SAMPLE_INPUTS), 2):
+            problems.append(f"a decision is not two voltages (got shape {first.shape[1:]})")
+        elif not np.isfinite(first).all():
+            rows = sorted({int(i) for i in np.argwhere(~np.isfinite(first))[:, 0]})
+            problems.append(f"non-finite voltages for sample inputs {SAMPLE_INPUTS[rows].tolist()}")
+        elif not np.array_equal(first, second):
+            problems.append("decides otherwise after reset(): reset() must forget the run")
+    problems += _capability_problems(controller, caps, first)
+    if problems:
+        raise ControllerCheckError(f"controller {label!r}: " + "; ".join(problems))
+    return caps
+
+
+def _capability_problems(controller, caps, decisions) -> list[str]:
+    problems = []
+    if isinstance(controller, RuleBlocksController):
+        from fuzzynav.controller.fuzzy import FuzzySystem
+
+        blocks = controller.rule_blocks()
+        if not isinstance(blocks, Mapping) or not blocks:
+            problems.append("rule_blocks() is not a non-empty mapping")
+        elif not all(isinstance(b, FuzzySystem) for b in blocks.values()):
+            problems.append("rule_blocks() holds something that is not a FuzzySystem")
+    if isinstance(controller, PartsController):
+        try:
+            controller.set_parts_off([])
+            controller.set_parts_off(["no such part"])
+        except ValueError:
+            pass
+        else:
+            problems.append("set_parts_off accepted an unknown part name")
+        controller.set_parts_off([])
+    if "batch" in caps and decisions is not None and np.isfinite(decisions).all():
+        batch = type(controller).batched([controller])
+        if not isinstance(batch, BatchController):
+            problems.append("batched() made no object with decide(inputs, runs, ranges_m)")
+        else:
+            runs = np.arange(len(SAMPLE_INPUTS))
+            together = np.asarray(
+                batch.decide(SAMPLE_INPUTS.copy(), runs, SAMPLE_RANGES_M.copy()), dtype=float
+            )
+            if together.shape != decisions.shape or not np.allclose(
+                together, decisions, rtol=0, atol=1e-9
+            ):
+                problems.append("its batch form decides otherwise than the controller")
+    return problems
+
+
+def check_registered(name: str, geometry: str = "husky") -> frozenset[str]:
+    """Check the registered controller ``name`` and that its entry's flags hold.
+
+    Parameters
+    ----------
+    name : str
+        A registered name.
+    geometry : str
+        The design to build (geometry-aware controllers).
+
+    Returns
+    -------
+    frozenset of str
+        Its controllers' capabilities.
+
+    Raises
+    ------
+    ControllerCheckError
+        The controller fails :func:`check_controller`, or the entry says ``batchable``
+        or ``fis_export`` where the controller does not (or the other way round), or
+        its tunable does not build a controller that passes.
+    """
+    from fuzzynav.controller.registry import controller_entry, import_factory
+    from fuzzynav.controller.tuning import Tunable
+
+    entry = controller_entry(name)
+    controller = entry.build(geometry)
+    caps = check_controller(controller)
+    problems = []
+    if entry.batchable != ("batch" in caps):
+        problems.append(f"the entry says batchable={entry.batchable}, its class says otherwise")
+    exportable = "rule_blocks" in caps or hasattr(controller, "fis")
+    if entry.fis_export != exportable:
+        problems.append(f"the entry says fis_export={entry.fis_export}, the controller otherwise")
+    if entry.tunable is not None:
+        tunable = import_factory(entry.tunable)()
+        if not isinstance(tunable, Tunable):
+            problems.append(f"{entry.tunable} made no Tunable")
+        else:
+            check_controller(tunable.build(tunable.initial_vector()))
+    if problems:
+        raise ControllerCheckError(f"controller {name!r}: " + "; ".join(problems))
+    return caps

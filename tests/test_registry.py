@@ -1,0 +1,162 @@
+"""One controller registry, one declared interface, one checker (issue 36 item 2).
+
+A controller added through the registry alone is offered by the command line, the
+API's ``simulate`` and ``sweep``, the batch engine (when its class declares a batch
+form) and the viewer; the checker holds every registered controller to the interface.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from toy_controller import BatchableToy, ToyController
+
+import fuzzynav
+from fuzzynav.controller.checker import (
+    ControllerCheckError,
+    check_controller,
+    check_registered,
+)
+from fuzzynav.controller.registry import (
+    controller_entry,
+    controller_names,
+    make_controller,
+    register_controller,
+    unregister_controller,
+)
+
+
+@pytest.fixture
+def toy():
+    register_controller("toy", ToyController, description="a user's go-to-goal law")
+    register_controller(
+        "toy-batch", BatchableToy, description="the same, batchable", batchable=True
+    )
+    yield "toy"
+    unregister_controller("toy")
+    unregister_controller("toy-batch")
+
+
+@pytest.mark.parametrize(
+    ("name", "geometry"),
+    [
+        (name, geometry)
+        for name in controller_names()
+        for geometry in (
+            ("husky", "paper") if controller_entry(name).geometry_aware else ("husky",)
+        )
+    ],
+)
+def test_every_registered_controller_meets_the_interface_and_its_entry(name, geometry):
+    caps = check_registered(name, geometry)
+    assert ("batch" in caps) == controller_entry(name).batchable
+
+
+def test_the_lists_of_names_all_read_the_registry(toy):
+    from fuzzynav.app.cli import build_parser
+
+    assert "toy" in controller_names()
+    assert "toy-batch" in controller_names(batchable=True)
+    assert "toy" not in controller_names(batchable=True)
+    assert controller_names(fis_export=True) == ["paper", "baseline", "fuzzynav"]
+    assert controller_names(tunable=True) == ["paper", "fuzzynav"]
+    parser = build_parser()
+    args = parser.parse_args(["run", "s1", "--controller", "toy"])
+    assert args.controller == "toy"
+
+
+def test_a_toy_added_through_the_registry_alone_drives_simulate_sweep_and_the_viewer(toy):
+    from fuzzynav.app.viewer.model import ViewerApp
+
+    run = fuzzynav.simulate("s1", "toy")
+    assert run.outcome in ("reached", "collided", "timeout")
+    assert run.trace["time_s"].size > 10
+    direct = fuzzynav.simulate("s1", ToyController())
+    np.testing.assert_array_equal(run.trace["x_m"], direct.trace["x_m"])
+
+    rows = fuzzynav.sweep("toy", n=3, seed=2, engine="pymunk")
+    assert [r["controller"] for r in rows] == ["toy"] * 3
+    # the batch engine drives the batchable toy, and decides as the pymunk engine does
+    batch_rows = fuzzynav.sweep("toy-batch", n=3, seed=2, engine="batch")
+    pymunk_rows = fuzzynav.sweep("toy-batch", n=3, seed=2, engine="pymunk")
+    assert [r["outcome"] for r in batch_rows] == [r["outcome"] for r in pymunk_rows]
+
+    app = ViewerApp("s1", "toy")
+    assert "toy" in app.controller_options()
+    for _ in range(50):
+        app.step_once()
+    assert app.sim.time_s > 0.5
+
+
+def test_a_module_factory_name_needs_no_registration():
+    controller = make_controller("toy_controller:ToyController")
+    assert isinstance(controller, ToyController)
+    with pytest.raises(ValueError, match="unknown"):
+        make_controller("no such controller")
+
+
+def test_registration_refuses_bad_names_taken_names_and_non_factories(toy):
+    with pytest.raises(ValueError, match="already registered"):
+        register_controller("toy", ToyController, description="again")
+    with pytest.raises(ValueError, match="a letter"):
+        register_controller("9lives", ToyController, description="x")
+    with pytest.raises(ValueError, match="not callable"):
+        register_controller("broken", 3, description="x")
+    with pytest.raises(ValueError, match="description"):
+        register_controller("quiet", ToyController, description=" ")
+
+
+class _NoReset:
+    def __call__(self, inputs):
+        return [0.0, 0.0]
+
+
+class _NaNOut(ToyController):
+    def __call__(self, inputs):
+        return [math.nan, 1.0]
+
+
+class _Remembers(ToyController):
+    def __init__(self):
+        super().__init__()
+        self.calls = 0
+
+    def reset(self):
+        pass  # forgets nothing
+
+    def __call__(self, inputs):
+        self.calls += 1
+        return np.array([float(self.calls), 0.0])
+
+
+class _WrongBatch(ToyController):
+    @classmethod
+    def batched(cls, controllers, run_sets=None):
+        class Zero:
+            def decide(self, inputs, runs, ranges_m=None):
+                return np.zeros((len(inputs), 2))
+
+        return Zero()
+
+
+@pytest.mark.parametrize(
+    ("controller", "says"),
+    [
+        (_NoReset(), "no reset"),
+        (lambda inputs: [0.0, 0.0], "no reset"),
+        (_NaNOut(), "non-finite"),
+        (_Remembers(), "after reset"),
+        (_WrongBatch(), "batch form decides otherwise"),
+    ],
+)
+def test_the_checker_names_what_a_controller_gets_wrong(controller, says):
+    with pytest.raises(ControllerCheckError, match=says):
+        check_controller(controller)
+
+
+def test_the_checker_passes_a_sound_user_controller_and_reports_its_capabilities():
+    assert check_controller(ToyController()) == frozenset()
+    assert check_controller(BatchableToy()) == frozenset({"batch"})
+    assert "parts" in check_controller(make_controller("fuzzynav"))
