@@ -16,10 +16,30 @@ FULL_CIRCLE_RAD = 2.0 * math.pi
 
 
 def wrap_angle(angle_rad):
-    """Wrap to the half-open interval (-pi, pi]; works on floats and arrays."""
-    wrapped = np.mod(np.asarray(angle_rad, dtype=float) + math.pi, 2.0 * math.pi) - math.pi
-    wrapped = np.where(wrapped == -math.pi, math.pi, wrapped)
+    """Wrap to the half-open interval (-pi, pi]; works on floats and arrays
+    (:func:`wrap_angles`)."""
+    wrapped = wrap_angles(np.asarray(angle_rad, dtype=float))
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
+
+
+def wrap_angles(angle: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (-pi, pi], as :func:`wrap_angle_scalar` does it, operation for
+    operation (both engines' array form; :mod:`world.kernels`).
+
+    Parameters
+    ----------
+    angle : numpy.ndarray
+        Angles, rad, any shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        The wrapped angles, the shape of ``angle``.
+    """
+    wrapped = np.fmod(angle + math.pi, 2.0 * math.pi)
+    wrapped = np.where(wrapped < 0.0, wrapped + 2.0 * math.pi, wrapped)
+    wrapped = wrapped - math.pi
+    return np.where(wrapped == -math.pi, math.pi, wrapped)
 
 
 def wrap_angle_scalar(angle_rad: float) -> float:

@@ -1,0 +1,382 @@
+"""The array stages of one step, in one place: angle wrapping, the obstacles' motion
+law, footprint clearance, the pose update, the sonar rays, perception and the run
+metrics' per-row terms, each on arrays of many runs.
+
+The lockstep batch engine (:mod:`world.batch_world`) is made of these functions; the
+pymunk engine computes the same quantities with plain floats for one run
+(:mod:`world.arena`, :mod:`world.perception`, :mod:`world.sensors`), and each function
+names its scalar twin. The array forms do the twin's operations in the twin's order, so
+a run's numbers are the pymunk engine's to the bit wherever both use the same libm
+function (the one known exception: ``math.hypot`` there, numpy's ``hypot`` here, may
+differ in the last bit). :func:`wrap_angles` is :func:`world.geometry.wrap_angles`, the
+array form of :func:`world.geometry.wrap_angle`.
+
+Shapes: ``n`` runs, ``M`` obstacle columns per run (absent obstacles have a NaN radius
+and are masked by the callers), ``B`` sonar rays. Lengths in m, angles in rad, times
+in s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fuzzynav.world.arena import SWEEP_MAX_SAMPLES, SWEEP_SPACING_M
+from fuzzynav.world.geometry import wrap_angles
+
+__all__ = [
+    "advance_pose",
+    "disturbance_values",
+    "footprint_clearances",
+    "ideal_obstacle_inputs",
+    "line_deviation",
+    "obstacle_centres",
+    "obstacle_path_bound",
+    "sonar_distances",
+    "sonar_obstacle_inputs",
+    "swept_clearances",
+    "target_inputs",
+    "wrap_angles",
+]
+
+def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The obstacles' centres at each run's time by their constant-acceleration law,
+    ``p0 + v0 t + (a / 2) t^2`` (:meth:`world.arena.Obstacle._xy_at`).
+
+    Parameters
+    ----------
+    law : numpy.ndarray, (n, 6, M)
+        Per obstacle ``p0x, p0y, v0x, v0y, a_x / 2, a_y / 2``.
+    t : numpy.ndarray, (n,)
+        Each run's time since its start, s.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(cx, cy)``, each (n, M), m.
+    """
+    tt = t[:, None]
+    return (
+        law[:, 0] + law[:, 2] * tt + law[:, 4] * tt * tt,
+        law[:, 1] + law[:, 3] * tt + law[:, 5] * tt * tt,
+    )
+
+
+def obstacle_path_bound(law: np.ndarray, t0: np.ndarray, dt: float) -> np.ndarray:
+    """A bound on the length each obstacle travels in ``[t0, t0 + dt]``:
+    ``|v(t0)| dt + |a / 2| dt^2`` (:func:`world.arena._obstacle_path_m`).
+
+    Parameters
+    ----------
+    law : numpy.ndarray, (n, 6, M)
+        The obstacles' laws, as :func:`obstacle_centres`.
+    t0 : numpy.ndarray, (n,)
+        Each run's time at the step's start, s.
+    dt : float
+        The step, s.
+
+    Returns
+    -------
+    numpy.ndarray, (n, M)
+        The bound, m.
+    """
+    tt = t0[:, None]
+    speed = np.hypot(law[:, 2] + 2.0 * law[:, 4] * tt, law[:, 3] + 2.0 * law[:, 5] * tt)
+    return speed * dt + np.hypot(law[:, 4], law[:, 5]) * dt * dt
+
+
+def footprint_clearances(x, y, heading, cx, cy, radius, half_length_m, half_width_m):
+    """Footprint-to-surface clearance of every obstacle of every run, negative when they
+    overlap: the arena's per-step formula (:meth:`world.arena.Arena._scene`,
+    :func:`world.geometry.rectangle_circle_clearance`) on arrays.
+
+    Parameters
+    ----------
+    x, y, heading : numpy.ndarray, (n,)
+        The robots' poses, m and rad.
+    cx, cy, radius : numpy.ndarray, (n, M)
+        The obstacles' centres and radii, m.
+    half_length_m, half_width_m : float
+        Half the footprint's length and width (0 for the paper's point robot), m.
+
+    Returns
+    -------
+    numpy.ndarray, (n, M)
+        The clearances, m.
+    """
+    c = np.cos(heading)[:, None]
+    s = np.sin(heading)[:, None]
+    dx = cx - x[:, None]
+    dy = cy - y[:, None]
+    qx = np.abs(c * dx + s * dy) - half_length_m
+    qy = np.abs(-s * dx + c * dy) - half_width_m
+    inside = np.where(qy > qx, qy, qx)
+    inside = np.where(0.0 < inside, 0.0, inside)
+    outside = np.hypot(np.where(0.0 > qx, 0.0, qx), np.where(0.0 > qy, 0.0, qy))
+    return outside + inside - radius
+
+
+def advance_pose(x, y, heading, forward_speed_m_s, yaw_rate_rad_s, dt_s):
+    """The poses after one step, as the arena moves the pymunk body
+    (:meth:`world.arena.Arena.step`): the chord of the step's arc along the mid-step
+    heading as the velocity, then Chipmunk's ``p + v dt`` and ``a + w dt``.
+
+    Parameters
+    ----------
+    x, y, heading : numpy.ndarray, (n,)
+        The poses at the step's start, m and rad.
+    forward_speed_m_s, yaw_rate_rad_s : numpy.ndarray, (n,)
+        The step-mean forward speed (m/s) and yaw rate (rad/s).
+    dt_s : float
+        The step, s.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, y, heading)`` at the step's end.
+    """
+    half_turn = 0.5 * yaw_rate_rad_s * dt_s
+    with np.errstate(invalid="ignore", divide="ignore"):
+        chord_scale = np.where(np.abs(half_turn) > 1e-9, np.sin(half_turn) / half_turn, 1.0)
+    speed = forward_speed_m_s * chord_scale
+    mid_heading = heading + half_turn
+    vx = speed * np.cos(mid_heading)
+    vy = speed * np.sin(mid_heading)
+    return x + vx * dt_s, y + vy * dt_s, heading + yaw_rate_rad_s * dt_s
+
+
+def sonar_distances(ox, oy, ux, uy, max_range_m, cx, cy, radius):
+    """Echo distance of each ray against every circle, nearest over the circles, by
+    Chipmunk's segment query (``cpShapeSegmentQuery``: a ray starting inside a circle
+    hits at 0, else ``CircleSegmentQuery``'s quadratic).
+
+    Parameters
+    ----------
+    ox, oy, ux, uy : numpy.ndarray, (n, B)
+        The rays' origins (m) and unit directions.
+    max_range_m : float
+        The rays' length, m.
+    cx, cy, radius : numpy.ndarray, (n, M)
+        The circles (radius NaN for none), m.
+
+    Returns
+    -------
+    numpy.ndarray, (n, B)
+        The distances, m; inf where a ray meets nothing.
+    """
+    ax = ox[:, :, None]
+    ay = oy[:, :, None]
+    bx = ax + max_range_m * ux[:, :, None]
+    by = ay + max_range_m * uy[:, :, None]
+    cx = cx[:, None, :]
+    cy = cy[:, None, :]
+    r = radius[:, None, :]
+    dax, day = ax - cx, ay - cy
+    dbx, dby = bx - cx, by - cy
+    da_da = dax * dax + day * day
+    da_db = dax * dbx + day * dby
+    db_db = dbx * dbx + dby * dby
+    qa = da_da - 2.0 * da_db + db_db
+    qb = da_db - da_da
+    with np.errstate(invalid="ignore", divide="ignore"):
+        det = qb * qb - qa * (da_da - r * r)
+        t = (-qb - np.sqrt(det)) / qa
+        hit = (det >= 0.0) & (0.0 <= t) & (t <= 1.0)
+        alpha = np.where(hit, t, np.inf)
+        alpha = np.where(np.sqrt(da_da) - r <= 0.0, 0.0, alpha)  # starts inside: 0
+    return alpha.min(axis=2, initial=np.inf) * max_range_m
+
+
+def swept_clearances(
+    pose0, v, w, dt, law, radius, t0, half_length_m, half_width_m, path_m
+) -> tuple[np.ndarray, np.ndarray]:
+    """The footprint's clearance to one obstacle at the samples of one step's arc, for
+    one run (:meth:`world.arena.Arena._clearance_along` and its sample count).
+
+    Parameters
+    ----------
+    pose0 : tuple of float
+        ``(x, y, heading)`` at the step's start, m and rad.
+    v, w : float
+        The step-mean forward speed (m/s) and yaw rate (rad/s).
+    dt : float
+        The step, s.
+    law : sequence of float
+        The obstacle's law ``p0x, p0y, v0x, v0y, a_x / 2, a_y / 2``.
+    radius : float
+        The obstacle's radius, m.
+    t0 : float
+        The run's time at the step's start, s.
+    half_length_m, half_width_m : float
+        Half the footprint's length and width, m.
+    path_m : float
+        The bound on the relative path over the step (how many samples), m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The clearances (m) and their instants into the step (s).
+    """
+    n = min(SWEEP_MAX_SAMPLES, int(math.ceil(path_m / SWEEP_SPACING_M)) + 2)
+    tau = np.linspace(0.0, dt, n)
+    x0, y0, h0 = pose0
+    heading = h0 + w * tau
+    if abs(w) > 1e-12:
+        x = x0 + (v / w) * (np.sin(heading) - math.sin(h0))
+        y = y0 - (v / w) * (np.cos(heading) - math.cos(h0))
+    else:
+        x = x0 + v * tau * math.cos(h0)
+        y = y0 + v * tau * math.sin(h0)
+    px, py, vx, vy, hax, hay = law
+    age = t0 + tau
+    cx = px + vx * age + hax * age * age
+    cy = py + vy * age + hay * age * age
+    c, s = np.cos(heading), np.sin(heading)
+    dx, dy = cx - x, cy - y
+    qx = np.abs(c * dx + s * dy) - half_length_m
+    qy = np.abs(-s * dx + c * dy) - half_width_m
+    outside = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0))
+    return outside + np.minimum(np.maximum(qx, qy), 0.0) - radius, tau
+
+
+def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:
+    """The target's distance and bearing from each robot, Eqs. 9-10
+    (:func:`world.perception.target_inputs`).
+
+    Parameters
+    ----------
+    x, y, heading : numpy.ndarray, (n,)
+        The robots' poses, m and rad.
+    target : numpy.ndarray, (n, 2)
+        The targets, m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(d_t, phi_t)``, each (n,): m and rad in (-pi, pi].
+    """
+    dx = target[:, 0] - x
+    dy = target[:, 1] - y
+    return np.hypot(dx, dy), wrap_angles(np.arctan2(dy, dx) - heading)
+
+
+def ideal_obstacle_inputs(
+    x, y, heading, cx, cy, radius, present, clear, half_field, point_robot, cutoff_m
+) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest obstacle's distance and bearing in ideal perception, Eqs. 7-12 or the
+    footprint's clearance (:class:`world.perception.Perception`, ideal mode).
+
+    Parameters
+    ----------
+    x, y, heading : numpy.ndarray, (n,)
+        The robots' poses, m and rad.
+    cx, cy, radius : numpy.ndarray, (n, M)
+        The obstacles' centres and radii, m.
+    present : numpy.ndarray, (n, M) bool
+        Which columns hold an obstacle.
+    clear : numpy.ndarray, (n, M)
+        The footprint clearances (:func:`footprint_clearances`), m.
+    half_field : numpy.ndarray, (n,)
+        Half of each run's field of view, rad (inf: all around).
+    point_robot : bool
+        The paper's point robot: distances centre to centre (Eq. 8).
+    cutoff_m : float
+        Obstacles farther than this are not sensed, m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(d_o, phi_o)``, each (n,), NaN where nothing is sensed.
+    """
+    n = x.size
+    clear = np.where(present, clear, np.inf)
+    if point_robot:
+        clear = clear + np.where(present, radius, 0.0)  # Eq. 8, centre to centre
+    limited = np.isfinite(half_field)
+    if limited.any():  # obstacles outside the field are not sensed
+        bearings = wrap_angles(np.arctan2(cy - y[:, None], cx - x[:, None]) - heading[:, None])
+        outside = limited[:, None] & (np.abs(bearings) > half_field[:, None])
+        clear = np.where(outside, np.inf, clear)
+    k = np.argmin(clear, axis=1)
+    rows_n = np.arange(n)
+    nearest = clear[rows_n, k]
+    nearest = np.where(0.0 > nearest, 0.0, nearest)
+    seen = ~(nearest > cutoff_m)
+    d_o = np.where(seen, nearest, np.nan)
+    bearing = np.arctan2(cy[rows_n, k] - y, cx[rows_n, k] - x) - heading
+    return d_o, np.where(seen, wrap_angles(bearing), np.nan)
+
+
+def sonar_obstacle_inputs(ranges, mount_angle, cutoff_m) -> tuple[np.ndarray, np.ndarray]:
+    """The nearest sonar reading and its mount's angle (:class:`world.perception.
+    Perception`, ultrasonic mode).
+
+    Parameters
+    ----------
+    ranges : numpy.ndarray, (n, S)
+        The readings, m (inf: no echo).
+    mount_angle : numpy.ndarray, (S,)
+        The sonars' angles in the robot frame, rad.
+    cutoff_m : float
+        Readings beyond this are no obstacle, m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(d_o, phi_o)``, each (n,), NaN where nothing is sensed.
+    """
+    k = np.argmin(ranges, axis=1)
+    nearest = ranges[np.arange(len(ranges)), k]
+    seen = nearest <= cutoff_m
+    return np.where(seen, nearest, np.nan), np.where(seen, mount_angle[k], np.nan)
+
+
+def disturbance_values(disturbance: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Each run's disturbance now, ``amplitude sin(omega t)`` inside its window, else 0
+    (:meth:`world.scenario.Disturbance.value`).
+
+    Parameters
+    ----------
+    disturbance : numpy.ndarray, (n, 4)
+        ``amplitude, omega (rad/s), start (s), stop (s)``; a run without one has an
+        empty window.
+    t : numpy.ndarray, (n,)
+        Each run's time, s.
+
+    Returns
+    -------
+    numpy.ndarray, (n,)
+        The values added to every input.
+    """
+    amp, omega, d_start, d_stop = disturbance.T
+    on = (d_start <= t) & (t < d_stop)
+    return np.where(on, amp * np.sin(omega * t), 0.0)
+
+
+def line_deviation(x, y, start, seg, seg_len2) -> np.ndarray:
+    """Each robot's distance from its start-target segment, the per-row term of MAD and
+    RMSE (:func:`world.metrics.deviation_from_line`).
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray, (n,)
+        The robots' positions, m.
+    start : numpy.ndarray, (n, 2)
+        The segments' starts, m.
+    seg : numpy.ndarray, (n, 2)
+        Target minus start, m.
+    seg_len2 : numpy.ndarray, (n,)
+        The segments' squared lengths, m^2.
+
+    Returns
+    -------
+    numpy.ndarray, (n,)
+        The distances, m.
+    """
+    px = x - start[:, 0]
+    py = y - start[:, 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        along = np.clip((px * seg[:, 0] + py * seg[:, 1]) / seg_len2, 0.0, 1.0)
+    along = np.where(seg_len2 == 0.0, 0.0, along)
+    return np.hypot(x - (start[:, 0] + along * seg[:, 0]), y - (start[:, 1] + along * seg[:, 1]))
