@@ -40,6 +40,7 @@ __all__ = [
     "wrap_angles",
 ]
 
+
 def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The obstacles' centres at each run's time by their constant-acceleration law,
     ``p0 + v0 t + (a / 2) t^2`` (:meth:`world.arena.Obstacle._xy_at`).
