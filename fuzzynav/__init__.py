@@ -27,10 +27,14 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
     from fuzzynav.api import (
+        ControllerCheckError,
         Run,
+        check_controller,
         load_scenario,
         make_controller,
         read_fis,
+        register_controller,
+        serve,
         simulate,
         sweep,
         write_fis,
@@ -43,8 +47,12 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "serve",
     "load_scenario",
     "make_controller",
+    "register_controller",
+    "check_controller",
+    "ControllerCheckError",
     "read_fis",
     "write_fis",
 ]

@@ -17,25 +17,31 @@ Everything is reached from the package itself, imported on first use so that
 Functions
 ---------
 simulate        one run of a scenario; a :class:`Run`
-sweep           seeded random layouts; one row (a dict) per run
+sweep           seeded random layouts, or your scenarios; one row (a dict) per run
+serve           the viewer, in this process
 load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
 make_controller a controller by name (``"paper"``, ``"fuzzynav"``, ...) or a ``.fis`` file
+register_controller  offer a controller of your own everywhere (``--controller``, sweeps, the viewer)
+check_controller     check an object against the controller interface; its capabilities
 read_fis        a MATLAB ``.fis`` file as a :class:`~fuzzynav.controller.fuzzy.FuzzySystem`
 write_fis       a fuzzy system to a ``.fis`` file (written whole or not at all)
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.controller.checker import ControllerCheckError, check_controller
 from fuzzynav.controller.fis import dumps_fis
 from fuzzynav.controller.fis import read_fis as _read_fis
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.registry import make_controller as _make_controller
+from fuzzynav.controller.registry import register_controller
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
 
@@ -43,8 +49,12 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "serve",
     "load_scenario",
     "make_controller",
+    "register_controller",
+    "check_controller",
+    "ControllerCheckError",
     "read_fis",
     "write_fis",
 ]
@@ -266,70 +276,193 @@ def simulate(
 
 
 def sweep(
-    controller: str = "paper",
-    n: int = 50,
-    seed: int = 0,
+    controller: str | object = "paper",
+    n: int | None = None,
+    seed: int | None = None,
     family: str = "standard",
     perception: str = "ideal",
     geometry: str = "husky",
     *,
+    scenarios=None,
     workers: int = 1,
+    executor: str | None = None,
+    scheduler: str | None = None,
     progress: Callable[[int, int], None] | None = None,
     engine: str = "batch",
+    out: str | Path | None = None,
+    resume: bool = False,
 ) -> list[dict]:
-    """Run ``controller`` on ``n`` seeded random layouts of ``family``.
+    """Run ``controller`` on ``n`` seeded random layouts of ``family``, or on ``scenarios``.
 
     Parameters
     ----------
-    controller : str
-        A controller's name.
-    n : int
-        How many layouts (layouts 0 .. n - 1 of the family and seed).
-    seed : int
-        The layouts' seed (the same seed gives the same layouts everywhere).
+    controller : str or controller object
+        A registered name (``fuzzynav sweep --help`` lists them; a controller of your
+        own joins with :func:`register_controller`), ``"module:factory"``, or a
+        controller object (a copy drives each run; it must pickle to run in worker
+        processes).
+    n : int, optional
+        How many layouts (layouts 0 .. n - 1 of the family and seed); default the
+        command line's (``fuzzynav sweep --n``). Not with ``scenarios``.
+    seed : int, optional
+        The layouts' seed (the same seed gives the same layouts everywhere); default the
+        command line's. Not with ``scenarios``.
     family : str
         The layout family (``"standard"``, ``"clutter"``, ...; see ``fuzzynav sweep
         --help``).
     perception, geometry : str
         As :func:`simulate`.
+    scenarios : str, Path, Scenario or list of them, optional
+        Run these instead of generated layouts: a scenario file, a folder of scenario
+        files (``*.toml``, in name order), a shipped scenario's name, a
+        :class:`~fuzzynav.world.scenario.Scenario` (validated as a file is), or a list of
+        any of these. Rows are in their order; their ``family`` is ``set:`` and the
+        set's digest.
     workers : int
-        Processes to spread the runs over (1: in this process).
+        Processes (or dask threads) to spread the runs over; 1 with no ``executor``:
+        this process.
+    executor : {"serial", "local", "dask"}, optional
+        Where the runs go (``fuzzynav sweep --executor``); default ``serial`` for one
+        worker, else ``local``.
+    scheduler : str, optional
+        A dask scheduler's address (``executor="dask"`` only).
     progress : callable, optional
-        Called as ``progress(done, total)`` as runs finish.
+        Called as ``progress(done, total)`` at the start and as rows arrive: after
+        each run on the pymunk engine, after each batch of runs (up to a few hundred,
+        finishing together) on the batch engine.
     engine : {"batch", "pymunk"}
         ``batch``: the runs in lockstep as numpy arrays (world/batch.py; the command
         line's default); ``pymunk``: one world at a time, the reference. Controllers the
-        batch engine cannot drive (fuzzynav) run on pymunk.
+        batch engine cannot drive (fuzzynav's, one of yours without ``batched``) run on
+        pymunk.
+    out : str or Path, optional
+        Write every row to this JSON-lines file as it finishes (``--out``): an existing
+        file is refused unless ``resume``.
+    resume : bool
+        Keep the rows already in ``out`` and run only the others (``--resume``).
 
     Returns
     -------
     list of dict
-        One row per layout, in layout order: the fields ``fuzzynav sweep --out`` writes
-        (index, outcome, success, path_length_m, min_clearance_m, time_to_target_s,
-        shortest_path_m, ...). A number that does not apply is None.
+        One row per run, in layout (or scenario) order: the fields ``fuzzynav sweep
+        --out`` writes (index, outcome, success, path_length_m, min_clearance_m,
+        time_to_target_s, shortest_path_m, ...). A number that does not apply is None.
     """
-    from fuzzynav.app.args import integer_value
-    from fuzzynav.app.experiments.executor import make_executor
-    from fuzzynav.app.experiments.sweep import sweep as run_sweep
+    from fuzzynav.app.experiments import sweep as sweep_command
+    from fuzzynav.app.experiments.studies import run_jobs, sweep_jobs
+    from fuzzynav.app.experiments.study_sources import scenario_list, scenario_set_jobs
 
-    integer_value(seed, "seed", 0)  # as --seed (n: the sweep's own check, as --n)
+    if not isinstance(controller, str):
+        from fuzzynav.controller.checker import check_controller
+
+        check_controller(controller)  # every problem named before a run starts
     options = {} if geometry == "husky" else {"geometry": geometry}
-    executor = make_executor("local" if workers > 1 else "serial", workers=workers)
-    try:
-        out = run_sweep(
-            controller,
-            n,
-            seed,
-            family,
-            perception,
-            executor=executor,
-            progress=progress,
-            options=options,
-            engine=engine,
+    if scenarios is not None:
+        if n is not None or seed is not None:
+            raise ValueError("n, seed: the layouts' count and seed; not with scenarios")
+        footprint = (0.0, 0.0) if geometry == "paper" else None
+        jobs = scenario_set_jobs(
+            scenario_list(scenarios, footprint), controller, perception, options
         )
-    finally:
-        executor.close()
-    return out["runs"]
+    else:
+        n = sweep_command.DEFAULT_N if n is None else n
+        seed = sweep_command.DEFAULT_SEED if seed is None else seed
+        from fuzzynav.app.args import integer_value
+
+        integer_value(seed, "seed", 0)  # as --seed
+        if isinstance(controller, str):
+            sweep_command.check_sweep(controller, n, family)
+            jobs = sweep_jobs(controller, n, seed, family, perception, (), options)
+        else:
+            from fuzzynav.world.layouts import generate_layout
+
+            sweep_command.check_sweep("p", n, family)  # n and family, as --n and --family
+            layouts = (generate_layout(family, seed, i) for i in range(n))
+            jobs = scenario_set_jobs(layouts, controller, perception, options)
+    with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
+        return run_jobs(jobs, runner, log=log, progress=progress, engine=engine)
+
+
+@contextlib.contextmanager
+def _study_runner(kind, workers, scheduler, out, resume, jobs):
+    """(executor, result log or None) for a study from Python, closed after it."""
+    from fuzzynav.app.experiments.executor import make_executor
+    from fuzzynav.app.experiments.resultlog import ResultLog
+    from fuzzynav.app.experiments.studies import check_row, describe_row, row_key
+    from fuzzynav.safe_files import check_output_path
+
+    if resume and out is None:
+        raise ValueError("resume: give out, the .jsonl file to resume")
+    kind = kind or ("local" if workers > 1 else "serial")
+    with contextlib.ExitStack() as stack:
+        log = None
+        if out is not None:
+            check_output_path(out, "out", stream_ok=False)
+            log = ResultLog(out, resume=resume, key=row_key, check_row=check_row)
+            log.check_belongs({job.key() for job in jobs}, describe_row)
+            stack.enter_context(log)
+        executor = make_executor(kind, workers=workers, scheduler=scheduler)
+        stack.callback(executor.close)
+        yield executor, log
+
+
+def serve(
+    scenario: str | Path | Scenario = "s1",
+    controller: str | None = None,
+    *,
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    rrd: str | Path | None = None,
+    geometry: str = "husky",
+    classroom: bool = False,
+    lesson: str | Path | None = None,
+    block: bool = True,
+    open_message: bool = True,
+):
+    """The viewer in this process (``fuzzynav serve``): it offers every registered
+    controller, a controller of your own included.
+
+    Parameters
+    ----------
+    scenario : str, Path or Scenario
+        As :func:`simulate`.
+    controller : str, optional
+        The registered name it starts with (default ``paper``).
+    host, port : str, int
+        Where it listens (default 127.0.0.1:8080; port 0: any free port).
+    rrd : str or Path, optional
+        Record every run to this rerun file (``--rrd``).
+    geometry : {"husky", "paper"}
+        As :func:`simulate`.
+    classroom : bool
+        A world per browser tab (``--classroom``).
+    lesson : str or Path, optional
+        A lesson file (``--lesson``).
+    block : bool
+        Serve until Ctrl-C (default); False returns the running server, whose
+        ``stop()`` ends it.
+    open_message : bool
+        Print the address to open.
+
+    Returns
+    -------
+    object
+        The running server when ``block`` is False; else None, after Ctrl-C.
+    """
+    from fuzzynav.app.viewer.serve import serve as serve_viewer
+
+    return serve_viewer(
+        scenario,
+        host=host,
+        port=port,
+        rrd=rrd,
+        controller=controller,
+        open_message=open_message,
+        block=block,
+        geometry=geometry,
+        classroom=classroom,
+        lesson=lesson,
+    )
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -32,12 +32,20 @@ MIN_BATCH = 100
 _RUN_OPTIONS = ("geometry", "control_period_s", "sensor_noise_std_m", "field_of_view_deg")
 
 
-def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | None:
-    """Why ``controller`` (a registry name) cannot run on the batch engine, or None."""
+def not_batchable_reason(
+    controller: str, parts_off=(), options=None, controller_object=None
+) -> str | None:
+    """Why ``controller`` (a registry name, or ``controller_object``, a controller)
+    cannot run on the batch engine, or None."""
+    from fuzzynav.controller.interface import capabilities
     from fuzzynav.controller.registry import controller_entry, controller_names
 
     options = dict(options or {})
-    if not controller_entry(controller).batchable:
+    if controller_object is not None:
+        batchable = "batch" in capabilities(controller_object)
+    else:
+        batchable = controller_entry(controller).batchable
+    if not batchable:
         return (
             f"controller {controller!r} cannot be batched (the batch engine drives "
             f"{', '.join(controller_names(batchable=True))}: stateless controllers; "
@@ -54,7 +62,7 @@ def not_batchable_reason(controller: str, parts_off=(), options=None) -> str | N
 def _scenario(job):
     from fuzzynav.world.layouts import generate_layout
 
-    scenario = generate_layout(job.family, job.seed, job.index)
+    scenario = job.scenario or generate_layout(job.family, job.seed, job.index)
     field = dict(job.options).get("field_of_view_deg")
     return scenario if field is None else scenario.replace(field_of_view_deg=field)
 
@@ -135,7 +143,9 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
     for job in jobs:
         if (job.controller, job.perception, job.parts_off, job.options) != study:
             raise ValueError(f"one batch runs one study: {job} differs from {first}")
-    reason = not_batchable_reason(first.controller, first.parts_off, dict(first.options))
+    reason = not_batchable_reason(
+        first.controller, first.parts_off, dict(first.options), first.controller_object
+    )
     if reason is not None:
         raise ValueError(reason)
     options = dict(first.options)
@@ -144,7 +154,11 @@ def run_layout_batch(jobs: Sequence) -> list[dict]:
     model = HuskyModel.default()
     result = run_batch(
         scenarios,
-        batch_controller(make_controller(first.controller, geometry=geometry)),
+        batch_controller(
+            make_controller(first.controller, geometry=geometry)
+            if first.controller_object is None
+            else first.controller_object
+        ),
         perception=first.perception,
         geometry=geometry,
         seeds=[job.seed for job in jobs],
@@ -183,7 +197,9 @@ def tasks(jobs: Sequence, workers: int = 1) -> tuple[list, list[str]]:
         studies.setdefault(_study(job), []).append(job)
     items, fallbacks = [], []
     for (controller, _, parts_off, options), group in studies.items():
-        reason = not_batchable_reason(controller, parts_off, dict(options))
+        reason = not_batchable_reason(
+            controller, parts_off, dict(options), group[0].controller_object
+        )
         if reason is not None:
             fallbacks.append(f"{reason}: its {len(group)} runs use the pymunk engine")
             items += [("pymunk", job) for job in group]

@@ -16,12 +16,13 @@ success" also asks for a minimum clearance >= 0.25 m (the paper's safe distance)
 from __future__ import annotations
 
 import collections
+import copy
 import functools
 import json
 import math
 import time
 from collections.abc import Iterator, Sequence, Set
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from fuzzynav.app.args import UsageError
@@ -48,6 +49,10 @@ class LayoutJob:
     perception: str = "ideal"
     parts_off: tuple[str, ...] = ()
     options: tuple[tuple[str, object], ...] = ()
+    #: a scenario of a set (:mod:`.study_sources`; None: the family's layout ``index``)
+    scenario: object = field(default=None, compare=False, repr=False)
+    #: a controller object (None: the registry's ``controller``); copied for each run
+    controller_object: object = field(default=None, compare=False, repr=False)
 
     def key(self) -> tuple:
         return (
@@ -270,6 +275,8 @@ def run_layout(job: LayoutJob) -> dict:
         controller=job.controller,
         perception=job.perception,
         parts_off=job.parts_off,
+        scenario=job.scenario,
+        controller_object=job.controller_object,
         **dict(job.options),
     )
 
@@ -293,11 +300,15 @@ def run_layout_row(
     controller: str,
     perception: str = "ideal",
     parts_off=(),
+    scenario=None,
+    controller_object=None,
     **options,
 ) -> dict:
     """Run layout ``index`` of ``family``/``seed``; its row (what ``--out`` writes).
 
-    ``options`` go to :func:`app.runs.build_simulation` as keywords. The row: the job
+    ``scenario`` and ``controller_object``, when given, are run in place of the
+    family's layout and the registry's ``controller`` (a copy of the object: every run
+    starts from the same state). ``options`` go to :func:`app.runs.build_simulation` as keywords. The row: the job
     (index, controller, parts_off, family, seed, perception, and options if any), the
     outcome (outcome, reached, collided, success = reached without collision), the
     run's path_length_m, min_clearance_m, min_safety_distance_m (what the safe distance
@@ -309,8 +320,16 @@ def run_layout_row(
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.world.layouts import generate_layout
 
-    scenario = generate_layout(family, seed, index)
-    sim = build_simulation(scenario, controller, perception=perception, seed=seed, **options)
+    if scenario is None:
+        scenario = generate_layout(family, seed, index)
+    sim = build_simulation(
+        scenario,
+        controller,
+        perception=perception,
+        seed=seed,
+        controller_object=None if controller_object is None else copy.deepcopy(controller_object),
+        **options,
+    )
     if parts_off:
         sim.controller.set_parts_off(list(parts_off))
     result = sim.run()

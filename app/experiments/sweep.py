@@ -37,6 +37,10 @@ from fuzzynav.app.experiments.studies import (
 )
 from fuzzynav.resources import escape_controls
 
+#: The command line's and the API's defaults: one place for both.
+DEFAULT_N = 200
+DEFAULT_SEED = 1
+
 
 def _median(values):
     values = [v for v in values if v is not None and math.isfinite(v)]
@@ -337,10 +341,12 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--n",
         type=integer_in(1, MAX_LAYOUTS),
-        default=200,
-        help=f"number of layouts (default 200, at most {MAX_LAYOUTS})",
+        default=DEFAULT_N,
+        help=f"number of layouts (default {DEFAULT_N}, at most {MAX_LAYOUTS})",
     )
-    p.add_argument("--seed", type=seed_type, default=1, help="layout seed (default 1)")
+    p.add_argument(
+        "--seed", type=seed_type, default=DEFAULT_SEED, help=f"layout seed (default {DEFAULT_SEED})"
+    )
     p.add_argument(
         "--family", default="standard", choices=FAMILIES, help="layout family (default standard)"
     )
