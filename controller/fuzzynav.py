@@ -232,6 +232,9 @@ class FuzzyNavController:
     #: the simulation gives it the robot's sonar mounts (set_sensor_mounts) before each
     #: start: its memory places echoes on their axes (``--sonar-side`` moves them)
     needs_sensor_mounts = True
+    #: and the robot's description (set_robot) before that: its footprint, so that the
+    #: memory, the planner and the tracker know the robot that drives
+    needs_robot = True
     name = "fuzzynav"
 
     # The parts' state that teaching, recording and tests read (see the parts' modules).
@@ -278,6 +281,22 @@ class FuzzyNavController:
         self.tracker = Tracker(self.params)
         self.axes = _AXES  # the sonars' axes (set_sensor_mounts)
         self.reset()
+
+    def set_robot(self, robot) -> None:
+        """The robot that drives (:class:`~fuzzynav.world.robot.RobotDescription`): its
+        footprint's half-sizes for the memory, the planner and the tracker, and its sonars
+        (:meth:`set_sensor_mounts`). The mixing keeps the default robot's voltage limit,
+        as the batch form does (the world clips to the simulation's own after it).
+
+        Parameters
+        ----------
+        robot : RobotDescription
+            The robot, as :attr:`fuzzynav.world.simulation.Simulation.robot` has it.
+        """
+        hx, hy = float(robot.half_length_m), float(robot.half_width_m)
+        for part in (self.memory, self.planner, self.tracker):
+            part.hx, part.hy = hx, hy
+        self.set_sensor_mounts(robot.mounts)
 
     def set_sensor_mounts(self, sensor_mounts) -> None:
         """The robot's sonars (:class:`~fuzzynav.world.sensors.SensorMount` s, left, front,

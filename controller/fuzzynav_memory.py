@@ -44,6 +44,8 @@ class PerceptionMemory:
         self.params = params
         #: the sonars (x, y, angle) and their axes: the robot's (set_sensor_mounts)
         self.mounts, self.axes = _MOUNTS, _AXES
+        #: the footprint's half-sizes (m): the robot's (set_robot)
+        self.hx, self.hy = _HX, _HY
         self.reset()
 
     def reset(self) -> None:
@@ -110,7 +112,7 @@ class PerceptionMemory:
                 # are remembered: the all-around nearest obstacle of ideal
                 # perception acts in the moment only, because one disturbed sample
                 # (s3) would otherwise stay as a phantom obstacle for memory_s.
-                rr = range_at_clearance(phi_o, d_o)
+                rr = range_at_clearance(phi_o, d_o, self.hx, self.hy)
                 bx, by = rr * math.cos(phi_o), rr * math.sin(phi_o)
                 self.remember(x0 + c * bx - s_ * by, y0 + s_ * bx + c * by, t)
             points = self.points
@@ -121,22 +123,23 @@ class PerceptionMemory:
         corridor = p["front_corridor_m"]
         creep = p["memory_creep_mps"]
         now = t
+        hx, hy = self.hx, self.hy
         ahead = []
         for px, py, pt in points:
             dx, dy = px - x0, py - y0
             bx = c * dx + s_ * dy
             by = c * dy - s_ * dx
-            if bx < -_HX:  # behind the robot: irrelevant going forward
+            if bx < -hx:  # behind the robot: irrelevant going forward
                 continue
             ahead.append((bx, by))
-            ex = bx - _HX if bx > _HX else 0.0
-            ey = abs(by) - _HY
+            ex = bx - hx if bx > hx else 0.0
+            ey = abs(by) - hy
             if ey < 0.0:
                 ey = 0.0
             # A remembered echo may have moved since (a moving obstacle): it counts
             # as nearer by memory_creep_mps x its age.
             d = math.sqrt(ex * ex + ey * ey) - creep * (now - pt)
-            if bx > 0.0 and abs(by) < _HY + corridor:
+            if bx > 0.0 and abs(by) < hy + corridor:
                 if d < m_f:
                     m_f = d
             elif by > 0.0:

@@ -82,6 +82,7 @@ class BearingPlanner:
     def __init__(self, params: dict):
         self.params = params
         self.axes = _AXES  # the sonars' axes: the robot's (set_sensor_mounts)
+        self.hx, self.hy = _HX, _HY  # the footprint's half-sizes: the robot's (set_robot)
         self.reset()
 
     def reset(self) -> None:
@@ -102,11 +103,11 @@ class BearingPlanner:
         # the side turned away from looked free and the robot turned back and forth.
         cones = blocked_cones(
             ahead,
-            _HY + p["plan_margin_m"],
+            self.hy + p["plan_margin_m"],
             p["plan_horizon_m"],
             d_t + 0.3,
             p["plan_nearest_m"],
-            -_HX,
+            -self.hx,
         )
         # The side is latched while remembered points are near (plan_latch_m), even
         # when the target's bearing is momentarily free, so that the planner and the

@@ -2,6 +2,10 @@
 reckoning), the footprint's half-sizes and the sonar mounts, and the distance along a
 bearing at which a point has a given clearance from the footprint.
 
+The limit, the footprint and the mounts are the world's robot description
+(:data:`fuzzynav.world.robot.HUSKY` by default; the simulation gives the controller its
+own robot, :meth:`FuzzyNavController.set_robot`), never numbers of its own.
+
 Shared by the echo memory (:mod:`fuzzynav.controller.fuzzynav_memory`), the tracker
 (:mod:`fuzzynav.controller.fuzzynav_tracker`) and the controller
 (:mod:`fuzzynav.controller.fuzzynav`, whose docstring is the design).
@@ -11,14 +15,16 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.world.sensors import default_mounts
+from fuzzynav.world.robot import HUSKY
 
-VOLTAGE_LIMIT_V = 12.0
-# Plant constants for dead reckoning (notes section 1): 12 V both -> 0.617 m/s,
-# (-12, +12) -> 0.62 rad/s; and the sensor mounts (x, y, angle) on the front edge.
+#: The default robot's voltage limit (the parts read the robot they are given).
+VOLTAGE_LIMIT_V = HUSKY.voltage_limit_v
+# Plant constants for dead reckoning (notes section 1), as measured at 12 V: 12 V both
+# -> 0.617 m/s, (-12, +12) -> 0.62 rad/s.
 _V_PER_VOLT = 0.617 / 12.0
 _W_PER_VOLT = 0.62 / 12.0
-_HX, _HY = 0.495, 0.335
+#: The default robot's footprint half-sizes (length, width), m.
+_HX, _HY = HUSKY.half_length_m, HUSKY.half_width_m
 
 
 def mounts_of(sensor_mounts) -> tuple[tuple[float, float, float], ...]:
@@ -28,14 +34,17 @@ def mounts_of(sensor_mounts) -> tuple[tuple[float, float, float], ...]:
     return tuple((float(m.x_m), float(m.y_m), float(m.angle_rad)) for m in sensor_mounts)
 
 
-# The default mounts, the world's (left, front, right at +-45 degrees).
-_MOUNTS = mounts_of(default_mounts())
+# The default mounts, the world's (left, front, right).
+_MOUNTS = mounts_of(HUSKY.mounts)
 _AXES = frozenset(m[2] for m in _MOUNTS)
 
 
-def range_at_clearance(bearing_rad: float, clearance_m: float) -> float:
+def range_at_clearance(
+    bearing_rad: float, clearance_m: float, hx: float = _HX, hy: float = _HY
+) -> float:
     """How far from the robot's centre, along ``bearing_rad``, a point is
-    ``clearance_m`` from the footprint (half-sizes _HX, _HY).
+    ``clearance_m`` from the footprint of half-sizes ``hx`` (along) and ``hy``
+    (across), the default robot's if omitted.
 
     With ``u = (|cos|, |sin|)``, the point ``r u`` is ``sqrt(max(r ux - HX, 0)^2 +
     max(r uy - HY, 0)^2)`` from the rectangle: off a side, ``r = (H + d) / u``; off a
@@ -46,12 +55,12 @@ def range_at_clearance(bearing_rad: float, clearance_m: float) -> float:
     ux, uy = abs(math.cos(bearing_rad)), abs(math.sin(bearing_rad))
     d = clearance_m
     if ux > 0.0:
-        r = (_HX + d) / ux
-        if r * uy <= _HY:
+        r = (hx + d) / ux
+        if r * uy <= hy:
             return r
     if uy > 0.0:
-        r = (_HY + d) / uy
-        if r * ux <= _HX:
+        r = (hy + d) / uy
+        if r * ux <= hx:
             return r
-    b = ux * _HX + uy * _HY
-    return b + math.sqrt(b * b - (_HX * _HX + _HY * _HY - d * d))
+    b = ux * hx + uy * hy
+    return b + math.sqrt(b * b - (hx * hx + hy * hy - d * d))

@@ -18,6 +18,8 @@ import math
 
 from fuzzynav.controller.fuzzynav_robot import (
     _AXES,
+    _HX,
+    _HY,
     _V_PER_VOLT,
     _W_PER_VOLT,
     VOLTAGE_LIMIT_V,
@@ -71,6 +73,7 @@ class Tracker:
 
     def __init__(self, params: dict):
         self.axes = _AXES  # the sonars' axes: the robot's (set_sensor_mounts)
+        self.hx, self.hy = _HX, _HY  # the footprint's half-sizes: the robot's (set_robot)
         self.params = params
         self.reset()
 
@@ -188,7 +191,7 @@ class Tracker:
         """
         p = self.params
         x, y, heading = self.track_pose
-        rho = range_at_clearance(phi_o, d_o + p["dodge_radius_m"])
+        rho = range_at_clearance(phi_o, d_o + p["dodge_radius_m"], self.hx, self.hy)
         cx, cy = x + rho * math.cos(heading + phi_o), y + rho * math.sin(heading + phi_o)
         prev = self.obs_centre
         if (

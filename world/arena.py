@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
+from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
 try:  # pymunk's own cffi binding of Chipmunk: the calls its properties make, minus Vec2d.
@@ -190,18 +191,25 @@ class Arena:
 
     Parameters
     ----------
-    footprint_m : (length, width)
-        The robot's collision rectangle, metres (real Husky A200: 0.99 x 0.67);
-        ``(0, 0)`` makes the robot a point (the paper's geometry): it touches an obstacle
-        when its centre enters the obstacle's disc.
-    mass_kg, inertia_kg_m2 : float
-        Given to the pymunk body; they never matter for the motion, which is set from
-        the LG model's velocities every step.
+    footprint_m : (length, width), optional
+        The robot's collision rectangle, metres (the robot's, :data:`HUSKY`, if
+        omitted); ``(0, 0)`` makes the robot a point (the paper's geometry): it touches
+        an obstacle when its centre enters the obstacle's disc.
+    mass_kg, inertia_kg_m2 : float, optional
+        Given to the pymunk body (the robot's if omitted); they never matter for the
+        motion, which is set from the LG model's velocities every step.
     """
 
     def __init__(
-        self, footprint_m=(0.99, 0.67), mass_kg: float = 48.39, inertia_kg_m2: float = 3.0556
+        self,
+        footprint_m: tuple[float, float] | None = None,
+        mass_kg: float | None = None,
+        inertia_kg_m2: float | None = None,
     ):
+        if footprint_m is None:
+            footprint_m = HUSKY.footprint_m
+        mass_kg = HUSKY.mass_kg if mass_kg is None else mass_kg
+        inertia_kg_m2 = HUSKY.inertia_kg_m2 if inertia_kg_m2 is None else inertia_kg_m2
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)

@@ -123,6 +123,9 @@ _W_LW, _W_RW, _V_MH, _W_JH, _I_L1, _I_L2 = range(N_STATES)
 # lives in its own [footprint] table because the world code (collisions) reads it.
 _FOOTPRINT_TABLE = "footprint"
 _FOOTPRINT_KEYS = {"length_m": "footprint_length_m", "width_m": "footprint_width_m"}
+#: Tables of the same file that describe the robot beyond its dynamics (its sonars, its
+#: drive's limit): world/robot.py reads and checks them, the plant skips them.
+ROBOT_TABLES = ("sonars", "drive")
 
 
 #: What a husky.toml value may be: far around the Husky's own numbers (a robot from a
@@ -335,9 +338,12 @@ def _toml_key_to_field() -> dict[str, str]:
 
 
 def _flatten_parameter_document(document: dict, path: Path) -> dict[str, object]:
-    """Flatten the one allowed table, ``[footprint]``, into dotted keys."""
+    """Flatten the one table of the plant, ``[footprint]``, into dotted keys (the
+    :data:`ROBOT_TABLES` are world/robot.py's)."""
     flat: dict[str, object] = {}
     for key, value in document.items():
+        if key in ROBOT_TABLES:
+            continue
         if key == _FOOTPRINT_TABLE:
             if not isinstance(value, dict):
                 raise ValueError(f"{path}: key {key!r} = {shown(value)}: must be a table")

@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from fuzzynav.world.robot import HUSKY, RobotDescription
 from fuzzynav.world.scenario import (
     ObstacleSpec,
     Scenario,
@@ -47,10 +48,28 @@ JITTER_POSITION_M = 0.05
 JITTER_MOTION_SCALE = 0.05
 JITTER_HEADING_RAD = 0.03
 
-ROBOT_WIDTH_M = 0.67
 SAFE_DISTANCE_M = 0.25
-# A gap is passable when the robot fits with its safe distance on both sides.
-PASSABLE_GAP_M = ROBOT_WIDTH_M + 2 * SAFE_DISTANCE_M
+
+
+def passable_gap_m(robot: RobotDescription = HUSKY) -> float:
+    """The narrowest gap a layout leaves between two obstacles: the robot fits with its
+    safe distance on both sides.
+
+    Parameters
+    ----------
+    robot : RobotDescription
+        The robot the layouts are drawn for (its footprint's width).
+
+    Returns
+    -------
+    float
+        Metres.
+    """
+    return robot.footprint_m[1] + 2 * SAFE_DISTANCE_M
+
+
+#: The passable gap for the Husky (:func:`passable_gap_m`).
+PASSABLE_GAP_M = passable_gap_m(HUSKY)
 START_CLEAR_M = 1.2  # no obstacle surface this close to the start centre
 TARGET_CLEAR_M = 1.0  # nor to the target, so that it can be reached safely
 
@@ -70,12 +89,12 @@ def _frame(rng: np.random.Generator):
     return np.zeros(2), target, along, across, distance
 
 
-def _fits(centre, radius, placed, start, target) -> bool:
+def _fits(centre, radius, placed, start, target, gap_m) -> bool:
     if np.linalg.norm(centre - start) - radius < START_CLEAR_M:
         return False
     if np.linalg.norm(centre - target) - radius < TARGET_CLEAR_M:
         return False
-    return all(np.linalg.norm(centre - c) - radius - r >= PASSABLE_GAP_M for c, r in placed)
+    return all(np.linalg.norm(centre - c) - radius - r >= gap_m for c, r in placed)
 
 
 def _scatter(
@@ -88,6 +107,7 @@ def _scatter(
     distance,
     *,
     lateral_m,
+    gap_m,
     placed=None,
     radius_range=(0.15, 0.35),
     tries=200,
@@ -101,7 +121,7 @@ def _scatter(
                 + along * rng.uniform(0.15, 0.85) * distance
                 + across * rng.uniform(-lateral_m, lateral_m)
             )
-            if _fits(centre, radius, placed, start, target):
+            if _fits(centre, radius, placed, start, target, gap_m):
                 placed.append((centre, radius))
                 break
     return placed
@@ -147,14 +167,33 @@ def _u_trap(rng, start, target, along, across, distance):
     return [(p, radius) for p in points]
 
 
-def generate_layout(family: str, seed: int, index: int) -> Scenario:
-    """Layout ``index`` of family ``family`` for sweep seed ``seed``."""
+def generate_layout(
+    family: str, seed: int, index: int, robot: RobotDescription = HUSKY
+) -> Scenario:
+    """Layout ``index`` of family ``family`` for sweep seed ``seed``.
+
+    Parameters
+    ----------
+    family : str
+        One of :data:`FAMILIES`.
+    seed : int
+        The sweep's seed.
+    index : int
+        The layout's number in the sweep.
+    robot : RobotDescription
+        The robot it is drawn for: gaps it passes (:func:`passable_gap_m`), a start its
+        footprint clears.
+
+    Returns
+    -------
+    Scenario
+    """
     if family not in FAMILIES:
         raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
     for attempt in range(50):
         rng = np.random.default_rng([seed, index, FAMILIES.index(family), attempt])
         try:
-            return _draw(family, rng, seed, index)
+            return _draw(family, rng, seed, index, robot)
         except ScenarioError:
             continue  # e.g. a trap arm under the start footprint: draw again
     raise RuntimeError(f"no valid {family} layout for seed {seed}, index {index} in 50 draws")
@@ -165,7 +204,7 @@ def _paper_scenario(name: str) -> Scenario:
     return load_scenario(name)  # frozen: safe to share between layouts
 
 
-def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
+def _jitter(rng: np.random.Generator, seed: int, index: int, robot: RobotDescription) -> Scenario:
     name = f"s{index % 3 + 1}"
     base = _paper_scenario(name)
     obstacles = []
@@ -195,30 +234,57 @@ def _jitter(rng: np.random.Generator, seed: int, index: int) -> Scenario:
         obstacles=tuple(obstacles),
         source=f"<layout paper_jitter seed={seed} index={index}>",
     )
-    check_layout(scenario)
+    check_layout(scenario, robot.footprint_m)
     return scenario
 
 
-def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scenario:
+def _draw(
+    family: str, rng: np.random.Generator, seed: int, index: int, robot: RobotDescription
+) -> Scenario:
     if family == "paper_jitter":
-        return _jitter(rng, seed, index)
+        return _jitter(rng, seed, index, robot)
     start, target, along, across, distance = _frame(rng)
+    gap_m = passable_gap_m(robot)
     moving: list[ObstacleSpec] = []
     if family == "standard":
         placed = _scatter(
-            rng, int(rng.integers(1, 5)), start, target, along, across, distance, lateral_m=1.0
+            rng,
+            int(rng.integers(1, 5)),
+            start,
+            target,
+            along,
+            across,
+            distance,
+            lateral_m=1.0,
+            gap_m=gap_m,
         )
         if rng.random() < 0.25:
             moving.append(_moving(rng, start, target, along, across, distance))
     elif family == "clutter":
         placed = _scatter(
-            rng, int(rng.integers(5, 10)), start, target, along, across, distance, lateral_m=2.5
+            rng,
+            int(rng.integers(5, 10)),
+            start,
+            target,
+            along,
+            across,
+            distance,
+            lateral_m=2.5,
+            gap_m=gap_m,
         )
     elif family == "u_trap":
         placed = _u_trap(rng, start, target, along, across, distance)
     else:
         placed = _scatter(
-            rng, int(rng.integers(1, 3)), start, target, along, across, distance, lateral_m=1.0
+            rng,
+            int(rng.integers(1, 3)),
+            start,
+            target,
+            along,
+            across,
+            distance,
+            lateral_m=1.0,
+            gap_m=gap_m,
         )
         moving = [_moving(rng, start, target, along, across, distance) for _ in range(2)]
     statics = [ObstacleSpec((float(c[0]), float(c[1])), float(r)) for c, r in placed]
@@ -232,10 +298,28 @@ def _draw(family: str, rng: np.random.Generator, seed: int, index: int) -> Scena
         obstacles=tuple(statics + moving),
         source=f"<layout {family} seed={seed} index={index}>",
     )
-    check_layout(scenario)
+    check_layout(scenario, robot.footprint_m)
     return scenario
 
 
-def generate_layouts(family: str, n: int, seed: int) -> list[Scenario]:
-    """The first ``n`` layouts of a family for a seed."""
-    return [generate_layout(family, seed, i) for i in range(n)]
+def generate_layouts(
+    family: str, n: int, seed: int, robot: RobotDescription = HUSKY
+) -> list[Scenario]:
+    """The first ``n`` layouts of a family for a seed.
+
+    Parameters
+    ----------
+    family : str
+        One of :data:`FAMILIES`.
+    n : int
+        How many.
+    seed : int
+        The sweep's seed.
+    robot : RobotDescription
+        The robot they are drawn for (:func:`generate_layout`).
+
+    Returns
+    -------
+    list of Scenario
+    """
+    return [generate_layout(family, seed, i, robot) for i in range(n)]

@@ -49,13 +49,14 @@ from fuzzynav.resources import (
     shown,
 )
 from fuzzynav.world.geometry import rectangle_circle_clearance
+from fuzzynav.world.robot import HUSKY
 
 ASSETS_DIR = assets_dir()
 SCENARIO_DIR = ASSETS_DIR / "scenarios"
 
-# The real Husky A200 footprint (notes section 1); the world uses the same numbers
-# from assets/husky.toml, these defaults only serve validation of a file on its own.
-DEFAULT_FOOTPRINT_M = (0.99, 0.67)
+# The robot's footprint (assets/husky.toml, world/robot.py), against which a scenario's
+# start is checked unless another is given (the paper's point robot: (0, 0)).
+DEFAULT_FOOTPRINT_M = HUSKY.footprint_m
 
 
 class ScenarioError(ValueError):

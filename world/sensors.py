@@ -32,6 +32,7 @@ import numpy as np
 import pymunk
 
 from fuzzynav.world.arena import RAY_FILTER, Arena, _cp, _ffi
+from fuzzynav.world.robot import HUSKY, SensorMount, sonar_mounts
 
 if _cp is not None:
     from fuzzynav.world.arena import _cpSpaceSegmentQueryFirst
@@ -43,45 +44,44 @@ _ANGLE_SLACK_RAD = 1e-9
 _cos, _sin, _hypot, _atan2, _asin = math.cos, math.sin, math.hypot, math.atan2, math.asin
 
 
-@dataclass(frozen=True)
-class SensorMount:
-    """Where a sensor sits on the robot (robot frame: x forward, y left)."""
-
-    name: str
-    x_m: float
-    y_m: float
-    angle_rad: float
-
-
-#: The side sensors' mounting angle (left +, right -): 45 degrees from the front one.
-SIDE_MOUNT_RAD = math.radians(45.0)
-#: One beam width (15 degrees) from the front one: no blind sector ahead (``--sonar-side 15``).
-GAPLESS_SIDE_MOUNT_RAD = math.radians(15.0)
+#: The side sensors' mounting angle (left +, right -) from the front one: the robot's
+#: (``[sonars]`` of husky.toml, :data:`fuzzynav.world.robot.HUSKY`).
+SIDE_MOUNT_RAD = HUSKY.side_mount_rad
+#: One beam width from the front one: no blind sector ahead (``--sonar-side`` of it).
+GAPLESS_SIDE_MOUNT_RAD = HUSKY.gapless_side_mount_rad
 
 
 def default_mounts(
-    footprint_m=(0.99, 0.67), side_angle_rad: float = SIDE_MOUNT_RAD
+    footprint_m: tuple[float, float] | None = None, side_angle_rad: float | None = None
 ) -> tuple[SensorMount, ...]:
     """Left, front and right sensors on the front edge, the side ones at +-``side_angle_rad``.
 
-    The paper names three US-100s (15-degree cones) and not how they are mounted. 45
-    degrees apart (the default) they leave gaps between the beams (7.5-37.5 degrees each
-    side) but make the sensor that sees the nearest echo say clearly where the obstacle
-    is (left, ahead or right), which is what fuzzynav's navigator was designed on. One
-    beam width apart (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side 15``) they
-    cover +-22.5 degrees without a gap: the paper's memoryless controller then passes an
-    obstacle it loses between 45-degree beams, while fuzzynav's navigator keeps its
-    success rate but less often the safe distance (docs/paper-controller.md, "Sensing").
+    The paper names three US-100s (15-degree cones) and not how they are mounted. At the
+    robot's default angle (husky.toml's ``[sonars]``, 45 degrees) they leave gaps between
+    the beams but make the sensor that sees the nearest echo say clearly where the
+    obstacle is (left, ahead or right), which is what fuzzynav's navigator was designed
+    on. One beam width apart (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side
+    15``) they cover the sector ahead without a gap: the paper's memoryless controller
+    then passes an obstacle it loses between the wider beams, while fuzzynav's navigator
+    keeps its success rate but less often the safe distance (docs/paper-controller.md,
+    "Sensing").
+
+    Parameters
+    ----------
+    footprint_m : (float, float), optional
+        The footprint whose front edge carries them (the robot's, :data:`HUSKY`, if
+        omitted).
+    side_angle_rad : float, optional
+        The side sensors' angle, in (0, pi/2] (the robot's if omitted).
+
+    Returns
+    -------
+    tuple of SensorMount
     """
-    if not (math.isfinite(side_angle_rad) and 0.0 < side_angle_rad <= math.pi / 2):
-        raise ValueError(f"side_angle_rad = {side_angle_rad!r}: must be in (0, pi/2]")
-    half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
-    corner_y = 0.75 * half_width
-    return (
-        SensorMount("left", half_length, corner_y, side_angle_rad),
-        SensorMount("front", half_length, 0.0, 0.0),
-        SensorMount("right", half_length, -corner_y, -side_angle_rad),
-    )
+    robot = HUSKY
+    side = robot.side_mount_rad if side_angle_rad is None else side_angle_rad
+    footprint = robot.footprint_m if footprint_m is None else footprint_m
+    return sonar_mounts(footprint, side, robot.lateral_fraction)
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class SensorConfig:
     """US-100 model parameters (datasheet: 2 cm to 4.5 m, about 15 degree beam)."""
 
     mounts: tuple[SensorMount, ...] = field(default_factory=default_mounts)
-    beam_width_rad: float = math.radians(15.0)
+    beam_width_rad: float = HUSKY.beam_width_rad
     rays_per_beam: int = 5
     min_range_m: float = 0.02
     max_range_m: float = 4.5

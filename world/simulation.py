@@ -14,10 +14,8 @@ A controller is any object with ``reset()`` and ``__call__(inputs) -> voltages``
 ``inputs`` is a float array (4,) and ``voltages`` any sequence of two floats. A
 controller that sets ``needs_ranges = True`` is called as
 ``controller(inputs, ranges_m=ranges)`` with the three sensor readings (m, inf = none).
-A controller that sets ``needs_sensor_mounts = True`` gets the robot's sensor mounts
-(:class:`~fuzzynav.world.sensors.SensorMount` s) through
-``controller.set_sensor_mounts(mounts)`` before each start, so that what it knows of its
-sonars is the robot's (``--sonar-side`` moves them).
+A controller that declares ``needs_robot`` or ``needs_sensor_mounts`` is told the robot
+(:attr:`Simulation.robot`) or its sonars before each start (:func:`world.robot.brief`).
 The world never imports a controller: it only calls what it is given.
 
 Row ``k`` of the log holds the state at ``time_s[k]``, the inputs sensed then and the
@@ -50,6 +48,7 @@ from fuzzynav.world.arena import Arena, Collision
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.metrics import compute_metrics
 from fuzzynav.world.perception import Perception, check_controller, check_geometry
+from fuzzynav.world.robot import HUSKY, brief
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
@@ -480,13 +479,13 @@ class Simulation:
     model : HuskyModel, optional
         The LG plant; ``HuskyModel.default()`` (the paper's parameters) if omitted.
     sensor_config : SensorConfig, optional
-    voltage_limit_v : float
-        Saturation after the controller (the paper's 12 V).
+    voltage_limit_v : float, optional
+        Saturation after the controller (default the robot's: the paper's 12 V).
     stop_on_collision : bool
         End the run as ``collided`` at the first contact (default); otherwise contacts are
         recorded and the run goes on.
     geometry : {"husky", "paper"}
-        ``husky`` (default): the real 0.99 x 0.67 m footprint collides and senses.
+        ``husky`` (default): the plant's footprint (husky.toml) collides and senses.
         ``paper``: the paper's point robot; its inputs are Eqs. 7-12 centre to centre
         (:mod:`world.perception`), it collides when its centre enters an obstacle's disc,
         and its logged clearance is centre to surface. Ideal perception only.
@@ -502,10 +501,11 @@ class Simulation:
         seed: int | None = None,
         model: HuskyModel | None = None,
         sensor_config: SensorConfig | None = None,
-        voltage_limit_v: float = 12.0,
+        voltage_limit_v: float | None = None,
         stop_on_collision: bool = True,
         geometry: str = "husky",
     ):
+        voltage_limit_v = HUSKY.voltage_limit_v if voltage_limit_v is None else voltage_limit_v
         check_loop_settings(control_period_s, voltage_limit_v)
         check_controller(controller)
         self.scenario = scenario
@@ -526,6 +526,7 @@ class Simulation:
             params.hull_inertia_kg_m2,
         )
         self.sensors = RangeSensorArray(sensor_config)
+        self.robot = HUSKY.with_parameters(params, self.sensors.config.mounts, voltage_limit_v)
         self.perception = Perception(
             perception,
             self.sensors,
@@ -554,8 +555,7 @@ class Simulation:
         )
         self.arena.reset(sc.start, sc.heading_rad, sc.target, sc.obstacles)
         self.sensors.reset(self.seed)
-        if getattr(self.controller, "needs_sensor_mounts", False):
-            self.controller.set_sensor_mounts(self.sensors.config.mounts)
+        brief(self.controller, self.robot)
         self.controller.reset()
         self.x = np.zeros(6)
         self.outcome: str | None = None

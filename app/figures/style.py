@@ -132,10 +132,7 @@ def _legend_outside(ax) -> None:
 
 
 def _default_footprint() -> tuple[float, float]:
-    try:
-        from fuzzynav.world.husky import HuskyModel
+    """The robot's footprint (:data:`fuzzynav.world.robot.HUSKY`), length and width, m."""
+    from fuzzynav.world.robot import HUSKY
 
-        p = HuskyModel.default().parameters
-        return (p.footprint_length_m, p.footprint_width_m)
-    except Exception:  # the figures do not depend on the parameter file being readable
-        return (0.99, 0.67)
+    return HUSKY.footprint_m

@@ -18,6 +18,7 @@ from fuzzynav.app.figures.style import (
     SAFE,
     SAFE_DISTANCE_M,
     TARGET,
+    _default_footprint,
     _obstacle_label,
     disturbance_window_s,
 )
@@ -41,7 +42,7 @@ def draw_trajectory(
     ax,
     result,
     *,
-    footprint_m=(0.99, 0.67),
+    footprint_m=None,
     footprints: bool = True,
     legend: bool = True,
     title: str | None = None,
@@ -120,7 +121,7 @@ def draw_trajectory(
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
         shown = list(range(0, len(log), period)) + [len(log) - 1]
-        for outline in footprint_outlines(log.pose[shown], *footprint_m):
+        for outline in footprint_outlines(log.pose[shown], *(footprint_m or _default_footprint())):
             ax.plot(outline[:, 0], outline[:, 1], color=ROBOT, lw=0.5, alpha=0.35, zorder=4)
     ax.plot(xy[:, 0], xy[:, 1], color=ROBOT, lw=1.8, label="robot (centre)", zorder=5)
     window = disturbance_window_s(scenario)
