@@ -10,7 +10,18 @@ restarts its law from where it is put, keeping its current velocity.
 
 Contacts are reported by pymunk in the step they happen (the robot's shape is a sensor,
 so pymunk reports the overlap without pushing anything) and kept as
-:class:`Collision` events. pymunk compares the shapes only at the end of each step, so a
+:class:`Collision` events. **One contact rule for both engines** (issue 37): the robot
+touches an obstacle when its footprint-to-surface clearance is ``<= 0``, touching
+included, as the batch engine (:mod:`world.batch`) judges it. Chipmunk does not always
+count an exact touch (clearance 0.0, e.g. an obstacle that comes to rest against the
+robot's side), so at the end of every step the arena also reports a contact for an
+obstacle whose computed clearance (:meth:`Arena.clearances`, the batch engine's formula)
+is ``<= 0`` and was ``> 0`` at the step's start, unless pymunk or the sweep already
+did; a touch it reported is not reported again when Chipmunk sees the overlap in the
+next step. (The paper's point robot is a 0.1 mm circle: Chipmunk sees a centre on a
+surface as an overlap, as the batch engine does.)
+
+pymunk compares the shapes only at the end of each step, so a
 fast obstacle (the schema allows 100 m/s: 2 m a 20 ms step) could pass through the robot
 between two steps; the arena therefore also judges every step as a sweep (see
 :meth:`Arena._sweep`): the robot along its exact arc, every obstacle along its law,
@@ -243,6 +254,8 @@ class Arena:
         self.target = np.zeros(2)
         self.time_s = 0.0
         self.collisions: list[Collision] = []
+        #: obstacles whose clearance was <= 0 at the last step's end (the contact rule)
+        self._touching: set[int] = set()
         self._ids = itertools.count()
         self._obstacle_cache: tuple[np.ndarray, np.ndarray, list[int]] | None = None
         self._clearance_cache: np.ndarray | None = None
@@ -270,6 +283,7 @@ class Arena:
         self._ids = itertools.count()
         self.time_s = 0.0
         self.collisions = []
+        self._touching = set()
         self.min_clearance_m = math.inf
         self.swept_steps = 0
         self.robot.position = (float(start[0]), float(start[1]))
@@ -508,11 +522,24 @@ class Arena:
         robot_path = (abs(v) + abs(w) * self._half_diagonal_m) * dt
         smallest = self.min_clearance_m
         reported = {c.obstacle_id for c in self.collisions[first_new:]}
+        touch_rule = self.footprint_m != (0.0, 0.0)
+        touching = set()
+        touched: dict[int, int] = {}  # obstacle id -> its event's index, by the rule
         for j, (c0, c1) in enumerate(zip(before.clearances, after.clearances)):
             low = min(c0, c1)
             if low < smallest:
                 smallest = low
             obstacle = self._scene_obstacles[j]
+            if touch_rule and c1 <= 0.0:
+                touching.add(obstacle.id)
+                if c0 > 0.0 and obstacle.id not in reported:
+                    # the one contact rule: clearance <= 0, touching included (the
+                    # sweep below may still place its start earlier in the step)
+                    touched[obstacle.id] = len(self.collisions)
+                    x, y, _ = self._pose
+                    ox, oy = after.xy[j]
+                    self.collisions.append(Collision(t0 + dt, obstacle.id, (x, y), (ox, oy)))
+                    reported.add(obstacle.id)
             path = robot_path
             if not obstacle.is_static:
                 path += _obstacle_path_m(obstacle, t0, dt)
@@ -526,14 +553,21 @@ class Arena:
             k = int(np.argmin(clearance))
             if clearance[k] < smallest:
                 smallest = float(clearance[k])
-            if c0 > 0.0 and obstacle.id not in reported and clearance[k] <= 0.0:
+            if (
+                c0 > 0.0
+                and clearance[k] <= 0.0
+                and (obstacle.id not in reported or obstacle.id in touched)
+            ):
                 first = int(np.argmax(clearance <= 0.0))
                 x, y, _ = _arc_pose(pose0, v, w, float(tau[first]))
                 ox, oy = obstacle._xy_at(t0 + float(tau[first]))
-                self.collisions.append(
-                    Collision(t0 + float(tau[first]), obstacle.id, (x, y), (ox, oy))
-                )
+                event = Collision(t0 + float(tau[first]), obstacle.id, (x, y), (ox, oy))
+                if obstacle.id in touched:  # the sweep found its start: earlier
+                    self.collisions[touched.pop(obstacle.id)] = event
+                else:
+                    self.collisions.append(event)
         self.min_clearance_m = smallest
+        self._touching = touching
 
     def _clearance_along(self, obstacle, pose0, v, w, t0, tau: np.ndarray) -> np.ndarray:
         """Footprint-to-surface clearance at the instants ``t0 + tau``: the robot on its
@@ -592,6 +626,8 @@ class Arena:
         if other is self.robot_shape:
             robot_shape, other = other, robot_shape
         obstacle_id = getattr(other, "obstacle_id", -1)
+        if obstacle_id in self._touching:
+            return  # a touch the contact rule counted at the last step's end, deepening
         p = self.robot.position
         q = other.body.position
         self.collisions.append(
