@@ -15,13 +15,18 @@ run is short and the recording's fixed costs weigh most), the fuzzy one: the
 (assets/rules/paper.toml) driven directly by the fuzzy engine, and ``fuzzynav``, whose
 recording also plots its inner state (from the decisions it logged as it drove).
 
-Run: ``.venv/bin/python bench/bench_recording.py [--repeats N] [--check]``
-(``--check``: exit status 1 when an overhead exceeds 50 %).
+Run: ``.venv/bin/python bench/bench_recording.py [--repeats N] [--check] [--json PATH]``
+(``--check``: exit status 1 when an overhead exceeds 50 %; ``--json``: the medians, the
+load average before and after and the versions, for a doc to quote:
+``docs/data/recording_overhead.json`` is what docs/recordings.md states, checked by
+``tests/test_recording_marks.py``).
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
+import json
 import os
 import statistics
 import subprocess
@@ -118,7 +123,9 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--check", action="store_true", help="exit 1 when an overhead exceeds the 50 %% budget"
     )
+    parser.add_argument("--json", type=Path, default=None, help="write the medians here")
     args = parser.parse_args(argv)
+    load_before = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
     imported = import_time_s()
     from fuzzynav.app.provenance import package_versions
@@ -176,6 +183,26 @@ def main(argv=None) -> int:
         f"machine's load; rerun writes from background threads, which a busy machine "
         f"slows most)"
     )
+    if args.json is not None:
+        import rerun
+
+        args.json.write_text(
+            json.dumps(
+                {
+                    "bench": "bench/bench_recording.py",
+                    "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+                    "repeats": args.repeats,
+                    "load_average": [round(load_before, 2), round(load, 2)],
+                    "cpus": os.cpu_count(),
+                    "rerun_sdk": rerun.__version__,
+                    "budget": BUDGET,
+                    "import_rerun_ms": round(imported * 1000, 1),
+                    "controllers": rows,
+                },
+                indent=1,
+            )
+            + "\n"
+        )
     return 1 if (args.check and over) else 0
 
 

@@ -9,6 +9,7 @@
 - :mod:`.internals`  the controller's inside: which it is, rule firing, fuzzynav's state;
 - :mod:`.fuzzy`      the fuzzy inference at the time cursor (a controller with a ``fis``);
 - :mod:`.events`     closest approaches, the disturbance window and the end;
+- :mod:`.plot_events` those events marked on every time-series plot;
 - :mod:`.documents`  the run's documents under ``/meta`` (run, versions, rules, summary);
 - :mod:`.blueprint`  the default layout, legend placement and the application id;
 - :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;

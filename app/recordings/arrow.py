@@ -38,6 +38,7 @@ def component_types() -> dict:
 
     samples = (
         rr.SeriesLines(names="x", colors=[(0, 0, 0)], widths=1.0),
+        rr.SeriesPoints(names="x", colors=[(0, 0, 0)], markers="circle", marker_sizes=1.0),
         rr.Scalars(scalars=[0.0]),
         rr.Points2D(positions=[(0, 0)], radii=1.0, colors=[(0, 0, 0)], labels="x", draw_order=1.0),
         rr.LineStrips2D(

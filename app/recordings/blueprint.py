@@ -29,6 +29,7 @@ from .internals import (
     RULES_TEXT_PATH,
     controller_label,
     has_internals,
+    heatmap_bounds,
     rule_system,
 )
 from .style import SAFE_DISTANCE_M
@@ -421,6 +422,19 @@ def blueprint(
         name="sensors and safety",
     )
     tabs = [paper, plant, sensing]
+
+    def firing_view(when: str):
+        # The axis from 0 to 1 at every instant: a grey bar of 1 at abscissa 0
+        # (RULES_SCALE_PATH, in the view as the origin's child), as rerun 0.41's bar
+        # chart has no axis range and fitted its axis to the strongest rule of the moment.
+        return rrb.BarChartView(
+            origin=RULES_PATH,
+            name=f"rule firing strength {when}, axis 0 to 1 (the grey bar at 0 is 1), "
+            "bar k = rule Rk",
+            plot_legend=rrb.PlotLegend(visible=False),
+        )
+
+    heat_x, heat_y = heatmap_bounds(n_rules)
     if n_rules:
         tabs.append(
             rrb.Vertical(
@@ -429,20 +443,17 @@ def blueprint(
                     name="the strongest rule at each decision (s)",
                     time_view=rrb.TimeAxis(view_range=whole_run),
                 ),
-                rrb.BarChartView(
-                    origin=RULES_PATH,
-                    name="rule firing strength (0-1) at the time cursor, bar k = rule Rk",
-                    plot_legend=rrb.PlotLegend(visible=False),
-                ),
-                rrb.TensorView(
+                firing_view("at the time cursor"),
+                rrb.Spatial2DView(
                     origin=RULES_HEATMAP_PATH,
-                    name="rule firing over the run: rows R1 (top) to Rn, time across, "
+                    # (the image and its names; not the tensor, which holds the values)
+                    contents=[f"+ {RULES_HEATMAP_PATH}/**", f"- {RULES_HEATMAP_PATH}"],
+                    name="rule firing over the run: rows R1 (top) to Rn, time across (s), "
                     "dark 0 to yellow 1",
-                    scalar_mapping=rrb.TensorScalarMapping(colormap="viridis"),
-                    view_fit="Fill",
+                    visual_bounds=rrb.VisualBounds2D(x_range=heat_x, y_range=heat_y),
                 ),
                 rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
-                row_shares=[1, 2, 2, 2],
+                row_shares=[1, 2, 3, 1.5],
                 name="rules",
             )
         )
@@ -461,11 +472,7 @@ def blueprint(
         tabs.append(
             rrb.Vertical(
                 rrb.Grid(*views, grid_columns=2),
-                rrb.BarChartView(
-                    origin=RULES_PATH,
-                    name="rule firing strength (0-1) at the cursor, bar k = rule Rk",
-                    plot_legend=rrb.PlotLegend(visible=False),
-                ),
+                firing_view("at the cursor"),
                 row_shares=[3, 1],
                 name="fuzzy logic",
             )

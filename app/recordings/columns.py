@@ -173,6 +173,9 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         # plotted row is kept.
         self.legends_from_log = bool(legends_from_log)
         self._legend_ranges: dict[str, list] = {}  # path: [lo, hi, widths, rows]
+        #: Legend entries a plot has beyond its series (view path: count): the events'
+        #: marks (:func:`.plot_events.send_plot_events`), set before the legends' placement.
+        self.legend_extra: dict[str, int] = {}
 
     # -- low level ---------------------------------------------------------------------
 
@@ -228,7 +231,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         placements = {}
         for path, values in samples.items():
             names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
-            placement = legend_placement(values, len(set(names)))
+            entries = len(set(names)) + self.legend_extra.get(path, 0)
+            placement = legend_placement(values, entries)
             if placement is not None:
                 placements[path] = placement
                 finite = values[np.isfinite(values)]
@@ -259,7 +263,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         for path, (lo, hi, _, n) in ranges.items():
             if n and lo <= hi:  # (no finite value: no placement)
                 names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
-                fits[path] = LegendFit(lo, hi, len(set(names)))
+                entries = len(set(names)) + self.legend_extra.get(path, 0)
+                fits[path] = LegendFit(lo, hi, entries)
                 rows[path] = n
         for n in set(rows.values()):
             feeds = {}  # entity -> the fits its rows go to

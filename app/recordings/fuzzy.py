@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrow import StaticBatch, column, strips_array, text_array, time_column
+from .arrow import RowBatch, StaticBatch, strips_array, text_array
 from .style import AGGREGATED, TERM_PALETTE, VALUE
 
 FUZZY_PATH = "/fuzzy"
@@ -171,7 +171,9 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
     rows = _decided(log, start, end)
     if not len(rows):
         return
-    tc = time_column(log.time_s[rows])
+    # every entity's column in one record batch (one chunk each, as send_columns made,
+    # for one call instead of two or three a variable)
+    batch = RowBatch(log.time_s[rows])
     grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):
         _, _, sx = _scale(var)
@@ -191,12 +193,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             heights = memberships[:, k, take]
             xs = np.broadcast_to(sx(grid[take]), heights.shape)
             shape = np.stack([xs, heights], axis=-1)
-            rec.send_columns(
-                f"{base}/aggregated",
-                indexes=[tc],
-                columns=[column("LineStrips2D", "strips", strips_array(shape))],
-                strict=True,
-            )
+            batch.add(f"{base}/aggregated", "LineStrips2D", "strips", strips_array(shape))
         seen = np.isfinite(value)
         at = np.clip(sx(value[seen]), 0.0, FUZZY_W)
         marker = np.stack(
@@ -206,15 +203,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             ],
             axis=1,
         )
-        rec.send_columns(
-            f"{base}/value",
-            indexes=[tc],
-            columns=[column("LineStrips2D", "strips", strips_array(marker), seen.astype(np.int32))],
-            strict=True,
-        )
-        rec.send_columns(
-            f"{base}/value_label",
-            indexes=[tc],
-            columns=[column("Points2D", "labels", text_array(text), seen.astype(np.int32))],
-            strict=True,
-        )
+        lengths = seen.astype(np.int32)
+        batch.add(f"{base}/value", "LineStrips2D", "strips", strips_array(marker), lengths)
+        batch.add(f"{base}/value_label", "Points2D", "labels", text_array(text), lengths)
+    batch.send(rec)

@@ -86,6 +86,20 @@ RULES_PATH = "/rules/firing"  # BarChart per step: every rule's firing strength 
 RULES_HEATMAP_PATH = "/rules/heatmap"  # static Tensor, rules x time bins (max per bin)
 RULES_TEXT_PATH = "/rules/texts"  # static TextDocument: R1 ... Rn in words
 RULES_STRONGEST_PATH = "/rules/strongest"  # StateChange: the strongest rule where it changes
+#: A static bar of height 1 at abscissa 0, in the bar chart's view: rerun's bar chart
+#: fits its axis to the bars it draws (0.41 has no axis range for it), so without it
+#: the axis followed the strongest rule of the moment (issue 39, defect 5).
+RULES_SCALE_PATH = f"{RULES_PATH}/scale"
+#: The heatmap drawn with its rows named (a rerun tensor view names no row): the same
+#: values as a colour-mapped image, R1 ... Rn beside its rows, seconds under its columns.
+HEATMAP_IMAGE_PATH = f"{RULES_HEATMAP_PATH}/image"
+HEATMAP_ROWS_PATH = f"{RULES_HEATMAP_PATH}/rows"
+HEATMAP_TIMES_PATH = f"{RULES_HEATMAP_PATH}/times"
+#: The heatmap image is drawn this many rows wide (its columns scaled to it), so that
+#: it fills a panel about three times as wide as high, whatever the number of bins.
+HEATMAP_ASPECT = 3.0
+#: Where the row names stand, left of the image (in rows).
+HEATMAP_LABEL_X = -2.5
 #: The most time bins of the rule heatmap (a long run is binned: the max per bin).
 HEATMAP_MAX_BINS = 1500
 
@@ -219,6 +233,107 @@ def _bin_maxima(bins: np.ndarray, starts: np.ndarray, first_row: int, rows: np.n
     bins[which[first]] = np.maximum(bins[which[first]], maxima)
 
 
+def heatmap_row_labels(n_rules: int) -> list[int]:
+    """The rules (1 to n) named beside the heatmap's rows: every one up to 15, else R1,
+    every fifth and the last (rerun writes a label about 16 px high: one a row would
+    overlap at 40 rules in a panel 300 px high)."""
+    if n_rules <= 15:
+        return list(range(1, n_rules + 1))
+    rows = [1] + list(range(5, n_rules + 1, 5))
+    if n_rules - rows[-1] >= 3:
+        rows.append(n_rules)
+    return rows
+
+
+#: The heatmap panel's size at 1600 x 1000 (px, about: the rules tab's third view) and
+#: how far below its anchor point rerun writes a label's middle (5 px, then half its
+#: height): the row names are anchored this much above their rows.
+HEATMAP_PANEL_PX = (780.0, 330.0)
+LABEL_DROP_PX = 14.0
+
+
+def heatmap_bounds(n_rules: int) -> tuple[list[float], list[float]]:
+    """(x range, y range) of the heatmap's view: the image (``HEATMAP_ASPECT * n``
+    wide, ``n`` high, y down), the row names on its left, the seconds under it."""
+    n = max(int(n_rules), 1)
+    width = HEATMAP_ASPECT * n
+    return [HEATMAP_LABEL_X - 2.5, width + 1.0], [-1.0, n + 0.12 * n + 3.0]
+
+
+def _label_drop(n_rules: int) -> float:
+    """:data:`LABEL_DROP_PX` in the heatmap view's units (rows), at its panel's size."""
+    (x0, x1), (y0, y1) = heatmap_bounds(n_rules)
+    px_per_unit = min(HEATMAP_PANEL_PX[0] / (x1 - x0), HEATMAP_PANEL_PX[1] / (y1 - y0))
+    return LABEL_DROP_PX / px_per_unit
+
+
+def time_ticks(first_s: float, last_s: float, most: int = 8) -> list[float]:
+    """Round seconds between ``first_s`` and ``last_s`` (at most ``most`` of them)."""
+    span = max(float(last_s) - float(first_s), 0.0)
+    step = next(
+        (s for s in (0.1, 0.2, 0.5, 1, 2, 5, 10, 20, 30, 60, 120, 300, 600) if span / s < most),
+        10 ** np.ceil(np.log10(max(span, 1.0))),
+    )
+    start = np.ceil(first_s / step - 1e-9) * step
+    return [float(t) for t in np.arange(start, last_s + 1e-9, step)]
+
+
+def send_heatmap_image(static: StaticBatch, heatmap: np.ndarray, first_s, per_bin_s) -> None:
+    """The heatmap as rerun draws an image, with its rows named: a colour-mapped depth
+    image of the same values (viridis, 0 to 1) scaled to :data:`HEATMAP_ASPECT` times
+    as wide as high, ``R1`` ... ``Rn`` left of its rows (:func:`heatmap_row_labels`,
+    each with a tick on the image's edge) and seconds under its columns."""
+    import rerun as rr
+
+    n_rules, bins = heatmap.shape
+    scale_x = HEATMAP_ASPECT * n_rules / bins
+    static.add_archetype(
+        HEATMAP_IMAGE_PATH,
+        rr.DepthImage(
+            np.ascontiguousarray(heatmap, dtype=np.float32),
+            meter=1.0,
+            colormap="viridis",
+            depth_range=[0.0, 1.0],
+        ),
+    )
+    static.add_archetype(HEATMAP_IMAGE_PATH, rr.Transform3D(scale=[scale_x, 1.0, 1.0]))
+    rows = heatmap_row_labels(n_rules)
+    drop = _label_drop(n_rules)
+    grey = (90, 90, 90)
+    static.add_archetype(
+        HEATMAP_ROWS_PATH,
+        rr.Points2D(
+            positions=[(HEATMAP_LABEL_X, k - 0.5 - drop) for k in rows],
+            radii=0.01,
+            colors=[grey] * len(rows),
+            labels=[f"R{k}" for k in rows],
+            show_labels=True,
+        ),
+    )
+    ticks = [[(-0.9, k - 0.5), (0.0, k - 0.5)] for k in rows]
+    first = float(first_s or 0.0)
+    last = first + per_bin_s * (bins - 1)
+    times = time_ticks(first, last) if bins > 1 and per_bin_s > 0 else [first]
+    xs = [
+        ((t - first) / per_bin_s + 0.5) * scale_x if per_bin_s > 0 else 0.5 * scale_x for t in times
+    ]
+    ticks += [[(x, n_rules), (x, n_rules + 0.6)] for x in xs]
+    static.add_archetype(
+        f"{RULES_HEATMAP_PATH}/ticks",
+        rr.LineStrips2D(ticks, radii=0.08, colors=[grey] * len(ticks)),
+    )
+    static.add_archetype(
+        HEATMAP_TIMES_PATH,
+        rr.Points2D(
+            positions=[(x, n_rules + 0.6) for x in xs],
+            radii=0.01,
+            colors=[grey] * len(xs),
+            labels=[f"{t + 0.0:g} s" for t in times],
+            show_labels=True,
+        ),
+    )
+
+
 class ControllerColumns:
     """The controller's inside, rows [start, end) at a time: every rule's firing and
     fuzzynav's inner state (:data:`INTERNALS`). A part of
@@ -240,6 +355,17 @@ class ControllerColumns:
             self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
             numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
             self._static.add_array(RULES_PATH, "BarChart", "abscissa", tensor_rows(numbers))
+            import rerun as rr
+
+            self._static.add_archetype(  # the chart's axis from 0 to 1, whatever fires
+                RULES_SCALE_PATH,
+                rr.BarChart(
+                    np.array([1.0], dtype=np.float32),
+                    abscissa=np.array([0.0], dtype=np.float32),
+                    widths=np.array([0.35], dtype=np.float32),
+                    color=(200, 200, 200),
+                ),
+            )
         self._rows.add(
             RULES_PATH,
             "BarChart",
@@ -302,6 +428,8 @@ class ControllerColumns:
                 value_range=[0.0, 1.0],
             ),
         )
+        if bins:
+            send_heatmap_image(static, heatmap, first, per_bin)
         lines = [
             f"# Rule firing, {span}",
             "",

@@ -17,6 +17,7 @@ from .columns import ColumnWriter
 from .events import send_events
 from .files import RecordingError, SinkPipe, not_written, open_stream, write_file_chunks
 from .internals import controller_fis, rule_system
+from .plot_events import send_plot_events
 from .scene import static_world
 
 
@@ -274,6 +275,9 @@ class LiveRecorder:
                 if result is not None:
                     documents.metrics(static, result.metrics, result.outcome)
                     events = send_events(self._rec, static, result)
+                    self._writer.legend_extra = send_plot_events(
+                        self._rec, self._writer, result.log, events, static
+                    )
                     documents.summary(static, result, sim.controller, events)
                 self._writer.send_heatmap(static)
                 static.send(self._rec)

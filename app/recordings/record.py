@@ -110,6 +110,7 @@ from .files import RecordingError, recording_sink
 from .fuzzy import fuzzy_view, send_fuzzy_rows
 from .internals import controller_fis, has_internals, rule_system
 from .live import LiveRecorder
+from .plot_events import send_plot_events
 from .scene import static_world
 
 #: What other rooms import from here (the viewer: the live recorder, the path check).
@@ -284,6 +285,7 @@ def _record(
         )
         documents.metrics(writer.static, result.metrics, result.outcome)
         events = send_events(rec, writer.static, result)
+        writer.legend_extra = send_plot_events(rec, writer, log, events, writer.static)
         documents.summary(writer.static, result, controller, events)
         fuzzy = []
         if fis is not None and writer.fis_error is None:
