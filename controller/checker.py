@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,7 @@ def _decisions(controller, caps) -> np.ndarray:
     return np.array(out)
 
 
-def check_controller(controller: object) -> frozenset[str]:
+def check_controller(controller: Any) -> frozenset[str]:
     """Check ``controller`` against :mod:`controller.interface`; its capabilities.
 
     Parameters

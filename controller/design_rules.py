@@ -197,7 +197,7 @@ def _variable_violations(variable: Variable, is_input: bool) -> list[Violation]:
     order = _order(variable.term_names)
     if order is None:
         fault("order", "", f"terms {variable.term_names} are not one of the paper's orders")
-    centres = [centre(t) for t in variable.terms]
+    centres: list[float] = [centre(t) for t in variable.terms]
     for k in range(len(centres) - 1):
         a, b = variable.terms[k], variable.terms[k + 1]
         if not centres[k] < centres[k + 1]:
@@ -234,12 +234,15 @@ def _variable_violations(variable: Variable, is_input: bool) -> list[Violation]:
         )
     graded = [_measure(x, (m > GRADED_LOW) & (m < GRADED_HIGH)) for m in mu]
     for k in range(len(graded) - 1):
-        a, b = graded[k], graded[k + 1]
-        if min(a, b) <= 0.0 or max(a, b) / min(a, b) > MAX_RATE_RATIO + _TOL:
+        lower, upper = graded[k], graded[k + 1]
+        if (
+            min(lower, upper) <= 0.0
+            or max(lower, upper) / min(lower, upper) > MAX_RATE_RATIO + _TOL
+        ):
             fault(
                 "rates",
                 variable.terms[k + 1].name,
-                f"graded over {b:.4g} beside {variable.terms[k].name}'s {a:.4g} "
+                f"graded over {upper:.4g} beside {variable.terms[k].name}'s {lower:.4g} "
                 f"(more than {MAX_RATE_RATIO:g} times apart)",
             )
     if is_input:

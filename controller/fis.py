@@ -132,7 +132,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     """Parse .fis text (``source`` names it in error messages)."""
     rd = _Reader(source)
     sections: list[tuple[str, int, int, list[tuple[int, str]]]] = []  # (kind, index, line, lines)
-    current = None
+    current: tuple[str, int, int, list[tuple[int, str]]] | None = None
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line or line.startswith("%") or line.startswith("#"):
@@ -280,7 +280,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     outputs = variables("Output", n_out)
 
     rules_sec = sections[kinds.index("Rules")]
-    rules = []
+    rules: list = []
     for lineno, line in rules_sec[3]:
         m = _RULE_RE.match(line)
         if not m:

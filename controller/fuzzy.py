@@ -674,7 +674,7 @@ class FuzzySystem(UnsensedNone):
             out.append(nu / de if de > 0.0 else mid)
         return agg, out
 
-    def evaluate_one(self, x: Sequence[float]) -> np.ndarray:
+    def evaluate_one(self, x: Sequence[float] | np.ndarray) -> np.ndarray:
         """Crisp outputs for one input vector (n_inputs,) -> (n_outputs,), identical to
         ``evaluate(np.array([x]))[0]``. Built for the control loop."""
         return np.array(self._agg_one(x)[1])

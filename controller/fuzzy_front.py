@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -172,7 +173,7 @@ def generate_front(system, per_rule: bool = False) -> Callable:
     src = "\n".join(lines) + "\n"
     # numpy's exp, as the vectorised gaussmf uses (math.exp differs in the last bit
     # for a few percent of arguments); on a float it runs the same loop
-    ns = {
+    ns: dict[str, Any] = {
         "_exp": np.exp,
         "_float": float,
         "_gauss_exp": _gauss_exp,

@@ -21,6 +21,7 @@ class UnsensedNone:
 
     rules: tuple
     _gated: list[int]
+    replace: Any  # FuzzySystem.replace
     _gated_systems: dict
 
     def gated_system(self, sensed: Sequence[bool]) -> tuple[Any, list[int]]:

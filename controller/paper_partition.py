@@ -75,7 +75,7 @@ def partition(centres) -> list[tuple[str, tuple[float, ...]]]:
     c = [float(x) for x in centres]
     if len(c) < 2 or any(b <= a for a, b in zip(c, c[1:])):
         raise ValueError(f"partition centres must be increasing, got {c}")
-    terms = [("linzmf", (c[0], c[1]))]
+    terms: list[tuple[str, tuple[float, ...]]] = [("linzmf", (c[0], c[1]))]
     terms += [("trimf", (c[k - 1], c[k], c[k + 1])) for k in range(1, len(c) - 1)]
     terms.append(("linsmf", (c[-2], c[-1])))
     return terms
@@ -135,7 +135,7 @@ class TableOneTunable:
                 for term, (shape, params) in zip(variable.term_names, shapes):
                     fis = fis.with_term_params(var, term, [float(p) for p in params], shape=shape)
             self._shaped_template = fis
-        return self._shaped_template
+        return fis if self._shaped_template is None else self._shaped_template
 
     def system(self, vector) -> FuzzySystem:
         terms = self.terms(vector)
@@ -198,7 +198,7 @@ class PaperPartitionTunable(TableOneTunable):
     def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
         v = self._vector(vector)
         centres = np.cumsum(v[12:17])
-        outputs = [
+        outputs: list[tuple[str, tuple[float, ...]]] = [
             ("trimf", (c - h, c, c + h)) for c, h in zip(centres.tolist(), v[17:22].tolist())
         ]
         return {

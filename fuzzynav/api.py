@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -256,7 +256,7 @@ def simulate(
         from fuzzynav.world.perception import check_controller
 
         check_controller(controller)  # the loop's own check, before anything is built
-        controller_object = controller
+        controller_object = controller  # type: ignore[assignment]  # any controller
         label = getattr(controller, "name", type(controller).__name__)
     sim = build_simulation(
         scenario,
@@ -361,7 +361,7 @@ def sweep(
         if n is not None or seed is not None:
             raise ValueError("n, seed: the layouts' count and seed; not with scenarios")
         footprint = (0.0, 0.0) if geometry == "paper" else None
-        jobs = scenario_set_jobs(
+        jobs: Sequence = scenario_set_jobs(
             scenario_list(scenarios, footprint), controller, perception, options
         )
     else:

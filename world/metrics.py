@@ -108,11 +108,11 @@ class _LogSums:
         self.path_length_m = 0.0
         self.sum_abs = 0.0
         self.sum_sq = 0.0
-        self.min_center_distance_m = None
-        self.min_clearance_m = None
+        self.min_center_distance_m: float | None = None
+        self.min_clearance_m: float | None = None
         self.max_abs_voltage_v = 0.0
         self.voltage_jumps = 0
-        self._last_voltage = None  # the last finite (time, voltages) row seen
+        self._last_voltage: tuple[float, np.ndarray] | None = None  # the last finite (time, voltages) row seen
 
     @property
     def mad_m(self) -> float:

@@ -191,9 +191,10 @@ class Perception:
             ranges_list = self._no_ranges_list
         else:
             ranges = sensors.read(arena, time_s)
-            ranges_list = getattr(sensors, "_ranges_list", None)
-            if ranges_list is None or len(ranges_list) != len(ranges):
-                ranges_list = np.asarray(ranges, dtype=float).tolist()
+            cached = getattr(sensors, "_ranges_list", None)
+            if cached is None or len(cached) != len(ranges):
+                cached = np.asarray(ranges, dtype=float).tolist()
+            ranges_list = cached
         x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target

@@ -198,7 +198,7 @@ def shortest_path(start, target, centres, radii) -> ShortestPath:
     pairs = np.asarray(candidates, int)
     clear = _segments_clear(xy[pairs[:, 0]], xy[pairs[:, 1]], centres, radii)
     edges: list[list[tuple[float, int]]] = [[] for _ in points]
-    used = set()
+    used: set[int] = set()
     for (u, v), ok in zip(candidates, clear):
         if ok:
             length = math.dist(points[u], points[v])
