@@ -36,9 +36,11 @@ Files are parsed with :mod:`tomllib`, never evaluated.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
+
+import tomli_w
 
 from fuzzynav.resources import (
     InputError,
@@ -127,98 +129,104 @@ class Scenario:
         return math.radians(self.field_of_view_deg)
 
     def to_dict(self) -> dict:
-        """The scenario as the plain data of its TOML file (``from_dict`` reads it back)."""
-        data: dict[str, Any] = {
-            "name": self.name,
-            "duration_s": self.duration_s,
-            "robot": {"start": list(self.start), "heading_rad": self.heading_rad},
-            "target": {"position": list(self.target), "tolerance_m": self.tolerance_m},
-            "obstacles": [
-                {
-                    "position": list(o.position),
-                    "radius_m": o.radius_m,
-                    "velocity": list(o.velocity),
-                    "acceleration": list(o.acceleration),
-                }
-                for o in self.obstacles
-            ],
-        }
-        if self.description:
-            data["description"] = self.description
-        if self.field_of_view_deg != 360.0:
-            data["robot"]["field_of_view_deg"] = self.field_of_view_deg
+        """The scenario as the plain data of its TOML file (:func:`scenario_from_dict`
+        reads it back), laid out by :data:`FORMAT`; a key holding its default
+        (:data:`OMITTED_DEFAULTS`) is left out, as a file may leave it out."""
+        data: dict[str, Any] = {}
+        for table, keys in FORMAT:
+            holder = data if table is None else data.setdefault(table, {})
+            for key, attribute in keys:
+                value = getattr(self, attribute)
+                if key in OMITTED_DEFAULTS and value == OMITTED_DEFAULTS[key]:
+                    continue
+                holder[key] = _plain(value)
+        if self.obstacles:  # a file without any leaves the array out
+            data["obstacles"] = [_fields_of(o) for o in self.obstacles]
         if self.disturbance is not None:
-            d = self.disturbance
-            data["disturbance"] = {
-                "amplitude": d.amplitude,
-                "angular_frequency_rad_s": d.angular_frequency_rad_s,
-                "start_s": d.start_s,
-                "stop_s": d.stop_s,
-            }
+            data["disturbance"] = _fields_of(self.disturbance)
         return data
 
     def to_toml(self) -> str:
-        """TOML text that :func:`load_scenario` reads back to an equal scenario."""
-        # Written by hand, not by tomli-w: the layout is the point. Scenario files are
-        # read and edited by people; a position is one [x, y] pair on one line (tomli-w
-        # writes every array over several lines), in the order the shipped files use.
-        # (Its bytes are also what a run's scenario digest is taken of: app/runs.py.)
-        d = self.to_dict()
-        lines = [f"name = {_toml_str(d['name'])}"]
-        if self.description:
-            lines.append(f"description = {_toml_str(self.description)}")
-        lines += [
-            f"duration_s = {d['duration_s']!r}",
-            "",
-            "[robot]",
-            f"start = {_toml_list(self.start)}",
-            f"heading_rad = {self.heading_rad!r}",
-        ]
-        if "field_of_view_deg" in d["robot"]:
-            lines.append(f"field_of_view_deg = {d['robot']['field_of_view_deg']!r}")
-        lines += [
-            "",
-            "[target]",
-            f"position = {_toml_list(self.target)}",
-            f"tolerance_m = {self.tolerance_m!r}",
-        ]
-        for o in self.obstacles:
-            lines += [
-                "",
-                "[[obstacles]]",
-                f"position = {_toml_list(o.position)}",
-                f"radius_m = {o.radius_m!r}",
-                f"velocity = {_toml_list(o.velocity)}",
-                f"acceleration = {_toml_list(o.acceleration)}",
-            ]
-        if self.disturbance is not None:
-            dist = d["disturbance"]
-            lines += ["", "[disturbance]"] + [f"{k} = {v!r}" for k, v in dist.items()]
-        return "\n".join(lines) + "\n"
+        """TOML text that :func:`load_scenario` reads back to an equal scenario: the plain
+        data of :meth:`to_dict`, each value written by tomli-w, each ``[x, y]`` pair on one
+        line (tomli-w writes an array over several lines; scenario files are read and
+        edited by people). Its bytes are what a run's scenario digest is taken of
+        (app/runs.py): they are those of the hand-written layout this replaced."""
+        return dumps_plain(self.to_dict())
 
 
-#: TOML's short escapes; every other control character is written as \uXXXX.
-_TOML_ESCAPES = {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+#: The scenario file's format, written once: each table (None: the top level) and its
+#: keys in the order a file has them, each with the :class:`Scenario` field it holds. The
+#: ``[[obstacles]]`` and the ``[disturbance]`` tables hold the fields of
+#: :class:`ObstacleSpec` and :class:`Disturbance` under their own names. The writer
+#: walks it; the keys the reader allows come from it.
+FORMAT: tuple[tuple[str | None, tuple[tuple[str, str], ...]], ...] = (
+    (None, (("name", "name"), ("description", "description"), ("duration_s", "duration_s"))),
+    (
+        "robot",
+        (
+            ("start", "start"),
+            ("heading_rad", "heading_rad"),
+            ("field_of_view_deg", "field_of_view_deg"),
+        ),
+    ),
+    ("target", (("position", "target"), ("tolerance_m", "tolerance_m"))),
+)
+#: Keys a file may leave out, with the value that means (the writer leaves them out too).
+OMITTED_DEFAULTS: dict[str, Any] = {"description": "", "field_of_view_deg": 360.0}
 
 
-def _toml_str(text: str) -> str:
-    """``text`` as a TOML basic string that reads back as ``text``: quotes, backslashes
-    and control characters escaped (a multi-line description was written with its line
-    breaks raw, which TOML refuses, issue 37). A tab stays as it is (TOML allows it),
-    so that a scenario's digest (app/runs.py) is unchanged wherever it was valid."""
-    out = []
-    for ch in text:
-        if ch in _TOML_ESCAPES:
-            out.append(_TOML_ESCAPES[ch])
-        elif (ord(ch) < 0x20 and ch != "\t") or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
+def _plain(value):
+    """A field's value as TOML's plain data: a pair (a tuple) as a list."""
+    return list(value) if isinstance(value, tuple) else value
 
 
-def _toml_list(values) -> str:
-    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+def _fields_of(item) -> dict:
+    """A dataclass's fields as plain data, in their order, under their own names."""
+    return {f.name: _plain(getattr(item, f.name)) for f in fields(item)}
+
+
+def _toml_value(value) -> str:
+    """One value as TOML: a list of numbers inline (``[x, y]``, each a float), anything
+    else as tomli-w writes it."""
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(float(v)) for v in value) + "]"
+    return tomli_w.dumps({"v": value})[len("v = ") : -1]
+
+
+def dumps_plain(data: dict) -> str:
+    """Plain data (tables of values, arrays of tables) as TOML, top-level values first,
+    then each table in order, a blank line before each (what :meth:`Scenario.to_toml`
+    writes).
+
+    Parameters
+    ----------
+    data : dict
+        Keys to numbers, strings, lists of numbers, tables (dicts) of those, or
+        non-empty lists of such tables (written as ``[[key]]``).
+
+    Returns
+    -------
+    str
+        The TOML text, ending with a newline.
+    """
+
+    def is_tables(value) -> bool:
+        return isinstance(value, list) and any(isinstance(v, dict) for v in value)
+
+    lines = [
+        f"{key} = {_toml_value(value)}"
+        for key, value in data.items()
+        if not isinstance(value, dict) and not is_tables(value)
+    ]
+    for key, value in data.items():
+        if isinstance(value, dict):
+            lines += ["", f"[{key}]"] + [f"{k} = {_toml_value(v)}" for k, v in value.items()]
+        elif is_tables(value):
+            for table in value:
+                lines += ["", f"[[{key}]]"]
+                lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------------------
@@ -244,11 +252,12 @@ MAX_OBSTACLES = 1000
 #: The largest integer a number key takes as written (beyond it a float loses the
 #: integer anyway; Python cannot even print an integer of more than 4300 digits).
 _MAX_EXACT_INT = 2**63
-_TOP_KEYS = {"name", "description", "duration_s", "robot", "target", "obstacles", "disturbance"}
-_ROBOT_KEYS = {"start", "heading_rad", "field_of_view_deg"}
-_TARGET_KEYS = {"position", "tolerance_m"}
-_OBSTACLE_KEYS = {"position", "radius_m", "velocity", "acceleration"}
-_DISTURBANCE_KEYS = {"amplitude", "angular_frequency_rad_s", "start_s", "stop_s"}
+_FORMAT_KEYS = {table: {key for key, _ in keys} for table, keys in FORMAT}
+_TOP_KEYS = _FORMAT_KEYS[None] | {"robot", "target", "obstacles", "disturbance"}
+_ROBOT_KEYS = _FORMAT_KEYS["robot"]
+_TARGET_KEYS = _FORMAT_KEYS["target"]
+_OBSTACLE_KEYS = {f.name for f in fields(ObstacleSpec)}
+_DISTURBANCE_KEYS = {f.name for f in fields(Disturbance)}
 
 
 class _Reader:
