@@ -29,6 +29,7 @@ def export_fis(
     ``replace=False`` (a default name, no ``--force``): an existing file is refused,
     before anything is written.
     """
+    from fuzzynav.controller.interface import RuleBlocksController
     from fuzzynav.controller.registry import controller_names, make_controller
 
     exportable = controller_names(fis_export=True)
@@ -36,15 +37,14 @@ def export_fis(
         raise ValueError(f"controller = {controller!r}: choose one of {', '.join(exportable)}")
     path = Path(path)
     ctrl = make_controller(controller, geometry=geometry)
-    blocks = getattr(ctrl, "rule_blocks", None)
-    if blocks is None:
+    if not isinstance(ctrl, RuleBlocksController):
         if path.suffix.lower() != ".fis":
             raise ValueError(f"{path}: the file name must end in .fis")
         if not path.parent.exists():
             raise ValueError(f"{path}: directory {path.parent} does not exist")
         _write(ctrl.fis, path, replace)
         return [path]
-    systems = blocks()
+    systems = ctrl.rule_blocks()
     if path.suffix.lower() == ".fis":
         raise ValueError(
             f"{path}: {controller} is {len(systems)} fuzzy blocks "

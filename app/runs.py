@@ -237,20 +237,26 @@ def _fingerprint(controller) -> str | None:
     None when they cannot be written out (a fuzzy system the TOML writer refuses)."""
     import json
 
+    from fuzzynav.controller.interface import (
+        FuzzyController,
+        ParamsController,
+        RuleBlocksController,
+        unwrapped,
+    )
     from fuzzynav.controller.rulebase import dumps_toml
 
-    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
+    inner = unwrapped(controller)  # the viewer wraps its controller
     parts = [type(inner).__name__]
     systems = []
-    if getattr(inner, "fis", None) is not None:
+    if isinstance(inner, FuzzyController) and inner.fis is not None:
         systems.append(inner.fis)
-    if callable(getattr(inner, "rule_blocks", None)):
+    if isinstance(inner, RuleBlocksController):
         systems += list(inner.rule_blocks().values())
     try:
         parts += [dumps_toml(system) for system in systems]
     except Exception:  # not a FuzzySystem the writer knows: nothing to compare
         return None
-    if callable(getattr(inner, "params_toml", None)):
+    if isinstance(inner, ParamsController):
         parts.append(inner.params_toml())
     if len(parts) == 1:  # not fuzzy: its plain parameters
         plain = {
@@ -267,11 +273,12 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     that name (the same parts off) drives with exactly this one's rules and parameters;
     ``--fis PATH --fis-sha256 HEX`` for one read from a .fis file; else a note that the
     controller cannot be named on the command line (edited in the viewer, say)."""
+    from fuzzynav.controller.interface import FuzzyController, PartsController, unwrapped
     from fuzzynav.controller.registry import controller_names
 
-    inner = getattr(controller, "inner", controller)
-    name = getattr(inner, "name", None)
-    parts_off = tuple(getattr(inner, "parts_off", None) or ())
+    inner = unwrapped(controller)
+    name = getattr(inner, "name", None)  # a label, if it has one
+    parts_off = tuple(inner.parts_off) if isinstance(inner, PartsController) else ()
     mine = _fingerprint(controller)
     if mine is not None and isinstance(name, str) and name in controller_names():
         if _fresh_fingerprint(name, geometry, parts_off, _controller_files_signature()) == mine:
@@ -280,7 +287,7 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
                 args += ["--off", ",".join(parts_off)]
             return args, []
     source = str(getattr(inner, "source", "") or "")
-    fis = getattr(inner, "fis", None)
+    fis = inner.fis if isinstance(inner, FuzzyController) else None
     if source.endswith(".fis") and fis is not None and mine is not None:
         return ["--fis", source, FIS_DIGEST_OPTION, rule_base_digest(fis)], []
     label = name if isinstance(name, str) and name else type(inner).__name__
@@ -310,8 +317,10 @@ def _fresh_fingerprint(name: str, geometry: str, parts_off: tuple, signature: tu
     per version of the files it is built from: reading and writing out the paper's rule base took about a
     sixth of a recording's time, the same every run."""
     del signature  # the cache's key only
+    from fuzzynav.controller.interface import PartsController
+
     fresh = make_controller(name, geometry=geometry)
-    if parts_off and hasattr(fresh, "set_parts_off"):
+    if parts_off and isinstance(fresh, PartsController):
         fresh.set_parts_off(list(parts_off))
     return _fingerprint(fresh)
 

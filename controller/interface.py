@@ -24,6 +24,9 @@ declared by the attributes below, never guessed:
 - :class:`RuleBlocksController`: ``rule_blocks()``, its fuzzy systems by name (what
   ``fuzzynav fis export`` writes and the viewer shows);
 - :class:`PartsController`: ``parts_off`` and ``set_parts_off(names)`` (``--off``);
+- :class:`FuzzyController`: one fuzzy system, ``fis`` (the paper's, a ``.fis`` file's);
+- :class:`ParamsController`: crisp parameters besides its rules, ``params_toml()``;
+- :class:`WrappedController`: a wrapper (the viewer's observer) around ``inner``;
 - :class:`BatchController`: ``decide(inputs (n, 4), runs (n,), ranges_m (n, 3))``,
   the form the lockstep batch engine (:mod:`world.batch`) drives; a controller class
   that can make one declares ``batched(controllers, run_sets)`` (:class:`Batchable`).
@@ -47,9 +50,13 @@ __all__ = [
     "MountAwareController",
     "RuleBlocksController",
     "PartsController",
+    "FuzzyController",
+    "ParamsController",
+    "WrappedController",
     "BatchController",
     "Batchable",
     "capabilities",
+    "unwrapped",
 ]
 
 #: The inputs, in the order of the array a controller receives.
@@ -103,6 +110,41 @@ class PartsController(Protocol):
 
     def set_parts_off(self, names: Sequence[str] = ()) -> None:
         """Switch off ``names`` (and on every other part); an unknown name is refused."""
+
+
+@runtime_checkable
+class FuzzyController(Protocol):
+    """Drives with one fuzzy system (4 inputs, 2 outputs)."""
+
+    fis: Any  # a controller.fuzzy.FuzzySystem
+
+
+@runtime_checkable
+class ParamsController(Protocol):
+    """Has crisp parameters besides its rules (fuzzynav's navigator)."""
+
+    def params_toml(self) -> str:
+        """Its parameters as the TOML it is built from."""
+
+
+@runtime_checkable
+class WrappedController(Protocol):
+    """Wraps another controller (the viewer observes its calls)."""
+
+    inner: Any
+
+
+def unwrapped(controller: Any) -> Any:
+    """The controller inside any wrappers (:class:`WrappedController`).
+
+    Parameters
+    ----------
+    controller : object
+        A controller, wrapped or not.
+    """
+    while isinstance(controller, WrappedController):
+        controller = controller.inner
+    return controller
 
 
 @runtime_checkable

@@ -54,6 +54,7 @@ def _mean(values):
 
 def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     """Refuse a sweep that cannot run (before any run); the parts off, normalised."""
+    from fuzzynav.controller.interface import PartsController
     from fuzzynav.controller.registry import controller_names, make_controller
     from fuzzynav.world.layouts import FAMILIES
 
@@ -67,7 +68,7 @@ def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     parts_off = tuple(parts_off)
     if parts_off:
         probe = make_controller(controller)
-        if not hasattr(probe, "set_parts_off"):
+        if not isinstance(probe, PartsController):
             raise ValueError(
                 f"parts_off = {list(parts_off)}: {controller} has no parts to switch off"
             )
