@@ -142,7 +142,7 @@ def add_geometry_option(parser: argparse.ArgumentParser) -> None:
         "--geometry",
         default="husky",
         choices=GEOMETRIES,
-        help="husky: the real 0.99 x 0.67 m footprint (default); paper: the paper's point "
+        help="husky: the real Husky A200's footprint, husky.toml's (default); paper: the paper's point "
         "robot, inputs and distances centre to centre (Eqs. 7-12), ideal perception only",
     )
 

@@ -16,7 +16,8 @@ The inputs are in the paper's order ``(d_t, d_o, phi_t, phi_o)``:
 Two geometries (``geometry``):
 
 ``husky``
-    The real Husky's 0.99 x 0.67 m footprint: ``d_o`` is footprint to surface.
+    The real Husky's footprint (``world.robot.HUSKY``, husky.toml): ``d_o`` is
+    footprint to surface.
 ``paper``
     The paper's point robot: ``d_t``, ``d_o``, ``phi_t``, ``phi_o`` exactly by Eqs. 7-12
     from the robot's centre to the target's and the obstacles' centres (the nearest

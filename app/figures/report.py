@@ -364,7 +364,7 @@ def add_commands(subparsers) -> None:
         "--geometry",
         default="both",
         choices=GEOMETRY_CHOICES,
-        help="husky: the real 0.99 x 0.67 m footprint; paper: the paper's point robot, "
+        help="husky: the real Husky A200's footprint (husky.toml); paper: the paper's point robot, "
         "centre to centre (Eqs. 7-12); both (default): each, side by side in the table",
     )
     p.add_argument(
