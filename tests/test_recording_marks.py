@@ -317,3 +317,44 @@ def test_the_time_axis_has_no_tick_format_in_this_rerun():
         __import__("pathlib").Path(__file__).resolve().parents[1] / "docs" / "recordings.md"
     ).read_text()
     assert "+1m 10s" in doc and "tick format" in doc
+
+
+# ---------------------------------------------------------------------------------------
+# Issue 4's budget, as docs/recordings.md states it: the bench's data file's numbers
+
+
+def test_the_docs_state_the_benchs_recording_overhead():
+    """docs/recordings.md quotes ``bench/bench_recording.py --json``'s data file
+    (docs/data/recording_overhead.json): each controller's medians, its overhead against
+    the +50 % budget (by how many points it is met or missed), the load and the date."""
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    data = json.loads((root / "docs" / "data" / "recording_overhead.json").read_text())
+    doc = (root / "docs" / "recordings.md").read_text()
+    section = doc[doc.index("## What a recording costs") :]
+    section = section[: section.index("\n## ", 3)]
+    names = {"p": "P", "paper": "the paper controller", "fuzzynav": "fuzzynav"}
+    budget = data["budget"]
+    assert f"at most {budget * 100:.0f} %" in section
+    for row in data["controllers"]:
+        wall, cpu = row["wall"], row["cpu"]
+        over = wall["overhead"]
+        verdict = (
+            f"within the budget by {(budget - over) * 100:.1f} points"
+            if over <= budget
+            else f"over it by {(over - budget) * 100:.1f} points"
+        )
+        line = (
+            f"- {names[row['label']]} ({row['rows']:,} rows): record_run "
+            f"{wall['record'] * 1000:.0f} ms on a {wall['run'] * 1000:.0f} ms run, "
+            f"+{over * 100:.0f} % wall time ({verdict}), +{cpu['overhead'] * 100:.0f} % CPU "
+            "of all threads"
+        )
+        assert line in section, line
+    lo, hi = sorted(data["load_average"])
+    assert f"load average {lo:.1f}-{hi:.1f} on {data['cpus']} CPUs" in section
+    assert data["date"][:10] in section
+    assert f"--repeats {data['repeats']}" in section
+    assert f"rerun-sdk {data['rerun_sdk']}" in section

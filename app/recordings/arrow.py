@@ -47,6 +47,7 @@ def component_types() -> dict:
         rr.Arrows2D(
             vectors=[(1, 0)], origins=[(0, 0)], radii=0.1, colors=[(0, 0, 0)], draw_order=1.0
         ),
+        rr.Transform3D(translation=[0.0, 0.0, 0.0]),
         rr.BarChart(
             values=np.zeros(2, dtype=np.float32),
             color=(0, 0, 0),
@@ -82,6 +83,16 @@ def vec2_array(archetype: str, name: str, xy):
     _, arrow_type = component_types()[(archetype, name)]
     flat = pa.array(np.ascontiguousarray(xy, dtype=np.float32).reshape(-1))
     return pa.FixedSizeListArray.from_arrays(flat, type=arrow_type)
+
+
+def vec3_array(xy):
+    """2D points as Transform3D translations (x, y, 0), the component's Arrow array."""
+    import pyarrow as pa
+
+    _, arrow_type = component_types()[("Transform3D", "translation")]
+    xyz = np.zeros((len(xy), 3), dtype=np.float32)
+    xyz[:, :2] = xy
+    return pa.FixedSizeListArray.from_arrays(pa.array(xyz.reshape(-1)), type=arrow_type)
 
 
 def strips_array(strips: np.ndarray):
@@ -137,15 +148,6 @@ def tensor_rows(values: np.ndarray):
         children=children,
     )
     return pa.StructArray.from_arrays([shape, names, buffer], fields=list(arrow_type))
-
-
-def translation_columns(xy: np.ndarray):
-    """Transform3D translation columns (x, y, 0) for ``send_columns``."""
-    import rerun as rr
-
-    xyz = np.zeros((len(xy), 3), dtype=np.float32)
-    xyz[:, :2] = xy
-    return rr.Transform3D.columns(translation=xyz)
 
 
 def column(archetype: str, name: str, array, lengths=None):

@@ -179,8 +179,17 @@ class ColumnWriter(SceneColumns, ControllerColumns):
 
     # -- low level ---------------------------------------------------------------------
 
-    def _send(self, path: str, tc, columns) -> None:
-        self.rec.send_columns(path, indexes=[tc], columns=columns, strict=True)
+    def _send_sparse(self, path: str, time_s, archetype: str, name: str, array, lengths=None):
+        """A component on rows of its own (where something changed: the target, the
+        obstacles), sent at the chunk's end with every other column on the same rows in
+        one record batch (a static obstacle's body, ring and translation, and the
+        target, all at the first row: one batch, not a send_columns call each)."""
+        time_s = np.asarray(time_s, dtype=float)
+        key = time_s.tobytes()
+        batch = self._sparse.get(key)
+        if batch is None:
+            batch = self._sparse[key] = RowBatch(time_s)
+        batch.add(path, archetype, name, array, lengths=lengths)
 
     def _style(self, path: str, archetype: str, **components) -> None:
         """Static styling of an entity, sent with the chunk's other styles."""
@@ -351,6 +360,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
             return
         t = log.time_s[start:end]
         rows = self._rows = RowBatch(t)
+        self._sparse: dict[bytes, RowBatch] = {}
         self._rows_time = t
         pose = log.pose[start:end]
 
@@ -392,4 +402,6 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         if send_static:
             self._static.send(self.rec)
         rows.send(self.rec)
+        for batch in self._sparse.values():
+            batch.send(self.rec)
         self.sent = end

@@ -185,23 +185,23 @@ def _lane_colour(state: str):
     return (170, 170, 170)
 
 
-def _send_lane_styles(rec, path: str, states: list[str], colours: dict) -> None:
+def _send_lane_styles(static: StaticBatch, path: str, states: list[str], colours: dict) -> None:
     """Each state's colour in its lane (rerun >= 0.41's StateConfiguration; rerun picks
     its own colours by the state's text before, which made obstacle 1 purple in one
-    recording and green in another)."""
+    recording and green in another), with the recording's other static parts (one
+    record batch, not a ``log`` call a lane)."""
     import rerun as rr
 
     configuration = getattr(rr, "StateConfiguration", None)
     if configuration is None:
         return
     values = list(dict.fromkeys(states))
-    rec.log(
+    static.add_archetype(
         path,
         configuration(
             values=values,
             colors=[colours.get(v) or _lane_colour(v) for v in values],
         ),
-        static=True,
     )
 
 
@@ -263,7 +263,7 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
             columns=rr.StateChange.columns(state=[c[1] for c in changes]),
             strict=True,
         )
-        _send_lane_styles(rec, path, [c[1] for c in changes], colours)
+        _send_lane_styles(static, path, [c[1] for c in changes], colours)
     _world_marks(static, log, events)
     return events
 

@@ -22,7 +22,7 @@ from fuzzynav.world.geometry import (
     points_along,
 )
 
-from .arrow import StaticBatch, column, strips_array, time_column, translation_columns, vec2_array
+from .arrow import StaticBatch, strips_array, vec2_array, vec3_array
 from .style import (
     BEAM_ORDER,
     HEADING,
@@ -115,10 +115,12 @@ class SceneColumns:
             self._style(
                 "/world/target", "Points2D", colors=TARGET, radii=self.tolerance_m, labels="target"
             )
-            self._send(
+            self._send_sparse(
                 "/world/target",
-                time_column(t[k]),
-                [column("Points2D", "positions", vec2_array("Points2D", "positions", target[k]))],
+                t[k],
+                "Points2D",
+                "positions",
+                vec2_array("Points2D", "positions", target[k]),
             )
         self._target = (float(target[-1, 0]), float(target[-1, 1]))
 
@@ -204,7 +206,6 @@ class SceneColumns:
         rows = np.flatnonzero(changed)
         base = f"/world/obstacles/{oid}"
         if len(rows):
-            tc = time_column(t[rows])
             lengths = present[rows].astype(np.int32)
             pos = xy[rows][present[rows]]
             # the obstacle's colour in every plot and figure (OBSTACLE_PALETTE by column)
@@ -216,14 +217,13 @@ class SceneColumns:
                 labels=f"obstacle {oid}",
                 draw_order=float(OBSTACLE_ORDER),
             )
-            self._send(
+            self._send_sparse(
                 f"{base}/body",
-                tc,
-                [
-                    column(
-                        "Points2D", "positions", vec2_array("Points2D", "positions", pos), lengths
-                    )
-                ],
+                t[rows],
+                "Points2D",
+                "positions",
+                vec2_array("Points2D", "positions", pos),
+                lengths,
             )
             # The safe ring: one static circle around the origin, moved by a translation
             # where the obstacle moves (12 bytes a row, not 49 points).
@@ -239,24 +239,21 @@ class SceneColumns:
             if len(flips):
                 circle = circle_points(radius + SAFE_DISTANCE_M, RING_SEGMENTS)
                 strips = np.repeat(circle[None], int(shown_now[flips].sum()), axis=0)
-                self._send(
+                self._send_sparse(
                     ring_path,
-                    time_column(t[rows[flips]]),
-                    [
-                        column(
-                            "LineStrips2D",
-                            "strips",
-                            strips_array(strips),
-                            shown_now[flips].astype(np.int32),
-                        )
-                    ],
+                    t[rows[flips]],
+                    "LineStrips2D",
+                    "strips",
+                    strips_array(strips),
+                    shown_now[flips].astype(np.int32),
                 )
             if shown_now.any():
-                self.rec.send_columns(
+                self._send_sparse(
                     ring_path,
-                    indexes=[time_column(t[rows[shown_now]])],
-                    columns=translation_columns(pos),
-                    strict=True,
+                    t[rows[shown_now]],
+                    "Transform3D",
+                    "translation",
+                    vec3_array(pos),
                 )
             # The path: a segment for every move between two present rows.
             present_rows = rows[present[rows]]
@@ -279,10 +276,12 @@ class SceneColumns:
                         colors=(*obstacle_color(col), 150),
                         radii=0.015,
                     )
-                    self._send(
+                    self._send_sparse(
                         f"{base}/path",
-                        time_column(t[present_rows[moved]]),
-                        [column("LineStrips2D", "strips", strips_array(segs))],
+                        t[present_rows[moved]],
+                        "LineStrips2D",
+                        "strips",
+                        strips_array(segs),
                     )
         last = len(xy) - 1
         self._obstacles[oid] = (
