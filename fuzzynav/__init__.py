@@ -28,7 +28,9 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
     from fuzzynav.api import (
         ControllerCheckError,
+        Outcome,
         Run,
+        SweepRow,
         check_controller,
         load_scenario,
         make_controller,
@@ -44,6 +46,8 @@ if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
 
 __all__ = [
     "__version__",
+    "Outcome",
+    "SweepRow",
     "Run",
     "simulate",
     "sweep",

@@ -33,6 +33,7 @@ import contextlib
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypedDict, cast
 
 import numpy as np
 
@@ -44,8 +45,11 @@ from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
+from fuzzynav.world.simulation import OUTCOMES, Outcome
 
 __all__ = [
+    "Outcome",
+    "SweepRow",
     "Run",
     "simulate",
     "sweep",
@@ -58,6 +62,44 @@ __all__ = [
     "read_fis",
     "write_fis",
 ]
+
+
+class SweepRow(TypedDict, total=False):
+    """One run of a sweep, as ``fuzzynav sweep --out`` writes it (a number that does not
+    apply, such as the time to target of a run that never arrived, is None).
+
+    The study: ``index``, ``controller``, ``parts_off``, ``family`` (``set:...`` for
+    scenarios of one's own), ``seed``, ``perception``, ``options`` (only when not the
+    defaults) and ``fingerprint`` (what made it). The run: ``outcome``, ``reached``,
+    ``collided``, ``success`` (reached without collision), the path and clearances in
+    metres, the time to target in seconds, and the benchmark ratios against the
+    shortest path that keeps the clearance.
+    """
+
+    index: int
+    controller: str
+    parts_off: list[str]
+    family: str
+    seed: int
+    perception: str
+    options: dict[str, object]
+    fingerprint: str
+    outcome: Outcome
+    reached: bool
+    collided: bool
+    success: bool
+    path_length_m: float | None
+    straight_line_m: float
+    straight_ratio: float | None
+    min_clearance_m: float | None
+    min_safety_distance_m: float | None
+    time_to_target_s: float | None
+    n_obstacles: int
+    shortest_path_m: float | None
+    path_ratio: float | None
+    optimal_time_s: float | None
+    time_ratio: float | None
+    score: float | None
 
 
 class Run:
@@ -93,8 +135,12 @@ class Run:
         self._trace: dict[str, np.ndarray] | None = None
 
     @property
-    def outcome(self) -> str:
-        return self.result.outcome
+    def outcome(self) -> Outcome:
+        """How the run ended (one of ``world.simulation.OUTCOMES``)."""
+        outcome = self.result.outcome
+        if outcome not in OUTCOMES:  # a finished run ends one of these ways
+            raise RuntimeError(f"the run has not ended (outcome {outcome!r})")
+        return cast(Outcome, outcome)
 
     @property
     def metrics(self) -> dict:
@@ -291,7 +337,7 @@ def sweep(
     engine: str = "batch",
     out: str | Path | None = None,
     resume: bool = False,
-) -> list[dict]:
+) -> list[SweepRow]:
     """Run ``controller`` on ``n`` seeded random layouts of ``family``, or on ``scenarios``.
 
     Parameters
@@ -380,7 +426,8 @@ def sweep(
             layouts = (generate_layout(family, seed, i) for i in range(n))
             jobs = scenario_set_jobs(layouts, controller, perception, options)
     with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
-        return run_jobs(jobs, runner, log=log, progress=progress, engine=engine)
+        rows = run_jobs(jobs, runner, log=log, progress=progress, engine=engine)
+    return cast(list[SweepRow], rows)
 
 
 @contextlib.contextmanager

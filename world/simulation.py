@@ -41,6 +41,7 @@ import struct
 import tempfile
 import time
 from dataclasses import dataclass, field
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -52,7 +53,9 @@ from fuzzynav.world.robot import HUSKY, brief
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 
-OUTCOMES = ("reached", "collided", "timeout")
+#: How a run ends: at the target, against an obstacle, or out of time.
+Outcome = Literal["reached", "collided", "timeout"]
+OUTCOMES: tuple[Outcome, ...] = get_args(Outcome)
 #: The control period's bounds: below a millisecond the log of an ordinary run grows to
 #: gigabytes (1e-5 s asked for 4.3 GB) for nothing the exact ZOH plant needs; above a
 #: second the sensors (25 Hz) and the collision sub-steps lose their meaning.
@@ -152,7 +155,7 @@ def log_block_rows(n_obstacles: int) -> int:
 
 _LOG_MIN_BLOCK_ROWS = 1024
 _FLOAT64 = np.dtype(np.float64)
-_pack_into = struct.pack_into
+_pack_into: Any = struct.pack_into  # numpy arrays are buffers
 
 
 @dataclass
@@ -232,7 +235,7 @@ class _LogBuffer:
         # spool, a pair of unnamed temporary files.
         self.block_rows = max(block_rows, self._FLUSH_ROWS)
         self.capacity = max(min(capacity, self.block_rows), 16)
-        self._spool = None
+        self._spool: _LogSpool | None = None
         self._spilled = 0  # rows in the spool, before those in the matrices
         self.width = sum(self._FIELDS.values())
         self.rows = np.full((self.capacity, self.width), np.nan)
@@ -245,7 +248,7 @@ class _LogBuffer:
         self._rows: list = []  # `width` per row
         self._xy: list = []  # x, y per obstacle column
         self._clearances: list = []  # one per obstacle column
-        self._ids_seen = None  # the ids list the pending obstacle data follows
+        self._ids_seen: list[int] | None = None  # the ids list the pending obstacle data follows
         self._columns: list[int] = []
         self._direct = True  # those ids are exactly the columns, in order
 
@@ -359,6 +362,7 @@ class _LogBuffer:
         """The log as views of the spool's memory maps (copy-on-write: a consumer
         that writes into an array changes its own pages, never the file)."""
         self._spill()
+        assert self._spool is not None  # _spill made it
         rows, obstacles = self._spool.maps(self.n, self.width, len(self.obstacle_ids))
         return self._log_of(rows, obstacles, copy=False)
 
@@ -451,6 +455,7 @@ class _LogSpool:
             self.rows_file.flush()
             self.obstacles_file.flush()
         rows = np.memmap(self.rows_file, dtype=np.float64, mode="c", shape=(n, width))
+        obstacles: np.ndarray
         if n_columns:
             obstacles = np.memmap(
                 self.obstacles_file, dtype=np.float64, mode="c", shape=(n, n_columns, 4)
