@@ -51,11 +51,16 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /current           i_L1, i_L2 (A)
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
+      /<plot>/events     every plot: SeriesPoints at the events' times on its curves,
+                         shape and colour per row (:mod:`.plot_events`)
     /rules                                  fuzzy controllers only
       /firing            BarChart per decision: the bar at abscissa k is rule Rk (float32);
                          null at the last row (no decision)
+      /firing/scale      static BarChart: a grey bar of 1 at abscissa 0 (the axis 0 to 1)
       /strongest         StateChange: the strongest rule where it changes
       /heatmap           static Tensor: rules x time (binned, max per bin)
+      /heatmap/image, /rows, /times, /ticks   static: the same as a colour-mapped
+                         DepthImage, the rows named R1, R5, ..., seconds under it
       /texts             static TextDocument: every rule in words
     /fuzzy/inputs/{name}, /fuzzy/outputs/{name}   a controller with a fis: the membership
                          functions, the input's value / the aggregated output and its
