@@ -232,3 +232,16 @@ def test_a_bad_description_table_is_named(tmp_path):
     path.write_text(text.replace("\n[drive]\nvoltage_limit_v = 12.0", "\n"))
     with pytest.raises(ValueError, match=r"\[drive\]"):
         RobotDescription.from_toml(path)
+
+
+def test_sensors_rebuilt_after_the_start_reach_fuzzynav_at_the_next_reset():
+    """A caller that rebuilds the simulation's sensors (the viewer does, for the noise)
+    briefs the controller with the sonars it now has, as before the description."""
+    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
+
+    sim = build_simulation("s1", "fuzzynav", perception="ultrasonic")
+    side = math.radians(30.0)
+    sim.sensors = RangeSensorArray(SensorConfig(mounts=HUSKY.with_sonar_side(side).mounts))
+    sim.reset()
+    assert [m[2] for m in sim.controller.memory.mounts] == [side, 0.0, -side]

@@ -560,7 +560,7 @@ class Simulation:
         )
         self.arena.reset(sc.start, sc.heading_rad, sc.target, sc.obstacles)
         self.sensors.reset(self.seed)
-        brief(self.controller, self.robot)
+        brief(self.controller, self.robot.with_mounts(self.sensors.config.mounts))
         self.controller.reset()
         self.x = np.zeros(6)
         self.outcome: str | None = None
