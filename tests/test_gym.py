@@ -1,0 +1,255 @@
+"""fuzzynav.gym: the single environment passes gymnasium's checker, the native vector
+environment is N single ones step for step (autoresets included), seeded resets repeat,
+and the batch engine's stepping form restarts runs in place as fresh runs (issue 40
+item 2, issue 36 item 3)."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+gym = pytest.importorskip("gymnasium")
+
+import fuzzynav.gym as fgym  # noqa: E402
+from fuzzynav.world.batch import run_batch  # noqa: E402
+from fuzzynav.world.batch_world import BatchWorld  # noqa: E402
+from fuzzynav.world.layouts import generate_layout  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Short episodes, so that a few hundred steps hold several autoresets.
+FAST = {"control_period_s": 0.1, "max_duration_s": 6.0}
+
+
+def test_importing_fuzzynav_does_not_import_gymnasium():
+    code = "import sys, fuzzynav, fuzzynav.api; print('gymnasium' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "False"
+
+
+@pytest.mark.parametrize("perception", ["ideal", "ultrasonic"])
+def test_check_env_passes(perception):
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(fgym.ENV_ID, perception=perception, render_mode="rgb_array", **FAST)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # infinite Box bounds are deliberate (docstring)
+        check_env(env.unwrapped)
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape[2] == 3 and frame.dtype == np.uint8
+    # the robot (blue) and the target (green) are drawn
+    assert ((frame == (40, 90, 200)).all(axis=2)).any()
+    assert ((frame == (40, 170, 60)).all(axis=2)).any()
+
+
+def test_seeded_reset_repeats_and_different_seeds_differ():
+    env = gym.make(fgym.ENV_ID, **FAST)
+    first, _ = env.reset(seed=11)
+    steps = [env.step(np.array([0.6, 0.4]))[0] for _ in range(20)]
+    again, _ = env.reset(seed=11)
+    assert np.array_equal(first, again)
+    assert np.array_equal(steps, [env.step(np.array([0.6, 0.4]))[0] for _ in range(20)])
+    others = {tuple(env.reset(seed=s)[0]) for s in range(12, 20)}
+    assert len(others) > 1  # the seed picks the layout
+
+
+@pytest.mark.parametrize("perception", ["ideal", "ultrasonic"])
+def test_vector_entry_point_equals_sync_step_for_step(perception):
+    n, steps = 6, 300
+    kwargs = {"perception": perception, "family": "clutter", **FAST}
+    native = gym.make_vec(
+        fgym.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kwargs
+    )
+    sync = gym.make_vec(fgym.ENV_ID, num_envs=n, vectorization_mode="sync", **kwargs)
+    assert isinstance(native, fgym.HuskyVectorEnv)
+    assert native.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    a_obs, _ = native.reset(seed=5)
+    b_obs, _ = sync.reset(seed=5)
+    assert np.abs(a_obs - b_obs).max() <= 1e-12
+    rng = np.random.default_rng(0)
+    ends = set()
+    for k in range(steps):
+        # towards the target, with noise: runs end every way
+        turn = 0.4 * a_obs[:, 2:3] * np.array([-1.0, 1.0])
+        actions = 0.6 + turn + rng.normal(0.0, 0.3, (n, 2))
+        a = native.step(actions)
+        b = sync.step(actions)
+        assert np.abs(a[0] - b[0]).max() <= 1e-12, k
+        a_obs = a[0]
+        assert np.abs(a[1] - b[1]).max() <= 1e-12, k
+        assert np.array_equal(a[2], b[2]) and np.array_equal(a[3], b[3]), k
+        assert a[4].keys() == b[4].keys(), k
+        for key in a[4]:
+            assert np.array_equal(a[4][key], b[4][key]), (k, key)
+        if "outcome" in a[4]:
+            ends.update(a[4]["outcome"][a[4]["_outcome"]].tolist())
+    # the run went through endings of more than one kind, and so through autoresets
+    assert len(ends) >= 2, ends
+    native.close()
+    sync.close()
+
+
+def test_vector_reset_mask_and_seeds():
+    envs = fgym.HuskyVectorEnv(num_envs=3, **FAST)
+    obs, _ = envs.reset(seed=[7, 8, 9])
+    single = fgym.HuskyEnv(**FAST)
+    for i, s in enumerate([7, 8, 9]):
+        assert np.array_equal(single.reset(seed=s)[0], obs[i])
+    envs.step(np.full((3, 2), 0.8))
+    mask = np.array([False, True, False])
+    again, _ = envs.reset(seed=[None, 8, None], options={"reset_mask": mask})
+    assert np.array_equal(again[1], obs[1])
+    assert not np.array_equal(again[0], obs[0])  # the others went on
+    with pytest.raises(ValueError, match="seed has 2 entries"):
+        envs.reset(seed=[1, 2])
+
+
+def test_a_run_restarted_in_place_is_the_run_alone():
+    """BatchWorld.restart: a run that starts at another run's step 37 is the run it
+    would be alone (its own clock, sonars and noise)."""
+    scs = [generate_layout("two_moving", 3, i).replace(duration_s=8.0) for i in range(3)]
+    kwargs = {"perception": "ultrasonic", "control_period_s": 0.05}
+
+    def drive(world, k):
+        inputs, ranges = world.observe()
+        return np.column_stack([6.0 - 3.0 * inputs[:, 2], 6.0 + 3.0 * inputs[:, 2]])
+
+    alone = BatchWorld(**kwargs)
+    alone.reset([scs[2]], seeds=[4])
+    seen_alone = []
+    for k in range(60):
+        seen_alone.append(alone.observe()[0][0].copy())
+        alone.step(drive(alone, k))
+    together = BatchWorld(**kwargs)
+    together.reset(scs[:2], seeds=[1, 2])
+    for k in range(37):
+        together.step(drive(together, k))
+    together.restart([1], [scs[2]], seeds=[4])
+    seen = []
+    for k in range(60):
+        seen.append(together.observe()[0][1].copy())
+        together.step(drive(together, k))
+    assert np.allclose(seen, seen_alone, rtol=0, atol=1e-12, equal_nan=True)
+    assert np.array_equal(np.isnan(seen), np.isnan(seen_alone))
+
+
+def test_run_batch_is_a_loop_over_the_stepping_form():
+    scs = [generate_layout("clutter", 2, i) for i in range(5)]
+
+    class Ahead:
+        def decide(self, inputs, runs, ranges_m):
+            return np.column_stack([8.0 - 4.0 * inputs[:, 2], 8.0 + 4.0 * inputs[:, 2]])
+
+    result = run_batch(scs, Ahead(), control_period_s=0.05)
+    world = BatchWorld(control_period_s=0.05)
+    world.reset(scs)
+    while world.runs.size:
+        inputs, ranges = world.observe()
+        world.step(Ahead().decide(inputs, world.runs, ranges))
+        world.drop_ended()
+    mine = world.result()
+    assert np.array_equal(mine.outcome, result.outcome)
+    assert np.array_equal(mine.path_length_m, result.path_length_m)
+    assert np.array_equal(mine.steps, result.steps)
+
+
+def test_the_paper_controller_through_the_vector_env_is_run_batch():
+    """Driving the paper controller through observations (controller_inputs) gives the
+    batch engine's own runs: the same endings after the same number of steps."""
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+
+    n, settings = 6, {"control_period_s": 0.1, "max_duration_s": 20.0, "family": "clutter"}
+    envs = fgym.HuskyVectorEnv(num_envs=n, **settings)
+    obs, _ = envs.reset(seed=3)
+    scenarios = list(envs._setup.world.scenarios)
+    controller = batch_controller(make_controller("paper"))
+    runs, ranges = np.arange(n), np.full((n, 3), np.inf)
+    outcome, steps = np.full(n, -1), np.zeros(n, dtype=int)
+    while (outcome < 0).any():
+        volts = controller.decide(fgym.controller_inputs(obs), runs, ranges)
+        obs, _, terminated, truncated, info = envs.step(volts / 12.0)
+        going = outcome < 0
+        steps += going
+        ended = going & (terminated | truncated)
+        if ended.any():
+            outcome[ended] = info["outcome"][ended]
+    reference = run_batch(
+        scenarios,
+        batch_controller(make_controller("paper")),
+        control_period_s=0.1,
+        max_duration_s=20.0,
+    )
+    assert np.array_equal(outcome, reference.outcome)
+    assert np.array_equal(steps, reference.steps)
+    assert len(set(outcome.tolist())) >= 2  # not all the same ending
+
+
+def test_controller_inputs_round_trip_the_observation():
+    env = fgym.HuskyEnv(family="clutter", **FAST)
+    obs, _ = env.reset(seed=2)
+    inputs = fgym.controller_inputs(obs)
+    world_inputs, _ = env._setup.world.observe()
+    assert np.array_equal(np.isnan(inputs), np.isnan(world_inputs))
+    assert np.allclose(inputs, world_inputs, equal_nan=True, rtol=0, atol=0)
+
+
+def test_bad_settings_are_refused_by_name():
+    with pytest.raises(ValueError, match="render_mode = 'human'"):
+        fgym.HuskyEnv(render_mode="human")
+    with pytest.raises(ValueError, match="layouts = "):
+        fgym.HuskyEnv(layouts=(5, 5))
+    with pytest.raises(ValueError, match="num_envs = 0"):
+        fgym.HuskyVectorEnv(num_envs=0)
+
+
+def test_the_docs_numbers_are_the_examples():
+    """docs/gym.md states what docs/examples/gym_random_search.py wrote."""
+    data = json.loads((ROOT / "docs" / "data" / "gym_random_search.json").read_text())
+    text = (ROOT / "docs" / "gym.md").read_text()
+    for row in data["rows"]:
+        line = next(li for li in text.splitlines() if li.startswith(f"| {row['policy']} |"))
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[1:] == [
+            f"{row['reached']}/{data['held_out']}",
+            f"{row['collided']}/{data['held_out']}",
+            f"{row['timeout']}/{data['held_out']}",
+            f"{row['mean_return']:.2f}",
+        ]
+    args, settings = data["args"], data["settings"]
+    stated = [
+        f"{args['population']}\ncandidates",
+        f"{args['layouts']} training layouts",
+        f"{args['population'] * args['layouts']}\nsub-environments",
+        f"{data['held_out']} held-out layouts",
+        f"a {settings['control_period_s']:g} s step",
+        f"at\nmost {settings['max_duration_s']:g} s",
+    ]
+    flat = re.sub(r"\s+", " ", text)
+    for phrase in stated:
+        assert re.sub(r"\s+", " ", phrase) in flat, phrase
+
+
+def test_the_example_runs_small(capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "gym_random_search", ROOT / "examples" / "gym_random_search.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(
+        ["--generations", "1", "--population", "3", "--elite", "2", "--layouts", "2",
+         "--held-out", "4"]
+    ) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "4 held-out layouts" in out
+    assert "| linear (CEM) |" in out and "| paper (fuzzy) |" in out
