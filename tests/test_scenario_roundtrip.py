@@ -143,3 +143,21 @@ def test_the_shipped_scenarios_and_layouts_write_as_before():
         for i in range(5):
             layout = generate_layout(family, 1, i)
             assert loads_scenario(layout.to_toml(), "layout") == layout
+
+
+def test_the_module_docstring_shows_every_key_of_the_format():
+    """The format's prose example (world/scenario.py's docstring) is a scenario that
+    loads, and it names every key the format has."""
+    import re
+
+    from fuzzynav.world import scenario as module
+
+    block = module.__doc__.split("::\n", 1)[1].split("\n\n", 1)[0]
+    text = re.sub(r"^    ", "", block, flags=re.M)
+    data = tomllib.loads(text)
+    scenario_from_dict(data, "docstring")
+    for table, keys in FORMAT:
+        held = data if table is None else data[table]
+        assert {key for key, _ in keys} - {"description"} <= set(held), table
+    assert set(data["obstacles"][0]) == {f.name for f in dataclasses.fields(ObstacleSpec)}
+    assert set(data["disturbance"]) == {f.name for f in dataclasses.fields(Disturbance)}
