@@ -45,7 +45,8 @@ def load_parts(path: str | Path = PARTS_PATH) -> tuple[Part, ...]:
     entries = data.get("part")
     if not isinstance(entries, list) or not entries:
         raise ValueError(f"{path}: needs at least one [[part]] table")
-    parts, owner = [], {}
+    parts: list = []
+    owner: dict = {}
     for k, entry in enumerate(entries):
         where = f"{path}: part[{k}]"
         extra = sorted(set(entry) - set(_KEYS))

@@ -85,8 +85,8 @@ class Tracker:
         self.lose()
         # The target as placed by its readings (tracker frame), and a doubted reading
         # that keeps still (the target moved?) and for how long.
-        self.target_est = None
-        self.target_candidate = None
+        self.target_est: tuple[float, float] | None = None
+        self.target_candidate: tuple[float, float] | None = None
         self.target_candidate_s = 0.0
         self.target_doubted = False
 
@@ -103,7 +103,7 @@ class Tracker:
 
     def lose(self) -> None:
         """No nearest obstacle (or a doubted one): the track restarts at the next."""
-        self.obs_centre = None  # (x, y): estimated centre of the nearest obstacle
+        self.obs_centre: tuple[float, float] | None = None  # estimated nearest centre
         self.obs_vel = (0.0, 0.0)  # its estimated velocity (m/s)
         self.obs_sightings = 0  # consecutive consistent sightings
 
@@ -118,7 +118,9 @@ class Tracker:
             vx, vy = self.obs_vel
             if vx * vx + vy * vy > p["dodge_min_speed_mps"] ** 2:
                 tp = self.track_pose
-                rel = (self.obs_centre[0] - tp[0], self.obs_centre[1] - tp[1])
+                centre = self.obs_centre
+                assert centre is not None  # seen: obs_sightings > 0
+                rel = (centre[0] - tp[0], centre[1] - tp[1])
                 commanded = speed
                 speed = dodge_speed(
                     speed, rel, (vx, vy), tp[2], p["dodge_horizon_s"], p["dodge_safe_m"]

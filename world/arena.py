@@ -32,7 +32,8 @@ clearance (to within :data:`SWEEP_SPACING_M`), not only the one at the step ends
 Speed: the control loop runs tens of thousands of steps per second, where every
 pymunk property read builds a ``Vec2d`` and every tiny numpy call costs a microsecond
 or more. So the hot path talks to the same Chipmunk functions pymunk's properties call,
-through pymunk's own cffi binding (:data:`_cp`), and keeps the per-step scene (obstacle
+through pymunk's own cffi binding (:mod:`world.compat_pymunk`, checked against the
+pymunk version it was written for), and keeps the per-step scene (obstacle
 centres and clearances) as plain floats, computed once per step and shared by the
 perception, the sensors' prefilter and the log. The public methods return exactly the
 numbers they returned before.
@@ -48,35 +49,16 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
+from fuzzynav.world import compat_pymunk as _compat
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
-try:  # pymunk's own cffi binding of Chipmunk: the calls its properties make, minus Vec2d.
-    from pymunk._chipmunk import ffi as _ffi
-    from pymunk._chipmunk import lib as _cp
-except ImportError:  # pragma: no cover - a pymunk without it takes the public-API path
-    _ffi = _cp = None
-else:  # looking a function up on the cffi lib costs as much as a short call
-    _cpBodyGetAngle = _cp.cpBodyGetAngle
-    _cpBodyGetPosition = _cp.cpBodyGetPosition
-    _cpBodySetAngularVelocity = _cp.cpBodySetAngularVelocity
-    _cpBodySetPosition = _cp.cpBodySetPosition
-    _cpBodySetVelocity = _cp.cpBodySetVelocity
-    _cpSpaceSegmentQueryFirst = _cp.cpSpaceSegmentQueryFirst
-    _cpSpaceStep = _cp.cpSpaceStep
-
-# Space.step's own bookkeeping, which _step_space repeats around the bare Chipmunk step;
-# checked against the pymunk it was written for (7.x), else Space.step is called.
-_SPACE_STEP_STATE = (
-    "_locked",
-    "_removed_shapes",
-    "_add_later",
-    "_remove_later",
-    "_post_step_callbacks",
-    "_bodies_to_check",
-    "threaded",
-)
-_FAST_SPACE_STEP = _cp is not None and pymunk.version.split(".")[0] == "7"
+# Chipmunk's functions for the hot path (None without it: the public API is used)
+_cpBodyGetAngle = _compat.cpBodyGetAngle
+_cpBodyGetPosition = _compat.cpBodyGetPosition
+_cpBodySetAngularVelocity = _compat.cpBodySetAngularVelocity
+_cpBodySetPosition = _compat.cpBodySetPosition
+_cpBodySetVelocity = _compat.cpBodySetVelocity
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
@@ -224,6 +206,7 @@ class Arena:
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.space = pymunk.Space()
         self.robot = pymunk.Body(mass_kg, inertia_kg_m2)
+        self.robot_shape: pymunk.Shape
         if self.footprint_m == (0.0, 0.0):
             # A point has no pymunk shape; a circle far below any obstacle's size reports
             # the moment the centre reaches a disc (to within its 0.1 mm radius).
@@ -239,13 +222,9 @@ class Arena:
         self.robot_shape.filter = pymunk.ShapeFilter(categories=ROBOT_CATEGORY)
         self.space.add(self.robot, self.robot_shape)
         # Chipmunk pointers for the hot path, when this pymunk exposes them.
-        self._robot_ptr = getattr(self.robot, "_body", None) if _cp is not None else None
-        self._space_ptr = getattr(self.space, "_space", None) if _cp is not None else None
-        self._fast_space_step = (
-            _FAST_SPACE_STEP
-            and self._space_ptr is not None
-            and all(hasattr(self.space, a) for a in _SPACE_STEP_STATE)
-        )
+        self._robot_ptr = _compat.body_pointer(self.robot)
+        self._space_ptr = _compat.space_pointer(self.space)
+        self._fast_space_step = _compat.can_step_fast(self.space)
         self._pose = (0.0, 0.0, 0.0)
         self.space.on_collision(
             ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE, begin=self._on_contact
@@ -306,7 +285,7 @@ class Arena:
         self._scene_ids = [o.id for o in self._scene_obstacles]
         self._scene_radii = [o.radius_m for o in self._scene_obstacles]
         self._moving = [
-            (i, o, getattr(o.body, "_body", None) if _cp is not None else None)
+            (i, o, _compat.body_pointer(o.body))
             for i, o in enumerate(self._scene_obstacles)
             if not o.is_static
         ]
@@ -370,8 +349,8 @@ class Arena:
                 self._static_xy = (xy, [v for point in xy for v in point])
             xy, xy_flat = self._static_xy
             if self._any_moving:
-                cached = self._moving_xy
-                cached = cached[1] if cached is not None and cached[0] == time_s else None
+                moved = self._moving_xy
+                cached = moved[1] if moved is not None and moved[0] == time_s else None
                 xy, xy_flat = list(xy), list(xy_flat)
                 for j, (i, obstacle, _) in enumerate(self._moving):
                     point = cached[j] if cached is not None else obstacle._xy_at(time_s)
@@ -401,9 +380,8 @@ class Arena:
         Returns a list of ``(x, y, radius)`` (empty when nothing is in reach), or None
         when the space holds shapes the arena does not know (then ask pymunk).
         """
-        space = self.space
-        shapes = getattr(space, "_shapes", None)
-        if shapes is None or len(shapes) != len(self.obstacles) + 1:
+        count = _compat.shape_count(self.space)
+        if count is None or count != len(self.obstacles) + 1:
             return None
         scene = self._scene()
         x, y, _ = self._pose
@@ -462,8 +440,8 @@ class Arena:
             # Kinematic bodies move by their velocity; give them the chord of the step
             # so the position at t_next matches the law exactly.
             # (Plain loops: a comprehension costs a function call in Python 3.11.)
-            cached = self._moving_xy
-            cached = cached[1] if cached is not None and cached[0] == t_now else None
+            moved = self._moving_xy
+            cached = moved[1] if moved is not None and moved[0] == t_now else None
             after = []
             for j, (_, obstacle, body_ptr) in enumerate(moving):
                 x0, y0 = cached[j] if cached is not None else obstacle._xy_at(t_now)
@@ -593,33 +571,12 @@ class Arena:
         return outside + np.minimum(np.maximum(qx, qy), 0.0) - obstacle.radius_m
 
     def _step_space(self, dt_s: float) -> None:
-        """``self.space.step(dt_s)``: the same Chipmunk step (collision detection and the
-        contact callback included) with pymunk's bookkeeping around it, minus ~1.5 us
-        of Python per call. Anything unusual takes ``Space.step`` itself."""
-        space = self.space
-        if not self._fast_space_step or space._bodies_to_check or space.threaded:
-            space.step(dt_s)
-            return
-        space._locked = True  # adds and removes from callbacks wait, as in Space.step
-        try:
-            _cpSpaceStep(self._space_ptr, dt_s)
-            space._removed_shapes.clear()
-        finally:
-            space._locked = False
-        if space._add_later or space._remove_later or space._post_step_callbacks:
-            # Queued during the step: finish as Space.step does, with the public API.
-            added = list(space._add_later)
-            space._add_later.clear()
-            space.add(*added)
-            removed = set()
-            while space._remove_later:
-                obj, _ = space._remove_later.popitem()
-                if obj not in removed:
-                    removed.add(obj)
-                    space.remove(obj)
-            for key in list(space._post_step_callbacks):
-                space._post_step_callbacks[key](space)
-            space._post_step_callbacks.clear()
+        """``self.space.step(dt_s)``, through :func:`world.compat_pymunk.step_space`
+        when this pymunk allows it."""
+        if self._fast_space_step:
+            _compat.step_space(self.space, self._space_ptr, dt_s)
+        else:
+            self.space.step(dt_s)
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         robot_shape, other = arbiter.shapes
@@ -629,7 +586,7 @@ class Arena:
         if obstacle_id in self._touching:
             return  # a touch the contact rule counted at the last step's end, deepening
         p = self.robot.position
-        q = other.body.position
+        q = other.body.position  # type: ignore[union-attr]  # an obstacle's shape has a body
         self.collisions.append(
             Collision(self.time_s + space.current_time_step, obstacle_id, (p.x, p.y), (q.x, q.y))
         )

@@ -84,6 +84,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from fuzzynav.resources import InputError, asset_path, loads_user_toml, read_user_text, shown
+from fuzzynav.world import compat_numpy
 
 __all__ = [
     "DEFAULT_PARAMETER_FILE",
@@ -590,14 +591,7 @@ def zoh_discretise(A: np.ndarray, B: np.ndarray, dt_s: float) -> DiscreteHusky:
     )
 
 
-try:  # np.einsum without its Python wrapper (5 us of a 8 us call on one row): the same
-    # function np.einsum calls for two operands without optimize, so the same bits
-    from numpy._core._multiarray_umath import c_einsum as _einsum
-except ImportError:  # pragma: no cover - numpy < 2 keeps it in numpy.core
-    try:
-        from numpy.core._multiarray_umath import c_einsum as _einsum
-    except ImportError:
-        _einsum = np.einsum
+_einsum = compat_numpy.einsum  # np.einsum's C function (world/compat_numpy.py)
 
 
 def step_product(step_matrix: np.ndarray, z: np.ndarray) -> np.ndarray:

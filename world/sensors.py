@@ -27,15 +27,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pymunk
 
-from fuzzynav.world.arena import RAY_FILTER, Arena, _cp, _ffi
+from fuzzynav.world.arena import RAY_FILTER, Arena
+from fuzzynav.world.compat_pymunk import FAST as _FAST
+from fuzzynav.world.compat_pymunk import cpSpaceSegmentQueryFirst as _cpSpaceSegmentQueryFirst
+from fuzzynav.world.compat_pymunk import ffi as _ffi
 from fuzzynav.world.robot import HUSKY, SensorMount, sonar_mounts
-
-if _cp is not None:
-    from fuzzynav.world.arena import _cpSpaceSegmentQueryFirst
 
 # Slack on the prefilter's distances and angles, far above the rounding of the centres
 # and directions it compares: it may let a ray through that misses, never the reverse.
@@ -125,9 +126,9 @@ class RangeSensorArray:
         self.config = config or SensorConfig()
         self._offsets = [float(a) for a in self.config.ray_offsets_rad()]
         self._spread = max(abs(a) for a in self._offsets)  # rays' largest angle off centre
-        self._constants_for = None
-        self._info = _ffi.new("cpSegmentQueryInfo *") if _ffi is not None else None
-        self._filter = _ffi.new("cpShapeFilter *", RAY_FILTER)[0] if _ffi is not None else None
+        self._constants_for: SensorConfig | None = None
+        self._info = _ffi.new("cpSegmentQueryInfo *") if _FAST else None
+        self._filter = _ffi.new("cpShapeFilter *", RAY_FILTER)[0] if _FAST else None
         self.reset(seed)
 
     def reset(self, seed: int | None = None) -> None:
@@ -187,7 +188,8 @@ class RangeSensorArray:
             self._store([math.inf] * n, None)
             return
         space_ptr = getattr(arena, "_space_ptr", None)
-        info, shape_filter = self._info, self._filter
+        info: Any = self._info  # a cffi cpSegmentQueryInfo *, or None without the fast path
+        shape_filter = self._filter
         fast = space_ptr is not None and info is not None
         max_range = cfg.max_range_m
         offsets = self._offsets
