@@ -112,7 +112,8 @@ class _LogSums:
         self.min_clearance_m: float | None = None
         self.max_abs_voltage_v = 0.0
         self.voltage_jumps = 0
-        self._last_voltage: tuple[float, np.ndarray] | None = None  # the last finite (time, voltages) row seen
+        # the last finite (time, voltages) row seen
+        self._last_voltage: tuple[float, np.ndarray] | None = None
 
     @property
     def mad_m(self) -> float:
