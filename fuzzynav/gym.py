@@ -76,28 +76,24 @@ class _Setup:
         control_period_s: float,
         max_duration_s: float | None,
     ):
+        self.scenarios: list[Scenario] | None = None
         if scenarios is not None:
             self.scenarios = [load_scenario(sc) if isinstance(sc, str) else sc for sc in scenarios]
             if not self.scenarios:
                 raise ValueError("scenarios: the list is empty")
         else:
-            self.scenarios = None
             low, high = (int(v) for v in layouts)
             if not 0 <= low < high:
                 raise ValueError(f"layouts = {layouts!r}: must be (first, stop) with first < stop")
             generate_layout(family, layout_seed, low)  # a bad family fails here
         self.family, self.layout_seed, self.layouts = family, int(layout_seed), layouts
-        self.settings = {
-            "perception": perception,
-            "geometry": geometry,
-            "control_period_s": control_period_s,
-            "max_duration_s": max_duration_s,
-        }
-        self.world = self.new_world()
+        self.world = BatchWorld(
+            perception=perception,
+            geometry=geometry,
+            control_period_s=control_period_s,
+            max_duration_s=max_duration_s,
+        )
         self.limit = self.world.limit
-
-    def new_world(self) -> BatchWorld:
-        return BatchWorld(**self.settings)
 
     def draw(self, rng: np.random.Generator) -> tuple[Scenario, int]:
         """A reset's scenario and sonar seed, from the environment's generator."""

@@ -146,6 +146,26 @@ class BatchMetrics:
         Keep every logged pose of every run.
     """
 
+    # the accumulators, (N,) each (set from _SCALARS), and the trace's
+    outcome: np.ndarray
+    collided: np.ndarray
+    sim_time: np.ndarray
+    steps_done: np.ndarray
+    path_sum: np.ndarray
+    dev_abs: np.ndarray
+    dev_sq: np.ndarray
+    rows: np.ndarray
+    min_centre: np.ndarray
+    min_clear: np.ndarray
+    max_abs_v: np.ndarray
+    jumps: np.ndarray
+    min_target: np.ndarray
+    final_target: np.ndarray
+    final_phi_t: np.ndarray
+    pass_d: np.ndarray
+    pass_t: np.ndarray
+    max_v: np.ndarray
+
     def __init__(self, n_runs: int, n_columns: int, trace: bool, record_poses: bool):
         self.n_runs = n_runs
         self.trace = trace

@@ -141,6 +141,37 @@ class BatchState:
         Sonars per robot.
     """
 
+    # the arrays, (n, ...) each; set in __init__ from the tables above
+    run: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    h: np.ndarray
+    t: np.ndarray
+    lg: np.ndarray
+    law: np.ndarray
+    target: np.ndarray
+    start: np.ndarray
+    seg: np.ndarray
+    seg_len2: np.ndarray
+    disturbance: np.ndarray
+    timeout_at_s: np.ndarray
+    tolerance: np.ndarray
+    half_field: np.ndarray
+    ranges: np.ndarray
+    next_update: np.ndarray
+    prev_v: np.ndarray
+    best: np.ndarray
+    best_t: np.ndarray
+    has_window: np.ndarray
+    radius: np.ndarray
+    present: np.ndarray
+    moving: np.ndarray
+    clear: np.ndarray
+    cx: np.ndarray
+    cy: np.ndarray
+    sx: np.ndarray
+    sy: np.ndarray
+
     def __init__(self, n_runs: int, n_columns: int, n_sensors: int):
         n, m = n_runs, n_columns
         self.n_columns = m

@@ -83,6 +83,12 @@ class BatchWorld:
         Keep every logged pose (for tests and small batches).
     """
 
+    #: The runs' arrays and metrics (from :meth:`reset` on).
+    s: BatchState
+    metrics: BatchMetrics
+    _inputs: np.ndarray | None
+    _ended: np.ndarray | None
+
     def __init__(
         self,
         *,
@@ -135,7 +141,6 @@ class BatchWorld:
         )
         self.update_period_s = 1.0 / config.update_rate_hz
         self._noisy = self.ultrasonic and config.noise_std_m > 0
-        self.s: BatchState | None = None
 
     # -- lifecycle ---------------------------------------------------------------------
 
