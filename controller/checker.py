@@ -18,7 +18,6 @@ import numpy as np
 
 from fuzzynav.controller.interface import (
     BatchController,
-    MountAwareController,
     PartsController,
     RuleBlocksController,
     capabilities,
@@ -98,13 +97,13 @@ def check_controller(controller: Any) -> frozenset[str]:
     if problems:
         raise ControllerCheckError(f"controller {label!r}: " + "; ".join(problems))
     caps = capabilities(controller)
-    if isinstance(controller, MountAwareController) and controller.needs_sensor_mounts:
-        from fuzzynav.world.sensors import default_mounts
+    if "robot" in caps or "sensor_mounts" in caps:
+        from fuzzynav.world.robot import HUSKY, brief
 
         try:
-            controller.set_sensor_mounts(default_mounts())
+            brief(controller, HUSKY)  # as the simulation tells it before each start
         except Exception as exc:  # noqa: BLE001 - reported, with its type
-            problems.append(f"set_sensor_mounts(default mounts) raised {exc!r}")
+            problems.append(f"set_robot/set_sensor_mounts (the Husky) raised {exc!r}")
     first = second = None
     try:
         controller.reset()

@@ -21,6 +21,9 @@ declared by the attributes below, never guessed:
   ``ranges_m=`` (the three sonar readings, m, inf = nothing in range);
 - :class:`MountAwareController`: ``needs_sensor_mounts = True`` and
   ``set_sensor_mounts(mounts)``, called before each run with the robot's sonars;
+- :class:`RobotAwareController`: ``needs_robot = True`` and ``set_robot(robot)``, called
+  before each run with the whole :class:`~fuzzynav.world.robot.RobotDescription`
+  (its footprint, mounts, voltage limit);
 - :class:`RuleBlocksController`: ``rule_blocks()``, its fuzzy systems by name (what
   ``fuzzynav fis export`` writes and the viewer shows);
 - :class:`PartsController`: ``parts_off`` and ``set_parts_off(names)`` (``--off``);
@@ -48,6 +51,7 @@ __all__ = [
     "Controller",
     "RangeController",
     "MountAwareController",
+    "RobotAwareController",
     "RuleBlocksController",
     "PartsController",
     "FuzzyController",
@@ -92,6 +96,16 @@ class MountAwareController(Protocol):
 
     def set_sensor_mounts(self, sensor_mounts: Sequence[Any]) -> None:
         """Take the robot's :class:`~fuzzynav.world.sensors.SensorMount` s."""
+
+
+@runtime_checkable
+class RobotAwareController(Protocol):
+    """Knows the robot it drives: given its description before each run."""
+
+    needs_robot: bool
+
+    def set_robot(self, robot: Any) -> None:
+        """Take the robot's :class:`~fuzzynav.world.robot.RobotDescription`."""
 
 
 @runtime_checkable
@@ -183,6 +197,8 @@ def capabilities(controller: object) -> frozenset[str]:
         found.add("ranges")
     if isinstance(controller, MountAwareController) and controller.needs_sensor_mounts:
         found.add("sensor_mounts")
+    if isinstance(controller, RobotAwareController) and controller.needs_robot:
+        found.add("robot")
     if isinstance(controller, RuleBlocksController):
         found.add("rule_blocks")
     if isinstance(controller, PartsController):
