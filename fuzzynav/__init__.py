@@ -39,6 +39,7 @@ if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
         serve,
         simulate,
         sweep,
+        tune,
         write_fis,
     )
 
@@ -52,6 +53,7 @@ __all__ = [
     "simulate",
     "sweep",
     "serve",
+    "tune",
     "load_scenario",
     "make_controller",
     "register_controller",

@@ -19,6 +19,7 @@ Functions
 simulate        one run of a scenario; a :class:`Run`
 sweep           seeded random layouts, or your scenarios; one row (a dict) per run
 serve           the viewer, in this process
+tune            a controller's design numbers against a cost of your own (CMA-ES)
 load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
 make_controller a controller by name (``"paper"``, ``"fuzzynav"``, ...) or a ``.fis`` file
 register_controller  offer a controller of your own everywhere (``--controller``, sweeps, the viewer)
@@ -54,6 +55,7 @@ __all__ = [
     "simulate",
     "sweep",
     "serve",
+    "tune",
     "load_scenario",
     "make_controller",
     "register_controller",
@@ -435,7 +437,7 @@ def _study_runner(kind, workers, scheduler, out, resume, jobs):
     """(executor, result log or None) for a study from Python, closed after it."""
     from fuzzynav.app.experiments.executor import make_executor
     from fuzzynav.app.experiments.resultlog import ResultLog
-    from fuzzynav.app.experiments.studies import check_row, describe_row, row_key
+    from fuzzynav.app.experiments.rows import check_row, describe_row, row_key
     from fuzzynav.safe_files import check_output_path
 
     if resume and out is None:
@@ -509,6 +511,65 @@ def serve(
         geometry=geometry,
         classroom=classroom,
         lesson=lesson,
+    )
+
+
+def tune(
+    cost: Callable[[object], float],
+    controller: str | object = "paper",
+    *,
+    generations: int = 10,
+    x0: Sequence[float] | None = None,
+    progress: Callable[[int, float], None] | None = None,
+    sigma0: float = 0.2,
+    popsize: int = 12,
+    seed: int = 0,
+):
+    """Minimise ``cost(controller)`` over a controller's design numbers (CMA-ES).
+
+    The search space is ``fuzzynav tune``'s: for the paper controller the 12 numbers of
+    its design layout, whose bounds keep every design rule; a start outside the bounds
+    is projected onto them. For ask/tell control, use
+    :class:`fuzzynav.app.experiments.design_search.DesignSearch`.
+
+    Parameters
+    ----------
+    cost : callable
+        ``cost(controller) -> float`` for each candidate's fresh controller (lower is
+        better; NaN and inf count as worst): a run, a sweep, a few inputs...
+    controller : str or Tunable
+        A registered controller with design numbers (``"paper"``, ``"fuzzynav"``) or a
+        :class:`fuzzynav.controller.tuning.Tunable`.
+    generations : int
+        Generations of the search.
+    x0 : sequence of float, optional
+        Where to start; default the layout's own start.
+    progress : callable, optional
+        ``progress(generation, best cost)`` after each generation.
+    sigma0 : float
+        The first step, a fraction of each number's span (1e-6 to 1).
+    popsize : int
+        Candidates per generation (4 to 10,000).
+    seed : int
+        Seeds every draw: the same arguments give the same result.
+
+    Returns
+    -------
+    TuneResult
+        ``.vector``, ``.cost``, ``.controller`` (built from the vector),
+        ``.parameter_names``, ``.history`` (the best cost after each generation).
+    """
+    from fuzzynav.app.experiments.design_search import tune as run_search
+
+    return run_search(
+        cost,
+        controller,
+        generations=generations,
+        x0=x0,
+        progress=progress,
+        sigma0=sigma0,
+        popsize=popsize,
+        seed=seed,
     )
 
 
