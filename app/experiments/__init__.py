@@ -5,6 +5,7 @@
 - :mod:`.compare`     ``compare``: Table 4 on the paper's scenarios, beside the paper;
 - :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
 - :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
+- :mod:`.search`      ``tune``'s search: DE, CMA-ES or a local search over the objective;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
 - :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;

@@ -1,6 +1,7 @@
 """``fuzzynav tune``: seeded differential evolution of a controller's membership functions.
 
-The cost of a parameter vector, and the runs it is made of, are :mod:`.objective`'s.
+The cost of a parameter vector, and the runs it is made of, are :mod:`.objective`'s; the
+search itself (:func:`tune`) is :mod:`.search`'s.
 
 ``--method de`` (the default): ``scipy.optimize.differential_evolution`` runs with a fixed
 seed, ``updating="deferred"``, ``polish=False`` and the starting vector in its initial
@@ -42,13 +43,10 @@ from fuzzynav.app.experiments.objective import (
     CLEARANCE_MARGIN_M,
     CLEARANCE_WEIGHT,
     SAFE_CLEARANCE_M,
-    STALL_S,
-    Case,
-    Objective,
     build_cases,
-    outcome_cost,
     run_until_stalled,  # noqa: F401  (paper_fit's run_once imports it from here)
 )
+from fuzzynav.app.experiments.search import tune
 from fuzzynav.app.provenance import reproduce_line, shell_command
 from fuzzynav.resources import escape_controls
 from fuzzynav.safe_files import write_text_atomically
@@ -124,151 +122,6 @@ def free_indices(names: list[str], prefixes) -> list[int] | None:
     return idx
 
 
-def tune(
-    tunable,
-    cases: list[Case],
-    *,
-    maxiter: int,
-    popsize: int = 1,
-    seed: int = 0,
-    workers: int = 1,
-    executor=None,
-    on_generation=None,
-    x0=None,
-    control_period_s: float = 0.05,
-    method: str = "de",
-    free=None,
-    radius: float | None = None,
-    clearance_weight: float = CLEARANCE_WEIGHT,
-    on_evaluation=None,
-    sigma0: float = 0.15,
-    engine: str = "pymunk",
-    on_fallback=None,
-):
-    """Minimise the cost (module docstring); returns scipy's OptimizeResult with ``.x`` the
-    tunable's WHOLE vector (also when ``free`` restricts the search), ``.fun``, ``.nfev``,
-    ``.nit``. ``on_generation(step, best cost, best vector)`` is called after every DE
-    generation or local-search iteration; ``on_evaluation(count, best cost so far)`` after
-    every candidate of a local search (one process: Powell's iterations are long).
-    ``executor`` (:mod:`app.experiments.executor`): where DE evaluates its population (a local
-    search is sequential and runs here); without one, ``workers > 1`` is a local pool.
-    ``engine="batch"``: DE and CMA-ES run each generation's candidates x cases as
-    batches (:func:`app.experiments.batch_runs.batch_mapper`); a tunable whose controller cannot be
-    batched uses the pymunk engine, and ``on_fallback(message)`` is told."""
-    from scipy.optimize import Bounds, OptimizeResult, differential_evolution, minimize
-
-    all_bounds = np.asarray(tunable.bounds(), float)
-    x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
-    x0 = np.clip(x0, all_bounds[:, 0], all_bounds[:, 1])
-    objective = Objective(
-        tunable,
-        cases,
-        control_period_s,
-        clearance_weight,
-        base=x0 if free is not None else None,
-        free=free,
-    )
-    sel = np.arange(len(x0)) if free is None else np.asarray(free, int)
-    lo, hi = all_bounds[sel, 0], all_bounds[sel, 1]
-    if radius is not None:
-        span = radius * (hi - lo)
-        lo, hi = np.maximum(lo, x0[sel] - span), np.minimum(hi, x0[sel] + span)
-    # A start on a bound can round to just outside it in scipy's [0, 1] scaling.
-    margin = 1e-9 * (hi - lo)
-    start = np.clip(x0[sel], lo + margin, hi - margin)
-    generation = [0]
-    batched = None
-    if engine == "batch" and method in ("de", "cmaes"):
-        from fuzzynav.app.experiments.batch_runs import batch_mapper
-
-        stall_s = getattr(tunable, "stall_cutoff_s", STALL_S)
-        batched, reason = batch_mapper(objective, start, executor, outcome_cost, stall_s)
-        if batched is None and on_fallback is not None:
-            on_fallback(reason)
-
-    def callback(intermediate_result):
-        generation[0] += 1
-        if on_generation is not None:
-            on_generation(
-                generation[0], float(intermediate_result.fun), objective.full(intermediate_result.x)
-            )
-
-    if method == "de":
-        kwargs = dict(
-            bounds=list(zip(lo, hi)),
-            x0=start,
-            seed=seed,
-            maxiter=maxiter,
-            popsize=popsize,
-            updating="deferred",
-            polish=False,
-            tol=0.0,
-            callback=callback,
-        )
-        if batched is not None:
-            result = differential_evolution(objective, workers=batched, **kwargs)
-        elif executor is None and workers > 1:
-            from fuzzynav.app.experiments.executor import LocalExecutor
-
-            with LocalExecutor(workers) as pool:
-                result = differential_evolution(objective, workers=pool.map, **kwargs)
-        elif executor is not None and executor.kind != "serial":
-            # the population of a generation, mapped in order: the same result anywhere
-            result = differential_evolution(objective, workers=executor.map, **kwargs)
-        else:
-            result = differential_evolution(objective, **kwargs)
-    elif method in ("nelder-mead", "powell"):
-        options = (
-            {"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6}
-            if method == "nelder-mead"
-            else {"maxiter": maxiter, "xtol": 1e-4, "ftol": 1e-6}
-        )
-        seen = [0, math.inf]
-
-        def counted(vector):
-            cost = objective(vector)
-            seen[0], seen[1] = seen[0] + 1, min(seen[1], cost)
-            if on_evaluation is not None:
-                on_evaluation(seen[0], seen[1])
-            return cost
-
-        result = minimize(
-            counted, start, method=method, bounds=Bounds(lo, hi), options=options, callback=callback
-        )
-    elif method == "cmaes":
-        from fuzzynav.app.experiments.evolution import cmaes
-
-        def report(k, best_f, best_x, sigma):
-            generation[0] = k
-            if on_generation is not None:
-                on_generation(k, best_f, objective.full(best_x))
-
-        if batched is not None:
-            mapper = batched
-        elif executor is not None and executor.kind != "serial":
-            mapper = executor.map
-        else:
-
-            def mapper(f, xs):
-                return [f(x) for x in xs]
-
-        x, fun, nit, nfev = cmaes(
-            objective, list(zip(lo, hi)), start, sigma0, maxiter, popsize, seed, mapper, report
-        )
-        # CMA-ES returns its best candidate, never the start itself: a polish from a
-        # sharp optimum could otherwise hand back something worse than it was given.
-        start_cost = float(objective(start) if batched is None else batched(None, [start])[0])
-        if start_cost <= fun:
-            x, fun = start.copy(), start_cost
-        result = OptimizeResult(x=x, fun=fun, nit=nit, nfev=nfev + 1)
-    else:
-        raise ValueError(f"method = {method!r}: must be de, cmaes, nelder-mead or powell")
-    result.x = objective.full(result.x)
-    result.fun = float(result.fun)
-    result.nit = int(getattr(result, "nit", generation[0]))
-    return result
-
-
 def check_output_file(path: Path, option: str, inputs=(), *, replace: bool = True) -> Path:
     """Refuse (UsageError) an output path that cannot be written: a directory, a
     missing or read-only folder, a device or pipe, a file inside the installed package,
@@ -303,16 +156,21 @@ def check_output_file(path: Path, option: str, inputs=(), *, replace: bool = Tru
 
 
 def add_commands(subparsers) -> None:
-    from fuzzynav.app.experiments.evolution import add_sigma_option
-    from fuzzynav.app.experiments.executor import add_executor_options
-    from fuzzynav.world.perception import PERCEPTION_MODES
-    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
-
     p = subparsers.add_parser(
         "tune", help="tune a controller's membership functions (differential evolution)"
     )
+    _add_study_options(p)
+    _add_search_options(p)
+    _add_output_options(p)
+    p.set_defaults(func=cmd_tune)
+
+
+def _add_study_options(p) -> None:
+    """What is tuned, and on which runs: --controller, --scenarios, --layouts, --n,
+    --layout-seed, --perception."""
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.layouts import FAMILIES
+    from fuzzynav.world.perception import PERCEPTION_MODES
 
     p.add_argument(
         "--controller",
@@ -343,6 +201,16 @@ def add_commands(subparsers) -> None:
         default=["ideal", "ultrasonic"],
         help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
     )
+
+
+def _add_search_options(p) -> None:
+    """How the search runs (:mod:`.search`): --maxiter, --popsize, the executor and the
+    engine, --seed, --method, --sigma, --x0, --free, --radius, --clearance-weight, --dt."""
+    from fuzzynav.app.experiments.batch_runs import add_engine_option
+    from fuzzynav.app.experiments.evolution import add_sigma_option
+    from fuzzynav.app.experiments.executor import add_executor_options
+    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+
     p.add_argument(
         "--maxiter",
         type=integer_in(1, 100_000),
@@ -358,8 +226,6 @@ def add_commands(subparsers) -> None:
         help="population = popsize x parameters (default 4)",
     )
     add_executor_options(p)
-    from fuzzynav.app.experiments.batch_runs import add_engine_option
-
     add_engine_option(p)
     p.add_argument("--seed", type=seed_type, default=0, help="seed of the optimiser (default 0)")
     p.add_argument(
@@ -410,6 +276,10 @@ def add_commands(subparsers) -> None:
         "paper: the plant is exact at any step, runs are checked at 0.02 s "
         "afterwards; fuzzynav's memory counts control calls, so only 0.02 s)",
     )
+
+
+def _add_output_options(p) -> None:
+    """What it writes: --out, --force, --checkpoint, --json."""
     p.add_argument(
         "--out",
         type=Path,
@@ -428,20 +298,11 @@ def add_commands(subparsers) -> None:
         help="write the best vector so far to this file after every generation",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object at the end")
-    p.set_defaults(func=cmd_tune)
 
 
-def cmd_tune(args) -> int:
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    from fuzzynav.app.experiments.executor import SerialExecutor, executor_from_args
+def _checked_options(args):
+    """``(tunable, its parameter names, x0, free)`` of ``args`` once every option that can be checked before
+    the tuning is (UsageError otherwise); fills in the defaults of ``--out`` and ``--dt``."""
     from fuzzynav.controller.tuning import tunable as get_tunable
     from fuzzynav.world.perception import PERCEPTION_MODES
 
@@ -482,18 +343,41 @@ def cmd_tune(args) -> int:
         free = free_indices(names, args.free)
     except (OSError, ValueError) as exc:
         raise UsageError(str(exc)) from None
-    cases = build_cases(args.scenarios, args.perception, args.layouts, args.n, args.layout_seed)
-    console = Console(stderr=True)
-    command = reproduce_command(args)
-    n_free = len(names) if free is None else len(free)
-    console.print(
-        f"tuning {t.name} ({args.method}): {n_free} of {len(names)} parameters, "
-        f"{len(cases)} runs per candidate"
-        + (f", population {args.popsize * n_free}" if args.method == "de" else "")
+    return t, names, x0, free
+
+
+def _write_checkpoint(console, path: Path, x, step: str, gen: int) -> None:
+    """The best vector so far, in case the run must be cut short; a warning (and the
+    tuning goes on) when it cannot be written."""
+    try:  # whole or not at all: the last good checkpoint survives a full disk
+        write_text_atomically(path, " ".join(repr(float(v)) for v in x) + "\n")
+    except OSError as exc:  # a checkpoint is insurance: the tuning goes on
+        from rich.markup import escape as markup
+
+        console.print(
+            markup(
+                f"fuzzynav: warning: --checkpoint "
+                f"{escape_controls(str(path))} not written at {step} "
+                f"{gen} ({exc.strerror or exc}); the one before is unchanged; "
+                "tuning goes on"
+            )
+        )
+
+
+def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: float):
+    """:func:`tune` on the executor of ``args`` with a progress bar (lines on stderr when
+    it is not a terminal) and ``--checkpoint``; ``(result, best cost per generation)``."""
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
     )
-    start = time.perf_counter()
+
+    from fuzzynav.app.experiments.executor import SerialExecutor, executor_from_args
+
     history = []
-    step = "generation" if args.method == "de" else "iteration"
     # DE and CMA-ES evaluate a population a generation (mapped in order: the same result
     # on any executor); a local search is sequential: no pool or cluster for it
     population = args.method in ("de", "cmaes")
@@ -522,22 +406,8 @@ def cmd_tune(args) -> int:
 
         def on_generation(gen, best, x):
             history.append(best)
-            if args.checkpoint is not None:  # best so far, in case the run must be cut short
-                try:  # whole or not at all: the last good checkpoint survives a full disk
-                    write_text_atomically(
-                        args.checkpoint, " ".join(repr(float(v)) for v in x) + "\n"
-                    )
-                except OSError as exc:  # a checkpoint is insurance: the tuning goes on
-                    from rich.markup import escape as markup
-
-                    console.print(
-                        markup(
-                            f"fuzzynav: warning: --checkpoint "
-                            f"{escape_controls(str(args.checkpoint))} not written at {step} "
-                            f"{gen} ({exc.strerror or exc}); the one before is unchanged; "
-                            "tuning goes on"
-                        )
-                    )
+            if args.checkpoint is not None:
+                _write_checkpoint(console, args.checkpoint, x, step, gen)
             progress.update(task, completed=gen, best=f"{best:.4f}")
             if not console.is_terminal and not args.json:
                 console.print(
@@ -564,21 +434,46 @@ def cmd_tune(args) -> int:
             engine=getattr(args, "engine", "pymunk"),
             on_fallback=lambda message: console.print(f"fuzzynav: {message}"),
         )
+    return result, history
+
+
+def _save_tuned(t, x, out: Path, header: str) -> list[Path]:
+    """The tuned files, the command that reproduces them in their header (a tunable that
+    takes no header gets it prepended to its .toml file)."""
+    if "header" in inspect.signature(t.save).parameters:
+        return t.save(x, out, header=header)
+    paths = t.save(x, out)
+    for path in paths:
+        if path.suffix == ".toml":
+            text = path.read_text(encoding="utf-8")
+            note = "".join(f"# {line}\n" for line in header.splitlines())
+            write_text_atomically(path, note + text)
+    return paths
+
+
+def cmd_tune(args) -> int:
+    from rich.console import Console
+
+    t, names, x0, free = _checked_options(args)
+    cases = build_cases(args.scenarios, args.perception, args.layouts, args.n, args.layout_seed)
+    console = Console(stderr=True)
+    command = reproduce_command(args)
+    n_free = len(names) if free is None else len(free)
+    console.print(
+        f"tuning {t.name} ({args.method}): {n_free} of {len(names)} parameters, "
+        f"{len(cases)} runs per candidate"
+        + (f", population {args.popsize * n_free}" if args.method == "de" else "")
+    )
+    start = time.perf_counter()
+    step = "generation" if args.method == "de" else "iteration"
+    result, history = _tune_with_progress(args, t, cases, x0, free, console, step, start)
     elapsed = time.perf_counter() - start
     header = (
         reproduce_line(command) + "\n"
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
         f"cost: app/experiments/objective.py)"
     )
-    if "header" in inspect.signature(t.save).parameters:
-        paths = t.save(result.x, args.out, header=header)
-    else:
-        paths = t.save(result.x, args.out)
-        for path in paths:
-            if path.suffix == ".toml":
-                text = path.read_text(encoding="utf-8")
-                note = "".join(f"# {line}\n" for line in header.splitlines())
-                write_text_atomically(path, note + text)
+    paths = _save_tuned(t, result.x, args.out, header)
     out = {
         "controller": t.name,
         "cost": float(result.fun),
