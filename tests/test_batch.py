@@ -237,7 +237,7 @@ def test_resume_on_a_pool_gives_the_rows_of_one_serial_run(tmp_path):
 
 
 def _key(row):
-    from fuzzynav.app.experiments.studies import row_key
+    from fuzzynav.app.experiments.rows import row_key
 
     return row_key(row)
 

@@ -25,7 +25,8 @@ from fuzzynav.app.experiments.executor import (
 )
 from fuzzynav.app.experiments.objective import Case
 from fuzzynav.app.experiments.resultlog import ResultLog, ResultLogError
-from fuzzynav.app.experiments.studies import row_key, run_jobs, sweep_jobs
+from fuzzynav.app.experiments.rows import row_key
+from fuzzynav.app.experiments.studies import run_jobs, sweep_jobs
 from fuzzynav.app.experiments.tuning import tune
 from fuzzynav.controller.tuning import tunable
 from fuzzynav.world.scenario import ObstacleSpec, load_scenario

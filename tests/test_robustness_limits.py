@@ -447,6 +447,7 @@ def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
     and the executor is told how many there are."""
     from fuzzynav.app.experiments import studies
     from fuzzynav.app.experiments.executor import SerialExecutor
+    from fuzzynav.app.experiments.rows import MAX_LAYOUTS
 
     made = []
 
@@ -456,15 +457,13 @@ def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
             made.append(self.index)
 
     monkeypatch.setattr(studies, "LayoutJob", CountedJob)
-    jobs = studies.sweep_jobs("p", studies.MAX_LAYOUTS, 1) + studies.sweep_jobs(
-        "paper", studies.MAX_LAYOUTS, 1
-    )
-    assert isinstance(jobs, studies.LayoutJobs) and len(jobs) == 2 * studies.MAX_LAYOUTS
+    jobs = studies.sweep_jobs("p", MAX_LAYOUTS, 1) + studies.sweep_jobs("paper", MAX_LAYOUTS, 1)
+    assert isinstance(jobs, studies.LayoutJobs) and len(jobs) == 2 * MAX_LAYOUTS
     assert made == []
-    assert jobs[studies.MAX_LAYOUTS + 3].controller == "paper" and jobs[-1].index == 99_999
+    assert jobs[MAX_LAYOUTS + 3].controller == "paper" and jobs[-1].index == 99_999
     keys = jobs.keys
     assert jobs[5].key() in keys and jobs[-1].key() in keys
-    assert (*jobs[0].key()[:-1], studies.MAX_LAYOUTS) not in keys
+    assert (*jobs[0].key()[:-1], MAX_LAYOUTS) not in keys
     made.clear()
     seen = {}
 

@@ -14,7 +14,7 @@ import pytest
 from fuzzynav.app.cli import main
 from fuzzynav.app.experiments import studies as experiments
 from fuzzynav.app.experiments.resultlog import ResultLog, ResultLogError
-from fuzzynav.app.experiments.studies import row_key
+from fuzzynav.app.experiments.rows import row_key
 
 
 def run_cli(capsys, *argv):
@@ -172,7 +172,7 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
 
 def test_failures_with_an_edited_outcome_is_bad_input_not_a_crash(capsys, tmp_path, good_rows):
     """A row whose outcome differs from the rerun raised RuntimeError (a traceback)."""
-    from fuzzynav.app.experiments.studies import check_row
+    from fuzzynav.app.experiments.rows import check_row
 
     row = json.loads(good_rows[0])
     row.update(outcome="timeout", reached=False, collided=False, success=False)

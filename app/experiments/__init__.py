@@ -1,11 +1,14 @@
 """The experiments room: many runs, and what they say.
 
-- :mod:`.studies`     a study's layout jobs, their rows and fingerprints, run on an executor;
+- :mod:`.studies`     a study's layout jobs and their fingerprints, run on an executor;
+- :mod:`.rows`        a study's rows: their keys, and the check of a row read back;
+- :mod:`.study_sources` scenario sets and controller objects as a study's jobs;
 - :mod:`.sweep`       ``sweep``: a controller on seeded layouts, its success rate;
 - :mod:`.compare`     ``compare``: Table 4 on the paper's scenarios, beside the paper;
 - :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
 - :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
 - :mod:`.search`      ``tune``'s search: DE, CMA-ES or a local search over the objective;
+- :mod:`.design_search` tuning from Python: ask/tell CMA-ES over design numbers, your cost;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
 - :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;

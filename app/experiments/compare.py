@@ -17,8 +17,8 @@ from fuzzynav.app.args import (
     seed_type,
 )
 from fuzzynav.app.experiments.batch_runs import run_benchmark
+from fuzzynav.app.experiments.rows import MAX_LAYOUTS
 from fuzzynav.app.experiments.studies import (
-    MAX_LAYOUTS,
     LayoutJobs,
     StudyInterrupted,
     _options,

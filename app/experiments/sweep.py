@@ -25,8 +25,8 @@ from fuzzynav.app.args import (
     print_json,
     seed_type,
 )
+from fuzzynav.app.experiments.rows import MAX_LAYOUTS
 from fuzzynav.app.experiments.studies import (
-    MAX_LAYOUTS,
     SAFE_CLEARANCE_M,
     StudyInterrupted,
     _options,
