@@ -132,11 +132,9 @@ def compare_sweep_jobs(controllers, perception, sweep_n, sweep_seed, family, opt
     return jobs
 
 
-def cmd_compare(args) -> int:
-    from rich.console import Console
-    from rich.table import Table
-
-    from fuzzynav.app.experiments.executor import executor_from_args
+def _wanted_controllers(args) -> list[str]:
+    """The controllers ``--controllers`` names (default: every one offered), once the
+    options are checked (UsageError otherwise)."""
     from fuzzynav.controller.registry import controller_names
 
     offered = controller_names()
@@ -150,6 +148,15 @@ def cmd_compare(args) -> int:
         raise UsageError(f"--sweep-n {args.sweep_n}: must be >= 0")
     if args.out is not None and args.sweep_n == 0:
         raise UsageError("--out: only the sweep's runs are written; give --sweep-n N > 0")
+    return wanted
+
+
+def cmd_compare(args) -> int:
+    from rich.console import Console
+
+    from fuzzynav.app.experiments.executor import executor_from_args
+
+    wanted = _wanted_controllers(args)
     options = _options(args)
     sweep_rows = None
     if args.sweep_n > 0:
@@ -178,7 +185,31 @@ def cmd_compare(args) -> int:
     console = Console()
     if not console.is_terminal:
         console = Console(width=220)
-    table = Table(title=f"Table 4, ours (paper's published value) — {args.perception} perception")
+    console.print(_table4(out["rows"], args.perception))
+    if "baseline" in wanted:
+        console.print(
+            "baseline: a STAND-IN for the paper's ref. [19] (controller/baseline.py); the "
+            "numbers in brackets on its rows are the paper's ref. [19] numbers, not the stand-in's."
+        )
+    console.print(
+        "shortest: the shortest path keeping 0.25 m from the static obstacles (docs/"
+        "experiments.md); score = success x optimal time / clip(time, 2, 8 x optimal), "
+        "optimal time = shortest / top speed (0.617 m/s)"
+    )
+    if out["sweeps"]:
+        console.print(_sweep_table(out["sweeps"], args.sweep_n, args.family, args.sweep_seed))
+        if args.out is not None:
+            from rich.markup import escape as markup
+
+            console.print(markup(f"every sweep run: {escape_controls(str(args.out))}"))
+    return 0
+
+
+def _table4(rows: list[dict], perception: str):
+    """The Table 4 rows as a rich table, each number beside the paper's in brackets."""
+    from rich.table import Table
+
+    table = Table(title=f"Table 4, ours (paper's published value) — {perception} perception")
     for col in (
         "scenario",
         "controller",
@@ -196,7 +227,7 @@ def cmd_compare(args) -> int:
         "score",
     ):
         table.add_column(col, justify="left" if col in ("scenario", "controller") else "right")
-    for row in out["rows"]:
+    for row in rows:
         paper = row["paper"]
         cells = [_fmt(row[k]) + (f" ({paper[k]:.4g})" if paper else "") for k in TABLE4_ROWS]
         label = row["controller"] + (
@@ -215,53 +246,43 @@ def cmd_compare(args) -> int:
             _fmt(row["time_ratio"], 2),
             _fmt(row["score"]),
         )
-    console.print(table)
-    if "baseline" in wanted:
-        console.print(
-            "baseline: a STAND-IN for the paper's ref. [19] (controller/baseline.py); the "
-            "numbers in brackets on its rows are the paper's ref. [19] numbers, not the stand-in's."
-        )
-    console.print(
-        "shortest: the shortest path keeping 0.25 m from the static obstacles (docs/"
-        "experiments.md); score = success x optimal time / clip(time, 2, 8 x optimal), "
-        "optimal time = shortest / top speed (0.617 m/s)"
-    )
-    if out["sweeps"]:
-        st = Table(title=f"sweep: {args.sweep_n} {args.family} layouts, seed {args.sweep_seed}")
-        for col in (
-            "controller",
-            "success",
-            "safe success",
-            "collisions",
-            "timeouts",
-            "median path m",
-            "median path / shortest",
-            "median path / straight",
-            "median time / optimal",
-            "mean score",
-            "median clearance m",
-        ):
-            st.add_column(col, justify="left" if col == "controller" else "right")
-        for s in out["sweeps"]:
-            st.add_row(
-                s["controller"],
-                f"{100 * s['success_rate']:.1f} %",
-                f"{100 * s['safe_success_rate']:.1f} %",
-                str(s["collisions"]),
-                str(s["timeouts"]),
-                _fmt(s["median_path_length_m"]),
-                _fmt(s["median_path_ratio"]),
-                _fmt(s["median_straight_ratio"]),
-                _fmt(s["median_time_ratio"], 2),
-                _fmt(s["mean_score"]),
-                _fmt(s["median_min_clearance_m"]),
-            )
-        console.print(st)
-        if args.out is not None:
-            from rich.markup import escape as markup
+    return table
 
-            console.print(markup(f"every sweep run: {escape_controls(str(args.out))}"))
-    return 0
+
+def _sweep_table(sweeps: list[dict], n: int, family: str, seed: int):
+    """The sweep's summary per controller as a rich table."""
+    from rich.table import Table
+
+    st = Table(title=f"sweep: {n} {family} layouts, seed {seed}")
+    for col in (
+        "controller",
+        "success",
+        "safe success",
+        "collisions",
+        "timeouts",
+        "median path m",
+        "median path / shortest",
+        "median path / straight",
+        "median time / optimal",
+        "mean score",
+        "median clearance m",
+    ):
+        st.add_column(col, justify="left" if col == "controller" else "right")
+    for s in sweeps:
+        st.add_row(
+            s["controller"],
+            f"{100 * s['success_rate']:.1f} %",
+            f"{100 * s['safe_success_rate']:.1f} %",
+            str(s["collisions"]),
+            str(s["timeouts"]),
+            _fmt(s["median_path_length_m"]),
+            _fmt(s["median_path_ratio"]),
+            _fmt(s["median_straight_ratio"]),
+            _fmt(s["median_time_ratio"], 2),
+            _fmt(s["mean_score"]),
+            _fmt(s["median_min_clearance_m"]),
+        )
+    return st
 
 
 def add_commands(subparsers) -> None:
