@@ -57,10 +57,33 @@ class ControllerCheckError(ValueError):
     """A controller does not meet the interface (the message lists every problem)."""
 
 
+def _sample_context(inputs, ranges):
+    """A :class:`~fuzzynav.world.perception.ControlContext` that agrees with ``inputs``:
+    the robot at the origin facing +x, the target at (d_t, phi_t), one obstacle where
+    (d_o, phi_o) puts it (none when nothing is sensed)."""
+    from fuzzynav.world.perception import ControlContext
+
+    d_t, d_o, phi_t, phi_o = (float(v) for v in inputs)
+    obstacles = ()
+    if not math.isnan(d_o):
+        reach = d_o + 0.8  # the Husky's half-length and a 0.3 m radius
+        obstacles = ((reach * math.cos(phi_o), reach * math.sin(phi_o), 0.3),)
+    return ControlContext(
+        time_s=1.0,
+        period_s=0.02,
+        pose=(0.0, 0.0, 0.0),
+        target=(d_t * math.cos(phi_t), d_t * math.sin(phi_t)),
+        obstacles=obstacles,
+        ranges_m=tuple(float(r) for r in ranges),
+    )
+
+
 def _decisions(controller, caps) -> np.ndarray:
     out = []
     for inputs, ranges in zip(SAMPLE_INPUTS, SAMPLE_RANGES_M):
-        if "ranges" in caps:
+        if "context" in caps:
+            voltages = controller(inputs.copy(), context=_sample_context(inputs, ranges))
+        elif "ranges" in caps:
             voltages = controller(inputs.copy(), ranges_m=ranges.copy())
         else:
             voltages = controller(inputs.copy())

@@ -19,6 +19,9 @@ declared by the attributes below, never guessed:
 
 - :class:`RangeController`: ``needs_ranges = True`` and the call takes
   ``ranges_m=`` (the three sonar readings, m, inf = nothing in range);
+- :class:`ContextController`: ``needs_context = True`` and the call takes ``context=``,
+  a :class:`~fuzzynav.world.perception.ControlContext` (time, period, pose, target,
+  every obstacle, the readings): the world as the simulation knows it;
 - :class:`MountAwareController`: ``needs_sensor_mounts = True`` and
   ``set_sensor_mounts(mounts)``, called before each run with the robot's sonars;
 - :class:`RobotAwareController`: ``needs_robot = True`` and ``set_robot(robot)``, called
@@ -50,6 +53,7 @@ __all__ = [
     "INPUT_NAMES",
     "Controller",
     "RangeController",
+    "ContextController",
     "MountAwareController",
     "RobotAwareController",
     "RuleBlocksController",
@@ -86,6 +90,16 @@ class RangeController(Protocol):
 
     def __call__(self, inputs: np.ndarray, ranges_m: Sequence[float] | None = None) -> Any:
         """The voltages, given the inputs and the three readings (m; inf: none)."""
+
+
+@runtime_checkable
+class ContextController(Protocol):
+    """Asks for the world's context: called as ``controller(inputs, context=c)``."""
+
+    needs_context: bool
+
+    def __call__(self, inputs: np.ndarray, context: Any = None) -> Any:
+        """The voltages, given the inputs and a ``ControlContext``."""
 
 
 @runtime_checkable
@@ -195,6 +209,8 @@ def capabilities(controller: object) -> frozenset[str]:
     found = set()
     if isinstance(controller, RangeController) and controller.needs_ranges:
         found.add("ranges")
+    if isinstance(controller, ContextController) and controller.needs_context:
+        found.add("context")
     if isinstance(controller, MountAwareController) and controller.needs_sensor_mounts:
         found.add("sensor_mounts")
     if isinstance(controller, RobotAwareController) and controller.needs_robot:

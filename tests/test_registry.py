@@ -160,3 +160,41 @@ def test_the_checker_passes_a_sound_user_controller_and_reports_its_capabilities
     assert check_controller(ToyController()) == frozenset()
     assert check_controller(BatchableToy()) == frozenset({"batch"})
     assert "parts" in check_controller(make_controller("fuzzynav"))
+
+
+class _Planner(ToyController):
+    """Asks for the world's context: steers by the true target position."""
+
+    needs_context = True
+
+    def __init__(self):
+        super().__init__()
+        self.seen = []
+
+    def reset(self):
+        self.seen = []
+
+    def __call__(self, inputs, context=None):
+        self.seen.append(context)
+        x, y, heading = context.pose
+        tx, ty = context.target
+        bearing = math.atan2(ty - y, tx - x) - heading
+        turn = 4.0 * math.atan2(math.sin(bearing), math.cos(bearing))
+        return np.array([6.0 - turn, 6.0 + turn])
+
+
+def test_a_controller_that_declares_needs_context_gets_the_world_as_the_simulation_knows_it():
+    planner = _Planner()
+    assert "context" in check_controller(planner)
+    run = fuzzynav.simulate("s2", planner)
+    first, last = planner.seen[0], planner.seen[-1]
+    s2 = fuzzynav.load_scenario("s2")
+    assert first.time_s == 0.0 and first.period_s == 0.02
+    assert first.pose[:2] == pytest.approx(s2.start) and first.target == pytest.approx(s2.target)
+    assert len(first.obstacles) == len(s2.obstacles) and len(first.ranges_m) == 3
+    moving = [k for k, o in enumerate(s2.obstacles) if any(o.velocity) or any(o.acceleration)]
+    k = moving[0]
+    assert last.obstacles[k][:2] != first.obstacles[k][:2]  # the moving obstacle moved
+    assert last.pose[:2] == pytest.approx(
+        (run.trace["x_m"][len(planner.seen) - 1], run.trace["y_m"][len(planner.seen) - 1])
+    )

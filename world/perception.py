@@ -42,6 +42,7 @@ Two modes:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -91,6 +92,62 @@ def check_controller(controller) -> None:
             "controller is an object with reset() (called at every start) and "
             "__call__(inputs) -> (left, right) voltages"
         )
+
+
+@dataclass(frozen=True)
+class ControlContext:
+    """What a controller that declares ``needs_context = True`` is given besides its
+    inputs, as ``controller(inputs, context=ControlContext(...))`` (issue 40): the
+    world as the simulation knows it at the decision. A controller meant to reproduce the
+    paper should not need it; one that plans, learns or is judged against the truth may.
+
+    Attributes
+    ----------
+    time_s : float
+        Simulated time of the decision, s.
+    period_s : float
+        The control period, s.
+    pose : tuple of float
+        The robot's (x m, y m, heading rad).
+    target : tuple of float
+        The target's (x m, y m).
+    obstacles : tuple of tuple of float
+        Every obstacle as ``(x m, y m, radius m)`` at ``time_s``, whether sensed or not.
+    ranges_m : tuple of float
+        The sonar readings (left, front, right; m, inf = nothing in range).
+    """
+
+    time_s: float
+    period_s: float
+    pose: tuple[float, float, float]
+    target: tuple[float, float]
+    obstacles: tuple[tuple[float, float, float], ...]
+    ranges_m: tuple[float, ...]
+
+
+def control_context(arena: Arena, period_s: float, ranges) -> ControlContext:
+    """The :class:`ControlContext` of ``arena`` now.
+
+    Parameters
+    ----------
+    arena : Arena
+        The world.
+    period_s : float
+        The control period, s.
+    ranges : sequence of float
+        The sonar readings this period.
+    """
+    centres, radii, _ = arena.obstacle_arrays()
+    return ControlContext(
+        time_s=float(arena.time_s),
+        period_s=float(period_s),
+        pose=tuple(float(v) for v in arena.pose),  # type: ignore[arg-type]
+        target=(float(arena.target[0]), float(arena.target[1])),
+        obstacles=tuple(
+            (float(x), float(y), float(r)) for (x, y), r in zip(centres.tolist(), radii.tolist())
+        ),
+        ranges_m=tuple(float(v) for v in np.asarray(ranges, dtype=float).tolist()),
+    )
 
 
 def target_inputs(pose, target) -> tuple[float, float]:

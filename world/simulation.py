@@ -13,8 +13,9 @@ Every control period (20 ms by default) the simulation
 A controller is any object with ``reset()`` and ``__call__(inputs) -> voltages`` where
 ``inputs`` is a float array (4,) and ``voltages`` any sequence of two floats. A
 controller that sets ``needs_ranges = True`` is called as
-``controller(inputs, ranges_m=ranges)`` with the three sensor readings (m, inf = none).
-A controller that declares ``needs_robot`` or ``needs_sensor_mounts`` is told the robot
+``controller(inputs, ranges_m=ranges)`` with the three sensor readings (m, inf = none);
+one that sets ``needs_context = True`` as ``controller(inputs, context=...)`` with the
+world as the simulation knows it (:class:`world.perception.ControlContext`). One that declares ``needs_robot`` or ``needs_sensor_mounts`` is told the robot
 (:attr:`Simulation.robot`) or its sonars before each start (:func:`world.robot.brief`).
 The world never imports a controller: it only calls what it is given.
 
@@ -22,15 +23,11 @@ Row ``k`` of the log holds the state at ``time_s[k]``, the inputs sensed then an
 voltages applied from then to ``time_s[k + 1]``; the last row is the final state, with
 NaN voltages because no decision follows it.
 
-Speed (issue 2): a step does a few dozen small operations, so their per-call overheads
-are the cost. The loop therefore works on plain floats: perception, saturation and the
-log row never build small numpy arrays (only the controller's ``inputs`` and the plant's
-``[x; u]`` are arrays), and log rows are written into the log's arrays in blocks. The
-plant step is :meth:`HuskyModel.step` itself and the saturation ``min``/``max`` (issue 24):
-their hand-inlined forms saved a few microseconds a step, which no bench row needs to
-meet its aim (``bench/bench_world.py``; the numbers are in docs/speed.md). Every
-operation on the numbers is the one the straightforward code did, in the same order, so
-runs are the same to the bit.
+Speed (issue 2): a step does a few dozen small operations, so the loop works on plain
+floats (perception, saturation and the log row build no small numpy arrays; only the
+controller's ``inputs`` and the plant's ``[x; u]`` are arrays) and writes log rows in
+blocks; the numbers are in docs/speed.md. Every operation on the numbers is the one the
+straightforward code did, in the same order, so runs are the same to the bit.
 """
 
 from __future__ import annotations
@@ -45,10 +42,10 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
+from fuzzynav.world import perception as _perception
 from fuzzynav.world.arena import Arena, Collision
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.metrics import compute_metrics
-from fuzzynav.world.perception import Perception, check_controller, check_geometry
 from fuzzynav.world.robot import HUSKY, brief
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
@@ -512,13 +509,13 @@ class Simulation:
     ):
         voltage_limit_v = HUSKY.voltage_limit_v if voltage_limit_v is None else voltage_limit_v
         check_loop_settings(control_period_s, voltage_limit_v)
-        check_controller(controller)
+        _perception.check_controller(controller)
         self.scenario = scenario
         self.controller = controller
         self.control_period_s = float(control_period_s)
         self.model = model or HuskyModel.default()
         params = self.model.parameters
-        check_geometry(geometry, perception)
+        _perception.check_geometry(geometry, perception)
         self.geometry = geometry
         footprint = (
             (0.0, 0.0)
@@ -532,7 +529,7 @@ class Simulation:
         )
         self.sensors = RangeSensorArray(sensor_config)
         self.robot = HUSKY.with_parameters(params, self.sensors.config.mounts, voltage_limit_v)
-        self.perception = Perception(
+        self.perception = _perception.Perception(
             perception,
             self.sensors,
             geometry=geometry,
@@ -622,7 +619,10 @@ class Simulation:
     def _decide(self, inputs: np.ndarray, ranges: np.ndarray) -> tuple[float, float]:
         """The controller's two voltages as floats, checked finite."""
         controller = self.controller
-        if getattr(controller, "needs_ranges", False):
+        if getattr(controller, "needs_context", False):  # controller/interface.py
+            context = _perception.control_context(self.arena, self.control_period_s, ranges)
+            raw = controller(inputs, context=context)
+        elif getattr(controller, "needs_ranges", False):
             raw = controller(inputs, ranges_m=ranges)
         else:
             raw = controller(inputs)
