@@ -10,6 +10,7 @@
 - :mod:`.search`      ``tune``'s search: DE, CMA-ES or a local search over the objective;
 - :mod:`.design_search` tuning from Python: ask/tell CMA-ES over design numbers, your cost;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
+- :mod:`.paper_fit_command` ``fit-paper``'s command line: options, checks, report;
 - :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
