@@ -295,7 +295,7 @@ EXTENSION_MODULES = (
     "fuzzynav.app.figures.run_figures",
     "fuzzynav.app.figures.report",
     "fuzzynav.app.viewer.serve",
-    "fuzzynav.app.experiments.paper_fit",
+    "fuzzynav.app.experiments.paper_fit_command",
     "fuzzynav.app.recordings.trace",
 )
 
@@ -450,7 +450,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: fit-paper's output without --out (app/experiments/paper_fit.py's default).
+#: fit-paper's output without --out (app/experiments/paper_fit_command.py's default).
 FIT_PAPER_DEFAULT_OUT = "paper.toml"
 
 

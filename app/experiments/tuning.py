@@ -44,7 +44,6 @@ from fuzzynav.app.experiments.objective import (
     CLEARANCE_WEIGHT,
     SAFE_CLEARANCE_M,
     build_cases,
-    run_until_stalled,  # noqa: F401  (paper_fit's run_once imports it from here)
 )
 from fuzzynav.app.experiments.search import tune
 from fuzzynav.app.provenance import reproduce_line, shell_command
