@@ -139,40 +139,10 @@ def _bitangents(c1, r1, c2, r2):
     return out
 
 
-def shortest_path(start, target, centres, radii) -> ShortestPath:
-    """The shortest path from ``start`` to ``target`` that enters no circle.
-
-    Parameters
-    ----------
-    start, target : (2,) floats
-        End points [m].
-    centres : (k, 2) array_like
-        Circle centres [m]; ``k`` may be 0.
-    radii : (k,) array_like
-        Circle radii [m], > 0 (already inflated: this function knows no robot).
-
-    Returns
-    -------
-    ShortestPath
-        ``length_m = inf`` when no path exists: the start or the target lies inside a
-        circle, or the circles wall one off from the other. A path may touch circles.
-    """
-    centres = np.asarray(centres, float).reshape(-1, 2)
-    radii = np.asarray(radii, float).reshape(-1)
-    if len(centres) != len(radii):
-        raise ValueError(f"{len(centres)} centres but {len(radii)} radii")
-    if np.any(~np.isfinite(radii)) or np.any(radii <= 0.0) or not np.all(np.isfinite(centres)):
-        raise ValueError("circle centres must be finite and radii finite and > 0")
-    start = (float(start[0]), float(start[1]))
-    target = (float(target[0]), float(target[1]))
-    for name, p in (("start", start), ("target", target)):
-        if not all(math.isfinite(v) for v in p):
-            raise ValueError(f"{name} = {p}: must be finite")
-    none = ShortestPath(math.inf, (), ())
-    for p in (start, target):
-        if len(radii) and np.any(np.hypot(*(centres - p).T) < radii - TOLERANCE_M):
-            return none
-
+def _tangent_graph(start, target, centres, radii):
+    """The tangent graph (module docstring): ``(points, circle_of, edges)``, node 0 the
+    start and node 1 the target, ``circle_of[n]`` the circle node ``n`` lies on (-1: an
+    end point) and ``edges[n]`` its (length, neighbour) pairs."""
     points = [start, target]
     circle_of = [-1, -1]
     angle_of = [0.0, 0.0]
@@ -217,9 +187,14 @@ def shortest_path(start, target, centres, radii) -> ShortestPath:
                 length = radii[i] * sweep
                 edges[n].append((length, m))
                 edges[m].append((length, n))
+    return points, circle_of, edges
 
-    distance = [math.inf] * len(points)
-    previous = [-1] * len(points)
+
+def _dijkstra(edges) -> tuple[float, list[int]]:
+    """Dijkstra from node 0 to node 1: ``(length, route of nodes)``, ``(inf, [])`` when
+    node 1 cannot be reached."""
+    distance = [math.inf] * len(edges)
+    previous = [-1] * len(edges)
     distance[0] = 0.0
     queue = [(0.0, 0)]
     while queue:
@@ -234,14 +209,52 @@ def shortest_path(start, target, centres, radii) -> ShortestPath:
                 previous[v] = u
                 heapq.heappush(queue, (d + length, v))
     if not math.isfinite(distance[1]):
-        return none
+        return math.inf, []
     route = [1]
     while route[-1] != 0:
         route.append(previous[route[-1]])
     route.reverse()
-    return ShortestPath(
-        float(distance[1]), tuple(points[n] for n in route), tuple(circle_of[n] for n in route)
-    )
+    return float(distance[1]), route
+
+
+def shortest_path(start, target, centres, radii) -> ShortestPath:
+    """The shortest path from ``start`` to ``target`` that enters no circle.
+
+    Parameters
+    ----------
+    start, target : (2,) floats
+        End points [m].
+    centres : (k, 2) array_like
+        Circle centres [m]; ``k`` may be 0.
+    radii : (k,) array_like
+        Circle radii [m], > 0 (already inflated: this function knows no robot).
+
+    Returns
+    -------
+    ShortestPath
+        ``length_m = inf`` when no path exists: the start or the target lies inside a
+        circle, or the circles wall one off from the other. A path may touch circles.
+    """
+    centres = np.asarray(centres, float).reshape(-1, 2)
+    radii = np.asarray(radii, float).reshape(-1)
+    if len(centres) != len(radii):
+        raise ValueError(f"{len(centres)} centres but {len(radii)} radii")
+    if np.any(~np.isfinite(radii)) or np.any(radii <= 0.0) or not np.all(np.isfinite(centres)):
+        raise ValueError("circle centres must be finite and radii finite and > 0")
+    start = (float(start[0]), float(start[1]))
+    target = (float(target[0]), float(target[1]))
+    for name, p in (("start", start), ("target", target)):
+        if not all(math.isfinite(v) for v in p):
+            raise ValueError(f"{name} = {p}: must be finite")
+    none = ShortestPath(math.inf, (), ())
+    for p in (start, target):
+        if len(radii) and np.any(np.hypot(*(centres - p).T) < radii - TOLERANCE_M):
+            return none
+    points, circle_of, edges = _tangent_graph(start, target, centres, radii)
+    length, route = _dijkstra(edges)
+    if not route:
+        return none
+    return ShortestPath(length, tuple(points[n] for n in route), tuple(circle_of[n] for n in route))
 
 
 def shortest_path_m(start, target, centres, radii) -> float:
