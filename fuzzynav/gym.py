@@ -170,7 +170,7 @@ class HuskyEnv(gym.Env):
     | Num | Observation | Unit | Min | Max |
     |-----|-------------|------|-----|-----|
     | 0 | ``d_t``: distance to the target | m | -inf | inf |
-    | 1 | ``d_o``: clearance to the nearest sensed obstacle; 2.5 (the cutoff) if none | m | -inf | inf |
+    | 1 | ``d_o``: clearance to the nearest sensed obstacle; the cutoff (``OBSTACLE_CUTOFF_M``) if none | m | -inf | inf |
     | 2 | ``phi_t``: bearing of the target from the heading, (-pi, pi] | rad | -inf | inf |
     | 3 | ``phi_o``: bearing of that obstacle (ideal) or its sonar's angle; 0 if none | rad | -inf | inf |
     | 4 | ``obstacle_seen``: 1 when an obstacle is sensed within the cutoff, else 0 | - | 0 | 1 |

@@ -44,7 +44,7 @@ def test_check_env_passes(perception):
         check_env(env.unwrapped)
     env.reset(seed=0)
     frame = env.render()
-    assert frame.shape[2] == 3 and frame.dtype == np.uint8
+    assert frame.shape == (320, 320, 3) and frame.dtype == np.uint8  # as docs/gym.md says
     # the robot (blue) and the target (green) are drawn
     assert ((frame == (40, 90, 200)).all(axis=2)).any()
     assert ((frame == (40, 170, 60)).all(axis=2)).any()
@@ -253,3 +253,13 @@ def test_the_example_runs_small(capsys):
     out = capsys.readouterr().out
     assert "4 held-out layouts" in out
     assert "| linear (CEM) |" in out and "| paper (fuzzy) |" in out
+
+
+def test_an_obstacle_not_sensed_reads_as_the_cutoff():
+    from fuzzynav.world.perception import OBSTACLE_CUTOFF_M
+    from fuzzynav.world.scenario import load_scenario
+
+    bare = load_scenario("s1").replace(obstacles=())
+    env = fgym.HuskyEnv(scenarios=[bare], **FAST)
+    obs, _ = env.reset(seed=0)
+    assert obs[4] == 0.0 and obs[1] == OBSTACLE_CUTOFF_M and obs[3] == 0.0
