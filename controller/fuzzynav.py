@@ -168,6 +168,18 @@ def _linz(x: float, lo: float, hi: float) -> float:
     return (hi - x) / (hi - lo)
 
 
+def _saturated(speed: float, turn: float) -> tuple[float, float]:
+    """Mixing (item 9): past the voltage limit the speed is reduced, never the turn (the
+    loop's saturation would otherwise eat the turn)."""
+    limit = VOLTAGE_LIMIT_V
+    if abs(turn) > limit:
+        turn = math.copysign(limit, turn)
+    room = limit - abs(turn)
+    if abs(speed) > room:
+        speed = math.copysign(room, speed)
+    return speed, turn
+
+
 def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
     """One system evaluating both blocks: inputs goal's then avoid's, outputs
     goal_speed, goal_turn, avoid_speed, avoid_turn. Each rule keeps its own block's
@@ -374,33 +386,115 @@ class FuzzyNavController:
 
     # -- decision ----------------------------------------------------------------------
     def __call__(self, inputs, ranges_m=None):
-        p = self.params
-        dt = p["control_period_s"]
+        """One control step: the voltages (left, right) for ``inputs`` (d_t, d_o, phi_t,
+        phi_o) and the sonar ranges (left, front, right; none: nothing seen).
+
+        Parameters
+        ----------
+        inputs : sequence of 4 floats
+            Target distance [m], nearest obstacle distance [m], target bearing [rad],
+            nearest obstacle bearing [rad] (NaN: not sensed).
+        ranges_m : sequence of 3 floats, optional
+            The sonars' ranges [m], left, front, right.
+
+        Returns
+        -------
+        numpy.ndarray
+            The wheel voltages (left, right) [V].
+        """
+        dt = self.params["control_period_s"]
+        d_t, d_o, phi_t, phi_o, ranges = self._readings(inputs, ranges_m)
+        d_t, phi_t, d_o, phi_o, d_o_raw = self._dead_reckon(d_t, d_o, phi_t, phi_o, dt)
+        left, front_eff, right, hint = self._sense(ranges, d_t, phi_t, d_o, d_o_raw, phi_o, dt)
+        side = self._latch_side(phi_t, left, front_eff, right, hint)
+        self._watch_progress(d_t, left, front_eff, right, side)
+        phi = phi_t + self.planner.offset
+        if self.follow:
+            # Keep the boundary on the side opposite to the latched turn: pull towards it.
+            side = self.side
+            phi = -side * self.params["follow_bias_rad"]
+        alpha = self._alpha(d_t, left, front_eff, right)
+        avoid_in = (min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side)
+        g_speed, g_turn, a_speed, a_turn = self._blocks(alpha, phi, d_t, avoid_in)
+        g_speed, g_turn = self._guard(g_speed, g_turn, d_t, left, right)
+        speed = alpha * a_speed + (1.0 - alpha) * g_speed
+        turn = alpha * a_turn + (1.0 - alpha) * g_turn
+        speed, turn = self._unstick(speed, turn, side, dt)
+        # A moving obstacle on a collision course: stop, or go on at full speed, when
+        # that keeps its predicted closest approach farther (yield or pass first).
+        speed, dodge = self.tracker.dodge(speed)
+        speed, turn = self._limit_reverse(speed, turn, side, d_o_raw, phi_o, dt)
+        speed, turn = _saturated(speed, turn)
+        self.last = {
+            "sectors": (left, front_eff, right),
+            "side": side,
+            "alpha": alpha,
+            "follow": self.follow,
+            "goal": (g_speed, g_turn),
+            "avoid": (a_speed, a_turn),
+            "block_inputs": (phi, d_t) + avoid_in,
+            "plan_offset": self.planner.offset,
+            "dodge": dodge,
+            "command": (speed, turn),
+        }
+        self.cmd = (speed - turn, speed + turn)
+        # A few floats per call beside the simulation's own log row, so it grows as that does.
+        self.decisions.append(
+            (
+                speed - turn,
+                speed + turn,
+                alpha,
+                self.planner.offset,
+                _DODGE_CODE.get(dodge, 0.0),
+                float(self.follow),
+                float(self.tracker.target_doubted),
+                phi,
+                d_t,
+                *avoid_in,
+            )
+        )
+        return np.array(self.cmd)
+
+    @staticmethod
+    def _readings(inputs, ranges_m):
+        """``(d_t, d_o, phi_t, phi_o, ranges)`` as Python floats (the sonar ranges
+        infinite when there are none)."""
         d_t, d_o, phi_t, phi_o = (
             inputs.tolist() if type(inputs) is np.ndarray else [float(v) for v in inputs]
         )
-        d_o_raw = d_o
         if ranges_m is None:
             ranges = [math.inf, math.inf, math.inf]
         elif type(ranges_m) is np.ndarray:
             ranges = ranges_m.tolist()
         else:
             ranges = [float(v) for v in ranges_m]
+        return d_t, d_o, phi_t, phi_o, ranges
+
+    def _dead_reckon(self, d_t, d_o, phi_t, phi_o, dt):
+        """Advance the clock and the dead reckoning, and check the target reading (item
+        10); ``(d_t, phi_t, d_o, phi_o, d_o_raw)`` as the rest of the step takes them."""
+        d_o_raw = d_o
         # Dead reckoning over the last period from the last command (first-order lag):
         # the memory's odometry, and the tracker's own frame (the turn's real lag).
         self.t += dt
-        memory, planner, tracker = self.memory, self.planner, self.tracker
+        memory, tracker = self.memory, self.tracker
         cl, cr = self.cmd
         memory.advance(cl, cr, dt)
         vel = memory.vel
         tracker.advance(cl, cr, vel[0], dt)
-        if p["target_gate_m"] > 0.0 and d_t == d_t and phi_t == phi_t:
+        if self.params["target_gate_m"] > 0.0 and d_t == d_t and phi_t == phi_t:
             d_t, phi_t = tracker.check_target(d_t, phi_t)
             if tracker.target_doubted:
                 # The four inputs arrive together: when the target's are provably
                 # disturbed, the nearest obstacle's are not trusted either (the sonar
                 # ranges, read apart, still guard the robot).
                 d_o = phi_o = d_o_raw = math.nan
+        return d_t, phi_t, d_o, phi_o, d_o_raw
+
+    def _sense(self, ranges, d_t, phi_t, d_o, d_o_raw, phi_o, dt):
+        """The memory, the planner and the tracker updated (items 1, 2, 7); the sector
+        distances ``(left, front, right)`` and the nearest obstacle's side ``hint``."""
+        memory, tracker = self.memory, self.tracker
         # At the sensors' rate (sector_s): store the echoes every store_s (and, in ideal
         # perception, the nearest obstacle), forget points older than memory_s,
         # recompute the remembered footprint distance per sector (held between updates)
@@ -409,7 +503,7 @@ class FuzzyNavController:
         store_tick = self.calls % self.store_every == 0
         if self.calls % self.sector_every == 0:
             ahead = memory.update(ranges, d_o, phi_o, self.t, store_tick)
-            planner.update(ahead, d_t, phi_t, phi_o, self.t, self.best_t)
+            self.planner.update(ahead, d_t, phi_t, phi_o, self.t, self.best_t)
         # The sectors: readings, memory and (ideal perception) the nearest obstacle all
         # around, with time to contact; the tracker follows that obstacle every store_s.
         store_dt = dt * self.store_every
@@ -420,19 +514,26 @@ class FuzzyNavController:
             tracker.lose()
         elif store_tick:
             tracker.track(d_o_raw, phi_o, store_dt)
+        return left, front_eff, right, hint
 
+    def _latch_side(self, phi_t, left, front_eff, right, hint) -> float:
+        """The side chooser (item 5); the side the avoidance block turns to (+1 left)."""
+        p = self.params
         # Side chooser with a latch: the planner's side when it has one (the avoidance
         # block must turn the way the planner steers), else chosen from the readings.
-        if planner.side != 0.0 and not self.follow:
-            self.side = planner.side
+        if self.planner.side != 0.0 and not self.follow:
+            self.side = self.planner.side
         elif front_eff < p["latch_front_m"]:
             if self.side == 0.0:
                 self.side = self._choose_side(phi_t, left, right, hint)
         elif front_eff > p["release_front_m"] and not self.follow:
             self.side = 0.0
-        side = self.side if self.side != 0.0 else (1.0 if phi_t >= 0 else -1.0)
+        return self.side if self.side != 0.0 else (1.0 if phi_t >= 0 else -1.0)
 
-        # Progress watch -> boundary following.
+    def _watch_progress(self, d_t, left, front_eff, right, side) -> None:
+        """Progress watch -> boundary following (item 8): starts after ``stall_s``
+        without progress, ends past ``leave_margin_m`` of progress or without a boundary."""
+        p = self.params
         if d_t < self.best_d_t - p["stall_progress_m"]:
             self.best_d_t, self.best_t = d_t, self.t
         if self.follow:
@@ -449,13 +550,10 @@ class FuzzyNavController:
             self.follow_t = self.t
             if self.side == 0.0:
                 self.side = side
-        phi = phi_t + planner.offset
-        if self.follow:
-            # Keep the boundary on the side opposite to the latched turn: pull towards it.
-            side = self.side
-            phi = -side * p["follow_bias_rad"]
 
-        # Arbitration weight: the strength of "near" over the sectors.
+    def _alpha(self, d_t, left, front_eff, right) -> float:
+        """Arbitration weight (item 6): the strength of "near" over the sectors."""
+        p = self.params
         a_front = _linz(front_eff, p["alpha_front_lo_m"], p["alpha_front_hi_m"])
         a_side = p["alpha_side_max"] * max(
             _linz(left, p["alpha_side_lo_m"], p["alpha_side_hi_m"]),
@@ -468,18 +566,23 @@ class FuzzyNavController:
             a_side *= k
             if front_eff > d_t:
                 a_front *= k
-        alpha = max(a_front, a_side)
-        # Evaluate only the block(s) that take part (both: one merged call; same numbers).
-        avoid_in = (min(left, 4.5), min(front_eff, 4.5), min(right, 4.5), side)
+        return max(a_front, a_side)
+
+    def _blocks(self, alpha, phi, d_t, avoid_in):
+        """``(goal speed, goal turn, avoid speed, avoid turn)``: only the block(s) that
+        take part are evaluated (both: one merged call; same numbers)."""
         if alpha <= 0.0:
             g_speed, g_turn = self._eval_goal((phi, d_t))
-            a_speed = a_turn = 0.0
-        elif alpha >= 1.0:
-            g_speed = g_turn = 0.0
+            return g_speed, g_turn, 0.0, 0.0
+        if alpha >= 1.0:
             a_speed, a_turn = self._eval_avoid(avoid_in)
-        else:
-            g_speed, g_turn, a_speed, a_turn = self._eval((phi, d_t) + avoid_in)
+            return 0.0, 0.0, a_speed, a_turn
+        return self._eval((phi, d_t) + avoid_in)
 
+    def _guard(self, g_speed, g_turn, d_t, left, right):
+        """The goal block's ``(speed, turn)``, kept from turning back into an obstacle
+        being passed (item 5)."""
+        p = self.params
         # While passing on the latched side, the goal block may not turn back towards the
         # obstacle being passed while it is still remembered within guard_m.
         # It drives on instead (the goal block alone would turn in place).
@@ -487,11 +590,18 @@ class FuzzyNavController:
         guarding = (self.side > 0 and g_turn < 0.0 and right < p["guard_m"]) or (
             self.side < 0 and g_turn > 0.0 and left < p["guard_m"]
         )
-        if guarding and not self.follow and planner.side == 0.0 and d_t > min(left, right) + 0.5:
+        if (
+            guarding
+            and not self.follow
+            and self.planner.side == 0.0
+            and d_t > min(left, right) + 0.5
+        ):
             g_turn = 0.0
             g_speed = max(g_speed, p["guard_speed_v"])
-        speed = alpha * a_speed + (1.0 - alpha) * g_speed
-        turn = alpha * a_turn + (1.0 - alpha) * g_turn
+        return g_speed, g_turn
+
+    def _unstick(self, speed, turn, side, dt):
+        """The command ``(speed, turn)`` out of a deadlock (item 9)."""
         # Deadlock: blended rules that cancel (near on both sides, the goal pulling
         # ahead) leave the robot creeping on the spot; after deadlock_s of that it turns
         # on the spot towards its side for deadlock_s, which gives the planner a new view.
@@ -500,14 +610,16 @@ class FuzzyNavController:
             speed, turn = 0.0, 7.0 * side
         elif abs(speed) < 1.5 and abs(turn) < 1.5:
             self.creep_s += dt
-            if self.creep_s > p["deadlock_s"]:
+            if self.creep_s > self.params["deadlock_s"]:
                 self.creep_s = 0.0
-                self.unstick_s = p["deadlock_s"]
+                self.unstick_s = self.params["deadlock_s"]
         else:
             self.creep_s = 0.0
-        # A moving obstacle on a collision course: stop, or go on at full speed, when
-        # that keeps its predicted closest approach farther (yield or pass first).
-        speed, dodge = tracker.dodge(speed)
+        return speed, turn
+
+    def _limit_reverse(self, speed, turn, side, d_o_raw, phi_o, dt):
+        """The command ``(speed, turn)`` with reversing limited to ``back_max_s`` at a
+        time (item 9)."""
         # The sensors look forward only: backing off is allowed for back_max_s at a
         # time, then the robot turns on the spot until it may drive forward again.
         # Except in ideal perception when the nearest obstacle all around is ahead and
@@ -519,49 +631,15 @@ class FuzzyNavController:
                 and phi_o == phi_o
                 and phi_o not in self.axes
                 and abs(phi_o) < 0.5 * math.pi
-                and memory.closing_o > _CLOSING_MPS
+                and self.memory.closing_o > _CLOSING_MPS
             )
-            if self.reverse_s > p["back_max_s"] and not backing_away:
+            if self.reverse_s > self.params["back_max_s"] and not backing_away:
                 speed = 0.0
                 if abs(turn) < 4.0:
                     turn = math.copysign(6.0, turn if turn else side)
         else:
             self.reverse_s = 0.0
-        limit = VOLTAGE_LIMIT_V
-        if abs(turn) > limit:
-            turn = math.copysign(limit, turn)
-        room = limit - abs(turn)
-        if abs(speed) > room:
-            speed = math.copysign(room, speed)
-        self.last = {
-            "sectors": (left, front_eff, right),
-            "side": side,
-            "alpha": alpha,
-            "follow": self.follow,
-            "goal": (g_speed, g_turn),
-            "avoid": (a_speed, a_turn),
-            "block_inputs": (phi, d_t) + avoid_in,
-            "plan_offset": planner.offset,
-            "dodge": dodge,
-            "command": (speed, turn),
-        }
-        self.cmd = (speed - turn, speed + turn)
-        # A few floats per call beside the simulation's own log row, so it grows as that does.
-        self.decisions.append(
-            (
-                speed - turn,
-                speed + turn,
-                alpha,
-                planner.offset,
-                _DODGE_CODE.get(dodge, 0.0),
-                float(self.follow),
-                float(tracker.target_doubted),
-                phi,
-                d_t,
-                *avoid_in,
-            )
-        )
-        return np.array(self.cmd)
+        return speed, turn
 
     def new_target(self) -> None:
         """The target was moved on purpose (a user dragged it in the viewer): take the
