@@ -56,6 +56,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzynav.controller.fuzzy import FuzzySystem, Term, Variable
+from fuzzynav.controller.membership import SHAPES
 
 __all__ = [
     "FAMILIES",
@@ -109,27 +110,17 @@ class Violation:
 
 def centre(term: Term) -> float:
     """Where a term is most itself (same units as its variable): a triangle's peak, a
-    Gaussian's centre, a linear Z's last point at 1, a linear S's first point at 1."""
-    p = term.params
-    if term.shape == "trimf":
-        return p[1]
-    if term.shape == "gaussmf":
-        return p[1]
-    if term.shape == "linzmf":
-        return p[0]
-    if term.shape == "linsmf":
-        return p[1]
-    raise ValueError(f"term {term.name!r}: shape {term.shape!r} has no centre here")
+    Gaussian's centre, a linear Z's last point at 1, a linear S's first point at 1
+    (``Shape.centre`` of :data:`controller.membership.SHAPES`)."""
+    value = SHAPES[term.shape].centre_of(term.params)
+    if value is None:
+        raise ValueError(f"term {term.name!r}: shape {term.shape!r} has no centre here")
+    return value
 
 
-def _ramps(term: Term) -> list[float]:
+def _ramps(term: Term) -> tuple[float, ...]:
     """Lengths of the term's linear sides (units of its variable)."""
-    p = term.params
-    if term.shape == "trimf":
-        return [p[1] - p[0], p[2] - p[1]]
-    if term.shape in ("linsmf", "linzmf"):
-        return [p[1] - p[0]]
-    return []
+    return SHAPES[term.shape].ramps_of(term.params)
 
 
 def _grid(variable: Variable) -> np.ndarray:

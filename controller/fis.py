@@ -4,8 +4,9 @@ Supported: what the engine in :mod:`controller.fuzzy` computes -- a Mamdani syst
 AndMethod 'min' or 'prod', OrMethod 'max' or 'probor' (kept, but without effect: there
 are no OR rules), ImpMethod 'min' or 'prod', AggMethod 'max', 'sum' or 'probor',
 DefuzzMethod 'centroid', 'bisector', 'mom', 'som' or 'lom' (MATLAB's meanings:
-:mod:`controller.inference`), membership functions trimf, trapmf, linsmf, linzmf,
-gaussmf, gauss2mf, and AND rules without NOT. Everything else (Sugeno, custom methods,
+:mod:`controller.inference`), the membership functions of
+:data:`controller.membership.SHAPES` by their MATLAB names (trimf, trapmf, linsmf, linzmf,
+gaussmf, gauss2mf), and AND rules without NOT. Everything else (Sugeno, custom methods,
 other membership functions, OR rules, negated clauses) is rejected with an error that
 names the file, the line and the value. The file is parsed, never evaluated.
 
@@ -254,14 +255,16 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
                 m = _MF_RE.match(val)
                 if not m:
                     raise rd.err(lineno, f"MF{k}: expected 'name':'type',[params]", val)
-                tname, shape = m.group(1), m.group(2)
-                if shape not in mf.SHAPES:
+                tname, family = m.group(1), mf.shape_for_matlab(m.group(2))
+                if family is None:
+                    known = [s.matlab for s in mf.SHAPES.values() if s.matlab]
                     raise rd.err(
                         lineno,
                         f"MF{k}: unsupported membership function type "
-                        f"{shorten(repr(shape))} (supported: {', '.join(mf.SHAPES)})",
+                        f"{shorten(repr(m.group(2)))} (supported: {', '.join(known)})",
                         val,
                     )
+                shape = family.name
                 params = [
                     rd.num(lineno, t, f"MF{k} parameter")
                     for t in m.group(3).replace(",", " ").split()
@@ -389,7 +392,8 @@ def dumps_fis(system: FuzzySystem) -> str:
     ------
     ValueError
         The system reads NONE as "sensed nothing" for some input (``unsensed_none``):
-        MATLAB's rule editor knows only its own NONE, so a .fis would drive differently.
+        MATLAB's rule editor knows only its own NONE, so a .fis would drive differently;
+        or a term's family has no MATLAB name (``Shape.matlab``).
     """
     if system.unsensed_none:
         raise ValueError(
@@ -419,8 +423,11 @@ def dumps_fis(system: FuzzySystem) -> str:
                 f"NumMFs={len(v.terms)}",
             ]
             for k, t in enumerate(v.terms, start=1):
+                matlab = mf.SHAPES[t.shape].matlab
+                if matlab is None:
+                    raise ValueError(f"{v.name}.{t.name}: MATLAB has no {t.shape} (no .fis name)")
                 L.append(
-                    f"MF{k}={_quoted(t.name, 'term name')}:'{t.shape}',"
+                    f"MF{k}={_quoted(t.name, 'term name')}:'{matlab}',"
                     f"[{' '.join(_num(p) for p in t.params)}]"
                 )
     L += ["", "[Rules]"]

@@ -53,8 +53,9 @@ built from one are :mod:`controller.fuzzy_params`'s; the ``FuzzySystem`` methods
 same names call it.
 
 ``evaluate_one(x)`` and ``evaluate(X)[i]`` are identical to the last bit: they do the
-same floating-point operations (min and max are exact; the membership formulas are the
-same expressions; exp is numpy's in both, as math.exp differs in the last bit for a few
+same floating-point operations (min and max are exact; the memberships are each family's
+formula and the scalar source generated from the same table entry, held to the same
+bits by tests/test_membership_family.py; exp is numpy's in both, as math.exp differs in the last bit for a few
 percent of arguments; the two centroid sums run in grid order in both: a cumsum in one,
 a reduce over axis 0 of >= 2 columns in the other).
 """
@@ -112,7 +113,7 @@ class Term:
 
     def __call__(self, x) -> np.ndarray:
         """Membership of x (vectorised)."""
-        return mf.SHAPES[self.shape].func(x, self.params)
+        return mf.SHAPES[self.shape].evaluate(x, self.params)
 
 
 @dataclass(frozen=True)
@@ -449,8 +450,9 @@ class FuzzySystem(UnsensedNone):
             t += len(v.terms)
         self._n_cols = t + 2
         self._ONE, self._ZERO = t, t + 1
+        # per input term: (membership row, input column, the family's formula, params)
         self._batch_terms = [
-            (col[i][j], i, mf.fast_kernel(term.shape, term.params))
+            (col[i][j], i, mf.SHAPES[term.shape].formula, term.params)
             for i, v in enumerate(self.inputs)
             for j, term in enumerate(v.terms)
         ]
@@ -542,8 +544,9 @@ class FuzzySystem(UnsensedNone):
         F, S = ws.F, ws.S
         XT = np.ascontiguousarray(Xb.T)
         rows = [None] * self._n_cols
-        for row, i, kernel in self._batch_terms:
-            rows[row] = kernel(XT[i])
+        with mf.quiet():
+            for row, i, formula, params in self._batch_terms:
+                rows[row] = formula(XT[i], *params)
         rows[self._ONE] = ws.one[:n]
         for r_i, rr in enumerate(self._rule_rows):
             out = F[r_i, :n]

@@ -11,11 +11,12 @@ The inference is :meth:`FuzzySystem.evaluate`'s (Mamdani min/max, centroid on th
 
 * with one parameter set the rows go through :meth:`FuzzySystem.evaluate` itself, so
   the numbers are its numbers, bit for bit;
-* with several, the input memberships are the reference formulas of
-  :mod:`controller.membership` with per-row parameter columns (the same operations, so
-  the same bits), the firing strengths and slot levels are min/max (exact), and the
-  centroid's two sums run in grid order as ``evaluate``'s: equal to ``evaluate`` row by
-  row, bit for bit (tests/test_batch.py checks it, and the issue's 1e-12 V).
+* with several, the input memberships are the families' formulas of
+  :mod:`controller.membership` with per-row parameter columns (the same operations as
+  with one set, so the same bits), the firing strengths and slot levels are min/max
+  (exact), and the centroid's two sums run in grid order as ``evaluate``'s: equal to
+  ``evaluate`` row by row, bit for bit (tests/test_batch.py checks it, and the issue's
+  1e-12 V).
 
 Inference choices other than the default (:mod:`controller.inference`: product AND or
 implication, sum or probor aggregation, another defuzzification) are supported the cheap
@@ -32,6 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.membership import SHAPES, quiet
 
 __all__ = ["BatchFuzzy", "evaluate_rows", "same_structure"]
 
@@ -54,81 +56,6 @@ def _structure(system: FuzzySystem) -> tuple:
 def same_structure(a: FuzzySystem, b: FuzzySystem) -> bool:
     """Whether ``a`` and ``b`` differ at most in their membership parameters."""
     return _structure(a) == _structure(b)
-
-
-def _strict(shape: str, params: np.ndarray) -> bool:
-    """Whether every set's parameters are strictly ordered, so that
-    :func:`membership.fast_kernel`'s clipped-ramp formulas apply (the same bits)."""
-    if shape == "trimf":
-        return bool(np.all((params[:, 0] < params[:, 1]) & (params[:, 1] < params[:, 2])))
-    if shape in ("linsmf", "linzmf"):
-        return bool(np.all(params[:, 0] < params[:, 1]))
-    return shape == "gaussmf"
-
-
-def _mf_rows_fast(shape: str, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """:func:`controller.membership.fast_kernel`'s formulas with per-row parameters
-    (strictly ordered ones: :func:`_strict`); bit for bit the reference values."""
-    if shape == "trimf":
-        a, b, c = p[:, 0], p[:, 1], p[:, 2]
-        y = np.minimum((x - a) / (b - a), (c - x) / (c - b))
-        return np.fmax(y, 0.0, out=y)
-    if shape == "linsmf":
-        a, b = p[:, 0], p[:, 1]
-        y = (x - a) / (b - a)
-    elif shape == "linzmf":
-        a, b = p[:, 0], p[:, 1]
-        y = (b - x) / (b - a)
-    else:  # gaussmf
-        sigma, c = p[:, 0], p[:, 1]
-        d = x - c
-        y = np.exp((d * d) / -(2.0 * sigma * sigma))
-        return np.fmax(y, 0.0, out=y)
-    np.fmax(y, 0.0, out=y)
-    return np.fmin(y, 1.0, out=y)
-
-
-def _mf_rows(shape: str, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Membership of ``x`` (n,) with per-row parameters ``p`` (n, n_params): the
-    vectorised reference formulas of :mod:`controller.membership`, operation for
-    operation, with the parameter conditions (a < b, ...) taken per row."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        if shape == "trimf":
-            a, b, c = p[:, 0], p[:, 1], p[:, 2]
-            y = np.zeros(x.shape)
-            y = np.where((a < b) & (a < x) & (x < b), (x - a) / (b - a), y)
-            y = np.where((b < c) & (b < x) & (x < c), (c - x) / (c - b), y)
-            return np.where(x == b, 1.0, y)
-        if shape == "trapmf":
-            a, b, c, d = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
-            y1 = np.where(x >= b, 1.0, 0.0)
-            y1 = np.where((a < b) & (a <= x) & (x < b), (x - a) / (b - a), y1)
-            y2 = np.where(x <= c, 1.0, 0.0)
-            y2 = np.where((c < d) & (c < x) & (x <= d), (d - x) / (d - c), y2)
-            return np.minimum(y1, y2)
-        if shape == "linsmf":
-            a, b = p[:, 0], p[:, 1]
-            ramp = np.where(x > b, 1.0, 0.0)
-            ramp = np.where((a <= x) & (x <= b), (x - a) / (b - a), ramp)
-            return np.where(a < b, ramp, np.where(x >= a, 1.0, 0.0))
-        if shape == "linzmf":
-            a, b = p[:, 0], p[:, 1]
-            ramp = np.where(x < a, 1.0, 0.0)
-            ramp = np.where((a <= x) & (x <= b), (b - x) / (b - a), ramp)
-            return np.where(a < b, ramp, np.where(x < a, 1.0, 0.0))
-        if shape == "gaussmf":
-            sigma, c = p[:, 0], p[:, 1]
-            d = x - c
-            y = np.exp(-(d * d) / (2.0 * sigma * sigma))
-            return np.where(np.isnan(x), 0.0, y)
-        if shape == "gauss2mf":
-            s1, c1, s2, c2 = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
-            d1 = x - c1
-            d2 = x - c2
-            y1 = np.where(x < c1, np.exp(-(d1 * d1) / (2.0 * s1 * s1)), 1.0)
-            y2 = np.where(x > c2, np.exp(-(d2 * d2) / (2.0 * s2 * s2)), 1.0)
-            return np.where(np.isnan(x), 0.0, y1 * y2)
-    raise ValueError(f"membership shape {shape!r}: not supported by the batch engine")
 
 
 class BatchFuzzy:
@@ -161,14 +88,14 @@ class BatchFuzzy:
         self.systems = systems
         self.structure = first
         self.n_sets = len(systems)
-        # Per input term: (membership row, input column, shape, (K, n_params) parameters).
+        # Per input term: (membership row, input column, the family's formula, its
+        # parameters as columns of K values: column p[k] is set k's p-th parameter).
         self._input_terms = []
         for i, variable in enumerate(first.inputs):
             for j, term in enumerate(variable.terms):
                 params = np.array([s.inputs[i].terms[j].params for s in systems], dtype=float)
-                kernel = _mf_rows_fast if _strict(term.shape, params) else _mf_rows
                 self._input_terms.append(
-                    (first._batch_terms_row(i, j), i, term.shape, params, kernel)
+                    (first._batch_terms_row(i, j), i, SHAPES[term.shape].formula, params.T.copy())
                 )
         # Every set's output terms sampled on the grid once: (K, n_out, kmax, G).
         self._mfg = np.stack([s._mfg for s in systems])
@@ -221,8 +148,9 @@ class BatchFuzzy:
         system = self.structure
         n = X.shape[0]
         rows: list = [None] * system._n_cols
-        for row, i, shape, params, kernel in self._input_terms:
-            rows[row] = kernel(shape, X[:, i], params[groups])
+        with quiet():
+            for row, i, formula, columns in self._input_terms:
+                rows[row] = formula(X[:, i], *(column[groups] for column in columns))
         rows[system._ONE] = np.ones(n)
         F = np.empty((len(system.rules), n))
         for r_i, rr in enumerate(system._rule_rows):

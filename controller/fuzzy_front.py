@@ -4,50 +4,211 @@ Kept for the bench row "fuzzy engine, one evaluation (bench/bench_fuzzy.py) <= 3
 docs/speed.md (issue 24 item 6): per rule base, straight-line Python is generated and
 exec'd that takes the input vector to the memberships, the firing strengths and the
 consequent slots' levels. Measured on the paper's rule base, this front costs 8 us a
-call against 90 us for the plain form (the scalar membership functions of
-:mod:`controller.membership` called in loops over terms and rules), which would put one
-evaluation near 110 us, far over the row's aim.
+call, where numpy calls on arrays of a few terms cost 1-3 us each (a membership
+formula is 5-10 of them, per family and input), which would put one evaluation far over
+the row's aim.
 
-The code contains only variable names made here and float literals written with repr()
-(which reads back exactly); the arithmetic is operation for operation the one of the
-vectorised membership functions, so the results are identical to the batch path's.
+Each term's lines come from its family's scalar source in the table of
+:mod:`controller.membership` (``Shape.scalar``): turned once per family into a template
+(``x``, ``m`` and the temporaries renamed, every subexpression of the parameters alone
+a slot), filled per term with the values of those subexpressions as float literals
+written with repr() (which reads back exactly). A division by a slot that is zero
+divides as IEEE (numpy) does, and so does one by an expression of ``x``
+(:func:`_ieee_div`); every other operation of Python floats is numpy's, so the front's
+memberships are the formula's bits (tests/test_membership_family.py holds every family's
+source to its formula).
 """
 
 from __future__ import annotations
 
+import ast
+import functools
 import math
+import re
+import textwrap
 from collections.abc import Callable
+from types import CodeType
 from typing import Any
 
 import numpy as np
 
-__all__ = ["generate_front"]
+from .membership import SHAPES, check_params, quiet
+
+__all__ = ["generate_front", "scalar_function"]
+
+#: Names a family's scalar source may use besides ``x``, its parameters, temporaries and
+#: builtins: numpy's functions on a float give their bits on an array.
+SCALAR_NAMES: dict[str, Any] = {"exp": np.exp, "np": np}
+
+
+def _ieee_div(p: float, q: float) -> float:
+    """``p / q`` as numpy divides: by zero into +-inf (NaN for 0 / 0 and NaN / 0)."""
+    if q != 0.0:
+        return p / q
+    if p != p or p == 0.0:
+        return math.nan
+    return math.copysign(math.inf, p) * math.copysign(1.0, q)
+
+
+class _IEEEZero(float):
+    """A zero divisor that divides as IEEE does (Python raises ZeroDivisionError):
+    Python asks a float subclass on the right of ``/`` first."""
+
+    def __rtruediv__(self, other):
+        return _ieee_div(float(other), float(self))
 
 
 def _literal(value: float) -> str:
     """A float as Python source for the generated single-sample code: repr() (which
-    reads back exactly) for a finite number, names bound in its namespace for inf and
-    NaN (repr gives 'inf', which is no Python literal)."""
+    reads back exactly) for a finite number, in parentheses if negative, names bound in
+    its namespace for inf and NaN (repr gives 'inf', which is no Python literal)."""
     value = float(value)
     if math.isfinite(value):
-        return repr(value)
+        text = repr(value)
+        return f"({text})" if text.startswith("-") else text
     if math.isnan(value):
         return "_NAN"
     return "_INF" if value > 0 else "(-_INF)"
 
 
-def _plain_divisor(value: float) -> bool:
-    """Whether Python's float division by ``value`` is numpy's (not 0, not inf)."""
-    return value != 0.0 and math.isfinite(value)
+# The nodes of a subexpression of the parameters alone (a template's slot).
+_ARITHMETIC = (ast.BinOp, ast.UnaryOp, ast.Name, ast.Constant, ast.Load, ast.operator, ast.unaryop)
+_PLACEHOLDER = re.compile(r"\b(X__|M__|K__(\d+))\b")
 
 
-def _gauss_exp(d: float, den: float, clip: bool) -> float:
-    """``exp(-(d * d) / den)`` with numpy's IEEE division (x / 0 is inf, 0 / 0 NaN, no
-    exception), as the vectorised gaussmf/gauss2mf compute it when 2 sigma^2 under- or
-    overflows; ``clip`` maps NaN to 0 as the batch gaussmf kernel's fmax does."""
-    with np.errstate(all="ignore"):
-        y = np.exp(-(np.float64(d) * np.float64(d)) / np.float64(den))
-        return float(np.fmax(y, 0.0)) if clip else float(y)
+class _Template:
+    """A family's scalar source as a format string over ``{x}``, ``{m}`` and slots
+    ``{k[i]}``, with each slot's subexpression of the parameters (and whether it divides)."""
+
+    def __init__(self, scalar: str, param_names: tuple[str, ...]):
+        tree = ast.parse(textwrap.dedent(scalar))
+        self.params = param_names
+        self.temps = {
+            t.id
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.Assign, ast.AugAssign, ast.AnnAssign))
+            for target in (node.targets if isinstance(node, ast.Assign) else [node.target])
+            for t in ast.walk(target)
+            if isinstance(t, ast.Name) and t.id not in ("m", "x")
+        }
+        self.slots: dict[str, int] = {}
+        self.constants: list[CodeType] = []
+        self.divisors: set[int] = set()
+        tree = self._visit(tree)
+        text = ast.unparse(tree).replace("{", "{{").replace("}", "}}")
+        self.text = _PLACEHOLDER.sub(
+            lambda g: {"X__": "{x}", "M__": "{m}"}.get(g.group(1), f"{{k[{g.group(2)}]}}"), text
+        )
+
+    def _of_params(self, node: ast.AST) -> bool:
+        """Whether ``node`` is arithmetic on the parameters alone (and literals)."""
+        nodes = list(ast.walk(node))
+        return any(isinstance(n, ast.Name) for n in nodes) and all(
+            isinstance(n, _ARITHMETIC) and (not isinstance(n, ast.Name) or n.id in self.params)
+            for n in nodes
+        )
+
+    def _slot(self, node: ast.expr) -> ast.Name:
+        key = ast.unparse(node)
+        if key not in self.slots:
+            self.slots[key] = len(self.constants)
+            self.constants.append(compile(ast.Expression(node), "<slot>", "eval"))
+        return ast.Name(f"K__{self.slots[key]}", ast.Load())
+
+    def _visit(self, node):
+        if isinstance(node, ast.expr) and self._of_params(node):
+            return self._slot(node)
+        if isinstance(node, ast.Name):
+            if node.id == "x":
+                node.id = "X__"
+            elif node.id == "m":
+                node.id = "M__"
+            elif node.id in self.temps:
+                node.id = f"t_{node.id}"
+            return node
+        for name, value in ast.iter_fields(node):
+            if isinstance(value, list):
+                setattr(
+                    node, name, [self._visit(v) if isinstance(v, ast.AST) else v for v in value]
+                )
+            elif isinstance(value, ast.AST):
+                setattr(node, name, self._visit(value))
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div):
+            right = node.right
+            if isinstance(right, ast.Name) and right.id.startswith("K__"):
+                self.divisors.add(int(right.id[3:]))
+            elif not (
+                isinstance(right, ast.Constant)
+                and isinstance(right.value, float | int)
+                and right.value != 0
+            ):
+                return ast.Call(ast.Name("_div", ast.Load()), [node.left, right], [])
+        return node
+
+    def lines(self, params: tuple[float, ...], x: str, m: str) -> list[str]:
+        """The family's lines for one term: input variable ``x``, membership into ``m``."""
+        env = dict(zip(self.params, params))
+        values = []
+        for i, code in enumerate(self.constants):
+            v = _constant(code, env)
+            if v == 0.0 and i in self.divisors:
+                values.append("_ZERO" if math.copysign(1.0, v) > 0 else "_NZERO")
+            else:
+                values.append(_literal(v))
+        return self.text.format(x=x, m=m, k=values).splitlines()
+
+
+def _constant(code: CodeType, env: dict[str, float]) -> float:
+    """A slot's value: in Python floats, or numpy's where Python raises (division by
+    zero, overflow); both are IEEE double arithmetic in the source's order."""
+    try:
+        return float(eval(code, {}, env))
+    except (ZeroDivisionError, OverflowError):
+        with quiet():
+            return float(eval(code, {}, {k: np.float64(v) for k, v in env.items()}))
+
+
+@functools.lru_cache(maxsize=64)
+def _template(scalar: str, param_names: tuple[str, ...]) -> _Template:
+    return _Template(scalar, param_names)
+
+
+def _term_lines(shape: str, params: tuple[float, ...], x: str, m: str) -> list[str]:
+    family = SHAPES[shape]
+    return _template(family.scalar, family.param_names).lines(params, x, m)
+
+
+_NAMESPACE: dict[str, Any] = {
+    **SCALAR_NAMES,
+    "_div": _ieee_div,
+    "_ZERO": _IEEEZero(0.0),
+    "_NZERO": _IEEEZero(-0.0),
+    "_INF": math.inf,
+    "_NAN": math.nan,
+}
+
+
+def scalar_function(shape: str, params) -> Callable[[float], float]:
+    """One term's membership as the generated front computes it (for tests and checks).
+
+    Parameters
+    ----------
+    shape : str
+        A family of :data:`controller.membership.SHAPES`.
+    params : sequence of float
+        Its parameters (checked).
+
+    Returns
+    -------
+    callable
+        float -> float: the membership (0 for NaN, as the front's guard gives it).
+    """
+    body = _term_lines(shape, check_params(shape, params), "x", "m")
+    src = "def f(x):\n    if x != x:\n        return 0.0\n"
+    src += "".join(f"    {line}\n" for line in body) + "    return m\n"
+    ns = dict(_NAMESPACE)
+    exec(compile(src, f"<{shape} scalar>", "exec"), ns)
+    return ns["f"]
 
 
 def generate_front(system, per_rule: bool = False) -> Callable:
@@ -57,9 +218,9 @@ def generate_front(system, per_rule: bool = False) -> Callable:
     aggregation other than max, :mod:`controller.inference`, needs each rule's). The
     AND of a rule is ``system.inference.and_method``: min, or the product in input order.
 
-    The code contains only variable names made here and float literals written with
-    repr() (which reads back exactly); the arithmetic is operation for operation the
-    one of the vectorised membership functions, so the results are identical."""
+    The memberships are the families' scalar sources (module docstring); the firing
+    strengths and levels are min/max (exact) and products in input order, as the batch
+    path computes them, so the results are identical."""
     lines = ["def front(x):"]
     n_in = len(system.inputs)
     lines.append(f"    if len(x) != {n_in}:")
@@ -73,75 +234,7 @@ def generate_front(system, per_rule: bool = False) -> Callable:
         for j, term in enumerate(v.terms):
             m = f"m{i}_{j}"
             names.append(m)
-            p = term.params
-            if term.shape == "trimf":
-                a, b, c = p
-                body.append(f"if {xi} == {r(b)}: {m} = 1.0")
-                if a < b:
-                    body.append(f"elif {r(a)} < {xi} < {r(b)}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
-                if b < c:
-                    body.append(f"elif {r(b)} < {xi} < {r(c)}: {m} = ({r(c)} - {xi}) / {r(c - b)}")
-                body.append(f"else: {m} = 0.0")
-            elif term.shape == "trapmf":
-                a, b, c, d = p
-                body.append(f"if {xi} >= {r(b)}: y1 = 1.0")
-                if a < b:
-                    body.append(f"elif {r(a)} <= {xi}: y1 = ({xi} - {r(a)}) / {r(b - a)}")
-                body.append("else: y1 = 0.0")
-                body.append(f"if {xi} <= {r(c)}: y2 = 1.0")
-                if c < d:
-                    body.append(f"elif {xi} <= {r(d)}: y2 = ({r(d)} - {xi}) / {r(d - c)}")
-                body.append("else: y2 = 0.0")
-                body.append(f"{m} = y1 if y1 < y2 else y2")
-            elif term.shape == "linsmf":
-                a, b = p
-                if a < b:
-                    body.append(f"if {xi} > {r(b)}: {m} = 1.0")
-                    body.append(f"elif {r(a)} <= {xi}: {m} = ({xi} - {r(a)}) / {r(b - a)}")
-                    body.append(f"else: {m} = 0.0")
-                else:
-                    body.append(f"{m} = 1.0 if {xi} >= {r(a)} else 0.0")
-            elif term.shape == "linzmf":
-                a, b = p
-                if a < b:
-                    body.append(f"if {xi} < {r(a)}: {m} = 1.0")
-                    body.append(f"elif {xi} <= {r(b)}: {m} = ({r(b)} - {xi}) / {r(b - a)}")
-                    body.append(f"else: {m} = 0.0")
-                else:
-                    body.append(f"{m} = 1.0 if {xi} < {r(a)} else 0.0")
-            elif term.shape == "gaussmf":
-                s, c = p
-                den = 2.0 * s * s
-                body.append(f"d = {xi} - {r(c)}")
-                if _plain_divisor(den):
-                    body.append(f"{m} = _float(_exp(-(d * d) / {r(den)}))")
-                else:  # 2 sigma^2 under- or overflows: numpy's IEEE division
-                    body.append(f"{m} = _gauss_exp(d, {r(den)}, True)")
-            elif term.shape == "gauss2mf":
-                s1, c1, s2, c2 = p
-                # a flat side is exactly 1.0, as the vectorised np.where gives
-                den1, den2 = 2.0 * s1 * s1, 2.0 * s2 * s2
-                g1 = (
-                    f"_float(_exp(-(d * d) / {r(den1)}))"
-                    if _plain_divisor(den1)
-                    else f"_gauss_exp(d, {r(den1)}, False)"
-                )
-                g2 = (
-                    f"_float(_exp(-(d * d) / {r(den2)}))"
-                    if _plain_divisor(den2)
-                    else f"_gauss_exp(d, {r(den2)}, False)"
-                )
-                body.append(f"if {xi} < {r(c1)}:")
-                body.append(f"    d = {xi} - {r(c1)}")
-                body.append(f"    y1 = {g1}")
-                body.append("else: y1 = 1.0")
-                body.append(f"if {xi} > {r(c2)}:")
-                body.append(f"    d = {xi} - {r(c2)}")
-                body.append(f"    y2 = {g2}")
-                body.append("else: y2 = 1.0")
-                body.append(f"{m} = y1 * y2")
-            else:  # pragma: no cover - check_params guards this
-                raise AssertionError(term.shape)
+            body += _term_lines(term.shape, term.params, xi, m)
         # NaN: nothing sensed, every membership 0
         lines.append(f"    if {xi} != {xi}:")
         lines.append("        " + " = ".join(names + ["0.0"]))
@@ -171,16 +264,7 @@ def generate_front(system, per_rule: bool = False) -> Callable:
     else:
         lines += _slot_levels(system)
     src = "\n".join(lines) + "\n"
-    # numpy's exp, as the vectorised gaussmf uses (math.exp differs in the last bit
-    # for a few percent of arguments); on a float it runs the same loop
-    ns: dict[str, Any] = {
-        "_exp": np.exp,
-        "_float": float,
-        "_gauss_exp": _gauss_exp,
-        "_INF": math.inf,
-        "_NAN": math.nan,
-        "_msg": f"expected {n_in} inputs {system.input_names}, got %d",
-    }
+    ns = {**_NAMESPACE, "_msg": f"expected {n_in} inputs {system.input_names}, got %d"}
     exec(compile(src, f"<fuzzy front {system.name}>", "exec"), ns)
     system._front_src = src
     return ns["front"]

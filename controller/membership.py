@@ -1,15 +1,14 @@
-"""Membership functions with MATLAB Fuzzy Logic Toolbox names, parameter order and edge
-conventions.
+"""The membership-function families: one table, :data:`SHAPES`, with MATLAB Fuzzy Logic
+Toolbox names, parameter order and edge conventions.
 
-Each shape has two implementations that give bit-for-bit the same numbers:
-
-* a vectorised one, ``f(x, params)`` on a numpy array (used for batches, for sampling the
-  output terms on the defuzzification grid and for plots), and
-* a scalar one, ``f_scalar(x, *params)`` in plain Python floats, used by the single-sample
-  fast path of :class:`controller.fuzzy.FuzzySystem`.  The Gaussian shapes need ``exp``,
-  and ``math.exp`` and ``numpy.exp`` differ in the last bit for a few percent of
-  arguments, so the scalar Gaussian variants return the *exponent(s)* and the caller
-  applies ``numpy.exp`` (see :func:`gaussmf_exponent`).
+Each family is one :class:`Shape`: its parameter names, the condition on them, ONE
+vectorised numpy formula (parameters scalar or one set per row), the scalar source the
+single-sample front is generated from (:mod:`controller.fuzzy_front`; a test checks that
+it gives the formula's bits on a grid) and its name in a MATLAB ``.fis`` file. The
+scalar engine (:class:`controller.fuzzy.FuzzySystem`), the batch engine
+(:mod:`controller.fuzzy_batch`), the rule-base and ``.fis`` formats and the design rules
+all read this table: a new family is one :class:`Shape` added here (or at run time with
+:func:`register_shape`).
 
 Conventions (MATLAB documentation of trimf, trapmf, linsmf, linzmf, gaussmf, gauss2mf):
 
@@ -29,219 +28,422 @@ Conventions (MATLAB documentation of trimf, trapmf, linsmf, linzmf, gaussmf, gau
 
 NaN input means "nothing sensed": every membership of NaN is 0 (all shapes).
 +-inf inputs are accepted and give the limits (e.g. linzmf(-inf) = 1).
+
+The formulas are the clipped ramps (fewer numpy operations than the piecewise
+definitions above) and give the piecewise values to the last bit: with a < b,
+(x-a)/(b-a) <= 1 for x <= b and >= 1 for x >= b after rounding (rounding is monotone),
+so clipping the ramps to [0, 1] and taking their min gives exactly the piecewise values;
+a degenerate side (a == b, ...) divides by zero into +-inf (a step) or NaN at its corner,
+which the NaN-ignoring ``fmin``/``fmax`` settle (``fmax(y, x == b)`` is 1 at a peak, the
+clip at 0 elsewhere, and 0 for NaN x); -(p/q) = p/(-q) exactly. The scalar sources are
+the piecewise definitions themselves.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from types import CodeType
 
 import numpy as np
 
 __all__ = [
+    "Shape",
+    "SHAPES",
+    "quiet",
+    "register_shape",
+    "shape_for_matlab",
+    "check_params",
     "trimf",
     "trapmf",
     "linsmf",
     "linzmf",
     "gaussmf",
     "gauss2mf",
-    "trimf_scalar",
-    "trapmf_scalar",
-    "linsmf_scalar",
-    "linzmf_scalar",
-    "gaussmf_exponent",
-    "gauss2mf_exponents",
-    "Shape",
-    "SHAPES",
-    "check_params",
-    "evaluate_mf",
 ]
 
 
-def _arr(x) -> np.ndarray:
-    return np.asarray(x, dtype=float)
+def quiet() -> np.errstate:
+    """numpy's warnings off, as around every call of a formula: what the formulas divide
+    by zero or subtract infinities into (degenerate sides, +-inf input) is settled
+    inside them."""
+    return np.errstate(divide="ignore", invalid="ignore", over="ignore")
 
 
-# --------------------------------------------------------------------------- vectorised
-
-
-def trimf(x, params: Sequence[float]) -> np.ndarray:
-    """Triangular MF, params [a b c]."""
-    a, b, c = (float(p) for p in params)
-    x = _arr(x)
-    y = np.zeros(x.shape)
-    if a < b:
-        y = np.where((a < x) & (x < b), (x - a) / (b - a), y)
-    if b < c:
-        y = np.where((b < x) & (x < c), (c - x) / (c - b), y)
-    return np.where(x == b, 1.0, y)
-
-
-def trapmf(x, params: Sequence[float]) -> np.ndarray:
-    """Trapezoidal MF, params [a b c d]."""
-    a, b, c, d = (float(p) for p in params)
-    x = _arr(x)
-    y1 = np.where(x >= b, 1.0, 0.0)
-    if a < b:
-        y1 = np.where((a <= x) & (x < b), (x - a) / (b - a), y1)
-    y2 = np.where(x <= c, 1.0, 0.0)
-    if c < d:
-        y2 = np.where((c < x) & (x <= d), (d - x) / (d - c), y2)
-    return np.minimum(y1, y2)
-
-
-def linsmf(x, params: Sequence[float]) -> np.ndarray:
-    """Linear S-shaped saturation MF (0 -> 1), params [a b] (foot, shoulder)."""
-    a, b = (float(p) for p in params)
-    x = _arr(x)
-    if a < b:
-        y = np.where(x > b, 1.0, 0.0)
-        return np.where((a <= x) & (x <= b), (x - a) / (b - a), y)
-    return np.where(x >= a, 1.0, 0.0)
-
-
-def linzmf(x, params: Sequence[float]) -> np.ndarray:
-    """Linear Z-shaped saturation MF (1 -> 0), params [a b] (shoulder, foot)."""
-    a, b = (float(p) for p in params)
-    x = _arr(x)
-    if a < b:
-        y = np.where(x < a, 1.0, 0.0)
-        return np.where((a <= x) & (x <= b), (b - x) / (b - a), y)
-    return np.where(x < a, 1.0, 0.0)
-
-
-def gaussmf(x, params: Sequence[float]) -> np.ndarray:
-    """Gaussian MF, params [sigma c] (MATLAB order: width first)."""
-    sigma, c = (float(p) for p in params)
-    x = _arr(x)
-    d = x - c
-    y = np.exp(-(d * d) / (2.0 * sigma * sigma))
-    return np.where(np.isnan(x), 0.0, y)
-
-
-def gauss2mf(x, params: Sequence[float]) -> np.ndarray:
-    """Two-sided Gaussian MF, params [sigma1 c1 sigma2 c2]."""
-    s1, c1, s2, c2 = (float(p) for p in params)
-    x = _arr(x)
-    d1 = x - c1
-    d2 = x - c2
-    y1 = np.where(x < c1, np.exp(-(d1 * d1) / (2.0 * s1 * s1)), 1.0)
-    y2 = np.where(x > c2, np.exp(-(d2 * d2) / (2.0 * s2 * s2)), 1.0)
-    return np.where(np.isnan(x), 0.0, y1 * y2)
-
-
-# --------------------------------------------------------------------------- scalar
-# Same arithmetic, operation by operation, as the vectorised versions above, so the
-# results are identical to the last bit.  (x != x) is the NaN test.
-
-
-def trimf_scalar(x: float, a: float, b: float, c: float) -> float:
-    if x == b:
-        return 1.0
-    if a < x < b:
-        return (x - a) / (b - a)
-    if b < x < c:
-        return (c - x) / (c - b)
-    return 0.0
-
-
-def trapmf_scalar(x: float, a: float, b: float, c: float, d: float) -> float:
-    if x != x:
-        return 0.0
-    if x >= b:
-        y1 = 1.0
-    elif a <= x:  # and x < b, so a < b
-        y1 = (x - a) / (b - a)
-    else:
-        y1 = 0.0
-    if x <= c:
-        y2 = 1.0
-    elif x <= d:  # and x > c, so c < d
-        y2 = (d - x) / (d - c)
-    else:
-        y2 = 0.0
-    return y1 if y1 < y2 else y2
-
-
-def linsmf_scalar(x: float, a: float, b: float) -> float:
-    if a < b:
-        if x > b:
-            return 1.0
-        if a <= x:  # and x <= b
-            return (x - a) / (b - a)
-        return 0.0
-    return 1.0 if x >= a else 0.0
-
-
-def linzmf_scalar(x: float, a: float, b: float) -> float:
-    if a < b:
-        if x < a:
-            return 1.0
-        if x <= b:  # and x >= a
-            return (b - x) / (b - a)
-        return 0.0
-    return 1.0 if x < a else 0.0
-
-
-def gaussmf_exponent(x: float, sigma: float, c: float) -> float:
-    """The exponent of gaussmf; membership = numpy.exp(exponent) (NaN for NaN x)."""
-    d = x - c
-    return -(d * d) / (2.0 * sigma * sigma)
-
-
-def gauss2mf_exponents(x: float, s1: float, c1: float, s2: float, c2: float) -> tuple[float, float]:
-    """The two exponents of gauss2mf (0.0 for a side that is flat at 1)."""
-    if x < c1:
-        d1 = x - c1
-        e1 = -(d1 * d1) / (2.0 * s1 * s1)
-    else:
-        e1 = 0.0
-    if x > c2:
-        d2 = x - c2
-        e2 = -(d2 * d2) / (2.0 * s2 * s2)
-    else:
-        e2 = 0.0
-    return e1, e2
-
-
-# --------------------------------------------------------------------------- registry
+@functools.lru_cache(maxsize=256)
+def _compiled(expression: str) -> CodeType:
+    """A table's expression over parameter names, compiled once."""
+    return compile(expression, "<shape expression>", "eval")
 
 
 @dataclass(frozen=True)
 class Shape:
+    """One membership-function family.
+
+    Parameters
+    ----------
+    name : str
+        The shape's name in rule bases and terms (``Term.shape``).
+    param_names : tuple of str
+        Its parameters, in MATLAB's order.
+    requires : str
+        The condition on the parameters, a Python expression over ``param_names``
+        (e.g. ``"a <= b <= c"``); the parameters are finite numbers in any case.
+    formula : callable
+        ``formula(x, *params) -> memberships``, numpy: ``x`` a float array, (n,) or
+        (n, k); each parameter a float or an array that broadcasts against ``x`` (one
+        value per row). It must not write into ``x`` (into its own temporaries it may);
+        NaN x must give 0; numpy's warnings are off around it.
+    scalar : str
+        The same function as Python statements for the generated single-sample front
+        (:mod:`controller.fuzzy_front`): they read ``x`` (a float, never NaN) and the
+        parameters by name, may use ``exp`` (numpy's), numpy as ``np`` and temporaries,
+        and leave the membership in ``m``; a division by zero follows IEEE (the
+        generator sees to it). Operation for operation the formula's arithmetic, so the
+        bits agree (tested).
+    description : str
+        One line for people.
+    matlab : str or None
+        The name MATLAB's ``.fis`` files give it (default: ``name``); None: the
+        ``.fis`` writer refuses it.
+    examples : tuple of parameter tuples
+        Valid parameter sets, degenerate ones included, for the tests that hold the
+        formula and the scalar source to each other.
+    centre : str
+        Where a term of the family is most itself, an expression over ``param_names``
+        (the design rules' centre; "" if it has no such point).
+    ramps : str
+        The lengths of its linear sides, a tuple expression over ``param_names`` (the
+        design rules' widths).
+    """
+
     name: str
     param_names: tuple[str, ...]
-    func: Callable[[np.ndarray, Sequence[float]], np.ndarray]
+    requires: str
+    formula: Callable[..., np.ndarray]
+    scalar: str
     description: str
+    matlab: str | None = ""
+    examples: tuple[tuple[float, ...], ...] = ()
+    centre: str = ""
+    ramps: str = "()"
+
+    def __post_init__(self):
+        if self.matlab == "":
+            object.__setattr__(self, "matlab", self.name)
+        for text in (self.requires, self.centre or "0", self.ramps):
+            _compiled(text)  # a syntax error shows at once
+
+    def _value(self, text: str, params: Sequence[float]):
+        return eval(_compiled(text), {}, dict(zip(self.param_names, params)))
 
     @property
     def n_params(self) -> int:
+        """The number of parameters."""
         return len(self.param_names)
 
+    @property
+    def func(self) -> Callable[..., np.ndarray]:
+        """``f(x, params)``: :meth:`evaluate` (the name the shape functions had)."""
+        return self.evaluate
 
-SHAPES: dict[str, Shape] = {
-    s.name: s
-    for s in (
-        Shape("trimf", ("a", "b", "c"), trimf, "triangle: feet a, c; peak b"),
-        Shape("trapmf", ("a", "b", "c", "d"), trapmf, "trapezoid: feet a, d; shoulders b, c"),
-        Shape("linsmf", ("a", "b"), linsmf, "linear S: 0 below a, 1 above b"),
-        Shape("linzmf", ("a", "b"), linzmf, "linear Z: 1 below a, 0 above b"),
-        Shape("gaussmf", ("sigma", "c"), gaussmf, "Gaussian: width sigma, centre c"),
-        Shape(
-            "gauss2mf",
-            ("sigma1", "c1", "sigma2", "c2"),
-            gauss2mf,
-            "two-sided Gaussian: left (sigma1, c1), right (sigma2, c2)",
+    def holds(self, params: Sequence[float]) -> bool:
+        """Whether ``params`` (finite numbers, ``n_params`` of them) meet ``requires``."""
+        return bool(self._value(self.requires, params))
+
+    def centre_of(self, params: Sequence[float]) -> float | None:
+        """``centre`` for these parameters (None if the family has none)."""
+        return float(self._value(self.centre, params)) if self.centre else None
+
+    def ramps_of(self, params: Sequence[float]) -> tuple[float, ...]:
+        """``ramps`` for these parameters."""
+        return tuple(float(v) for v in self._value(self.ramps, params))
+
+    def columns(self, x: np.ndarray, params) -> list:
+        """The parameters as the formula takes them: floats for one set (P,), columns
+        broadcasting against ``x`` for one set per row (n, P)."""
+        p = np.asarray(params, dtype=float) + 0.0  # -0.0 is 0.0 (b - a = -0.0 would flip)
+        if p.ndim == 1:
+            return [float(v) for v in p]
+        cols = [p[:, k] for k in range(p.shape[1])]
+        if x.ndim == 2:
+            cols = [c[:, None] for c in cols]
+        return cols
+
+    def evaluate(self, x, params) -> np.ndarray:
+        """Memberships of ``x`` (vectorised; numpy's warnings off).
+
+        Parameters
+        ----------
+        x : array_like
+            The inputs; (n,) or (n, k) for parameters per row.
+        params : array_like
+            One parameter set (n_params,), or one per row of ``x`` (n, n_params).
+            Not checked here (:func:`check_params` checks one set).
+
+        Returns
+        -------
+        ndarray
+            The memberships, shaped as ``x``.
+        """
+        x = np.asarray(x, dtype=float)
+        flat = x.reshape(-1) if x.ndim == 0 else x
+        with quiet():
+            y = self.formula(flat, *self.columns(flat, params))
+        return np.asarray(y).reshape(x.shape)
+
+
+# --------------------------------------------------------------------------- formulas
+# Each returns fresh arrays and may write its own temporaries in place.
+
+
+def _trimf(x, a, b, c):
+    y = np.subtract(x, a)
+    y /= b - a
+    right = np.subtract(c, x)
+    right /= c - b
+    np.minimum(y, right, out=y)
+    return np.fmax(y, x == b, out=y)  # 1 at the peak (0/0 there if a side is flat), else >= 0
+
+
+def _trapmf(x, a, b, c, d):
+    y = np.subtract(x, a)
+    y /= b - a
+    right = np.subtract(d, x)
+    right /= d - c
+    np.fmin(y, right, out=y)
+    np.fmax(y, (b <= x) & (x <= c), out=y)
+    return np.fmin(y, 1.0, out=y)
+
+
+def _linsmf(x, a, b):
+    y = np.subtract(x, a)
+    y /= b - a
+    np.fmax(y, x >= b, out=y)
+    return np.fmin(y, 1.0, out=y)
+
+
+def _linzmf(x, a, b):
+    y = np.subtract(b, x)
+    y /= b - a
+    np.fmax(y, 0.0, out=y)
+    return np.fmin(y, 1.0, out=y)
+
+
+def _gaussmf(x, sigma, c):
+    y = np.subtract(x, c)
+    np.multiply(y, y, out=y)
+    y /= -(2.0 * sigma * sigma)
+    np.exp(y, out=y)
+    return np.fmax(y, 0.0, out=y)
+
+
+def _gauss2mf(x, sigma1, c1, sigma2, c2):
+    d1 = x - c1
+    d2 = x - c2
+    e1 = np.where(x >= c1, 0.0, (d1 * d1) / -(2.0 * sigma1 * sigma1))
+    e2 = np.where(x <= c2, 0.0, (d2 * d2) / -(2.0 * sigma2 * sigma2))
+    y = np.exp(e1) * np.exp(e2)
+    return np.fmax(y, 0.0, out=y)
+
+
+# --------------------------------------------------------------------------- the table
+
+SHAPES: dict[str, Shape] = {}
+
+
+def register_shape(shape: Shape, *, replace: bool = False) -> Shape:
+    """Add a family to :data:`SHAPES` (every engine and format reads it from there).
+
+    Parameters
+    ----------
+    shape : Shape
+        The family.
+    replace : bool
+        Whether it may replace a family of the same name.
+
+    Returns
+    -------
+    Shape
+        ``shape``.
+
+    Raises
+    ------
+    ValueError
+        The name is taken (and ``replace`` is false), or another family has its MATLAB
+        name.
+    """
+    if not replace and shape.name in SHAPES:
+        raise ValueError(f"membership function shape {shape.name!r} is registered already")
+    if shape.matlab is not None:
+        for other in SHAPES.values():
+            if other.name != shape.name and other.matlab == shape.matlab:
+                raise ValueError(f"MATLAB name {shape.matlab!r} belongs to {other.name!r}")
+    SHAPES[shape.name] = shape
+    return shape
+
+
+def shape_for_matlab(name: str) -> Shape | None:
+    """The family a ``.fis`` file calls ``name`` (None if none).
+
+    Parameters
+    ----------
+    name : str
+        The membership-function type as MATLAB writes it (``'trimf'``, ...).
+    """
+    for shape in SHAPES.values():
+        if shape.matlab == name:
+            return shape
+    return None
+
+
+for _shape in (
+    Shape(
+        "trimf",
+        ("a", "b", "c"),
+        "a <= b <= c",
+        _trimf,
+        """
+if x == b:
+    m = 1.0
+elif a < x < b:
+    m = (x - a) / (b - a)
+elif b < x < c:
+    m = (c - x) / (c - b)
+else:
+    m = 0.0
+""",
+        "triangle: feet a, c; peak b",
+        examples=((1.0, 3.0, 7.0), (0.0, 0.0, 1.0), (0.0, 1.0, 1.0), (1.0, 1.0, 1.0)),
+        centre="b",
+        ramps="(b - a, c - b)",
+    ),
+    Shape(
+        "trapmf",
+        ("a", "b", "c", "d"),
+        "a <= b and c <= d",
+        _trapmf,
+        """
+if x >= b:
+    y1 = 1.0
+elif a <= x:
+    y1 = (x - a) / (b - a)
+else:
+    y1 = 0.0
+if x <= c:
+    y2 = 1.0
+elif x <= d:
+    y2 = (d - x) / (d - c)
+else:
+    y2 = 0.0
+m = y1 if y1 < y2 else y2
+""",
+        "trapezoid: feet a, d; shoulders b, c",
+        examples=(
+            (1.0, 2.0, 4.0, 8.0),
+            (1.0, 1.0, 5.0, 5.0),
+            (0.0, 4.0, 1.0, 5.0),
+            (2.0, 2.0, 1.0, 1.0),
+            (1.0, 1.0, 1.0, 1.0),
         ),
-    )
-}
+    ),
+    Shape(
+        "linsmf",
+        ("a", "b"),
+        "a <= b",
+        _linsmf,
+        """
+if x >= b:
+    m = 1.0
+elif a <= x:
+    m = (x - a) / (b - a)
+else:
+    m = 0.0
+""",
+        "linear S: 0 below a, 1 above b",
+        examples=((0.0, 2.0), (1.0, 1.0), (-0.28, 0.65)),
+        centre="b",
+        ramps="(b - a,)",
+    ),
+    Shape(
+        "linzmf",
+        ("a", "b"),
+        "a <= b",
+        _linzmf,
+        """
+if x < a:
+    m = 1.0
+elif x < b:
+    m = (b - x) / (b - a)
+else:
+    m = 0.0
+""",
+        "linear Z: 1 below a, 0 above b",
+        examples=((0.0, 2.0), (1.0, 1.0), (0.2, 1.0)),
+        centre="a",
+        ramps="(b - a,)",
+    ),
+    Shape(
+        "gaussmf",
+        ("sigma", "c"),
+        "sigma > 0",
+        _gaussmf,
+        """
+d = x - c
+e = float(exp((d * d) / -(2.0 * sigma * sigma)))
+m = e if e == e else 0.0
+""",
+        "Gaussian: width sigma, centre c",
+        examples=((0.7, 2.0), (2.3154188676032827, 11.1837778466314), (1e-170, 0.0), (1e200, 0.0)),
+        centre="c",
+    ),
+    Shape(
+        "gauss2mf",
+        ("sigma1", "c1", "sigma2", "c2"),
+        "sigma1 > 0 and sigma2 > 0",
+        _gauss2mf,
+        """
+if x < c1:
+    d = x - c1
+    y1 = float(exp((d * d) / -(2.0 * sigma1 * sigma1)))
+else:
+    y1 = 1.0
+if x > c2:
+    d = x - c2
+    y2 = float(exp((d * d) / -(2.0 * sigma2 * sigma2)))
+else:
+    y2 = 1.0
+m = y1 * y2
+m = m if m == m else 0.0
+""",
+        "two-sided Gaussian: left (sigma1, c1), right (sigma2, c2)",
+        examples=((0.5, 1.0, 1.0, 2.0), (1.0, 2.0, 0.5, 1.0), (1e-170, 0.0, 1e200, 0.0)),
+    ),
+):
+    register_shape(_shape)
 
 
 def check_params(shape: str, params: Sequence[float]) -> tuple[float, ...]:
-    """Validate a shape name and its parameters; return them as a tuple of floats.
+    """Validate a shape name and its parameters.
 
-    Raises ValueError with a message that says what is wrong (callers add where).
+    Parameters
+    ----------
+    shape : str
+        A name in :data:`SHAPES`.
+    params : sequence of float
+        Its parameters, in the family's order.
+
+    Returns
+    -------
+    tuple of float
+        The parameters.
+
+    Raises
+    ------
+    ValueError
+        With a message that says what is wrong (callers add where).
     """
     if shape not in SHAPES:
         raise ValueError(
@@ -249,7 +451,7 @@ def check_params(shape: str, params: Sequence[float]) -> tuple[float, ...]:
         )
     sh = SHAPES[shape]
     try:
-        vals = tuple(float(p) for p in params)
+        vals = tuple(float(p) + 0.0 for p in params)  # -0.0 as 0.0: b - a = -0.0 flips
     except (TypeError, ValueError):
         raise ValueError(f"{shape} parameters must be numbers, got {params!r}") from None
     if len(vals) != sh.n_params:
@@ -259,94 +461,15 @@ def check_params(shape: str, params: Sequence[float]) -> tuple[float, ...]:
         )
     if not all(math.isfinite(v) for v in vals):
         raise ValueError(f"{shape} parameters must be finite, got {list(vals)!r}")
-    if shape == "trimf":
-        a, b, c = vals
-        if not (a <= b <= c):
-            raise ValueError(f"trimf needs a <= b <= c, got {list(vals)!r}")
-    elif shape == "trapmf":
-        a, b, c, d = vals
-        if not (a <= b and c <= d):
-            raise ValueError(f"trapmf needs a <= b and c <= d, got {list(vals)!r}")
-    elif shape in ("linsmf", "linzmf"):
-        a, b = vals
-        if not a <= b:
-            raise ValueError(f"{shape} needs a <= b, got {list(vals)!r}")
-    elif shape == "gaussmf":
-        if not vals[0] > 0:
-            raise ValueError(f"gaussmf needs sigma > 0, got {list(vals)!r}")
-    elif shape == "gauss2mf":
-        if not (vals[0] > 0 and vals[2] > 0):
-            raise ValueError(f"gauss2mf needs sigma1 > 0 and sigma2 > 0, got {list(vals)!r}")
+    if not sh.holds(vals):
+        raise ValueError(f"{shape} needs {sh.requires}, got {list(vals)!r}")
     return vals
 
 
-def evaluate_mf(shape: str, x, params: Sequence[float]) -> np.ndarray:
-    """Evaluate a membership function by shape name (vectorised)."""
-    return SHAPES[shape].func(x, check_params(shape, params))
-
-
-# --------------------------------------------------------------------------- fast kernels
-# Used by the engine's batch path: fewer numpy operations than the MATLAB-style
-# piecewise definitions above, and provably the same numbers to the last bit (the test
-# suite checks it): with a < b, (x-a)/(b-a) <= 1 for x <= b and >= 1 for x >= b after
-# rounding (rounding is monotone), so clipping the ramps to [0, 1] and taking their min
-# gives exactly the piecewise values; fmax(NaN, 0) = 0 gives the NaN convention;
-# -(p/q) = p/(-q) exactly. Degenerate parameters (a == b, ...) use the reference.
-
-
-def fast_kernel(shape: str, params: Sequence[float]) -> Callable[[np.ndarray], np.ndarray]:
-    """A function x (1-D float array) -> memberships, identical to SHAPES[shape].func."""
-    p = check_params(shape, params)
-    if shape == "trimf" and p[0] < p[1] < p[2]:
-        a, b, c = p
-        d1, d2 = b - a, c - b
-
-        def k(x):
-            y = np.minimum((x - a) / d1, (c - x) / d2)
-            return np.fmax(y, 0.0, out=y)
-
-        return k
-    if shape == "trapmf" and p[0] < p[1] and p[2] < p[3]:
-        a, b, c, d = p
-        d1, d2 = b - a, d - c
-
-        def k(x):
-            y = np.minimum((x - a) / d1, (d - x) / d2)
-            np.fmax(y, 0.0, out=y)
-            return np.fmin(y, 1.0, out=y)
-
-        return k
-    if shape == "linsmf" and p[0] < p[1]:
-        a, b = p
-        d1 = b - a
-
-        def k(x):
-            y = (x - a) / d1
-            np.fmax(y, 0.0, out=y)
-            return np.fmin(y, 1.0, out=y)
-
-        return k
-    if shape == "linzmf" and p[0] < p[1]:
-        a, b = p
-        d1 = b - a
-
-        def k(x):
-            y = (b - x) / d1
-            np.fmax(y, 0.0, out=y)
-            return np.fmin(y, 1.0, out=y)
-
-        return k
-    if shape == "gaussmf":
-        sigma, c = p
-        negden = -(2.0 * sigma * sigma)
-
-        def k(x):
-            d = x - c
-            y = np.multiply(d, d, out=d)
-            np.divide(y, negden, out=y)
-            np.exp(y, out=y)
-            return np.fmax(y, 0.0, out=y)
-
-        return k
-    func = SHAPES[shape].func
-    return lambda x: func(x, p)
+# MATLAB's names as functions f(x, params) (the table's evaluate, bound).
+trimf = SHAPES["trimf"].evaluate
+trapmf = SHAPES["trapmf"].evaluate
+linsmf = SHAPES["linsmf"].evaluate
+linzmf = SHAPES["linzmf"].evaluate
+gaussmf = SHAPES["gaussmf"].evaluate
+gauss2mf = SHAPES["gauss2mf"].evaluate

@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 
 from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
+from fuzzynav.controller.fuzzy_front import scalar_function
 from fuzzynav.controller.rulebase import (
     dumps_toml,
     format_rule,
@@ -132,24 +133,6 @@ class TestMembershipClosedForms:
             mf.check_params(shape, params)
 
 
-_SCALAR = {
-    "trimf": mf.trimf_scalar,
-    "trapmf": mf.trapmf_scalar,
-    "linsmf": mf.linsmf_scalar,
-    "linzmf": mf.linzmf_scalar,
-}
-
-
-def _scalar(shape, x, p):
-    if shape in _SCALAR:
-        return _SCALAR[shape](x, *p)
-    if shape == "gaussmf":
-        return 0.0 if x != x else float(np.exp([mf.gaussmf_exponent(x, *p)])[0])
-    e1, e2 = mf.gauss2mf_exponents(x, *p)
-    e = np.exp([e1, e2])
-    return 0.0 if x != x else float(e[0] * e[1])
-
-
 @st.composite
 def shape_and_params(draw):
     shape = draw(st.sampled_from(sorted(mf.SHAPES)))
@@ -179,16 +162,18 @@ def shape_and_params(draw):
     ),
     use_params=st.booleans(),
 )
-def test_vectorised_scalar_and_fast_kernel_identical(sp, xs, use_params):
-    """The three implementations of each shape agree to the last bit (the engine's
-    single-sample path relies on it); the parameters themselves are also evaluation
-    points, to hit the edges."""
+def test_formula_per_row_and_scalar_front_identical(sp, xs, use_params):
+    """Each family's one formula, with one parameter set and with the set repeated per
+    row, and the single-sample front's scalar code generated from its table entry agree
+    to the last bit (the engine's two paths rely on it); the parameters themselves are
+    also evaluation points, to hit the edges."""
     shape, p = sp
     x = np.array(xs + (list(p) if use_params else []), dtype=float)
-    ref = mf.SHAPES[shape].func(x, p)
-    fast = mf.fast_kernel(shape, p)(x.copy())
-    sca = np.array([_scalar(shape, float(v), p) for v in x])
-    assert np.array_equal(ref, fast), (shape, p, x, ref, fast)
+    ref = mf.SHAPES[shape].evaluate(x, p)
+    per_row = mf.SHAPES[shape].evaluate(x, np.tile(p, (x.size, 1)))
+    scalar = scalar_function(shape, p)
+    sca = np.array([scalar(float(v)) for v in x])
+    assert np.array_equal(ref, per_row), (shape, p, x, ref, per_row)
     assert np.array_equal(ref, sca), (shape, p, x, ref, sca)
     assert np.all((ref >= 0) & (ref <= 1))
     assert np.all(ref[np.isnan(x)] == 0)
