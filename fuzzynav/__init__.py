@@ -18,7 +18,8 @@ setuptools' ``package-dir`` mapping (``pyproject.toml``):
 - :mod:`fuzzynav.app`         (``app/``)        command line, viewer, recordings, figures;
 - :mod:`fuzzynav.assets`      (``assets/``)     data: robot parameters, rule bases, scenarios.
 
-This folder holds the package's front door (``__init__``, ``__main__``, ``api``).
+This folder holds the package's front door (``__init__``, ``__main__``, ``api`` and
+the sweeps it re-exports, ``sweeps``).
 """
 
 from __future__ import annotations
