@@ -117,7 +117,6 @@ KNOWN_LONG_FUNCTIONS: set[str] = {
     "fuzzynav.app.viewer.stepwise.stage_html",
     "fuzzynav.app.viewer.views.inference_html",
     "fuzzynav.controller.fis.loads_fis",
-    "fuzzynav.world.scenario.scenario_from_dict",
 }
 
 

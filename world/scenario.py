@@ -327,6 +327,74 @@ class _Reader:
         return escape_controls(value, keep)
 
 
+def _read_obstacles(r: _Reader, data: dict) -> list[ObstacleSpec]:
+    """The ``[[obstacles]]`` of a scenario's data, each checked."""
+    raw_obstacles = data.get("obstacles", [])
+    if not isinstance(raw_obstacles, list):
+        r.fail("obstacles", raw_obstacles, "must be an array of tables ([[obstacles]])")
+    if len(raw_obstacles) > MAX_OBSTACLES:
+        r.fail(
+            "obstacles",
+            raw_obstacles,
+            f"{len(raw_obstacles)} obstacles: at most {MAX_OBSTACLES} are allowed",
+        )
+    obstacles = []
+    for i, raw in enumerate(raw_obstacles):
+        key = f"obstacles[{i}]"
+        o = r.table(raw, key, _OBSTACLE_KEYS, {"position", "radius_m"})
+        obstacles.append(
+            ObstacleSpec(
+                position=r.point(o["position"], f"{key}.position"),
+                radius_m=r.number(
+                    o["radius_m"], f"{key}.radius_m", positive=True, limit=MAX_RADIUS_M, unit=" m"
+                ),
+                velocity=r.point(
+                    o.get("velocity", [0.0, 0.0]), f"{key}.velocity", MAX_SPEED_MPS, " m/s"
+                ),
+                acceleration=r.point(
+                    o.get("acceleration", [0.0, 0.0]),
+                    f"{key}.acceleration",
+                    MAX_ACCELERATION_MPS2,
+                    " m/s^2",
+                ),
+            )
+        )
+    return obstacles
+
+
+def _read_disturbance(r: _Reader, data: dict) -> Disturbance | None:
+    """The ``[disturbance]`` of a scenario's data, checked; None without one."""
+    if "disturbance" not in data:
+        return None
+    d = r.table(data["disturbance"], "disturbance", _DISTURBANCE_KEYS, _DISTURBANCE_KEYS)
+    disturbance = Disturbance(
+        amplitude=r.number(d["amplitude"], "disturbance.amplitude", limit=MAX_DISTURBANCE),
+        angular_frequency_rad_s=r.number(
+            d["angular_frequency_rad_s"],
+            "disturbance.angular_frequency_rad_s",
+            limit=1e4,
+            unit=" rad/s",
+        ),
+        start_s=r.number(
+            d["start_s"],
+            "disturbance.start_s",
+            non_negative=True,
+            limit=MAX_DURATION_S,
+            unit=" s",
+        ),
+        stop_s=r.number(
+            d["stop_s"],
+            "disturbance.stop_s",
+            non_negative=True,
+            limit=MAX_DURATION_S,
+            unit=" s",
+        ),
+    )
+    if disturbance.stop_s < disturbance.start_s:
+        r.fail("disturbance.stop_s", disturbance.stop_s, "must not be before start_s")
+    return disturbance
+
+
 def scenario_from_dict(
     data: dict,
     source: str = "<memory>",
@@ -378,66 +446,8 @@ def scenario_from_dict(
         unit=" m",
     )
 
-    raw_obstacles = data.get("obstacles", [])
-    if not isinstance(raw_obstacles, list):
-        r.fail("obstacles", raw_obstacles, "must be an array of tables ([[obstacles]])")
-    if len(raw_obstacles) > MAX_OBSTACLES:
-        r.fail(
-            "obstacles",
-            raw_obstacles,
-            f"{len(raw_obstacles)} obstacles: at most {MAX_OBSTACLES} are allowed",
-        )
-    obstacles = []
-    for i, raw in enumerate(raw_obstacles):
-        key = f"obstacles[{i}]"
-        o = r.table(raw, key, _OBSTACLE_KEYS, {"position", "radius_m"})
-        obstacles.append(
-            ObstacleSpec(
-                position=r.point(o["position"], f"{key}.position"),
-                radius_m=r.number(
-                    o["radius_m"], f"{key}.radius_m", positive=True, limit=MAX_RADIUS_M, unit=" m"
-                ),
-                velocity=r.point(
-                    o.get("velocity", [0.0, 0.0]), f"{key}.velocity", MAX_SPEED_MPS, " m/s"
-                ),
-                acceleration=r.point(
-                    o.get("acceleration", [0.0, 0.0]),
-                    f"{key}.acceleration",
-                    MAX_ACCELERATION_MPS2,
-                    " m/s^2",
-                ),
-            )
-        )
-
-    disturbance = None
-    if "disturbance" in data:
-        d = r.table(data["disturbance"], "disturbance", _DISTURBANCE_KEYS, _DISTURBANCE_KEYS)
-        disturbance = Disturbance(
-            amplitude=r.number(d["amplitude"], "disturbance.amplitude", limit=MAX_DISTURBANCE),
-            angular_frequency_rad_s=r.number(
-                d["angular_frequency_rad_s"],
-                "disturbance.angular_frequency_rad_s",
-                limit=1e4,
-                unit=" rad/s",
-            ),
-            start_s=r.number(
-                d["start_s"],
-                "disturbance.start_s",
-                non_negative=True,
-                limit=MAX_DURATION_S,
-                unit=" s",
-            ),
-            stop_s=r.number(
-                d["stop_s"],
-                "disturbance.stop_s",
-                non_negative=True,
-                limit=MAX_DURATION_S,
-                unit=" s",
-            ),
-        )
-        if disturbance.stop_s < disturbance.start_s:
-            r.fail("disturbance.stop_s", disturbance.stop_s, "must not be before start_s")
-
+    obstacles = _read_obstacles(r, data)
+    disturbance = _read_disturbance(r, data)
     scenario = Scenario(
         name=name,
         duration_s=duration_s,
