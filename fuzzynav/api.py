@@ -31,12 +31,12 @@ write_fis       a fuzzy system to a ``.fis`` file (written whole or not at all)
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import cast
 
 import numpy as np
 
+from fuzzynav.app.experiments.design_search import tune
 from fuzzynav.controller.checker import ControllerCheckError, check_controller
 from fuzzynav.controller.fis import dumps_fis
 from fuzzynav.controller.fis import read_fis as _read_fis
@@ -341,65 +341,6 @@ def serve(
         geometry=geometry,
         classroom=classroom,
         lesson=lesson,
-    )
-
-
-def tune(
-    cost: Callable[[object], float],
-    controller: str | object = "paper",
-    *,
-    generations: int = 10,
-    x0: Sequence[float] | None = None,
-    progress: Callable[[int, float], None] | None = None,
-    sigma0: float = 0.2,
-    popsize: int = 12,
-    seed: int = 0,
-):
-    """Minimise ``cost(controller)`` over a controller's design numbers (CMA-ES).
-
-    The search space is ``fuzzynav tune``'s: for the paper controller the 12 numbers of
-    its design layout, whose bounds keep every design rule; a start outside the bounds
-    is projected onto them. For ask/tell control, use
-    :class:`fuzzynav.app.experiments.design_search.DesignSearch`.
-
-    Parameters
-    ----------
-    cost : callable
-        ``cost(controller) -> float`` for each candidate's fresh controller (lower is
-        better; NaN and inf count as worst): a run, a sweep, a few inputs...
-    controller : str or Tunable
-        A registered controller with design numbers (``"paper"``, ``"fuzzynav"``) or a
-        :class:`fuzzynav.controller.tuning.Tunable`.
-    generations : int
-        Generations of the search.
-    x0 : sequence of float, optional
-        Where to start; default the layout's own start.
-    progress : callable, optional
-        ``progress(generation, best cost)`` after each generation.
-    sigma0 : float
-        The first step, a fraction of each number's span (1e-6 to 1).
-    popsize : int
-        Candidates per generation (4 to 10,000).
-    seed : int
-        Seeds every draw: the same arguments give the same result.
-
-    Returns
-    -------
-    TuneResult
-        ``.vector``, ``.cost``, ``.controller`` (built from the vector),
-        ``.parameter_names``, ``.history`` (the best cost after each generation).
-    """
-    from fuzzynav.app.experiments.design_search import tune as run_search
-
-    return run_search(
-        cost,
-        controller,
-        generations=generations,
-        x0=x0,
-        progress=progress,
-        sigma0=sigma0,
-        popsize=popsize,
-        seed=seed,
     )
 
 

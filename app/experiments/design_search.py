@@ -202,34 +202,47 @@ def tune(
     generations: int = 10,
     x0: Sequence[float] | None = None,
     progress: Callable[[int, float], None] | None = None,
-    **options,
+    sigma0: float = 0.2,
+    popsize: int = 12,
+    seed: int = 0,
 ) -> TuneResult:
     """Minimise ``cost(controller)`` over a controller's design numbers (CMA-ES).
+
+    The search space is ``fuzzynav tune``'s: for the paper controller the 12 numbers of
+    its design layout, whose bounds keep every design rule; a start outside the bounds
+    is projected onto them. For ask/tell control, use
+    :class:`fuzzynav.app.experiments.design_search.DesignSearch`.
 
     Parameters
     ----------
     cost : callable
-        ``cost(controller) -> float`` for a fresh controller of each candidate (lower
-        is better; NaN and inf count as worst).
+        ``cost(controller) -> float`` for each candidate's fresh controller (lower is
+        better; NaN and inf count as worst): a run, a sweep, a few inputs...
     controller : str or Tunable
-        As :class:`DesignSearch`.
+        A registered controller with design numbers (``"paper"``, ``"fuzzynav"``) or a
+        :class:`fuzzynav.controller.tuning.Tunable`.
     generations : int
-        How many generations (default 10).
+        Generations of the search.
     x0 : sequence of float, optional
-        Where to start (projected onto the bounds).
+        Where to start; default the layout's own start.
     progress : callable, optional
         ``progress(generation, best cost)`` after each generation.
-    **options
-        :class:`DesignSearch`'s options (``sigma0``, ``popsize``, ``seed``).
+    sigma0 : float
+        The first step, a fraction of each number's span (1e-6 to 1).
+    popsize : int
+        Candidates per generation (4 to 10,000).
+    seed : int
+        Seeds every draw: the same arguments give the same result.
 
     Returns
     -------
     TuneResult
-        The best vector, its cost, its controller, the history.
+        ``.vector``, ``.cost``, ``.controller`` (built from the vector),
+        ``.parameter_names``, ``.history`` (the best cost after each generation).
     """
     if isinstance(generations, bool) or not isinstance(generations, int) or generations < 1:
         raise ValueError(f"generations = {generations!r}: an integer >= 1")
-    search = DesignSearch(controller, x0=x0, **options)
+    search = DesignSearch(controller, x0=x0, sigma0=sigma0, popsize=popsize, seed=seed)
     history = []
     for generation in range(1, generations + 1):
         vectors = search.ask()
