@@ -3,10 +3,10 @@
 Kept for the bench row "fuzzy engine, one evaluation (bench/bench_fuzzy.py) <= 30 us" of
 docs/speed.md (issue 24 item 6): per rule base, straight-line Python is generated and
 exec'd that takes the input vector to the memberships, the firing strengths and the
-consequent slots' levels. Measured on the paper's rule base, this front costs 8 us a
-call, where numpy calls on arrays of a few terms cost 1-3 us each (a membership
-formula is 5-10 of them, per family and input), which would put one evaluation far over
-the row's aim.
+consequent slots' levels. Measured on the paper's rule base (bench/bench_fuzzy.py), this
+front costs 3 us a call; the memberships alone, computed by the families' numpy formulas
+with a call per family (its terms as rows), cost 14 us, which with the firing strengths,
+the levels and the 10 us of the grid aggregation would put one evaluation over the aim.
 
 Each term's lines come from its family's scalar source in the table of
 :mod:`controller.membership` (``Shape.scalar``): turned once per family into a template
@@ -212,15 +212,23 @@ def scalar_function(shape: str, params) -> Callable[[float], float]:
 
 
 def generate_front(system, per_rule: bool = False) -> Callable:
-    """Generate straight-line Python for the single-sample path of ``system``:
-    x -> the level of every consequent slot (max over its rules of the weighted firing
-    strength), or with ``per_rule`` x -> every rule's weighted firing strength (the
-    aggregation other than max, :mod:`controller.inference`, needs each rule's). The
-    AND of a rule is ``system.inference.and_method``: min, or the product in input order.
+    """Generate straight-line Python for the single-sample path of ``system``.
 
     The memberships are the families' scalar sources (module docstring); the firing
     strengths and levels are min/max (exact) and products in input order, as the batch
-    path computes them, so the results are identical."""
+    path computes them, so the results are identical.
+
+    Parameters
+    ----------
+    system : FuzzySystem
+        The compiled system (its rule rows and slots).
+    per_rule : bool
+        False: x -> the level of every consequent slot (max over its rules of the
+        weighted firing strength); True: x -> every rule's weighted firing strength (the
+        aggregation other than max, :mod:`controller.inference`, needs each rule's). The
+        AND of a rule is ``system.inference.and_method``: min, or the product in input
+        order.
+    """
     lines = ["def front(x):"]
     n_in = len(system.inputs)
     lines.append(f"    if len(x) != {n_in}:")

@@ -150,18 +150,36 @@ class Shape:
         return self.evaluate
 
     def holds(self, params: Sequence[float]) -> bool:
-        """Whether ``params`` (finite numbers, ``n_params`` of them) meet ``requires``."""
+        """Whether the parameters meet ``requires``.
+
+        Parameters
+        ----------
+        params : sequence of float
+            ``n_params`` finite numbers.
+        """
         return bool(self._value(self.requires, params))
 
     def centre_of(self, params: Sequence[float]) -> float | None:
-        """``centre`` for these parameters (None if the family has none)."""
+        """``centre`` for these parameters (None if the family has none).
+
+        Parameters
+        ----------
+        params : sequence of float
+            A valid parameter set.
+        """
         return float(self._value(self.centre, params)) if self.centre else None
 
     def ramps_of(self, params: Sequence[float]) -> tuple[float, ...]:
-        """``ramps`` for these parameters."""
+        """``ramps`` for these parameters.
+
+        Parameters
+        ----------
+        params : sequence of float
+            A valid parameter set.
+        """
         return tuple(float(v) for v in self._value(self.ramps, params))
 
-    def columns(self, x: np.ndarray, params) -> list:
+    def _columns(self, x: np.ndarray, params) -> list:
         """The parameters as the formula takes them: floats for one set (P,), columns
         broadcasting against ``x`` for one set per row (n, P)."""
         p = np.asarray(params, dtype=float) + 0.0  # -0.0 is 0.0 (b - a = -0.0 would flip)
@@ -191,7 +209,7 @@ class Shape:
         x = np.asarray(x, dtype=float)
         flat = x.reshape(-1) if x.ndim == 0 else x
         with quiet():
-            y = self.formula(flat, *self.columns(flat, params))
+            y = self.formula(flat, *self._columns(flat, params))
         return np.asarray(y).reshape(x.shape)
 
 
