@@ -12,4 +12,5 @@ for folder in world controller app assets; do ln -s "$root/$folder" "$tree/fuzzy
 for file in "$root"/fuzzynav/*.py "$root"/fuzzynav/py.typed; do ln -s "$file" "$tree/fuzzynav/"; done
 cd "$tree"
 "$root/$PY" -m mypy --config-file "$root/pyproject.toml" \
-    -p fuzzynav.world -p fuzzynav.controller -m fuzzynav -m fuzzynav.api -m fuzzynav.safe_files -m fuzzynav.resources
+    -p fuzzynav.world -p fuzzynav.controller -m fuzzynav -m fuzzynav.api -m fuzzynav.sweeps -m fuzzynav.gym \
+    -m fuzzynav.safe_files -m fuzzynav.resources
