@@ -83,14 +83,8 @@ class _Template:
     def __init__(self, scalar: str, param_names: tuple[str, ...]):
         tree = ast.parse(textwrap.dedent(scalar))
         self.params = param_names
-        self.temps = {
-            t.id
-            for node in ast.walk(tree)
-            if isinstance(node, (ast.Assign, ast.AugAssign, ast.AnnAssign))
-            for target in (node.targets if isinstance(node, ast.Assign) else [node.target])
-            for t in ast.walk(target)
-            if isinstance(t, ast.Name) and t.id not in ("m", "x")
-        }
+        stored = (n for n in ast.walk(tree) if isinstance(n, ast.Name))
+        self.temps = {n.id for n in stored if isinstance(n.ctx, ast.Store)} - {"m", "x"}
         self.slots: dict[str, int] = {}
         self.constants: list[CodeType] = []
         self.divisors: set[int] = set()
