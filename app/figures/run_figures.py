@@ -230,14 +230,8 @@ def run_figure(
         (("left (v_s1)", WHEEL_LEFT), ("right (v_s2)", WHEEL_RIGHT))
     ):
         a = ax[row, 0]
-        a.plot(
-            t,
-            log.controller_output_v[:, row],
-            color=color,
-            lw=0.7,
-            alpha=0.4,
-            label="before saturation",
-        )
+        before, label = _drawable_output(log.controller_output_v[:, row], limit)
+        a.plot(t, before, color=color, lw=0.7, alpha=0.4, label=label)
         a.plot(t, log.voltages_v[:, row], color=color, lw=1.4, label=f"{name}, applied")
         for sign in (1, -1):
             a.axhline(
@@ -263,6 +257,27 @@ def run_figure(
     _legend_outside(diff)
     ax[0, 0].set_title(f"{_figure_prefix(result, 'voltages')}Wheel voltages — {title}", fontsize=9)
     return fig
+
+
+def _drawable_output(values, limit_v: float) -> tuple[np.ndarray, str]:
+    """A controller's output before saturation as the voltage figure draws it, and its
+    label: within +-OUTPUT_DRAWN_FACTOR x the limit (a controller answering +-1e308
+    made matplotlib's scaling overflow: RuntimeWarnings, issue 37), the label saying
+    so when it cut anything."""
+    bound = OUTPUT_DRAWN_FACTOR * max(abs(limit_v), 1e-9)
+    values = np.asarray(values, dtype=float)
+    with np.errstate(invalid="ignore"):
+        outside = np.abs(values) > bound
+    if not outside.any():
+        return values, "before saturation"
+    return (
+        np.clip(values, -bound, bound),
+        f"before saturation (drawn within ±{bound:g} V)",
+    )
+
+
+#: The voltage figure draws a controller's output within this many times the limit.
+OUTPUT_DRAWN_FACTOR = 10.0
 
 
 def write_run_figures(

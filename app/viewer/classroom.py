@@ -22,6 +22,7 @@ import traceback
 
 import viser
 
+from fuzzynav.app.viewer.budget import MemoryBudget
 from fuzzynav.app.viewer.model import ViewerError
 from fuzzynav.app.viewer.origin_guard import guarded_server_start
 
@@ -47,6 +48,8 @@ class ClassroomServer:
         self.sessions: dict = {}  # client id -> ViewerServer
         self.teachers: set[int] = set()
         self.locked = False  # the teacher has locked the students' controls
+        # what every tab's world makes the server keep, counted together (issue 37)
+        self.budget = MemoryBudget()
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue()
         self._stop = threading.Event()
@@ -131,7 +134,9 @@ class ClassroomServer:
 
         if client.client_id not in self.server.get_clients():
             return  # gone before its turn
-        view = ViewerServer(self.make_app(), surface=ClientSurface(self.server, client))
+        view = ViewerServer(
+            self.make_app(), surface=ClientSurface(self.server, client), budget=self.budget
+        )
         try:  # a tab is a session once its panel is whole, Teacher folder and all
             self._add_teacher_folder(view, client.client_id)
         except BaseException:

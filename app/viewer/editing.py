@@ -11,6 +11,13 @@ import re
 
 import numpy as np
 
+from fuzzynav.app.viewer.budget import (
+    ADDED_OBSTACLE_BYTES,
+    MAX_KEPT_SCENARIOS,
+    MAX_LAYOUT_OBSTACLES,
+    scenario_charge,
+)
+from fuzzynav.app.viewer.driver import drop_removed_shapes
 from fuzzynav.app.viewer.state import (
     EDITED_LABEL,
     MAX_UPLOAD_BYTES,
@@ -97,9 +104,38 @@ class ScenarioEditing:
             check_run_size(scenario.duration_s, app.sim.control_period_s, len(scenario.obstacles))
         except ValueError as exc:
             raise ViewerError(f"{label}: {exc}") from None
-        app.uploaded_scenarios[label] = scenario
+        self.keep_uploaded(label, scenario)
         self.load_scenario(label)
         return label
+
+    def keep_uploaded(self, label: str, scenario: Scenario) -> None:
+        """Keep an uploaded scenario for the dropdown: the last
+        :data:`~.budget.MAX_KEPT_SCENARIOS`, the oldest dropped (never the one loaded),
+        charged to the world's account (400 uploads kept 182 MB and 400 entries)."""
+        app = self.app
+        with app.lock:
+            kept = dict(app.uploaded_scenarios)
+            kept.pop(label, None)  # (the same name again: the newest now)
+            kept[label] = scenario
+            while len(kept) > MAX_KEPT_SCENARIOS:
+                oldest = next(k for k in kept if k not in (app.scenario_label, label))
+                del kept[oldest]
+            charge = sum(scenario_charge(s) for s in kept.values())
+            if not app.account.resize("scenarios", charge):
+                raise ViewerError(f"{label}: not kept, the server's memory budget is spent")
+            app.uploaded_scenarios = kept
+
+    def forget_uploaded(self, label: str) -> None:
+        app = self.app
+        with app.lock:
+            app.uploaded_scenarios.pop(label, None)
+            charge = sum(scenario_charge(s) for s in app.uploaded_scenarios.values())
+            app.account.resize("scenarios", charge)
+
+    def charge_layout_locked(self) -> None:
+        """What the layout's obstacles are charged, as it is now."""
+        app = self.app
+        app.account.resize("obstacles", ADDED_OBSTACLE_BYTES * len(app._layout), force=True)
 
     def restore_layout(self) -> None:
         """Undo every drag, addition and removal: the scenario as loaded, at t = 0."""
@@ -351,13 +387,37 @@ class ScenarioEditing:
             raise ViewerError(f"radius {radius_m!r} m: must be between 0.02 and 5 m")
         spec = ObstacleSpec((x, y), radius_m)
         with app.lock:
+            self._check_room_locked()
             obstacle_id = app.sim.arena.add_obstacle(spec)
             app._layout.append((obstacle_id, spec))
+            self.charge_layout_locked()
             app.layout_id += 1
             app.driver._resense_locked()
             app._bump()
         self.check_target()
         return obstacle_id
+
+    def _check_room_locked(self) -> None:
+        """Refuse an Add past the cap: :data:`~.budget.MAX_LAYOUT_OBSTACLES`, the run's
+        log within its budget (as an upload is checked), the server's memory budget
+        (1,500 Adds took 464 MB, and after 3,000 a Pause took 43 s)."""
+        app = self.app
+        n = len(app._layout)
+        if n >= MAX_LAYOUT_OBSTACLES:
+            raise ViewerError(
+                f"Obstacle: Add: the layout has {n} obstacles, and Add goes up to "
+                f"{MAX_LAYOUT_OBSTACLES}; remove one first"
+            )
+        from fuzzynav.world.simulation import check_run_size
+
+        try:
+            check_run_size(app.sim.scenario.duration_s, app.sim.control_period_s, n + 1)
+        except ValueError as exc:
+            raise ViewerError(
+                f"Obstacle: Add: {n + 1} obstacles are too many here: {exc}"
+            ) from None
+        if not app.account.resize("obstacles", ADDED_OBSTACLE_BYTES * (n + 1)):
+            raise ViewerError("Obstacle: Add: the server's memory budget is spent")
 
     def remove_obstacle(self, obstacle_id: int | None = None) -> int:
         """Remove an obstacle (the newest when no id is given); returns its id."""
@@ -371,7 +431,9 @@ class ScenarioEditing:
             if obstacle_id not in arena.obstacles:
                 raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
+            drop_removed_shapes(app.sim)
             app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
+            self.charge_layout_locked()
             app.layout_id += 1
             app.driver._resense_locked()
             app._bump()

@@ -8,15 +8,25 @@ A raw websocket client can send any message a browser could, with any values (is
   or infinite (an editor slider stayed NaN);
 - an upload declared larger than the viewer takes is refused at its first message (a
   declared 1 TB followed by 400 MB of parts grew the server by 500 MB before the size
-  was refused), and one whose parts pass their declared size is dropped.
+  was refused), and one whose parts pass their declared size is dropped;
+- uploads under way are bounded (issue 37): at most
+  :data:`.budget.MAX_UPLOADS_IN_FLIGHT` at once on one GUI (a tab's in a classroom, the
+  server's otherwise), each charged its declared size to the world's account in the
+  server's budget while under way, and one not whole
+  :data:`.budget.UPLOAD_TIMEOUT_S` after its first message is dropped (1,000 uploads
+  left one byte short were kept for ever: 98 to 603 MB in 22 s).
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextvars
 import inspect
 import math
+import time
 from collections.abc import Callable
+
+from fuzzynav.app.viewer.budget import MAX_UPLOADS_IN_FLIGHT, UPLOAD_TIMEOUT_S
 
 __all__ = ["install_message_guards", "value_sent", "ALLOWED_GUI_PROPS"]
 
@@ -94,16 +104,68 @@ def _wrap(interface, message_cls, make_guard) -> None:
         handlers[k] = make_guard(handler)
 
 
+class UploadsUnderWay:
+    """The uploads under way on one GUI: when each began and what it was charged.
+
+    ``account`` (a :class:`.budget.Account`, optional) is charged each upload's declared
+    size while it is under way. Runs on viser's event loop, as its upload handlers do."""
+
+    def __init__(self, gui, account=None, clock=time.monotonic, say=None):
+        self.gui, self.account, self.clock = gui, account, clock
+        self.say = say or (lambda text: None)
+        self.began: dict[str, tuple[float, int]] = {}  # transfer -> (time, bytes charged)
+
+    def sweep(self) -> None:
+        """Forget the uploads that ended; drop those not whole in time."""
+        states = self.gui._current_file_upload_states
+        now = self.clock()
+        for transfer, (began, charged) in list(self.began.items()):
+            if transfer in states and now - began <= UPLOAD_TIMEOUT_S:
+                continue
+            if transfer in states:
+                states.pop(transfer, None)
+                self.say(
+                    f"upload dropped: not whole {UPLOAD_TIMEOUT_S:g} s after it began "
+                    f"({charged} bytes declared)"
+                )
+            del self.began[transfer]
+            if self.account is not None:
+                self.account.give("uploads", charged)
+
+    def admit(self, transfer: str, size: int) -> str | None:
+        """Why a new upload is refused, or None (and it is counted from now)."""
+        self.sweep()
+        if len(self.began) >= MAX_UPLOADS_IN_FLIGHT:
+            return (
+                f"upload refused: {len(self.began)} uploads are under way already (at most "
+                f"{MAX_UPLOADS_IN_FLIGHT}); try again when they are done"
+            )
+        if self.account is not None and not self.account.take("uploads", size):
+            return "upload refused: the server's memory budget is spent"
+        self.began[transfer] = (self.clock(), size)
+        try:  # ... and swept when it is due, whatever else arrives
+            asyncio.get_running_loop().call_later(UPLOAD_TIMEOUT_S + 0.5, self.sweep)
+        except RuntimeError:  # no loop running (called from a test): swept lazily
+            pass
+        return None
+
+
 def install_message_guards(
-    server, max_upload_bytes: int, on_refused: Callable[[str], None] | None = None
-) -> None:
+    server,
+    max_upload_bytes: int,
+    on_refused: Callable[[str], None] | None = None,
+    account=None,
+    clock=time.monotonic,
+) -> UploadsUnderWay:
     """Guard the GUI and upload messages of a ``viser.ViserServer`` (module doc).
-    ``on_refused(text)`` is told of each refusal (the viewer shows it)."""
+    ``on_refused(text)`` is told of each refusal (the viewer shows it); ``account`` is
+    charged the uploads under way. Returns what counts them."""
     from viser import _messages
 
     gui = server.gui
     interface = gui._websock_interface
     say = on_refused or (lambda text: None)
+    uploads = UploadsUnderWay(gui, account, clock, say)
 
     def gui_guard(handler):
         async def guarded(client_id, message):
@@ -156,7 +218,13 @@ def install_message_guards(
                     f"upload refused: {size!r} bytes declared, at most {max_upload_bytes} are taken"
                 )
                 return  # never registered: its parts are dropped as they come
-            return handler(client_id, message)
+            why = uploads.admit(message.transfer_uuid, size)
+            if why is not None:
+                say(why)
+                return
+            result = handler(client_id, message)
+            uploads.sweep()  # (a zero-byte upload ends at once)
+            return result
 
         return guarded
 
@@ -167,12 +235,18 @@ def install_message_guards(
                 content = message.content if isinstance(message.content, bytes) else b""
                 if state["transferred_bytes"] + len(content) > state["total_bytes"]:
                     gui._current_file_upload_states.pop(message.transfer_uuid, None)
+                    uploads.sweep()
                     say("upload refused: more bytes than it declared")
                     return
-            return handler(client_id, message)
+            try:
+                return handler(client_id, message)
+            finally:
+                if message.transfer_uuid not in gui._current_file_upload_states:
+                    uploads.sweep()  # ended: its charge is given back
 
         return guarded
 
     _wrap(interface, _messages.GuiUpdateMessage, gui_guard)
     _wrap(interface, _messages.FileTransferStartUpload, start_guard)
     _wrap(interface, _messages.FileTransferPart, part_guard)
+    return uploads

@@ -6,13 +6,155 @@ of :class:`ViewerApp` (:mod:`.model`), whose state and lock it shares."""
 from __future__ import annotations
 
 import math
+import sys
+from collections.abc import Mapping
 
 import numpy as np
 
+from fuzzynav.app.viewer.budget import HISTORY_BYTES
 from fuzzynav.app.viewer.state import (
     HistoryStep,
     ViewerError,
 )
+
+#: What a recorded step holds besides its obstacles' positions and fuzzynav's blocks
+#: (the step, its tuples, arrays and floats, its place in the lists): measured 0.7 kB
+#: with tracemalloc on s1 (2.4 kB with 110 moving obstacles, 1.7 kB charged for them;
+#: 1.3 kB with fuzzynav's blocks); `tests/test_viewer_budget.py` checks the charge is
+#: never under what a step holds.
+STEP_BYTES = 1536
+
+
+class ObstaclePositions(Mapping):
+    """Where the obstacles were at a recorded step, id -> (x, y): the ids' rows (one
+    dict shared by every step of a layout) and a float64 array of positions, shared
+    with the step before when nothing moved. (A dict per step held 110 obstacles in
+    about 20 kB: 1 MB a simulated second, issue 37.)"""
+
+    __slots__ = ("rows", "xy")
+
+    def __init__(self, rows: dict, xy: np.ndarray):
+        self.rows, self.xy = rows, xy
+
+    def __getitem__(self, obstacle_id):
+        r = self.rows[obstacle_id]
+        return (float(self.xy[r, 0]), float(self.xy[r, 1]))
+
+    def __iter__(self):
+        return iter(self.rows)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    @property
+    def nbytes(self) -> int:
+        return self.xy.nbytes + 112
+
+
+def _block_bytes(block) -> int:
+    if block is None:
+        return 0
+    fed, parts = block
+    return int(getattr(fed, "nbytes", 0)) + 112 + sys.getsizeof(parts) + 80 * len(parts)
+
+
+class StepHistory:
+    """The recorded steps of a run, within ``limit`` bytes (:data:`HISTORY_BYTES`),
+    charged to the world's account in the server's budget as they are kept.
+
+    Every step is kept until the limit (or the server's budget) is reached; then every
+    other step is dropped and from there one step in two is kept (the stride doubles
+    each time it is reached again), so the slider still spans the whole run, more
+    coarsely. The newest step is always kept (the live end). Reads as a list:
+    ``len``, ``[k]``, iteration."""
+
+    def __init__(self, account=None, limit: int = HISTORY_BYTES):
+        self.account = account
+        self.limit = int(limit)
+        self.steps: list[HistoryStep] = []
+        self.numbers: list[int] = []  # each kept step's number in the run (0, 1, ...)
+        self.stride = 1
+        self.bytes = 0
+        self._count = 0
+        self._rows: dict | None = None  # the ids' rows of the last layout recorded
+
+    # -- reads as a list ----------------------------------------------------------------
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    def __bool__(self) -> bool:
+        return bool(self.steps)
+
+    def __getitem__(self, k):
+        return self.steps[k]
+
+    def __iter__(self):
+        return iter(self.steps)
+
+    # -- recording ----------------------------------------------------------------------
+
+    def positions(self, ids, centres) -> ObstaclePositions:
+        """The obstacles' positions, sharing the last step's when nothing changed."""
+        ids = list(ids)
+        xy = np.asarray(centres, dtype=float).reshape(-1, 2)
+        last = self.steps[-1].obstacles if self.steps else None
+        if (
+            isinstance(last, ObstaclePositions)
+            and list(last.rows) == ids
+            and np.array_equal(last.xy, xy)
+        ):
+            return last
+        if self._rows is None or list(self._rows) != ids:
+            self._rows = {i: r for r, i in enumerate(ids)}
+        return ObstaclePositions(self._rows, xy.copy())
+
+    def _cost(self, k: int) -> int:
+        """What step ``k`` adds to the steps before it (its positions only when new)."""
+        step = self.steps[k]
+        n = STEP_BYTES + _block_bytes(step.block)
+        obstacles = step.obstacles
+        if k == 0 or obstacles is not self.steps[k - 1].obstacles:
+            n += getattr(obstacles, "nbytes", 0) or 200 * len(obstacles)
+        return n
+
+    def append(self, step: HistoryStep) -> None:
+        number = self._count
+        self._count += 1
+        if len(self.steps) > 1 and self.numbers[-1] % self.stride:
+            # the last step was kept only as the live end: this one takes its place
+            self.bytes -= self._cost(len(self.steps) - 1)
+            self.steps.pop()
+            self.numbers.pop()
+        self.steps.append(step)
+        self.numbers.append(number)
+        self.bytes += self._cost(len(self.steps) - 1)
+        while len(self.steps) > 2 and not self._charge():
+            self._thin()
+        if len(self.steps) <= 2:
+            self._charge()
+
+    def _charge(self) -> bool:
+        if self.bytes > self.limit:
+            return False
+        return self.account is None or self.account.resize("history", self.bytes)
+
+    def _thin(self) -> None:
+        """Double the stride: keep the steps on it (and the newest)."""
+        self.stride *= 2
+        keep = [k for k, n in enumerate(self.numbers) if n % self.stride == 0]
+        if keep[-1] != len(self.steps) - 1:
+            keep.append(len(self.steps) - 1)
+        self.steps = [self.steps[k] for k in keep]
+        self.numbers = [self.numbers[k] for k in keep]
+        self.bytes = sum(self._cost(k) for k in range(len(self.steps)))
+
+    def close(self) -> None:
+        """Forget every step (a new run), and give back what they were charged."""
+        self.steps, self.numbers = [], []
+        self.stride, self.bytes, self._count = 1, 0, 0
+        if self.account is not None:
+            self.account.resize("history", 0)
 
 
 class RunHistory:
@@ -31,6 +173,8 @@ class RunHistory:
         view = getattr(c.inner, "teaching_view", None)
         seen = view() if view is not None else None
         centres, _, ids = arena.obstacle_arrays()  # (cached by the arena for this step)
+        history = app._history
+        k = app.history_index
         app._history.append(
             HistoryStep(
                 time_s=sim.time_s,
@@ -39,11 +183,13 @@ class RunHistory:
                 inputs=c.last_inputs.copy(),
                 output=c.last_output.copy(),
                 target=tuple(float(v) for v in arena.target),
-                obstacles=dict(zip(ids, map(tuple, centres.tolist()))),
+                obstacles=history.positions(ids, centres),
                 trail_length=len(app._trail),
                 block=None if seen is None else (seen[1].copy(), dict(seen[2])),
             )
         )
+        if k is not None and k >= len(history):  # (thinned while a past step was shown)
+            app.history_index = len(history) - 1
 
     def history_times(self) -> tuple[float, float]:
         """(first, last) time of the recorded steps of this run (0, 0 before any)."""

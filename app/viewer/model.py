@@ -41,9 +41,10 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.viewer.budget import MemoryBudget
 from fuzzynav.app.viewer.driver import RunDriver
 from fuzzynav.app.viewer.editing import ScenarioEditing
-from fuzzynav.app.viewer.history import RunHistory
+from fuzzynav.app.viewer.history import RunHistory, StepHistory
 from fuzzynav.app.viewer.reading import Reading
 from fuzzynav.app.viewer.run_settings import RunSettings
 from fuzzynav.app.viewer.state import (
@@ -129,6 +130,10 @@ class ViewerApp:
         from fuzzynav.controller.registry import controller_names
 
         self.lock = threading.RLock()
+        # what this world's tabs make the server keep, in the server's budget (one of
+        # its own until a server attaches it to the server's: attach_budget)
+        self.budget = MemoryBudget()
+        self.account = self.budget.account()
         self.driver = RunDriver(self)
         self.results = RunHistory(self)
         self.editing = ScenarioEditing(self)
@@ -162,7 +167,7 @@ class ViewerApp:
         self._probe = None
         self.what_if: np.ndarray | None = None  # what-if mode: the inputs tried
         self.history_index: int | None = None  # the time slider's step, or None (live)
-        self._history: list[HistoryStep] = []
+        self._history = StepHistory(self.account)
         self._resume_after_what_if = False
 
         if geometry not in GEOMETRIES:
@@ -233,6 +238,19 @@ class ViewerApp:
                 f"{NOISE_RANGE_M[0]} and {NOISE_RANGE_M[1]} m"
             )
         return std
+
+    def attach_budget(self, budget: MemoryBudget) -> None:
+        """Count this world in ``budget`` (its server's, shared by a classroom's tabs):
+        what it holds now moves there."""
+        with self.lock:
+            if budget is self.budget:
+                return
+            old, self.account = self.account, budget.account()
+            for kind in ("history", "scenarios", "obstacles"):
+                self.account.resize(kind, old.held(kind))
+            old.close()
+            self.budget = budget
+            self._history.account = self.account
 
     # -- notification ------------------------------------------------------------------
 

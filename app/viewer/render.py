@@ -19,6 +19,11 @@ from fuzzynav.app.viewer.model import Snapshot
 FRAME_HZ = 30.0
 PANEL_HZ = 4.0  # the status line and the inference view
 PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 each time)
+#: How often the scene's message buffer is swept of removed nodes' messages. viser keeps
+#: a removal message per node name until a tab connects (its own sweep); a scene node's
+#: name holds its run, so each Reset or scenario load left three messages an obstacle:
+#: 400 uploads of 1,000 obstacles grew the server by 518 MB (issue 37).
+SWEEP_PERIOD_S = 5.0
 
 
 class RenderLoop:
@@ -65,8 +70,12 @@ class RenderLoop:
         period = 1.0 / FRAME_HZ
         drawn_version = -1
         next_panels = 0.0
+        next_sweep = time.perf_counter() + SWEEP_PERIOD_S
         while not self._stop.is_set():
             started = time.perf_counter()
+            if started >= next_sweep:
+                next_sweep = started + SWEEP_PERIOD_S
+                self.sweep()
             snap = self.app.snapshot()
             if snap.version != drawn_version:
                 try:
@@ -92,6 +101,17 @@ class RenderLoop:
                         self.app._changed.wait(0.25)
                 continue
             self._stop.wait(max(0.0, period - (time.perf_counter() - started)))
+
+    def sweep(self) -> None:
+        """Drop from the scene's message buffer the removal messages every tab has read,
+        and what else targets a removed node (viser's own sweep, which it runs only when
+        a tab connects). A classroom tab's scene is its own, with no such buffer."""
+        collect = getattr(self.view.server, "_run_garbage_collector", None)
+        if collect is not None:
+            try:
+                collect()
+            except Exception as exc:  # (viser's internals: never stop the drawing)
+                self.app._notice(f"scene sweep failed: {type(exc).__name__}: {exc}", "warning")
 
     def _draw_panels(self, snap: Snapshot) -> None:
         view = self.view

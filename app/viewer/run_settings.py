@@ -329,9 +329,9 @@ class RunSettings:
         base = settings.get("base_scenario", settings["scenario"])
         with app.lock:
             if label in scenario_names() and base == load_scenario(label):
-                app.uploaded_scenarios.pop(label, None)  # the shipped file as it is
+                app.editing.forget_uploaded(label)  # the shipped file as it is
             else:  # the teacher's scenario (uploaded) under the teacher's name
-                app.uploaded_scenarios[label] = base
+                app.editing.keep_uploaded(label, base)
         app.editing.load_scenario(label)
         if settings["scenario"] != base:
             with app.lock:

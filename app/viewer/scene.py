@@ -30,6 +30,7 @@ from fuzzynav.world.geometry import (
 )
 
 TRAIL_CHUNK = 8  # trail points per scene node: a frame re-sends at most this many
+TRAIL_MERGE = 64  # frozen chunks drawn again as one node (an hour's trail: 350 nodes)
 BEAM_STEP_M = 0.02  # beams are drawn to 2 cm
 
 # Colours (RGB 0-255).
@@ -137,6 +138,8 @@ class Scene:
         self.app = view.app
         self.bounds = None
         self._trail_nodes: list = []
+        self._trail_frozen: list = []  # the points of the chunks frozen since the last merge
+        self._trail_count = 0  # chunks frozen: names the trail's nodes
         self._current_trail = None
         self._trail_points = np.zeros((0, 2))
         self._trail_index = 0
@@ -323,6 +326,7 @@ class Scene:
                 if node is not None:
                     node.remove()
             self._trail_nodes = []
+            self._trail_frozen = []
             self._current_trail = None
             self._trail_points = np.zeros((0, 2))
             self._trail_index = 0
@@ -488,24 +492,44 @@ class Scene:
         chunk = TRAIL_CHUNK
         while len(points) > chunk:
             # A full chunk is frozen as a node of its own; the next starts at its end.
-            name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+            name = f"/trail/r{run_id}_{self._trail_count}"
             self._trail_nodes.append(
                 scene.add_line_segments(
                     name, polyline_segments(points[:chunk], 0.015), TRAIL_BLUE, thickness=0.045
                 )
             )
+            self._trail_frozen.append(points[:chunk])
+            self._trail_count += 1
             self._current_trail = None
             points = points[chunk - 1 :]
+            if len(self._trail_frozen) == TRAIL_MERGE:
+                self._merge_trail(run_id)
         if len(points) >= 2:
             segs = polyline_segments(points, 0.015)
             if self._current_trail is None:
-                name = f"/trail/r{run_id}_{len(self._trail_nodes)}"
+                name = f"/trail/r{run_id}_{self._trail_count}"
                 self._current_trail = scene.add_line_segments(
                     name, segs, TRAIL_BLUE, thickness=0.045
                 )
             else:
                 self._current_trail.points = segs
         self._trail_points = points
+
+    def _merge_trail(self, run_id: int) -> None:
+        """The last :data:`TRAIL_MERGE` frozen chunks drawn again as one node (an hour's
+        trail was 22,500 nodes: 97 MB on the server, as many objects in every tab)."""
+        frozen, self._trail_frozen = self._trail_frozen, []
+        merged = np.concatenate([frozen[0]] + [f[1:] for f in frozen[1:]])
+        node = self.view.server.scene.add_line_segments(
+            f"/trail/r{run_id}_m{self._trail_count}",  # (after the chunks it replaces)
+            polyline_segments(merged, 0.015),
+            TRAIL_BLUE,
+            thickness=0.045,
+        )
+        for old in self._trail_nodes[-len(frozen) :]:
+            old.remove()
+        del self._trail_nodes[-len(frozen) :]
+        self._trail_nodes.append(node)
 
     # -- panels ------------------------------------------------------------------------
 

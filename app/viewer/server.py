@@ -81,8 +81,20 @@ def _report_errors(future) -> None:
 class ViewerServer:
     """The viser server showing a :class:`ViewerApp` (which it starts and stops)."""
 
-    def __init__(self, app: ViewerApp, host: str = "127.0.0.1", port: int = 8080, *, surface=None):
+    def __init__(
+        self,
+        app: ViewerApp,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        *,
+        surface=None,
+        budget=None,
+    ):
         self.app = app
+        # what the tabs make the server keep, counted together (app/viewer/budget.py):
+        # a classroom passes its server's, shared by every tab's world
+        if budget is not None:
+            app.attach_budget(budget)
         self.host = host
         #: a classroom's teacher has locked this tab's controls (issue 38): presses and
         #: drags are refused with a word; the teacher's own folder still answers
@@ -99,9 +111,13 @@ class ViewerServer:
         else:  # one tab's own world (classroom mode): its scene and GUI only
             self.server = surface
         self.port = self.server.get_port()
-        # only a component's value, finite numbers, uploads refused at their declared size
-        install_message_guards(
-            self.server, MAX_UPLOAD_BYTES, lambda text: app._notice(text, "warning")
+        # only a component's value, finite numbers, uploads refused at their declared
+        # size, a few at a time, in the budget and in time
+        self.uploads = install_message_guards(
+            self.server,
+            MAX_UPLOAD_BYTES,
+            lambda text: app._notice(text, "warning"),
+            account=app.account,
         )
         self.view_3d = False
         self.show_handles = False
