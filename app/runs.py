@@ -9,7 +9,7 @@ from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
 from fuzzynav.world.perception import check_geometry
-from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M, Scenario, load_scenario
+from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M, Scenario, check_scenario, load_scenario
 from fuzzynav.world.sensors import SensorConfig, default_mounts
 from fuzzynav.world.simulation import Simulation, SimulationResult
 
@@ -91,10 +91,12 @@ def build_simulation(
     control_period_s, sensor_noise_std_m, field_of_view_deg, sonar_side_deg = check_run_options(
         control_period_s, sensor_noise_std_m, field_of_view_deg, sonar_side_deg
     )
-    if not isinstance(scenario, Scenario):
-        # the start is checked against the robot that drives: the paper's geometry is a
-        # point robot, so a layout valid for it is not refused for the Husky's footprint
-        footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
+    # the start is checked against the robot that drives: the paper's geometry is a
+    # point robot, so a layout valid for it is not refused for the Husky's footprint
+    footprint = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
+    if isinstance(scenario, Scenario):
+        check_scenario(scenario, footprint)  # one made in code is checked as a file is
+    else:
         scenario = load_scenario(scenario, footprint_m=footprint)
     if field_of_view_deg is not None:
         scenario = scenario.replace(field_of_view_deg=field_of_view_deg)

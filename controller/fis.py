@@ -393,8 +393,17 @@ def dumps_fis(system: FuzzySystem) -> str:
     ValueError
         The system reads NONE as "sensed nothing" for some input (``unsensed_none``):
         MATLAB's rule editor knows only its own NONE, so a .fis would drive differently;
-        or a term's family has no MATLAB name (``Shape.matlab``).
+        or a term's family has no MATLAB name (``Shape.matlab``); or its defuzzification
+        grid is not MATLAB's 101 points (a .fis holds no point count, so it would read
+        back, and run in MATLAB, with another grid and other voltages).
     """
+    if system.n_points != DEFAULT_POINTS:
+        raise ValueError(
+            f"{system.name}: cannot write its {system.n_points}-point defuzzification grid "
+            f"to a .fis file, which holds no point count (MATLAB's evalfis uses "
+            f"{DEFAULT_POINTS}): the file would drive otherwise. Use the TOML rule base "
+            f"(its 'points' key), or system.replace(n_points={DEFAULT_POINTS})"
+        )
     if system.unsensed_none:
         raise ValueError(
             f"{system.name}: its rules read NONE for {', '.join(system.unsensed_none)} as "

@@ -99,3 +99,12 @@ def test_python_and_the_command_line_share_their_defaults():
 def test_a_bare_function_is_refused_with_what_it_lacks():
     with pytest.raises(ValueError, match="no reset"):
         fuzzynav.sweep(lambda inputs: (1.0, 1.0), n=2)
+
+
+def test_simulate_checks_a_scenario_built_in_code_as_a_file_is():
+    s1 = fuzzynav.load_scenario("s1")
+    with pytest.raises(ValueError, match="overlaps the robot"):
+        fuzzynav.simulate(s1.replace(obstacles=(ObstacleSpec(tuple(s1.start), 0.5),)), "p")
+    with pytest.raises(ValueError, match="radius_m = -0.5: must be positive"):
+        fuzzynav.simulate(s1.replace(obstacles=(ObstacleSpec((5.0, 5.0), -0.5),)), "p")
+    assert fuzzynav.simulate(s1, "p").outcome == fuzzynav.simulate("s1", "p").outcome

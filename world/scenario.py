@@ -496,6 +496,22 @@ def target_blocker(
     return None
 
 
+def check_scenario(
+    scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M
+) -> None:
+    """Check a :class:`Scenario` built in code as a file is checked (every key, limit and
+    layout rule): it is written out and read back. Raises :class:`ScenarioError`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (a shipped one, an edited one, one made in code).
+    footprint_m : tuple of float
+        The robot's (length, width) its start is checked against; (0, 0): a point.
+    """
+    loads_scenario(scenario.to_toml(), scenario.source or scenario.name, footprint_m)
+
+
 def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_FOOTPRINT_M):
     """Reject layouts no run could start from, or whose target no run could reach
     (raises :class:`ScenarioError`)."""

@@ -79,10 +79,10 @@ def scenario_list(scenarios, footprint_m=None) -> list[Scenario]:
 
 
 def _validated(scenario: Scenario, kwargs: dict) -> Scenario:
-    # a Scenario built in code is checked as a file is: written out and read back
-    from fuzzynav.world.scenario import loads_scenario
+    from fuzzynav.world.scenario import check_scenario
 
-    return loads_scenario(scenario.to_toml(), f"scenario {scenario.name!r}", **kwargs)
+    check_scenario(scenario, **kwargs)  # a Scenario built in code is checked as a file is
+    return scenario
 
 
 def _digest(data: bytes) -> str:
