@@ -348,6 +348,7 @@ def test_the_docs_state_the_budget_s_numbers():
         "test_the_history_stays_within_its_budget_and_spans_the_run",
         "test_a_recorded_step_costs_what_the_history_charges",
         "test_one_budget_for_every_world_of_a_server",
+        "test_a_classroom_s_tabs_share_their_server_s_budget",
         "test_a_long_trail_is_drawn_in_few_nodes",
         "test_resets_leave_nothing_in_the_scene_s_message_buffer",
         "test_resets_without_a_step_keep_no_removed_obstacles",
@@ -428,3 +429,31 @@ def test_resets_without_a_step_keep_no_removed_obstacles():
     gc.collect()
     alive = sum(1 for o in gc.get_objects() if isinstance(o, pymunk.Circle))
     assert alive <= 2 * len(app._layout) + 10, alive
+
+
+def test_a_classroom_s_tabs_share_their_server_s_budget():
+    """With --classroom each tab's world was counted alone (3.6 GB of history a tab):
+    every tab's world now charges the classroom server's one budget, and a closed tab
+    gives its charges back."""
+    from test_viewer_clients import ScriptedClients, wait_until
+
+    from fuzzynav.app.viewer.classroom import ClassroomServer
+
+    server = ClassroomServer(lambda: ViewerApp("s1", "p"), port=0, token="teach-me")
+    clients = ScriptedClients(server.url)
+    try:
+        sockets = clients.connect(2)
+        assert wait_until(lambda: len(server.sessions) == 2, timeout=120)
+        views = list(server.sessions.values())
+        assert all(view.app.budget is server.budget for view in views)
+        views[0].app.add_obstacle((0.0, 30.0))
+        views[1].app.add_obstacle((0.0, 30.0))
+        held = sum(view.app.account.held() for view in views)
+        assert server.budget.used == held > 0
+        clients._run(sockets[0].close())
+        assert wait_until(lambda: len(server.sessions) == 1, timeout=60)
+        (left,) = server.sessions.values()
+        assert wait_until(lambda: server.budget.used == left.app.account.held(), timeout=30)
+    finally:
+        clients.close()
+        server.stop()
