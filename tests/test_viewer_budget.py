@@ -354,6 +354,7 @@ def test_the_docs_state_the_budget_s_numbers():
         "test_resets_without_a_step_keep_no_removed_obstacles",
         "test_serve_rrd_records_a_few_runs_a_minute",
         "test_serve_rrd_stops_at_its_session_bytes",
+        "test_serve_rrd_completes_the_run_that_reaches_the_session_bytes",
     ):
         assert name in robustness and name in globals(), name
 
@@ -457,3 +458,31 @@ def test_a_classroom_s_tabs_share_their_server_s_budget():
     finally:
         clients.close()
         server.stop()
+
+
+def test_serve_rrd_completes_the_run_that_reaches_the_session_bytes(tmp_path):
+    """The run being recorded when the session's bytes are reached is completed there
+    (a whole file, said on the page) and nothing more is written."""
+    pytest.importorskip("fuzzynav.app.recordings.record")
+    import math
+
+    app = ViewerApp("s1", "p", rrd_path=tmp_path / "session.rrd")
+    app.driver.recording_budget.session_bytes = 50_000
+    said = []
+    app.on_message(lambda text, level: said.append(text))
+    try:
+        for _ in range(400):
+            app.driver._size_checked = -math.inf  # (read the size at every step)
+            app.step_once()
+            if app._recorder is None and app.recorded_files:
+                break
+        stopped_at = app.sim.time_s
+        assert any(t.startswith("Recording stopped at t = ") for t in said), said
+        for _ in range(20):
+            app.step_once()
+        app.reset()
+        app.step_once()
+    finally:
+        app.stop()
+    assert app.recorded_files == [tmp_path / "session.rrd"]
+    assert stopped_at < 8.0 and (tmp_path / "session.rrd").stat().st_size > 50_000
