@@ -67,7 +67,7 @@ __all__ = [
 _API = frozenset(__all__) - {"__version__"}
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> object:
     # Read on first use: importlib.metadata costs tens of milliseconds at every start of
     # the command line, and a Ctrl-C in them could not be caught yet (issue 19).
     if name == "__version__":

@@ -31,10 +31,12 @@ write_fis       a fuzzy system to a ``.fis`` file (written whole or not at all)
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+import numpy.typing as npt
 
 from fuzzynav.app.experiments.design_search import tune
 from fuzzynav.controller.checker import ControllerCheckError, check_controller
@@ -46,7 +48,11 @@ from fuzzynav.controller.registry import register_controller
 from fuzzynav.sweeps import SweepRow, sweep
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
-from fuzzynav.world.simulation import OUTCOMES, Outcome
+from fuzzynav.world.simulation import OUTCOMES, Outcome, Simulation, SimulationLog, SimulationResult
+
+if TYPE_CHECKING:
+    from fuzzynav.app.viewer.classroom import ClassroomServer
+    from fuzzynav.app.viewer.server import ViewerServer
 
 __all__ = [
     "Outcome",
@@ -90,13 +96,19 @@ class Run:
         fuzzy controllers).
     """
 
-    def __init__(self, simulation, result, controller_label: str, scenario_label: str):
+    def __init__(
+        self,
+        simulation: Simulation,
+        result: SimulationResult,
+        controller_label: str,
+        scenario_label: str,
+    ) -> None:
         self._simulation = simulation
         self.result = result
         self.controller = simulation.controller
         self._controller_label = controller_label
         self._scenario_label = scenario_label
-        self._trace: dict[str, np.ndarray] | None = None
+        self._trace: dict[str, npt.NDArray[np.float64]] | None = None
 
     @property
     def outcome(self) -> Outcome:
@@ -104,22 +116,25 @@ class Run:
         outcome = self.result.outcome
         if outcome not in OUTCOMES:  # a finished run ends one of these ways
             raise RuntimeError(f"the run has not ended (outcome {outcome!r})")
-        return cast(Outcome, outcome)
+        return outcome  # narrowed to Outcome by the test against OUTCOMES
 
     @property
-    def metrics(self) -> dict:
+    def metrics(self) -> dict[str, Any]:  # numbers, and the labels and outcome as text
         from fuzzynav.app.runs import summary
 
         row = summary(self.result, self._controller_label, self._scenario_label)
         return {k: (math.nan if v is None else v) for k, v in row.items()}
 
     @property
-    def trace(self) -> dict[str, np.ndarray]:
+    def trace(self) -> dict[str, npt.NDArray[np.float64]]:
         if self._trace is None:
             # The CSV's own rows, read back: the arrays are the trace file's columns,
             # whatever columns it has, and equal to it (the cells are exact reprs).
-            from fuzzynav.app.recordings.trace import TRACE_COLUMNS, trace_rows
+            from fuzzynav.app.recordings.trace import TRACE_COLUMNS
+            from fuzzynav.app.recordings.trace import trace_rows as untyped_trace_rows
 
+            # app.recordings.trace is not annotated: its rows are lists of strings
+            trace_rows = cast("Callable[[SimulationLog], Iterator[list[str]]]", untyped_trace_rows)
             # Streamed into the columns, a row at a time (issue 37: a list of every row's
             # strings first took 1.3 GB beside 86 MB of arrays at 720,000 steps).
             n_rows = len(self.result.log)
@@ -185,7 +200,7 @@ class Run:
         )
 
 
-def _label_of_scenario(scenario) -> str:
+def _label_of_scenario(scenario: str | Path | Scenario) -> str:
     if isinstance(scenario, Scenario):
         return scenario.name
     from fuzzynav.world.scenario import resolve_scenario_path
@@ -255,7 +270,7 @@ def simulate(
         seed = 0
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise ValueError(f"seed = {seed!r}: must be an integer >= 0")
-    controller_object = None
+    controller_object: object | None = None
     label = controller
     if isinstance(fis, FuzzySystem):
         controller_object, label = FisController(fis, name=fis.name), fis.name
@@ -266,7 +281,7 @@ def simulate(
         from fuzzynav.world.perception import check_controller
 
         check_controller(controller)  # the loop's own check, before anything is built
-        controller_object = controller  # type: ignore[assignment]  # any controller
+        controller_object = controller  # any controller
         label = getattr(controller, "name", type(controller).__name__)
     sim = build_simulation(
         scenario,
@@ -297,7 +312,7 @@ def serve(
     lesson: str | Path | None = None,
     block: bool = True,
     open_message: bool = True,
-):
+) -> ViewerServer | ClassroomServer | None:
     """The viewer in this process (``fuzzynav serve``): it offers every registered
     controller, a controller of your own included.
 
@@ -330,7 +345,7 @@ def serve(
     """
     from fuzzynav.app.viewer.serve import serve as serve_viewer
 
-    return serve_viewer(
+    server = serve_viewer(
         scenario,
         host=host,
         port=port,
@@ -342,6 +357,8 @@ def serve(
         classroom=classroom,
         lesson=lesson,
     )
+    # app.viewer.serve.serve is not annotated: it returns one of these, or None
+    return cast("ViewerServer | ClassroomServer | None", server)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
@@ -361,7 +378,9 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     return _load_scenario(name_or_path)
 
 
-def make_controller(name: str = "paper", *, fis: str | Path | None = None, geometry: str = "husky"):
+def make_controller(
+    name: str = "paper", *, fis: str | Path | None = None, geometry: str = "husky"
+) -> Any:  # any object with the controller interface (a registered factory's)
     """A fresh controller, by name or from a MATLAB ``.fis`` file.
 
     Parameters

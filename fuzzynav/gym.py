@@ -22,11 +22,12 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Iterable, Sequence
+from typing import Any, TypeAlias
 
 import gymnasium as gym
 import numpy as np
+import numpy.typing as npt
 from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -47,6 +48,11 @@ __all__ = [
 ]
 
 ENV_ID = "fuzzynav/Husky-v0"
+#: Observations, actions, rewards and wheel voltages: float64 arrays (``step`` takes any
+#: array_like action).
+FloatArray: TypeAlias = npt.NDArray[np.float64]
+#: Terminations and truncations: bool arrays.
+BoolArray: TypeAlias = npt.NDArray[np.bool_]
 #: The observation's entries, in order (units in :class:`HuskyEnv`'s docstring).
 OBSERVATION_NAMES = ("d_t", "d_o", "phi_t", "phi_o", "obstacle_seen", "v", "w")
 #: Reward on arriving at the target, and on touching an obstacle.
@@ -122,28 +128,30 @@ class _Setup:
             axis=1,
         )
 
-    def distances(self) -> np.ndarray:
+    def distances(self) -> FloatArray:
         """The true distance of each run's centre to its target, m (n,)."""
         s = self.world.s
-        return np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
+        distance: FloatArray = np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
+        return distance
 
-    def voltages(self, actions) -> np.ndarray:
+    def voltages(self, actions: npt.ArrayLike) -> FloatArray:
         return np.asarray(actions, dtype=float) * self.limit
 
     @staticmethod
-    def rewards(before: np.ndarray, after: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    def rewards(before: FloatArray, after: FloatArray, codes: npt.NDArray[np.int_]) -> FloatArray:
         reward = before - after
         reward = np.where(codes == 0, reward + REACH_REWARD, reward)
-        return np.where(codes == 1, reward + COLLISION_REWARD, reward)
+        rewarded: FloatArray = np.where(codes == 1, reward + COLLISION_REWARD, reward)
+        return rewarded
 
 
-def _spaces() -> tuple[spaces.Box, spaces.Box]:
+def _spaces() -> tuple[spaces.Box[np.float64], spaces.Box[np.float64]]:
     observation = spaces.Box(_OBS_LOW, _OBS_HIGH, dtype=np.float64)
     action = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64)
     return observation, action
 
 
-class HuskyEnv(gym.Env):
+class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     """The LG Husky of the paper among circular obstacles, driven by its wheel voltages.
 
     ## Description
@@ -236,7 +244,7 @@ class HuskyEnv(gym.Env):
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
-    ):
+    ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
         self._setup = _Setup(
@@ -248,7 +256,9 @@ class HuskyEnv(gym.Env):
         self.metadata = {**self.metadata, "render_fps": round(1.0 / control_period_s)}
         self.scenario: Scenario | None = None
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[FloatArray, dict[str, Any]]:
         """Start an episode on a newly drawn scenario (see the class docstring).
 
         Parameters
@@ -272,7 +282,7 @@ class HuskyEnv(gym.Env):
         self._distance = self._setup.distances()
         return self._setup.observations()[0], {}
 
-    def step(self, action):
+    def step(self, action: npt.ArrayLike) -> tuple[FloatArray, float, bool, bool, dict[str, int]]:
         """One control period with the wheel voltages ``12 * action`` V.
 
         Parameters
@@ -295,7 +305,7 @@ class HuskyEnv(gym.Env):
         info = {"outcome": k} if k >= 0 else {}
         return observation, float(reward[0]), k in (0, 1), k == 2, info
 
-    def render(self):
+    def render(self) -> npt.NDArray[np.uint8] | None:
         """The scene now as an (H, W, 3) uint8 array (``render_mode="rgb_array"``)."""
         if self.render_mode != "rgb_array" or self.scenario is None:
             return None
@@ -305,7 +315,7 @@ class HuskyEnv(gym.Env):
         )
 
 
-class HuskyVectorEnv(VectorEnv):
+class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
     """``num_envs`` :class:`HuskyEnv` s stepped together on the batch engine.
 
     Fixed ``num_envs``; a sub-environment whose episode ended (terminated or truncated)
@@ -339,7 +349,7 @@ class HuskyVectorEnv(VectorEnv):
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
-    ):
+    ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs = {num_envs!r}: must be at least 1")
         if render_mode is not None:
@@ -357,7 +367,12 @@ class HuskyVectorEnv(VectorEnv):
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._started = False
 
-    def reset(self, *, seed: int | Sequence[int | None] | None = None, options=None):
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[FloatArray, dict[str, Any]]:
         """Start every sub-environment's episode (or those of ``options["reset_mask"]``).
 
         Parameters
@@ -374,7 +389,7 @@ class HuskyVectorEnv(VectorEnv):
         """
         n = self.num_envs
         if seed is None:
-            seeds: list = [None] * n
+            seeds: list[int | None] = [None] * n
         elif isinstance(seed, (int, np.integer)):
             seeds = [int(seed) + i for i in range(n)]
         else:
@@ -394,7 +409,7 @@ class HuskyVectorEnv(VectorEnv):
         self._distance = self._setup.distances()
         return self._setup.observations(), {}
 
-    def _restart(self, envs: np.ndarray) -> None:
+    def _restart(self, envs: npt.NDArray[np.intp]) -> None:
         drawn = [self._setup.draw(self._rngs[i]) for i in envs.tolist()]
         scenarios = [sc for sc, _ in drawn]
         sonar_seeds = [s for _, s in drawn]
@@ -405,7 +420,9 @@ class HuskyVectorEnv(VectorEnv):
         else:
             world.restart(envs, scenarios, sonar_seeds)
 
-    def step(self, actions):
+    def step(
+        self, actions: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
         """One control period of every sub-environment (module docstring: autoreset).
 
         Parameters
@@ -443,7 +460,7 @@ class HuskyVectorEnv(VectorEnv):
         return setup.observations(), reward, terminated, truncated, infos
 
 
-def controller_inputs(observations) -> np.ndarray:
+def controller_inputs(observations: npt.ArrayLike) -> FloatArray:
     """The paper controller's inputs ``(d_t, d_o, phi_t, phi_o)`` from observations
     (NaN where no obstacle is sensed), for driving a fuzzynav batch controller.
 
@@ -469,7 +486,14 @@ def controller_inputs(observations) -> np.ndarray:
     )
 
 
-def render_rgb(scenario, pose, half_length_m, half_width_m, time_s=0.0, size=320) -> np.ndarray:
+def render_rgb(
+    scenario: Scenario,
+    pose: Iterable[float],
+    half_length_m: float,
+    half_width_m: float,
+    time_s: float = 0.0,
+    size: int = 320,
+) -> npt.NDArray[np.uint8]:
     """A top view of a scenario as an RGB raster: obstacles grey, the target green, the
     robot's footprint blue with its heading.
 
@@ -506,8 +530,8 @@ def render_rgb(scenario, pose, half_length_m, half_width_m, time_s=0.0, size=320
     v = centre_y - (np.arange(size) + 0.5 - size / 2) * pixel
     gx, gy = np.meshgrid(u, v)
     image = np.full((size, size, 3), 255, dtype=np.uint8)
-    for c, o in zip(centres, scenario.obstacles):
-        image[np.hypot(gx - c[0], gy - c[1]) <= o.radius_m] = (140, 140, 140)
+    for centre, o in zip(centres, scenario.obstacles):
+        image[np.hypot(gx - centre[0], gy - centre[1]) <= o.radius_m] = (140, 140, 140)
     tx, ty = scenario.target
     image[np.hypot(gx - tx, gy - ty) <= max(scenario.tolerance_m, 2 * pixel)] = (40, 170, 60)
     c, s = math.cos(heading), math.sin(heading)

@@ -9,6 +9,10 @@ from __future__ import annotations
 
 from importlib.resources import files
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from os import PathLike
 
 
 def assets_dir() -> Path:
@@ -64,7 +68,7 @@ def shorten(text: str, limit: int = MAX_SHOWN_CHARS) -> str:
     return f"{text[:head]}...[{len(text)} characters]...{text[-tail:]}"
 
 
-def shown(value) -> str:
+def shown(value: object) -> str:
     """``repr(value)`` for an error message: cut to :data:`MAX_SHOWN_CHARS`, control
     characters escaped; huge integers are described, never converted to text (Python
     refuses more than 4300 digits), and nesting is never walked."""
@@ -103,13 +107,17 @@ def escape_controls(text: str, keep: str = "") -> str:
     return "".join(out)
 
 
-def read_user_text(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES) -> str:
+def read_user_text(
+    path: str | PathLike[str], what: str = "file", max_bytes: int = MAX_INPUT_BYTES
+) -> str:
     """The text of a user's file (:func:`read_user_bytes`, decoded): a UTF-8 byte-order
     mark is dropped; text that is not UTF-8 is refused."""
     return decode_user_bytes(read_user_bytes(path, what, max_bytes), str(path))
 
 
-def read_user_bytes(path, what: str = "file", max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+def read_user_bytes(
+    path: str | PathLike[str], what: str = "file", max_bytes: int = MAX_INPUT_BYTES
+) -> bytes:
     """The bytes of a user's file, or :class:`InputError` saying what the path is: the
     project's one reader of the files a user names (issue 26).
 
@@ -217,11 +225,11 @@ def toml_nesting_depth(text: str, limit: int = MAX_TOML_DEPTH) -> int:
     return deepest
 
 
-def _structure_depth(data, limit: int) -> int:
+def _structure_depth(data: object, limit: int) -> int:
     """The nesting depth of parsed TOML data, walked without recursion; stops past
     ``limit`` (dotted keys and headers like ``[a.a.a...]`` nest without brackets)."""
     deepest = 0
-    stack = [(data, 1)]
+    stack: list[tuple[object, int]] = [(data, 1)]
     while stack:
         value, depth = stack.pop()
         if depth > deepest:
@@ -235,7 +243,7 @@ def _structure_depth(data, limit: int) -> int:
     return deepest
 
 
-def loads_user_toml(text: str, source: str, max_depth: int = MAX_TOML_DEPTH) -> dict:
+def loads_user_toml(text: str, source: str, max_depth: int = MAX_TOML_DEPTH) -> dict[str, Any]:
     """Parse a user's TOML text with every limit checked, or raise :class:`InputError`
     naming ``source``: nesting deeper than ``max_depth`` (checked before tomllib
     recurses), invalid TOML, an integer too long for Python, and structures nested

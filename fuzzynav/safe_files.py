@@ -29,6 +29,10 @@ import stat
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TypeAlias
+
+#: A path as the writers take it: text or a path object (``os.PathLike``).
+StrPath: TypeAlias = str | os.PathLike[str]
 
 __all__ = [
     "partial_path",
@@ -48,7 +52,7 @@ __all__ = [
 ]
 
 
-def partial_path(path: Path) -> Path:
+def partial_path(path: StrPath) -> Path:
     """Where a partial file for ``path`` is kept: ``run.rrd`` -> ``run.partial.rrd``."""
     path = Path(path)
     return path.with_name(f"{path.stem}.partial{path.suffix}")
@@ -60,12 +64,12 @@ def _umask() -> int:
     return mask
 
 
-def _target(path) -> Path:
+def _target(path: StrPath) -> Path:
     """The file a write to ``path`` lands in: symbolic links followed (the link stays)."""
     return Path(os.path.realpath(path))
 
 
-def temporary_beside(path: Path) -> Path:
+def temporary_beside(path: StrPath) -> Path:
     """A new empty file in the folder of ``path`` (of the file a link points at),
     hidden, named after it (OSError if the folder cannot be written)."""
     path = _target(path)
@@ -87,7 +91,7 @@ def _refuse_non_regular(path: Path) -> None:
         raise OSError(errno.EINVAL, "not a regular file: nothing was renamed over it", str(path))
 
 
-def commit(tmp: Path, path: Path) -> Path:
+def commit(tmp: StrPath, path: StrPath) -> Path:
     """Flush ``tmp`` to disk and rename it over ``path`` (the file a link points at);
     OSError on failure, with ``tmp`` still there for the caller to discard."""
     fd = os.open(tmp, os.O_RDONLY)
@@ -101,7 +105,7 @@ def commit(tmp: Path, path: Path) -> Path:
     return Path(path)
 
 
-def discard(tmp: Path, path: Path, keep_partial: bool = False) -> Path | None:
+def discard(tmp: StrPath, path: StrPath, keep_partial: bool = False) -> Path | None:
     """Remove a temporary file that will not be committed, or with ``keep_partial``
     rename it to :func:`partial_path` (``path``); returns where it is kept, or None."""
     try:
@@ -115,7 +119,7 @@ def discard(tmp: Path, path: Path, keep_partial: bool = False) -> Path | None:
     return None
 
 
-def is_stream_target(path) -> bool:
+def is_stream_target(path: StrPath) -> bool:
     """Whether ``path`` (links followed) is a pipe or a terminal: written through a
     stream, as it comes, never replaced."""
     try:
@@ -136,7 +140,7 @@ def is_stream_target(path) -> bool:
     return False
 
 
-def _write_stream(path, chunks: Iterable[bytes]) -> Path:
+def _write_stream(path: StrPath, chunks: Iterable[bytes]) -> Path:
     # Non-blocking open: a FIFO nobody reads fails at once (ENXIO) instead of hanging.
     try:
         fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0))
@@ -151,7 +155,7 @@ def _write_stream(path, chunks: Iterable[bytes]) -> Path:
     return Path(path)
 
 
-def write_chunks_atomically(path, chunks: Iterable[bytes]) -> Path:
+def write_chunks_atomically(path: StrPath, chunks: Iterable[bytes]) -> Path:
     """Write the ``chunks`` to ``path`` one after the other (a long file is never whole
     in memory), whole or not at all: OSError on failure, naming ``path``, and the old
     file stays. A pipe or a terminal gets them through a stream."""
@@ -175,20 +179,20 @@ def write_chunks_atomically(path, chunks: Iterable[bytes]) -> Path:
         raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
 
 
-def write_bytes_atomically(path, data: bytes) -> Path:
+def write_bytes_atomically(path: StrPath, data: bytes) -> Path:
     """Write ``data`` to ``path`` whole or not at all (OSError naming ``path`` on
     failure; the old file stays); a pipe or a terminal gets it through a stream."""
     return write_chunks_atomically(path, [data])
 
 
-def write_text_atomically(path, text: str) -> Path:
+def write_text_atomically(path: StrPath, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` whole or not at all (OSError on failure; the
     old file stays)."""
     return write_bytes_atomically(path, text.encode("utf-8"))
 
 
 @contextlib.contextmanager
-def atomic_output(path) -> Iterator[Path]:
+def atomic_output(path: StrPath) -> Iterator[Path]:
     """Within: a temporary path beside ``path`` to write (e.g. by a library that takes
     a file name, or in pieces so that a long file never sits in memory); on a normal
     exit it is renamed over ``path``, on any exception removed and ``path`` left as it
@@ -226,7 +230,7 @@ def _assets_dir() -> Path | None:
         return None
 
 
-def refuse_installed(path, option: str) -> None:
+def refuse_installed(path: StrPath, option: str) -> None:
     """ValueError when ``path`` (links followed) is inside the installed package: its
     shipped rule bases and scenarios are what every later run reads."""
     from fuzzynav.resources import escape_controls
@@ -242,14 +246,14 @@ def refuse_installed(path, option: str) -> None:
 
 
 def check_output_path(
-    path,
+    path: StrPath,
     option: str,
-    inputs: Iterable = (),
+    inputs: Iterable[StrPath | None] = (),
     *,
     stream_ok: bool = True,
     replace: bool = True,
     folder: bool = False,
-):
+) -> Path:
     """The one output guard (issues 26 and 37): every writer of the command line and of
     the Python interface asks it before it writes. Raise ValueError (naming ``option``,
     the path and why) when ``path`` must not be written:
@@ -298,7 +302,7 @@ def check_output_path(
     return check_writable_file(path, option)
 
 
-def _same_file(a, b) -> bool:
+def _same_file(a: StrPath, b: StrPath) -> bool:
     """Whether paths ``a`` and ``b`` name one file (links followed; hard links too)."""
     if _target(a) == _target(b):
         return True
@@ -308,13 +312,13 @@ def _same_file(a, b) -> bool:
         return False
 
 
-def check_distinct_outputs(outputs: Iterable) -> None:
+def check_distinct_outputs(outputs: Iterable[tuple[str, StrPath | None]]) -> None:
     """ValueError when two of one command's outputs, ``(option, path)`` pairs (a None
     path is skipped), name the same file (through links too): one would overwrite the
     other (``run --trace same.out --rrd same.out`` lost the recording, issue 37)."""
     from fuzzynav.resources import escape_controls
 
-    seen: list[tuple[str, object]] = []
+    seen: list[tuple[str, StrPath]] = []
     for option, path in outputs:
         if path is None:
             continue
@@ -328,7 +332,7 @@ def check_distinct_outputs(outputs: Iterable) -> None:
         seen.append((option, path))
 
 
-def check_writable_file(path, option: str = "--rrd") -> Path:
+def check_writable_file(path: StrPath, option: str = "--rrd") -> Path:
     """Raise ValueError (with ``option``, the path and the reason) unless a file can be
     written at ``path`` whole: a regular file or none (links followed), in a folder
     where a file can be made (files are written beside the target and renamed over

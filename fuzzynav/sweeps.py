@@ -7,14 +7,25 @@ sweep`` runs the same studies (:mod:`fuzzynav.app.experiments.studies`).
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import TypedDict, cast
+from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 from fuzzynav.controller.checker import check_controller
+from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.simulation import Outcome
 
+if TYPE_CHECKING:
+    from fuzzynav.app.experiments.executor import Executor
+    from fuzzynav.app.experiments.resultlog import ResultLog
+    from fuzzynav.app.experiments.studies import LayoutJob
+
 __all__ = ["SweepRow", "sweep"]
+
+#: What ``scenarios`` takes: a scenario file, a folder of them, a shipped name, a
+#: Scenario, or a list of any of these.
+ScenarioSource: TypeAlias = str | Path | Scenario
+Scenarios: TypeAlias = ScenarioSource | Sequence[ScenarioSource]
 
 
 class SweepRow(TypedDict, total=False):
@@ -63,7 +74,7 @@ def sweep(
     perception: str = "ideal",
     geometry: str = "husky",
     *,
-    scenarios=None,
+    scenarios: Scenarios | None = None,
     workers: int = 1,
     executor: str | None = None,
     scheduler: str | None = None,
@@ -138,7 +149,15 @@ def sweep(
     return cast(list[SweepRow], rows)
 
 
-def _jobs(controller, n, seed, family, perception, geometry, scenarios) -> Sequence:
+def _jobs(
+    controller: str | object,
+    n: int | None,
+    seed: int | None,
+    family: str,
+    perception: str,
+    geometry: str,
+    scenarios: Scenarios | None,
+) -> Sequence[LayoutJob]:
     """The jobs of :func:`sweep`'s study, every argument checked as the command line's."""
     from fuzzynav.app.args import integer_value
     from fuzzynav.app.experiments import sweep as sweep_command
@@ -166,7 +185,14 @@ def _jobs(controller, n, seed, family, perception, geometry, scenarios) -> Seque
 
 
 @contextlib.contextmanager
-def _study_runner(kind, workers, scheduler, out, resume, jobs):
+def _study_runner(
+    kind: str | None,
+    workers: int,
+    scheduler: str | None,
+    out: str | Path | None,
+    resume: bool,
+    jobs: Sequence[LayoutJob],
+) -> Iterator[tuple[Executor, ResultLog | None]]:
     """(executor, result log or None) for a study from Python, closed after it."""
     from fuzzynav.app.experiments.executor import make_executor
     from fuzzynav.app.experiments.resultlog import ResultLog
