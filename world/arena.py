@@ -50,6 +50,8 @@ import numpy as np
 import pymunk
 
 from fuzzynav.world import compat_pymunk as _compat
+from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
+from fuzzynav.world.kernels import swept_clearances
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
@@ -68,18 +70,10 @@ RAY_FILTER = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ ROBOT_CATE
 
 _cos, _sin, _hypot = math.cos, math.sin, math.hypot
 
-#: The sweep's sample spacing in relative motion (m): the footprint-to-surface clearance
-#: changes by at most the relative displacement of robot and obstacle, so the true
-#: minimum over a step lies at most half this below the smallest sample, and no contact
-#: deeper than that is missed.
-SWEEP_SPACING_M = 0.005
 #: A step is swept when the ends could misjudge the minimum clearance by more than
 #: this (m) and the clearance could come below :data:`SWEEP_RELEVANT_M` in it.
 SWEEP_TOLERANCE_M = 0.01
 SWEEP_RELEVANT_M = 1.0
-#: The most samples in one step's sweep of one obstacle (100 m/s at a 1 s period is
-#: 20,000 samples at 5 mm: bounded, vectorised).
-SWEEP_MAX_SAMPLES = 50_000
 _new_tuple = tuple.__new__
 
 
@@ -109,7 +103,7 @@ class Obstacle:
         self.initial_velocity = np.asarray(velocity, dtype=float)
         self.law_start_s = time_s
         self.is_static = not (self.initial_velocity.any() or self.acceleration.any())
-        # The law as plain floats for the hot path (same operations as position_at).
+        # The law as plain floats for the hot path (kernels.obstacle_centres' layout).
         self._law = (
             *self.initial_position.tolist(),
             *self.initial_velocity.tolist(),
@@ -119,15 +113,13 @@ class Obstacle:
         self.body.position = tuple(self.initial_position)
 
     def position_at(self, time_s: float) -> np.ndarray:
-        tau = time_s - self.law_start_s
-        return (
-            self.initial_position
-            + self.initial_velocity * tau
-            + 0.5 * self.acceleration * tau * tau
-        )
+        """The centre at ``time_s``, (2,) m (:meth:`_xy_at`)."""
+        return np.array(self._xy_at(time_s))
 
     def _xy_at(self, time_s: float) -> tuple[float, float]:
-        """:meth:`position_at` as two floats, bit for bit (same operations, same order)."""
+        """The centre by the law, ``p0 + v0 tau + (a / 2) tau^2``: the scalar form of
+        :func:`world.kernels.obstacle_centres` (the same operations in the same order,
+        checked bit for bit by tests/test_world.py)."""
         px, py, vx, vy, hax, hay, t0 = self._law
         tau = time_s - t0
         return px + vx * tau + hax * tau * tau, py + vy * tau + hay * tau * tau
@@ -151,7 +143,8 @@ def _arc_pose(pose0, v: float, w: float, tau: float) -> tuple[float, float, floa
 
 def _obstacle_path_m(obstacle: Obstacle, t0: float, dt: float) -> float:
     """A bound on the length an obstacle travels in [t0, t0 + dt]: ``|v(t0)| dt +
-    |a| dt^2 / 2``."""
+    |a| dt^2 / 2``, the scalar form of :func:`world.kernels.obstacle_path_bound`
+    (checked against it by tests/test_world.py)."""
     _, _, vx, vy, hax, hay, ts = obstacle._law
     age = t0 - ts
     speed = _hypot(vx + 2.0 * hax * age, vy + 2.0 * hay * age)
@@ -335,9 +328,9 @@ class Arena:
     def _scene(self) -> _Scene:
         """The obstacles now as plain floats, cached until the next step or edit.
 
-        The clearances are :func:`world.geometry.rectangle_circle_clearance` inlined,
+        The clearances are :func:`world.kernels.rectangle_clearances` written for floats,
         with the same operations in the same order, so the numbers are the same to the
-        bit.
+        bit (tests/test_world.py checks them against it).
         """
         scene = self._scene_cache
         if scene is None:
@@ -525,9 +518,11 @@ class Arena:
             if bound >= low - SWEEP_TOLERANCE_M or bound >= SWEEP_RELEVANT_M:
                 continue
             self.swept_steps += 1
-            n = min(SWEEP_MAX_SAMPLES, int(math.ceil(path / SWEEP_SPACING_M)) + 2)
-            tau = np.linspace(0.0, dt, n)
-            clearance = self._clearance_along(obstacle, pose0, v, w, t0, tau)
+            length, width = self.footprint_m
+            clearance, tau = swept_clearances(
+                pose0, v, w, dt, obstacle._law[:6], obstacle.radius_m,
+                t0 - obstacle._law[6], 0.5 * length, 0.5 * width, path,
+            )  # fmt: skip
             k = int(np.argmin(clearance))
             if clearance[k] < smallest:
                 smallest = float(clearance[k])
@@ -546,29 +541,6 @@ class Arena:
                     self.collisions.append(event)
         self.min_clearance_m = smallest
         self._touching = touching
-
-    def _clearance_along(self, obstacle, pose0, v, w, t0, tau: np.ndarray) -> np.ndarray:
-        """Footprint-to-surface clearance at the instants ``t0 + tau``: the robot on its
-        exact arc (constant v and w over the step), the obstacle by its law."""
-        x0, y0, h0 = pose0
-        heading = h0 + w * tau
-        if abs(w) > 1e-12:
-            x = x0 + (v / w) * (np.sin(heading) - math.sin(h0))
-            y = y0 - (v / w) * (np.cos(heading) - math.cos(h0))
-        else:
-            x = x0 + v * tau * math.cos(h0)
-            y = y0 + v * tau * math.sin(h0)
-        px, py, vx, vy, hax, hay, ts = obstacle._law
-        age = (t0 - ts) + tau
-        cx = px + vx * age + hax * age * age
-        cy = py + vy * age + hay * age * age
-        c, s = np.cos(heading), np.sin(heading)
-        dx, dy = cx - x, cy - y
-        length, width = self.footprint_m
-        qx = np.abs(c * dx + s * dy) - 0.5 * length
-        qy = np.abs(-s * dx + c * dy) - 0.5 * width
-        outside = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0))
-        return outside + np.minimum(np.maximum(qx, qy), 0.0) - obstacle.radius_m
 
     def _step_space(self, dt_s: float) -> None:
         """``self.space.step(dt_s)``, through :func:`world.compat_pymunk.step_space`

@@ -92,7 +92,7 @@ def run_batch(
     voltage_limit_v: float = 12.0,
     record_poses: bool = False,
     max_duration_s: float | None = None,
-    stall_s: float | None = None,
+    stop_rule=None,
     trace: bool = False,
 ) -> BatchResult:
     """Run every scenario to its end in lockstep; their outcomes and metrics.
@@ -124,10 +124,11 @@ def run_batch(
     max_duration_s : float, optional
         Stop every run still going at this time as ``timeout`` (tuning's cap); the
         scenarios' own durations otherwise.
-    stall_s : float, optional
-        Tuning's early stop (:func:`app.experiments.objective.run_until_stalled`): a run whose
-        distance to the target has not reached a new minimum by 5 cm for this many
-        seconds ends as ``timeout``, its last step unlogged, as there.
+    stop_rule : callable, optional
+        An early stop of the caller's, ``stop_rule(runs, time_s, to_target_m) -> (n,)
+        bool`` after every step (tuning's stall rule,
+        :class:`app.experiments.objective.StallRule`): the runs it stops end as
+        ``timeout``, their last step unlogged (:class:`world.batch_world.BatchWorld`).
     trace : bool
         Also keep what the paper fit measures (``BatchResult.final_phi_t_rad`` and the
         fields after it).
@@ -152,7 +153,7 @@ def run_batch(
         sensor_config=sensor_config,
         voltage_limit_v=voltage_limit_v,
         max_duration_s=max_duration_s,
-        stall_s=stall_s,
+        stop_rule=stop_rule,
         trace=trace,
         record_poses=record_poses,
     )

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fuzzynav.world.kernels import disturbance_values, line_deviation, wrap_angles
-from fuzzynav.world.metrics import VOLTAGE_JUMP_V
+from fuzzynav.world.metrics import metrics_row, safety_distance, voltage_jumped
 from fuzzynav.world.simulation import OUTCOMES
 
 __all__ = ["BatchMetrics", "BatchResult"]
@@ -92,24 +92,20 @@ class BatchResult:
             v = float(values[i])
             return v if math.isfinite(v) else None
 
-        reached = bool(self.outcome[i] == OUTCOMES.index("reached"))
-        return {
-            "reached": reached,
-            "collided": bool(self.collided[i]),
-            "outcome": OUTCOMES[int(self.outcome[i])],
-            "time_to_target_s": number(self.time_to_target_s) if reached else None,
-            "path_length_m": float(self.path_length_m[i]),
-            "mad_m": number(self.mad_m),
-            "rmse_m": number(self.rmse_m),
-            "min_center_distance_m": number(self.min_center_distance_m),
-            "min_clearance_m": number(self.min_clearance_m),
-            "max_abs_voltage_v": float(self.max_abs_voltage_v[i]),
-            "sim_time_s": float(self.sim_time_s[i]),
-            "steps": int(self.steps[i]),
-            "voltage_jumps": int(self.voltage_jumps[i]),
-            "geometry": self.geometry,
-            "min_safety_distance_m": number(self.min_safety_distance_m),
-        }
+        return metrics_row(
+            outcome=OUTCOMES[int(self.outcome[i])],
+            collided=bool(self.collided[i]),
+            sim_time_s=float(self.sim_time_s[i]),
+            path_length_m=float(self.path_length_m[i]),
+            mad_m=number(self.mad_m),
+            rmse_m=number(self.rmse_m),
+            min_center_distance_m=number(self.min_center_distance_m),
+            min_clearance_m=number(self.min_clearance_m),
+            max_abs_voltage_v=float(self.max_abs_voltage_v[i]),
+            steps=int(self.steps[i]),
+            voltage_jumps=int(self.voltage_jumps[i]),
+            geometry=self.geometry,
+        )
 
 
 #: The per-run accumulators and their starting values (the trace's after ``None``).
@@ -261,18 +257,15 @@ class BatchMetrics:
         self.max_abs_v[run] = np.maximum(self.max_abs_v[run], np.abs(volts).max(axis=1))
         if self.trace:
             self.max_v[run] = np.maximum(self.max_v[run], volts)
-        jump = (np.abs(volts - prev_v) > VOLTAGE_JUMP_V).any(axis=1)
-        self.jumps[run] += jump & ~in_window
+        self.jumps[run] += voltage_jumped(prev_v, volts) & ~in_window
 
-    def result(self, geometry, perception, point_robot, wall_time_s, scenarios) -> BatchResult:
+    def result(self, geometry, perception, wall_time_s, scenarios) -> BatchResult:
         """The batch's :class:`BatchResult`.
 
         Parameters
         ----------
         geometry, perception : str
             The batch's settings, as given.
-        point_robot : bool
-            The paper's point robot (its safety distance is the centre distance).
         wall_time_s : float
             The batch's wall time, s.
         scenarios : list of Scenario
@@ -304,7 +297,7 @@ class BatchMetrics:
             rmse_m=np.sqrt(self.dev_sq / n_rows),
             min_center_distance_m=min_centre,
             min_clearance_m=min_clear,
-            min_safety_distance_m=min_centre if point_robot else min_clear,
+            min_safety_distance_m=safety_distance(geometry, min_centre, min_clear),
             max_abs_voltage_v=self.max_abs_v,
             voltage_jumps=self.jumps,
             min_target_distance_m=self.min_target,

@@ -1,5 +1,5 @@
 """The per-run arrays of the batch engine (:class:`world.batch_world.BatchWorld`): each
-run's scenario as arrays, its robot, its clock, its sonars and its stall rule.
+run's scenario as arrays, its robot, its clock and its sonars.
 
 Arrays are never written in place once handed out: :meth:`BatchState.set_runs` writes
 into copies, so a controller that keeps last step's ``ranges`` keeps last step's.
@@ -42,7 +42,7 @@ def scenario_arrays(
     scenarios: Sequence[Scenario], n_columns: int, max_duration_s: float | None, dt: float
 ) -> dict:
     """The arrays of runs starting on ``scenarios``: their scenario, and their robot,
-    clock, sonars and stall rule at the start.
+    clock and sonars at the start.
 
     Parameters
     ----------
@@ -123,8 +123,6 @@ def scenario_arrays(
         "ranges": np.inf,
         "next_update": -np.inf,  # the sonars' next reading, s
         "prev_v": np.nan,
-        "best": np.inf,  # the stall rule's best distance and its time
-        "best_t": 0.0,
     }
 
 
@@ -160,8 +158,6 @@ class BatchState:
     ranges: np.ndarray
     next_update: np.ndarray
     prev_v: np.ndarray
-    best: np.ndarray
-    best_t: np.ndarray
     has_window: np.ndarray
     radius: np.ndarray
     present: np.ndarray
@@ -180,8 +176,7 @@ class BatchState:
             "x": (), "y": (), "h": (), "t": (), "lg": (N_STATES,), "law": (6, m),
             "target": (2,), "start": (2,), "seg": (2,), "seg_len2": (),
             "disturbance": (4,), "timeout_at_s": (), "tolerance": (), "half_field": (),
-            "ranges": (n_sensors,), "next_update": (), "prev_v": (2,), "best": (),
-            "best_t": (),
+            "ranges": (n_sensors,), "next_update": (), "prev_v": (2,),
         }  # fmt: skip
         self.names = ["run", *shapes, "has_window", *_COLUMN_PADDING]
         for name, shape in shapes.items():

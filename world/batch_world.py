@@ -11,7 +11,7 @@ advances them one control period per :meth:`~BatchWorld.step`, in stages:
   product for all runs, :func:`world.husky.step_product`), the motion of the body and of
   the obstacles, the contacts (at the step's end and swept between the ends), the logged
   row's metrics (:class:`world.batch_metrics.BatchMetrics`) and the termination
-  (reached, collided, timeout, and tuning's stall rule when asked).
+  (reached, collided, timeout, and the caller's ``stop_rule`` when given).
 
 Two ways to use it: :func:`world.batch.run_batch` steps a batch until every run has
 ended, dropping the ended runs from the arrays (:meth:`~BatchWorld.drop_ended`); a
@@ -44,6 +44,7 @@ from fuzzynav.world.kernels import (
     swept_clearances,
     target_inputs,
 )
+from fuzzynav.world.metrics import in_window
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SensorConfig
@@ -75,8 +76,12 @@ class BatchWorld:
         The saturation after the controller, V.
     max_duration_s : float, optional
         Every run ends as ``timeout`` at this time at the latest (tuning's cap).
-    stall_s : float, optional
-        Tuning's stall rule (:func:`world.batch.run_batch`).
+    stop_rule : callable, optional
+        An early stop of the caller's (tuning's stall rule,
+        :class:`app.experiments.objective.StallRule`): called after every step as
+        ``stop_rule(runs, time_s, to_target_m)`` with the runs' batch indices, times (s)
+        and distances to the target (m), each (n,); the runs it returns True for end as
+        ``timeout``, their step unlogged (unless the step ended them anyway).
     trace : bool
         Keep the paper fit's observers (:class:`world.batch_metrics.BatchResult`).
     record_poses : bool
@@ -99,7 +104,7 @@ class BatchWorld:
         sensor_config: SensorConfig | None = None,
         voltage_limit_v: float = 12.0,
         max_duration_s: float | None = None,
-        stall_s: float | None = None,
+        stop_rule=None,
         trace: bool = False,
         record_poses: bool = False,
     ):
@@ -127,7 +132,7 @@ class BatchWorld:
         self.ultrasonic = perception == "ultrasonic"
         self.limit = float(voltage_limit_v)
         self.max_duration_s = max_duration_s
-        self.stall_s = stall_s
+        self.stop_rule = stop_rule
         self.trace = trace
         self.record_poses = record_poses
         self.mount_x = np.array([mt.x_m for mt in config.mounts])
@@ -260,7 +265,6 @@ class BatchWorld:
         return self.metrics.result(
             self.geometry,
             self.perception,
-            self.point_robot,
             time.perf_counter() - self._started,
             self.scenarios,
         )
@@ -385,7 +389,7 @@ class BatchWorld:
         -------
         numpy.ndarray, (n,) int
             Each run's ending in this step: -1 going on, else an index into
-            :data:`world.simulation.OUTCOMES` (the stall rule's ending is ``timeout``).
+            :data:`world.simulation.OUTCOMES` (``stop_rule``'s ending is ``timeout``).
 
         Raises
         ------
@@ -394,8 +398,8 @@ class BatchWorld:
         """
         s = self.s
         volts = self._saturate(wheel_voltages)
-        in_window = s.has_window & (s.disturbance[:, 2] <= s.t) & (s.t <= s.disturbance[:, 3])
-        self.metrics.add_voltages(s.run, volts, s.prev_v, in_window)
+        window = s.has_window & in_window(s.t, s.disturbance[:, 2], s.disturbance[:, 3])
+        self.metrics.add_voltages(s.run, volts, s.prev_v, window)
         s.prev_v = volts
         v, w, pose0, c0, t0 = self._move(volts)
         hit = self._contacts(v, w, pose0, c0, t0)
@@ -507,13 +511,8 @@ class BatchWorld:
         reached = to_target <= s.tolerance
         timeout = t >= s.timeout_at_s
         ended = reached | hit | timeout
-        if self.stall_s is not None:
-            # run_until_stalled, after every step (the last one too): a new best by
-            # 5 cm, or a stall that ends the run as a timeout
-            better = to_target < s.best - 0.05
-            stalled = ~better & (t - s.best_t > self.stall_s)
-            s.best = np.where(better, to_target, s.best)
-            s.best_t = np.where(better, t, s.best_t)
+        if self.stop_rule is not None:  # after every step, the last one too
+            stalled = np.asarray(self.stop_rule(s.run, t, to_target), dtype=bool)
             cut = stalled & ~ended  # stopped before its end: the step is not logged
         else:
             stalled = cut = np.zeros(len(ended), dtype=bool)

@@ -23,8 +23,8 @@ def wrap_angle(angle_rad):
 
 
 def wrap_angles(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped to (-pi, pi], as :func:`wrap_angle_scalar` does it, operation for
-    operation (both engines' array form; :mod:`world.kernels`).
+    """Angles wrapped to (-pi, pi]: the one definition; :func:`wrap_angle_scalar` is
+    its form for one float (both engines; :mod:`world.kernels`).
 
     Parameters
     ----------
@@ -43,7 +43,8 @@ def wrap_angles(angle: np.ndarray) -> np.ndarray:
 
 
 def wrap_angle_scalar(angle_rad: float) -> float:
-    """Scalar :func:`wrap_angle` for the control loop (no numpy call overhead)."""
+    """:func:`wrap_angles` for one float (the pymunk engine's loop: no numpy call), the
+    same operations in the same order (tests/test_world.py compares them bit for bit)."""
     wrapped = math.fmod(angle_rad + math.pi, 2.0 * math.pi)
     if wrapped < 0.0:
         wrapped += 2.0 * math.pi

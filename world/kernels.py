@@ -22,8 +22,16 @@ import math
 
 import numpy as np
 
-from fuzzynav.world.arena import SWEEP_MAX_SAMPLES, SWEEP_SPACING_M
 from fuzzynav.world.geometry import wrap_angles
+
+#: The sweep's sample spacing in relative motion (m): the footprint-to-surface clearance
+#: changes by at most the relative displacement of robot and obstacle, so the true
+#: minimum over a step lies at most half this below the smallest sample, and no contact
+#: deeper than that is missed (:meth:`world.arena.Arena._sweep`).
+SWEEP_SPACING_M = 0.005
+#: The most samples in one step's sweep of one obstacle (100 m/s at a 1 s period is
+#: 20,000 samples at 5 mm: bounded, vectorised).
+SWEEP_MAX_SAMPLES = 50_000
 
 __all__ = [
     "advance_pose",
@@ -33,6 +41,7 @@ __all__ = [
     "line_deviation",
     "obstacle_centres",
     "obstacle_path_bound",
+    "rectangle_clearances",
     "sonar_distances",
     "sonar_obstacle_inputs",
     "swept_clearances",
@@ -108,8 +117,34 @@ def footprint_clearances(x, y, heading, cx, cy, radius, half_length_m, half_widt
     """
     c = np.cos(heading)[:, None]
     s = np.sin(heading)[:, None]
-    dx = cx - x[:, None]
-    dy = cy - y[:, None]
+    return rectangle_clearances(
+        c, s, cx - x[:, None], cy - y[:, None], radius, half_length_m, half_width_m
+    )
+
+
+def rectangle_clearances(c, s, dx, dy, radius, half_length_m, half_width_m):
+    """The one footprint-to-surface formula of both engines, on arrays that broadcast:
+    a rectangle with heading cosine ``c`` and sine ``s`` and a circle whose centre is
+    ``(dx, dy)`` from the rectangle's (:func:`footprint_clearances`,
+    :func:`swept_clearances`; the arena's per-step loop, :meth:`world.arena.Arena._scene`,
+    is its scalar form, checked against it bit for bit by tests/test_world.py).
+
+    Parameters
+    ----------
+    c, s : numpy.ndarray
+        The heading's cosine and sine.
+    dx, dy : numpy.ndarray
+        The circle's centre minus the rectangle's, m.
+    radius : numpy.ndarray or float
+        The circle's radius, m.
+    half_length_m, half_width_m : float
+        Half the rectangle's length and width, m.
+
+    Returns
+    -------
+    numpy.ndarray
+        The clearances, m, negative when they overlap.
+    """
     qx = np.abs(c * dx + s * dy) - half_length_m
     qy = np.abs(-s * dx + c * dy) - half_width_m
     inside = np.where(qy > qx, qy, qx)
@@ -193,7 +228,8 @@ def swept_clearances(
     pose0, v, w, dt, law, radius, t0, half_length_m, half_width_m, path_m
 ) -> tuple[np.ndarray, np.ndarray]:
     """The footprint's clearance to one obstacle at the samples of one step's arc, for
-    one run (:meth:`world.arena.Arena._clearance_along` and its sample count).
+    one run: the robot on its exact arc (constant v and w over the step), the obstacle
+    by its law; both engines' sweep (:meth:`world.arena.Arena._sweep`).
 
     Parameters
     ----------
@@ -208,7 +244,7 @@ def swept_clearances(
     radius : float
         The obstacle's radius, m.
     t0 : float
-        The run's time at the step's start, s.
+        The time at the step's start since the law's start, s.
     half_length_m, half_width_m : float
         Half the footprint's length and width, m.
     path_m : float
@@ -233,12 +269,12 @@ def swept_clearances(
     age = t0 + tau
     cx = px + vx * age + hax * age * age
     cy = py + vy * age + hay * age * age
-    c, s = np.cos(heading), np.sin(heading)
-    dx, dy = cx - x, cy - y
-    qx = np.abs(c * dx + s * dy) - half_length_m
-    qy = np.abs(-s * dx + c * dy) - half_width_m
-    outside = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0))
-    return outside + np.minimum(np.maximum(qx, qy), 0.0) - radius, tau
+    return (
+        rectangle_clearances(
+            np.cos(heading), np.sin(heading), cx - x, cy - y, radius, half_length_m, half_width_m
+        ),
+        tau,
+    )
 
 
 def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:

@@ -65,10 +65,22 @@ def voltage_jumps(time_s, voltages_v, window_s=None, jump_v: float = VOLTAGE_JUM
     v, t = v[ok], t[ok]
     if len(v) < 2:
         return 0
-    jumps = np.any(np.abs(np.diff(v, axis=0)) > jump_v, axis=1)
+    jumps = voltage_jumped(v[:-1], v[1:], jump_v)
     if window_s is not None:
-        jumps &= ~((t[1:] >= window_s[0]) & (t[1:] <= window_s[1]))
+        jumps &= ~in_window(t[1:], window_s[0], window_s[1])
     return int(jumps.sum())
+
+
+def voltage_jumped(previous, now, jump_v: float = VOLTAGE_JUMP_V) -> np.ndarray:
+    """Whether either wheel's voltage jumps by more than ``jump_v`` from ``previous``
+    to ``now`` (each (n, 2), V; a NaN ``previous`` is no jump): both engines' count."""
+    return np.any(np.abs(now - previous) > jump_v, axis=1)
+
+
+def in_window(t, start_s, stop_s):
+    """Whether ``t`` lies in the disturbance's window, its end included (jumps there are
+    not counted), floats or arrays."""
+    return (start_s <= t) & (t <= stop_s)
 
 
 def _finite_min(values: np.ndarray) -> float | None:
@@ -153,58 +165,85 @@ class _LogSums:
             self._last_voltage = (t[-1], v[-1])
 
 
+def safety_distance(geometry: str, min_center_distance_m, min_clearance_m):
+    """The distance the safe distance is judged on (module docstring): the centre
+    distance in the paper's geometry, the clearance otherwise (floats or arrays)."""
+    return min_center_distance_m if geometry == "paper" else min_clearance_m
+
+
+def metrics_row(
+    *,
+    outcome: str,
+    collided: bool,
+    sim_time_s: float,
+    path_length_m: float,
+    mad_m: float | None,
+    rmse_m: float | None,
+    min_center_distance_m: float | None,
+    min_clearance_m: float | None,
+    max_abs_voltage_v: float,
+    steps: int,
+    voltage_jumps: int,
+    geometry: str,
+    wall_time_s: float | None = None,
+) -> dict:
+    """One run's metrics by name, both engines' (:func:`compute_metrics`,
+    :meth:`world.batch_metrics.BatchResult.metrics`): None for a number that does not
+    exist; ``wall_time_s`` only when given (the batch engine has none per run)."""
+    reached = outcome == "reached"
+    row = {
+        "reached": reached,
+        "collided": collided,
+        "outcome": outcome,
+        "time_to_target_s": sim_time_s if reached else None,
+        "path_length_m": path_length_m,
+        "mad_m": mad_m,
+        "rmse_m": rmse_m,
+        "min_center_distance_m": min_center_distance_m,
+        "min_clearance_m": min_clearance_m,
+        "max_abs_voltage_v": max_abs_voltage_v,
+        "sim_time_s": sim_time_s,
+        "steps": steps,
+    }
+    if wall_time_s is not None:
+        row["wall_time_s"] = wall_time_s
+    row["voltage_jumps"] = voltage_jumps
+    row["geometry"] = geometry
+    row["min_safety_distance_m"] = safety_distance(geometry, min_center_distance_m, min_clearance_m)
+    return row
+
+
 def compute_metrics(result) -> dict:
     """The metrics of a :class:`world.simulation.SimulationResult` as a plain dict."""
     log = result.log
-    if len(log) == 0:  # interrupted before the first step: nothing to measure yet
-        return {
-            "reached": False,
-            "collided": False,
-            "outcome": result.outcome,
-            "time_to_target_s": None,
-            "path_length_m": 0.0,
-            "mad_m": None,
-            "rmse_m": None,
-            "min_center_distance_m": None,
-            "min_clearance_m": None,
-            "max_abs_voltage_v": 0.0,
-            "sim_time_s": 0.0,
-            "steps": 0,
-            "wall_time_s": float(result.wall_time_s),
-            "voltage_jumps": 0,
-            "geometry": getattr(result, "geometry", "husky"),
-            "min_safety_distance_m": None,
-        }
     geometry = getattr(result, "geometry", "husky")
-    sc = result.scenario
+    if len(log) == 0:  # interrupted before the first step: nothing to measure yet
+        return metrics_row(
+            outcome=result.outcome, collided=False, sim_time_s=0.0, path_length_m=0.0,
+            mad_m=None, rmse_m=None, min_center_distance_m=None, min_clearance_m=None,
+            max_abs_voltage_v=0.0, steps=0, voltage_jumps=0, geometry=geometry,
+            wall_time_s=float(result.wall_time_s),
+        ) | {"reached": False, "time_to_target_s": None}  # fmt: skip
     sums = _LogSums(len(log))
     for start, stop in row_blocks(len(log)):
-        sums.add(log, start, stop, sc)
-    mad, rmse = sums.mad_m, sums.rmse_m
-    swept = getattr(result, "swept_min_clearance_m", None)
-    reached = result.outcome == "reached"
-    return {
-        "reached": reached,
-        "collided": bool(result.collisions),
-        "outcome": result.outcome,
-        "time_to_target_s": float(log.time_s[-1]) if reached else None,
-        "path_length_m": sums.path_length_m,
-        "mad_m": mad,
-        "rmse_m": rmse,
-        "min_center_distance_m": sums.min_center_distance_m,
-        "min_clearance_m": _min_clearance(sums.min_clearance_m, swept),
-        "max_abs_voltage_v": sums.max_abs_voltage_v,
-        "sim_time_s": float(log.time_s[-1]),
-        "steps": int(len(log) - 1),
-        "wall_time_s": float(result.wall_time_s),
-        "voltage_jumps": sums.voltage_jumps,
-        "geometry": geometry,
-        "min_safety_distance_m": (
-            sums.min_center_distance_m
-            if geometry == "paper"
-            else _min_clearance(sums.min_clearance_m, swept)
+        sums.add(log, start, stop, result.scenario)
+    return metrics_row(
+        outcome=result.outcome,
+        collided=bool(result.collisions),
+        sim_time_s=float(log.time_s[-1]),
+        path_length_m=sums.path_length_m,
+        mad_m=sums.mad_m,
+        rmse_m=sums.rmse_m,
+        min_center_distance_m=sums.min_center_distance_m,
+        min_clearance_m=_min_clearance(
+            sums.min_clearance_m, getattr(result, "swept_min_clearance_m", None)
         ),
-    }
+        max_abs_voltage_v=sums.max_abs_voltage_v,
+        steps=int(len(log) - 1),
+        voltage_jumps=sums.voltage_jumps,
+        geometry=geometry,
+        wall_time_s=float(result.wall_time_s),
+    )
 
 
 # --------------------------------------------------------------------------- benchmark

@@ -50,8 +50,7 @@ from fuzzynav.world.arena import Arena
 from fuzzynav.world.geometry import FULL_CIRCLE_RAD, wrap_angle_scalar
 from fuzzynav.world.sensors import RangeSensorArray
 
-_hypot, _atan2, _fmod = math.hypot, math.atan2, math.fmod
-_PI, _TWO_PI = math.pi, 2.0 * math.pi
+_hypot, _atan2 = math.hypot, math.atan2
 
 OBSTACLE_CUTOFF_M = 3.0
 PERCEPTION_MODES = ("ideal", "ultrasonic")
@@ -151,9 +150,10 @@ def control_context(arena: Arena, period_s: float, ranges) -> ControlContext:
 
 
 def target_inputs(pose, target) -> tuple[float, float]:
-    """(d_t, phi_t) of a target seen from a pose (x, y, heading)."""
+    """(d_t, phi_t) of a target seen from a pose (x, y, heading): the scalar form of
+    :func:`world.kernels.target_inputs` (checked against it by tests/test_world.py)."""
     dx, dy = target[0] - pose[0], target[1] - pose[1]
-    return math.hypot(dx, dy), wrap_angle_scalar(math.atan2(dy, dx) - pose[2])
+    return _hypot(dx, dy), wrap_angle_scalar(_atan2(dy, dx) - pose[2])
 
 
 def ideal_obstacle_inputs(
@@ -161,24 +161,33 @@ def ideal_obstacle_inputs(
 ) -> tuple[float, float, int]:
     """(d_o, phi_o, obstacle id) of the nearest obstacle by exact geometry; NaN, NaN, -1
     when none is within ``cutoff_m``."""
-    return _ideal_obstacle_inputs(arena, arena.pose, cutoff_m)
-
-
-def _ideal_obstacle_inputs(arena: Arena, pose, cutoff_m: float) -> tuple[float, float, int]:
     scene = arena._scene()
-    clearances = scene.clearances
+    d_o, phi_o, k = _nearest_obstacle(scene, arena.pose, cutoff_m)
+    return d_o, phi_o, scene.ids[k] if k >= 0 else -1
+
+
+def _nearest_obstacle(
+    scene, pose, cutoff_m: float, centre_to_centre: bool = False, half_field=None
+) -> tuple[float, float, int]:
+    """(d_o, phi_o, index in ``scene``) of the nearest obstacle sensed from ``pose``,
+    NaN, NaN, -1 when none is within ``cutoff_m``: the scalar form of
+    :func:`world.kernels.ideal_obstacle_inputs` (its operations on one run's floats).
+    ``centre_to_centre``: the paper's point robot (Eq. 8); ``half_field``: half the field
+    of view, rad (None: all around)."""
+    clearances = scene[3]
     if not clearances:
         return math.nan, math.nan, -1
-    # list.index(min(...)) is np.argmin's first minimum, without the numpy call.
-    k = clearances.index(min(clearances))
-    d_o = clearances[k]
-    d_o = max(d_o, 0.0)
-    if d_o > cutoff_m:
-        return math.nan, math.nan, -1
-    cx, cy = scene.xy[k]
     x, y, heading = pose
-    phi_o = wrap_angle_scalar(math.atan2(cy - y, cx - x) - heading)
-    return d_o, phi_o, scene.ids[k]
+    if centre_to_centre:  # Eq. 8: a point robot's clearance plus the radius
+        clearances = [c + r for c, r in zip(clearances, scene[1])]
+    if half_field is not None:
+        clearances = _outside_field_as_inf(clearances, scene[2], x, y, heading, half_field)
+    k = clearances.index(min(clearances))  # np.argmin's first minimum, without numpy
+    nearest = max(clearances[k], 0.0)
+    if nearest > cutoff_m:
+        return math.nan, math.nan, -1
+    cx, cy = scene[2][k]
+    return nearest, wrap_angle_scalar(_atan2(cy - y, cx - x) - heading), k
 
 
 def _outside_field_as_inf(clearances, centres, x, y, heading, half_field_rad):
@@ -237,10 +246,11 @@ class Perception:
     def _sense(self, arena: Arena, time_s: float, target_xy=None):
         """The inputs as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges as a list)``.
 
-        :func:`target_inputs` and :func:`ideal_obstacle_inputs` inlined (with
-        ``wrap_angle_scalar``), and with the sonars the nearest reading at its mount's
-        angle (NaN, NaN beyond the cutoff): the same operations in the same order,
-        without five Python calls per step.
+        :func:`target_inputs`, :func:`_nearest_obstacle`, and with the sonars the
+        nearest reading at its mount's angle (NaN, NaN beyond the cutoff): the
+        scalar forms of :func:`world.kernels.target_inputs`,
+        :func:`~world.kernels.ideal_obstacle_inputs` and
+        :func:`~world.kernels.sonar_obstacle_inputs`.
         ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
         """
         sensors = self.sensors
@@ -253,42 +263,16 @@ class Perception:
             if cached is None or len(cached) != len(ranges):
                 cached = np.asarray(ranges, dtype=float).tolist()
             ranges_list = cached
-        x, y, heading = arena._pose
         if target_xy is None:
             target_xy = arena.target
-        dx, dy = target_xy[0] - x, target_xy[1] - y
-        d_t = _hypot(dx, dy)
-        phi_t = _fmod(_atan2(dy, dx) - heading + _PI, _TWO_PI)  # wrap_angle_scalar
-        if phi_t < 0.0:
-            phi_t += _TWO_PI
-        phi_t -= _PI
-        if phi_t == -_PI:
-            phi_t = _PI
-        d_o = phi_o = math.nan
+        d_t, phi_t = target_inputs(arena._pose, target_xy)
         if self.mode == "ideal":
-            scene = arena._scene()
-            clearances = scene[3]
-            if self._centre_to_centre and clearances:
-                # Eq. 8: centre to centre (a point robot's clearance plus the radius).
-                clearances = [c + r for c, r in zip(clearances, scene[1])]
-            if clearances and self._half_field is not None:
-                clearances = _outside_field_as_inf(
-                    clearances, scene[2], x, y, heading, self._half_field
-                )
-            if clearances:
-                k = clearances.index(min(clearances))  # np.argmin's first minimum
-                nearest = clearances[k]
-                nearest = max(nearest, 0.0)
-                if not nearest > self.cutoff_m:
-                    cx, cy = scene[2][k]
-                    d_o = nearest
-                    phi_o = _fmod(_atan2(cy - y, cx - x) - heading + _PI, _TWO_PI)
-                    if phi_o < 0.0:
-                        phi_o += _TWO_PI
-                    phi_o -= _PI
-                    if phi_o == -_PI:
-                        phi_o = _PI
+            d_o, phi_o, _ = _nearest_obstacle(
+                arena._scene(), arena._pose, self.cutoff_m, self._centre_to_centre,
+                self._half_field,
+            )  # fmt: skip
         else:
+            d_o = phi_o = math.nan
             k = ranges_list.index(min(ranges_list))  # np.argmin's first minimum
             if ranges_list[k] <= self.cutoff_m:
                 d_o, phi_o = ranges_list[k], self._mount_angles[k]

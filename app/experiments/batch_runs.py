@@ -302,6 +302,7 @@ def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[f
     (``cost_function``: :func:`app.experiments.objective.outcome_cost`, given by the caller so
     that this module does not import the tuning's cost) and holes penalty, tuning's stall rule after
     ``stall_s`` s. Top level: an executor task."""
+    from fuzzynav.app.experiments.objective import StallRule
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.world.batch import run_batch
 
@@ -330,7 +331,7 @@ def objective_costs(objective, cost_function, stall_s: float, vectors) -> list[f
             perception=perception,
             control_period_s=objective.control_period_s,
             seeds=0,
-            stall_s=stall_s,
+            stop_rule=StallRule(stall_s, len(scenarios)),
         )
         outcomes = result.outcomes
         for i, scenario in enumerate(scenarios):
@@ -384,6 +385,7 @@ def fit_measures(
     every candidate x s1-s3 in one batch (``geometry`` and ``perception``, each
     scenario's own start heading, the fit's period, cap and stall rule); None for a
     vector that builds no system."""
+    from fuzzynav.app.experiments.objective import StallRule
     from fuzzynav.controller.batch import batch_controller
     from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.world.batch import run_batch
@@ -417,7 +419,7 @@ def fit_measures(
         seeds=0,
         control_period_s=fit_cost.control_period_s,
         model=fit_cost.model,
-        stall_s=fit_cost.stall_s,
+        stop_rule=None if fit_cost.stall_s is None else StallRule(fit_cost.stall_s, len(scenarios)),
         trace=True,
         record_poses=True,
     )

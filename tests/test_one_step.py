@@ -1,0 +1,132 @@
+"""Each fact of one step is defined once (world/kernels.py, world/geometry.py): where the
+pymunk engine keeps a scalar form for its speed, it is checked here against the one
+definition on many values, bit for bit (issue 36 item 3)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fuzzynav.world import kernels
+from fuzzynav.world.arena import Arena, Obstacle, _obstacle_path_m
+from fuzzynav.world.geometry import wrap_angle_scalar, wrap_angles
+from fuzzynav.world.perception import target_inputs
+from fuzzynav.world.scenario import Disturbance, ObstacleSpec
+
+RNG = np.random.default_rng(36)
+
+
+def _same_bits(a, b) -> bool:
+    return np.array_equal(np.asarray(a, float).view(np.int64), np.asarray(b, float).view(np.int64))
+
+
+def _within_one_ulp(a, b) -> bool:
+    """math.hypot against numpy's hypot (and math.atan2 against numpy's arctan2): the
+    known last-bit differences (world/kernels.py)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return bool(np.all(np.abs(a - b) <= np.spacing(np.maximum(np.abs(a), np.abs(b)))))
+
+
+def test_angle_wrapping_for_one_float_is_the_array_form_bit_for_bit():
+    angles = np.concatenate(
+        [
+            RNG.uniform(-50.0, 50.0, 20_000),
+            np.array([0.0, -0.0, math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 2 * math.pi]),
+            np.nextafter(math.pi, [0.0, 4.0]),
+            np.nextafter(-math.pi, [0.0, -4.0]),
+        ]
+    )
+    scalar = [wrap_angle_scalar(a) for a in angles.tolist()]
+    assert _same_bits(scalar, wrap_angles(angles))
+
+
+def test_the_obstacles_law_for_one_float_is_the_array_form_bit_for_bit():
+    n = 2_000
+    p, v, a = RNG.uniform(-10, 10, (n, 2)), RNG.uniform(-3, 3, (n, 2)), RNG.uniform(-1, 1, (n, 2))
+    t = RNG.uniform(0.0, 150.0, n)
+    law = np.concatenate([p, v, 0.5 * a], axis=1)[:, :, None]  # (n, 6, 1)
+    cx, cy = kernels.obstacle_centres(law, t)
+    bound = kernels.obstacle_path_bound(law, t, 0.02)
+    for i in range(0, n, 7):
+        spec = ObstacleSpec(tuple(p[i]), 0.3, tuple(v[i]), tuple(a[i]))
+        obstacle = Obstacle(0, spec)
+        assert _same_bits(obstacle._xy_at(float(t[i])), (cx[i, 0], cy[i, 0]))
+        assert _same_bits(obstacle.position_at(float(t[i])), (cx[i, 0], cy[i, 0]))
+        assert _within_one_ulp(_obstacle_path_m(obstacle, float(t[i]), 0.02), bound[i, 0])
+
+
+@pytest.mark.parametrize("footprint", [(0.99, 0.67), (0.0, 0.0)])
+def test_the_arenas_clearances_are_the_array_form(footprint):
+    arena = Arena(footprint)
+    centres = RNG.uniform(-3.0, 3.0, (300, 2))
+    radii = RNG.uniform(0.05, 1.0, 300)
+    specs = [ObstacleSpec(tuple(c), float(r)) for c, r in zip(centres, radii)]
+    for heading in RNG.uniform(-7.0, 7.0, 5).tolist():
+        arena.reset((0.1, -0.2), heading, (9.0, 9.0), specs)
+        x, y, h = arena.pose
+        array = kernels.footprint_clearances(
+            np.array([x]), np.array([y]), np.array([h]), centres[None, :, 0],
+            centres[None, :, 1], radii[None], 0.5 * footprint[0], 0.5 * footprint[1],
+        )[0]  # fmt: skip
+        # the same bits but where math.hypot and numpy's differ in the last bit of the
+        # outside distance (about a + radius)
+        slack = np.spacing(np.abs(array) + radii)
+        assert np.all(np.abs(arena.clearances() - array) <= slack)
+        assert np.mean(arena.clearances() == array) > 0.95
+
+
+def test_the_target_inputs_for_one_pose_are_the_array_form():
+    n = 5_000
+    x, y, h = RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n)
+    target = RNG.uniform(-20, 20, (n, 2))
+    d_t, phi_t = kernels.target_inputs(x, y, h, target)
+    scalar = [target_inputs((x[i], y[i], h[i]), target[i].tolist()) for i in range(n)]
+    assert _within_one_ulp([d for d, _ in scalar], d_t)
+    # math.atan2 and numpy's arctan2 differ in the last bit of some: an ulp of the sum
+    phi = np.array([phi for _, phi in scalar])
+    assert np.all(np.abs(wrap_angles(phi - phi_t)) <= np.spacing(32.0))  # |heading| < 20
+    assert np.mean(phi == phi_t) > 0.8
+
+
+def test_the_scenarios_disturbance_is_the_array_form_bit_for_bit():
+    n = 3_000
+    amplitude, omega = RNG.uniform(-2, 2, n), RNG.uniform(0.1, 10, n)
+    start, length = RNG.uniform(0, 50, n), RNG.uniform(0, 30, n)
+    t = RNG.uniform(0, 100, n)
+    t[::5] = start[::5]  # the window's edges
+    t[1::5] = (start + length)[1::5]
+    table = np.stack([amplitude, omega, start, start + length], axis=1)
+    values = kernels.disturbance_values(table, t)
+    scalar = [
+        Disturbance(float(a), float(w), float(s0), float(s1)).value(float(tt))
+        for a, w, s0, s1, tt in zip(amplitude, omega, start, start + length, t)
+    ]
+    assert _same_bits(scalar, values)
+
+
+@pytest.mark.parametrize("footprint, fov", [((0.99, 0.67), None), ((0.0, 0.0), math.pi)])
+def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
+    from fuzzynav.world.perception import _nearest_obstacle
+
+    arena = Arena(footprint)
+    n_obstacles = 12
+    for _ in range(200):
+        centres = RNG.uniform(-4.0, 4.0, (n_obstacles, 2))
+        radii = RNG.uniform(0.05, 0.6, n_obstacles)
+        heading = float(RNG.uniform(-7.0, 7.0))
+        specs = [ObstacleSpec(tuple(c), float(r)) for c, r in zip(centres, radii)]
+        arena.reset((0.1, -0.2), heading, (9.0, 9.0), specs)
+        x, y, h = (np.array([v]) for v in arena.pose)
+        half = None if fov is None else 0.5 * fov
+        d_o, phi_o, _ = _nearest_obstacle(arena._scene(), arena.pose, 3.0, fov is not None, half)
+        want_d, want_phi = kernels.ideal_obstacle_inputs(
+            x, y, h, centres[None, :, 0], centres[None, :, 1], radii[None],
+            np.ones((1, n_obstacles), bool), arena.clearances()[None],
+            np.array([np.inf if half is None else half]), fov is not None, 3.0,
+        )  # fmt: skip
+        assert _same_bits(d_o, want_d[0])
+        assert math.isnan(phi_o) == math.isnan(want_phi[0])
+        if not math.isnan(phi_o):
+            assert abs(wrap_angles(np.array(phi_o - want_phi[0]))) <= np.spacing(16.0)
