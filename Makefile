@@ -23,10 +23,11 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed-test
 	$(PY) -m pytest -n 2 --durations=15
 
-# ruff, with the project's configuration (pyproject.toml).
+# ruff, with the project's configuration (pyproject.toml), and mypy over the package.
 lint: $(VENV)/.installed-test
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	PY=$(PY) bash .ci/typecheck.sh
 
 # The whole suite with every runtime dependency at its declared lower bound.
 LOWEST := .venv-lowest
