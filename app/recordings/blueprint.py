@@ -129,6 +129,11 @@ def unit_times(n: int, start: int, stop: int) -> np.ndarray:
     return t
 
 
+#: The largest magnitude the legend placement computes with (a controller may answer
+#: 1e308 V; the span of two of them is no float).
+_FINITE_LIMIT = 1e300
+
+
 class LegendFit:
     """:func:`legend_placement` of data that come in pieces: made with the range of its
     finite values (``lo``, ``hi``), then given the rows (``add``), any number at a
@@ -139,6 +144,8 @@ class LegendFit:
     def __init__(self, lo: float, hi: float, n_entries: int):
         import rerun.blueprint as rrb
 
+        # values past +-1e300 are placed as if there: a span of two 1e308s overflows
+        lo, hi = max(lo, -_FINITE_LIMIT), min(hi, _FINITE_LIMIT)
         self.lo, self.hi = lo, hi
         span = hi - lo if hi > lo else max(abs(hi), 1.0)
         self.pad = 0.05 * span  # rerun's own margin, about
@@ -175,7 +182,7 @@ class LegendFit:
         t = np.repeat(t[:, None], rows.shape[1], axis=1).reshape(-1)
         v = rows.reshape(-1)
         ok = np.isfinite(v)
-        t, v = t[ok], v[ok]
+        t, v = t[ok], np.clip(v[ok], -_FINITE_LIMIT, _FINITE_LIMIT)
         vn = (v - self.lo_r) / (self.hi_r - self.lo_r)
         h, w = self.h, LEGEND_WIDTH
         left, right = t < w, t > 1 - w
