@@ -24,14 +24,19 @@ one array. It is :class:`world.simulation.Simulation` without pymunk:
   gives that a sweep row carries.
 
 What is shared and what is not: the plant step is one function for both engines
-(:func:`world.husky.step_product`), so are the constants (sensor model, sweep, cutoff,
-jump threshold) and, in ``app``, the rows and the tuning and fit costs; the inputs, the
-motion, the disturbance and the metrics are the pymunk engine's formulas rewritten
-operation for operation for arrays (the pymunk engine's own float code is tuned for one
-run and stays as it is); the ray casts and the collision tests are closed forms instead
-of Chipmunk's queries. In practice a run's trajectory is the pymunk engine's bit for bit
-(tests/test_batch.py, bench/bench_batch.py --crosscheck); the one known source of
-last-bit differences is ``math.hypot`` there against numpy's ``hypot`` here. A run
+(:func:`world.husky.step_product`), so are the swept clearance
+(:func:`world.kernels.swept_clearances`), the constants (sensor model, sweep, cutoff,
+jump threshold), the metrics' row, safety distance and jump rule
+(:mod:`world.metrics`) and, in ``app``, the rows, the tuning and fit costs and the
+stall rule; the inputs, the obstacles' law, the clearances, the disturbance and the
+angle wrapping are defined once as arrays (:mod:`world.kernels`,
+:func:`world.geometry.wrap_angles`), and the pymunk engine keeps a plain-float form of
+each for its speed, the same operations in the same order, checked against the arrays
+on many values (tests/test_one_step.py); the ray casts and the collision tests are
+closed forms instead of Chipmunk's queries. In practice a run's trajectory is the
+pymunk engine's bit for bit (tests/test_batch.py, bench/bench_batch.py --crosscheck);
+the known sources of last-bit differences are ``math.hypot`` and ``math.atan2`` there
+against numpy's ``hypot`` and ``arctan2`` here. A run
 that ends is dropped from the arrays: it costs nothing after its last step.
 
 The engine is a stepping form, :class:`world.batch_world.BatchWorld` (``reset``,
@@ -52,7 +57,7 @@ from typing import Protocol
 
 import numpy as np
 
-from fuzzynav.world.batch_metrics import BatchResult
+from fuzzynav.world.batch_metrics import BatchResult, RunObserver
 from fuzzynav.world.batch_world import BatchWorld
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.kernels import advance_pose, footprint_clearances, sonar_distances
@@ -93,7 +98,7 @@ def run_batch(
     record_poses: bool = False,
     max_duration_s: float | None = None,
     stop_rule=None,
-    trace: bool = False,
+    observers: Sequence[RunObserver] = (),
 ) -> BatchResult:
     """Run every scenario to its end in lockstep; their outcomes and metrics.
 
@@ -129,9 +134,10 @@ def run_batch(
         bool`` after every step (tuning's stall rule,
         :class:`app.experiments.objective.StallRule`): the runs it stops end as
         ``timeout``, their last step unlogged (:class:`world.batch_world.BatchWorld`).
-    trace : bool
-        Also keep what the paper fit measures (``BatchResult.final_phi_t_rad`` and the
-        fields after it).
+    observers : sequence of RunObserver, optional
+        The caller's own measurements (:class:`world.batch_metrics.RunObserver`: the
+        paper fit's, :class:`app.experiments.batch_runs.FitTrace`), fed at every logged
+        row and decision.
 
     Returns
     -------
@@ -154,7 +160,7 @@ def run_batch(
         voltage_limit_v=voltage_limit_v,
         max_duration_s=max_duration_s,
         stop_rule=stop_rule,
-        trace=trace,
+        observers=observers,
         record_poses=record_poses,
     )
     world.reset(scenarios, seeds)

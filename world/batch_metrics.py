@@ -4,23 +4,48 @@ No per-step log is kept (so 10,000 runs fit in memory): every logged row adds it
 (:meth:`BatchMetrics.log_rows`), every decision its voltages
 (:meth:`BatchMetrics.add_voltages`), and :meth:`BatchMetrics.result` gives every number
 :func:`world.metrics.compute_metrics` gives that a sweep row carries, with its
-conventions. The observers of tuning and the paper fit (``trace``: the last row's
-target bearing, each obstacle's closest approach, the largest voltage per wheel) are
-kept here too, when asked.
+conventions. What else a caller wants to measure (the paper fit's observers,
+:mod:`app.experiments.batch_runs`) it measures through the same hooks, as a
+:class:`RunObserver`.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
-from fuzzynav.world.kernels import disturbance_values, line_deviation, wrap_angles
+from fuzzynav.world.kernels import line_deviation
 from fuzzynav.world.metrics import metrics_row, safety_distance, voltage_jumped
 from fuzzynav.world.simulation import OUTCOMES
 
-__all__ = ["BatchMetrics", "BatchResult"]
+__all__ = ["BatchMetrics", "BatchResult", "RunObserver"]
+
+
+class RunObserver(Protocol):
+    """A caller's own measurement of a batch's runs, fed as the metrics are
+    (:class:`BatchMetrics`; ``observers`` of :func:`world.batch.run_batch`).
+
+    ``start(n_runs, n_columns)`` once at the batch's start; ``restart(runs)`` when runs
+    begin again (their batch indices); ``widen(n_columns)`` when runs with more obstacle
+    columns join; ``log_rows(s, t_row, centre)`` at every logged row of the runs ``s.run``
+    (their arrays as :meth:`BatchMetrics.log_rows` reads them, the rows' times (n,) s,
+    and every obstacle's centre distance (n, M) m, inf for none);
+    ``add_voltages(runs, volts)`` at every decision (the applied voltages (n, 2), V).
+    """
+
+    def start(self, n_runs: int, n_columns: int) -> None: ...
+
+    def restart(self, runs: np.ndarray) -> None: ...
+
+    def widen(self, n_columns: int) -> None: ...
+
+    def log_rows(self, s, t_row: np.ndarray, centre: np.ndarray) -> None: ...
+
+    def add_voltages(self, runs: np.ndarray, volts: np.ndarray) -> None: ...
 
 
 @dataclass
@@ -51,13 +76,6 @@ class BatchResult:
     geometry: str
     perception: str
     wall_time_s: float
-    #: With ``trace=True``: the target bearing input phi_t (rad, disturbance included)
-    #: of the last logged row (N,); per obstacle the closest centre distance (m) and
-    #: its first time (s) (N, M); the largest applied voltage per wheel (N, 2), V.
-    final_phi_t_rad: np.ndarray | None = None
-    closest_center_distance_m: np.ndarray | None = None
-    closest_center_time_s: np.ndarray | None = None
-    max_voltage_v: np.ndarray | None = None
     #: Per run, its logged poses (steps + 1, 3) when ``record_poses`` was asked.
     poses: list | None = None
     scenarios: list = field(default_factory=list)
@@ -108,7 +126,7 @@ class BatchResult:
         )
 
 
-#: The per-run accumulators and their starting values (the trace's after ``None``).
+#: The per-run accumulators and their starting values.
 _SCALARS = {
     "outcome": (-1, np.int64),
     "collided": (False, bool),
@@ -136,13 +154,13 @@ class BatchMetrics:
         Runs in the batch.
     n_columns : int
         Obstacle columns (the most obstacles of a run; at least 1).
-    trace : bool
-        Also keep the paper fit's observers (:class:`BatchResult`'s trace fields).
     record_poses : bool
         Keep every logged pose of every run.
+    observers : sequence of RunObserver
+        The caller's own measurements, fed at every row and decision.
     """
 
-    # the accumulators, (N,) each (set from _SCALARS), and the trace's
+    # the accumulators, (N,) each (set from _SCALARS)
     outcome: np.ndarray
     collided: np.ndarray
     sim_time: np.ndarray
@@ -157,21 +175,20 @@ class BatchMetrics:
     jumps: np.ndarray
     min_target: np.ndarray
     final_target: np.ndarray
-    final_phi_t: np.ndarray
-    pass_d: np.ndarray
-    pass_t: np.ndarray
-    max_v: np.ndarray
 
-    def __init__(self, n_runs: int, n_columns: int, trace: bool, record_poses: bool):
+    def __init__(
+        self,
+        n_runs: int,
+        n_columns: int,
+        record_poses: bool,
+        observers: Sequence[RunObserver] = (),
+    ):
         self.n_runs = n_runs
-        self.trace = trace
         for name, (value, dtype) in _SCALARS.items():
             setattr(self, name, np.full(n_runs, value, dtype=dtype))
-        if trace:
-            self.final_phi_t = np.full(n_runs, np.nan)
-            self.pass_d = np.full((n_runs, n_columns), np.inf)
-            self.pass_t = np.zeros((n_runs, n_columns))
-            self.max_v = np.full((n_runs, 2), -np.inf)
+        self.observers = list(observers)
+        for observer in self.observers:
+            observer.start(n_runs, n_columns)
         self.pose_log: list | None = [] if record_poses else None
 
     def restart(self, runs: np.ndarray) -> None:
@@ -184,24 +201,19 @@ class BatchMetrics:
         """
         for name, (value, _) in _SCALARS.items():
             getattr(self, name)[runs] = value
-        if self.trace:
-            self.final_phi_t[runs] = np.nan
-            self.pass_d[runs] = np.inf
-            self.pass_t[runs] = 0.0
-            self.max_v[runs] = -np.inf
+        for observer in self.observers:
+            observer.restart(runs)
 
     def widen(self, n_columns: int) -> None:
-        """Room for ``n_columns`` obstacle columns (the trace's per-obstacle arrays).
+        """Room for ``n_columns`` obstacle columns (the observers' per-obstacle arrays).
 
         Parameters
         ----------
         n_columns : int
             The new number of columns (not fewer than now).
         """
-        if self.trace and n_columns > self.pass_d.shape[1]:
-            extra = n_columns - self.pass_d.shape[1]
-            self.pass_d = np.pad(self.pass_d, ((0, 0), (0, extra)), constant_values=np.inf)
-            self.pass_t = np.pad(self.pass_t, ((0, 0), (0, extra)))
+        for observer in self.observers:
+            observer.widen(n_columns)
 
     def log_rows(self, s, t_row: np.ndarray) -> None:
         """What one logged row of each run in ``s`` adds: its position's deviation from
@@ -227,15 +239,8 @@ class BatchMetrics:
         centre = np.hypot(s.cx - s.x[:, None], s.cy - s.y[:, None])
         centre = np.where(s.present, centre, np.inf)
         self.min_centre[run] = np.minimum(self.min_centre[run], centre.min(axis=1))
-        if self.trace:
-            # paper_fit.closest_approaches: the first least distance
-            closer = centre < self.pass_d[run]
-            self.pass_d[run] = np.where(closer, centre, self.pass_d[run])
-            self.pass_t[run] = np.where(closer, t_row[:, None], self.pass_t[run])
-            # the row's phi_t input as sensed then, disturbance included
-            phi_t = wrap_angles(np.arctan2(s.target[:, 1] - s.y, s.target[:, 0] - s.x) - s.h)
-            value = disturbance_values(s.disturbance, t_row)
-            self.final_phi_t[run] = np.where(value != 0.0, phi_t + value, phi_t)
+        for observer in self.observers:
+            observer.log_rows(s, t_row, centre)
         if self.pose_log is not None:
             self.pose_log.append((run.copy(), np.stack([s.x, s.y, s.h], axis=1)))
 
@@ -255,8 +260,8 @@ class BatchMetrics:
             Runs inside their disturbance's window (its end included).
         """
         self.max_abs_v[run] = np.maximum(self.max_abs_v[run], np.abs(volts).max(axis=1))
-        if self.trace:
-            self.max_v[run] = np.maximum(self.max_v[run], volts)
+        for observer in self.observers:
+            observer.add_voltages(run, volts)
         self.jumps[run] += voltage_jumped(prev_v, volts) & ~in_window
 
     def result(self, geometry, perception, wall_time_s, scenarios) -> BatchResult:
@@ -285,7 +290,6 @@ class BatchMetrics:
                 for r, p in zip(runs.tolist(), block):
                     per_run[r].append(p)
             poses = [np.array(p) for p in per_run]
-        trace = self.trace
         return BatchResult(
             outcome=self.outcome,
             collided=self.collided,
@@ -302,10 +306,6 @@ class BatchMetrics:
             voltage_jumps=self.jumps,
             min_target_distance_m=self.min_target,
             final_target_distance_m=self.final_target,
-            final_phi_t_rad=self.final_phi_t if trace else None,
-            closest_center_distance_m=self.pass_d if trace else None,
-            closest_center_time_s=self.pass_t if trace else None,
-            max_voltage_v=self.max_v if trace else None,
             geometry=geometry,
             perception=perception,
             wall_time_s=wall_time_s,

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fuzzynav.world.arena import POINT_ROBOT_RADIUS_M, SWEEP_RELEVANT_M, SWEEP_TOLERANCE_M
-from fuzzynav.world.batch_metrics import BatchMetrics, BatchResult
+from fuzzynav.world.batch_metrics import BatchMetrics, BatchResult, RunObserver
 from fuzzynav.world.batch_state import BatchState, scenario_arrays
 from fuzzynav.world.husky import N_STATES, HuskyModel, step_product
 from fuzzynav.world.kernels import (
@@ -82,8 +82,9 @@ class BatchWorld:
         ``stop_rule(runs, time_s, to_target_m)`` with the runs' batch indices, times (s)
         and distances to the target (m), each (n,); the runs it returns True for end as
         ``timeout``, their step unlogged (unless the step ended them anyway).
-    trace : bool
-        Keep the paper fit's observers (:class:`world.batch_metrics.BatchResult`).
+    observers : sequence of RunObserver
+        The caller's own measurements (:class:`world.batch_metrics.RunObserver`), fed
+        at every logged row and decision.
     record_poses : bool
         Keep every logged pose (for tests and small batches).
     """
@@ -105,7 +106,7 @@ class BatchWorld:
         voltage_limit_v: float = 12.0,
         max_duration_s: float | None = None,
         stop_rule=None,
-        trace: bool = False,
+        observers: Sequence[RunObserver] = (),
         record_poses: bool = False,
     ):
         check_loop_settings(control_period_s, voltage_limit_v)
@@ -133,7 +134,7 @@ class BatchWorld:
         self.limit = float(voltage_limit_v)
         self.max_duration_s = max_duration_s
         self.stop_rule = stop_rule
-        self.trace = trace
+        self.observers = observers
         self.record_poses = record_poses
         self.mount_x = np.array([mt.x_m for mt in config.mounts])
         self.mount_y = np.array([mt.y_m for mt in config.mounts])
@@ -174,7 +175,7 @@ class BatchWorld:
         self.scenarios = scenarios
         self.n_runs = n_runs
         self.s = BatchState(n_runs, n_columns, self.n_sensors)
-        self.metrics = BatchMetrics(n_runs, n_columns, self.trace, self.record_poses)
+        self.metrics = BatchMetrics(n_runs, n_columns, self.record_poses, self.observers)
         self._rngs: list = [None] * n_runs
         self._codes = np.full(n_runs, -1, dtype=np.int64)
         self.restart(np.arange(n_runs), scenarios, seeds)

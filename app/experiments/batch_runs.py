@@ -378,6 +378,53 @@ def batch_mapper(objective, probe_vector, executor, cost_function, stall_s: floa
     return mapper, None
 
 
+class FitTrace:
+    """What the paper fit measures of a batch's runs besides their metrics, fed by the
+    batch engine as a :class:`world.batch_metrics.RunObserver`: the target bearing input
+    phi_t of the last logged row (rad, disturbance included) (N,); per obstacle the
+    closest centre distance (m) and its first time (s) (N, M), as
+    :func:`app.experiments.paper_fit.closest_approaches` reads them from a log; the
+    largest applied voltage per wheel (N, 2), V."""
+
+    final_phi_t: np.ndarray
+    pass_d: np.ndarray
+    pass_t: np.ndarray
+    max_v: np.ndarray
+
+    def start(self, n_runs: int, n_columns: int) -> None:
+        self.final_phi_t = np.full(n_runs, np.nan)
+        self.pass_d = np.full((n_runs, n_columns), np.inf)
+        self.pass_t = np.zeros((n_runs, n_columns))
+        self.max_v = np.full((n_runs, 2), -np.inf)
+
+    def restart(self, runs) -> None:
+        self.final_phi_t[runs] = np.nan
+        self.pass_d[runs] = np.inf
+        self.pass_t[runs] = 0.0
+        self.max_v[runs] = -np.inf
+
+    def widen(self, n_columns: int) -> None:
+        extra = n_columns - self.pass_d.shape[1]
+        if extra > 0:
+            self.pass_d = np.pad(self.pass_d, ((0, 0), (0, extra)), constant_values=np.inf)
+            self.pass_t = np.pad(self.pass_t, ((0, 0), (0, extra)))
+
+    def log_rows(self, s, t_row, centre) -> None:
+        from fuzzynav.world.kernels import disturbance_values, wrap_angles
+
+        run = s.run
+        closer = centre < self.pass_d[run]  # the first least distance
+        self.pass_d[run] = np.where(closer, centre, self.pass_d[run])
+        self.pass_t[run] = np.where(closer, t_row[:, None], self.pass_t[run])
+        # the row's phi_t input as sensed then, disturbance included
+        phi_t = wrap_angles(np.arctan2(s.target[:, 1] - s.y, s.target[:, 0] - s.x) - s.h)
+        value = disturbance_values(s.disturbance, t_row)
+        self.final_phi_t[run] = np.where(value != 0.0, phi_t + value, phi_t)
+
+    def add_voltages(self, runs, volts) -> None:
+        self.max_v[runs] = np.maximum(self.max_v[runs], volts)
+
+
 def fit_measures(
     fit_cost, scenario_names, vectors, geometry: str = "paper", perception: str = "ideal"
 ) -> list[list[dict] | None]:
@@ -411,6 +458,7 @@ def fit_measures(
     if not built:
         return out
     run_sets = np.repeat(np.arange(len(built)), len(scenario_names))
+    trace = FitTrace()
     result = run_batch(
         scenarios,
         batch_controller(controllers, run_sets),
@@ -420,7 +468,7 @@ def fit_measures(
         control_period_s=fit_cost.control_period_s,
         model=fit_cost.model,
         stop_rule=None if fit_cost.stall_s is None else StallRule(fit_cost.stall_s, len(scenarios)),
-        trace=True,
+        observers=[trace],
         record_poses=True,
     )
     for i, scenario in enumerate(scenarios):
@@ -438,16 +486,16 @@ def fit_measures(
             "min_clearance_m": m.get("min_clearance_m"),
             "passes": [
                 (
-                    float(result.closest_center_time_s[i, j]),
-                    float(result.closest_center_distance_m[i, j]),
+                    float(trace.pass_t[i, j]),
+                    float(trace.pass_d[i, j]),
                 )
                 for j in range(n_obstacles)
             ],
             "chatter_steps": m["voltage_jumps"],
-            "final_phi_t_rad": float(result.final_phi_t_rad[i]),
+            "final_phi_t_rad": float(trace.final_phi_t[i]),
             "final_distance_m": float(result.final_target_distance_m[i]),
             "closest_to_target_m": float(result.min_target_distance_m[i]),
-            "max_voltage_v": tuple(float(v) for v in result.max_voltage_v[i]),
+            "max_voltage_v": tuple(float(v) for v in trace.max_v[i]),
             "largest_right_offset_m": largest_right_offset(scenario, result.poses[i]),
         }
         k = built[int(run_sets[i])]

@@ -124,50 +124,73 @@ STALL_S = 15.0
 STALL_PROGRESS_M = 0.05
 
 
-class StallRule:
-    """Tuning's and the fit's early stop, one rule for both engines: a run whose
-    distance to the target has not reached a new minimum (by :data:`STALL_PROGRESS_M`)
-    for ``stall_s`` simulated seconds is stopped, as a timeout (an orbit or a dead end:
-    the rest of a capped run would only cost time). A controller with an escape of its
-    own (fuzzynav) gives a longer ``stall_cutoff_s``, so that its escape is tried rather
-    than cut off.
+def stall_judgement(best_m, best_t_s, to_target_m, time_s, stall_s: float):
+    """Tuning's and the fit's early stop, one rule for both engines: ``(better,
+    stalled)``, whether a run's distance to the target is a new minimum (by
+    :data:`STALL_PROGRESS_M`), and whether, without one, ``stall_s`` simulated seconds
+    have passed since its last (an orbit or a dead end: the rest of a capped run would
+    only cost time; it is stopped as a timeout). A controller with an escape of its own
+    (fuzzynav) gives a longer ``stall_cutoff_s``, so that its escape is tried rather than
+    cut off.
 
-    Called after every step with the runs' batch indices, times and distances to the
-    target (the batch engine's ``stop_rule``, :class:`world.batch_world.BatchWorld`;
-    :func:`run_until_stalled` for one pymunk run); returns which runs stall now.
+    Parameters
+    ----------
+    best_m, best_t_s : float or numpy.ndarray
+        The best distance so far (m, inf at first) and its time (s).
+    to_target_m, time_s : float or numpy.ndarray
+        The distance now (m) and the time now (s).
+    stall_s : float
+        The time without progress that stops a run, s.
+
+    Returns
+    -------
+    tuple
+        ``(better, stalled)``, bools or bool arrays.
+    """
+    better = to_target_m < best_m - STALL_PROGRESS_M
+    return better, (time_s - best_t_s > stall_s) & (better ^ True)
+
+
+class StallRule:
+    """:func:`stall_judgement` for a batch: the batch engine's ``stop_rule``
+    (:class:`world.batch_world.BatchWorld`), called after every step with the runs'
+    batch indices, times and distances to the target; returns which runs stall now.
 
     Parameters
     ----------
     stall_s : float
         The time without progress that stops a run, s.
     n_runs : int
-        Runs of the batch (1 for one run).
+        Runs of the batch.
     """
 
-    def __init__(self, stall_s: float = STALL_S, n_runs: int = 1):
+    def __init__(self, stall_s: float, n_runs: int):
         self.stall_s = stall_s
         self.best = np.full(n_runs, np.inf)  # the best distance, m, and its time, s
         self.best_t = np.zeros(n_runs)
 
     def __call__(self, runs, time_s, to_target_m) -> np.ndarray:
         best, best_t = self.best[runs], self.best_t[runs]
-        better = to_target_m < best - STALL_PROGRESS_M
-        stalled = ~better & (time_s - best_t > self.stall_s)
+        better, stalled = stall_judgement(best, best_t, to_target_m, time_s, self.stall_s)
         self.best[runs] = np.where(better, to_target_m, best)
         self.best_t[runs] = np.where(better, time_s, best_t)
         return stalled
 
 
 def run_until_stalled(sim, stall_s: float = STALL_S):
-    """Run ``sim`` to its end, or stop it early, as a timeout, by :class:`StallRule`
-    (checked after every step, the last one too)."""
-    rule = StallRule(stall_s)
+    """Run ``sim`` to its end, or stop it early, as a timeout, by
+    :func:`stall_judgement` (checked after every step, the last one too)."""
+    best, best_t = math.inf, 0.0
     arena = sim.arena
     tx, ty = sim.scenario.target
     while not sim.done:
         sim.step()
         x, y = arena.pose[0], arena.pose[1]
-        if rule(slice(None), sim.time_s, math.hypot(tx - x, ty - y))[0]:
+        d, t = math.hypot(tx - x, ty - y), sim.time_s
+        better, stalled = stall_judgement(best, best_t, d, t, stall_s)
+        if better:
+            best, best_t = d, t
+        elif stalled:
             sim.outcome = "timeout"
             break
     return sim.result()
