@@ -83,7 +83,8 @@ class Run:
     metrics : dict
         The fields of ``fuzzynav run --json``: path_length_m, mad_m, rmse_m,
         min_clearance_m, time_to_target_s, ... (SI units in the names; a number that
-        does not apply, e.g. the time to target of a run that never arrived, is NaN).
+        does not apply, e.g. the time to target of a run that never arrived, is None,
+        as in sweep's rows and the JSON files: NaN only in numpy arrays).
     trace : dict of str to numpy.ndarray
         One array per column of ``fuzzynav run --trace`` (``time_s``, ``x_m``, ``y_m``,
         ``heading_rad``, the four controller inputs, the voltages, ...), one element per
@@ -122,8 +123,8 @@ class Run:
     def metrics(self) -> dict[str, Any]:  # numbers, and the labels and outcome as text
         from fuzzynav.app.runs import summary
 
-        row = summary(self.result, self._controller_label, self._scenario_label)
-        return {k: (math.nan if v is None else v) for k, v in row.items()}
+        # None for a number that does not apply, as in sweep's rows and ``run --json``
+        return summary(self.result, self._controller_label, self._scenario_label)
 
     @property
     def trace(self) -> dict[str, npt.NDArray[np.float64]]:
