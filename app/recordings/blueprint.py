@@ -286,26 +286,9 @@ def figure_tag(scenario_label: str, path: str) -> str:
     return f" (Fig. {number})" if number is not None else ""
 
 
-def blueprint(
-    scenario,
-    obstacle_ids=(),
-    n_rules: int = 0,
-    log=None,
-    internals: bool = False,
-    legend_corners=None,
-    fuzzy=(),
-    perception: str | None = None,
-):
-    """The default layout: the world on the left, the paper's plots stacked on the right
-    (further tabs: plant, sensors, rules, internals, run information).
-
-    It depends on the run only through what the recording's application id already
-    fixes (:func:`application_id`: the scenario's content, the geometry and the
-    controller: obstacle ids, whether rules and internals exist) and through the world's
-    bounds and the legends' corners, so that two recordings opened in one viewer do not
-    share, or fight over, one layout."""
-    import rerun.blueprint as rrb
-
+def _world_view(rrb, scenario, obstacle_ids, log):
+    """The world on the left: the robot's trail and the obstacles' paths over the whole
+    run, within :func:`world_bounds`."""
     x_range, y_range = world_bounds(scenario, log)
     # The view's origin is "/", where /world's mirror applies: scene y = -world y.
     bounds = rrb.VisualBounds2D(x_range=x_range, y_range=[-y_range[1], -y_range[0]])
@@ -317,7 +300,7 @@ def blueprint(
     overrides = {"/world/robot/trail": everything}
     for oid in obstacle_ids:
         overrides[f"/world/obstacles/{oid}/path"] = everything
-    world = rrb.Spatial2DView(
+    return rrb.Spatial2DView(
         origin="/",
         contents=["/world/**"],
         name="world (y up)",
@@ -325,14 +308,10 @@ def blueprint(
         overrides=overrides,
     )
 
-    # Every plot shows the whole run, like the paper's figures (the viewer would
-    # otherwise show a window around the time cursor): unbounded both ways, so that the
-    # layout holds for any run, not only this one's time span.
-    whole_run = rrb.TimeRange(
-        start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
-    )
-    placements = dict(legend_corners or {})
-    label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
+
+def _plotter(rrb, whole_run, placements, label):
+    """``plot(origin, name, ...)``: a time-series panel over the whole run, its legend
+    and value range from ``placements`` (:func:`legend_placement`'s corners)."""
 
     def plot(origin, name, *, contents=None, legend=True, value_range=None, **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
@@ -356,6 +335,11 @@ def blueprint(
             origin=origin, name=name + figure_tag(label, origin), axis_x=axis, **kw
         )
 
+    return plot
+
+
+def _paper_tab(rrb, plot, whole_run, obstacle_ids):
+    """The paper's figures, under the events' lanes."""
     # The lanes over the whole run too, as the plots below them (without a time range
     # rerun shows a window around the cursor: the last ~27 s of a run at opening).
     lanes = rrb.StateTimelineView(
@@ -363,7 +347,7 @@ def blueprint(
         name="events: closest approach (centre to centre), safe distance, disturbance, outcome",
         time_view=rrb.TimeAxis(view_range=whole_run),
     )
-    paper = rrb.Vertical(
+    return rrb.Vertical(
         lanes,
         # No legend: rerun draws it over the plot, and the room made for it stretched
         # the axis to about twice the data's span (the safe distance sat on zero); the
@@ -390,6 +374,10 @@ def blueprint(
         row_shares=[1.15, 1.2, 1.15, 1.15, 1.35],
         name="paper figures",
     )
+
+
+def _plant_and_sensing_tabs(rrb, plot, placements, perception):
+    """The plant and the controller's inputs; the sensors and the safety margins."""
     plant = rrb.Vertical(
         plot("/plots/wheels", "wheel speeds w_LW, w_RW, rad/s"),
         plot("/plots/velocity", "v_MH, m/s, and w_JH, rad/s"),
@@ -428,62 +416,100 @@ def blueprint(
         ),
         name="sensors and safety",
     )
-    tabs = [paper, plant, sensing]
+    return plant, sensing
 
-    def firing_view(when: str):
-        # The axis from 0 to 1 at every instant: a grey bar of 1 at abscissa 0
-        # (RULES_SCALE_PATH, in the view as the origin's child), as rerun 0.41's bar
-        # chart has no axis range and fitted its axis to the strongest rule of the moment.
-        return rrb.BarChartView(
-            origin=RULES_PATH,
-            name=f"rule firing strength {when}, axis 0 to 1 (the grey bar at 0 is 1), "
-            "bar k = rule Rk",
-            plot_legend=rrb.PlotLegend(visible=False),
-        )
 
+def _firing_view(rrb, when: str):
+    """The rules' firing strengths as a bar chart."""
+    # The axis from 0 to 1 at every instant: a grey bar of 1 at abscissa 0
+    # (RULES_SCALE_PATH, in the view as the origin's child), as rerun 0.41's bar
+    # chart has no axis range and fitted its axis to the strongest rule of the moment.
+    return rrb.BarChartView(
+        origin=RULES_PATH,
+        name=f"rule firing strength {when}, axis 0 to 1 (the grey bar at 0 is 1), bar k = rule Rk",
+        plot_legend=rrb.PlotLegend(visible=False),
+    )
+
+
+def _rules_tab(rrb, n_rules: int, whole_run):
+    """The strongest rule over time, the firing at the cursor, the heatmap, the rules."""
     heat_x, heat_y = heatmap_bounds(n_rules)
+    return rrb.Vertical(
+        rrb.StateTimelineView(
+            origin=RULES_STRONGEST_PATH,
+            name="the strongest rule at each decision (s)",
+            time_view=rrb.TimeAxis(view_range=whole_run),
+        ),
+        _firing_view(rrb, "at the time cursor"),
+        rrb.Spatial2DView(
+            origin=RULES_HEATMAP_PATH,
+            # (the image and its names; not the tensor, which holds the values)
+            contents=[f"+ {RULES_HEATMAP_PATH}/**", f"- {RULES_HEATMAP_PATH}"],
+            name="rule firing over the run: rows R1 (top) to Rn, time across (s), "
+            "dark 0 to yellow 1",
+            visual_bounds=rrb.VisualBounds2D(x_range=heat_x, y_range=heat_y),
+        ),
+        rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
+        row_shares=[1, 2, 3, 1.5],
+        name="rules",
+    )
+
+
+def _fuzzy_tab(rrb, fuzzy):
+    """The inference at the time cursor, as the viewer's inference view."""
+    views = [
+        rrb.Spatial2DView(
+            origin="/",
+            contents=[f"{FUZZY_PATH}/{name}/**"],
+            name=f"{name.replace('/', ' ')} at the cursor",
+            visual_bounds=rrb.VisualBounds2D(x_range=[-0.6, FUZZY_W + 0.6], y_range=[-1.45, 0.25]),
+        )
+        for name in fuzzy
+    ]
+    return rrb.Vertical(
+        rrb.Grid(*views, grid_columns=2),
+        _firing_view(rrb, "at the cursor"),
+        row_shares=[3, 1],
+        name="fuzzy logic",
+    )
+
+
+def blueprint(
+    scenario,
+    obstacle_ids=(),
+    n_rules: int = 0,
+    log=None,
+    internals: bool = False,
+    legend_corners=None,
+    fuzzy=(),
+    perception: str | None = None,
+):
+    """The default layout: the world on the left, the paper's plots stacked on the right
+    (further tabs: plant, sensors, rules, internals, run information).
+
+    It depends on the run only through what the recording's application id already
+    fixes (:func:`application_id`: the scenario's content, the geometry and the
+    controller: obstacle ids, whether rules and internals exist) and through the world's
+    bounds and the legends' corners, so that two recordings opened in one viewer do not
+    share, or fight over, one layout."""
+    import rerun.blueprint as rrb
+
+    world = _world_view(rrb, scenario, obstacle_ids, log)
+    # Every plot shows the whole run, like the paper's figures (the viewer would
+    # otherwise show a window around the time cursor): unbounded both ways, so that the
+    # layout holds for any run, not only this one's time span.
+    whole_run = rrb.TimeRange(
+        start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite()
+    )
+    placements = dict(legend_corners or {})
+    label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
+    plot = _plotter(rrb, whole_run, placements, label)
+    tabs = [_paper_tab(rrb, plot, whole_run, obstacle_ids)]
+    tabs += _plant_and_sensing_tabs(rrb, plot, placements, perception)
     if n_rules:
-        tabs.append(
-            rrb.Vertical(
-                rrb.StateTimelineView(
-                    origin=RULES_STRONGEST_PATH,
-                    name="the strongest rule at each decision (s)",
-                    time_view=rrb.TimeAxis(view_range=whole_run),
-                ),
-                firing_view("at the time cursor"),
-                rrb.Spatial2DView(
-                    origin=RULES_HEATMAP_PATH,
-                    # (the image and its names; not the tensor, which holds the values)
-                    contents=[f"+ {RULES_HEATMAP_PATH}/**", f"- {RULES_HEATMAP_PATH}"],
-                    name="rule firing over the run: rows R1 (top) to Rn, time across (s), "
-                    "dark 0 to yellow 1",
-                    visual_bounds=rrb.VisualBounds2D(x_range=heat_x, y_range=heat_y),
-                ),
-                rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
-                row_shares=[1, 2, 3, 1.5],
-                name="rules",
-            )
-        )
+        tabs.append(_rules_tab(rrb, n_rules, whole_run))
     if fuzzy:  # the inference at the time cursor, as the viewer's inference view
-        views = [
-            rrb.Spatial2DView(
-                origin="/",
-                contents=[f"{FUZZY_PATH}/{name}/**"],
-                name=f"{name.replace('/', ' ')} at the cursor",
-                visual_bounds=rrb.VisualBounds2D(
-                    x_range=[-0.6, FUZZY_W + 0.6], y_range=[-1.45, 0.25]
-                ),
-            )
-            for name in fuzzy
-        ]
-        tabs.append(
-            rrb.Vertical(
-                rrb.Grid(*views, grid_columns=2),
-                firing_view("at the cursor"),
-                row_shares=[3, 1],
-                name="fuzzy logic",
-            )
-        )
+        tabs.append(_fuzzy_tab(rrb, fuzzy))
     if internals:
         tabs.append(
             plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target")
