@@ -50,35 +50,14 @@ def _rules_text(fis, first: int = 1) -> str:
     return numbered + "\n\n" + rules
 
 
-def metadata(
-    static: StaticBatch,
-    *,
-    scenario,
-    controller,
-    fis,
-    parameters,
-    sensor_config,
-    seed,
-    perception,
-    control_period_s,
-    voltage_limit_v,
-    extra_metadata,
-    geometry: str = "husky",
-) -> None:
-    """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
-    /meta/robot (with the sensors)."""
-    import rerun as rr
-
-    def doc(path, text, markdown=True):
-        media = rr.MediaType.MARKDOWN if markdown else rr.MediaType.TEXT
-        static.add_archetype(path, rr.TextDocument(text, media_type=media))
-
-    doc("/meta/scenario", scenario.to_toml(), markdown=False)
+def _rules_document(controller, fis) -> str:
+    """/meta/rules: the rule base (a fuzzynav's blocks and its crisp parameters), or a
+    controller's parameters when it has none."""
     inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
     blocks = getattr(inner, "rule_blocks", None)
     if fis is not None:
-        doc("/meta/rules", _rules_text(fis), markdown=False)
-    elif callable(blocks):  # fuzzynav: its blocks and its crisp parameters
+        return _rules_text(fis)
+    if callable(blocks):  # fuzzynav: its blocks and its crisp parameters
         # Numbered on through the blocks, as the recording's rule plot numbers them.
         parts, first = [], 1
         for name, block in blocks().items():
@@ -87,19 +66,20 @@ def metadata(
         params = getattr(inner, "params_toml", None)
         if callable(params):
             parts.append("# ===== crisp parameters =====\n" + params())
-        doc("/meta/rules", "\n".join(parts), markdown=False)
-    else:
-        attrs = (
-            {k: v for k, v in vars(controller).items() if not k.startswith("_")}
-            if controller is not None and hasattr(controller, "__dict__")
-            else {}
-        )
-        doc(
-            "/meta/rules",
-            f"controller {controller_label(controller)!r} is not fuzzy: no rule "
-            f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n",
-            markdown=False,
-        )
+        return "\n".join(parts)
+    attrs = (
+        {k: v for k, v in vars(controller).items() if not k.startswith("_")}
+        if controller is not None and hasattr(controller, "__dict__")
+        else {}
+    )
+    return (
+        f"controller {controller_label(controller)!r} is not fuzzy: no rule "
+        f"base.\nparameters: {json.dumps(_json_safe(attrs), default=repr)}\n"
+    )
+
+
+def _robot_document(parameters, sensor_config) -> str:
+    """/meta/robot: the robot's parameters, the sensors' and their mounts."""
     robot = ["# robot (HuskyParameters)"]
     robot += [f"{f.name} = {getattr(parameters, f.name)!r}" for f in dataclasses.fields(parameters)]
     robot += ["", "# sensors (SensorConfig)"]
@@ -112,9 +92,26 @@ def metadata(
         f"mount {m.name}: x = {m.x_m!r} m, y = {m.y_m!r} m, angle = {m.angle_rad!r} rad"
         for m in sensor_config.mounts
     ]
-    doc("/meta/robot", "\n".join(robot) + "\n", markdown=False)
+    return "\n".join(robot) + "\n"
+
+
+def _run_document(
+    *,
+    scenario,
+    controller,
+    parameters,
+    sensor_config,
+    seed,
+    perception,
+    control_period_s,
+    voltage_limit_v,
+    extra_metadata,
+    geometry: str,
+) -> str:
+    """/meta/run: the run's table (how to reproduce it), its commands, the versions."""
     from fuzzynav.app.runs import scenario_digest
 
+    inner = getattr(controller, "inner", controller)  # the viewer wraps its controller
     again = reproduce_run(
         scenario,
         controller,
@@ -160,13 +157,55 @@ def metadata(
     shown = "".join(
         f"\n\n## {what}\n\n```sh\n{wrap_command(text)}\n```" for what, text in commands.items()
     )
-    doc(
-        "/meta/run",
+    return (
         "# Run\n\n"
         + _markdown_table(run)
         + shown
         + "\n\n# Versions\n\n"
-        + _markdown_table(package_versions()),
+        + _markdown_table(package_versions())
+    )
+
+
+def metadata(
+    static: StaticBatch,
+    *,
+    scenario,
+    controller,
+    fis,
+    parameters,
+    sensor_config,
+    seed,
+    perception,
+    control_period_s,
+    voltage_limit_v,
+    extra_metadata,
+    geometry: str = "husky",
+) -> None:
+    """The run's documents: /meta/run (with the versions), /meta/scenario, /meta/rules,
+    /meta/robot (with the sensors)."""
+    import rerun as rr
+
+    def doc(path, text, markdown=True):
+        media = rr.MediaType.MARKDOWN if markdown else rr.MediaType.TEXT
+        static.add_archetype(path, rr.TextDocument(text, media_type=media))
+
+    doc("/meta/scenario", scenario.to_toml(), markdown=False)
+    doc("/meta/rules", _rules_document(controller, fis), markdown=False)
+    doc("/meta/robot", _robot_document(parameters, sensor_config), markdown=False)
+    doc(
+        "/meta/run",
+        _run_document(
+            scenario=scenario,
+            controller=controller,
+            parameters=parameters,
+            sensor_config=sensor_config,
+            seed=seed,
+            perception=perception,
+            control_period_s=control_period_s,
+            voltage_limit_v=voltage_limit_v,
+            extra_metadata=extra_metadata,
+            geometry=geometry,
+        ),
     )
 
 
