@@ -130,3 +130,19 @@ def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
         assert math.isnan(phi_o) == math.isnan(want_phi[0])
         if not math.isnan(phi_o):
             assert abs(wrap_angles(np.array(phi_o - want_phi[0]))) <= np.spacing(16.0)
+
+
+def test_the_scalar_rectangle_clearance_is_the_array_form():
+    from fuzzynav.world.geometry import rectangle_circle_clearance, rectangle_circles_clearance
+
+    centres = RNG.uniform(-3.0, 3.0, (2_000, 2))
+    radii = RNG.uniform(0.05, 1.0, 2_000)
+    for heading in RNG.uniform(-7.0, 7.0, 5).tolist():
+        array = rectangle_circles_clearance((0.3, -0.1), heading, 0.99, 0.67, centres, radii)
+        scalar = [
+            rectangle_circle_clearance((0.3, -0.1), heading, 0.99, 0.67, c, r)
+            for c, r in zip(centres.tolist(), radii.tolist())
+        ]
+        # an ulp of the outside distance (math.hypot), and the rounding of the sum
+        assert np.all(np.abs(np.array(scalar) - array) <= 2 * np.spacing(np.abs(array) + radii))
+        assert np.mean(np.array(scalar) == array) > 0.95

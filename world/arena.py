@@ -51,7 +51,7 @@ import pymunk
 
 from fuzzynav.world import compat_pymunk as _compat
 from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
-from fuzzynav.world.kernels import swept_clearances
+from fuzzynav.world.kernels import arc_poses, swept_clearances
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
@@ -126,19 +126,6 @@ class Obstacle:
 
     def velocity_at(self, time_s: float) -> np.ndarray:
         return self.initial_velocity + self.acceleration * (time_s - self.law_start_s)
-
-
-def _arc_pose(pose0, v: float, w: float, tau: float) -> tuple[float, float, float]:
-    """The pose ``tau`` seconds into a step at constant forward speed v and yaw rate w."""
-    x0, y0, h0 = pose0
-    heading = h0 + w * tau
-    if abs(w) > 1e-12:
-        return (
-            x0 + (v / w) * (math.sin(heading) - math.sin(h0)),
-            y0 - (v / w) * (math.cos(heading) - math.cos(h0)),
-            heading,
-        )
-    return x0 + v * tau * math.cos(h0), y0 + v * tau * math.sin(h0), heading
 
 
 def _obstacle_path_m(obstacle: Obstacle, t0: float, dt: float) -> float:
@@ -328,7 +315,7 @@ class Arena:
     def _scene(self) -> _Scene:
         """The obstacles now as plain floats, cached until the next step or edit.
 
-        The clearances are :func:`world.kernels.rectangle_clearances` written for floats,
+        The clearances are :func:`world.geometry.rectangle_clearances` written for floats,
         with the same operations in the same order, so the numbers are the same to the
         bit (tests/test_world.py checks them against it).
         """
@@ -532,7 +519,7 @@ class Arena:
                 and (obstacle.id not in reported or obstacle.id in touched)
             ):
                 first = int(np.argmax(clearance <= 0.0))
-                x, y, _ = _arc_pose(pose0, v, w, float(tau[first]))
+                x, y, _ = (float(p) for p in arc_poses(pose0, v, w, tau[first]))
                 ox, oy = obstacle._xy_at(t0 + float(tau[first]))
                 event = Collision(t0 + float(tau[first]), obstacle.id, (x, y), (ox, oy))
                 if obstacle.id in touched:  # the sweep found its start: earlier

@@ -87,7 +87,8 @@ def to_world_frame(points, robot_xy, heading_rad: float) -> np.ndarray:
 def rectangle_circle_clearance(
     robot_xy, heading_rad: float, length_m: float, width_m: float, circle_xy, radius_m: float
 ) -> float:
-    """Distance between a rectangle centred on the robot and a circle's surface.
+    """Distance between a rectangle centred on the robot and a circle's surface:
+    :func:`rectangle_clearances` for floats.
 
     Negative when they overlap (then it is minus the circle's penetration depth of its
     centre point, which is enough to decide contact).
@@ -108,16 +109,45 @@ def rectangle_circles_clearance(
     centres: np.ndarray,
     radii: np.ndarray,
 ) -> np.ndarray:
-    """Vectorised :func:`rectangle_circle_clearance` over (n, 2) centres and (n,) radii."""
-    c, s = math.cos(heading_rad), math.sin(heading_rad)
+    """:func:`rectangle_circle_clearance` over (n, 2) centres and (n,) radii."""
     d = centres - np.asarray(robot_xy, dtype=float)
-    lx = c * d[:, 0] + s * d[:, 1]
-    ly = -s * d[:, 0] + c * d[:, 1]
-    qx = np.abs(lx) - 0.5 * length_m
-    qy = np.abs(ly) - 0.5 * width_m
-    outside = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0))
-    inside = np.minimum(np.maximum(qx, qy), 0.0)
-    return outside + inside - radii
+    return rectangle_clearances(
+        math.cos(heading_rad), math.sin(heading_rad), d[:, 0], d[:, 1], radii,
+        0.5 * length_m, 0.5 * width_m,
+    )  # fmt: skip
+
+
+def rectangle_clearances(c, s, dx, dy, radius, half_length_m, half_width_m):
+    """The one footprint-to-surface formula of both engines, on arrays that broadcast:
+    a rectangle with heading cosine ``c`` and sine ``s`` and a circle whose centre is
+    ``(dx, dy)`` from the rectangle's (:func:`world.kernels.footprint_clearances`,
+    :func:`world.kernels.swept_clearances`, :func:`rectangle_circles_clearance`); the
+    arena's per-step loop (:meth:`world.arena.Arena._scene`) and
+    :func:`rectangle_circle_clearance` are its forms for floats, checked against it by
+    tests/test_one_step.py).
+
+    Parameters
+    ----------
+    c, s : numpy.ndarray
+        The heading's cosine and sine.
+    dx, dy : numpy.ndarray
+        The circle's centre minus the rectangle's, m.
+    radius : numpy.ndarray or float
+        The circle's radius, m.
+    half_length_m, half_width_m : float
+        Half the rectangle's length and width, m.
+
+    Returns
+    -------
+    numpy.ndarray
+        The clearances, m, negative when they overlap.
+    """
+    qx = np.abs(c * dx + s * dy) - half_length_m
+    qy = np.abs(-s * dx + c * dy) - half_width_m
+    inside = np.where(qy > qx, qy, qx)
+    inside = np.where(0.0 < inside, 0.0, inside)
+    outside = np.hypot(np.where(0.0 > qx, 0.0, qx), np.where(0.0 > qy, 0.0, qy))
+    return outside + inside - radius
 
 
 def ray_circle_distance(origin, direction_rad: float, centre, radius_m: float) -> float:

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from fuzzynav.world.geometry import wrap_angles
+from fuzzynav.world.geometry import rectangle_clearances, wrap_angles
 
 #: The sweep's sample spacing in relative motion (m): the footprint-to-surface clearance
 #: changes by at most the relative displacement of robot and obstacle, so the true
@@ -35,13 +35,13 @@ SWEEP_MAX_SAMPLES = 50_000
 
 __all__ = [
     "advance_pose",
+    "arc_poses",
     "disturbance_values",
     "footprint_clearances",
     "ideal_obstacle_inputs",
     "line_deviation",
     "obstacle_centres",
     "obstacle_path_bound",
-    "rectangle_clearances",
     "sonar_distances",
     "sonar_obstacle_inputs",
     "swept_clearances",
@@ -120,37 +120,6 @@ def footprint_clearances(x, y, heading, cx, cy, radius, half_length_m, half_widt
     return rectangle_clearances(
         c, s, cx - x[:, None], cy - y[:, None], radius, half_length_m, half_width_m
     )
-
-
-def rectangle_clearances(c, s, dx, dy, radius, half_length_m, half_width_m):
-    """The one footprint-to-surface formula of both engines, on arrays that broadcast:
-    a rectangle with heading cosine ``c`` and sine ``s`` and a circle whose centre is
-    ``(dx, dy)`` from the rectangle's (:func:`footprint_clearances`,
-    :func:`swept_clearances`; the arena's per-step loop, :meth:`world.arena.Arena._scene`,
-    is its scalar form, checked against it bit for bit by tests/test_world.py).
-
-    Parameters
-    ----------
-    c, s : numpy.ndarray
-        The heading's cosine and sine.
-    dx, dy : numpy.ndarray
-        The circle's centre minus the rectangle's, m.
-    radius : numpy.ndarray or float
-        The circle's radius, m.
-    half_length_m, half_width_m : float
-        Half the rectangle's length and width, m.
-
-    Returns
-    -------
-    numpy.ndarray
-        The clearances, m, negative when they overlap.
-    """
-    qx = np.abs(c * dx + s * dy) - half_length_m
-    qy = np.abs(-s * dx + c * dy) - half_width_m
-    inside = np.where(qy > qx, qy, qx)
-    inside = np.where(0.0 < inside, 0.0, inside)
-    outside = np.hypot(np.where(0.0 > qx, 0.0, qx), np.where(0.0 > qy, 0.0, qy))
-    return outside + inside - radius
 
 
 def advance_pose(x, y, heading, forward_speed_m_s, yaw_rate_rad_s, dt_s):
@@ -257,14 +226,7 @@ def swept_clearances(
     """
     n = min(SWEEP_MAX_SAMPLES, int(math.ceil(path_m / SWEEP_SPACING_M)) + 2)
     tau = np.linspace(0.0, dt, n)
-    x0, y0, h0 = pose0
-    heading = h0 + w * tau
-    if abs(w) > 1e-12:
-        x = x0 + (v / w) * (np.sin(heading) - math.sin(h0))
-        y = y0 - (v / w) * (np.cos(heading) - math.cos(h0))
-    else:
-        x = x0 + v * tau * math.cos(h0)
-        y = y0 + v * tau * math.sin(h0)
+    x, y, heading = arc_poses(pose0, v, w, tau)
     px, py, vx, vy, hax, hay = law
     age = t0 + tau
     cx = px + vx * age + hax * age * age
@@ -275,6 +237,36 @@ def swept_clearances(
         ),
         tau,
     )
+
+
+def arc_poses(pose0, v: float, w: float, tau):
+    """The poses ``tau`` seconds into a step at constant forward speed ``v`` (m/s) and
+    yaw rate ``w`` (rad/s) from ``pose0`` (x, y, heading): the robot's exact arc, as the
+    sweep samples it (:func:`swept_clearances`; the arena's contact events).
+
+    Parameters
+    ----------
+    pose0 : tuple of float
+        ``(x, y, heading)`` at the step's start, m and rad.
+    v, w : float
+        The step-mean forward speed and yaw rate.
+    tau : numpy.ndarray
+        Instants into the step, s.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, y, heading)``, each the shape of ``tau``.
+    """
+    x0, y0, h0 = pose0
+    heading = h0 + w * tau
+    if abs(w) > 1e-12:
+        x = x0 + (v / w) * (np.sin(heading) - math.sin(h0))
+        y = y0 - (v / w) * (np.cos(heading) - math.cos(h0))
+    else:
+        x = x0 + v * tau * math.cos(h0)
+        y = y0 + v * tau * math.sin(h0)
+    return x, y, heading
 
 
 def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:
