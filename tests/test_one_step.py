@@ -146,3 +146,42 @@ def test_the_scalar_rectangle_clearance_is_the_array_form():
         # an ulp of the outside distance (math.hypot), and the rounding of the sum
         assert np.all(np.abs(np.array(scalar) - array) <= 2 * np.spacing(np.abs(array) + radii))
         assert np.mean(np.array(scalar) == array) > 0.95
+
+
+def test_the_arenas_motion_is_advance_pose_bit_for_bit():
+    arena = Arena()
+    for _ in range(300):
+        x0, y0, h0 = RNG.uniform(-5, 5), RNG.uniform(-5, 5), RNG.uniform(-7, 7)
+        v, w = RNG.uniform(-1, 1), RNG.choice([0.0, *RNG.uniform(-3, 3, 3)])
+        arena.reset((x0, y0), h0, (9.0, 9.0))
+        start = arena.pose
+        arena.step(v, w, 0.02)
+        want = kernels.advance_pose(
+            *(np.array([p]) for p in start), np.array([v]), np.array([w]), 0.02
+        )
+        assert _same_bits(arena.pose, [p[0] for p in want])
+
+
+def test_the_sonar_inputs_for_one_run_are_the_array_form():
+    from fuzzynav.world.perception import Perception
+    from fuzzynav.world.sensors import RangeSensorArray
+
+    perception = Perception("ultrasonic", RangeSensorArray())
+    mounts = np.array(perception._mount_angles)
+    ranges = RNG.uniform(0.0, 5.0, (500, len(mounts)))
+    ranges[RNG.random(ranges.shape) < 0.3] = np.inf
+    d_o, phi_o = kernels.sonar_obstacle_inputs(ranges, mounts, perception.cutoff_m)
+
+    class Sensors:  # readings given, as RangeSensorArray.read returns them
+        config = perception.sensors.config
+
+        def read(self, arena, time_s):
+            return self.now
+
+    perception.sensors = sensors = Sensors()
+    arena = Arena()
+    arena.reset((0.0, 0.0), 0.0, (9.0, 9.0))
+    for i, row in enumerate(ranges):
+        sensors.now = row
+        _, d, _, phi, _, _ = perception._sense(arena, 0.0)
+        assert _same_bits([d, phi], [d_o[i], phi_o[i]])
