@@ -109,7 +109,6 @@ KNOWN_LONG_FUNCTIONS: set[str] = {
     "fuzzynav.app.figures.paper_set.write_paper_figures",
     "fuzzynav.app.figures.run_figures.run_figure",
     "fuzzynav.app.figures.trajectory.draw_trajectory",
-    "fuzzynav.app.recordings.record._record",
     "fuzzynav.app.viewer.controls.ControlPanel.build",
     "fuzzynav.app.viewer.rule_table.rules_rows_svg",
     "fuzzynav.app.viewer.stepwise.stage_html",

@@ -203,13 +203,98 @@ def record_run(
     return path
 
 
+def _column_writer(rec, result, *, controller, fis, sensor_config, parameters, voltage_limit_v):
+    """The writer of ``result``'s columns to ``rec``, its legends placed from the log."""
+    import numpy as np
+
+    log = result.log
+    decided = np.all(np.isfinite(log.controller_output_v), axis=1)
+    return ColumnWriter(
+        rec,
+        footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
+        sensor_config=sensor_config,
+        voltage_limit_v=voltage_limit_v,
+        fis=fis,
+        tolerance_m=result.scenario.tolerance_m,
+        controller=controller,
+        perception=result.perception,
+        geometry=getattr(result, "geometry", "husky"),
+        # known in advance: the rule heatmap is binned as the rows come
+        decisions=int(np.count_nonzero(decided)),
+        legends_from_log=True,  # placed from the log, not from kept rows
+    )
+
+
+def _send_rows(rec, writer, log) -> None:
+    """The log's rows, a block of :data:`SEND_ROWS` at a time: the Arrow arrays built to
+    send them, and the bytes encoded from them, stay as large as one block, however long
+    the run."""
+    for first in range(0, len(log), SEND_ROWS):
+        writer.send(log, first, min(first + SEND_ROWS, len(log)), send_static=False)
+        # Wait until the block has left for the pipe: rerun's sink queues without
+        # bound, and on a slow disk (or a machine short of memory, whose page cache
+        # is written back slowly) a 2,000 s run at 1 ms queued 300 MB more there.
+        # (Not after the last block: the close flushes, and a short run has one.)
+        if first + SEND_ROWS < len(log):
+            rec.flush()
+
+
+def _send_statics(
+    rec,
+    writer,
+    result,
+    *,
+    controller,
+    fis,
+    sensor_config,
+    parameters,
+    extra_metadata,
+    voltage_limit_v,
+) -> list:
+    """Every static part in one record batch (styles, the world's statics, documents),
+    the events, and the inference at each decision; returns the fuzzy views' names."""
+    scenario = result.scenario
+    log = result.log
+    extra = dict(extra_metadata or {})
+    if writer.fis_error:
+        extra["rule firing"] = f"not recorded ({writer.fis_error})"
+    if writer.replica_error:
+        extra["controller internals"] = f"not recorded ({writer.replica_error})"
+    static_world(writer.static, scenario)
+    documents.metadata(
+        writer.static,
+        scenario=scenario,
+        controller=controller,
+        fis=fis,
+        parameters=parameters,
+        sensor_config=sensor_config,
+        seed=result.seed,
+        perception=result.perception,
+        control_period_s=result.control_period_s,
+        voltage_limit_v=voltage_limit_v,
+        extra_metadata=extra,
+        geometry=getattr(result, "geometry", "husky"),
+    )
+    documents.metrics(writer.static, result.metrics, result.outcome)
+    events = send_events(rec, writer.static, result)
+    writer.legend_extra = send_plot_events(rec, writer, log, events, writer.static)
+    documents.summary(writer.static, result, controller, events)
+    fuzzy = []
+    if fis is not None and writer.fis_error is None:
+        fuzzy = fuzzy_view(writer.static, fis, log)
+        for first in range(0, len(log) if fuzzy else 0, SEND_ROWS):
+            send_fuzzy_rows(rec, fis, log, first, min(first + SEND_ROWS, len(log)))
+    writer.send_heatmap(writer.static)
+    writer.static.send(rec)
+    return fuzzy
+
+
 def _record(
     result, sink: str, *, controller, sensor_config, parameters, extra_metadata, voltage_limit_v
 ) -> None:
     """Send the recording of ``result`` to rerun's file sink ``sink``, a block of
     :data:`SEND_ROWS` rows at a time: what is held is one block's (its Arrow arrays, the
     aggregated outputs of its decisions), however long the run (issue 26)."""
-    import numpy as np
     import rerun as rr
 
     fis = controller_fis(controller)
@@ -241,64 +326,16 @@ def _record(
         # into place), so no viewer sees it loading (LiveRecorder sends one first too).
         n_rules = len(getattr(rule_system(controller), "rules", ()))
         layout = (scenario, list(log.obstacle_ids), n_rules, log)
-        decided = np.all(np.isfinite(log.controller_output_v), axis=1)
-        writer = ColumnWriter(
-            rec,
-            footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
+        common = dict(
+            controller=controller,
+            fis=fis,
             sensor_config=sensor_config,
-            voltage_limit_v=voltage_limit_v,
-            fis=fis,
-            tolerance_m=scenario.tolerance_m,
-            controller=controller,
-            perception=result.perception,
-            geometry=getattr(result, "geometry", "husky"),
-            # known in advance: the rule heatmap is binned as the rows come
-            decisions=int(np.count_nonzero(decided)),
-            legends_from_log=True,  # placed from the log, not from kept rows
-        )
-        del decided
-        # A block of rows at a time: the Arrow arrays built to send them, and the bytes
-        # encoded from them, stay as large as one block, however long the run.
-        for first in range(0, len(log), SEND_ROWS):
-            writer.send(log, first, min(first + SEND_ROWS, len(log)), send_static=False)
-            # Wait until the block has left for the pipe: rerun's sink queues without
-            # bound, and on a slow disk (or a machine short of memory, whose page cache
-            # is written back slowly) a 2,000 s run at 1 ms queued 300 MB more there.
-            # (Not after the last block: the close flushes, and a short run has one.)
-            if first + SEND_ROWS < len(log):
-                rec.flush()
-        # Every static part in one record batch: styles, the world's statics, documents.
-        extra = dict(extra_metadata or {})
-        if writer.fis_error:
-            extra["rule firing"] = f"not recorded ({writer.fis_error})"
-        if writer.replica_error:
-            extra["controller internals"] = f"not recorded ({writer.replica_error})"
-        static_world(writer.static, scenario)
-        documents.metadata(
-            writer.static,
-            scenario=scenario,
-            controller=controller,
-            fis=fis,
             parameters=parameters,
-            sensor_config=sensor_config,
-            seed=result.seed,
-            perception=result.perception,
-            control_period_s=result.control_period_s,
             voltage_limit_v=voltage_limit_v,
-            extra_metadata=extra,
-            geometry=getattr(result, "geometry", "husky"),
         )
-        documents.metrics(writer.static, result.metrics, result.outcome)
-        events = send_events(rec, writer.static, result)
-        writer.legend_extra = send_plot_events(rec, writer, log, events, writer.static)
-        documents.summary(writer.static, result, controller, events)
-        fuzzy = []
-        if fis is not None and writer.fis_error is None:
-            fuzzy = fuzzy_view(writer.static, fis, log)
-            for first in range(0, len(log) if fuzzy else 0, SEND_ROWS):
-                send_fuzzy_rows(rec, fis, log, first, min(first + SEND_ROWS, len(log)))
-        writer.send_heatmap(writer.static)
-        writer.static.send(rec)
+        writer = _column_writer(rec, result, **common)
+        _send_rows(rec, writer, log)
+        fuzzy = _send_statics(rec, writer, result, extra_metadata=extra_metadata, **common)
         # Again, now with the legends placed where the data leave room.
         rec.send_blueprint(
             blueprints.blueprint(
