@@ -51,7 +51,7 @@ import pymunk
 
 from fuzzynav.world import compat_pymunk as _compat
 from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
-from fuzzynav.world.kernels import arc_poses, swept_clearances
+from fuzzynav.world.kernels import arc_poses, obstacle_law, swept_clearances
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
@@ -103,11 +103,9 @@ class Obstacle:
         self.initial_velocity = np.asarray(velocity, dtype=float)
         self.law_start_s = time_s
         self.is_static = not (self.initial_velocity.any() or self.acceleration.any())
-        # The law as plain floats for the hot path (kernels.obstacle_centres' layout).
+        # The law as plain floats for the hot path, and the time it starts.
         self._law = (
-            *self.initial_position.tolist(),
-            *self.initial_velocity.tolist(),
-            *(0.5 * self.acceleration).tolist(),
+            *obstacle_law(self.initial_position, self.initial_velocity, self.acceleration),
             float(time_s),
         )
         self.body.position = tuple(self.initial_position)

@@ -15,6 +15,7 @@ import numpy as np
 
 from fuzzynav.world.geometry import FULL_CIRCLE_RAD
 from fuzzynav.world.husky import N_STATES
+from fuzzynav.world.kernels import obstacle_law
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.simulation import timeout_slack_s
 
@@ -61,18 +62,11 @@ def scenario_arrays(
         Name to array, the run first on every axis.
     """
     k = len(scenarios)
-    law = np.zeros((k, 6, n_columns))  # p0x, p0y, v0x, v0y, a_x / 2, a_y / 2
+    law = np.zeros((k, 6, n_columns))  # kernels.obstacle_law per column
     radius = np.full((k, n_columns), np.nan)
     for i, sc in enumerate(scenarios):
         for j, o in enumerate(sc.obstacles):
-            law[i, :, j] = (
-                o.position[0],
-                o.position[1],
-                o.velocity[0],
-                o.velocity[1],
-                0.5 * o.acceleration[0],
-                0.5 * o.acceleration[1],
-            )
+            law[i, :, j] = obstacle_law(o.position, o.velocity, o.acceleration)
             radius[i, j] = o.radius_m
     present = np.isfinite(radius)
     moving = present & (

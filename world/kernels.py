@@ -41,6 +41,7 @@ __all__ = [
     "ideal_obstacle_inputs",
     "line_deviation",
     "obstacle_centres",
+    "obstacle_law",
     "obstacle_path_bound",
     "sonar_distances",
     "sonar_obstacle_inputs",
@@ -50,6 +51,31 @@ __all__ = [
 ]
 
 
+def obstacle_law(position, velocity, acceleration) -> tuple[float, ...]:
+    """An obstacle's constant-acceleration law as both engines hold it: ``p0x, p0y,
+    v0x, v0y, a_x / 2, a_y / 2`` (:func:`obstacle_centres`; the arena's
+    :class:`world.arena.Obstacle`).
+
+    Parameters
+    ----------
+    position, velocity, acceleration : sequence of float
+        At the law's start: m, m/s, m/s^2.
+
+    Returns
+    -------
+    tuple of float
+        The six numbers.
+    """
+    return (
+        float(position[0]),
+        float(position[1]),
+        float(velocity[0]),
+        float(velocity[1]),
+        0.5 * float(acceleration[0]),
+        0.5 * float(acceleration[1]),
+    )
+
+
 def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The obstacles' centres at each run's time by their constant-acceleration law,
     ``p0 + v0 t + (a / 2) t^2`` (:meth:`world.arena.Obstacle._xy_at`).
@@ -57,7 +83,7 @@ def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.nda
     Parameters
     ----------
     law : numpy.ndarray, (n, 6, M)
-        Per obstacle ``p0x, p0y, v0x, v0y, a_x / 2, a_y / 2``.
+        Per obstacle its :func:`obstacle_law`.
     t : numpy.ndarray, (n,)
         Each run's time since its start, s.
 
