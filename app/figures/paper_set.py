@@ -69,6 +69,19 @@ def write_paper_figures(
     Returns the index entries of every figure written, in order.
     """
     out_dir = check_writable_dir(Path(root) / geometry, option="out_dir")
+    entries, names_in_order = _run_entries(
+        results, out_dir, geometry, formats=formats, voltage_limit_v=voltage_limit_v
+    )
+    entries += _membership_entries(controllers, names_in_order, out_dir, geometry, formats)
+    entries += _comparison_entries(results, names_in_order, out_dir, geometry, formats)
+    return entries
+
+
+def _run_entries(
+    results: dict, out_dir: Path, geometry: str, *, formats, voltage_limit_v: float
+) -> tuple[list[IndexEntry], list[str]]:
+    """Every run's figures (numbered 12-26 for s1-s3); also the controllers' names in the
+    order they first appear."""
     entries: list[IndexEntry] = []
     names_in_order: list[str] = []
     for scenario, inner in results.items():
@@ -97,6 +110,14 @@ def write_paper_figures(
                         tuple(p for p in files if p.stem == stems[kind]),
                     )
                 )
+    return entries, names_in_order
+
+
+def _membership_entries(
+    controllers: dict, names_in_order: list[str], out_dir: Path, geometry: str, formats
+) -> list[IndexEntry]:
+    """Every fuzzy controller's membership figures (the paper controller's as Figs. 6-11)."""
+    entries: list[IndexEntry] = []
     for name in names_in_order:
         fis = controller_fis(controllers.get(name), merged=True)
         if fis is None:
@@ -122,6 +143,14 @@ def write_paper_figures(
                     tuple(p for p in files if p.stem == stem),
                 )
             )
+    return entries
+
+
+def _comparison_entries(
+    results: dict, names_in_order: list[str], out_dir: Path, geometry: str, formats
+) -> list[IndexEntry]:
+    """Fig. 27 (baseline and paper) and Fig. 27b (every other controller)."""
+    entries: list[IndexEntry] = []
     scenarios = list(results)
     pair = [c for c in FIG27_COLUMNS if c in names_in_order]
     others = [c for c in names_in_order if c not in FIG27_COLUMNS]
