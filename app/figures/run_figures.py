@@ -129,101 +129,124 @@ def run_figure(
     axis of a scenario with a disturbance has the window shaded (gid ``disturbance``)."""
     if kind not in RUN_FIGURES:
         raise ValueError(f"figure kind {kind!r}: not one of {', '.join(RUN_FIGURES)}")
-    log = result.log
-    scenario = result.scenario
-    t = log.time_s
     title = _run_title(result, controller_label)
     paper_geometry = getattr(result, "geometry", "husky") == "paper"
-
     if kind == "trajectory":
-        fig, ax = _new_figure(6.4, 6.0)
-        draw_trajectory(
-            ax[0, 0],
-            result,
-            footprint_m=footprint_m or _default_footprint(),
-            footprints=not paper_geometry,
-            title=f"{_figure_prefix(result, 'trajectory')}Trajectory — {title}",
-        )
-        separate_labels(fig)
-        return fig
-
+        return _trajectory_figure(result, title, footprint_m, paper_geometry)
     if kind == "distances":
-        fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
-        top, bottom = ax[0, 0], ax[1, 0]
-        d_t = np.hypot(log.target_xy[:, 0] - log.pose[:, 0], log.target_xy[:, 1] - log.pose[:, 1])
-        top.plot(t, d_t, color=D_T, lw=1.6, label="to the target")
-        for col in range(len(log.obstacle_ids)):
-            color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
-            name = _obstacle_label(log, col)
-            top.plot(t, log.center_distance_m[:, col], color=color, lw=1.2, label=f"to {name}")
-            bottom.plot(t, log.clearance_m[:, col], color=color, lw=1.2, label=name)
-        safe_label = f"{SAFE_DISTANCE_M} m safe distance"
-        if paper_geometry:  # the paper's point robot: safety is judged centre to centre
-            top.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
-        else:
-            bottom.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
-        bottom.axhline(0.0, color="k", lw=0.6)
-        _mark_closest(top, result, label=True)
-        _mark_closest(bottom, result, label=False)
-        _time_axes(top, "distance, centre to centre (m)", scenario, xlabel=False)
-        _time_axes(
-            bottom,
-            "centre to obstacle surface (m)" if paper_geometry else "footprint clearance (m)",
-            scenario,
-        )
-        top.set_title(f"{_figure_prefix(result, 'distances')}Distances — {title}", fontsize=9)
-        for a in (top, bottom):
-            _legend_outside(a)
-        return fig
-
+        return _distances_figure(result, title, paper_geometry)
     if kind == "angles":
-        fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
-        top, bottom = ax[0, 0], ax[1, 0]
-        phi_t = target_geometry(log.pose, log.target_xy)[1]
-        if disturbance_window_s(scenario) is not None and len(log):
-            top.plot(
-                t,
-                log.inputs[:, 2],
-                color="0.55",
-                lw=0.7,
-                label="phi_t as the controller received it",
-            )
-        top.plot(t, phi_t, color=PHI_T, lw=1.4, label="phi_t")
-        bottom.plot(t, log.pose[:, 2], color=HEADING, lw=1.4, label="heading")
-        _time_axes(top, "target angle phi_t (rad)", scenario, xlabel=False)
-        _time_axes(bottom, "heading (rad)", scenario)
-        top.set_title(
-            f"{_figure_prefix(result, 'angles')}Target angle and heading — {title}", fontsize=9
-        )
-        for a in (top, bottom):
-            _legend_outside(a)
-        return fig
-
+        return _angles_figure(result, title)
     if kind == "obstacle_angles":
-        fig, ax = _new_figure(7.6, 3.6)
-        a = ax[0, 0]
-        if len(log.obstacle_ids) and len(log):
-            bearings = _break_at_wraps(obstacle_bearings(log.pose, log.obstacle_xy))
-            for col in range(len(log.obstacle_ids)):
-                a.plot(
-                    t,
-                    bearings[:, col],
-                    color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
-                    lw=1.2,
-                    label=_obstacle_label(log, col),
-                )
-        else:
-            a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
-        a.axhline(0.0, color="k", lw=0.6)
-        _time_axes(a, "obstacle angle (rad)", scenario)
-        a.set_title(
-            f"{_figure_prefix(result, 'obstacle_angles')}Obstacle angles — {title}", fontsize=9
-        )
-        if a.get_legend_handles_labels()[0]:
-            _legend_outside(a)
-        return fig
+        return _obstacle_angles_figure(result, title)
+    return _voltages_figure(result, title, voltage_limit_v)
 
-    # voltages: one panel per wheel (neither hides the other) and their difference
+
+def _trajectory_figure(result, title: str, footprint_m, paper_geometry: bool):
+    """The trajectory figure (the paper's footprints drawn only for the Husky's)."""
+    fig, ax = _new_figure(6.4, 6.0)
+    draw_trajectory(
+        ax[0, 0],
+        result,
+        footprint_m=footprint_m or _default_footprint(),
+        footprints=not paper_geometry,
+        title=f"{_figure_prefix(result, 'trajectory')}Trajectory — {title}",
+    )
+    separate_labels(fig)
+    return fig
+
+
+def _distances_figure(result, title: str, paper_geometry: bool):
+    """Distances centre to centre (top) and the footprint's clearance (bottom)."""
+    log, scenario = result.log, result.scenario
+    t = log.time_s
+    fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
+    top, bottom = ax[0, 0], ax[1, 0]
+    d_t = np.hypot(log.target_xy[:, 0] - log.pose[:, 0], log.target_xy[:, 1] - log.pose[:, 1])
+    top.plot(t, d_t, color=D_T, lw=1.6, label="to the target")
+    for col in range(len(log.obstacle_ids)):
+        color = OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)]
+        name = _obstacle_label(log, col)
+        top.plot(t, log.center_distance_m[:, col], color=color, lw=1.2, label=f"to {name}")
+        bottom.plot(t, log.clearance_m[:, col], color=color, lw=1.2, label=name)
+    safe_label = f"{SAFE_DISTANCE_M} m safe distance"
+    if paper_geometry:  # the paper's point robot: safety is judged centre to centre
+        top.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
+    else:
+        bottom.axhline(SAFE_DISTANCE_M, color="0.4", ls="--", lw=0.9, label=safe_label)
+    bottom.axhline(0.0, color="k", lw=0.6)
+    _mark_closest(top, result, label=True)
+    _mark_closest(bottom, result, label=False)
+    _time_axes(top, "distance, centre to centre (m)", scenario, xlabel=False)
+    _time_axes(
+        bottom,
+        "centre to obstacle surface (m)" if paper_geometry else "footprint clearance (m)",
+        scenario,
+    )
+    top.set_title(f"{_figure_prefix(result, 'distances')}Distances — {title}", fontsize=9)
+    for a in (top, bottom):
+        _legend_outside(a)
+    return fig
+
+
+def _angles_figure(result, title: str):
+    """The target angle (top; as received too, under a disturbance) and the heading."""
+    log, scenario = result.log, result.scenario
+    t = log.time_s
+    fig, ax = _new_figure(7.6, 5.6, 2, 1, sharex=True)
+    top, bottom = ax[0, 0], ax[1, 0]
+    phi_t = target_geometry(log.pose, log.target_xy)[1]
+    if disturbance_window_s(scenario) is not None and len(log):
+        top.plot(
+            t,
+            log.inputs[:, 2],
+            color="0.55",
+            lw=0.7,
+            label="phi_t as the controller received it",
+        )
+    top.plot(t, phi_t, color=PHI_T, lw=1.4, label="phi_t")
+    bottom.plot(t, log.pose[:, 2], color=HEADING, lw=1.4, label="heading")
+    _time_axes(top, "target angle phi_t (rad)", scenario, xlabel=False)
+    _time_axes(bottom, "heading (rad)", scenario)
+    top.set_title(
+        f"{_figure_prefix(result, 'angles')}Target angle and heading — {title}", fontsize=9
+    )
+    for a in (top, bottom):
+        _legend_outside(a)
+    return fig
+
+
+def _obstacle_angles_figure(result, title: str):
+    """Each obstacle's bearing from the heading, broken where it wraps."""
+    log, scenario = result.log, result.scenario
+    t = log.time_s
+    fig, ax = _new_figure(7.6, 3.6)
+    a = ax[0, 0]
+    if len(log.obstacle_ids) and len(log):
+        bearings = _break_at_wraps(obstacle_bearings(log.pose, log.obstacle_xy))
+        for col in range(len(log.obstacle_ids)):
+            a.plot(
+                t,
+                bearings[:, col],
+                color=OBSTACLE_COLORS[col % len(OBSTACLE_COLORS)],
+                lw=1.2,
+                label=_obstacle_label(log, col),
+            )
+    else:
+        a.text(0.5, 0.5, "no obstacles", ha="center", va="center", transform=a.transAxes)
+    a.axhline(0.0, color="k", lw=0.6)
+    _time_axes(a, "obstacle angle (rad)", scenario)
+    a.set_title(f"{_figure_prefix(result, 'obstacle_angles')}Obstacle angles — {title}", fontsize=9)
+    if a.get_legend_handles_labels()[0]:
+        _legend_outside(a)
+    return fig
+
+
+def _voltages_figure(result, title: str, voltage_limit_v: float):
+    """The wheel voltages: one panel per wheel (neither hides the other) and their
+    difference."""
+    log, scenario = result.log, result.scenario
+    t = log.time_s
     fig, ax = _new_figure(7.6, 6.4, 3, 1, sharex=True, height_ratios=(1.0, 1.0, 0.75))
     limit = float(voltage_limit_v)
     for row, (name, color) in enumerate(
