@@ -106,7 +106,6 @@ FUNCTION_LIMIT_LINES = 100
 #: them, and the list only shrinks: a function split under the limit (or gone) leaves it
 #: (test_the_long_function_list_names_only_long_functions).
 KNOWN_LONG_FUNCTIONS: set[str] = {
-    "fuzzynav.app.figures.trajectory.draw_trajectory",
     "fuzzynav.app.viewer.controls.ControlPanel.build",
     "fuzzynav.app.viewer.rule_table.rules_rows_svg",
     "fuzzynav.app.viewer.stepwise.stage_html",

@@ -50,11 +50,8 @@ def draw_trajectory(
 ) -> None:
     """The paper's trajectory figure on ``ax`` (also used for the comparison grid);
     ``events``: mark each obstacle's closest approach (time and centre distance)."""
-    from matplotlib.patches import Circle
-
     log = result.log
     scenario = result.scenario
-    xy = log.pose[:, :2]
     start, target = scenario.start, (log.target_xy[-1] if len(log) else scenario.target)
     ax.plot(
         [start[0], target[0]],
@@ -66,7 +63,31 @@ def draw_trajectory(
         zorder=1,
     )
     moving = set(_moving_columns(log)) if len(log) else set()
-    labels = []  # (text, where, colour): placed once the limits are known
+    # (text, where, colour): placed once the limits are known
+    labels = _draw_obstacles(ax, result, moving)
+    _draw_path(ax, result, footprint_m=footprint_m, footprints=footprints)
+    _draw_ends_and_collisions(ax, result, start, target)
+    if events:
+        labels += _draw_closest_approaches(ax, result, moving)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.autoscale_view()
+    _place_labels(ax, labels)
+    ax.grid(True, lw=0.3, alpha=0.6)
+    if title is not None:
+        ax.set_title(title, fontsize=9)
+    if legend:
+        ax.legend(fontsize=7, loc="best", framealpha=0.85)
+
+
+def _draw_obstacles(ax, result, moving) -> list:
+    """Each obstacle where it ends, with its safe-distance circle (a moving one also its
+    path and where it started); returns the obstacles' labels, to be placed."""
+    from matplotlib.patches import Circle
+
+    log = result.log
+    labels = []
     paper_geometry = getattr(result, "geometry", "husky") == "paper"
     safe_label = f"{SAFE_DISTANCE_M} m safe distance" + (
         ", centre to centre" if paper_geometry else ""
@@ -118,13 +139,21 @@ def draw_trajectory(
             )
         )
         labels.append((_obstacle_label(log, col), last, color))
+    return labels
+
+
+def _draw_path(ax, result, *, footprint_m, footprints: bool) -> None:
+    """The robot's footprint every :data:`FOOTPRINT_EVERY_S`, its path, and the stretch
+    driven during the disturbance."""
+    log = result.log
+    xy = log.pose[:, :2]
     if footprints and len(log) > 1:
         period = max(1, int(round(FOOTPRINT_EVERY_S / max(result.control_period_s, 1e-9))))
         shown = list(range(0, len(log), period)) + [len(log) - 1]
         for outline in footprint_outlines(log.pose[shown], *(footprint_m or _default_footprint())):
             ax.plot(outline[:, 0], outline[:, 1], color=ROBOT, lw=0.5, alpha=0.35, zorder=4)
     ax.plot(xy[:, 0], xy[:, 1], color=ROBOT, lw=1.8, label="robot (centre)", zorder=5)
-    window = disturbance_window_s(scenario)
+    window = disturbance_window_s(result.scenario)
     if window is not None and len(log):
         during = (log.time_s >= window[0]) & (log.time_s <= window[1])
         if during.any():
@@ -138,8 +167,14 @@ def draw_trajectory(
                 label=f"during the disturbance ({window[0]:g}–{window[1]:g} s)",
                 zorder=4.5,
             )
+
+
+def _draw_ends_and_collisions(ax, result, start, target) -> None:
+    """The start, the target with its tolerance, and a cross at each collision."""
+    from matplotlib.patches import Circle
+
     ax.plot(*start, marker="o", color="k", ms=5, ls="none", label="start", zorder=6)
-    ax.add_patch(Circle(target, scenario.tolerance_m, facecolor=TARGET, alpha=0.3, zorder=5))
+    ax.add_patch(Circle(target, result.scenario.tolerance_m, facecolor=TARGET, alpha=0.3, zorder=5))
     ax.plot(*target, marker="*", color=TARGET, ms=12, ls="none", label="target", zorder=6)
     for c in result.collisions:
         ax.plot(
@@ -152,8 +187,17 @@ def draw_trajectory(
             zorder=7,
             label="collision" if c is result.collisions[0] else None,
         )
-    closest = closest_approaches(result) if events else []
-    for k, (col, row, distance) in enumerate(closest):
+
+
+def _draw_closest_approaches(ax, result, moving) -> list:
+    """Each obstacle's closest approach on the path (a moving obstacle where it was
+    then); returns their labels (distance and time), to be placed."""
+    from matplotlib.patches import Circle
+
+    log = result.log
+    xy = log.pose[:, :2]
+    labels = []
+    for k, (col, row, distance) in enumerate(closest_approaches(result)):
         ax.plot(
             *xy[row],
             marker="o",
@@ -177,16 +221,7 @@ def draw_trajectory(
                 )
             )
         labels.append((f"{distance:.2f} m, {log.time_s[row]:.1f} s", xy[row], EVENT))
-    ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.autoscale_view()
-    _place_labels(ax, labels)
-    ax.grid(True, lw=0.3, alpha=0.6)
-    if title is not None:
-        ax.set_title(title, fontsize=9)
-    if legend:
-        ax.legend(fontsize=7, loc="best", framealpha=0.85)
+    return labels
 
 
 def closest_approaches(result) -> list[tuple[int, int, float]]:
