@@ -129,11 +129,14 @@ class _Reader:
         return [self.num(lineno, t, what) for t in body]
 
 
-def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
-    """Parse .fis text (``source`` names it in error messages)."""
-    rd = _Reader(source)
-    sections: list[tuple[str, int, int, list[tuple[int, str]]]] = []  # (kind, index, line, lines)
-    current: tuple[str, int, int, list[tuple[int, str]]] | None = None
+#: A section of a .fis file: (kind, index, its line, its (line number, text) lines).
+_Section = tuple[str, int, int, list[tuple[int, str]]]
+
+
+def _sections(rd: _Reader, text: str) -> list[_Section]:
+    """The file's sections in order, comments and blank lines dropped."""
+    sections: list[_Section] = []
+    current: _Section | None = None
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line or line.startswith("%") or line.startswith("#"):
@@ -154,15 +157,12 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         if current is None:
             raise rd.err(lineno, "text before the first [section]", line)
         current[3].append((lineno, line))
+    return sections
 
-    kinds = [s[0] for s in sections]
-    for k in ("System", "Rules"):
-        if kinds.count(k) != 1:
-            raise rd.err(None, f"expected exactly one [{k}] section, found {kinds.count(k)}")
 
-    # [System]
+def _system_keys(rd: _Reader, sys_sec: _Section) -> dict[str, tuple[int, str]]:
+    """[System]'s keys, each with its line and value; every required one present."""
     sysd: dict[str, tuple[int, str]] = {}
-    sys_sec = sections[kinds.index("System")]
     for lineno, line in sys_sec[3]:
         m = _KV_RE.match(line)
         if not m:
@@ -176,7 +176,11 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     for key in ("Name", "Type", "NumInputs", "NumOutputs", "NumRules"):
         if key not in sysd:
             raise rd.err(sys_sec[2], f"[System] lacks {key}=")
-    name = rd.string(*sysd["Name"], "Name")
+    return sysd
+
+
+def _system_choices(rd: _Reader, sysd: dict[str, tuple[int, str]], sys_line: int) -> dict[str, str]:
+    """The system's type (Mamdani only), its inference methods and its version."""
     lineno, val = sysd["Type"]
     got = rd.string(lineno, val, "Type")
     if got.lower() != "mamdani":
@@ -189,7 +193,7 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     for field, key in FIS_KEYS.items():
         allowed = ", ".join(map(repr, CHOICES[field]))
         if key not in sysd:
-            raise rd.err(sys_sec[2], f"[System] lacks {key}= (one of {allowed})")
+            raise rd.err(sys_line, f"[System] lacks {key}= (one of {allowed})")
         lineno, val = sysd[key]
         got = rd.string(lineno, val, key)
         if got.lower() not in CHOICES[field]:
@@ -201,154 +205,193 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
         lineno, val = sysd["Version"]
         if rd.num(lineno, val, "Version") != 2.0:
             raise rd.err(lineno, "unsupported Version (only 2.0)", val)
-    n_in = rd.int_(*sysd["NumInputs"], "NumInputs", MAX_VARIABLES)
-    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs", MAX_VARIABLES)
-    n_rules = rd.int_(*sysd["NumRules"], "NumRules", MAX_RULES)
+    return choices
 
-    def variables(kind: str, count: int) -> list[Variable]:
-        secs = [s for s in sections if s[0] == kind]
-        idxs = [s[1] for s in secs]
-        if idxs != list(range(1, count + 1)):
-            raise rd.err(
-                secs[0][2] if secs else sys_sec[2],
-                f"expected sections [{kind}1]..[{kind}{count}] in order "
-                f"(Num{kind}s={count}), found {[f'{kind}{i}' for i in idxs]}",
-            )
-        out = []
-        for _kind, idx, start, lines in secs:
-            kv: dict[str, tuple[int, str]] = {}
-            mfs: dict[int, tuple[int, str]] = {}
-            for lineno, line in lines:
-                m = _KV_RE.match(line)
-                if not m:
-                    raise rd.err(lineno, f"expected Key=Value in [{kind}{idx}]", line)
-                key, val = m.group(1), m.group(2).strip()
-                mm = re.fullmatch(r"MF(\d+)", key)
-                if mm:
-                    k = rd.int_(lineno, mm.group(1), key, MAX_TERMS)
-                    if k in mfs:
-                        raise rd.err(lineno, f"duplicate {key}", line)
-                    mfs[k] = (lineno, val)
-                    continue
-                if key not in _VAR_KEYS:
-                    raise rd.err(lineno, f"unknown [{kind}{idx}] key {shorten(repr(key))}", line)
-                if key in kv:
-                    raise rd.err(lineno, f"duplicate [{kind}{idx}] key {shorten(repr(key))}", line)
-                kv[key] = (lineno, val)
-            for key in ("Name", "Range", "NumMFs"):
-                if key not in kv:
-                    raise rd.err(start, f"[{kind}{idx}] lacks {key}=")
-            vname = rd.string(*kv["Name"], "Name")
-            rng = rd.vector(*kv["Range"], "Range")
-            if len(rng) != 2 or not rng[0] < rng[1]:
-                raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
-            nmf = rd.int_(*kv["NumMFs"], "NumMFs", MAX_TERMS)
-            if sorted(mfs) != list(range(1, nmf + 1)):
-                raise rd.err(
-                    kv["NumMFs"][0],
-                    f"expected MF1..MF{nmf} (NumMFs={nmf}), "
-                    f"found {[f'MF{k}' for k in sorted(mfs)]}",
-                )
-            terms = []
-            for k in range(1, nmf + 1):
-                lineno, val = mfs[k]
-                m = _MF_RE.match(val)
-                if not m:
-                    raise rd.err(lineno, f"MF{k}: expected 'name':'type',[params]", val)
-                tname, family = m.group(1), mf.shape_for_matlab(m.group(2))
-                if family is None:
-                    known = [s.matlab for s in mf.SHAPES.values() if s.matlab]
-                    raise rd.err(
-                        lineno,
-                        f"MF{k}: unsupported membership function type "
-                        f"{shorten(repr(m.group(2)))} (supported: {', '.join(known)})",
-                        val,
-                    )
-                shape = family.name
-                params = [
-                    rd.num(lineno, t, f"MF{k} parameter")
-                    for t in m.group(3).replace(",", " ").split()
-                ]
-                try:
-                    terms.append(Term(tname, shape, tuple(params)))
-                except ValueError as e:
-                    raise rd.err(lineno, f"MF{k}: {e}", val) from None
-            try:
-                out.append(Variable(vname, (rng[0], rng[1]), tuple(terms)))
-            except ValueError as e:
-                raise rd.err(start, f"[{kind}{idx}]: {e}") from None
-        return out
 
-    inputs = variables("Input", n_in)
-    outputs = variables("Output", n_out)
+def _variables(
+    rd: _Reader, sections: list[_Section], kind: str, count: int, sys_line: int
+) -> list[Variable]:
+    """The ``count`` [Input<k>] (or [Output<k>]) sections, in order, as variables."""
+    secs = [s for s in sections if s[0] == kind]
+    idxs = [s[1] for s in secs]
+    if idxs != list(range(1, count + 1)):
+        raise rd.err(
+            secs[0][2] if secs else sys_line,
+            f"expected sections [{kind}1]..[{kind}{count}] in order "
+            f"(Num{kind}s={count}), found {[f'{kind}{i}' for i in idxs]}",
+        )
+    return [_variable(rd, kind, idx, start, lines) for _kind, idx, start, lines in secs]
 
-    rules_sec = sections[kinds.index("Rules")]
+
+def _variable(
+    rd: _Reader, kind: str, idx: int, start: int, lines: list[tuple[int, str]]
+) -> Variable:
+    """One [Input<k>] or [Output<k>] section as a variable."""
+    kv: dict[str, tuple[int, str]] = {}
+    mfs: dict[int, tuple[int, str]] = {}
+    for lineno, line in lines:
+        m = _KV_RE.match(line)
+        if not m:
+            raise rd.err(lineno, f"expected Key=Value in [{kind}{idx}]", line)
+        key, val = m.group(1), m.group(2).strip()
+        mm = re.fullmatch(r"MF(\d+)", key)
+        if mm:
+            k = rd.int_(lineno, mm.group(1), key, MAX_TERMS)
+            if k in mfs:
+                raise rd.err(lineno, f"duplicate {key}", line)
+            mfs[k] = (lineno, val)
+            continue
+        if key not in _VAR_KEYS:
+            raise rd.err(lineno, f"unknown [{kind}{idx}] key {shorten(repr(key))}", line)
+        if key in kv:
+            raise rd.err(lineno, f"duplicate [{kind}{idx}] key {shorten(repr(key))}", line)
+        kv[key] = (lineno, val)
+    for key in ("Name", "Range", "NumMFs"):
+        if key not in kv:
+            raise rd.err(start, f"[{kind}{idx}] lacks {key}=")
+    vname = rd.string(*kv["Name"], "Name")
+    rng = rd.vector(*kv["Range"], "Range")
+    if len(rng) != 2 or not rng[0] < rng[1]:
+        raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
+    nmf = rd.int_(*kv["NumMFs"], "NumMFs", MAX_TERMS)
+    if sorted(mfs) != list(range(1, nmf + 1)):
+        raise rd.err(
+            kv["NumMFs"][0],
+            f"expected MF1..MF{nmf} (NumMFs={nmf}), found {[f'MF{k}' for k in sorted(mfs)]}",
+        )
+    terms = [_term(rd, k, *mfs[k]) for k in range(1, nmf + 1)]
+    try:
+        return Variable(vname, (rng[0], rng[1]), tuple(terms))
+    except ValueError as e:
+        raise rd.err(start, f"[{kind}{idx}]: {e}") from None
+
+
+def _term(rd: _Reader, k: int, lineno: int, val: str) -> Term:
+    """``MF<k>='name':'type',[params]`` as a term."""
+    m = _MF_RE.match(val)
+    if not m:
+        raise rd.err(lineno, f"MF{k}: expected 'name':'type',[params]", val)
+    tname, family = m.group(1), mf.shape_for_matlab(m.group(2))
+    if family is None:
+        known = [s.matlab for s in mf.SHAPES.values() if s.matlab]
+        raise rd.err(
+            lineno,
+            f"MF{k}: unsupported membership function type "
+            f"{shorten(repr(m.group(2)))} (supported: {', '.join(known)})",
+            val,
+        )
+    shape = family.name
+    params = [rd.num(lineno, t, f"MF{k} parameter") for t in m.group(3).replace(",", " ").split()]
+    try:
+        return Term(tname, shape, tuple(params))
+    except ValueError as e:
+        raise rd.err(lineno, f"MF{k}: {e}", val) from None
+
+
+def _rules(
+    rd: _Reader,
+    rules_sec: _Section,
+    inputs: list[Variable],
+    outputs: list[Variable],
+    n_rules: int,
+) -> list:
+    """The [Rules] section: exactly ``n_rules`` rules."""
     rules: list = []
     for lineno, line in rules_sec[3]:
         m = _RULE_RE.match(line)
         if not m:
             raise rd.err(lineno, "expected a rule like '1 0 2 0, 3 1 (1) : 1'", line)
-        ant_t, con_t, w_t, conn_t = m.groups()
         if len(rules) >= n_rules:
             raise rd.err(lineno, f"more rules than NumRules={n_rules}", line)
-        ant = [rd.int_(lineno, t, "antecedent index", MAX_TERMS) for t in ant_t.split()]
-        con = [rd.int_(lineno, t, "consequent index", MAX_TERMS) for t in con_t.split()]
-        if len(ant) != n_in:
-            raise rd.err(
-                lineno,
-                f"the rule has {len(ant)} antecedent indices, the system has {n_in} inputs",
-                line,
-            )
-        if len(con) != n_out:
-            raise rd.err(
-                lineno,
-                f"the rule has {len(con)} consequent indices, the system has {n_out} outputs",
-                line,
-            )
-        w = rd.num(lineno, w_t, "rule weight")
-        if not 0.0 <= w <= 1.0:
-            raise rd.err(lineno, "rule weight must be in [0, 1]", w_t.strip())
-        conn = rd.int_(lineno, conn_t, "connection", 2)
-        if conn not in (1, 2):
-            raise rd.err(lineno, "connection must be 1 (AND) or 2 (OR)", conn_t)
-        if conn == 2 and sum(a != 0 for a in ant) > 1:
-            raise rd.err(lineno, "OR rules are not supported (only AND)", line)
-        for v, a in zip(inputs, ant):
-            if a < 0:
-                raise rd.err(
-                    lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line
-                )
-            if a > len(v.terms):
-                raise rd.err(
-                    lineno,
-                    f"term index {a} out of range for input {v.name!r} ({len(v.terms)} MFs)",
-                    line,
-                )
-        for v, c in zip(outputs, con):
-            if c < 0:
-                raise rd.err(
-                    lineno, f"negated consequents are not supported (output {v.name!r})", line
-                )
-            if c > len(v.terms):
-                raise rd.err(
-                    lineno,
-                    f"term index {c} out of range for output {v.name!r} ({len(v.terms)} MFs)",
-                    line,
-                )
-        try:
-            rules.append(
-                Rule(
-                    tuple(a - 1 if a else None for a in ant),
-                    tuple(c - 1 if c else None for c in con),
-                    w,
-                )
-            )
-        except ValueError as e:
-            raise rd.err(lineno, str(e), line) from None
+        rules.append(_rule(rd, lineno, line, m.groups(), inputs, outputs))
     if len(rules) != n_rules:
         raise rd.err(
             rules_sec[2], f"NumRules={n_rules} but the [Rules] section has {len(rules)} rules"
         )
+    return rules
+
+
+def _rule(
+    rd: _Reader,
+    lineno: int,
+    line: str,
+    groups,
+    inputs: list[Variable],
+    outputs: list[Variable],
+) -> Rule:
+    """One rule line (its regular expression's groups) as a rule."""
+    ant_t, con_t, w_t, conn_t = groups
+    n_in, n_out = len(inputs), len(outputs)
+    ant = [rd.int_(lineno, t, "antecedent index", MAX_TERMS) for t in ant_t.split()]
+    con = [rd.int_(lineno, t, "consequent index", MAX_TERMS) for t in con_t.split()]
+    if len(ant) != n_in:
+        raise rd.err(
+            lineno,
+            f"the rule has {len(ant)} antecedent indices, the system has {n_in} inputs",
+            line,
+        )
+    if len(con) != n_out:
+        raise rd.err(
+            lineno,
+            f"the rule has {len(con)} consequent indices, the system has {n_out} outputs",
+            line,
+        )
+    w = rd.num(lineno, w_t, "rule weight")
+    if not 0.0 <= w <= 1.0:
+        raise rd.err(lineno, "rule weight must be in [0, 1]", w_t.strip())
+    conn = rd.int_(lineno, conn_t, "connection", 2)
+    if conn not in (1, 2):
+        raise rd.err(lineno, "connection must be 1 (AND) or 2 (OR)", conn_t)
+    if conn == 2 and sum(a != 0 for a in ant) > 1:
+        raise rd.err(lineno, "OR rules are not supported (only AND)", line)
+    for v, a in zip(inputs, ant):
+        if a < 0:
+            raise rd.err(
+                lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line
+            )
+        if a > len(v.terms):
+            raise rd.err(
+                lineno,
+                f"term index {a} out of range for input {v.name!r} ({len(v.terms)} MFs)",
+                line,
+            )
+    for v, c in zip(outputs, con):
+        if c < 0:
+            raise rd.err(lineno, f"negated consequents are not supported (output {v.name!r})", line)
+        if c > len(v.terms):
+            raise rd.err(
+                lineno,
+                f"term index {c} out of range for output {v.name!r} ({len(v.terms)} MFs)",
+                line,
+            )
+    try:
+        return Rule(
+            tuple(a - 1 if a else None for a in ant),
+            tuple(c - 1 if c else None for c in con),
+            w,
+        )
+    except ValueError as e:
+        raise rd.err(lineno, str(e), line) from None
+
+
+def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
+    """Parse .fis text (``source`` names it in error messages)."""
+    rd = _Reader(source)
+    sections = _sections(rd, text)
+    kinds = [s[0] for s in sections]
+    for k in ("System", "Rules"):
+        if kinds.count(k) != 1:
+            raise rd.err(None, f"expected exactly one [{k}] section, found {kinds.count(k)}")
+    sys_sec = sections[kinds.index("System")]
+    sysd = _system_keys(rd, sys_sec)
+    name = rd.string(*sysd["Name"], "Name")
+    choices = _system_choices(rd, sysd, sys_sec[2])
+    n_in = rd.int_(*sysd["NumInputs"], "NumInputs", MAX_VARIABLES)
+    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs", MAX_VARIABLES)
+    n_rules = rd.int_(*sysd["NumRules"], "NumRules", MAX_RULES)
+    inputs = _variables(rd, sections, "Input", n_in, sys_sec[2])
+    outputs = _variables(rd, sections, "Output", n_out, sys_sec[2])
+    rules = _rules(rd, sections[kinds.index("Rules")], inputs, outputs, n_rules)
     try:
         return FuzzySystem(
             inputs,

@@ -110,7 +110,6 @@ KNOWN_LONG_FUNCTIONS: set[str] = {
     "fuzzynav.app.viewer.rule_table.rules_rows_svg",
     "fuzzynav.app.viewer.stepwise.stage_html",
     "fuzzynav.app.viewer.views.inference_html",
-    "fuzzynav.controller.fis.loads_fis",
 }
 
 
