@@ -277,10 +277,30 @@ def obstacle_bearings(pose: np.ndarray, obstacle_xy: np.ndarray) -> np.ndarray:
 
 def target_geometry(pose: np.ndarray, target_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(distance d_t, bearing phi_t in (-pi, pi]) of the target (``target_xy`` (n, 2))
-    from every pose, centre to centre."""
-    dx = target_xy[:, 0] - pose[:, 0]
-    dy = target_xy[:, 1] - pose[:, 1]
-    return np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - pose[:, 2])
+    from every pose, centre to centre (:func:`target_inputs`)."""
+    return target_inputs(pose[:, 0], pose[:, 1], pose[:, 2], target_xy)
+
+
+def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:
+    """The target's distance and bearing from each robot, Eqs. 9-10: the batch engine's
+    (:mod:`world.kernels`) and the drawings' (:func:`target_geometry`); its float form
+    is :func:`world.perception.target_inputs`.
+
+    Parameters
+    ----------
+    x, y, heading : numpy.ndarray, (n,)
+        The robots' poses, m and rad.
+    target : numpy.ndarray, (n, 2)
+        The targets, m.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(d_t, phi_t)``, each (n,): m and rad in (-pi, pi].
+    """
+    dx = target[:, 0] - x
+    dy = target[:, 1] - y
+    return np.hypot(dx, dy), wrap_angles(np.arctan2(dy, dx) - heading)
 
 
 def circle_points(radius_m: float, segments: int) -> np.ndarray:

@@ -1,6 +1,7 @@
 """The array stages of one step, in one place: angle wrapping, the obstacles' motion
 law, footprint clearance, the pose update, the sonar rays, perception and the run
-metrics' per-row terms, each on arrays of many runs.
+metrics' per-row terms, each on arrays of many runs (the angle wrapping, the
+clearance formula and the target inputs are :mod:`world.geometry`'s, re-exported).
 
 The lockstep batch engine (:mod:`world.batch_world`) is made of these functions; the
 pymunk engine computes the same quantities with plain floats for one run
@@ -22,7 +23,7 @@ import math
 
 import numpy as np
 
-from fuzzynav.world.geometry import rectangle_clearances, wrap_angles
+from fuzzynav.world.geometry import rectangle_clearances, target_inputs, wrap_angles
 
 #: The sweep's sample spacing in relative motion (m): the footprint-to-surface clearance
 #: changes by at most the relative displacement of robot and obstacle, so the true
@@ -293,27 +294,6 @@ def arc_poses(pose0, v: float, w: float, tau):
         x = x0 + v * tau * math.cos(h0)
         y = y0 + v * tau * math.sin(h0)
     return x, y, heading
-
-
-def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:
-    """The target's distance and bearing from each robot, Eqs. 9-10
-    (:func:`world.perception.target_inputs`).
-
-    Parameters
-    ----------
-    x, y, heading : numpy.ndarray, (n,)
-        The robots' poses, m and rad.
-    target : numpy.ndarray, (n, 2)
-        The targets, m.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(d_t, phi_t)``, each (n,): m and rad in (-pi, pi].
-    """
-    dx = target[:, 0] - x
-    dy = target[:, 1] - y
-    return np.hypot(dx, dy), wrap_angles(np.arctan2(dy, dx) - heading)
 
 
 def ideal_obstacle_inputs(
