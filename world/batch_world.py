@@ -47,7 +47,7 @@ from fuzzynav.world.kernels import (
 from fuzzynav.world.metrics import in_window
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
 from fuzzynav.world.scenario import Scenario
-from fuzzynav.world.sensors import SensorConfig
+from fuzzynav.world.sensors import SCHEDULE_SLACK_S, SensorConfig
 from fuzzynav.world.simulation import check_loop_settings
 
 __all__ = ["BatchWorld"]
@@ -142,9 +142,7 @@ class BatchWorld:
         self.offsets = np.asarray(config.ray_offsets_rad(), dtype=float)
         self.n_sensors = len(self.mount_x)
         # The farthest any ray reaches from the robot's centre, m (the sensors' prefilter).
-        self.sonar_reach_m = (
-            max(math.hypot(mt.x_m, mt.y_m) for mt in config.mounts) + config.max_range_m + 1e-6
-        )
+        self.sonar_reach_m = config.reach_m()
         self.update_period_s = 1.0 / config.update_rate_hz
         self._noisy = self.ultrasonic and config.noise_std_m > 0
 
@@ -308,7 +306,7 @@ class BatchWorld:
     def _update_sonars(self) -> None:
         """New readings for the runs whose sonars are due (the sensors' schedule)."""
         s = self.s
-        due = ~(s.t + 1e-12 < s.next_update)
+        due = ~(s.t + SCHEDULE_SLACK_S < s.next_update)
         if not due.any():
             return
         following = s.next_update + self.update_period_s

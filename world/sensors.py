@@ -41,6 +41,8 @@ from fuzzynav.world.robot import HUSKY, SensorMount, sonar_mounts
 # Slack on the prefilter's distances and angles, far above the rounding of the centres
 # and directions it compares: it may let a ray through that misses, never the reverse.
 _PREFILTER_SLACK_M = 1e-6
+#: A reading is due once the time is within this of its schedule (s; both engines).
+SCHEDULE_SLACK_S = 1e-12
 _ANGLE_SLACK_RAD = 1e-9
 _cos, _sin, _hypot, _atan2, _asin = math.cos, math.sin, math.hypot, math.atan2, math.asin
 
@@ -112,6 +114,12 @@ class SensorConfig:
                 f"must be below max_range_m = {self.max_range_m!r}"
             )
 
+    def reach_m(self) -> float:
+        """The farthest any ray reaches from the robot's centre (m), with the
+        prefilter's slack: which obstacles a cast may hit, in both engines."""
+        near = max((math.hypot(m.x_m, m.y_m) for m in self.mounts), default=0.0)
+        return near + self.max_range_m + _PREFILTER_SLACK_M
+
     def ray_offsets_rad(self) -> np.ndarray:
         if self.rays_per_beam == 1:
             return np.zeros(1)
@@ -158,14 +166,13 @@ class RangeSensorArray:
         cfg = self.config
         if self._constants_for is not cfg:
             mounts = [(m.x_m, m.y_m, m.angle_rad) for m in cfg.mounts]
-            reach = max((math.hypot(mx, my) for mx, my, _ in mounts), default=0.0) + cfg.max_range_m
-            self._consts = (mounts, reach + _PREFILTER_SLACK_M)
+            self._consts = (mounts, cfg.reach_m())
             self._constants_for = cfg
         return self._consts
 
     def read(self, arena: Arena, time_s: float) -> np.ndarray:
         """Cast the rays if an update is due, and return the readings (m, inf = no echo)."""
-        if time_s + 1e-12 < self._next_update_s:
+        if time_s + SCHEDULE_SLACK_S < self._next_update_s:
             return self._ranges
         period = 1.0 / self.config.update_rate_hz
         # Keep a steady cadence, but never schedule the next update in the past.
