@@ -219,62 +219,20 @@ def rules_rows_svg(
             "no rule of this block fires</text></svg>"
         )
         return "".join(parts)
-    pad = 2.0
-    w, h = CELL_W - 2 * pad, CELL_H - 2 * pad
     fills, labels, hits = [], [], []
     for row, r in enumerate(rules):
-        rule = fis.rules[r]
         s = float(inf.strengths[r])
         y0 = row * CELL_H
         hits.append(f"<rect data-rule='{r + 1}' y='{y0:.0f}'/>")
         if s <= 0.0:
             continue
-        degrees = "; ".join(
-            f"{inf.input_labels[i]} is {fis.inputs[i].terms[k].name} "
-            f"{_fmt_degree(float(inf.memberships[i][k]))}"
-            for i in ins
-            for k in (rule.antecedent[i],)
-            if k is not None
-        )
-        parts.append(
-            f"<rect class='fz-firing' data-rule='{r + 1}' data-strength='{s:.6g}'"
-            f" data-shown='{_fmt_degree(s)}' data-degrees='{html.escape(degrees, quote=True)}'"
-            f" data-and='{_and_word(fis)}' x='0'"
-            f" y='{y0:.1f}' width='{width:.0f}' height='{CELL_H:.0f}' fill='{FIRING_ROW}'/>"
-        )
+        parts.append(_firing_highlight(inf, r, s, y0, ins, width))
         labels.append(
             f"<rect x='0' y='{y0 + 1:.0f}' width='{NUM_W - 4:.0f}' height='{CELL_H - 2:.0f}'"
             f" fill='{FIRING_ROW}'/><text x='2' y='{y0 + 12:.1f}'>{r + 1}"
             f" {_fmt_degree(s)}</text>"
         )
-        cells = [("in", i, rule.antecedent[i]) for i in ins] + [
-            ("out", j, rule.consequent[j]) for j in outs
-        ]
-        for c, (kind, v, k) in enumerate(cells):
-            if k is None:
-                continue
-            level = float(inf.memberships[v][k]) if kind == "in" else s
-            if level > 0 and kind == "out" and _choice(fis, "imp_method", "min") == "prod":
-                fills.append(
-                    _scaled_use(
-                        f"{uid}out{v}f{k}", col_x(c) + pad, y0 + pad, w, h, s, CONSEQUENT_FILL, 0.85
-                    )
-                )
-            elif level > 0:
-                fill = ANTECEDENT_FILL if kind == "in" else CONSEQUENT_FILL
-                fills.append(
-                    _clipped_use(
-                        f"{uid}{kind}{v}f{k}",
-                        f"{uid}c{r}_{c}",
-                        col_x(c) + pad,
-                        y0 + pad,
-                        w,
-                        h,
-                        level,
-                        fill,
-                        0.85,
-                    )
-                )
+        fills += _row_fills(inf, r, s, y0, ins, outs, col_x, uid)
     # Outlines over the row highlights, fills over the outlines.
     if skeleton is not None:
         parts.append(f"<use href='#{skeleton}'/>")
@@ -289,18 +247,7 @@ def rules_rows_svg(
             f"<g font-size='9' font-weight='700' fill='#0f172a' class='fz-strengths'>"
             f"{''.join(labels)}</g>"
         )
-    # The input values as vertical lines through every row of their column.
-    bottom = len(rules) * CELL_H
-    for c, i in enumerate(ins):
-        var = fis.inputs[i]
-        lo, hi = var.range
-        xline = _x_of(float(inf.inputs[i]), lo, hi, col_x(c) + pad, CELL_W - 2 * pad)
-        if xline is not None:
-            parts.append(
-                f"<line class='fz-input-line' x1='{xline:.1f}' x2='{xline:.1f}' y1='0' "
-                f"y2='{bottom:.0f}' stroke='{input_colour(inf.input_labels[i])}'"
-                " stroke-width='1.2'/>"
-            )
+    parts += _input_lines(inf, ins, col_x, len(rules) * CELL_H)
     # Hover areas, one per row, on top (transparent).
     parts.append(
         "<g class='fz-hit' fill='transparent' pointer-events='all' style='cursor:zoom-in'>"
@@ -310,6 +257,81 @@ def rules_rows_svg(
     )
     parts.append("</svg>")
     return "".join(parts)
+
+
+def _firing_highlight(inf: Inference, r: int, s: float, y0: float, ins, width: float) -> str:
+    """A firing rule's row highlight, carrying its strength and its clauses' degrees."""
+    fis = inf.fis
+    rule = fis.rules[r]
+    degrees = "; ".join(
+        f"{inf.input_labels[i]} is {fis.inputs[i].terms[k].name} "
+        f"{_fmt_degree(float(inf.memberships[i][k]))}"
+        for i in ins
+        for k in (rule.antecedent[i],)
+        if k is not None
+    )
+    return (
+        f"<rect class='fz-firing' data-rule='{r + 1}' data-strength='{s:.6g}'"
+        f" data-shown='{_fmt_degree(s)}' data-degrees='{html.escape(degrees, quote=True)}'"
+        f" data-and='{_and_word(fis)}' x='0'"
+        f" y='{y0:.1f}' width='{width:.0f}' height='{CELL_H:.0f}' fill='{FIRING_ROW}'/>"
+    )
+
+
+def _row_fills(inf: Inference, r: int, s: float, y0: float, ins, outs, col_x, uid: str) -> list:
+    """A firing rule's cells filled to their degree (a consequent scaled under ``prod``
+    implication, clipped otherwise)."""
+    fis = inf.fis
+    rule = fis.rules[r]
+    pad = 2.0
+    w, h = CELL_W - 2 * pad, CELL_H - 2 * pad
+    fills = []
+    cells = [("in", i, rule.antecedent[i]) for i in ins] + [
+        ("out", j, rule.consequent[j]) for j in outs
+    ]
+    for c, (kind, v, k) in enumerate(cells):
+        if k is None:
+            continue
+        level = float(inf.memberships[v][k]) if kind == "in" else s
+        if level > 0 and kind == "out" and _choice(fis, "imp_method", "min") == "prod":
+            fills.append(
+                _scaled_use(
+                    f"{uid}out{v}f{k}", col_x(c) + pad, y0 + pad, w, h, s, CONSEQUENT_FILL, 0.85
+                )
+            )
+        elif level > 0:
+            fill = ANTECEDENT_FILL if kind == "in" else CONSEQUENT_FILL
+            fills.append(
+                _clipped_use(
+                    f"{uid}{kind}{v}f{k}",
+                    f"{uid}c{r}_{c}",
+                    col_x(c) + pad,
+                    y0 + pad,
+                    w,
+                    h,
+                    level,
+                    fill,
+                    0.85,
+                )
+            )
+    return fills
+
+
+def _input_lines(inf: Inference, ins, col_x, bottom: float) -> list[str]:
+    """The input values as vertical lines through every row of their column."""
+    pad = 2.0
+    lines = []
+    for c, i in enumerate(ins):
+        var = inf.fis.inputs[i]
+        lo, hi = var.range
+        xline = _x_of(float(inf.inputs[i]), lo, hi, col_x(c) + pad, CELL_W - 2 * pad)
+        if xline is not None:
+            lines.append(
+                f"<line class='fz-input-line' x1='{xline:.1f}' x2='{xline:.1f}' y1='0' "
+                f"y2='{bottom:.0f}' stroke='{input_colour(inf.input_labels[i])}'"
+                " stroke-width='1.2'/>"
+            )
+    return lines
 
 
 def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
