@@ -134,124 +134,18 @@ def stage_html(inf: Inference, stage: int) -> str:
     """Stage ``stage`` (1..N_STAGES) of the inference ``inf``: a title, a sentence with
     its numbers and its drawing."""
     stage = min(max(int(stage), 1), N_STAGES)
-    fis = inf.fis
     firing = _firing(inf)
     listed = firing[:MAX_LISTED]
-    more = len(firing) - len(listed)
-    and_prod = _choice(fis, "and_method", "min") == "prod"
-    imp_prod = _choice(fis, "imp_method", "min") == "prod"
-    agg = _choice(fis, "agg_method", "max")
-    body: list[str] = []
     if stage == 1:
-        body.append(
-            "<p class='fz-step-say'>Each input's value is read on each of its terms: the "
-            "degree to which the value is that term (0 to 1).</p><ul>"
-        )
-        for i, var in enumerate(fis.inputs):
-            value = float(inf.inputs[i])
-            label = html.escape(inf.input_labels[i])
-            if not np.isfinite(value):
-                body.append(f"<li><b>{label}</b> is not sensed: every term has degree 0.</li>")
-                continue
-            degrees = ", ".join(
-                (
-                    f"<b>{html.escape(t.name)} {_fmt_degree(float(d))}</b>"
-                    if d > 0
-                    else f"{html.escape(t.name)} 0"
-                )
-                for t, d in zip(var.terms, inf.memberships[i])
-            )
-            body.append(
-                f"<li><b>{label}</b> = {html.escape(_fmt_value(value, _unit(var)))}: {degrees}</li>"
-            )
-        body.append("</ul>")
+        body = _fuzzification(inf)
     elif stage == 2:
-        how = "multiplied (AND is prod)" if and_prod else "the smallest is taken (AND is min)"
-        body.append(
-            f"<p class='fz-step-say'>In each rule the degrees of its terms are combined: "
-            f"{how}. That is the rule's strength: <b>{len(firing)} of {len(fis.rules)} "
-            "rules</b> have one above zero.</p><ul>"
-        )
-        for r in listed:
-            rule = fis.rules[r]
-            clauses = _term_clause(inf, r)
-            weight = f" × weight {rule.weight:g}" if rule.weight != 1.0 else ""
-            body.append(
-                f"<li class='fz-step-rule' data-rule='{r + 1}'>Rule {r + 1}: "
-                + (" AND ".join(clauses))
-                + f" → {'product' if and_prod else 'min'}{weight} = "
-                f"<b>{_fmt_degree(float(inf.strengths[r]))}</b></li>"
-            )
-        body.append("</ul>")
-        if more > 0:
-            body.append(f"<p>… and {more} weaker rules.</p>")
-        if not firing:
-            body.append("<p><b>No rule fires</b>: the outputs will fall back.</p>")
+        body = _rule_strengths(inf, firing, listed)
     elif stage == 3:
-        how = (
-            "scaled by its strength (implication prod)"
-            if imp_prod
-            else "clipped at its strength (implication min)"
-        )
-        body.append(
-            f"<p class='fz-step-say'>Each firing rule's conclusion, an output term, is {how}: "
-            "one coloured set per rule below.</p><ul>"
-        )
-        for n, r in enumerate(listed):
-            rule = fis.rules[r]
-            said = ", ".join(
-                f"{html.escape(inf.output_labels[o])} is {html.escape(fis.outputs[o].terms[k].name)}"
-                for o, k in enumerate(rule.consequent)
-                if k is not None
-            )
-            body.append(
-                f"<li class='fz-step-rule' data-rule='{r + 1}' style='color:"
-                f"{COLOURS[n % len(COLOURS)]}'>Rule {r + 1} ({_fmt_degree(float(inf.strengths[r]))}): "
-                f"{said}</li>"
-            )
-        body.append("</ul>")
-        sets = {r: implied_sets(inf, r) for r in listed}
-        for o in range(fis.n_outputs):
-            curves = [
-                (sets[r][o], COLOURS[n % len(COLOURS)])
-                for n, r in enumerate(listed)
-                if o in sets[r]
-            ]
-            body.append(_plot(inf, o, curves))
+        body = _implication(inf, listed)
     elif stage == 4:
-        how = {
-            "max": "the largest of the implied sets at each point (aggregation max)",
-            "sum": "the implied sets added at each point (aggregation sum; it can pass 1)",
-            "probor": "the implied sets combined by probabilistic OR, a + b − ab "
-            "(aggregation probor)",
-        }.get(agg, f"aggregation {html.escape(agg)}")
-        peaks = ", ".join(
-            f"{html.escape(inf.output_labels[o])} peaks at {float(np.max(inf.aggregate[o])):.2f}"
-            for o in range(fis.n_outputs)
-        )
-        body.append(f"<p class='fz-step-say'>For each output, one set: {how}. {peaks}.</p>")
-        for o in range(fis.n_outputs):
-            body.append(_plot(inf, o, [], fill=inf.aggregate[o]))
+        body = _aggregation(inf)
     else:
-        word = _defuzz_word(fis)
-        crisp = ", ".join(
-            f"<b>{html.escape(inf.output_labels[o])} = "
-            f"{html.escape(_fmt_value(float(inf.centroids[o]), fis.outputs[o].unit or ''))}</b>"
-            for o in range(fis.n_outputs)
-        )
-        fallback = [inf.output_labels[o] for o, f in enumerate(inf.fallback) if f]
-        note = (
-            f" No rule concludes on {html.escape(', '.join(fallback))}: the middle of its "
-            "range (the fallback)."
-            if fallback
-            else ""
-        )
-        body.append(
-            f"<p class='fz-step-say'>Each aggregated set gives one number, its {word}: "
-            f"{crisp}. These are the wheels' voltages the robot is sent.{note}</p>"
-        )
-        for o in range(fis.n_outputs):
-            body.append(_plot(inf, o, [], fill=inf.aggregate[o], line_at=float(inf.centroids[o])))
+        body = _defuzzification(inf)
     return (
         f"<div class='fz-stepwise' data-stage='{stage}' style='font-family:system-ui,sans-serif;"
         "font-size:0.9em;padding:4px 6px;margin:0 4px 6px;border:2px solid #2563eb;"
@@ -259,3 +153,139 @@ def stage_html(inf: Inference, stage: int) -> str:
         f"<div class='fz-step-title' style='font-weight:700'>Step {stage} of {N_STAGES}: "
         f"{STAGES[stage - 1]}</div>{''.join(body)}</div>"
     )
+
+
+def _fuzzification(inf: Inference) -> list[str]:
+    """Stage 1: each input's degree on each of its terms."""
+    fis = inf.fis
+    body = [
+        "<p class='fz-step-say'>Each input's value is read on each of its terms: the "
+        "degree to which the value is that term (0 to 1).</p><ul>"
+    ]
+    for i, var in enumerate(fis.inputs):
+        value = float(inf.inputs[i])
+        label = html.escape(inf.input_labels[i])
+        if not np.isfinite(value):
+            body.append(f"<li><b>{label}</b> is not sensed: every term has degree 0.</li>")
+            continue
+        degrees = ", ".join(
+            (
+                f"<b>{html.escape(t.name)} {_fmt_degree(float(d))}</b>"
+                if d > 0
+                else f"{html.escape(t.name)} 0"
+            )
+            for t, d in zip(var.terms, inf.memberships[i])
+        )
+        body.append(
+            f"<li><b>{label}</b> = {html.escape(_fmt_value(value, _unit(var)))}: {degrees}</li>"
+        )
+    body.append("</ul>")
+    return body
+
+
+def _rule_strengths(inf: Inference, firing, listed) -> list[str]:
+    """Stage 2: each firing rule's strength, its terms' degrees combined."""
+    fis = inf.fis
+    more = len(firing) - len(listed)
+    and_prod = _choice(fis, "and_method", "min") == "prod"
+    how = "multiplied (AND is prod)" if and_prod else "the smallest is taken (AND is min)"
+    body = [
+        f"<p class='fz-step-say'>In each rule the degrees of its terms are combined: "
+        f"{how}. That is the rule's strength: <b>{len(firing)} of {len(fis.rules)} "
+        "rules</b> have one above zero.</p><ul>"
+    ]
+    for r in listed:
+        rule = fis.rules[r]
+        clauses = _term_clause(inf, r)
+        weight = f" × weight {rule.weight:g}" if rule.weight != 1.0 else ""
+        body.append(
+            f"<li class='fz-step-rule' data-rule='{r + 1}'>Rule {r + 1}: "
+            + (" AND ".join(clauses))
+            + f" → {'product' if and_prod else 'min'}{weight} = "
+            f"<b>{_fmt_degree(float(inf.strengths[r]))}</b></li>"
+        )
+    body.append("</ul>")
+    if more > 0:
+        body.append(f"<p>… and {more} weaker rules.</p>")
+    if not firing:
+        body.append("<p><b>No rule fires</b>: the outputs will fall back.</p>")
+    return body
+
+
+def _implication(inf: Inference, listed) -> list[str]:
+    """Stage 3: each firing rule's conclusion clipped at (or scaled by) its strength."""
+    fis = inf.fis
+    imp_prod = _choice(fis, "imp_method", "min") == "prod"
+    how = (
+        "scaled by its strength (implication prod)"
+        if imp_prod
+        else "clipped at its strength (implication min)"
+    )
+    body = [
+        f"<p class='fz-step-say'>Each firing rule's conclusion, an output term, is {how}: "
+        "one coloured set per rule below.</p><ul>"
+    ]
+    for n, r in enumerate(listed):
+        rule = fis.rules[r]
+        said = ", ".join(
+            f"{html.escape(inf.output_labels[o])} is {html.escape(fis.outputs[o].terms[k].name)}"
+            for o, k in enumerate(rule.consequent)
+            if k is not None
+        )
+        body.append(
+            f"<li class='fz-step-rule' data-rule='{r + 1}' style='color:"
+            f"{COLOURS[n % len(COLOURS)]}'>Rule {r + 1} ({_fmt_degree(float(inf.strengths[r]))}): "
+            f"{said}</li>"
+        )
+    body.append("</ul>")
+    sets = {r: implied_sets(inf, r) for r in listed}
+    for o in range(fis.n_outputs):
+        curves = [
+            (sets[r][o], COLOURS[n % len(COLOURS)]) for n, r in enumerate(listed) if o in sets[r]
+        ]
+        body.append(_plot(inf, o, curves))
+    return body
+
+
+def _aggregation(inf: Inference) -> list[str]:
+    """Stage 4: the implied sets of each output combined into one."""
+    fis = inf.fis
+    agg = _choice(fis, "agg_method", "max")
+    how = {
+        "max": "the largest of the implied sets at each point (aggregation max)",
+        "sum": "the implied sets added at each point (aggregation sum; it can pass 1)",
+        "probor": "the implied sets combined by probabilistic OR, a + b − ab (aggregation probor)",
+    }.get(agg, f"aggregation {html.escape(agg)}")
+    peaks = ", ".join(
+        f"{html.escape(inf.output_labels[o])} peaks at {float(np.max(inf.aggregate[o])):.2f}"
+        for o in range(fis.n_outputs)
+    )
+    body = [f"<p class='fz-step-say'>For each output, one set: {how}. {peaks}.</p>"]
+    for o in range(fis.n_outputs):
+        body.append(_plot(inf, o, [], fill=inf.aggregate[o]))
+    return body
+
+
+def _defuzzification(inf: Inference) -> list[str]:
+    """Stage 5: each aggregated set's one number (or the fallback)."""
+    fis = inf.fis
+    word = _defuzz_word(fis)
+    crisp = ", ".join(
+        f"<b>{html.escape(inf.output_labels[o])} = "
+        f"{html.escape(_fmt_value(float(inf.centroids[o]), fis.outputs[o].unit or ''))}</b>"
+        for o in range(fis.n_outputs)
+    )
+    fallback = [inf.output_labels[o] for o, f in enumerate(inf.fallback) if f]
+    note = (
+        f" No rule concludes on {html.escape(', '.join(fallback))}: the middle of its "
+        "range (the fallback)."
+        if fallback
+        else ""
+    )
+    body = [
+        f"<p class='fz-step-say'>Each aggregated set gives one number, its {word}: "
+        f"{crisp}. These are the wheels' voltages the robot is sent.{note}</p>"
+    ]
+    for o in range(fis.n_outputs):
+        body.append(_plot(inf, o, [], fill=inf.aggregate[o], line_at=float(inf.centroids[o])))
+    return body
