@@ -107,7 +107,6 @@ FUNCTION_LIMIT_LINES = 100
 #: (test_the_long_function_list_names_only_long_functions).
 KNOWN_LONG_FUNCTIONS: set[str] = {
     "fuzzynav.app.viewer.controls.ControlPanel.build",
-    "fuzzynav.app.viewer.views.inference_html",
 }
 
 

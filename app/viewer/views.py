@@ -248,39 +248,7 @@ def inference_html(
     is, said once under the summary (fuzzynav's phi_plan). ``large`` (presentation
     mode) also lists the firing rules as sentences."""
     fs = "1.25em" if large else "0.85em"
-    n, total = inf.n_firing, len(inf.strengths)
-    fallback = inf.fallback
-
-    def used(j):
-        return weights is None or weights.get(inf.output_labels[j], 1.0) > 0.0
-
-    lines = []
-    if n == 0 or all(fallback):
-        lines.append(
-            "<div class='fz-fallback' style='padding:4px 6px;border-radius:4px;"
-            "background:#fee2e2;color:#991b1b;font-weight:600'>No rule fires: fallback. "
-            "Every output takes the middle of its range (the engine's and MATLAB's "
-            "convention).</div>"
-        )
-    else:
-        best = int(np.argmax(inf.strengths))
-        lines.append(
-            f"<div class='fz-summary'><b>{n} of {total} rules fire</b> (strength &gt; 0); "
-            f"strongest: rule {best + 1} at {_fmt_degree(float(inf.strengths[best]))}.</div>"
-        )
-        names = [inf.output_labels[j] for j, f in enumerate(fallback) if f and used(j)]
-        idle = [inf.output_labels[j] for j, f in enumerate(fallback) if f and not used(j)]
-        if names:
-            lines.append(
-                "<div class='fz-fallback' style='color:#991b1b'>No rule concludes on "
-                f"{html.escape(', '.join(names))}: fallback to the middle of its range.</div>"
-            )
-        if idle:
-            lines.append(
-                "<div class='fz-idle' style='color:#475569'>No rule concludes on "
-                f"{html.escape(', '.join(idle))}: nothing calls for it, and its weight is 0 "
-                "now, so it does not steer.</div>"
-            )
+    lines = _summary_lines(inf, weights)
     centroid_text = ", ".join(
         f"{html.escape(name)} = {c:.2f}" for name, c in zip(inf.output_labels, inf.centroids)
     )
@@ -299,6 +267,61 @@ def inference_html(
             "<div style='font-weight:600;margin-top:4px'>Crisp parts</div>"
             f"<table style='width:100%'>{rows}</table>"
         )
+    lines += _block_lines(inf, uid, only_firing=only_firing, weights=weights, drag=drag)
+    if large and inf.n_firing:
+        lines.append(_firing_sentences(inf))
+    return (
+        # (14 px on the right: the panel's overlay scrollbar covered the plots' edge)
+        f"<div class='fz-inference' style='font-family:system-ui,sans-serif;font-size:{fs};"
+        f"padding:0 14px 0 4px'>{''.join(lines)}</div>"
+    )
+
+
+def _summary_lines(inf: Inference, weights: dict | None) -> list[str]:
+    """How many rules fire and the strongest, or the fallback; the outputs no rule
+    concludes on (an alarm only where their weight is above zero)."""
+    n, total = inf.n_firing, len(inf.strengths)
+    fallback = inf.fallback
+
+    def used(j):
+        return weights is None or weights.get(inf.output_labels[j], 1.0) > 0.0
+
+    lines = []
+    if n == 0 or all(fallback):
+        lines.append(
+            "<div class='fz-fallback' style='padding:4px 6px;border-radius:4px;"
+            "background:#fee2e2;color:#991b1b;font-weight:600'>No rule fires: fallback. "
+            "Every output takes the middle of its range (the engine's and MATLAB's "
+            "convention).</div>"
+        )
+        return lines
+    best = int(np.argmax(inf.strengths))
+    lines.append(
+        f"<div class='fz-summary'><b>{n} of {total} rules fire</b> (strength &gt; 0); "
+        f"strongest: rule {best + 1} at {_fmt_degree(float(inf.strengths[best]))}.</div>"
+    )
+    names = [inf.output_labels[j] for j, f in enumerate(fallback) if f and used(j)]
+    idle = [inf.output_labels[j] for j, f in enumerate(fallback) if f and not used(j)]
+    if names:
+        lines.append(
+            "<div class='fz-fallback' style='color:#991b1b'>No rule concludes on "
+            f"{html.escape(', '.join(names))}: fallback to the middle of its range.</div>"
+        )
+    if idle:
+        lines.append(
+            "<div class='fz-idle' style='color:#475569'>No rule concludes on "
+            f"{html.escape(', '.join(idle))}: nothing calls for it, and its weight is 0 "
+            "now, so it does not steer.</div>"
+        )
+    return lines
+
+
+def _block_lines(
+    inf: Inference, uid: str, *, only_firing: bool, weights: dict | None, drag: dict | None
+) -> list[str]:
+    """Each rule block: its heading (when there are several), its rule grid, then its
+    inputs and their terms."""
+    lines = []
     blocks = rule_blocks(inf.fis)
     for b, (rules, ins, outs) in enumerate(blocks):
         if len(blocks) > 1:
@@ -332,21 +355,20 @@ def inference_html(
         )
         lines.append("<div style='font-weight:600;margin-top:6px'>Inputs and their terms</div>")
         lines.append(inputs_svg(inf, ins, uid, drag))
-    if large and n:
-        order = [int(r) for r in np.argsort(-inf.strengths, kind="stable") if inf.strengths[r] > 0]
-        items = "".join(
-            f"<li><b>{_fmt_degree(float(inf.strengths[r]))}</b> "
-            f"{html.escape(rule_sentence(inf.fis, r, inf.input_labels, inf.output_labels))}</li>"
-            for r in order[:6]
-        )
-        more = f"<div>… and {len(order) - 6} more</div>" if len(order) > 6 else ""
-        lines.append(
-            "<div class='fz-firing-sentences' style='margin-top:4px'><b>Firing rules, "
-            f"strongest first</b><ul style='margin:2px 0 0 18px;padding:0'>{items}</ul>"
-            f"{more}</div>"
-        )
+    return lines
+
+
+def _firing_sentences(inf: Inference) -> str:
+    """The six strongest firing rules as sentences (presentation mode)."""
+    order = [int(r) for r in np.argsort(-inf.strengths, kind="stable") if inf.strengths[r] > 0]
+    items = "".join(
+        f"<li><b>{_fmt_degree(float(inf.strengths[r]))}</b> "
+        f"{html.escape(rule_sentence(inf.fis, r, inf.input_labels, inf.output_labels))}</li>"
+        for r in order[:6]
+    )
+    more = f"<div>… and {len(order) - 6} more</div>" if len(order) > 6 else ""
     return (
-        # (14 px on the right: the panel's overlay scrollbar covered the plots' edge)
-        f"<div class='fz-inference' style='font-family:system-ui,sans-serif;font-size:{fs};"
-        f"padding:0 14px 0 4px'>{''.join(lines)}</div>"
+        "<div class='fz-firing-sentences' style='margin-top:4px'><b>Firing rules, "
+        f"strongest first</b><ul style='margin:2px 0 0 18px;padding:0'>{items}</ul>"
+        f"{more}</div>"
     )
