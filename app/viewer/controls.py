@@ -83,7 +83,6 @@ class ControlPanel:
 
     def build(self) -> None:
         gui = self.view.server.gui
-        app = self.app
         gui.configure_theme(
             dark_mode=False,
             show_logo=False,
@@ -92,7 +91,18 @@ class ControlPanel:
             control_width="large",
         )
         gui.set_panel_label("fuzzynav · fuzzy Husky navigator")
+        self._build_run_controls(gui)
+        self._build_scenario_folder(gui)
+        self._build_controller_folder(gui)
+        self._build_lesson_and_view_folders(gui)
+        with gui.add_folder("Colour key"):
+            gui.add_html(colour_key_html())
+        with gui.add_folder("Result"):
+            self.view.status_line.add_result(gui)
 
+    def _build_run_controls(self, gui) -> None:
+        """The status, Run and Speed buttons, the run's history and the drag hint."""
+        app = self.app
         self.view.status_line.add_status(gui)
         self.run_buttons = gui.add_button_group("Run", ("Play", "Pause", "Step", "Reset"))
         self.run_buttons.on_click(self.view.guarded(self._on_run_button))
@@ -121,6 +131,10 @@ class ControlPanel:
             "<b>→</b> step, <b>R</b> reset.</div>" + KEYS_HTML
         )
 
+    def _build_scenario_folder(self, gui) -> None:
+        """Scenario: the choice, obstacles added or removed, the layout restored, an
+        upload."""
+        app = self.app
         with gui.add_folder("Scenario"):
             self.scenario_dd = gui.add_dropdown(
                 "Scenario", app.scenario_options(), initial_value=app.scenario_label
@@ -139,6 +153,10 @@ class ControlPanel:
             )
             self.scenario_upload.on_upload(self.view.guarded(self._on_scenario_upload))
 
+    def _build_controller_folder(self, gui) -> None:
+        """Controller and sensing: the controller (or a .fis upload), perception,
+        geometry, disturbance, noise, and fuzzynav's parts."""
+        app = self.app
         with gui.add_folder("Controller and sensing"):
             self.controller_dd = gui.add_dropdown(
                 "Controller",
@@ -194,6 +212,8 @@ class ControlPanel:
                     )
                     self.part_boxes[part.name] = box
 
+    def _build_lesson_and_view_folders(self, gui) -> None:
+        """Lesson (save, open) and View (handles, 3D, presentation mode)."""
         with gui.add_folder("Lesson", expand_by_default=False):
             # A lesson saved and opened again (issue 38): scenario, layout, controller
             # and its edits, settings, view and time, in one JSON file.
@@ -227,10 +247,6 @@ class ControlPanel:
                 hint="A wide inference panel and large type, for a projector",
             )
             self.presentation_cb.on_update(self.view.guarded(self._on_presentation))
-        with gui.add_folder("Colour key"):
-            gui.add_html(colour_key_html())
-        with gui.add_folder("Result"):
-            self.view.status_line.add_result(gui)
 
     def sync(self, snap: Snapshot) -> None:
         """Show in every tab what the world is (another tab may have changed it)."""
