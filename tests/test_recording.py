@@ -1330,7 +1330,7 @@ def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
 
 
 def test_a_legend_gets_empty_room_or_the_emptiest_corner():
-    from fuzzynav.app.recordings.blueprint import LEGEND_ENTRY_PX, PLOT_PX, legend_placement
+    from fuzzynav.app.recordings.legend import LEGEND_ENTRY_PX, PLOT_PX, legend_placement
 
     t = np.linspace(0, 1, 400)
     busy = np.column_stack([np.sin(9 * t), np.cos(9 * t)])  # data in every corner

@@ -506,7 +506,7 @@ def test_legends_placed_from_pieces_are_placed_as_from_every_row():
     """record_run kept every plotted row (264 bytes a row for the paper's plots) to
     place the legends at the end: it keeps each plot's value range and reads the rows
     under the legends from the log again, in blocks (:class:`LegendFit`)."""
-    from fuzzynav.app.recordings.blueprint import LegendFit, legend_placement, unit_times
+    from fuzzynav.app.recordings.legend import LegendFit, legend_placement, unit_times
 
     for n in (1, 2, 3, 7, 1000, 60_001, 123_457):
         t = np.linspace(0.0, 1.0, n)

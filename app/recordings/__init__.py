@@ -11,7 +11,8 @@
 - :mod:`.events`     closest approaches, the disturbance window and the end;
 - :mod:`.plot_events` those events marked on every time-series plot;
 - :mod:`.documents`  the run's documents under ``/meta`` (run, versions, rules, summary);
-- :mod:`.blueprint`  the default layout, legend placement and the application id;
+- :mod:`.blueprint`  the default layout and the application id;
+- :mod:`.legend`     where a plot's legend goes, and the headroom made for it;
 - :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;
 - :mod:`.style`      colours, draw orders and sizes;
 - :mod:`.trace`      ``run --trace PATH.csv``: one row per control step;

@@ -14,7 +14,6 @@ import numpy as np
 from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 from .arrow import RowBatch, StaticBatch
-from .blueprint import LegendFit, legend_placement
 from .internals import (
     INTERNALS,
     INTERNALS_PATH,
@@ -23,6 +22,7 @@ from .internals import (
     has_internals,
     rule_system,
 )
+from .legend import LegendFit, legend_placement
 from .scene import SceneColumns
 from .style import (
     DISTURBANCE,
