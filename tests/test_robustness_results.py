@@ -159,11 +159,15 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
     base = study_fingerprint("paper", (), "standard", 1, "ideal", {})
     import fuzzynav
 
+    from fuzzynav.app.provenance import fuzzynav_version
+
     experiments._fingerprint.cache_clear()
+    fuzzynav_version.cache_clear()  # read once per process: another version is another process
     monkeypatch.setattr(fuzzynav, "__version__", "99.0", raising=False)
     assert study_fingerprint("paper", (), "standard", 1, "ideal", {}) != base
     monkeypatch.undo()
     experiments._fingerprint.cache_clear()
+    fuzzynav_version.cache_clear()
     monkeypatch.setitem(experiments._DIGESTS, "paper", "another rule base")
     assert study_fingerprint("paper", (), "standard", 1, "ideal", {}) != base
     assert study_fingerprint("paper", (), "standard", 1, "ideal", {"engine": "batch"}) != base
