@@ -158,7 +158,6 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
 
     base = study_fingerprint("paper", (), "standard", 1, "ideal", {})
     import fuzzynav
-
     from fuzzynav.app.provenance import fuzzynav_version
 
     experiments._fingerprint.cache_clear()
