@@ -21,6 +21,7 @@ import pymunk
 
 __all__ = [
     "SUPPORTED_MAJOR",
+    "installed_major",
     "SPACE_STEP_STATE",
     "FAST",
     "ffi",
@@ -58,8 +59,20 @@ except ImportError:  # pragma: no cover - a pymunk without it takes the public-A
 ffi: Any = getattr(_binding, "ffi", None)
 lib: Any = getattr(_binding, "lib", None)
 
+
+def installed_major() -> str:
+    """The installed pymunk's major version (``pymunk.version``; pymunk 7.0.0 put
+    Chipmunk's "2.0.0" there, so a mismatch is checked against the package's metadata)."""
+    major = pymunk.version.split(".")[0]
+    if major != SUPPORTED_MAJOR:
+        from importlib.metadata import version
+
+        major = version("pymunk").split(".")[0]
+    return major
+
+
 #: The fast path is there: the binding imports and the version is the supported one.
-FAST = lib is not None and pymunk.version.split(".")[0] == SUPPORTED_MAJOR
+FAST = lib is not None and installed_major() == SUPPORTED_MAJOR
 
 # Looking a function up on the cffi lib costs as much as a short call: bound once.
 cpBodyGetAngle: Any = lib.cpBodyGetAngle if FAST else None
