@@ -100,7 +100,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     from fuzzynav.app.args import SENSOR_NOISE_LIMITS_M, SONAR_SIDE_LIMITS_DEG
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.perception import PERCEPTION_MODES
-    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+    from fuzzynav.world.run_limits import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
     parser.add_argument(
         "--controller",

@@ -53,7 +53,7 @@ def check_run_options(
         SONAR_SIDE_LIMITS_DEG,
         number_value,
     )
-    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+    from fuzzynav.world.run_limits import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
     def optional(value, name, limits, unit):
         return None if value is None else number_value(value, name, *limits, unit)

@@ -1,7 +1,7 @@
 """Peak memory of `fuzzynav run` against the length of the run (issue 26).
 
 A run's log used to stay whole in memory (twice at the end), so its peak grew with the
-run's length; it now keeps a block (``world.simulation.LOG_BLOCK_BYTES``) and maps the
+run's length; it now keeps a block (``world.sim_log.LOG_BLOCK_BYTES``) and maps the
 rest back from an unnamed temporary file. This bench runs the command line in a child
 process on s1 with its obstacles moved off the path and the target kilometres away (so
 every run lasts its whole duration) and samples the child's ``/proc/PID/status`` every

@@ -46,9 +46,11 @@ from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
 from fuzzynav.sweeps import SweepRow, sweep
+from fuzzynav.world.run_limits import OUTCOMES, Outcome
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
-from fuzzynav.world.simulation import OUTCOMES, Outcome, Simulation, SimulationLog, SimulationResult
+from fuzzynav.world.sim_log import SimulationLog
+from fuzzynav.world.simulation import Simulation, SimulationResult
 
 if TYPE_CHECKING:
     from fuzzynav.app.viewer.classroom import ClassroomServer
@@ -113,7 +115,7 @@ class Run:
 
     @property
     def outcome(self) -> Outcome:
-        """How the run ended (one of ``world.simulation.OUTCOMES``)."""
+        """How the run ended (one of ``world.run_limits.OUTCOMES``)."""
         outcome = self.result.outcome
         if outcome not in OUTCOMES:  # a finished run ends one of these ways
             raise RuntimeError(f"the run has not ended (outcome {outcome!r})")

@@ -204,7 +204,7 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     3. Truncation: the scenario's duration (or ``max_duration_s``) has passed (timeout).
 
     ``info["outcome"]`` on the last step: 0 reached, 1 collided, 2 timeout (an index
-    into :data:`world.simulation.OUTCOMES`).
+    into :data:`world.run_limits.OUTCOMES`).
 
     ## Arguments
 

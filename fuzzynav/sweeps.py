@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 from fuzzynav.controller.checker import check_controller
+from fuzzynav.world.run_limits import Outcome
 from fuzzynav.world.scenario import Scenario
-from fuzzynav.world.simulation import Outcome
 
 if TYPE_CHECKING:
     from fuzzynav.app.experiments.executor import Executor

@@ -97,7 +97,6 @@ KNOWN_OVERSIZE: set[str] = {
     "fuzzynav.controller.fuzzynav",
     "fuzzynav.world.husky",
     "fuzzynav.world.scenario",
-    "fuzzynav.world.simulation",
 }
 
 FUNCTION_LIMIT_LINES = 100

@@ -616,9 +616,9 @@ def _same_logs(a, b):
 
 
 def _small_blocks(monkeypatch, metrics_rows=None):
-    from fuzzynav.world import metrics, simulation
+    from fuzzynav.world import metrics, sim_log
 
-    monkeypatch.setattr(simulation, "LOG_BLOCK_BYTES", 1024 * 8 * 40)  # 1,024 rows
+    monkeypatch.setattr(sim_log, "LOG_BLOCK_BYTES", 1024 * 8 * 40)  # 1,024 rows
     if metrics_rows is not None:
         monkeypatch.setattr(metrics, "METRICS_BLOCK_ROWS", metrics_rows)
 
@@ -761,7 +761,7 @@ def test_a_live_recording_reads_the_log_without_copying_it(tmp_path, monkeypatch
     the same rows."""
     from fuzzynav.app.recordings.live import LiveRecorder
     from fuzzynav.app.runs import build_simulation
-    from fuzzynav.world import simulation
+    from fuzzynav.world import sim_log
 
     sim = build_simulation("s1", "paper")
     for _ in range(300):
@@ -772,13 +772,13 @@ def test_a_live_recording_reads_the_log_without_copying_it(tmp_path, monkeypatch
         copy.pose, sim._log.rows
     )
     copies = []
-    freeze = simulation._LogBuffer.freeze
+    freeze = sim_log._LogBuffer.freeze
 
     def counted(self):
         copies.append(self.n)
         return freeze(self)
 
-    monkeypatch.setattr(simulation._LogBuffer, "freeze", counted)
+    monkeypatch.setattr(sim_log._LogBuffer, "freeze", counted)
     live = LiveRecorder(tmp_path / "live.rrd", chunk_steps=25, min_interval_s=0.0)
     while not sim.done:
         sim.step()
@@ -816,7 +816,7 @@ def test_a_full_disk_under_the_log_s_spool_is_said_and_where(capsys, tmp_path, m
     line naming the folder and TMPDIR, exit 2 (it was a bare 'No space left on device')."""
     import errno
 
-    from fuzzynav.world import simulation
+    from fuzzynav.world import sim_log
 
     class FullDisk:
         def write(self, data):
@@ -826,7 +826,7 @@ def test_a_full_disk_under_the_log_s_spool_is_said_and_where(capsys, tmp_path, m
             pass
 
     _small_blocks(monkeypatch)
-    monkeypatch.setattr(simulation, "_spool_file", FullDisk)
+    monkeypatch.setattr(sim_log, "_spool_file", FullDisk)
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr("tempfile.tempdir", None)  # read TMPDIR again
     path = tmp_path / "long.toml"

@@ -61,9 +61,9 @@ from fuzzynav.world.batch_metrics import BatchResult, RunObserver
 from fuzzynav.world.batch_world import BatchWorld
 from fuzzynav.world.husky import HuskyModel
 from fuzzynav.world.kernels import advance_pose, footprint_clearances, sonar_distances
+from fuzzynav.world.run_limits import OUTCOMES
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SensorConfig
-from fuzzynav.world.simulation import OUTCOMES
 
 __all__ = [
     "BatchController",

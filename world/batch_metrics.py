@@ -20,7 +20,7 @@ import numpy as np
 
 from fuzzynav.world.kernels import line_deviation
 from fuzzynav.world.metrics import metrics_row, safety_distance, voltage_jumped
-from fuzzynav.world.simulation import OUTCOMES
+from fuzzynav.world.run_limits import OUTCOMES
 
 __all__ = ["BatchMetrics", "BatchResult", "RunObserver"]
 

@@ -16,8 +16,8 @@ import numpy as np
 from fuzzynav.world.geometry import FULL_CIRCLE_RAD
 from fuzzynav.world.husky import N_STATES
 from fuzzynav.world.kernels import obstacle_law
+from fuzzynav.world.run_limits import timeout_slack_s
 from fuzzynav.world.scenario import Scenario
-from fuzzynav.world.simulation import timeout_slack_s
 
 __all__ = ["BatchState", "scenario_arrays"]
 

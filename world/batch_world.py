@@ -46,9 +46,9 @@ from fuzzynav.world.kernels import (
 )
 from fuzzynav.world.metrics import in_window
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
+from fuzzynav.world.run_limits import check_loop_settings
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SCHEDULE_SLACK_S, SensorConfig
-from fuzzynav.world.simulation import check_loop_settings
 
 __all__ = ["BatchWorld"]
 
@@ -271,7 +271,7 @@ class BatchWorld:
     @property
     def outcome_codes(self) -> np.ndarray:
         """Each run's ending (batch order): -1 going, else an index into
-        :data:`world.simulation.OUTCOMES`, (N,)."""
+        :data:`world.run_limits.OUTCOMES`, (N,)."""
         return self._codes
 
     # -- perception --------------------------------------------------------------------
@@ -388,7 +388,7 @@ class BatchWorld:
         -------
         numpy.ndarray, (n,) int
             Each run's ending in this step: -1 going on, else an index into
-            :data:`world.simulation.OUTCOMES` (``stop_rule``'s ending is ``timeout``).
+            :data:`world.run_limits.OUTCOMES` (``stop_rule``'s ending is ``timeout``).
 
         Raises
         ------

@@ -95,7 +95,7 @@ def _min_clearance(logged: float | None, swept: float | None) -> float | None:
 
 
 #: Rows :func:`compute_metrics` reads at a time: a long run's log may be mapped from the
-#: disk (world.simulation.LOG_BLOCK_BYTES), and whole-log temporaries grew with the run.
+#: disk (world.sim_log.LOG_BLOCK_BYTES), and whole-log temporaries grew with the run.
 #: A log of at most this many rows is measured in one piece, as it always was.
 METRICS_BLOCK_ROWS = 65_536
 

@@ -244,7 +244,7 @@ MAX_ACCELERATION_MPS2 = 100.0
 MAX_DISTURBANCE = 1_000.0
 #: The longest run a scenario file may ask for: a run's log grows with its length (an
 #: hour at the default 20 ms period is 180,000 rows, about 52 MB, most of it spooled
-#: to the disk: world.simulation.LOG_BLOCK_BYTES).
+#: to the disk: world.sim_log.LOG_BLOCK_BYTES).
 MAX_DURATION_S = 3600.0
 #: The most obstacles a scenario may hold: far more than any layout here (at most 20),
 #: and few enough that validating (a k-d tree) and running stay quick.

@@ -53,8 +53,8 @@ def check_row(row: dict) -> None:
     and consistent (success = reached without collision). What ``--resume`` reads
     back is checked with it before it is trusted."""
     from fuzzynav.resources import shown
+    from fuzzynav.world.run_limits import OUTCOMES
     from fuzzynav.world.scenario import MAX_OBSTACLES
-    from fuzzynav.world.simulation import OUTCOMES
 
     def bad(name, why):
         return ValueError(f"{name} = {shown(row.get(name))}: {why}")

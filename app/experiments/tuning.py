@@ -208,7 +208,7 @@ def _add_search_options(p) -> None:
     from fuzzynav.app.experiments.batch_runs import add_engine_option
     from fuzzynav.app.experiments.evolution import add_sigma_option
     from fuzzynav.app.experiments.executor import add_executor_options
-    from fuzzynav.world.simulation import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+    from fuzzynav.world.run_limits import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
 
     p.add_argument(
         "--maxiter",

@@ -1,0 +1,101 @@
+"""How a run of the closed loop is bounded and how it ends.
+
+The outcomes a run may have (:data:`OUTCOMES`), the checks of the control period and the
+voltage limit (:func:`check_loop_settings`), the slack of the timeout test
+(:func:`timeout_slack_s`) and the bounds on a run's steps and its log's memory
+(:func:`check_run_size`, :func:`log_bytes`). Both engines use them: the pymunk loop
+(:mod:`world.simulation`) and the batch engine (:mod:`world.batch`), so the two agree on
+what a run may be and when it is over.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal, get_args
+
+import numpy as np
+
+#: How a run ends: at the target, against an obstacle, or out of time.
+Outcome = Literal["reached", "collided", "timeout"]
+OUTCOMES: tuple[Outcome, ...] = get_args(Outcome)
+#: The control period's bounds: below a millisecond the log of an ordinary run grows to
+#: gigabytes (1e-5 s asked for 4.3 GB) for nothing the exact ZOH plant needs; above a
+#: second the sensors (25 Hz) and the collision sub-steps lose their meaning.
+MIN_CONTROL_PERIOD_S = 1e-3
+MAX_CONTROL_PERIOD_S = 1.0
+#: The most steps :meth:`Simulation.run` takes (duration / period): the log holds 24
+#: floats a step plus 4 per obstacle, so 2 million steps of a run with a few obstacles
+#: write under 0.6 GB to the log's spool (an hour at 2 ms; 1e-5 s asked 4.3 GB).
+MAX_STEPS = 2_000_000
+#: The size one run's log may reach (issue 26): a legal scenario of 1000 obstacles and
+#: 3600 s reached 9.7 GB of memory. Checked before the first step with
+#: :func:`log_bytes`; beyond :data:`LOG_BLOCK_BYTES` the log is on the disk.
+MEMORY_BUDGET_BYTES = 2 * 1024**3
+#: Floats the log keeps a step, besides those of the obstacles.
+LOG_FLOATS_PER_STEP = 24
+#: Floats the log keeps per obstacle and step: x, y, centre distance, clearance.
+LOG_FLOATS_PER_OBSTACLE = 4
+#: The log's peak over its final size when it was all in memory (its arrays grew by
+#: doubling, and the result took a copy): kept as the bound's margin.
+LOG_PEAK_FACTOR = 3
+
+
+def check_loop_settings(control_period_s: float, voltage_limit_v: float) -> None:
+    """ValueError naming the value when the control period is outside
+    [:data:`MIN_CONTROL_PERIOD_S`, :data:`MAX_CONTROL_PERIOD_S`] or the voltage limit
+    is not a positive number (both engines' check)."""
+    if not (
+        math.isfinite(control_period_s)
+        and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
+    ):
+        raise ValueError(
+            f"control_period_s = {control_period_s!r}: must be from "
+            f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
+        )
+    if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
+        raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
+
+
+#: The smallest slack of the timeout test (s): a run ends as ``timeout`` at the first
+#: step whose accumulated time reaches its duration less the slack.
+TIMEOUT_SLACK_S = 1e-9
+
+
+def timeout_slack_s(duration_s, control_period_s):
+    """How far short of ``duration_s`` the accumulated time may end and still be the
+    duration [s]: :data:`TIMEOUT_SLACK_S`, or the rounding that adding the period
+    ``duration_s / control_period_s`` times can gather (each sum rounds by at most half
+    an ulp of ``duration_s``) when that is larger. 1 ns alone let a 2,000 s run at 1 ms
+    fall 2e-9 s short and take one step past :data:`MAX_STEPS`; an ordinary run's slack
+    stays 1 ns (150 s at 20 ms gather at most 5e-10 s). Works on arrays too."""
+    rounding = 2.0 * np.finfo(float).eps * duration_s * (duration_s / control_period_s)
+    return np.maximum(TIMEOUT_SLACK_S, rounding)
+
+
+def log_bytes(steps: float, n_obstacles: int) -> float:
+    """The peak memory [bytes] of the log of a run of ``steps`` steps among
+    ``n_obstacles`` obstacles (float64 columns, growth by doubling and the result's
+    copy included)."""
+    floats = LOG_FLOATS_PER_STEP + LOG_FLOATS_PER_OBSTACLE * n_obstacles
+    return LOG_PEAK_FACTOR * 8.0 * floats * steps
+
+
+def check_run_size(duration_s: float, control_period_s: float, n_obstacles: int) -> float:
+    """The steps of a run, or ValueError with the numbers when it would take more than
+    :data:`MAX_STEPS` steps or its log more than :data:`MEMORY_BUDGET_BYTES`."""
+    steps = duration_s / control_period_s
+    if steps > MAX_STEPS:
+        raise ValueError(
+            f"control_period_s = {control_period_s!r} with duration_s = "
+            f"{duration_s!r}: {steps:.3g} steps, more than one run may "
+            f"take ({MAX_STEPS}); use a longer period or a shorter scenario"
+        )
+    need = log_bytes(steps, n_obstacles)
+    if need > MEMORY_BUDGET_BYTES:
+        raise ValueError(
+            f"{steps:.0f} steps ({duration_s:g} s at {control_period_s:g} s) x {n_obstacles} "
+            f"obstacles: the run's log would take about {need / 1024**3:.1f} GiB, more than "
+            f"the {MEMORY_BUDGET_BYTES / 1024**3:g} GiB one run may use; use a shorter "
+            "duration, a longer period or fewer obstacles"
+        )
+    return steps
