@@ -207,7 +207,7 @@ def _file_scenario_digest(source: str, signature: tuple | None) -> str | None:
 @functools.lru_cache(maxsize=4)
 def _default_parameters(signature: tuple | None):
     """The robot's parameters in husky.toml, read once per version of the file."""
-    from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE, HuskyParameters
+    from fuzzynav.world.husky_params import DEFAULT_PARAMETER_FILE, HuskyParameters
 
     return HuskyParameters.from_toml(DEFAULT_PARAMETER_FILE)
 
@@ -307,7 +307,7 @@ def _controller_files_signature() -> tuple:
     controller is built from, so that a file changed on disk (an editable install) is
     read again."""
     from fuzzynav.resources import asset_path
-    from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE
+    from fuzzynav.world.husky_params import DEFAULT_PARAMETER_FILE
 
     files = [*sorted(asset_path("rules").glob("*.toml")), Path(DEFAULT_PARAMETER_FILE)]
     return tuple((p.name, _file_signature(p)) for p in files)
@@ -374,7 +374,7 @@ def reproduce(
     if float(voltage_limit_v) != 12.0:
         notes.append(f"voltage limit {voltage_limit_v:g} V ('run' drives with 12 V)")
     if parameters is not None:
-        from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE
+        from fuzzynav.world.husky_params import DEFAULT_PARAMETER_FILE
 
         if parameters != _default_parameters(_file_signature(DEFAULT_PARAMETER_FILE)):
             notes.append("the robot's parameters differ from husky.toml (see /meta/robot)")

@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from fuzzynav.world.geometry import FULL_CIRCLE_RAD
-from fuzzynav.world.husky import N_STATES
+from fuzzynav.world.husky_params import N_STATES
 from fuzzynav.world.kernels import obstacle_law
 from fuzzynav.world.run_limits import timeout_slack_s
 from fuzzynav.world.scenario import Scenario

@@ -31,7 +31,8 @@ import numpy as np
 from fuzzynav.world.arena import POINT_ROBOT_RADIUS_M, SWEEP_RELEVANT_M, SWEEP_TOLERANCE_M
 from fuzzynav.world.batch_metrics import BatchMetrics, BatchResult, RunObserver
 from fuzzynav.world.batch_state import BatchState, scenario_arrays
-from fuzzynav.world.husky import N_STATES, HuskyModel, step_product
+from fuzzynav.world.husky import HuskyModel, step_product
+from fuzzynav.world.husky_params import N_STATES
 from fuzzynav.world.kernels import (
     advance_pose,
     disturbance_values,

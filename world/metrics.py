@@ -267,7 +267,7 @@ SCORE_CLIP = (2.0, 8.0)
 def top_speed_mps(model, voltage_limit_v: float) -> float:
     """Steady forward speed [m/s] of ``model`` (a :class:`world.husky.HuskyModel`) with
     ``voltage_limit_v`` on both sides."""
-    from fuzzynav.world.husky import STATE_NAMES
+    from fuzzynav.world.husky_params import STATE_NAMES
 
     state = model.steady_state(np.array([voltage_limit_v, voltage_limit_v], float))
     return float(state[STATE_NAMES.index("v_MH")])

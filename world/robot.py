@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from fuzzynav.resources import InputError, loads_user_toml, read_user_text, shown
-from fuzzynav.world.husky import DEFAULT_PARAMETER_FILE, HuskyParameters
+from fuzzynav.world.husky_params import DEFAULT_PARAMETER_FILE, HuskyParameters
 
 __all__ = [
     "HUSKY",
