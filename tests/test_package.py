@@ -95,7 +95,6 @@ SIZE_LIMIT_LINES = 600
 KNOWN_OVERSIZE: set[str] = {
     "fuzzynav.controller.fuzzy",
     "fuzzynav.controller.fuzzynav",
-    "fuzzynav.world.scenario",
 }
 
 FUNCTION_LIMIT_LINES = 100

@@ -31,6 +31,10 @@ what the beams hit, whatever this says.
 Optional top-level key: ``description``. Every other key is rejected, and every error
 names the file, the key and the value, so a typo never silently changes a run.
 Files are parsed with :mod:`tomllib`, never evaluated.
+
+The format's keys and bounds, the checked reading of its values and its writer are
+:mod:`world.scenario_format`'s; their public names are imported here too, so that
+``fuzzynav.world.scenario`` still offers them.
 """
 
 from __future__ import annotations
@@ -40,18 +44,33 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-import tomli_w
-
 from fuzzynav.resources import (
     InputError,
     assets_dir,
-    escape_controls,
     loads_user_toml,
     read_user_text,
-    shown,
 )
 from fuzzynav.world.geometry import rectangle_circle_clearance
 from fuzzynav.world.robot import HUSKY
+from fuzzynav.world.scenario_format import (
+    _ROBOT_KEYS,
+    _TARGET_KEYS,
+    _TOP_KEYS,
+    FORMAT,
+    MAX_ACCELERATION_MPS2,
+    MAX_DISTURBANCE,
+    MAX_DURATION_S,
+    MAX_OBSTACLES,
+    MAX_RADIUS_M,
+    MAX_SPEED_MPS,
+    OMITTED_DEFAULTS,
+    ScenarioError,
+    _fields_of,
+    _plain,
+    _Reader,
+    dumps_plain,
+)
+from fuzzynav.world.scenario_format import MAX_COORDINATE_M as MAX_COORDINATE_M
 
 ASSETS_DIR = assets_dir()
 SCENARIO_DIR = ASSETS_DIR / "scenarios"
@@ -59,14 +78,6 @@ SCENARIO_DIR = ASSETS_DIR / "scenarios"
 # The robot's footprint (assets/husky.toml, world/robot.py), against which a scenario's
 # start is checked unless another is given (the paper's point robot: (0, 0)).
 DEFAULT_FOOTPRINT_M = HUSKY.footprint_m
-
-
-class ScenarioError(ValueError):
-    """A scenario that cannot be used, with the file, key and value that make it so."""
-
-    def __init__(self, source: str, key: str, value: Any, reason: str):
-        self.source, self.key, self.value, self.reason = source, key, value, reason
-        super().__init__(f"{escape_controls(str(source))}: {key} = {shown(value)}: {reason}")
 
 
 @dataclass(frozen=True)
@@ -155,176 +166,8 @@ class Scenario:
         return dumps_plain(self.to_dict())
 
 
-#: The scenario file's format, written once: each table (None: the top level) and its
-#: keys in the order a file has them, each with the :class:`Scenario` field it holds. The
-#: ``[[obstacles]]`` and the ``[disturbance]`` tables hold the fields of
-#: :class:`ObstacleSpec` and :class:`Disturbance` under their own names. The writer
-#: walks it; the keys the reader allows come from it.
-FORMAT: tuple[tuple[str | None, tuple[tuple[str, str], ...]], ...] = (
-    (None, (("name", "name"), ("description", "description"), ("duration_s", "duration_s"))),
-    (
-        "robot",
-        (
-            ("start", "start"),
-            ("heading_rad", "heading_rad"),
-            ("field_of_view_deg", "field_of_view_deg"),
-        ),
-    ),
-    ("target", (("position", "target"), ("tolerance_m", "tolerance_m"))),
-)
-#: Keys a file may leave out, with the value that means (the writer leaves them out too).
-OMITTED_DEFAULTS: dict[str, Any] = {"description": "", "field_of_view_deg": 360.0}
-
-
-def _plain(value):
-    """A field's value as TOML's plain data: a pair (a tuple) as a list."""
-    return list(value) if isinstance(value, tuple) else value
-
-
-def _fields_of(item) -> dict:
-    """A dataclass's fields as plain data, in their order, under their own names."""
-    return {f.name: _plain(getattr(item, f.name)) for f in fields(item)}
-
-
-def _toml_value(value) -> str:
-    """One value as TOML: a list of numbers inline (``[x, y]``, each a float), anything
-    else as tomli-w writes it."""
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(float(v)) for v in value) + "]"
-    return tomli_w.dumps({"v": value})[len("v = ") : -1]
-
-
-def dumps_plain(data: dict) -> str:
-    """Plain data (tables of values, arrays of tables) as TOML, top-level values first,
-    then each table in order, a blank line before each (what :meth:`Scenario.to_toml`
-    writes).
-
-    Parameters
-    ----------
-    data : dict
-        Keys to numbers, strings, lists of numbers, tables (dicts) of those, or
-        non-empty lists of such tables (written as ``[[key]]``).
-
-    Returns
-    -------
-    str
-        The TOML text, ending with a newline.
-    """
-
-    def is_tables(value) -> bool:
-        return isinstance(value, list) and any(isinstance(v, dict) for v in value)
-
-    lines = [
-        f"{key} = {_toml_value(value)}"
-        for key, value in data.items()
-        if not isinstance(value, dict) and not is_tables(value)
-    ]
-    for key, value in data.items():
-        if isinstance(value, dict):
-            lines += ["", f"[{key}]"] + [f"{k} = {_toml_value(v)}" for k, v in value.items()]
-        elif is_tables(value):
-            for table in value:
-                lines += ["", f"[[{key}]]"]
-                lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
-    return "\n".join(lines) + "\n"
-
-
-# ---------------------------------------------------------------------------------------
-# Parsing and validation
-
-
-#: Bounds on what a scenario file may hold, far beyond any sensible arena, but inside
-#: what the physics and the controllers compute without overflow (a target 1e300 m away
-#: overflowed in the controller; an obstacle of radius 1e300 m "collided" at a clearance
-#: of 4e299 m).
-MAX_COORDINATE_M = 10_000.0
-MAX_RADIUS_M = 1_000.0
-MAX_SPEED_MPS = 100.0
-MAX_ACCELERATION_MPS2 = 100.0
-MAX_DISTURBANCE = 1_000.0
-#: The longest run a scenario file may ask for: a run's log grows with its length (an
-#: hour at the default 20 ms period is 180,000 rows, about 52 MB, most of it spooled
-#: to the disk: world.sim_log.LOG_BLOCK_BYTES).
-MAX_DURATION_S = 3600.0
-#: The most obstacles a scenario may hold: far more than any layout here (at most 20),
-#: and few enough that validating (a k-d tree) and running stay quick.
-MAX_OBSTACLES = 1000
-#: The largest integer a number key takes as written (beyond it a float loses the
-#: integer anyway; Python cannot even print an integer of more than 4300 digits).
-_MAX_EXACT_INT = 2**63
-_FORMAT_KEYS = {table: {key for key, _ in keys} for table, keys in FORMAT}
-_TOP_KEYS = _FORMAT_KEYS[None] | {"robot", "target", "obstacles", "disturbance"}
-_ROBOT_KEYS = _FORMAT_KEYS["robot"]
-_TARGET_KEYS = _FORMAT_KEYS["target"]
 _OBSTACLE_KEYS = {f.name for f in fields(ObstacleSpec)}
 _DISTURBANCE_KEYS = {f.name for f in fields(Disturbance)}
-
-
-class _Reader:
-    """Reads typed values out of nested tables, raising ScenarioError with full key paths."""
-
-    def __init__(self, source: str):
-        self.source = source
-
-    def fail(self, key: str, value: Any, reason: str):
-        raise ScenarioError(self.source, key, value, reason)
-
-    def table(self, data: Any, key: str, allowed: set[str], required: set[str]) -> dict:
-        if not isinstance(data, dict):
-            self.fail(key, data, "must be a table")
-        for k in data:
-            if k not in allowed:
-                full = f"{key}.{k}" if key else k
-                self.fail(full, data[k], f"unknown key (allowed: {', '.join(sorted(allowed))})")
-        for k in sorted(required):
-            if k not in data:
-                full = f"{key}.{k}" if key else k
-                self.fail(full, None, "missing required key")
-        return data
-
-    def number(
-        self,
-        value: Any,
-        key: str,
-        *,
-        positive: bool = False,
-        non_negative: bool = False,
-        limit: float | None = None,
-        unit: str = "",
-    ) -> float:
-        """A finite number; with ``limit``, at most that in magnitude."""
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(key, value, "must be a number")
-        if isinstance(value, int) and abs(value) > _MAX_EXACT_INT:
-            self.fail(key, value, f"is too large (at most {_MAX_EXACT_INT:.3g} in magnitude)")
-        value = float(value)
-        if not math.isfinite(value):
-            self.fail(key, value, "must be finite (NaN and inf are not allowed)")
-        if positive and value <= 0:
-            self.fail(key, value, "must be positive")
-        if non_negative and value < 0:
-            self.fail(key, value, "must not be negative")
-        if limit is not None and abs(value) > limit:
-            self.fail(key, value, f"must be within +-{limit:g}{unit}")
-        return value
-
-    def point(
-        self, value: Any, key: str, limit: float = MAX_COORDINATE_M, unit: str = " m"
-    ) -> tuple[float, float]:
-        if not isinstance(value, list) or len(value) != 2:
-            self.fail(key, value, "must be a list of two numbers [x, y]")
-        return (
-            self.number(value[0], f"{key}[0]", limit=limit, unit=unit),
-            self.number(value[1], f"{key}[1]", limit=limit, unit=unit),
-        )
-
-    def string(self, value: Any, key: str, keep: str = "") -> str:
-        """A string, with control characters (but those in ``keep``) written as visible
-        escapes: a name is printed in tables and titles, and ESC or NUL must not drive
-        the terminal."""
-        if not isinstance(value, str):
-            self.fail(key, value, "must be a string")
-        return escape_controls(value, keep)
 
 
 def _read_obstacles(r: _Reader, data: dict) -> list[ObstacleSpec]:

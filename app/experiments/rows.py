@@ -54,7 +54,7 @@ def check_row(row: dict) -> None:
     back is checked with it before it is trusted."""
     from fuzzynav.resources import shown
     from fuzzynav.world.run_limits import OUTCOMES
-    from fuzzynav.world.scenario import MAX_OBSTACLES
+    from fuzzynav.world.scenario_format import MAX_OBSTACLES
 
     def bad(name, why):
         return ValueError(f"{name} = {shown(row.get(name))}: {why}")
