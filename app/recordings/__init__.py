@@ -5,6 +5,7 @@
 - :mod:`.live`       the live recorder: a running simulation, a chunk of steps at a time;
 - :mod:`.files`      a recording written whole beside its target, or ``RecordingError``;
 - :mod:`.columns`    the column writer both share, and the plots (one entity each);
+- :mod:`.series`     the table of the plots: entity, panel, series, columns, live view;
 - :mod:`.scene`      the world's entities: robot, target, obstacles, beams, the map;
 - :mod:`.internals`  the controller's inside: which it is, rule firing, fuzzynav's state;
 - :mod:`.fuzzy`      the fuzzy inference at the time cursor (a controller with a ``fis``);

@@ -1,7 +1,9 @@
 """The recording's default layout (its rerun blueprint) and its application id.
 
 The world on the left, the paper's figures stacked on the right, with tabs for the
-plant, the sensors, the rules and the run's documents. A live recording sends the
+plant, the sensors, the rules and the run's documents. The time series' tabs and panels
+are those the table of plots declares (:data:`.series.PLOTS`: title, tab, place,
+legend, value range). A live recording sends the
 layout first, so that a viewer opening the stream uses it at once, and again at the end
 with the legends placed where the data leave room (:func:`.legend.legend_placement`);
 ``record_run``, whose file appears whole, once at the end. The application id
@@ -32,7 +34,10 @@ from .internals import (
     heatmap_bounds,
     rule_system,
 )
-from .style import SAFE_DISTANCE_M
+from .series import CLEARANCE_SHOWN_M as CLEARANCE_SHOWN_M
+from .series import PAPER, Setup, paper_kinds, tab_panels
+from .series import clearance_range as clearance_range
+from .series import distance_colours as distance_colours
 
 APPLICATION_ID = "fuzzynav"
 #: How far below the start the world view reaches at least (m): the scale bar (0.75 m
@@ -89,51 +94,10 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
 
-#: The clearance panel shows at most this much (m): the 0.25 m safe distance must be
-#: seen, and a clearance of 10 m would flatten it onto zero (issue 39, defect 7).
-CLEARANCE_SHOWN_M = 2.0
-
-
-def clearance_range(data_range) -> tuple[float, float]:
-    """The clearance panel's value range: from the data's lowest value (or just below
-    zero) to the highest, at most :data:`CLEARANCE_SHOWN_M`, and always with room on
-    both sides of the safe distance's line."""
-    from .style import SAFE_DISTANCE_M
-
-    if data_range is None:
-        return (-0.05, 1.0)
-    lo_p, hi_p = float(data_range[0]), float(data_range[1])
-    pad = (hi_p - lo_p) / 22.0  # (the data's range came with 5 % of its span each side)
-    lo, hi = lo_p + pad, hi_p - pad
-    hi = min(max(hi_p, 3.0 * SAFE_DISTANCE_M), CLEARANCE_SHOWN_M)
-    lo = min(lo - 0.05 * (hi - min(lo, 0.0)), -0.05)
-    return (lo, hi)
-
-
-#: The panels of a recording and the paper's figure each draws (app.figures.numbering's kinds).
-PAPER_KIND = {
-    "/plots/distance": "distances",
-    "/plots/angles": "angles",
-    "/plots/obstacle_angles": "obstacle_angles",
-    "/plots/voltage": "voltages",
-}
-
-
-def distance_colours(obstacle_ids) -> str:
-    """``obstacle 0 (red), obstacle 1 (orange)...``: the distance panel's key."""
-    from .style import OBSTACLE_NAMES
-
-    parts = [
-        f"obstacle {oid} ({OBSTACLE_NAMES[col % len(OBSTACLE_NAMES)]})"
-        for col, oid in enumerate(obstacle_ids)
-    ]
-    return ", ".join(parts) if parts else "no obstacle"
-
-
 def figure_tag(scenario_label: str, path: str) -> str:
     """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
     draws (:func:`app.figures.numbering.paper_figure_number`, one numbering everywhere), or ""."""
-    kind = PAPER_KIND.get(path)
+    kind = paper_kinds().get(path)
     number = paper_figure_number(scenario_label, kind) if kind else None
     return f" (Fig. {number})" if number is not None else ""
 
@@ -190,85 +154,49 @@ def _plotter(rrb, whole_run, placements, label):
     return plot
 
 
-def _paper_tab(rrb, plot, whole_run, obstacle_ids):
-    """The paper's figures, under the events' lanes."""
-    # The lanes over the whole run too, as the plots below them (without a time range
-    # rerun shows a window around the cursor: the last ~27 s of a run at opening).
-    lanes = rrb.StateTimelineView(
-        origin=EVENTS_LANES,
-        name="events: closest approach (centre to centre), safe distance, disturbance, outcome",
-        time_view=rrb.TimeAxis(view_range=whole_run),
-    )
-    return rrb.Vertical(
-        lanes,
-        # No legend: rerun draws it over the plot, and the room made for it stretched
-        # the axis to about twice the data's span (the safe distance sat on zero); the
-        # name says which colour is which.
-        plot(
-            "/plots/distance",
-            "distance to the target (green) and to "
-            + distance_colours(obstacle_ids)
-            + ", centre to centre, m",
-            legend=False,
-        ),
-        plot(
-            "/plots/angles",
-            "target angle phi_t and heading, rad",
-            contents=["/plots/angles/**"],
-        ),
-        plot("/plots/obstacle_angles", "obstacle angles from the heading, rad"),
-        # Five series: a legend would cover the start; the name says which is which.
-        plot(
-            "/plots/voltage",
-            "wheel voltages, V: blue left, black right (pale: before the limit), grey ±12 V",
-            legend=False,
-        ),
-        row_shares=[1.15, 1.2, 1.15, 1.15, 1.35],
-        name="paper figures",
-    )
+#: The height share of the events' lanes above the paper's figures.
+LANES_SHARE = 1.15
 
 
-def _plant_and_sensing_tabs(rrb, plot, placements, perception):
-    """The plant and the controller's inputs; the sensors and the safety margins."""
-    plant = rrb.Vertical(
-        plot("/plots/wheels", "wheel speeds w_LW, w_RW, rad/s"),
-        plot("/plots/velocity", "v_MH, m/s, and w_JH, rad/s"),
-        plot("/plots/current", "motor currents i_L1, i_L2, A"),
-        plot(
-            "/plots/inputs/distances",
-            "inputs d_t, d_o, m, as the controller saw them (d_o gap: nothing sensed)",
-        ),
-        plot(
-            "/plots/inputs/angles",
-            "inputs phi_t, phi_o, rad, as the controller saw them (phi_o gap: nothing sensed)",
-        ),
-        name="plant and inputs",
-    )
-    sensing = rrb.Vertical(
-        plot(
-            "/plots/ranges",
-            "sensor ranges, m (gap: no echo)"
-            + (
-                " — not used: ideal perception drives on the true obstacles"
-                if perception == "ideal"
-                else ""
-            ),
-        ),
-        plot(
-            "/plots/clearance",
-            f"footprint clearance, m, up to {CLEARANCE_SHOWN_M:g} m shown, obstacles in their "
-            f"colours, grey the {SAFE_DISTANCE_M:g} m safe distance",
-            legend=False,
-            value_range=clearance_range(placements.get("/plots/clearance#data")),
-        ),
-        plot(
-            "/plots/disturbance",
-            "disturbance added to every input (m on d_t, d_o; rad on phi_t, phi_o)",
-            legend=False,
-        ),
-        name="sensors and safety",
-    )
-    return plant, sensing
+def _panel(plot, entry, placements, setup):
+    """The panel of ``entry`` (:class:`.series.Plot`: the first of its panel's entities)."""
+    kw = {}
+    if entry.view is not None:
+        kw["contents"] = [f"{entry.view}/**"]
+    if not entry.legend:
+        kw["legend"] = False
+    if entry.value_range is not None:
+        kw["value_range"] = entry.value_range(placements.get(f"{entry.origin}#data"))
+    return plot(entry.origin, entry.panel_title(setup), **kw)
+
+
+def _plot_tabs(rrb, plot, whole_run, placements, setup):
+    """The tabs of time series, one panel per entry of :data:`.series.PLOTS` (entities
+    that share a view: one panel); the paper's figures under the events' lanes."""
+    tabs = []
+    for name, entries in tab_panels().items():
+        if not entries:
+            continue
+        shares = [entry.share or 1.0 for entry in entries]
+        panels, kw = [], {}
+        if name == PAPER:
+            # The lanes over the whole run too, as the plots below them (without a time
+            # range rerun shows a window around the cursor: the last ~27 s of a run at
+            # opening).
+            panels.append(
+                rrb.StateTimelineView(
+                    origin=EVENTS_LANES,
+                    name="events: closest approach (centre to centre), safe distance, "
+                    "disturbance, outcome",
+                    time_view=rrb.TimeAxis(view_range=whole_run),
+                )
+            )
+            kw["row_shares"] = [LANES_SHARE] + shares
+        elif any(entry.share is not None for entry in entries):
+            kw["row_shares"] = shares
+        panels += [_panel(plot, entry, placements, setup) for entry in entries]
+        tabs.append(rrb.Vertical(*panels, name=name, **kw))
+    return tabs
 
 
 def _firing_view(rrb, when: str):
@@ -356,8 +284,8 @@ def blueprint(
     placements = dict(legend_corners or {})
     label = numbered_scenario(scenario) or ""  # the paper's numbers for s1-s3 only
     plot = _plotter(rrb, whole_run, placements, label)
-    tabs = [_paper_tab(rrb, plot, whole_run, obstacle_ids)]
-    tabs += _plant_and_sensing_tabs(rrb, plot, placements, perception)
+    setup = Setup(obstacle_ids=tuple(obstacle_ids), perception=perception)
+    tabs = _plot_tabs(rrb, plot, whole_run, placements, setup)
     if n_rules:
         tabs.append(_rules_tab(rrb, n_rules, whole_run))
     if fuzzy:  # the inference at the time cursor, as the viewer's inference view

@@ -2,7 +2,8 @@
 :class:`~fuzzynav.app.recordings.live.LiveRecorder` share, and the recording's plots.
 
 Every plot is one entity with one instance per series (named in the legend), in
-:func:`plot_layout`'s order; the writer sends rows [start, end) of a run's log at a
+:func:`plot_layout`'s order, declared with its columns in :data:`.series.PLOTS`; the
+writer sends rows [start, end) of a run's log at a
 time, the world through :class:`~fuzzynav.app.recordings.scene.SceneColumns` and the
 controller's inside through :class:`~fuzzynav.app.recordings.internals.ControllerColumns`.
 """
@@ -10,8 +11,6 @@ controller's inside through :class:`~fuzzynav.app.recordings.internals.Controlle
 from __future__ import annotations
 
 import numpy as np
-
-from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 from .arrow import RowBatch, StaticBatch
 from .internals import (
@@ -24,75 +23,17 @@ from .internals import (
 )
 from .legend import LegendFit, legend_placement
 from .scene import SceneColumns
-from .style import (
-    DISTURBANCE,
-    HEADING,
-    INPUT_COLORS,
-    LIMIT,
-    RIGHT,
-    SAFE,
-    SAFE_DISTANCE_M,
-    SENSOR_COLORS,
-    SERIES_PALETTE,
-    TARGET,
-    obstacle_color,
-)
+from .series import Rows, Setup, plot_spec, shared_views
 
 #: Rows of the log read at a time to place the legends of a run recorded whole.
 LEGEND_BLOCK_ROWS = 5000
 
 
 def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> list[tuple]:
-    """(path, series names, colours, widths) of every plot but the rules."""
-    ids = list(obstacle_ids)
-    obstacles = [f"obstacle {i}" for i in ids]
-    obstacle_colors = [obstacle_color(c) for c in range(len(ids))]  # app.palette's
-    grey = (120, 120, 120)
-    p = SERIES_PALETTE
-    limit = voltage_limit_v
-    k = len(ids)
-    return [
-        ("/plots/distance", ["target"] + obstacles, [TARGET] + obstacle_colors, [2.0] + [1.5] * k),
-        ("/plots/angles/phi_t", ["phi_t"], [INPUT_COLORS["phi_t"]], [1.5]),
-        ("/plots/angles/heading", ["heading"], [HEADING], [1.5]),
-        ("/plots/obstacle_angles", obstacles, obstacle_colors, [1.5] * k),
-        (
-            "/plots/voltage",
-            # (the two limits share one name: one legend entry)
-            ["left", "right", "left, before limit", "right, before limit"]
-            + [f"±{limit:g} V limit"] * 2,
-            [p[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
-            [2.0, 2.0, 1.0, 1.0, 1.0, 1.0],
-        ),
-        (
-            "/plots/inputs/distances",
-            ["d_t", "d_o"],
-            [INPUT_COLORS["d_t"], INPUT_COLORS["d_o"]],
-            [1.5] * 2,
-        ),
-        (
-            "/plots/inputs/angles",
-            ["phi_t", "phi_o"],
-            [INPUT_COLORS["phi_t"], INPUT_COLORS["phi_o"]],
-            [1.5] * 2,
-        ),
-        (
-            "/plots/clearance",
-            obstacles + [f"safe {SAFE_DISTANCE_M} m"],
-            obstacle_colors + [SAFE],
-            [1.5] * k + [2.0],
-        ),
-        ("/plots/wheels", ["w_LW (rad/s)", "w_RW (rad/s)"], [p[0], RIGHT], [1.5] * 2),
-        ("/plots/velocity", ["v_MH (m/s)", "w_JH (rad/s)"], [p[0], HEADING], [1.5] * 2),
-        ("/plots/current", ["i_L1 left (A)", "i_L2 right (A)"], [p[0], RIGHT], [1.5] * 2),
-        (
-            "/plots/ranges",
-            [f"{m} (m)" for m in sensor_names],
-            [SENSOR_COLORS.get(m, grey) for m in sensor_names],
-            [1.5] * len(sensor_names),
-        ),
-        ("/plots/disturbance", ["disturbance"], [DISTURBANCE], [1.5]),
-    ]
+    """(path, series names, colours, widths) of every plot but the rules: the table of
+    :mod:`.series`, in its order."""
+    setup = Setup(tuple(obstacle_ids), tuple(sensor_names), voltage_limit_v)
+    return [(plot.path, *series) for plot, *series in plot_spec(setup)]
 
 
 def plot_layout(
@@ -224,7 +165,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
     def legend_corners(self, log=None) -> dict:
         """Per plot view, where its legend goes and the value range that leaves it room
         (:func:`legend_placement`): ``{view origin: (corner, range or None)}``. The
-        two angle entities share one view (/plots/angles), as Fig. 14 shows both. With
+        entities that share a view (:func:`.series.shared_views`: /plots/angles, as
+        Fig. 14 shows the target angle and the heading) are read as one plot. With
         ``legends_from_log`` (record_run, LiveRecorder) the plots made from the log are
         read again from ``log``, the rows under the legends only, a block at a time
         (:class:`LegendFit`: the same placements, without every row kept)."""
@@ -233,15 +175,13 @@ class ColumnWriter(SceneColumns, ControllerColumns):
             widths = {p.shape[1] for p in parts if p.ndim == 2}
             if len(widths) == 1:  # (obstacles added mid-run change the width: skip)
                 samples[path] = np.concatenate(parts)
-        angle_paths = ("/plots/angles/phi_t", "/plots/angles/heading")
-        angles = [samples.pop(p) for p in angle_paths if p in samples]
-        if len(angles) == 2 and len(angles[0]) == len(angles[1]):
-            samples["/plots/angles"] = np.hstack(angles)
+        for view, paths in shared_views().items():
+            parts = [samples.pop(p) for p in paths if p in samples]
+            if len(parts) == len(paths) and len({len(part) for part in parts}) == 1:
+                samples[view] = np.hstack(parts)
         placements = {}
         for path, values in samples.items():
-            names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
-            entries = len(set(names)) + self.legend_extra.get(path, 0)
-            placement = legend_placement(values, entries)
+            placement = legend_placement(values, self._legend_entries(path))
             if placement is not None:
                 placements[path] = placement
                 finite = values[np.isfinite(values)]
@@ -254,26 +194,30 @@ class ColumnWriter(SceneColumns, ControllerColumns):
             placements.update(self._fitted_corners(log))
         return placements
 
+    def _legend_entries(self, path: str) -> int:
+        """How many entries the legend of the view ``path`` has: its series' names (of
+        every entity it shows, :func:`.series.shared_views`) and its marks."""
+        paths = shared_views().get(path, [path])
+        names = {n for p in paths for n in self._plot_styles.get(p, ((),))[0]}
+        return len(names) + self.legend_extra.get(path, 0)
+
     def _fitted_corners(self, log) -> dict:
         """:meth:`legend_corners` of the plots whose value ranges were kept."""
         ranges = {p: r for p, r in self._legend_ranges.items() if len(r[2]) == 1 and r[2] != {None}}
-        angle_paths = ("/plots/angles/phi_t", "/plots/angles/heading")
-        angles = [ranges.pop(p) for p in angle_paths if p in ranges]
+        views = shared_views()
+        parts = {
+            view: [ranges.pop(p) for p in paths if p in ranges] for view, paths in views.items()
+        }
         members = {path: [path] for path in ranges}
-        if len(angles) == 2 and angles[0][3] == angles[1][3]:
-            ranges["/plots/angles"] = [
-                min(angles[0][0], angles[1][0]),
-                max(angles[0][1], angles[1][1]),
-                None,
-                angles[0][3],
-            ]
-            members["/plots/angles"] = list(angle_paths)
+        for view, kept in parts.items():
+            if len(kept) == len(views[view]) and len({r[3] for r in kept}) == 1:
+                lo, hi = min(r[0] for r in kept), max(r[1] for r in kept)
+                ranges[view] = [lo, hi, None, kept[0][3]]
+                members[view] = list(views[view])
         fits, rows = {}, {}
         for path, (lo, hi, _, n) in ranges.items():
             if n and lo <= hi:  # (no finite value: no placement)
-                names = self._plot_styles.get(path, ((),))[0] or ("phi_t", "heading")
-                entries = len(set(names)) + self.legend_extra.get(path, 0)
-                fits[path] = LegendFit(lo, hi, entries)
+                fits[path] = LegendFit(lo, hi, self._legend_entries(path))
                 rows[path] = n
         for n in set(rows.values()):
             feeds = {}  # entity -> the fits its rows go to
@@ -314,41 +258,13 @@ class ColumnWriter(SceneColumns, ControllerColumns):
 
     def _series(self, log, start, end, pose, target, ranges, inputs):
         """(path, names, colors, widths, columns) of every plot, in :func:`plot_layout`'s
-        order; ``columns`` is (rows, series)."""
-        n = end - start
-        ids = list(log.obstacle_ids)
-        d_t, phi_t = target_geometry(pose, target)
-        bearings = obstacle_bearings(pose, log.obstacle_xy[start:end]) if ids else np.zeros((n, 0))
+        order (:data:`.series.PLOTS`'); ``columns`` is (rows, series)."""
         limit = self.voltage_limit_v
-        constant = np.ones((n, 1))
-        lg = log.lg_state[start:end]
-        columns = {
-            "/plots/distance": np.column_stack([d_t, log.center_distance_m[start:end]]),
-            "/plots/angles/phi_t": phi_t[:, None],
-            "/plots/angles/heading": pose[:, 2:3],
-            "/plots/obstacle_angles": bearings,
-            "/plots/voltage": np.column_stack(
-                [
-                    log.voltages_v[start:end],
-                    log.controller_output_v[start:end],
-                    limit * constant,
-                    -limit * constant,
-                ]
-            ),
-            "/plots/inputs/distances": inputs[:, [0, 1]],
-            "/plots/inputs/angles": inputs[:, [2, 3]],
-            "/plots/clearance": np.column_stack(
-                [log.clearance_m[start:end], SAFE_DISTANCE_M * constant]
-            ),
-            "/plots/wheels": lg[:, 0:2],
-            "/plots/velocity": lg[:, 2:4],
-            "/plots/current": lg[:, 4:6],
-            "/plots/ranges": np.where(np.isinf(ranges), np.nan, ranges),
-            "/plots/disturbance": log.disturbance[start:end, None],
-        }
+        rows = Rows(log, start, end, pose, target, ranges, inputs, limit)
+        setup = Setup(tuple(log.obstacle_ids), tuple(self.sensor_names), limit)
         return [
-            (path, names, colors, widths, columns[path])
-            for path, names, colors, widths in _plot_spec(ids, self.sensor_names, limit)
+            (plot.path, names, colors, widths, plot.columns(rows))
+            for plot, names, colors, widths in plot_spec(setup)
         ]
 
     # -- one chunk ---------------------------------------------------------------------

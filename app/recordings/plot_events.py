@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .arrow import RowBatch
+from .series import shared_views
 from .style import BREACH, COLLISION, DISTURBANCE, TARGET, obstacle_color
 
 #: The marks' size (rerun's marker size: a radius in UI points).
@@ -33,9 +34,6 @@ MARK_SIZE = 6.0
 #: colour, and the lanes and the log at its time.
 MARK_NAME = "events"
 EVENTS_CHILD = "events"  # <plot>/events
-#: The combined view of the two angle entities (one panel, as the paper's Fig. 14).
-ANGLES_VIEW = "/plots/angles"
-ANGLE_PARTS = ("/plots/angles/phi_t", "/plots/angles/heading")
 
 
 def mark_kinds(events, obstacle_ids) -> list[dict]:
@@ -102,12 +100,13 @@ def _plot_rows(writer, log, rows) -> dict[int, dict[str, tuple]]:
         plots = {
             path: (list(names), np.asarray(cols, float)[0]) for path, names, _, _, cols in series
         }
-        angles = [plots.pop(p) for p in ANGLE_PARTS if p in plots]
-        if angles:
-            plots[ANGLES_VIEW] = (
-                [n for names, _ in angles for n in names],
-                np.concatenate([v for _, v in angles]),
-            )
+        for view, paths in shared_views().items():  # (the angles: one panel, Fig. 14)
+            parts = [plots.pop(p) for p in paths if p in plots]
+            if parts:
+                plots[view] = (
+                    [n for names, _ in parts for n in names],
+                    np.concatenate([v for _, v in parts]),
+                )
         out[k] = {p: v for p, v in plots.items() if v[0]}
     return out
 
@@ -131,7 +130,7 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
 
     if not len(log) or not events:
         return {}
-    from .blueprint import CLEARANCE_SHOWN_M
+    from .series import CLEARANCE_SHOWN_M
     from .style import rgba
 
     time_s = np.asarray(log.time_s, dtype=float)

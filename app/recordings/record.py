@@ -36,7 +36,8 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
                                             moving obstacle then, and its track
     /plots                                  Scalars: one entity per plot, one instance
                                             per series (named in the legend; the order
-                                            is :func:`.columns.plot_layout`'s)
+                                            is :func:`.columns.plot_layout`'s, each plot
+                                            an entry of :data:`.series.PLOTS`)
       /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre;
                                                            s2: 18, s3: 23, as every panel)
       /angles/phi_t, /angles/heading                       Fig. 14, one panel

@@ -28,6 +28,28 @@ from fuzzynav.world.scenario import (
     check_layout,
 )
 
+#: The columns of the live signal rows (one row a step, the last ``PLOT_WINDOW_S`` kept)
+#: that the Signals tab plots: :func:`signal_row`'s, named by the live plots of
+#: ``app.recordings.series.PLOTS`` (``LiveLine.column``). A new live value is a name
+#: here and its value in :func:`signal_row`.
+SIGNAL_COLUMNS = ("t", "d_t", "d_o", "phi_t", "phi_o", "v_left", "v_right")
+
+
+def signal_row(sim, controller) -> tuple:
+    """The live signal row of the step just taken (:data:`SIGNAL_COLUMNS`): the time
+    the controller read its inputs, the inputs, the voltages after the limit.
+
+    Parameters
+    ----------
+    sim : world.simulation.Simulation
+        The simulation, after its step.
+    controller
+        The controller that drove the step (its ``last_inputs``, ``last_output``).
+    """
+    limit = sim.voltage_limit_v
+    applied = np.clip(controller.last_output, -limit, limit)
+    return (sim.time_s - sim.control_period_s, *controller.last_inputs, *applied)
+
 
 def drop_removed_shapes(sim) -> None:
     """Let go of the obstacles a reset or a removal took out of pymunk's space.
@@ -260,10 +282,7 @@ class RunDriver:
         last = app._trail[-1]
         if (x - last[0]) ** 2 + (y - last[1]) ** 2 > 0.02**2:
             app._trail.append((x, y))
-        c = app.controller
-        limit = sim.voltage_limit_v
-        applied = np.clip(c.last_output, -limit, limit)
-        app._signals.append((sim.time_s - sim.control_period_s, *c.last_inputs, *applied))
+        app._signals.append(signal_row(sim, app.controller))
         app.results._record_history_locked()
         if outcome is not None:
             app.playing = False
@@ -398,7 +417,7 @@ class RunDriver:
         app._target_warning = None
         app._trail = _Trail(app.sim.arena.pose[:2])
         capacity = int(PLOT_WINDOW_S / app.sim.control_period_s) + 1
-        app._signals = _Ring(capacity, 7)
+        app._signals = _Ring(capacity, len(SIGNAL_COLUMNS))
         app.controller.last_inputs = np.full(4, np.nan)
         app.controller.last_output = np.full(2, np.nan)
         if app.noise_std_m == 0.0:

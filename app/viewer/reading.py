@@ -129,7 +129,8 @@ class Reading:
             return app.run_id, np.array(app._trail[start:], dtype=float).reshape(-1, 2)
 
     def signals(self) -> np.ndarray:
-        """The last ``PLOT_WINDOW_S`` of (t, d_t, d_o, phi_t, phi_o, v_left, v_right)."""
+        """The last ``PLOT_WINDOW_S`` of the live signal rows, (t, d_t, d_o, phi_t, phi_o,
+        v_left, v_right): ``.driver.SIGNAL_COLUMNS``."""
         app = self.app
         with app.lock:
             return app._signals.ordered()
