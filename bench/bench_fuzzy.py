@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.controller import fuzzy as fuzzy_module
+from fuzzynav.controller import fuzzy_blockwise as fuzzy_module
 from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.rulebase import read_toml

@@ -58,24 +58,30 @@ formula and the scalar source generated from the same table entry, held to the s
 bits by tests/test_membership_family.py; exp is numpy's in both, as math.exp differs in the last bit for a few
 percent of arguments; the two centroid sums run in grid order in both: a cumsum in one,
 a reduce over axis 0 of >= 2 columns in the other).
+
+The system's parts (:class:`Term`, :class:`Variable`, :class:`Rule`, the structure check
+and :func:`rule_sentence`) are :mod:`controller.fuzzy_data`'s, imported here; the batch
+path (:meth:`FuzzySystem.evaluate`, :meth:`~FuzzySystem.firing_strengths`,
+:meth:`~FuzzySystem.memberships`, :meth:`~FuzzySystem.aggregated_many`) is
+:mod:`controller.fuzzy_blockwise`'s, mixed in; this module compiles the system and holds
+the single-sample path.
 """
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
 from . import fuzzy_params
 from . import membership as mf
+from .fuzzy_blockwise import BlockwiseEvaluation
+from .fuzzy_data import Aggregation, Rule, Term, Variable, _check_structure, rule_sentence
 from .fuzzy_front import generate_front
 from .fuzzy_none import UnsensedNone
 from .inference import DEFAULT as DEFAULT_INFERENCE
-from .inference import Inference, aggregate, defuzzify
+from .inference import Inference
 
 __all__ = [
     "Term",
@@ -90,124 +96,6 @@ __all__ = [
 DEFAULT_POINTS = 101
 
 
-# --------------------------------------------------------------------------- data
-
-
-@dataclass(frozen=True)
-class Term:
-    """A linguistic term: name, MATLAB shape name (trimf, trapmf, linsmf, linzmf, gaussmf,
-    gauss2mf) and its parameters in MATLAB order."""
-
-    name: str
-    shape: str
-    params: tuple[float, ...]
-
-    def __post_init__(self):
-        if not isinstance(self.name, str) or not self.name:
-            raise ValueError(f"term name must be a non-empty string, got {self.name!r}")
-        try:
-            vals = mf.check_params(self.shape, self.params)
-        except ValueError as e:
-            raise ValueError(f"term {self.name!r}: {e}") from None
-        object.__setattr__(self, "params", vals)
-
-    def __call__(self, x) -> np.ndarray:
-        """Membership of x (vectorised)."""
-        return mf.SHAPES[self.shape].evaluate(x, self.params)
-
-
-@dataclass(frozen=True)
-class Variable:
-    """An input or output variable with its range [lo, hi] and its terms (in order)."""
-
-    name: str
-    range: tuple[float, float]
-    terms: tuple[Term, ...]
-    unit: str = field(default="", compare=False)  # documentation only
-    description: str = field(default="", compare=False)  # documentation only
-
-    def __post_init__(self):
-        if not isinstance(self.name, str) or not self.name:
-            raise ValueError(f"variable name must be a non-empty string, got {self.name!r}")
-        try:
-            lo, hi = (float(v) for v in self.range)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"variable {self.name!r}: range must be [lo, hi], got {self.range!r}"
-            ) from None
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            raise ValueError(
-                f"variable {self.name!r}: range needs finite lo < hi, got {[lo, hi]!r}"
-            )
-        object.__setattr__(self, "range", (lo, hi))
-        terms = tuple(self.terms)
-        if not terms:
-            raise ValueError(f"variable {self.name!r} has no terms")
-        for t in terms:
-            if not isinstance(t, Term):
-                raise ValueError(f"variable {self.name!r}: terms must be Term objects, got {t!r}")
-        names = [t.name for t in terms]
-        dup = {n for n in names if names.count(n) > 1}
-        if dup:
-            raise ValueError(f"variable {self.name!r}: duplicate term names {sorted(dup)!r}")
-        object.__setattr__(self, "terms", terms)
-
-    @property
-    def term_names(self) -> list[str]:
-        return [t.name for t in self.terms]
-
-    def term_index(self, name: str) -> int:
-        for i, t in enumerate(self.terms):
-            if t.name == name:
-                return i
-        raise KeyError(f"variable {self.name!r} has no term {name!r} (terms: {self.term_names})")
-
-
-@dataclass(frozen=True)
-class Rule:
-    """One rule. ``antecedent[i]`` is the index of a term of input i, or None (NONE: the
-    input takes no part). ``consequent[o]`` is the index of a term of output o, or None
-    (the rule says nothing about that output). ``weight`` in [0, 1] multiplies the firing
-    strength. Indices are 0-based (a .fis file counts from 1)."""
-
-    antecedent: tuple[int | None, ...]
-    consequent: tuple[int | None, ...]
-    weight: float = 1.0
-
-    def __post_init__(self):
-        def norm(seq, what):
-            out = []
-            for v in seq:
-                if v is None:
-                    out.append(None)
-                elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0:
-                    out.append(int(v))
-                else:
-                    raise ValueError(
-                        f"rule {what} entries must be term indices >= 0 or None, got {v!r}"
-                    )
-            return tuple(out)
-
-        object.__setattr__(self, "antecedent", norm(self.antecedent, "antecedent"))
-        object.__setattr__(self, "consequent", norm(self.consequent, "consequent"))
-        w = float(self.weight)
-        if not (math.isfinite(w) and 0.0 <= w <= 1.0):
-            raise ValueError(f"rule weight must be in [0, 1], got {self.weight!r}")
-        object.__setattr__(self, "weight", w)
-        if all(a is None for a in self.antecedent):
-            raise ValueError("rule has no antecedent (every input is NONE)")
-        if all(c is None for c in self.consequent):
-            raise ValueError("rule has no consequent (every output is NONE)")
-
-
-class Aggregation(NamedTuple):
-    """What :meth:`FuzzySystem.aggregated` returns (one input vector)."""
-
-    grid: np.ndarray  # (n_outputs, n_points): the output grids
-    membership: np.ndarray  # (n_outputs, n_points): the aggregated output membership
-    output: np.ndarray  # (n_outputs,): the crisp outputs (= evaluate_one)
-
-
 # --------------------------------------------------------------------------- engine
 
 # the single-sample path's numpy calls, looked up once
@@ -218,124 +106,8 @@ _array, _minimum, _max_reduce, _accumulate = (
     np.add.accumulate,
 )
 
-_BLOCK = 16384  # rows per block of memberships / firing strengths in evaluate()
-_CHUNK = 512  # rows per block of the grid aggregation (its buffers stay in cache)
-# Up to this many rows, evaluate() runs the single-row path per row: the batch path's
-# fixed cost (~0.3-0.5 ms of numpy calls) is then more than the rows cost one by one
-# (15-25 us each); the crossover is measured in bench/bench_fuzzy.py.
-_ROW_BY_ROW_MAX = 16
 
-
-class _Workspace:
-    """Reusable buffers for one thread's batch evaluations (fresh multi-megabyte arrays
-    cost a page fault per 4 KiB page on every call, which on a VM is most of the time)."""
-
-    def __init__(self, n_rules: int, n_slots: int, n_points: int):
-        self.cap = 0
-        self.n_rules, self.n_slots = n_rules, n_slots
-        self.a = np.empty((n_points, _CHUNK))
-        self.t = np.empty((n_points, _CHUNK))
-
-    def reserve(self, n: int):
-        if n > self.cap:
-            self.cap = n
-            self.F = np.empty((self.n_rules, n))
-            self.S = np.zeros((self.n_slots, n))  # slots no rule concludes stay 0
-            self.one = np.ones(n)
-
-
-def _centroids(terms, levels, a, t, gridcol, mid: float, y) -> None:
-    """The batch path's crisp values of one output for a chunk of n rows, written into
-    ``y`` (n,): the aggregate, in ``a`` (grid point, sample), is the max over the output's
-    terms ``terms`` (compiled in :meth:`FuzzySystem._compile`) of min(level, MF) with the
-    slots' levels ``levels`` (slot, n); then its centroid on the grid ``gridcol`` (G, 1),
-    ``mid`` where it is zero everywhere. ``t`` is a work buffer shaped as ``a``."""
-    G = a.shape[0]
-    n = a.shape[1]
-    filled = False
-    for sl, g0, g1, mcol in terms:
-        s = levels[sl]
-        if not filled:
-            if g0 == 0 and g1 == G:
-                np.minimum(mcol, s, out=a)
-                filled = True
-                continue
-            a.fill(0.0)
-            filled = True
-        tt = t[g0:g1]
-        np.minimum(mcol, s, out=tt)
-        np.maximum(a[g0:g1], tt, out=a[g0:g1])
-    if not filled:
-        a.fill(0.0)
-    np.multiply(a, gridcol, out=t)
-    # sums over the grid in grid order, as in the single path: numpy reduces axis 0
-    # sequentially for >= 2 columns but pairwise for a single one, hence the cumsum
-    # (sequential) for n == 1
-    if n >= 2:
-        num = np.add.reduce(t, axis=0)
-        den = np.add.reduce(a, axis=0)
-    else:
-        num = np.cumsum(t[:, 0])[-1:]
-        den = np.cumsum(a[:, 0])[-1:]
-    y[:] = mid
-    np.divide(num, den, out=y, where=den > 0.0)
-
-
-def rule_sentence(inputs: Sequence[Variable], outputs: Sequence[Variable], rule: Rule) -> str:
-    """A rule in words: 'IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS'
-    (with ' WEIGHT w' if w != 1); the rule-base reader parses the same sentence back."""
-
-    def clause(variables, indices):
-        return " AND ".join(
-            f"{v.name} IS {v.terms[k].name}" for v, k in zip(variables, indices) if k is not None
-        )
-
-    text = f"IF {clause(inputs, rule.antecedent)} THEN {clause(outputs, rule.consequent)}"
-    if rule.weight != 1.0:
-        text += f" WEIGHT {float(rule.weight)!r}"
-    return text
-
-
-def _check_structure(
-    inputs: tuple[Variable, ...], outputs: tuple[Variable, ...], rules: tuple[Rule, ...]
-) -> None:
-    """Refuse a system without inputs, outputs or rules, with duplicate variable names, or
-    with a rule that does not fit its variables (ValueError)."""
-    if not inputs:
-        raise ValueError("a fuzzy system needs at least one input")
-    if not outputs:
-        raise ValueError("a fuzzy system needs at least one output")
-    if not rules:
-        raise ValueError("a fuzzy system needs at least one rule")
-    for v in inputs + outputs:
-        if not isinstance(v, Variable):
-            raise ValueError(f"inputs and outputs must be Variable objects, got {v!r}")
-    names = [v.name for v in inputs + outputs]
-    dup = {n for n in names if names.count(n) > 1}
-    if dup:
-        raise ValueError(f"duplicate variable names {sorted(dup)!r}")
-    for r_i, r in enumerate(rules):
-        if not isinstance(r, Rule):
-            raise ValueError(f"rule {r_i + 1}: not a Rule object: {r!r}")
-        if len(r.antecedent) != len(inputs):
-            raise ValueError(
-                f"rule {r_i + 1}: antecedent has {len(r.antecedent)} entries, "
-                f"the system has {len(inputs)} inputs"
-            )
-        if len(r.consequent) != len(outputs):
-            raise ValueError(
-                f"rule {r_i + 1}: consequent has {len(r.consequent)} entries, "
-                f"the system has {len(outputs)} outputs"
-            )
-        for var, idx in zip(inputs + outputs, r.antecedent + r.consequent):
-            if idx is not None and idx >= len(var.terms):
-                raise ValueError(
-                    f"rule {r_i + 1}: term index {idx} out of range for "
-                    f"{var.name!r} ({len(var.terms)} terms)"
-                )
-
-
-class FuzzySystem(UnsensedNone):
+class FuzzySystem(UnsensedNone, BlockwiseEvaluation):
     """A Mamdani FIS. Immutable: the ``with_*`` methods return new systems.
 
     Parameters
@@ -518,142 +290,7 @@ class FuzzySystem(UnsensedNone):
     def _batch_terms_row(self, i: int, j: int) -> int:
         return sum(len(v.terms) for v in self.inputs[:i]) + j
 
-    # ------------------------------------------------------------------ batch pieces
-    def _workspace(self, n: int) -> _Workspace:
-        ws = getattr(self._tls, "ws", None)
-        if ws is None:
-            ws = _Workspace(len(self.rules), len(self.outputs) * self._kmax, self.n_points)
-            self._tls.ws = ws
-        ws.reserve(n)
-        return ws
-
-    def _check_X(self, X) -> np.ndarray:
-        X = np.asarray(X, dtype=float)
-        if X.ndim != 2 or X.shape[1] != len(self.inputs):
-            raise ValueError(
-                f"X must have shape (N, {len(self.inputs)}) with columns "
-                f"{self.input_names}, got shape {X.shape}"
-            )
-        return X
-
-    def _block_levels(self, Xb: np.ndarray) -> _Workspace:
-        """Memberships, firing strengths (ws.F) and consequent-slot levels (ws.S) of the
-        rows Xb, in the first len(Xb) columns of the thread's work buffers."""
-        n = Xb.shape[0]
-        ws = self._workspace(n)
-        F, S = ws.F, ws.S
-        XT = np.ascontiguousarray(Xb.T)
-        rows = [None] * self._n_cols
-        with mf.quiet():
-            for row, i, formula, params in self._batch_terms:
-                rows[row] = formula(XT[i], *params)
-        rows[self._ONE] = ws.one[:n]
-        for r_i, rr in enumerate(self._rule_rows):
-            out = F[r_i, :n]
-            if len(rr) == 1:
-                np.copyto(out, rows[rr[0]])
-            else:
-                both = np.multiply if self.inference.and_method == "prod" else np.minimum
-                both(rows[rr[0]], rows[rr[1]], out=out)
-                for q in rr[2:]:
-                    both(out, rows[q], out=out)
-        if self._weighted:
-            F[:, :n] *= self._W[:, None]
-        for sl, rs in self._slot_rules:
-            out = S[sl, :n]
-            np.copyto(out, F[rs[0], :n])
-            for q in rs[1:]:
-                np.maximum(out, F[q, :n], out=out)
-        return ws
-
-    def firing_strengths(self, X) -> np.ndarray:
-        """(N, n_rules) firing strengths: the AND (min or product) over the inputs a rule
-        uses, times the rule weight (the level at which the rule clips, or by which it
-        scales, its consequent terms)."""
-        X = self._check_X(X)
-        if self._gated:
-            out = np.zeros((X.shape[0], len(self.rules)))
-            for rows, system, kept in self._gated_groups(X):
-                if system is not None:
-                    out[np.ix_(rows, kept)] = system.firing_strengths(X[rows])
-            return out
-        out = np.empty((X.shape[0], len(self.rules)))
-        for b0 in range(0, X.shape[0], _BLOCK):
-            Xb = X[b0 : b0 + _BLOCK]
-            ws = self._block_levels(Xb)
-            out[b0 : b0 + len(Xb)] = ws.F[:, : len(Xb)].T
-        return out
-
-    def memberships(self, X) -> list[np.ndarray]:
-        """Per input, an (N, n_terms) array of the memberships of its terms."""
-        X = self._check_X(X)
-        out = []
-        for i, v in enumerate(self.inputs):
-            out.append(
-                np.stack([t(X[:, i]) for t in v.terms], axis=1)
-                if X.shape[0]
-                else np.empty((0, len(v.terms)))
-            )
-        return out
-
-    # ------------------------------------------------------------------ inference
-    def evaluate(self, X) -> np.ndarray:
-        """Crisp outputs for a batch: X (N, n_inputs) -> (N, n_outputs).
-
-        Up to ``_ROW_BY_ROW_MAX`` rows go through :meth:`evaluate_one`'s path one by one
-        (as fast as it for one row), more through the block-wise batch path; both give
-        the same bits (module docstring)."""
-        X = self._check_X(X)
-        N = X.shape[0]
-        if self._gated:
-            Y = np.empty((N, len(self.outputs)))
-            for rows, system, _ in self._gated_groups(X):
-                Y[rows] = self._mid if system is None else system.evaluate(X[rows])
-            return Y
-        if self._plain:
-            return self._plain_evaluate(X)
-        if N <= _ROW_BY_ROW_MAX:
-            return np.array([self._agg_one(x)[1] for x in X.tolist()]).reshape(N, len(self.outputs))
-        Y = np.empty((N, len(self.outputs)))
-        for b0 in range(0, N, _BLOCK):
-            Xb = X[b0 : b0 + _BLOCK]
-            nb = Xb.shape[0]
-            ws = self._block_levels(Xb)
-            S = ws.S
-            for c0 in range(0, nb, _CHUNK):
-                n = min(_CHUNK, nb - c0)
-                a = ws.a[:, :n]  # aggregated membership: (grid point, sample)
-                t = ws.t[:, :n]
-                for o, terms in enumerate(self._agg_terms):
-                    y = Y[b0 + c0 : b0 + c0 + n, o]
-                    _centroids(terms, S[:, c0 : c0 + n], a, t, self._gridcol[o], self._mid[o], y)
-        return Y
-
-    def _plain_outputs(self, F: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-        """From the weighted firing strengths ``F`` (rule, sample): the aggregates (one
-        (G, n) per output, :func:`~controller.inference.aggregate`) and the crisp outputs
-        (n, n_out)."""
-        aggs = [
-            aggregate(self.inference, terms, F[rules])
-            if rules
-            else np.zeros((self.n_points, F.shape[1]))
-            for rules, terms in self._rule_terms
-        ]
-        Y = np.empty((F.shape[1], len(self.outputs)))
-        for o, agg in enumerate(aggs):
-            Y[:, o] = defuzzify(self.inference.defuzz_method, self._grid[o], agg, self._mid[o])
-        return aggs, Y
-
-    def _plain_evaluate(self, X: np.ndarray) -> np.ndarray:
-        """:meth:`evaluate` for any inference but the default (the plain path)."""
-        Y = np.empty((X.shape[0], len(self.outputs)))
-        step = 128  # (rule, grid point, sample) temporaries of a few MB at most
-        for b0 in range(0, X.shape[0], step):
-            Xb = X[b0 : b0 + step]
-            F = self._block_levels(Xb).F[:, : len(Xb)]
-            Y[b0 : b0 + len(Xb)] = self._plain_outputs(F)[1]
-        return Y
-
+    # ------------------------------------------------------------------ one row
     def _agg_one(self, x):
         """Single-sample path: (aggregated (n_out, 1, G), outputs list); operation for
         operation the batch's arithmetic (min/max are exact; the sums run in grid order:
@@ -692,44 +329,6 @@ class FuzzySystem(UnsensedNone):
         (= evaluate_one)."""
         agg, out = self._agg_one(x)
         return Aggregation(self._grid.copy(), agg[:, 0, :], np.array(out))
-
-    def aggregated_many(self, X) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`aggregated` of every row of a batch X (N, n_inputs), through the batch
-        path: the output grids (n_out, G), the aggregated memberships (N, n_out, G) and
-        the crisp outputs (N, n_out), the same bits as row by row (module docstring)."""
-        X = self._check_X(X)
-        n_rows, n_out = X.shape[0], len(self.outputs)
-        memberships = np.empty((n_rows, n_out, self.n_points))
-        Y = np.empty((n_rows, n_out))
-        if self._gated:
-            for rows, system, _ in self._gated_groups(X):
-                if system is None:
-                    memberships[rows], Y[rows] = 0.0, self._mid
-                else:
-                    _, memberships[rows], Y[rows] = system.aggregated_many(X[rows])
-            return self._grid.copy(), memberships, Y
-        if self._plain:
-            step = 128  # as _plain_evaluate
-            for b0 in range(0, n_rows, step):
-                Xb = X[b0 : b0 + step]
-                aggs, Y[b0 : b0 + len(Xb)] = self._plain_outputs(
-                    self._block_levels(Xb).F[:, : len(Xb)]
-                )
-                for o, agg in enumerate(aggs):
-                    memberships[b0 : b0 + len(Xb), o] = agg.T
-            return self._grid.copy(), memberships, Y
-        for b0 in range(0, n_rows, _BLOCK):
-            Xb = X[b0 : b0 + _BLOCK]
-            ws = self._block_levels(Xb)
-            for c0 in range(0, len(Xb), _CHUNK):
-                n = min(_CHUNK, len(Xb) - c0)
-                rows = slice(b0 + c0, b0 + c0 + n)
-                a, t = ws.a[:, :n], ws.t[:, :n]
-                for o, terms in enumerate(self._agg_terms):
-                    levels = ws.S[:, c0 : c0 + n]
-                    _centroids(terms, levels, a, t, self._gridcol[o], self._mid[o], Y[rows, o])
-                    memberships[rows, o] = a.T
-        return self._grid.copy(), memberships, Y
 
     # ------------------------------------------------------------------ parameters
     def parameter_vector(self) -> np.ndarray:

@@ -93,7 +93,6 @@ SIZE_LIMIT_LINES = 600
 #: (test_the_oversize_list_names_only_oversize_modules). controller.fuzzynav is over it
 #: by its design, the numbered items its docstring holds.
 KNOWN_OVERSIZE: set[str] = {
-    "fuzzynav.controller.fuzzy",
     "fuzzynav.controller.fuzzynav",
 }
 
