@@ -21,7 +21,6 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-ENGINES = ("batch", "pymunk")
 #: Runs per batch task at most: a batch's arrays stay in the cache's neighbourhood, and
 #: Ctrl-C loses at most one batch per worker.
 MAX_BATCH = 1000

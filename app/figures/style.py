@@ -23,7 +23,6 @@ DPI = 150
 # Colours: app.palette's, one palette for the figures, the recordings and the viewer.
 ROBOT = palette.ROBOT
 TARGET = palette.TARGET
-OBSTACLE = palette.OBSTACLES[0]
 SAFE = palette.SAFE
 WHEEL_LEFT = palette.WHEEL_LEFT
 WHEEL_RIGHT = palette.WHEEL_RIGHT

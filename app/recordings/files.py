@@ -50,14 +50,12 @@ class _Copier(threading.Thread):
         self.read_fd = read_fd
         self.write = write  # write(chunks): writes an iterable of bytes, or raises
         self.error: BaseException | None = None
-        self.copied = 0
 
     def _chunks(self):
         while True:
             data = os.read(self.read_fd, COPY_BYTES)
             if not data:
                 return
-            self.copied += len(data)
             yield data
 
     def run(self) -> None:

@@ -56,10 +56,6 @@ ADDED_OBSTACLE_BYTES = 64 * 1024
 HISTORY_BYTES = 32 * 1024**2
 
 
-class BudgetExceeded(Exception):
-    """A charge the server's budget cannot take."""
-
-
 class MemoryBudget:
     """The bytes a server's tabs have made it keep, against ``total`` (thread-safe)."""
 
@@ -67,23 +63,17 @@ class MemoryBudget:
         self.total = int(total)
         self._lock = threading.Lock()
         self._used = 0
-        self._by_kind: collections.Counter = collections.Counter()
 
     @property
     def used(self) -> int:
         with self._lock:
             return self._used
 
-    def used_by(self, kind: str) -> int:
-        with self._lock:
-            return self._by_kind[kind]
-
     def _change(self, kind: str, delta: int, force: bool = False) -> bool:
         with self._lock:
             if delta > 0 and self._used + delta > self.total and not force:
                 return False
             self._used += delta
-            self._by_kind[kind] += delta
             return True
 
     def account(self) -> Account:

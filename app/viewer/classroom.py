@@ -228,7 +228,6 @@ class ClassroomServer:
         push.on_click(view.guarded(on_push, always=True))
         lock.on_update(view.guarded(on_lock, always=True))
         view.teacher_token_box, view.teacher_push = box, push
-        view.teacher_lock, view.teacher_overview = lock, overview
 
     def lock_class(self, locked: bool, teacher_id: int | None = None) -> int:
         """Lock (or unlock) every tab's controls but the teacher's; returns how many

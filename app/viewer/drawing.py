@@ -41,7 +41,6 @@ ANTECEDENT_FILL = "#f59e0b"
 CONSEQUENT_FILL = "#2563eb"
 FIRING_ROW = "#fef3c7"
 OUTLINE = "#94a3b8"
-BOLD = " font-weight='700'"
 
 # How the teaching views name a controller's inputs when the engine's name would
 # mislead: fuzzynav's goal block is fed the planner's bearing in an input named phi_t,

@@ -276,7 +276,6 @@ class RunDriver:
             app.playing = False
             app._notice(f"The simulation stopped: {exc}", "error")
             return
-        app.steps_taken += 1
         self._record_locked()
         x, y, _ = sim.arena.pose
         last = app._trail[-1]

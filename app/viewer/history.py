@@ -184,7 +184,6 @@ class RunHistory:
                 output=c.last_output.copy(),
                 target=tuple(float(v) for v in arena.target),
                 obstacles=history.positions(ids, centres),
-                trail_length=len(app._trail),
                 block=None if seen is None else (seen[1].copy(), dict(seen[2])),
             )
         )

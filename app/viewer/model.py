@@ -201,7 +201,6 @@ class ViewerApp:
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
-        self.steps_taken = 0
         with self.lock:
             self.driver._reset_locked(scenario_obj)
 

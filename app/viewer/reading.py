@@ -88,7 +88,6 @@ class Reading:
                     app.controller.last_output, -sim.voltage_limit_v, sim.voltage_limit_v
                 ),
                 nearest_clearance_m=float(clearances.min()) if len(clearances) else math.inf,
-                trail_length=len(app._trail),
                 scenario_label=app.scenario_label,
                 controller_label=app.controller_label,
                 perception=sim.perception.mode,

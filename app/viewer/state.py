@@ -151,7 +151,6 @@ class HistoryStep:
     output: np.ndarray
     target: tuple
     obstacles: Mapping  # id -> (x, y) (history.ObstaclePositions)
-    trail_length: int
     block: tuple | None = None  # fuzzynav: (what its blocks were fed, its crisp parts)
 
 
@@ -178,7 +177,6 @@ class Snapshot:
     inputs: np.ndarray
     voltages_v: np.ndarray
     nearest_clearance_m: float
-    trail_length: int
     scenario_label: str
     controller_label: str
     perception: str

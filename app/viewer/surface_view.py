@@ -8,21 +8,8 @@ from __future__ import annotations
 
 import io
 import math
-from dataclasses import dataclass
 
 import numpy as np
-
-
-@dataclass
-class Surface:
-    """Crisp outputs over a plane of two inputs (the others held)."""
-
-    title: str
-    x_name: str
-    y_name: str
-    x: np.ndarray  # (nx,)
-    y: np.ndarray  # (ny,)
-    values: dict  # name -> (ny, nx)
 
 
 def surface_grid(fis, x_index, y_index, x_range, y_range, held, n: int = 41) -> tuple:

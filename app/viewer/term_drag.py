@@ -119,11 +119,4 @@ def terms_drag_svg(editor, group: str, names, slider_ids: dict, slider_ranges: d
     return "".join(parts)
 
 
-def corner_positions(svg: str) -> list[float]:
-    """The handles' x (SVG units) in a :func:`terms_drag_svg` (for tests)."""
-    import re
-
-    return [float(m) for m in re.findall(r"class='fz-corner'[^>]*cx='([-0-9.]+)'", svg)]
-
-
-__all__ = ["corner_sliders", "terms_drag_svg", "corner_positions"]
+__all__ = ["corner_sliders", "terms_drag_svg"]

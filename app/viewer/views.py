@@ -50,7 +50,6 @@ from fuzzynav.app.viewer.drawing import (
 )
 from fuzzynav.app.viewer.rule_table import ZOOM_DEFINITION_HTML, rows_skeleton, rules_html
 from fuzzynav.app.viewer.surface_view import (
-    Surface,
     marker_fraction,
     marker_style,
     surface_grid,
@@ -62,7 +61,6 @@ __all__ = [
     "OBSTACLE_INPUT",
     "TARGET_INPUT",
     "Inference",
-    "Surface",
     "defs_html",
     "infer",
     "inference_html",
