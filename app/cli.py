@@ -40,11 +40,7 @@ try:  # a Ctrl-C while even these load ends quietly, as one in main() does
         add_off_option,
         describe_os_error,
         float_in,
-        integer_in,
-        off_flag,
-        parse_off,
         print_json,
-        run_inputs,
         scenario_help,
         scenario_label,
         seed_type,
@@ -57,28 +53,7 @@ except KeyboardInterrupt:  # pragma: no cover - a matter of milliseconds
 # Only the standard library at import time: a Ctrl-C while numpy and the rest load must
 # reach main()'s handler (no traceback), so everything else is imported inside it.
 
-__all__ = [  # what other modules and the tests used to import from here, still here
-    "EXIT_BAD_INPUT",
-    "EXIT_BROKEN_PIPE",
-    "EXIT_INTERRUPTED",
-    "EXIT_TERMINATED",
-    "UsageError",
-    "add_geometry_option",
-    "add_off_option",
-    "build_parser",
-    "describe_os_error",
-    "float_in",
-    "integer_in",
-    "main",
-    "off_flag",
-    "parse_off",
-    "print_json",
-    "run_inputs",
-    "scenario_help",
-    "scenario_label",
-    "seed_type",
-    "switch_parts_off",
-]
+__all__ = ["COMMAND_DOCS", "UsageError", "build_parser", "main"]  # what others import
 
 EXIT_TERMINATED = 143  # 128 + SIGTERM: `kill PID` ends a command as Ctrl-C does
 
@@ -200,8 +175,6 @@ def cmd_run(args) -> int:
 
     label = escape_controls(args.fis.name) if args.fis else args.controller
     if getattr(sim.controller, "bound_by_name", False):
-        from fuzzynav.resources import escape_controls
-
         print(
             f"fuzzynav: {escape_controls(str(args.fis))}: its variables are in another order; "
             "bound by name (d_t, d_o, phi_t, phi_o; left, right)",
@@ -301,17 +274,10 @@ EXTENSION_MODULES = (
 
 
 def _extensions() -> list:
-    """The extension modules that exist (one still being written is skipped)."""
+    """The extension modules, imported."""
     import importlib
 
-    found = []
-    for name in EXTENSION_MODULES:
-        try:
-            found.append(importlib.import_module(name))
-        except ModuleNotFoundError as exc:
-            if exc.name != name:
-                raise
-    return found
+    return [importlib.import_module(name) for name in EXTENSION_MODULES]
 
 
 #: What each sub-command is for, at more length than its one-line help, and examples
