@@ -212,7 +212,7 @@ def _default_parameters(signature: tuple | None):
     return HuskyParameters.from_toml(DEFAULT_PARAMETER_FILE)
 
 
-def _scenario_part(scenario: Scenario, geometry: str) -> tuple[list[str], list[str]]:
+def _scenario_part(scenario: Scenario) -> tuple[list[str], list[str]]:
     """(arguments, notes): the scenario as ``run`` takes it. A shipped scenario by its
     name when the run drove it unchanged; a file by its path with its digest (``run``
     refuses a file that changed since); a scenario made in memory (the viewer's, an
@@ -358,7 +358,7 @@ def reproduce(
     drove (in the paper's geometry, after its paper start)."""
     import shlex
 
-    argv, notes = _scenario_part(scenario, geometry)
+    argv, notes = _scenario_part(scenario)
     digest = argv[1:]  # the scenario's digest option, if any, goes last
     argv = argv[:1]
     more, why = _controller_part(controller, geometry)

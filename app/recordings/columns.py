@@ -36,18 +36,15 @@ def _plot_spec(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> lis
     return [(plot.path, *series) for plot, *series in plot_spec(setup)]
 
 
-def plot_layout(
-    obstacle_ids, sensor_names, n_rules: int = 0, voltage_limit_v: float = 12.0
-) -> dict[str, list[str]]:
+def plot_layout(obstacle_ids, sensor_names, voltage_limit_v: float = 12.0) -> dict[str, list[str]]:
     """Every plot entity of a recording and the names of its series, in instance order
     (instance j of a row of ``path`` is series ``names[j]``); a plot without series (no
     obstacles) is not logged."""
-    layout = {
+    return {
         path: names
         for path, names, _, _ in _plot_spec(obstacle_ids, sensor_names, voltage_limit_v)
         if names
     }
-    return layout
 
 
 class ColumnWriter(SceneColumns, ControllerColumns):
@@ -105,7 +102,6 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         # the heatmap, sent at the end: binned as the rows come when the number of
         # decisions (rows with finite voltages) is known in advance (record_run)
         self.rule_heat = RuleHeat(decisions)
-        self._rings: set[int] = set()
         self._legend_samples: dict[str, list[np.ndarray]] = {}
         # Of the plots made from the log only the value range is kept as the rows go,
         # and legend_corners reads the rows under the legends from the log again: for a

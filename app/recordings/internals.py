@@ -460,8 +460,8 @@ class ControllerColumns:
         decided = np.all(np.isfinite(decided_v), axis=1)  # the last row has no decision
         out = np.full((end - start, len(INTERNALS)), np.nan)
         try:
-            logged = self._logged_decisions(start, end, decided)
-            decisions = logged if logged is not None else self._replay(log, start, end, decided)
+            logged = self._logged_decisions(start, decided)
+            decisions = logged if logged is not None else self._replay(log, start, decided)
         except ValueError as exc:  # decisions of another shape than this writer expects
             self.replica_error = f"its decisions do not fit ({exc})"
             return
@@ -495,10 +495,10 @@ class ControllerColumns:
         row without a decision): for the legend of a run recorded whole."""
         decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
         out = np.full((end - start, len(INTERNALS)), np.nan)
-        out[decided] = self._logged_decisions(start, end, decided)[:, 2 : 2 + len(INTERNALS)]
+        out[decided] = self._logged_decisions(start, decided)[:, 2 : 2 + len(INTERNALS)]
         return out
 
-    def _logged_decisions(self, start: int, end: int, decided: np.ndarray):
+    def _logged_decisions(self, start: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)
         as an array (voltages, then the state); None to replay the rows instead (the
         first chunk chooses: a controller that did not log its decisions from the run's
@@ -517,7 +517,7 @@ class ControllerColumns:
             len(rows), self.decision_width
         )
 
-    def _replay(self, log, start: int, end: int, decided: np.ndarray):
+    def _replay(self, log, start: int, decided: np.ndarray):
         """The decisions of the decided rows of [start, end), replayed through a copy
         of the controller (made at the first chunk); a replay that departs from the run
         stops there (its later rows are NaN)."""

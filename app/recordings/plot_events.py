@@ -111,9 +111,10 @@ def _plot_rows(writer, log, rows) -> dict[int, dict[str, tuple]]:
     return out
 
 
-def _mark_value(path: str, names, values, obstacle, top) -> float:
-    """Where a mark sits on ``path``'s plot: on the obstacle's curve if the plot has
-    one, else on the first curve with a value; NaN if none has (no mark)."""
+def _mark_value(names, values, obstacle, top) -> float:
+    """Where a mark sits on a plot (its series ``names``, their ``values``): on the
+    obstacle's curve if the plot has one, else on the first curve with a value; NaN if
+    none has (no mark)."""
     if obstacle is not None and f"obstacle {obstacle}" in names:
         value = float(values[names.index(f"obstacle {obstacle}")])
     else:
@@ -152,10 +153,7 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
     by_mask: dict[tuple, list] = {}  # plots with a mark at the same events: one batch
     for path in values_at[marks[0][1]]:
         column = np.array(
-            [
-                _mark_value(path, *values_at[row][path], oid, tops.get(path))
-                for _, row, oid, _ in marks
-            ]
+            [_mark_value(*values_at[row][path], oid, tops.get(path)) for _, row, oid, _ in marks]
         )
         mask = tuple(bool(x) for x in np.isfinite(column))
         if any(mask):

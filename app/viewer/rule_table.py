@@ -42,7 +42,7 @@ def _and_word(fis) -> str:
     return "their product" if _choice(fis, "and_method", "min") == "prod" else "the smallest"
 
 
-def _rule_columns(fis, ins, outs):
+def _rule_columns(ins, outs):
     """(width, x of column c): the rule grid's geometry, shared by the header, the rows
     and the aggregated row (three SVGs that must line up)."""
     width = NUM_W + (len(ins) + len(outs)) * CELL_W + 10.0  # a gap between inputs and outputs
@@ -142,7 +142,7 @@ def rules_head_svg(inf: Inference, ins, outs, head_id: str | None = None) -> str
     """The rule grid's column headers: each variable's name and value (the centroid for
     an output). Sticky: it stays at the top of the panel while the rules scroll."""
     fis = inf.fis
-    width, col_x = _rule_columns(fis, ins, outs)
+    width, col_x = _rule_columns(ins, outs)
     extra = f" id='{head_id}'" if head_id else ""
     parts = [_svg_open(width, 26.0, "fz-rule-head-svg", extra)]
     parts.append("<text x='2' y='11' font-size='8.5' fill='#475569'>rule</text>")
@@ -171,7 +171,7 @@ def rules_head_svg(inf: Inference, ins, outs, head_id: str | None = None) -> str
 def _row_outlines(fis, rules, ins, outs, uid: str) -> str:
     """What never changes in a rule grid: each row's number and its terms' outlines
     (references to :func:`defs_html`'s paths)."""
-    _, col_x = _rule_columns(fis, ins, outs)
+    _, col_x = _rule_columns(ins, outs)
     parts = []
     for row, r in enumerate(rules):
         rule = fis.rules[r]
@@ -209,7 +209,7 @@ def rules_rows_svg(
     block's row outlines in :func:`defs_html` when ``rules`` are all its rules (they
     are then referred to, not sent again)."""
     fis = inf.fis
-    width, col_x = _rule_columns(fis, ins, outs)
+    width, col_x = _rule_columns(ins, outs)
     height = max(len(rules), 1) * CELL_H + 2.0
     extra = _zoom_attr(f"{block_id}g", f"{block_id}h", uid, width) if block_id else ""
     parts = [_svg_open(width, height, "fz-rules", extra)]
@@ -342,7 +342,7 @@ def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
     blocks); a set that no rule reaches is a fallback worth a red word only when its
     weight is above zero."""
     fis = inf.fis
-    width, col_x = _rule_columns(fis, ins, outs)
+    width, col_x = _rule_columns(ins, outs)
     agg_h = CELL_H * 1.6
     y0 = 4.0
     parts = [_svg_open(width, agg_h + 18.0, "fz-aggregate-svg")]
