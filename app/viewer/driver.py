@@ -298,10 +298,6 @@ class RunDriver:
         app = self.app
         app._input_watchers.append(func)
 
-    def remove_input_watcher(self, func) -> None:
-        app = self.app
-        app._input_watchers.remove(func)
-
     def play(self) -> None:
         app = self.app
         with app.lock:
@@ -329,13 +325,6 @@ class RunDriver:
         with app.lock:
             app.playing = False
             app._bump()
-
-    def toggle(self) -> None:
-        app = self.app
-        if app.playing:
-            self.pause()
-        else:
-            self.play()
 
     def step_once(self) -> None:
         """Pause and advance exactly one control period."""

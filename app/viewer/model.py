@@ -315,17 +315,11 @@ class ViewerApp:
     def add_input_watcher(self, func) -> None:
         return self.driver.add_input_watcher(func)
 
-    def remove_input_watcher(self, func) -> None:
-        return self.driver.remove_input_watcher(func)
-
     def play(self) -> None:
         return self.driver.play()
 
     def pause(self) -> None:
         return self.driver.pause()
-
-    def toggle(self) -> None:
-        return self.driver.toggle()
 
     def step_once(self) -> None:
         return self.driver.step_once()
@@ -406,9 +400,6 @@ class ViewerApp:
 
     def move_obstacle(self, obstacle_id: int, xy) -> None:
         return self.editing.move_obstacle(obstacle_id, xy)
-
-    def suggest_obstacle_position(self) -> tuple[float, float]:
-        return self.editing.suggest_obstacle_position()
 
     def add_obstacle(self, xy=None, radius_m: float = NEW_OBSTACLE_RADIUS_M) -> int:
         return self.editing.add_obstacle(xy, radius_m)
