@@ -117,6 +117,9 @@ class Shape:
     ramps : str
         The lengths of its linear sides, a tuple expression over ``param_names`` (the
         design rules' widths).
+    positions : bool
+        Whether every parameter is a position on the variable's axis (a corner the
+        viewer's Editor lets one drag); a width or a spread is not.
     """
 
     name: str
@@ -129,6 +132,7 @@ class Shape:
     examples: tuple[tuple[float, ...], ...] = ()
     centre: str = ""
     ramps: str = "()"
+    positions: bool = False
 
     def __post_init__(self):
         if self.matlab == "":
@@ -337,6 +341,7 @@ else:
         examples=((1.0, 3.0, 7.0), (0.0, 0.0, 1.0), (0.0, 1.0, 1.0), (1.0, 1.0, 1.0)),
         centre="b",
         ramps="(b - a, c - b)",
+        positions=True,
     ),
     Shape(
         "trapmf",
@@ -366,6 +371,7 @@ m = y1 if y1 < y2 else y2
             (2.0, 2.0, 1.0, 1.0),
             (1.0, 1.0, 1.0, 1.0),
         ),
+        positions=True,
     ),
     Shape(
         "linsmf",
@@ -384,6 +390,7 @@ else:
         examples=((0.0, 2.0), (1.0, 1.0), (-0.28, 0.65)),
         centre="b",
         ramps="(b - a,)",
+        positions=True,
     ),
     Shape(
         "linzmf",
@@ -402,6 +409,7 @@ else:
         examples=((0.0, 2.0), (1.0, 1.0), (0.2, 1.0)),
         centre="a",
         ramps="(b - a,)",
+        positions=True,
     ),
     Shape(
         "gaussmf",

@@ -17,9 +17,9 @@ import html
 
 from fuzzynav.app.viewer.drawing import PALETTE, _path, _sample
 from fuzzynav.app.viewer.views import _drag_handler
+from fuzzynav.controller.membership import SHAPES
 
 W, H = 300.0, 56.0
-POSITION_SHAPES = {"trimf", "trapmf", "linzmf", "linsmf"}  # every parameter is a position
 
 
 def _variable(fis, group: str):
@@ -37,7 +37,7 @@ def corner_sliders(editor, group: str, names) -> list[tuple[float, str, float]]:
     corners = [
         (k, j, float(p))
         for k, t in enumerate(var.terms)
-        if t.shape in POSITION_SHAPES
+        if SHAPES[t.shape].positions  # (a width or a spread is no corner to drag)
         for j, p in enumerate(t.params)
     ]
     best: dict[tuple[int, int], tuple[float, str]] = {}
