@@ -144,18 +144,9 @@ class RobotDescription:
         return 0.5 * self.footprint_m[1]
 
     @property
-    def side_mount_deg(self) -> float:
-        """:attr:`side_mount_rad` in degrees (help texts)."""
-        return math.degrees(self.side_mount_rad)
-
-    @property
     def gapless_side_mount_rad(self) -> float:
         """The side sonars' angle that leaves no blind sector ahead: one beam width."""
         return self.beam_width_rad
-
-    def footprint_text(self) -> str:
-        """The footprint as prose, ``"L x W m"`` (help texts and docstrings)."""
-        return f"{self.footprint_m[0]:g} x {self.footprint_m[1]:g} m"
 
     def with_sonar_side(self, side_angle_rad: float) -> RobotDescription:
         """The same robot with its side sonars at +-``side_angle_rad`` (``--sonar-side``).
