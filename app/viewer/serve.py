@@ -221,67 +221,49 @@ def cmd_serve(args) -> int:
 def add_commands(subparsers) -> None:
     from fuzzynav.controller.registry import controller_names
 
-    for name, help_text in (
-        ("serve", "start the interactive browser viewer"),
-        ("demo", "the viewer on scenario s1 with default settings"),
-    ):
-        parser = subparsers.add_parser(name, help=help_text)
-        if name == "serve":
-            parser.add_argument(
-                "scenario",
-                nargs="?",
-                default="s1",
-                help=scenario_help(),
-            )
-            parser.add_argument(
-                "--host",
-                default="127.0.0.1",
-                help="address to bind (default 127.0.0.1: this machine only)",
-            )
-            parser.add_argument(
-                "--port",
-                type=integer_in(0, 65535),
-                default=8080,
-                help="port (default 8080; the next free one if taken)",
-            )
-            parser.add_argument(
-                "--rrd",
-                type=Path,
-                default=None,
-                metavar="PATH",
-                help="also record the session to rerun files: the first run "
-                "to PATH, later runs to <stem>-run2.rrd, ... (the first free number; "
-                "while another server records to PATH, every run is numbered)",
-            )
-            parser.add_argument(
-                "--controller",
-                default=None,
-                choices=controller_names(),
-                help="controller to start with (default: paper)",
-            )
-            add_geometry_option(parser)
-            parser.add_argument(
-                "--classroom",
-                action="store_true",
-                help="every tab drives a world of its own; a teacher's tab (with the "
-                "token printed at start) can push its setup to all",
-            )
-            parser.add_argument(
-                "--lesson",
-                metavar="FILE",
-                default=None,
-                help="open a lesson saved from the page (Lesson → Save lesson): its "
-                "scenario, layout, controller, settings, view and time",
-            )
-        else:
-            parser.set_defaults(
-                scenario="s1",
-                host="127.0.0.1",
-                port=8080,
-                rrd=None,
-                controller=None,
-                geometry="husky",
-                classroom=False,
-                lesson=None,
-            )
-        parser.set_defaults(func=cmd_serve)
+    parser = subparsers.add_parser("serve", help="start the interactive browser viewer")
+    parser.add_argument("scenario", nargs="?", default="s1", help=scenario_help())
+    parser.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to bind (default 127.0.0.1: this machine only)",
+    )
+    parser.add_argument(
+        "--port",
+        type=integer_in(0, 65535),
+        default=8080,
+        help="port (default 8080; the next free one if taken)",
+    )
+    parser.add_argument(
+        "--rrd",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="also record the session to rerun files: the first run "
+        "to PATH, later runs to <stem>-run2.rrd, ... (the first free number; "
+        "while another server records to PATH, every run is numbered)",
+    )
+    parser.add_argument(
+        "--controller",
+        default=None,
+        choices=controller_names(),
+        help="controller to start with (default: paper)",
+    )
+    add_geometry_option(parser)
+    parser.add_argument(
+        "--classroom",
+        action="store_true",
+        help="every tab drives a world of its own; a teacher's tab (with the "
+        "token printed at start) can push its setup to all",
+    )
+    parser.add_argument(
+        "--lesson",
+        metavar="FILE",
+        default=None,
+        help="open a lesson saved from the page (Lesson → Save lesson): its "
+        "scenario, layout, controller, settings, view and time",
+    )
+    parser.set_defaults(func=cmd_serve)
+    # demo: serve with every option at its default
+    demo = subparsers.add_parser("demo", help="the viewer on scenario s1 with default settings")
+    demo.set_defaults(**vars(parser.parse_args([])))
