@@ -176,9 +176,7 @@ def write_report(
     controllers=DEFAULT_CONTROLLERS,
     perception: str = "ideal",
     readme_images: str | Path | None = None,
-    progress=True,
     geometries=GEOMETRIES,
-    formats=None,
     force: bool = False,
 ) -> dict:
     """Run, record and draw every (geometry, scenario, controller); returns the table.
@@ -189,9 +187,7 @@ def write_report(
     controllers : controller names
     perception : ``ideal`` or ``ultrasonic`` (the paper's geometry takes only ideal)
     readme_images : optional folder for the docs' copies (see the module docstring)
-    progress : show a progress bar
     geometries : any of ``husky`` and ``paper``
-    formats : figure file types (default PNG and SVG)
     force : replace an existing ``table4.md`` beside ``readme_images`` (a file outside
         the folders named, never replaced unless asked)
     """
@@ -217,7 +213,7 @@ def write_report(
     jobs = [(g, s, c) for g in geometries for s in SCENARIOS for c in controllers]
     results: dict[str, dict[str, dict]] = {g: {s: {} for s in SCENARIOS} for g in geometries}
     controller_objects: dict[str, dict] = {g: {} for g in geometries}
-    with Progress(disable=not progress) as bar:
+    with Progress() as bar:
         task = bar.add_task("report", total=len(jobs) + len(geometries))
         for geometry, scenario, name in jobs:
             bar.update(task, description=f"{geometry} · {scenario} · {name}")
@@ -239,11 +235,7 @@ def write_report(
         for geometry in geometries:
             bar.update(task, description=f"{geometry} · figures")
             entries += write_paper_figures(
-                results[geometry],
-                controller_objects[geometry],
-                fig_dir,
-                geometry,
-                formats=formats or FORMATS,
+                results[geometry], controller_objects[geometry], fig_dir, geometry, formats=FORMATS
             )
             bar.advance(task)
     write_figure_index(entries, fig_dir)

@@ -23,14 +23,12 @@ class RecordingError(ValueError):
     that any old file at the path is unchanged)."""
 
 
-def open_stream(path, application_id: str = APPLICATION_ID, recording_name: str | None = None):
+def open_stream(path, application_id: str = APPLICATION_ID):
     """A recording stream saving to ``path`` (rerun's file sink)."""
     import rerun as rr
 
     rec = rr.RecordingStream(application_id)
     rec.save(str(path))
-    if recording_name:
-        rec.send_recording_name(recording_name)
     return rec
 
 

@@ -161,9 +161,9 @@ class RecordingBudget:
         while self.starts and now - self.starts[0] >= 60.0:
             self.starts.popleft()
 
-    def why_not(self, current_bytes: int = 0) -> str | None:
+    def why_not(self) -> str | None:
         """Why a new recording may not start now (None: it may)."""
-        if self.written + current_bytes >= self.session_bytes:
+        if self.written >= self.session_bytes:
             return (
                 f"this session's recordings have reached {_size(self.session_bytes)}, the "
                 "most serve --rrd writes; restart the viewer to record more"
