@@ -11,6 +11,7 @@ inside a function to dodge a circle. Only the standard library loads at import t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import numbers
@@ -203,11 +204,6 @@ def comma_list(text: str) -> list[str]:
     return [item.strip() for item in text.split(",") if item.strip()]
 
 
-def parse_off(off: str) -> list[str]:
-    """``--off "echo memory, edge following"`` -> the part names."""
-    return comma_list(off)
-
-
 def off_flag(parts_off) -> str:
     """The ``--off`` that switches these parts off again in a command line ("" for none)."""
     return f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""
@@ -216,7 +212,7 @@ def off_flag(parts_off) -> str:
 def switch_parts_off(controller, off: str, label: str) -> tuple[str, ...]:
     """Apply ``--off PART[,PART...]`` to a controller that has parts (fuzzynav); returns
     the parts now off. Any other controller, or an unknown part, is refused."""
-    names = parse_off(off)
+    names = comma_list(off)
     if not names:
         return ()
     if not hasattr(controller, "set_parts_off"):
@@ -248,10 +244,8 @@ def run_inputs(args) -> list[Path]:
     found = []
     scenario = getattr(args, "scenario", None)
     if scenario is not None:
-        try:
+        with contextlib.suppress(OSError, ValueError):
             found.append(resolve_scenario_path(scenario))
-        except (OSError, ValueError):
-            pass
     if getattr(args, "fis", None) is not None:
         found.append(Path(args.fis))
     return found

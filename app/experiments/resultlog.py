@@ -24,6 +24,7 @@ bit, to the row that was written; non-finite floats are written as ``null``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -273,19 +274,15 @@ class ResultLog:
 
     def close(self) -> None:
         if self._file is not None:
-            try:
+            with contextlib.suppress(OSError):
                 self._file.close()
-            except OSError:
-                pass
             self._file = None
         if self._lock_fd is not None:
             if self._created and os.fstat(self._lock_fd).st_size == 0:
                 # made by this run, which ended before its first row: leave no empty
                 # file that a later run without --resume would take for a study
-                try:
+                with contextlib.suppress(OSError):
                     os.unlink(self.path)
-                except OSError:
-                    pass
             os.close(self._lock_fd)  # releases the lock
             self._lock_fd = None
 

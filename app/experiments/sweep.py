@@ -18,10 +18,10 @@ from fuzzynav.app.args import (
     add_geometry_option,
     add_off_option,
     add_perception_option,
+    comma_list,
     integer_in,
     integer_value,
     off_flag,
-    parse_off,
     print_json,
     seed_type,
 )
@@ -241,7 +241,7 @@ def cmd_sweep(args) -> int:
     from fuzzynav.world.perception import check_geometry
 
     check_geometry(getattr(args, "geometry", "husky"), args.perception)  # before any run
-    parts_off = check_sweep(args.controller, args.n, args.family, parse_off(args.off))
+    parts_off = check_sweep(args.controller, args.n, args.family, comma_list(args.off))
     label = args.controller + (f" without {', '.join(parts_off)}" if parts_off else "")
     options = _options(args)
     jobs = sweep_jobs(

@@ -5,6 +5,7 @@ run's history); the ``--rrd`` recording of each run. A part of :class:`ViewerApp
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import threading
@@ -193,10 +194,8 @@ class RunDriver:
     def _release_rrd_path(self) -> None:
         fd, self._serving_fd = self._serving_fd, None
         if fd is not None:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(self._serving_marker)  # still locked: nobody holds it now
-            except OSError:
-                pass
             os.close(fd)  # the lock with it
 
     def _recording_size(self) -> int:
@@ -220,10 +219,8 @@ class RunDriver:
             except Exception as exc:
                 app._notice(f"Recording could not be completed: {exc}", "warning")
             for path in (recorder.path, getattr(recorder, "kept_partial", None)):
-                try:  # what it wrote counts in the session's bytes
+                with contextlib.suppress(OSError):  # what it wrote counts in the session's bytes
                     self.recording_budget.written += os.stat(path).st_size if path else 0
-                except OSError:
-                    pass
 
     def _anchor(self) -> None:
         """Pace from here: sim time advances speed x wall time from this instant."""

@@ -20,6 +20,7 @@ A raw websocket client can send any message a browser could, with any values (is
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import contextvars
 import inspect
 import math
@@ -143,10 +144,10 @@ class UploadsUnderWay:
         if self.account is not None and not self.account.take("uploads", size):
             return "upload refused: the server's memory budget is spent"
         self.began[transfer] = (self.clock(), size)
-        try:  # ... and swept when it is due, whatever else arrives
+        # ... and swept when it is due, whatever else arrives (no loop running, called
+        # from a test: swept lazily)
+        with contextlib.suppress(RuntimeError):
             asyncio.get_running_loop().call_later(UPLOAD_TIMEOUT_S + 0.5, self.sweep)
-        except RuntimeError:  # no loop running (called from a test): swept lazily
-            pass
         return None
 
 
@@ -183,10 +184,9 @@ def install_message_guards(
             message.updates = kept
             token = None
             if "value" in kept and handle is not None:
-                try:
+                # (a value viser's cast refuses is refused as viser would have)
+                with contextlib.suppress(TypeError, ValueError, IndexError):
                     token = _SENT.set((handle, _cast_as_viser(handle._impl.value, kept["value"])))
-                except (TypeError, ValueError, IndexError):
-                    pass  # viser refuses it as it would have
             try:
                 if "value" in kept and handle is not None and _unchanged(handle, kept["value"]):
                     # viser drops a value equal to the widget's as "no change". But the

@@ -34,6 +34,7 @@ are read from memory (a ``.fis`` goes through a private temporary file).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -271,10 +272,8 @@ class ViewerApp:
             )
             self._bump()
         for listener in list(self._listeners):
-            try:
+            with contextlib.suppress(Exception):
                 listener(text, level)
-            except Exception:
-                pass
 
     def _end_mode_message_locked(self, mode: str) -> None:
         """What-if mode or the time slider's past ended: a warning or an error said in

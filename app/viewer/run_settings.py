@@ -5,6 +5,7 @@ and a teacher's settings pushed to a classroom tab's world. A part of
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from pathlib import Path
@@ -154,10 +155,8 @@ class RunSettings:
                 text = str(exc).replace(tmp, display).replace(Path(tmp).name, display)
                 raise ViewerError(f"{display} was refused: {text}") from None
         finally:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(tmp)
-            except OSError:
-                pass
         label = UPLOADED_PREFIX + display
         app.uploaded_controller = controller
         app.uploaded_label = label
