@@ -155,7 +155,6 @@ def add_field_of_view_option(parser: argparse.ArgumentParser) -> None:
         "--field-of-view",
         dest="field_of_view",
         type=float_in(*FIELD_OF_VIEW_LIMITS_DEG, " degrees"),
-        default=None,
         metavar="DEG",
         help="ideal perception senses only obstacles whose centre bears within +-DEG/2 of "
         "the heading (default: the scenario's: s1-s3 180, the front half-plane of the "

@@ -86,7 +86,6 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--fis",
         type=Path,
-        default=None,
         help="drive with a MATLAB .fis file of your own instead (4 inputs, 2 outputs)",
     )
     parser.add_argument(
@@ -100,7 +99,6 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--sonar-side",
         type=float_in(*SONAR_SIDE_LIMITS_DEG, " degrees"),
-        default=None,
         metavar="DEG",
         help="mount the side sonars at +-DEG (default 45; 15 leaves no blind sector ahead)",
     )

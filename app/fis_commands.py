@@ -117,7 +117,6 @@ def add_commands(subparsers) -> None:
         "path",
         type=Path,
         nargs="?",
-        default=None,
         help="output file (.fis) for paper; a directory for fuzzynav and baseline "
         "(default: paper.fis or CONTROLLER_fis/ in the current folder)",
     )

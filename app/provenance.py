@@ -145,14 +145,12 @@ def add_pin_options(parser) -> None:
     command gives them)."""
     parser.add_argument(
         RULES_DIGEST_OPTION,
-        default=None,
         metavar="HEX",
         help="refuse to run unless the controller's rules and parameters have this sha256 "
         "(a recording's reproduce command gives it)",
     )
     parser.add_argument(
         VERSION_OPTION,
-        default=None,
         metavar="VERSION",
         help="refuse to run unless this is fuzzynav's version (a recording's reproduce "
         "command gives it)",

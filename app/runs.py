@@ -406,14 +406,12 @@ def check_digests(args, sim) -> None:
 def add_digest_options(parser) -> None:
     parser.add_argument(
         SCENARIO_DIGEST_OPTION,
-        default=None,
         metavar="HEX",
         help="refuse to run unless the scenario's sha256 (as its TOML; a recording's "
         "reproduce command gives it) is this",
     )
     parser.add_argument(
         FIS_DIGEST_OPTION,
-        default=None,
         metavar="HEX",
         help="refuse to run unless the --fis rule base's sha256 (as its TOML) is this",
     )

@@ -298,7 +298,6 @@ def add_commands(subparsers) -> None:
     c.add_argument(
         "--controllers",
         type=comma_list,
-        default=None,
         help="comma-separated (default: paper,baseline,fuzzynav,p where available)",
     )
     add_perception_option(c)

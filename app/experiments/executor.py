@@ -515,14 +515,12 @@ def add_executor_options(parser) -> None:
     parser.add_argument(
         "--workers",
         type=integer_in(1, MAX_WORKERS),
-        default=None,
         metavar="N",
         help=f"worker processes (default: the CPUs this process may use, here "
         f"{available_cpus()}; with --scheduler: the cluster's)",
     )
     parser.add_argument(
         "--scheduler",
-        default=None,
         metavar="ADDRESS",
         help="with --executor dask: join this cluster, e.g. tcp://HOST:8786 (default: a "
         "LocalCluster of --workers processes on this machine)",

@@ -130,14 +130,12 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--x0",
         type=Path,
-        default=None,
         metavar="FILE",
         help="start from a fitted file's 'tuned vector:' line",
     )
     p.add_argument(
         "--out",
         type=Path,
-        default=None,
         metavar="PATH",
         help="where to write the fitted rule base (default: ./paper.toml)",
     )
@@ -170,7 +168,6 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--checkpoint",
         type=Path,
-        default=None,
         metavar="PATH",
         help="write the best vector so far to this file after every generation (--x0 reads it)",
     )

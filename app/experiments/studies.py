@@ -501,7 +501,6 @@ def add_study_output_options(parser) -> None:
     parser.add_argument(
         "--out",
         type=Path,
-        default=None,
         metavar="PATH.jsonl",
         help="write every run as one JSON line as it finishes (docs/experiments.md); an "
         "existing file is refused unless --resume",

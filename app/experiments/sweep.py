@@ -373,7 +373,6 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--failures",
         type=Path,
-        default=None,
         metavar="DIR",
         help="write every failed run of --controller to DIR: its layout as a "
         "scenario file (to run again) and a rerun recording (1-4 MB "

@@ -185,7 +185,6 @@ def _add_study_options(p) -> None:
     )
     p.add_argument(
         "--layouts",
-        default=None,
         choices=FAMILIES,
         metavar="FAMILY",
         help=f"also tune on seeded random layouts of this family ({', '.join(FAMILIES)})",
@@ -238,7 +237,6 @@ def _add_search_options(p) -> None:
     p.add_argument(
         "--x0",
         type=Path,
-        default=None,
         metavar="FILE",
         help="start from this vector: a rule base with a 'tuned vector:' header line, "
         "or a --checkpoint file (default: the tunable's own starting vector)",
@@ -246,7 +244,6 @@ def _add_search_options(p) -> None:
     p.add_argument(
         "--free",
         type=comma_list,
-        default=None,
         metavar="PREFIXES",
         help="tune only the parameters whose names start with one of these "
         "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector",
@@ -254,7 +251,6 @@ def _add_search_options(p) -> None:
     p.add_argument(
         "--radius",
         type=float_in(1e-9, 1e3),
-        default=None,
         metavar="FRACTION",
         help="narrow every bound to start +- FRACTION x its span (default: full bounds)",
     )
@@ -269,7 +265,6 @@ def _add_search_options(p) -> None:
     p.add_argument(
         "--dt",
         type=float_in(MIN_CONTROL_PERIOD_S, MAX_CONTROL_PERIOD_S, " s"),
-        default=None,
         metavar="SECONDS",
         help="control period while tuning (default: the controller's own, 0.05 s for "
         "paper: the plant is exact at any step, runs are checked at 0.02 s "
@@ -282,7 +277,6 @@ def _add_output_options(p) -> None:
     p.add_argument(
         "--out",
         type=Path,
-        default=None,
         metavar="PATH",
         help="where to write the tuned file (default: ./CONTROLLER_tuned.toml in the "
         "current folder, never over an existing one unless --force; the shipped files "
@@ -292,7 +286,6 @@ def _add_output_options(p) -> None:
     p.add_argument(
         "--checkpoint",
         type=Path,
-        default=None,
         metavar="PATH",
         help="write the best vector so far to this file after every generation",
     )

@@ -342,7 +342,6 @@ def add_commands(subparsers) -> None:
     p.add_argument("out_dir", type=Path, help="directory to write into (created)")
     p.add_argument(
         "--controllers",
-        default=None,
         help=f"comma-separated (default: {', '.join(DEFAULT_CONTROLLERS)} where available)",
     )
     p.add_argument(
@@ -362,7 +361,6 @@ def add_commands(subparsers) -> None:
     p.add_argument(
         "--readme-images",
         type=Path,
-        default=None,
         help="also copy the husky geometry's trajectories and Fig. 27 here (the docs' "
         "docs/img), and table4.md beside it (an existing one only with --force)",
     )

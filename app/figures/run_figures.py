@@ -358,7 +358,6 @@ def add_run_options(parser) -> None:
     parser.add_argument(
         "--figures",
         type=Path,
-        default=None,
         metavar="DIR",
         help="write the paper's figures of the run (PNG and SVG) into DIR",
     )

@@ -373,7 +373,6 @@ def add_run_options(parser) -> None:
     parser.add_argument(
         "--rrd",
         type=Path,
-        default=None,
         metavar="PATH",
         help="write a rerun recording of the run (open it with: rerun PATH)",
     )

@@ -157,13 +157,11 @@ def add_run_options(parser) -> None:
     parser.add_argument(
         "--trace",
         type=Path,
-        default=None,
         metavar="PATH.csv",
         help="write one CSV row per control step (pose, the four inputs, the voltages)",
     )
     parser.add_argument(
         "--trace-columns",
-        default=None,
         metavar="obstacles,rules",
         help="--trace's optional columns: each obstacle's centre (obstacles), each rule's "
         "firing strength (rules: a controller with one rule base)",

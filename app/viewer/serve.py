@@ -237,7 +237,6 @@ def add_commands(subparsers) -> None:
     parser.add_argument(
         "--rrd",
         type=Path,
-        default=None,
         metavar="PATH",
         help="also record the session to rerun files: the first run "
         "to PATH, later runs to <stem>-run2.rrd, ... (the first free number; "
@@ -245,7 +244,6 @@ def add_commands(subparsers) -> None:
     )
     parser.add_argument(
         "--controller",
-        default=None,
         choices=controller_names(),
         help="controller to start with (default: paper)",
     )
@@ -259,7 +257,6 @@ def add_commands(subparsers) -> None:
     parser.add_argument(
         "--lesson",
         metavar="FILE",
-        default=None,
         help="open a lesson saved from the page (Lesson → Save lesson): its "
         "scenario, layout, controller, settings, view and time",
     )
