@@ -112,19 +112,17 @@ from . import documents
 from .blueprint import application_id
 from .columns import ColumnWriter
 from .events import send_events
-from .files import RecordingError, recording_sink
+from .files import recording_sink
 from .fuzzy import fuzzy_view, send_fuzzy_rows
 from .internals import controller_fis, has_internals, rule_system
 from .live import LiveRecorder
 from .plot_events import send_plot_events
 from .scene import static_world
 
-#: What other rooms import from here (the viewer: the live recorder, the path check).
+#: What other rooms import from here (the viewer: the live recorder).
 __all__ = [
     "LiveRecorder",
-    "RecordingError",
     "add_run_options",
-    "check_writable_file",
     "record_run",
     "record_simulation",
     "run_hook",

@@ -49,18 +49,12 @@ from fuzzynav.app.viewer.history import RunHistory, StepHistory
 from fuzzynav.app.viewer.reading import Reading
 from fuzzynav.app.viewer.run_settings import RunSettings
 from fuzzynav.app.viewer.state import (
-    DEFAULT_DISTURBANCE,
-    EDITED_LABEL,
     MAX_UPLOAD_BYTES,
     NEW_OBSTACLE_RADIUS_M,
     NOISE_RANGE_M,
-    PLOT_WINDOW_S,
     SAFE_DISTANCE_M,
-    SPEED_RANGE,
     UPLOADED_PREFIX,
     Ghost,
-    HistoryStep,
-    ObstacleView,
     Snapshot,
     ViewerError,
     _ObservedController,
@@ -75,18 +69,10 @@ from fuzzynav.world.simulation import Simulation
 # The records and limits live in .state; they are offered here too (callers import
 # them from the model).
 __all__ = [
-    "DEFAULT_DISTURBANCE",
-    "EDITED_LABEL",
     "MAX_UPLOAD_BYTES",
-    "NEW_OBSTACLE_RADIUS_M",
     "NOISE_RANGE_M",
-    "PLOT_WINDOW_S",
     "SAFE_DISTANCE_M",
-    "SPEED_RANGE",
     "UPLOADED_PREFIX",
-    "Ghost",
-    "HistoryStep",
-    "ObstacleView",
     "Snapshot",
     "ViewerApp",
     "ViewerError",
