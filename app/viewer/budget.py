@@ -154,7 +154,6 @@ class RecordingBudget:
         self.clock = clock
         self.starts: collections.deque = collections.deque()
         self.written = 0  # bytes of the recordings completed
-        self.refused = 0  # runs not recorded
 
     def _forget_old(self) -> None:
         now = self.clock()

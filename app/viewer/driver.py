@@ -111,7 +111,6 @@ class RunDriver:
             why = budget.why_not()
             if why is not None:
                 self._unrecorded_run = app.run_id
-                budget.refused += 1
                 app._notice(f"Not recorded: {why}.", "warning")
                 return
         try:
