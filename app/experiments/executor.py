@@ -480,11 +480,7 @@ def _check_workers(workers) -> int:
 
 
 def make_executor(
-    kind: str = "local",
-    workers: int | None = None,
-    scheduler: str | None = None,
-    *,
-    start_method: str | None = None,
+    kind: str = "local", workers: int | None = None, scheduler: str | None = None
 ) -> Executor:
     """An executor (module docstring). ``workers`` None: every CPU this process may use
     (for ``dask`` with a scheduler: the cluster's threads). ``scheduler`` only with
@@ -498,7 +494,7 @@ def make_executor(
             _check_workers(workers)
         return SerialExecutor()
     if kind == "local":
-        return LocalExecutor(workers, start_method)
+        return LocalExecutor(workers)
     return DaskExecutor(workers, scheduler)
 
 

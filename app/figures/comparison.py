@@ -42,7 +42,6 @@ def comparison_figure(
     controllers=None,
     column_titles: dict | None = None,
     title: str | None = None,
-    footprint_m=None,
 ):
     """The comparison grid as a matplotlib ``Figure`` (not saved): one row per scenario,
     one column per controller (``controllers`` fixes which and in what order; default
@@ -62,7 +61,7 @@ def comparison_figure(
     if not scenarios or not controllers:
         raise ValueError("comparison figure: no results to draw")
     column_titles = column_titles or {}
-    footprint_m = footprint_m or _default_footprint()
+    footprint_m = _default_footprint()
     rows, cols = len(scenarios), len(controllers)
     # wide enough for its title even with one column
     fig, axes = _new_figure(max(3.6 * cols + 0.4, 6.4), 3.5 * rows + 0.3, rows, cols)
@@ -117,7 +116,6 @@ def write_comparison_figure(
     *,
     name: str = "comparison",
     formats=FORMATS,
-    footprint_m=None,
     controllers=None,
     column_titles: dict | None = None,
     title: str | None = None,
@@ -138,6 +136,5 @@ def write_comparison_figure(
         controllers=controllers,
         column_titles=column_titles,
         title=title,
-        footprint_m=footprint_m,
     )
     return _save(fig, out_dir, name, formats)
