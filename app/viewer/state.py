@@ -210,4 +210,3 @@ class Snapshot:
     input_pose: tuple | None = None  # the pose the inputs were read at
     history: bool = False  # showing a recorded step (the time slider), not the live world
     history_span: tuple = (0.0, 0.0)  # the recorded times of this run
-    extra: dict = field(default_factory=dict)
