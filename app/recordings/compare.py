@@ -170,13 +170,9 @@ def compare_recordings(path_a, path_b) -> list[str]:
 
 
 def add_compare_command(subparsers) -> None:
+    # (its description and examples: cli.COMMAND_DOCS["compare-runs"])
     parser = subparsers.add_parser(
-        "compare-runs",
-        help="say what differs between the runs two .rrd recordings hold",
-        description="Compare two recordings entity by entity on the run's timeline, a NaN "
-        "equal to a NaN, leaving out the wall time, the command line and the recording's "
-        "id: exit 0 when they hold the same run, 1 when they differ (each difference a "
-        "line), 2 when one cannot be read.",
+        "compare-runs", help="say what differs between the runs two .rrd recordings hold"
     )
     parser.add_argument("a", metavar="A.rrd", help="the first recording")
     parser.add_argument("b", metavar="B.rrd", help="the second recording")
