@@ -112,16 +112,17 @@ from . import documents
 from .blueprint import application_id
 from .columns import ColumnWriter
 from .events import send_events
-from .files import recording_sink
+from .files import RecordingError, recording_sink
 from .fuzzy import fuzzy_view, send_fuzzy_rows
 from .internals import controller_fis, has_internals, rule_system
 from .live import LiveRecorder
 from .plot_events import send_plot_events
 from .scene import static_world
 
-#: What other rooms import from here (the viewer: the live recorder).
+#: What other rooms import from here (the viewer: the live recorder; the tests: the error).
 __all__ = [
     "LiveRecorder",
+    "RecordingError",
     "add_run_options",
     "record_run",
     "record_simulation",
