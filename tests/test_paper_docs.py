@@ -60,6 +60,7 @@ def test_the_page_is_rendered_from_the_data():
         _load("paper_readings.json"),
         _load("paper_generalise.json"),
         _load("paper_profiles.json"),
+        _load("paper_binds.json"),
     )
     found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
     assert set(blocks) <= set(found), set(blocks) - set(found)
@@ -137,3 +138,19 @@ def test_the_readme_table_is_todays_compare(capsys):
                         row["controller"],
                         key,
                     )
+
+
+def test_the_shipped_right_wheel_ceiling_is_the_stored_one():
+    """docs/data/paper_binds.json's ceiling of rules/paper.toml's right wheel (the 12 V
+    the paper's s3 reaches): recomputed on the same grid. Where s3 drives (d_t up to its
+    start-target distance plus the disturbance) it is far below 12 V."""
+    from fuzzynav.app.experiments.paper_ceiling import right_wheel_ceiling, s3_farthest_m
+    from fuzzynav.controller.paper import RULES_BY_GEOMETRY
+    from fuzzynav.controller.rulebase import read_toml
+
+    stored = _load("paper_binds.json")["shipped_ceiling"]
+    system = read_toml(RULES_BY_GEOMETRY["paper"])
+    assert stored["d_t_max_m"] == pytest.approx(s3_farthest_m())
+    found = right_wheel_ceiling(system, s3_farthest_m())
+    assert found["right_max_v"] == pytest.approx(stored["in_s3"]["right_max_v"], abs=1e-9)
+    assert found["right_max_v"] < 12.0

@@ -238,6 +238,64 @@ def render_readings(table: dict) -> str:
     return "\n".join(lines)
 
 
+def render_binds(table: dict) -> str:
+    """``scripts/paper_binds.py``'s experiments: what holds the bounds not met."""
+    lines = [
+        "| experiment | bounds met (of 36) | not met | design rules broken | s3 right wheel max V | s2 / s3 static pass s |",
+        "|---|---|---|---|---|---|",
+    ]
+    found = [(e, e["results"][0]) for e in table["experiments"]]
+    for e, r in found:
+        runs = r["runs"]
+        missed = ", ".join(c["name"] for c in r["checks"] if not c["met"]) or "none"
+        broken = (
+            ", ".join(sorted({b[1 : b.index("]")] for b in r["design_rules_broken"]})) or "none"
+        )
+        lines.append(
+            f"| {e['label']} | {r['bounds_met']} | {missed} | {broken} "
+            f"| {runs['s3']['max_voltage_v'][1]:.2f} "
+            f"| {runs['s2']['passes'][0][0]:.1f} / {runs['s3']['passes'][0][0]:.1f} |"
+        )
+
+    def met(name: str) -> int:
+        return sum(any(c["name"] == name and c["met"] for c in r["checks"]) for _, r in found)
+
+    top = max(r["runs"]["s3"]["max_voltage_v"][1] for _, r in found)
+    lines += [
+        "",
+        f"{len(found)} searches of {found[0][1]['evaluations']} candidates each; the most "
+        f"bounds met: {max(r['bounds_met'] for _, r in found)}. s3's right wheel reaches "
+        f"12 V in {met('s3.right_wheel_12V')} of them (at most {top:.2f} V); s3's static "
+        f"pass comes after s2's in {met('s3.static_later_than_s2')}.",
+    ]
+    shipped = table.get("shipped_ceiling")
+    if shipped is not None:
+        lines += [
+            "",
+            f"`rules/paper.toml`'s right wheel, on a grid of every input with d_t up to "
+            f"{shipped['d_t_max_m']:.2f} m (s3's start-target distance plus the disturbance's "
+            f"amplitude): at most {shipped['in_s3']['right_max_v']:.2f} V; with any d_t, "
+            f"{shipped['anywhere']['right_max_v']:.2f} V (at d_t = "
+            f"{shipped['anywhere']['inputs'][0]:.1f} m, phi_t = "
+            f"{shipped['anywhere']['inputs'][2]:.2f} rad: rule 3's VL on both wheels).",
+        ]
+    if table.get("ceilings") and shipped is not None:
+        lines += [
+            "",
+            "Any vector of the layout's box, with d_t up to the same "
+            f"{shipped['d_t_max_m']:.2f} m (differential evolution over the 12 numbers and "
+            "the inputs, seeded):",
+            "",
+        ]
+    for c in table.get("ceilings", []):
+        sensed = "an obstacle sensed" if c["obstacle_sensed"] else "no obstacle sensed"
+        lines.append(
+            f"- the layout's box, NONE {c['none']}, {sensed}: "
+            f"{c['right_max_v']:.2f} V at d_t = {c['inputs'][0]:.2f} m"
+        )
+    return "\n".join(lines)
+
+
 def render_generalise(table: dict) -> str:
     lines = [
         "| controller | rule base | geometry | perception | reached safely (budget) | reached safely (4x budget) | reached (budget) | collided (budget) | failures within the budget, by what they do with 4x |",
@@ -475,7 +533,11 @@ def render_layout() -> str:
 
 
 def blocks(
-    data: dict, readings: dict, generalise: dict | None, profiles_table: dict | None = None
+    data: dict,
+    readings: dict,
+    generalise: dict | None,
+    profiles_table: dict | None = None,
+    binds: dict | None = None,
 ) -> dict[str, str]:
     out = {
         "layout": render_layout(),
@@ -487,6 +549,8 @@ def blocks(
         out["generalise"] = render_generalise(generalise)
     if profiles_table is not None:
         out["profiles"] = render_profiles(profiles_table)
+    if binds is not None:
+        out["binds"] = render_binds(binds)
     return out
 
 
