@@ -41,7 +41,7 @@ import numpy as np
 from fuzzynav.app.experiments import paper_fit
 from fuzzynav.app.experiments.batch_runs import fit_measures
 from fuzzynav.app.experiments.evolution import cmaes
-from fuzzynav.app.experiments.paper_docs import bound_checks
+from fuzzynav.app.experiments.paper_docs import MAX_JUMPS, bound_checks
 from fuzzynav.controller.design_rules import violations
 from fuzzynav.controller.paper_design import PaperDesignTunable
 
@@ -105,7 +105,10 @@ def fit_reading(reading, args) -> dict:
 
 def forced(measured: list[dict], names) -> float:
     """``--force``: an uncapped hinge, 100 per unit, for a story bound the fit's own
-    cost caps (the 12 V term is flat below 7 V): what meeting it costs the others."""
+    cost caps (the 12 V term is flat below 7 V), or for every numeric done bound
+    (``bounds``: the fit's own penalty is flat past 1.3 times a bound), or for the
+    jumps over 2 V past the two a run may have (``chatter``): what meeting them costs
+    the others."""
     by = {m["scenario"]: m for m in measured}
     cost = 0.0
     if "12V" in names:  # s3's right wheel at the saturation, in volts short of it
@@ -114,6 +117,13 @@ def forced(measured: list[dict], names) -> float:
     if "static_later" in names:  # s3's static pass 1 s after s2's, in seconds short
         short = by["s2"]["passes"][0][0] + 1.0 - by["s3"]["passes"][0][0]
         cost += 100.0 * max(0.0, short) ** 2
+    if "bounds" in names:  # every numeric done bound, uncapped, with a 10 % margin
+        for check in bound_checks(by):
+            if check["scaled"] is not None:
+                cost += 100.0 * max(0.0, check["scaled"] - 0.9) ** 2
+    if "chatter" in names:  # the jumps over 2 V past the two a run may have
+        for m in measured:
+            cost += 100.0 * max(0, m["chatter_steps"] - MAX_JUMPS) ** 2
     return cost
 
 
@@ -193,7 +203,7 @@ def main(argv=None) -> int:
         "--force",
         action="append",
         default=[],
-        choices=("12V", "static_later"),
+        choices=("12V", "static_later", "bounds", "chatter"),
         help="add an uncapped cost for this story bound (what meeting it costs the others)",
     )
     args = p.parse_args(argv)

@@ -224,9 +224,8 @@ DONE_FINAL_PHI_T_RAD = 0.1
     "scenario",
     _not_met(
         {
-            "s1": "not met: path -3.9 % (MAD +17.9 %, RMSE +0.0 %, minimum distance +6.7 %, met)",
-            "s2": "not met: path -3.7 % (MAD -6.0 %, RMSE -21.2 %, minimum distance +23.4 %, met)",
-            "s3": "not met: path -3.3 % (MAD -12.4 %, RMSE -19.5 %, minimum distance -20.0 %, met)",
+            "s1": "not met: path -3.8 % (MAD +19.4 %, RMSE +0.3 %, minimum distance -3.2 %, met)",
+            "s2": "not met: path -3.1 %, minimum distance +34.0 % (MAD +4.1 %, RMSE -13.7 %, met)",
         }
     ),
 )
@@ -242,11 +241,8 @@ def test_paper_geometry_reproduces_table4_from_the_trace(traces, scenario):
     "scenario",
     _not_met(
         {
-            "s1": "not met: the first obstacle passed at 0.64 m (paper 0.46; the second and "
-            "third at 0.27 and 0.34 m, met)",
-            "s2": "not met: the moving obstacle passed at 0.47 m (paper 0.72; at 51.9 s, met); "
-            "the static one at 0.52 m and 28.8 s, met",
-            "s3": "not met: the moving obstacle passed at 0.51 m (paper 0.73; at 50.4 s, met)",
+            "s1": "not met: the first obstacle passed at 0.63 m (paper 0.46; the second and "
+            "third at 0.25 and 0.33 m, met)",
         }
     ),
 )
@@ -259,6 +255,24 @@ def test_paper_geometry_passes_the_obstacles_when_and_where_the_paper_says(trace
         assert abs(d - event["distance_m"]) <= DONE_EVENT_DISTANCE_M, (event, d)
 
 
+@pytest.mark.parametrize(
+    "scenario",
+    _not_met({"s3": "not met: 3 jumps over 2 V outside the disturbance (at most 2)"}),
+)
+def test_paper_geometry_voltages_jump_at_most_twice(traces, scenario):
+    """Issue 35's 'no chatter': at most 2 steps a run where a wheel's applied voltage
+    jumps by more than 2 V, from the trace, counted as Table 4's ``voltage_jumps`` and
+    the docs' bound count them (world.metrics: a step whose time is in s3's 25-35 s
+    disturbance is not counted; the jump as it switches off, just after, is)."""
+    from fuzzynav.world.metrics import voltage_jumps
+
+    sc = load_scenario(scenario)
+    t = traces[scenario]
+    window = None if sc.disturbance is None else (sc.disturbance.start_s, sc.disturbance.stop_s)
+    applied = np.column_stack([t["v_left_v"], t["v_right_v"]])
+    assert voltage_jumps(t["time_s"], applied, window) <= 2
+
+
 @pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
 def test_paper_geometry_target_bearing_settles_to_zero(traces, scenario):
     """ "After several oscillations, it finally reaches zero" (Fig. 14)."""
@@ -267,8 +281,8 @@ def test_paper_geometry_target_bearing_settles_to_zero(traces, scenario):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not met: s3's static pass at 27.4 s against s2's 28.8 s (the paper: 33 s against "
-    "29 s); s1's first obstacle is passed farthest (0.64 against 0.27 and 0.34 m), met",
+    reason="not met: s3's static pass at 27.0 s against s2's 28.0 s (the paper: 33 s against "
+    "29 s); s1's first obstacle is passed farthest (0.63 against 0.25 and 0.33 m), met",
 )
 def test_paper_geometry_tells_the_papers_story(traces):
     """s1's first obstacle is passed farthest of the three (0.46 against 0.29 and about
@@ -293,20 +307,9 @@ def test_paper_geometry_s1_comes_at_its_obstacles_from_the_right(traces):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="not met: s3's right wheel reaches 8.23 V at most, not the 12 V saturation "
+    reason="not met: s3's right wheel reaches 8.84 V at most, not the 12 V saturation "
     "(Fig. 26's text; docs/paper-controller.md says why)",
 )
 def test_paper_geometry_s3_right_wheel_reaches_the_saturation(traces):
     """Fig. 26's text: s3's right wheel 'attempts to exceed 12 volts' and is clipped."""
     assert np.nanmax(traces["s3"]["v_right_v"]) >= 12.0 - 0.01
-
-
-@pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
-def test_paper_geometry_voltages_jump_at_most_twice(traces, scenario):
-    """Issue 35: voltages without chatter, at most 2 jumps over 2 V a run (the trace),
-    outside s3's disturbance, where the paper's own voltages are noisy (Fig. 26)."""
-    t = traces[scenario]
-    v = np.column_stack([t["v_left_v"], t["v_right_v"]])
-    quiet = (t["disturbance_m_or_rad"][1:] == 0) & (t["disturbance_m_or_rad"][:-1] == 0)
-    jumps = int(np.sum((np.abs(np.diff(v, axis=0)).max(axis=1) > 2.0) & quiet))
-    assert jumps <= 2, jumps

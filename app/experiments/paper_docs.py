@@ -261,9 +261,10 @@ def render_binds(table: dict) -> str:
         return sum(any(c["name"] == name and c["met"] for c in r["checks"]) for _, r in found)
 
     top = max(r["runs"]["s3"]["max_voltage_v"][1] for _, r in found)
+    sizes = "-".join(str(n) for n in sorted({r["evaluations"] for _, r in found}))
     lines += [
         "",
-        f"{len(found)} searches of {found[0][1]['evaluations']} candidates each; the most "
+        f"{len(found)} searches of {sizes} candidates; the most "
         f"bounds met: {max(r['bounds_met'] for _, r in found)}. s3's right wheel reaches "
         f"12 V in {met('s3.right_wheel_12V')} of them (at most {top:.2f} V); s3's static "
         f"pass comes after s2's in {met('s3.static_later_than_s2')}.",
@@ -529,6 +530,14 @@ def render_layout() -> str:
             f"| `{name}` | {LAYOUT_MEANINGS[name]} | {lo:g} .. {hi:g} "
             f"| {shipped['paper'][k]:.4g} | {shipped['husky'][k]:.4g} |"
         )
+    for geometry, file in (("paper", "paper.toml"), ("husky", "paper_husky.toml")):
+        edges = [
+            f"`{name}` at its {'lower' if abs(v - lo) <= abs(v - hi) else 'upper'} bound"
+            for (name, lo, hi, _), v in zip(DESIGN_PARAMETERS, shipped[geometry])
+            if min(abs(v - lo), abs(v - hi)) <= 0.01 * (hi - lo)
+        ]
+        lines += ["", f"On the box's edge (within 1 % of its width) in `{file}`: "]
+        lines[-1] += ", ".join(edges) + "." if edges else "none."
     return "\n".join(lines)
 
 
