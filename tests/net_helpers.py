@@ -1,6 +1,22 @@
 """Network helpers shared by the viewer tests."""
 
 import socket
+import sys
+
+#: ``fuzzynav ...`` as a child that Ctrl-C (SIGINT) interrupts, whoever started the
+#: tests: a shell starts a background job (``make test &``) with SIGINT ignored, every
+#: child inherits that, and Python then installs no handler of its own, so the signal a
+#: test sends would go unheard (a clean clone's suite run in the background hung 30 s in
+#: two tests). The command line itself keeps the shell's choice, as a background job
+#: should.
+INTERRUPTIBLE_CLI = [
+    sys.executable,
+    "-c",
+    "import signal, sys\n"
+    "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+    "from fuzzynav.app.cli import main\n"
+    "sys.exit(main(sys.argv[1:]))\n",
+]
 
 
 def port_is_free(port: int) -> bool:

@@ -10,14 +10,13 @@ import os
 import signal
 import socket
 import subprocess
-import sys
 import time
 import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
-from net_helpers import port_is_free
+from net_helpers import INTERRUPTIBLE_CLI, port_is_free
 
 from fuzzynav.app.viewer.model import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
 from fuzzynav.controller.fis import write_fis
@@ -117,7 +116,7 @@ def test_ctrl_c_stops_the_cli_server_and_frees_the_port(stop_signal):
         port = s.getsockname()[1]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "fuzzynav.app.cli", "serve", "s2", "--port", str(port)],
+        [*INTERRUPTIBLE_CLI, "serve", "s2", "--port", str(port)],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,

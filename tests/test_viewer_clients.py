@@ -365,8 +365,9 @@ def test_serve_classroom_prints_the_token_and_refuses_rrd(tmp_path, capsys):
     import os
     import signal
     import subprocess
-    import sys
     from pathlib import Path
+
+    from net_helpers import INTERRUPTIBLE_CLI
 
     from fuzzynav.app.cli import build_parser, main
 
@@ -375,7 +376,7 @@ def test_serve_classroom_prints_the_token_and_refuses_rrd(tmp_path, capsys):
     assert main(["serve", "--classroom", "--port", "0", "--rrd", str(tmp_path / "x.rrd")]) == 2
     assert "--classroom" in capsys.readouterr().err
     proc = subprocess.Popen(
-        [sys.executable, "-m", "fuzzynav.app.cli", "serve", "s2", "--classroom", "--port", "0"],
+        [*INTERRUPTIBLE_CLI, "serve", "s2", "--classroom", "--port", "0"],
         cwd=Path(__file__).resolve().parents[1],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
