@@ -22,11 +22,12 @@ docs/paper-controller.md ("What binds").
     .venv/bin/python scripts/paper_binds.py      (about 15 minutes on one core)
     .venv/bin/python scripts/paper_binds.py --ceiling   (then: the 12 V ceilings alone)
     .venv/bin/python scripts/paper_binds.py --ceiling --shipped-only   (a new rule base's)
-    .venv/bin/python scripts/paper_binds.py --only=9   (one experiment again, by index)
+    .venv/bin/python scripts/paper_binds.py --only 9   (one experiment again, by index)
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import tempfile
@@ -44,6 +45,7 @@ from fuzzynav.app.experiments.tuning import read_vector  # noqa: E402
 from fuzzynav.controller.paper import RULES_BY_GEOMETRY  # noqa: E402
 from fuzzynav.controller.paper_design import DESIGN_PARAMETERS, PaperDesignTunable  # noqa: E402
 from fuzzynav.controller.rulebase import read_toml  # noqa: E402
+from fuzzynav.safe_files import write_text_atomically  # noqa: E402
 
 OUT = Path(__file__).resolve().parents[1] / "docs" / "data" / "paper_binds.json"
 SELECTED = "2"  # paper_readings.READINGS' index of the shipped reading
@@ -143,39 +145,59 @@ def shipped_ceiling() -> dict:
     }
 
 
-def main() -> int:
-    names = [p[0] for p in DESIGN_PARAMETERS]
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument(
+        "--only",
+        type=lambda text: [int(k) for k in text.split(",")],
+        default=None,
+        help="these experiments again (indices, comma-separated), the others as stored",
+    )
+    p.add_argument("--ceiling", action="store_true", help="the 12 V ceilings alone")
+    p.add_argument(
+        "--shipped-only",
+        action="store_true",
+        help="with --ceiling: the shipped rule base's alone (the box's do not change with it)",
+    )
+    args = p.parse_args(argv)
+    names = [row[0] for row in DESIGN_PARAMETERS]
     shipped = ",".join(repr(float(v)) for v in read_vector(RULES_BY_GEOMETRY["paper"], names))
-    if "--ceiling" in sys.argv[1:]:  # the ceilings alone, added to the stored data
-        data = json.loads(OUT.read_text(encoding="utf-8"))
-        data.update(shipped_ceiling())
-        if "--shipped-only" not in sys.argv[1:]:  # (the box's: independent of what ships)
+    stored = json.loads(OUT.read_text(encoding="utf-8")) if OUT.exists() else None
+    if args.ceiling:
+        data = dict(stored or {}, **shipped_ceiling())
+        if not args.shipped_only:
             data["ceilings"] = ceilings(s3_farthest_m())
-        OUT.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-        return 0
-    only = [int(a.split("=")[1]) for a in sys.argv[1:] if a.startswith("--only=")]
-    rows = []
+    elif args.only is not None and stored is not None:
+        rows = {row["label"]: row for row in stored["experiments"]}
+        rows.update(run_experiments(shipped, args.only))
+        order = [label for label, _ in experiments(shipped)]
+        data = dict(stored, experiments=[rows[label] for label in order if label in rows])
+    else:
+        rows = run_experiments(shipped, args.only)
+        data = {
+            "experiments": list(rows.values()),
+            **shipped_ceiling(),
+            "ceilings": ceilings(s3_farthest_m()),
+        }
+    write_text_atomically(OUT, json.dumps(data, indent=1) + "\n")
+    print(f"wrote {OUT}")
+    return 0
+
+
+def run_experiments(shipped: str, only: list[int] | None) -> dict[str, dict]:
+    """The experiments (all, or those of ``only``) by label, each its stored row."""
+    rows = {}
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, extra) in enumerate(experiments(shipped)):
-            if only and k not in only:
+            if only is not None and k not in only:
                 continue
             out = Path(tmp) / f"{k}.json"
             arguments = ["--only", SELECTED, *extra, "--json", str(out)]
             print(f"== {label}: paper_readings.py {' '.join(arguments[:-2])}", flush=True)
             paper_readings.main(arguments)
             found = json.loads(out.read_text(encoding="utf-8"))
-            rows.append({"label": label, "arguments": extra, **found})
-    if only:  # these experiments again, the others as stored
-        data = json.loads(OUT.read_text(encoding="utf-8"))
-        stored = {row["label"]: row for row in data["experiments"]}
-        stored.update({row["label"]: row for row in rows})
-        order = [label for label, _ in experiments(shipped)]
-        data["experiments"] = [stored[label] for label in order if label in stored]
-    else:
-        data = {"experiments": rows, **shipped_ceiling(), "ceilings": ceilings(s3_farthest_m())}
-    OUT.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    print(f"wrote {OUT}")
-    return 0
+            rows[label] = {"label": label, "arguments": extra, **found}
+    return rows
 
 
 if __name__ == "__main__":
