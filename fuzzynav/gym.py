@@ -34,6 +34,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from fuzzynav.world.batch_world import BatchWorld
+from fuzzynav.world.kernels import law_centre, obstacle_law
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M
 from fuzzynav.world.scenario import Scenario, load_scenario
@@ -516,12 +517,8 @@ def render_rgb(
     """
     x, y, heading = (float(v) for v in pose)
     points = [scenario.start, scenario.target, (x, y)]
-    centres = [
-        np.asarray(o.position) + np.asarray(o.velocity) * time_s
-        + 0.5 * np.asarray(o.acceleration) * time_s * time_s
-        for o in scenario.obstacles
-    ]  # fmt: skip
-    points += [tuple(c) for c in centres]
+    centres = [law_centre(obstacle_law(o), time_s) for o in scenario.obstacles]
+    points += centres
     xs, ys = zip(*points)
     centre_x, centre_y = 0.5 * (min(xs) + max(xs)), 0.5 * (min(ys) + max(ys))
     span = max(max(xs) - min(xs), max(ys) - min(ys)) + 3.0

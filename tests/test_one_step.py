@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from fuzzynav.world import kernels
-from fuzzynav.world.arena import Arena, Obstacle, _obstacle_path_m
+from fuzzynav.world.arena import Arena, Obstacle
+from fuzzynav.world.batch_world import BatchWorld
 from fuzzynav.world.geometry import wrap_angle_scalar, wrap_angles
 from fuzzynav.world.perception import target_inputs
-from fuzzynav.world.scenario import Disturbance, ObstacleSpec
+from fuzzynav.world.scenario import Disturbance, ObstacleSpec, load_scenario
 
 RNG = np.random.default_rng(36)
 
@@ -46,15 +47,47 @@ def test_the_obstacles_law_for_one_float_is_the_array_form_bit_for_bit():
     n = 2_000
     p, v, a = RNG.uniform(-10, 10, (n, 2)), RNG.uniform(-3, 3, (n, 2)), RNG.uniform(-1, 1, (n, 2))
     t = RNG.uniform(0.0, 150.0, n)
-    law = np.concatenate([p, v, 0.5 * a], axis=1)[:, :, None]  # (n, 6, 1)
+    specs = [ObstacleSpec(tuple(p[i]), 0.3, tuple(v[i]), tuple(a[i])) for i in range(n)]
+    law = np.array([kernels.obstacle_law(spec) for spec in specs])[:, :, None]  # (n, 6, 1)
     cx, cy = kernels.obstacle_centres(law, t)
     bound = kernels.obstacle_path_bound(law, t, 0.02)
     for i in range(0, n, 7):
-        spec = ObstacleSpec(tuple(p[i]), 0.3, tuple(v[i]), tuple(a[i]))
-        obstacle = Obstacle(0, spec)
+        obstacle = Obstacle(0, specs[i])
         assert _same_bits(obstacle._xy_at(float(t[i])), (cx[i, 0], cy[i, 0]))
         assert _same_bits(obstacle.position_at(float(t[i])), (cx[i, 0], cy[i, 0]))
-        assert _within_one_ulp(_obstacle_path_m(obstacle, float(t[i]), 0.02), bound[i, 0])
+        path = kernels.law_path_bound(obstacle._law, float(t[i]), 0.02)
+        assert _within_one_ulp(path, bound[i, 0])  # a float's ** 0.5 against numpy's sqrt
+
+
+def test_a_motion_law_written_once_moves_both_engines_obstacles(monkeypatch):
+    """Issue 36 (c): the obstacles' law is written once (world/kernels.py); a toy law
+    patched there alone (each obstacle travels twice as far, as a key ``speed_factor =
+    2`` would make it) moves the pymunk engine's bodies and the batch engine's arrays."""
+    plain = kernels.obstacle_law
+
+    def twice_as_far(spec):
+        px, py, *motion = plain(spec)
+        return (px, py, *(2.0 * m for m in motion))
+
+    monkeypatch.setattr(kernels, "obstacle_law", twice_as_far)
+    scenario = load_scenario("s2")
+    dt, steps = 0.05, 400
+    arena = Arena((0.0, 0.0))
+    arena.reset(scenario.start, scenario.heading_rad, scenario.target, scenario.obstacles)
+    batch = BatchWorld(geometry="paper", control_period_s=dt)
+    batch.reset([scenario])
+    for _ in range(steps):
+        arena.step(0.0, 0.0, dt)
+        batch.step(np.zeros((1, 2)))
+    t = arena.time_s
+    want = [
+        np.asarray(o.position) + 2.0 * (np.asarray(o.velocity) * t + 0.5 * np.asarray(o.acceleration) * t * t)
+        for o in scenario.obstacles
+    ]  # fmt: skip
+    assert np.linalg.norm(want[1] - np.asarray(scenario.obstacles[1].position)) > 0.5
+    bodies = [tuple(arena.obstacles[i].body.position) for i in sorted(arena.obstacles)]
+    np.testing.assert_allclose(bodies, want, atol=1e-9)
+    np.testing.assert_allclose(np.stack([batch.s.cx[0], batch.s.cy[0]], axis=1), want, atol=1e-9)
 
 
 @pytest.mark.parametrize("footprint", [(0.99, 0.67), (0.0, 0.0)])

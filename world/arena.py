@@ -41,6 +41,7 @@ numbers they returned before.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
@@ -50,8 +51,15 @@ import numpy as np
 import pymunk
 
 from fuzzynav.world import compat_pymunk as _compat
+from fuzzynav.world import kernels
 from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
-from fuzzynav.world.kernels import arc_poses, obstacle_law, swept_clearances
+from fuzzynav.world.kernels import (
+    arc_poses,
+    law_centre,
+    law_path_bound,
+    law_velocity,
+    swept_clearances,
+)
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
@@ -86,7 +94,8 @@ class Collision:
 
 
 class Obstacle:
-    """A circle on its own kinematic pymunk body, moving by a constant-acceleration law."""
+    """A circle on its own kinematic pymunk body, moving by its law
+    (:func:`world.kernels.obstacle_law`: the paper's constant acceleration)."""
 
     def __init__(self, obstacle_id: int, spec: ObstacleSpec, time_s: float = 0.0):
         self.id = obstacle_id
@@ -95,45 +104,34 @@ class Obstacle:
         self.shape = pymunk.Circle(self.body, spec.radius_m)
         self.shape.collision_type = OBSTACLE_COLLISION_TYPE
         self.shape.obstacle_id = obstacle_id
-        self.acceleration = np.asarray(spec.acceleration, dtype=float)
+        self.spec = spec
         self.restart_law(spec.position, spec.velocity, time_s)
 
     def restart_law(self, position, velocity, time_s: float) -> None:
-        self.initial_position = np.asarray(position, dtype=float)
-        self.initial_velocity = np.asarray(velocity, dtype=float)
-        self.law_start_s = time_s
-        self.is_static = not (self.initial_velocity.any() or self.acceleration.any())
-        # The law as plain floats for the hot path, and the time it starts.
-        self._law = (
-            *obstacle_law(self.initial_position, self.initial_velocity, self.acceleration),
-            float(time_s),
+        """Start the law again at ``time_s`` from this position and velocity (a drag in
+        the viewer); the scenario entry's other keys are kept."""
+        self.spec = dataclasses.replace(
+            self.spec,
+            position=(float(position[0]), float(position[1])),
+            velocity=(float(velocity[0]), float(velocity[1])),
         )
-        self.body.position = tuple(self.initial_position)
+        self.law_start_s = float(time_s)
+        self.is_static = self.spec.is_static
+        self._law = kernels.obstacle_law(self.spec)  # plain floats, for the hot path
+        self.body.position = self.spec.position
 
     def position_at(self, time_s: float) -> np.ndarray:
         """The centre at ``time_s``, (2,) m (:meth:`_xy_at`)."""
         return np.array(self._xy_at(time_s))
 
     def _xy_at(self, time_s: float) -> tuple[float, float]:
-        """The centre by the law, ``p0 + v0 tau + (a / 2) tau^2``: the scalar form of
-        :func:`world.kernels.obstacle_centres` (the same operations in the same order,
-        checked bit for bit by tests/test_world.py)."""
-        px, py, vx, vy, hax, hay, t0 = self._law
-        tau = time_s - t0
-        return px + vx * tau + hax * tau * tau, py + vy * tau + hay * tau * tau
+        """The centre by the law (:func:`world.kernels.law_centre`, the batch engine's
+        formula on floats)."""
+        return law_centre(self._law, time_s - self.law_start_s)
 
     def velocity_at(self, time_s: float) -> np.ndarray:
-        return self.initial_velocity + self.acceleration * (time_s - self.law_start_s)
-
-
-def _obstacle_path_m(obstacle: Obstacle, t0: float, dt: float) -> float:
-    """A bound on the length an obstacle travels in [t0, t0 + dt]: ``|v(t0)| dt +
-    |a| dt^2 / 2``, the scalar form of :func:`world.kernels.obstacle_path_bound`
-    (checked against it by tests/test_world.py)."""
-    _, _, vx, vy, hax, hay, ts = obstacle._law
-    age = t0 - ts
-    speed = _hypot(vx + 2.0 * hax * age, vy + 2.0 * hay * age)
-    return speed * dt + _hypot(hax, hay) * dt * dt
+        """The velocity at ``time_s``, (2,) m/s (:func:`world.kernels.law_velocity`)."""
+        return np.array(law_velocity(self._law, time_s - self.law_start_s))
 
 
 class _Scene(NamedTuple):
@@ -498,15 +496,15 @@ class Arena:
                     reported.add(obstacle.id)
             path = robot_path
             if not obstacle.is_static:
-                path += _obstacle_path_m(obstacle, t0, dt)
+                path += law_path_bound(obstacle._law, t0 - obstacle.law_start_s, dt)
             bound = 0.5 * (c0 + c1 - path)
             if bound >= low - SWEEP_TOLERANCE_M or bound >= SWEEP_RELEVANT_M:
                 continue
             self.swept_steps += 1
             length, width = self.footprint_m
             clearance, tau = swept_clearances(
-                pose0, v, w, dt, obstacle._law[:6], obstacle.radius_m,
-                t0 - obstacle._law[6], 0.5 * length, 0.5 * width, path,
+                pose0, v, w, dt, obstacle._law, obstacle.radius_m,
+                t0 - obstacle.law_start_s, 0.5 * length, 0.5 * width, path,
             )  # fmt: skip
             k = int(np.argmin(clearance))
             if clearance[k] < smallest:

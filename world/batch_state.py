@@ -13,9 +13,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from fuzzynav.world import kernels
 from fuzzynav.world.geometry import FULL_CIRCLE_RAD
 from fuzzynav.world.husky_params import N_STATES
-from fuzzynav.world.kernels import obstacle_law
 from fuzzynav.world.run_limits import timeout_slack_s
 from fuzzynav.world.scenario import Scenario
 
@@ -62,11 +62,11 @@ def scenario_arrays(
         Name to array, the run first on every axis.
     """
     k = len(scenarios)
-    law = np.zeros((k, 6, n_columns))  # kernels.obstacle_law per column
+    law = np.zeros((k, kernels.LAW_SIZE, n_columns))  # kernels.obstacle_law per column
     radius = np.full((k, n_columns), np.nan)
     for i, sc in enumerate(scenarios):
         for j, o in enumerate(sc.obstacles):
-            law[i, :, j] = obstacle_law(o.position, o.velocity, o.acceleration)
+            law[i, :, j] = kernels.obstacle_law(o)
             radius[i, j] = o.radius_m
     present = np.isfinite(radius)
     moving = present & (

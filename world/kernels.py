@@ -44,6 +44,10 @@ __all__ = [
     "obstacle_centres",
     "obstacle_law",
     "obstacle_path_bound",
+    "law_centre",
+    "law_velocity",
+    "law_path_bound",
+    "LAW_SIZE",
     "sonar_distances",
     "sonar_obstacle_inputs",
     "swept_clearances",
@@ -52,39 +56,103 @@ __all__ = [
 ]
 
 
-def obstacle_law(position, velocity, acceleration) -> tuple[float, ...]:
-    """An obstacle's constant-acceleration law as both engines hold it: ``p0x, p0y,
-    v0x, v0y, a_x / 2, a_y / 2`` (:func:`obstacle_centres`; the arena's
-    :class:`world.arena.Obstacle`).
+def obstacle_law(spec) -> tuple[float, ...]:
+    """An obstacle's motion law as both engines hold it, from its scenario entry: the
+    paper's constant acceleration (Eq. 13-14) as ``p0x, p0y, v0x, v0y, a_x / 2,
+    a_y / 2``. The law is written here once: :func:`law_centre`, :func:`law_velocity`
+    and :func:`law_path_bound` read it, on plain floats (the arena's
+    :class:`world.arena.Obstacle`) and on arrays (the batch engine, through
+    :func:`obstacle_centres` and :func:`obstacle_path_bound`), so a scenario key that
+    changes how obstacles move is this function, those three and the key's reading.
 
     Parameters
     ----------
-    position, velocity, acceleration : sequence of float
-        At the law's start: m, m/s, m/s^2.
+    spec : world.scenario.ObstacleSpec
+        Its ``position`` (m), ``velocity`` (m/s) and ``acceleration`` (m/s^2) at the
+        law's start.
 
     Returns
     -------
     tuple of float
-        The six numbers.
+        The law's :data:`LAW_SIZE` numbers.
     """
-    return (
-        float(position[0]),
-        float(position[1]),
-        float(velocity[0]),
-        float(velocity[1]),
-        0.5 * float(acceleration[0]),
-        0.5 * float(acceleration[1]),
-    )
+    (px, py), (vx, vy), (ax, ay) = spec.position, spec.velocity, spec.acceleration
+    return (float(px), float(py), float(vx), float(vy), 0.5 * float(ax), 0.5 * float(ay))
 
 
-def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The obstacles' centres at each run's time by their constant-acceleration law,
-    ``p0 + v0 t + (a / 2) t^2`` (:meth:`world.arena.Obstacle._xy_at`).
+#: How many numbers an obstacle's law holds (:func:`obstacle_law`).
+LAW_SIZE = 6
+
+
+def law_centre(law, tau):
+    """The centre ``p0 + v0 tau + (a / 2) tau^2`` at ``tau`` after the law's start.
 
     Parameters
     ----------
-    law : numpy.ndarray, (n, 6, M)
-        Per obstacle its :func:`obstacle_law`.
+    law : sequence
+        :func:`obstacle_law`'s numbers, floats or arrays alike (one per number).
+    tau : float or numpy.ndarray
+        The time since the law's start, s (broadcast against the law's numbers).
+
+    Returns
+    -------
+    tuple
+        ``(x, y)``, m, floats or arrays as given.
+    """
+    px, py, vx, vy, hax, hay = law
+    return px + vx * tau + hax * tau * tau, py + vy * tau + hay * tau * tau
+
+
+def law_velocity(law, tau):
+    """The velocity ``v0 + a tau`` at ``tau`` after the law's start.
+
+    Parameters
+    ----------
+    law : sequence
+        As :func:`law_centre`.
+    tau : float or numpy.ndarray
+        The time since the law's start, s.
+
+    Returns
+    -------
+    tuple
+        ``(vx, vy)``, m/s.
+    """
+    _, _, vx, vy, hax, hay = law
+    return vx + 2.0 * hax * tau, vy + 2.0 * hay * tau
+
+
+def law_path_bound(law, tau, dt):
+    """A bound on the length the obstacle travels in ``[tau, tau + dt]``: ``|v(tau)| dt
+    + |a / 2| dt^2`` (how finely the swept test samples a step).
+
+    Parameters
+    ----------
+    law : sequence
+        As :func:`law_centre`.
+    tau : float or numpy.ndarray
+        The time since the law's start at the step's start, s.
+    dt : float
+        The step, s.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The bound, m.
+    """
+    vx, vy = law_velocity(law, tau)
+    _, _, _, _, hax, hay = law
+    # a square root by ** 0.5: the same operation on floats and on arrays
+    return (vx * vx + vy * vy) ** 0.5 * dt + (hax * hax + hay * hay) ** 0.5 * dt * dt
+
+
+def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every run's obstacles' centres at the run's time (:func:`law_centre`).
+
+    Parameters
+    ----------
+    law : numpy.ndarray, (n, LAW_SIZE, M)
+        Per obstacle its :func:`obstacle_law` (laws start at the run's start).
     t : numpy.ndarray, (n,)
         Each run's time since its start, s.
 
@@ -93,20 +161,15 @@ def obstacle_centres(law: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.nda
     tuple of numpy.ndarray
         ``(cx, cy)``, each (n, M), m.
     """
-    tt = t[:, None]
-    return (
-        law[:, 0] + law[:, 2] * tt + law[:, 4] * tt * tt,
-        law[:, 1] + law[:, 3] * tt + law[:, 5] * tt * tt,
-    )
+    return law_centre(law.swapaxes(0, 1), t[:, None])
 
 
 def obstacle_path_bound(law: np.ndarray, t0: np.ndarray, dt: float) -> np.ndarray:
-    """A bound on the length each obstacle travels in ``[t0, t0 + dt]``:
-    ``|v(t0)| dt + |a / 2| dt^2`` (:func:`world.arena._obstacle_path_m`).
+    """Every run's obstacles' :func:`law_path_bound` over one step.
 
     Parameters
     ----------
-    law : numpy.ndarray, (n, 6, M)
+    law : numpy.ndarray, (n, LAW_SIZE, M)
         The obstacles' laws, as :func:`obstacle_centres`.
     t0 : numpy.ndarray, (n,)
         Each run's time at the step's start, s.
@@ -118,9 +181,7 @@ def obstacle_path_bound(law: np.ndarray, t0: np.ndarray, dt: float) -> np.ndarra
     numpy.ndarray, (n, M)
         The bound, m.
     """
-    tt = t0[:, None]
-    speed = np.hypot(law[:, 2] + 2.0 * law[:, 4] * tt, law[:, 3] + 2.0 * law[:, 5] * tt)
-    return speed * dt + np.hypot(law[:, 4], law[:, 5]) * dt * dt
+    return law_path_bound(law.swapaxes(0, 1), t0[:, None], dt)
 
 
 def footprint_clearances(x, y, heading, cx, cy, radius, half_length_m, half_width_m):
@@ -254,10 +315,7 @@ def swept_clearances(
     n = min(SWEEP_MAX_SAMPLES, int(math.ceil(path_m / SWEEP_SPACING_M)) + 2)
     tau = np.linspace(0.0, dt, n)
     x, y, heading = arc_poses(pose0, v, w, tau)
-    px, py, vx, vy, hax, hay = law
-    age = t0 + tau
-    cx = px + vx * age + hax * age * age
-    cy = py + vy * age + hay * age * age
+    cx, cy = law_centre(law, t0 + tau)
     return (
         rectangle_clearances(
             np.cos(heading), np.sin(heading), cx - x, cy - y, radius, half_length_m, half_width_m

@@ -6,6 +6,7 @@ it shares."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -347,10 +348,7 @@ class ScenarioEditing:
             for k, (i, spec) in enumerate(app._layout):
                 if i == obstacle_id:
                     moved = tuple(float(v) for v in np.asarray(spec.position) + delta)
-                    app._layout[k] = (
-                        i,
-                        ObstacleSpec(moved, spec.radius_m, spec.velocity, spec.acceleration),
-                    )
+                    app._layout[k] = (i, dataclasses.replace(spec, position=moved))
             app.driver._resense_locked()
             app._bump()
 
