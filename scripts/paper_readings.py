@@ -51,6 +51,7 @@ READINGS = [
     for none in ("matlab", "unsensed")
     for fov in (180.0, 360.0)
 ]
+FORCE_STORY = ("12V", "static_later", "bounds", "chatter")
 CHECK_PERIOD_S = 0.02  # fuzzynav run's own period: the numbers a user recomputes
 
 
@@ -107,8 +108,9 @@ def forced(measured: list[dict], names) -> float:
     """``--force``: an uncapped hinge, 100 per unit, for a story bound the fit's own
     cost caps (the 12 V term is flat below 7 V), or for every numeric done bound
     (``bounds``: the fit's own penalty is flat past 1.3 times a bound), or for the
-    jumps over 2 V past the two a run may have (``chatter``): what meeting them costs
-    the others."""
+    jumps over 2 V past the two a run may have (``chatter``), or for one numeric done
+    bound by its name (``s1.path``, ten times the weight ``bounds`` gives each): what
+    meeting them costs the others."""
     by = {m["scenario"]: m for m in measured}
     cost = 0.0
     if "12V" in names:  # s3's right wheel at the saturation, in volts short of it
@@ -124,7 +126,19 @@ def forced(measured: list[dict], names) -> float:
     if "chatter" in names:  # the jumps over 2 V past the two a run may have
         for m in measured:
             cost += 100.0 * max(0, m["chatter_steps"] - MAX_JUMPS) ** 2
+    for check in bound_checks(by):  # one numeric bound by name: ten times the weight
+        if check["name"] in names and check["scaled"] is not None:
+            cost += 1000.0 * max(0.0, check["scaled"] - 0.9) ** 2
     return cost
+
+
+def numeric_bound_names() -> list[str]:
+    """The names of the numeric done bounds (``--force`` accepts each), read off a
+    judged run of the hand layout's shape: the checks name themselves."""
+    fit = paper_fit.FitCost(0.1, stall_s=None, reading=READINGS[0])
+    runs = fit.measure_all(np.asarray(PaperDesignTunable().initial_vector(), float))
+    found = bound_checks({m["scenario"]: m for m in runs}, fit.paper)
+    return [c["name"] for c in found if c["scaled"] is not None]
 
 
 def search_bounds(tunable, overrides) -> list[tuple[float, float]]:
@@ -203,10 +217,13 @@ def main(argv=None) -> int:
         "--force",
         action="append",
         default=[],
-        choices=("12V", "static_later", "bounds", "chatter"),
-        help="add an uncapped cost for this story bound (what meeting it costs the others)",
+        help="add an uncapped cost for this story bound (what meeting it costs the others): "
+        f"one of {', '.join(FORCE_STORY)} or a numeric bound's name (s1.path, ...)",
     )
     args = p.parse_args(argv)
+    for name in args.force:
+        if name not in FORCE_STORY and name not in numeric_bound_names():
+            p.error(f"--force {name!r}: not one of {FORCE_STORY} nor a numeric bound's name")
     picked = range(len(READINGS)) if args.only is None else [int(k) for k in args.only.split(",")]
     results = []
     for k in picked:

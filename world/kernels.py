@@ -20,6 +20,8 @@ in s.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +58,7 @@ __all__ = [
 ]
 
 
-def obstacle_law(spec) -> tuple[float, ...]:
+def obstacle_law(spec: Any) -> tuple[float, ...]:
     """An obstacle's motion law as both engines hold it, from its scenario entry: the
     paper's constant acceleration (Eq. 13-14) as ``p0x, p0y, v0x, v0y, a_x / 2,
     a_y / 2``. The law is written here once: :func:`law_centre`, :func:`law_velocity`
@@ -84,7 +86,7 @@ def obstacle_law(spec) -> tuple[float, ...]:
 LAW_SIZE = 6
 
 
-def law_centre(law, tau):
+def law_centre(law: Iterable[Any], tau: Any) -> tuple[Any, Any]:
     """The centre ``p0 + v0 tau + (a / 2) tau^2`` at ``tau`` after the law's start.
 
     Parameters
@@ -103,7 +105,7 @@ def law_centre(law, tau):
     return px + vx * tau + hax * tau * tau, py + vy * tau + hay * tau * tau
 
 
-def law_velocity(law, tau):
+def law_velocity(law: Iterable[Any], tau: Any) -> tuple[Any, Any]:
     """The velocity ``v0 + a tau`` at ``tau`` after the law's start.
 
     Parameters
@@ -122,7 +124,7 @@ def law_velocity(law, tau):
     return vx + 2.0 * hax * tau, vy + 2.0 * hay * tau
 
 
-def law_path_bound(law, tau, dt):
+def law_path_bound(law: Iterable[Any], tau: Any, dt: float) -> Any:
     """A bound on the length the obstacle travels in ``[tau, tau + dt]``: ``|v(tau)| dt
     + |a / 2| dt^2`` (how finely the swept test samples a step).
 
