@@ -16,7 +16,15 @@ from __future__ import annotations
 
 import re
 
-from fuzzynav.app.experiments.paper_fit import MIN_RIGHT_OFFSET_M, SATURATION_V, measure
+from fuzzynav.app.experiments.paper_fit import (
+    MIN_RIGHT_OFFSET_M,
+    SATURATION_V,
+    TWIN_CLEARANCE_M,
+    TWIN_MAD_FACTOR,
+    TWIN_PATH_M,
+    TWIN_PHI_RAD,
+    measure,
+)
 from fuzzynav.app.published import SCENARIOS, paper_results
 
 HUSKY_PERCEPTION = ("ideal", "ultrasonic")
@@ -24,7 +32,6 @@ HUSKY_PERCEPTION = ("ideal", "ultrasonic")
 PATH_BOUND, TABLE4_BOUND = 0.03, 0.25
 EVENT_TIME_BOUND, EVENT_DISTANCE_BOUND_M = 0.20, 0.15
 FINAL_PHI_BOUND_RAD, MAX_JUMPS = 0.1, 2
-TWIN_CLEARANCE_M, TWIN_PATH_M, TWIN_MAD_FACTOR, TWIN_PHI_RAD = 0.25, 13.0, 2.0, 0.3
 KEYS = (
     "reached",
     "collided",
@@ -122,10 +129,6 @@ def twin_checks(run: dict, name: str, paper: dict | None = None) -> dict[str, bo
 
 def _pct(ours, paper):
     return f"{ours:.3f} ({paper:g}; {100 * (ours / paper - 1):+.1f} %)"
-
-
-def _yes(met: bool) -> str:
-    return "met" if met else "**not met**"
 
 
 def render_paper(data: dict) -> str:
@@ -260,6 +263,7 @@ def render_binds(table: dict) -> str:
     def met(name: str) -> int:
         return sum(any(c["name"] == name and c["met"] for c in r["checks"]) for _, r in found)
 
+    lines += ["", *_binds_by_bound(found)]
     top = max(r["runs"]["s3"]["max_voltage_v"][1] for _, r in found)
     sizes = "-".join(str(n) for n in sorted({r["evaluations"] for _, r in found}))
     lines += [
@@ -295,6 +299,30 @@ def render_binds(table: dict) -> str:
             f"{c['right_max_v']:.2f} V at d_t = {c['inputs'][0]:.2f} m"
         )
     return "\n".join(lines)
+
+
+def _binds_by_bound(found: list) -> list[str]:
+    """A row per bound some experiment misses: how many meet it, the most bounds any of
+    those meets, and its best residual where it is numeric (the trade-off in numbers)."""
+    names = [c["name"] for c in found[0][1]["checks"]]
+    missed = [n for n in names if any(not _check(r, n)["met"] for _, r in found)]
+    lines = [
+        "| bound | experiments meeting it | the most bounds met by one of those | smallest residual / bound |",
+        "|---|---|---|---|",
+    ]
+    for name in missed:
+        meeting = [r["bounds_met"] for _, r in found if _check(r, name)["met"]]
+        scaled = [_check(r, name)["scaled"] for _, r in found]
+        best = min((v for v in scaled if v is not None), default=None)
+        lines.append(
+            f"| {name} | {len(meeting)} of {len(found)} | {max(meeting) if meeting else '—'} "
+            f"| {'—' if best is None else f'{best:.2f}'} |"
+        )
+    return lines
+
+
+def _check(result: dict, name: str) -> dict:
+    return next(c for c in result["checks"] if c["name"] == name)
 
 
 def render_generalise(table: dict) -> str:

@@ -40,11 +40,14 @@ EVENT_DISTANCE_TOL_M = 0.05
 FINAL_PHI_TOL_RAD = 0.05
 # Voltage jumps over 2 V (world.metrics.voltage_jumps) allowed before a penalty.
 CHATTER_FREE_STEPS = 10
-# The Husky geometry's bounds (issue 25), each kept with a margin by a hinge.
-HUSKY_SAFE_CLEARANCE_M = 0.25 + 0.03
-HUSKY_MAX_PATH_M = 13.0 - 0.2
-HUSKY_MAD_FACTOR = 2.0 * 0.95
-HUSKY_MAX_ARRIVAL_PHI_RAD = 0.3 - 0.05
+# The Husky twin's bounds (issue 35; docs/paper-controller.md, "The Husky twin"):
+# clearance from the footprint, path, MAD as a multiple of the paper's, phi_t at arrival.
+TWIN_CLEARANCE_M, TWIN_PATH_M, TWIN_MAD_FACTOR, TWIN_PHI_RAD = 0.25, 13.0, 2.0, 0.3
+# ... and as the fit keeps them, each with a margin by a hinge.
+HUSKY_SAFE_CLEARANCE_M = TWIN_CLEARANCE_M + 0.03
+HUSKY_MAX_PATH_M = TWIN_PATH_M - 0.2
+HUSKY_MAD_FACTOR = TWIN_MAD_FACTOR * 0.95
+HUSKY_MAX_ARRIVAL_PHI_RAD = TWIN_PHI_RAD - 0.05
 
 
 @dataclass(frozen=True)
