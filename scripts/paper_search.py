@@ -11,6 +11,7 @@ gives the command.
 
     .venv/bin/python scripts/paper_search.py --heading 0 --maxiter 60 --popsize 24 \
         --seed 1 --out /tmp/p.toml [--x0 FILE] [--sigma 0.2] [--modes paper,husky-ideal,husky-ultrasonic]
+        [--bounds-first]   (the twin's bounds counted first, uncapped, chatter included)
 """
 
 from __future__ import annotations
@@ -25,6 +26,13 @@ import numpy as np
 from fuzzynav.app.experiments import paper_fit
 from fuzzynav.app.experiments.batch_runs import fit_measures
 from fuzzynav.app.experiments.evolution import cmaes
+from fuzzynav.app.experiments.paper_docs import MAX_JUMPS, twin_checks
+from fuzzynav.app.experiments.paper_fit import (
+    TWIN_CLEARANCE_M,
+    TWIN_MAD_FACTOR,
+    TWIN_PATH_M,
+    TWIN_PHI_RAD,
+)
 from fuzzynav.controller.paper_design import PaperDesignTunable
 
 MODES = {
@@ -34,13 +42,41 @@ MODES = {
 }
 
 
+def twin_bounds_cost(measured: dict, paper: dict) -> float:
+    """``--bounds-first``: the twin's bounds counted first (docs/paper-controller.md,
+    'The Husky twin'): 1000 for each of a run's six not met, then each residual scaled
+    by its bound as an uncapped hinge (100 per unit past 0.9 of it: a 10 % margin) and
+    10 for each jump over 2 V past the two a run may have. ``paper_fit.husky_cost``
+    caps each hinge (past the cap a worse residual stopped pulling) and leaves chatter
+    out; a run not reached misses all six (and costs 10 per metre short)."""
+    if not measured["reached"]:
+        return 6000.0 + 10.0 * measured["closest_to_target_m"]
+    checks = twin_checks(measured, measured["scenario"], paper)
+    mad_bound = TWIN_MAD_FACTOR * paper["table4"][measured["scenario"]]["mad_m"]
+    scaled = [
+        TWIN_CLEARANCE_M / max(measured["min_clearance_m"], 1e-3),
+        measured["path_length_m"] / TWIN_PATH_M,
+        measured["mad_m"] / mad_bound,
+        abs(measured["final_phi_t_rad"]) / TWIN_PHI_RAD,
+    ]
+    cost = 1000.0 * sum(not met for met in checks.values())
+    cost += sum(100.0 * max(0.0, r - 0.9) ** 2 for r in scaled)
+    return float(cost + 10.0 * max(0, measured["chatter_steps"] - MAX_JUMPS))
+
+
 class SearchCost:
     def __init__(
-        self, modes, husky_weight: float, dt: float, reading=paper_fit.SCENARIO_FILE_READING
+        self,
+        modes,
+        husky_weight: float,
+        dt: float,
+        reading=paper_fit.SCENARIO_FILE_READING,
+        bounds_first: bool = False,
     ):
         self.fit = paper_fit.FitCost(dt, husky=True, reading=reading)
         self.modes = [MODES[m] for m in modes]
         self.husky_weight = husky_weight
+        self.bounds_first = bounds_first
 
     def measure(self, vectors):
         return [fit_measures(self.fit, paper_fit.SCENARIOS, vectors, g, p) for g, p in self.modes]
@@ -51,6 +87,8 @@ class SearchCost:
             if geometry == "paper":
                 cost += sum(paper_fit.run_cost(m, self.fit.paper) for m in runs)
                 cost += paper_fit.story_cost(runs)
+            elif self.bounds_first:
+                cost += self.husky_weight * sum(twin_bounds_cost(m, self.fit.paper) for m in runs)
             else:
                 cost += self.husky_weight * sum(
                     paper_fit.husky_cost(m, self.fit.paper) for m in runs
@@ -91,13 +129,18 @@ def main(argv=None) -> int:
         help="first draw this many uniform vectors of the box (seeded) and start from the best",
     )
     p.add_argument("--out", type=Path, default=None)
+    p.add_argument(
+        "--bounds-first",
+        action="store_true",
+        help="the Husky runs' cost: the twin's bounds uncapped, chatter included",
+    )
     args = p.parse_args(argv)
 
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     modes = args.modes.split(",")
     reading = paper_fit.Reading(heading_rad=args.heading, none_reading=args.none)
-    cost = SearchCost(modes, args.husky_weight, args.dt, reading)
+    cost = SearchCost(modes, args.husky_weight, args.dt, reading, args.bounds_first)
     x0 = paper_fit.read_fitted(args.x0) if args.x0 else tunable.initial_vector()
     started = time.perf_counter()
     if args.screen:
@@ -143,7 +186,10 @@ def main(argv=None) -> int:
             f"python scripts/paper_search.py --heading {args.heading:.6g} --none {args.none} "
             f"--maxiter {args.maxiter} --popsize {args.popsize} --seed {args.seed} "
             f"--sigma {args.sigma:g} --dt {args.dt:g} --husky-weight {args.husky_weight:g} "
-            f"--modes {args.modes}" + (f" --x0 {args.x0.name}" if args.x0 else "")
+            f"--modes {args.modes}"
+            + (" --bounds-first" if args.bounds_first else "")
+            + (f" --screen {args.screen}" if args.screen else "")
+            + (f" --x0 {args.x0.name}" if args.x0 else "")
         )
         header = (
             f"Reproduce with: {command}\n"

@@ -185,6 +185,19 @@ def _said(run: dict) -> str:
     return f"ends ({run['outcome']}) at {run['time_s']:.2f} s"
 
 
+def _choices_in_words(runs: list[dict]) -> str:
+    """``defuzzification `mom`, `som` or `lom`, aggregation `sum```: the choices of
+    these runs, grouped by what they change ("" for none)."""
+    groups: dict[str, list[str]] = {}
+    for r in runs:
+        groups.setdefault(r["label"], []).append(f"`{r['choice']}`")
+    parts = [
+        f"{label} {', '.join(names[:-1]) + ' or ' + names[-1] if len(names) > 1 else names[0]}"
+        for label, names in groups.items()
+    ]
+    return ", ".join(parts[:-1]) + " or " + parts[-1] if len(parts) > 1 else "".join(parts)
+
+
 def render_blocks(data: dict) -> dict[str, str]:
     """The guide's generated blocks (markdown, each ending in a newline)."""
     runs = data["choices"]
@@ -200,7 +213,7 @@ def render_blocks(data: dict) -> dict[str, str]:
             f"| {r['label']} `{r['choice']}` | {r['outcome']} | {r['time_s']:.2f} s | "
             f"{_m(r['min_clearance_m'])} |"
         )
-    collided = [f"{r['label']} `{r['choice']}`" for r in runs[1:] if r["outcome"] == "collided"]
+    collided = _choices_in_words([r for r in runs[1:] if r["outcome"] == "collided"])
     arrived = [r for r in runs[1:] if r["outcome"] == "reached"]
     text = [
         f"On {data['scenario']} (ideal perception, 20 ms steps) the shipped paper controller "
@@ -212,9 +225,7 @@ def render_blocks(data: dict) -> dict[str, str]:
     ]
     if collided:
         text.append(
-            "With "
-            + ", ".join(collided)
-            + " it collides: the lesson of what a choice does to the same rules."
+            "With " + collided + " it collides: the lesson of what a choice does to the same rules."
         )
     if arrived:
         fastest = min(arrived, key=lambda r: r["time_s"])
