@@ -236,7 +236,7 @@ def _variable(
         key, val = m.group(1), m.group(2).strip()
         mm = re.fullmatch(r"MF(\d+)", key)
         if mm:
-            k = rd.int_(lineno, mm.group(1), key, MAX_TERMS)
+            k = rd.int_(lineno, mm.group(1), shorten(key), MAX_TERMS)  # MF111...: one line
             if k in mfs:
                 raise rd.err(lineno, f"duplicate {key}", line)
             mfs[k] = (lineno, val)

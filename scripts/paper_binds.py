@@ -26,6 +26,7 @@ docs/paper-controller.md ("What binds").
     .venv/bin/python scripts/paper_binds.py --ceiling   (then: the 12 V ceilings alone)
     .venv/bin/python scripts/paper_binds.py --ceiling --shipped-only   (a new rule base's)
     .venv/bin/python scripts/paper_binds.py --only 9   (one experiment again, by index)
+    .venv/bin/python scripts/paper_binds.py --twin   (the Husky twin's, about 15 minutes)
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import paper_readings  # noqa: E402  (the script beside this one)
+import paper_search  # noqa: E402
 
 from fuzzynav.app.experiments.paper_ceiling import (  # noqa: E402
     right_wheel_ceiling,
@@ -50,7 +52,16 @@ from fuzzynav.controller.paper_design import DESIGN_PARAMETERS, PaperDesignTunab
 from fuzzynav.controller.rulebase import read_toml  # noqa: E402
 from fuzzynav.safe_files import write_text_atomically  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "data" / "paper_binds.json"
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "data" / "paper_binds.json"
+TWIN_OUT = ROOT / "docs" / "data" / "paper_twin_binds.json"
+#: The twin's bounds rules/paper_husky.toml misses; ``--twin`` forces each in turn.
+TWIN_UNMET = ("ideal.s1.mad", "ultrasonic.s1.mad", "ultrasonic.s1.clearance")
+TWIN_SEARCH = [
+    "--heading", "0", "--none", "matlab", "--modes", "husky-ideal,husky-ultrasonic",
+    "--husky-weight", "1", "--maxiter", "30", "--popsize", "16", "--seed", "13",
+    "--sigma", "0.1", "--dt", "0.02", "--bounds-first",
+]  # fmt: skip
 SELECTED = "2"  # paper_readings.READINGS' index of the shipped reading
 WIDE_SPAN = ["--bound", "d_t.top=6:30"]
 WIDE_RATES = ["--bound", "v.r=0.2:2", "--bound", "d_t.r=1:4"]
@@ -167,6 +178,11 @@ def main(argv=None) -> int:
     )
     p.add_argument("--ceiling", action="store_true", help="the 12 V ceilings alone")
     p.add_argument(
+        "--twin",
+        action="store_true",
+        help="the Husky twin's missed bounds, each forced in turn (docs/data/paper_twin_binds.json)",
+    )
+    p.add_argument(
         "--shipped-only",
         action="store_true",
         help="with --ceiling: the shipped rule base's alone (the box's do not change with it)",
@@ -175,6 +191,11 @@ def main(argv=None) -> int:
     names = [row[0] for row in DESIGN_PARAMETERS]
     shipped = ",".join(repr(float(v)) for v in read_vector(RULES_BY_GEOMETRY["paper"], names))
     stored = json.loads(OUT.read_text(encoding="utf-8")) if OUT.exists() else None
+    if args.twin:
+        rows = twin_experiments()
+        write_text_atomically(TWIN_OUT, json.dumps({"experiments": rows}, indent=1) + "\n")
+        print(f"wrote {TWIN_OUT}")
+        return 0
     if args.ceiling:
         data = dict(stored or {}, **shipped_ceiling())
         if not args.shipped_only:
@@ -194,6 +215,23 @@ def main(argv=None) -> int:
     write_text_atomically(OUT, json.dumps(data, indent=1) + "\n")
     print(f"wrote {OUT}")
     return 0
+
+
+def twin_experiments() -> list[dict]:
+    """Each bound the twin misses forced in turn (ten times the others' weight, the
+    twin's bounds counted first) from today's twin: what meeting it costs the others."""
+    twin = RULES_BY_GEOMETRY["husky"]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in TWIN_UNMET:
+            out = Path(tmp) / "twin.json"
+            arguments = [*TWIN_SEARCH, "--force-twin", name, "--x0", str(twin)]
+            print(f"== {name} forced: paper_search.py {' '.join(arguments)}", flush=True)
+            paper_search.main([*arguments, "--json", str(out)])
+            found = json.loads(out.read_text(encoding="utf-8"))
+            label = f"{name} forced (ten times each other bound's weight), from today's twin"
+            rows.append({"label": label, "forced": name, **found})
+    return rows
 
 
 def run_experiments(shipped: str, only: list[int] | None) -> dict[str, dict]:

@@ -72,6 +72,7 @@ def main(argv=None) -> int:
         load("paper_generalise.json"),
         load("paper_profiles.json"),
         load("paper_binds.json"),
+        load("paper_twin_binds.json"),
     )
     text = PAGE.read_text(encoding="utf-8")
     new = paper_docs.with_blocks(text, blocks)

@@ -12,11 +12,14 @@ gives the command.
     .venv/bin/python scripts/paper_search.py --heading 0 --maxiter 60 --popsize 24 \
         --seed 1 --out /tmp/p.toml [--x0 FILE] [--sigma 0.2] [--modes paper,husky-ideal,husky-ultrasonic]
         [--bounds-first]   (the twin's bounds counted first, uncapped, chatter included)
+        [--force-twin ultrasonic.s1.clearance]   (with --bounds-first: one bound ten times)
+        [--json OUT]   (the result and the twin's bounds on it)
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -34,6 +37,7 @@ from fuzzynav.app.experiments.paper_fit import (
     TWIN_PHI_RAD,
 )
 from fuzzynav.controller.paper_design import PaperDesignTunable
+from fuzzynav.safe_files import write_text_atomically
 
 MODES = {
     "paper": ("paper", "ideal"),
@@ -42,25 +46,37 @@ MODES = {
 }
 
 
-def twin_bounds_cost(measured: dict, paper: dict) -> float:
+TWIN_FORCEABLE = ("clearance", "path", "mad", "phi_t")
+
+
+def twin_scaled(measured: dict, paper: dict) -> dict[str, float]:
+    """A reached run's residual on each numeric twin bound, scaled by the bound (1: on it)."""
+    mad_bound = TWIN_MAD_FACTOR * paper["table4"][measured["scenario"]]["mad_m"]
+    return {
+        "clearance": TWIN_CLEARANCE_M / max(measured["min_clearance_m"], 1e-3),
+        "path": measured["path_length_m"] / TWIN_PATH_M,
+        "mad": measured["mad_m"] / mad_bound,
+        "phi_t": abs(measured["final_phi_t_rad"]) / TWIN_PHI_RAD,
+    }
+
+
+def twin_bounds_cost(measured: dict, paper: dict, forced=()) -> float:
     """``--bounds-first``: the twin's bounds counted first (docs/paper-controller.md,
     'The Husky twin'): 1000 for each of a run's six not met, then each residual scaled
     by its bound as an uncapped hinge (100 per unit past 0.9 of it: a 10 % margin) and
     10 for each jump over 2 V past the two a run may have. ``paper_fit.husky_cost``
     caps each hinge (past the cap a worse residual stopped pulling) and leaves chatter
-    out; a run not reached misses all six (and costs 10 per metre short)."""
+    out; a run not reached misses all six (and costs 10 per metre short). ``forced``:
+    bounds of this run (``TWIN_FORCEABLE`` names) whose hinge weighs ten times more
+    (what meeting them costs the others)."""
     if not measured["reached"]:
         return 6000.0 + 10.0 * measured["closest_to_target_m"]
     checks = twin_checks(measured, measured["scenario"], paper)
-    mad_bound = TWIN_MAD_FACTOR * paper["table4"][measured["scenario"]]["mad_m"]
-    scaled = [
-        TWIN_CLEARANCE_M / max(measured["min_clearance_m"], 1e-3),
-        measured["path_length_m"] / TWIN_PATH_M,
-        measured["mad_m"] / mad_bound,
-        abs(measured["final_phi_t_rad"]) / TWIN_PHI_RAD,
-    ]
+    scaled = twin_scaled(measured, paper)
     cost = 1000.0 * sum(not met for met in checks.values())
-    cost += sum(100.0 * max(0.0, r - 0.9) ** 2 for r in scaled)
+    cost += sum(
+        (1000.0 if name in forced else 100.0) * max(0.0, r - 0.9) ** 2 for name, r in scaled.items()
+    )
     return float(cost + 10.0 * max(0, measured["chatter_steps"] - MAX_JUMPS))
 
 
@@ -72,23 +88,54 @@ class SearchCost:
         dt: float,
         reading=paper_fit.SCENARIO_FILE_READING,
         bounds_first: bool = False,
+        forced_twin=(),
     ):
         self.fit = paper_fit.FitCost(dt, husky=True, reading=reading)
         self.modes = [MODES[m] for m in modes]
         self.husky_weight = husky_weight
         self.bounds_first = bounds_first
+        self.forced_twin = tuple(forced_twin)  # "ultrasonic.s1.clearance", ...
+
+    def forced_for(self, perception: str, scenario: str) -> tuple[str, ...]:
+        prefix = f"{perception}.{scenario}."
+        return tuple(n[len(prefix) :] for n in self.forced_twin if n.startswith(prefix))
+
+    def judge_twin(self, vector) -> dict:
+        """The twin's bounds on one vector (the search's engine and period): per run the
+        numbers, the checks and the scaled residuals; how many of the checks are met."""
+        runs, met = {}, 0
+        for (geometry, perception), measured in zip(self.modes, self.measure([vector])):
+            if geometry != "husky":
+                continue
+            for m in measured[0]:
+                checks = twin_checks(m, m["scenario"], self.fit.paper)
+                met += sum(checks.values())
+                runs[f"{perception}.{m['scenario']}"] = {
+                    "reached": bool(m["reached"]),
+                    "time_to_target_s": m["time_to_target_s"],
+                    "path_length_m": m["path_length_m"],
+                    "mad_m": m["mad_m"],
+                    "min_clearance_m": m["min_clearance_m"],
+                    "final_phi_t_rad": m["final_phi_t_rad"],
+                    "chatter_steps": int(m["chatter_steps"]),
+                    "checks": {k: bool(v) for k, v in checks.items()},
+                }
+        return {"bounds_met": met, "bounds": 6 * len(runs), "runs": runs}
 
     def measure(self, vectors):
         return [fit_measures(self.fit, paper_fit.SCENARIOS, vectors, g, p) for g, p in self.modes]
 
     def cost_of(self, measured) -> float:
         cost = 0.0
-        for (geometry, _), runs in zip(self.modes, measured):
+        for (geometry, perception), runs in zip(self.modes, measured):
             if geometry == "paper":
                 cost += sum(paper_fit.run_cost(m, self.fit.paper) for m in runs)
                 cost += paper_fit.story_cost(runs)
             elif self.bounds_first:
-                cost += self.husky_weight * sum(twin_bounds_cost(m, self.fit.paper) for m in runs)
+                cost += self.husky_weight * sum(
+                    twin_bounds_cost(m, self.fit.paper, self.forced_for(perception, m["scenario"]))
+                    for m in runs
+                )
             else:
                 cost += self.husky_weight * sum(
                     paper_fit.husky_cost(m, self.fit.paper) for m in runs
@@ -134,13 +181,31 @@ def main(argv=None) -> int:
         action="store_true",
         help="the Husky runs' cost: the twin's bounds uncapped, chatter included",
     )
+    p.add_argument(
+        "--force-twin",
+        action="append",
+        default=[],
+        metavar="PERCEPTION.SCENARIO.BOUND",
+        help="with --bounds-first: this twin bound (ideal.s1.mad, ultrasonic.s1.clearance, "
+        f"...; bounds {', '.join(TWIN_FORCEABLE)}) weighs ten times more",
+    )
+    p.add_argument("--json", type=Path, default=None, help="write the result and its judgement")
     args = p.parse_args(argv)
+    for name in args.force_twin:
+        perception, _, rest = name.partition(".")
+        scenario, _, bound = rest.partition(".")
+        if perception not in ("ideal", "ultrasonic") or scenario not in paper_fit.SCENARIOS:
+            p.error(f"--force-twin {name!r}: expected PERCEPTION.SCENARIO.BOUND")
+        if bound not in TWIN_FORCEABLE or not args.bounds_first:
+            p.error(f"--force-twin {name!r}: a bound of {TWIN_FORCEABLE}, with --bounds-first")
 
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     modes = args.modes.split(",")
     reading = paper_fit.Reading(heading_rad=args.heading, none_reading=args.none)
-    cost = SearchCost(modes, args.husky_weight, args.dt, reading, args.bounds_first)
+    cost = SearchCost(
+        modes, args.husky_weight, args.dt, reading, args.bounds_first, args.force_twin
+    )
     x0 = paper_fit.read_fitted(args.x0) if args.x0 else tunable.initial_vector()
     started = time.perf_counter()
     if args.screen:
@@ -181,6 +246,20 @@ def main(argv=None) -> int:
         x, best = np.asarray(x0, float), start_cost
     elapsed = time.perf_counter() - started
     print("best", best, "vector", ", ".join(f"{k}={v:.6g}" for k, v in zip(names, x)))
+    if args.json:
+        budget = {
+            k: getattr(args, k)
+            for k in ("heading", "none", "maxiter", "popsize", "seed", "sigma", "dt", "modes")
+        }
+        budget.update(bounds_first=args.bounds_first, force_twin=args.force_twin)
+        found = {
+            "budget": budget,
+            "vector": [float(v) for v in x],
+            "cost": float(best),
+            "evaluations": int(nfev + 1),
+            **cost.judge_twin(np.asarray(x, float)),
+        }
+        write_text_atomically(args.json, json.dumps(found, indent=1) + "\n")
     if args.out:
         command = (
             f"python scripts/paper_search.py --heading {args.heading:.6g} --none {args.none} "

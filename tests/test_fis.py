@@ -238,6 +238,17 @@ def test_malformed_fis(tmp_path, old, new, fragment, line):
     assert isinstance(e.value, ValueError)
 
 
+def test_a_huge_term_index_is_named_in_one_short_line(paper):
+    """``MF<6000 digits>=...``: the error names the line and the key, cut to one line
+    (found by tests/test_fuzz_parsers.py's mutations of the twin's text)."""
+    text = dumps_fis(paper).replace("MF4='L'", "MF" + "1" * 6000 + "5='L'", 1)
+    with pytest.raises(FisFormatError) as caught:
+        loads_fis(text, source="huge.fis")
+    message = str(caught.value)
+    assert message.startswith("huge.fis:") and "too large (at most" in message
+    assert len(message) < 400
+
+
 def test_missing_file_and_sections(tmp_path):
     with pytest.raises(FisFormatError, match="cannot read"):
         read_fis(tmp_path / "nope.fis")

@@ -61,6 +61,7 @@ def test_the_page_is_rendered_from_the_data():
         _load("paper_generalise.json"),
         _load("paper_profiles.json"),
         _load("paper_binds.json"),
+        _load("paper_twin_binds.json"),
     )
     found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
     assert set(blocks) <= set(found), set(blocks) - set(found)

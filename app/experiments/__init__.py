@@ -13,6 +13,7 @@
 - :mod:`.paper_fit_command` ``fit-paper``'s command line: options, checks, report;
 - :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
 - :mod:`.paper_ceiling` how high the paper rule base's right wheel can go where s3 drives;
+- :mod:`.paper_binds_docs` what binds the fits: the experiments of scripts/paper_binds.py as tables;
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
 - :mod:`.resultlog`   ``--out``/``--resume``: rows written as they arrive, read back safely;

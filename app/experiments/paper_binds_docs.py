@@ -1,0 +1,116 @@
+"""The "What binds" blocks of docs/paper-controller.md: ``scripts/paper_binds.py``'s
+experiments on the paper's rule base (``docs/data/paper_binds.json``) and on its Husky
+twin (``docs/data/paper_twin_binds.json``), rendered as tables
+(:func:`fuzzynav.app.experiments.paper_docs.blocks` places them).
+"""
+
+from __future__ import annotations
+
+__all__ = ["render_binds", "render_twin_binds"]
+
+
+def render_binds(table: dict) -> str:
+    """``scripts/paper_binds.py``'s experiments: what holds the bounds not met."""
+    lines = [
+        "| experiment | bounds met (of 36) | not met | design rules broken | s3 right wheel max V | s2 / s3 static pass s |",
+        "|---|---|---|---|---|---|",
+    ]
+    found = [(e, e["results"][0]) for e in table["experiments"]]
+    for e, r in found:
+        runs = r["runs"]
+        missed = ", ".join(c["name"] for c in r["checks"] if not c["met"]) or "none"
+        broken = (
+            ", ".join(sorted({b[1 : b.index("]")] for b in r["design_rules_broken"]})) or "none"
+        )
+        lines.append(
+            f"| {e['label']} | {r['bounds_met']} | {missed} | {broken} "
+            f"| {runs['s3']['max_voltage_v'][1]:.2f} "
+            f"| {runs['s2']['passes'][0][0]:.1f} / {runs['s3']['passes'][0][0]:.1f} |"
+        )
+
+    def met(name: str) -> int:
+        return sum(any(c["name"] == name and c["met"] for c in r["checks"]) for _, r in found)
+
+    lines += ["", *_binds_by_bound(found)]
+    top = max(r["runs"]["s3"]["max_voltage_v"][1] for _, r in found)
+    sizes = "-".join(str(n) for n in sorted({r["evaluations"] for _, r in found}))
+    lines += [
+        "",
+        f"{len(found)} searches of {sizes} candidates; the most "
+        f"bounds met: {max(r['bounds_met'] for _, r in found)}. s3's right wheel reaches "
+        f"12 V in {met('s3.right_wheel_12V')} of them (at most {top:.2f} V); s3's static "
+        f"pass comes after s2's in {met('s3.static_later_than_s2')}.",
+    ]
+    shipped = table.get("shipped_ceiling")
+    if shipped is not None:
+        lines += [
+            "",
+            f"`rules/paper.toml`'s right wheel, on a grid of every input with d_t up to "
+            f"{shipped['d_t_max_m']:.2f} m (s3's start-target distance plus the disturbance's "
+            f"amplitude): at most {shipped['in_s3']['right_max_v']:.2f} V; with any d_t, "
+            f"{shipped['anywhere']['right_max_v']:.2f} V (at d_t = "
+            f"{shipped['anywhere']['inputs'][0]:.1f} m, phi_t = "
+            f"{shipped['anywhere']['inputs'][2]:.2f} rad: rule 3's VL on both wheels).",
+        ]
+    if table.get("ceilings") and shipped is not None:
+        lines += [
+            "",
+            "Any vector of the layout's box, with d_t up to the same "
+            f"{shipped['d_t_max_m']:.2f} m (differential evolution over the 12 numbers and "
+            "the inputs, seeded):",
+            "",
+        ]
+    for c in table.get("ceilings", []):
+        sensed = "an obstacle sensed" if c["obstacle_sensed"] else "no obstacle sensed"
+        lines.append(
+            f"- the layout's box, NONE {c['none']}, {sensed}: "
+            f"{c['right_max_v']:.2f} V at d_t = {c['inputs'][0]:.2f} m"
+        )
+    return "\n".join(lines)
+
+
+def render_twin_binds(table: dict) -> str:
+    """``scripts/paper_binds.py --twin``: each bound the twin misses forced in turn."""
+    lines = [
+        "| experiment | twin bounds met (of 36) | not met | slowest arrival s |",
+        "|---|---|---|---|",
+    ]
+    for e in table["experiments"]:
+        missed = [
+            f"{run}.{name}"
+            for run, r in e["runs"].items()
+            for name, met in r["checks"].items()
+            if not met
+        ]
+        times = [r["time_to_target_s"] for r in e["runs"].values()]
+        slowest = "—" if None in times else f"{max(times):.1f}"
+        lines.append(
+            f"| {e['label']} | {e['bounds_met']} | {', '.join(missed) or 'none'} | {slowest} |"
+        )
+    sizes = "-".join(str(n) for n in sorted({e["evaluations"] for e in table["experiments"]}))
+    lines += ["", f"{len(table['experiments'])} searches of {sizes} candidates."]
+    return "\n".join(lines)
+
+
+def _binds_by_bound(found: list) -> list[str]:
+    """A row per bound some experiment misses: how many meet it, the most bounds any of
+    those meets, and its best residual where it is numeric (the trade-off in numbers)."""
+    names = [c["name"] for c in found[0][1]["checks"]]
+    missed = [n for n in names if any(not _check(r, n)["met"] for _, r in found)]
+    lines = [
+        "| bound | experiments meeting it | the most bounds met by one of those | smallest residual / bound |",
+        "|---|---|---|---|",
+    ]
+    for name in missed:
+        meeting = [r["bounds_met"] for _, r in found if _check(r, name)["met"]]
+        scaled = [_check(r, name)["scaled"] for _, r in found]
+        best = min((v for v in scaled if v is not None), default=None)
+        lines.append(
+            f"| {name} | {len(meeting)} of {len(found)} | {max(meeting) if meeting else '—'} "
+            f"| {'—' if best is None else f'{best:.2f}'} |"
+        )
+    return lines
+
+
+def _check(result: dict, name: str) -> dict:
+    return next(c for c in result["checks"] if c["name"] == name)
