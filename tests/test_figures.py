@@ -13,7 +13,7 @@ from fuzzynav.app.figures.comparison import _orient, write_comparison_figure
 from fuzzynav.app.figures.membership import membership_figure_names, write_membership_figures
 from fuzzynav.app.figures.numbering import RUN_FIGURES
 from fuzzynav.app.figures.run_figures import write_run_figures
-from fuzzynav.app.figures.style import FORMATS, check_writable_dir
+from fuzzynav.app.figures.style import FORMATS, check_writable_dir, obstacle_label
 from fuzzynav.app.runs import build_simulation
 from fuzzynav.controller.fis_controller import FisController
 from fuzzynav.controller.rulebase import read_toml
@@ -414,7 +414,7 @@ def test_trajectory_labels_stay_inside_and_closest_approaches_are_marked():
     fig = run_figure("trajectory", result, controller_label="paper")
     ax = fig.axes[0]
     fig.canvas.draw()
-    assert {t.get_text() for t in ax.texts} >= {"obstacle 0", "obstacle 1", "obstacle 2"}
+    assert {t.get_text() for t in ax.texts} >= {obstacle_label(i) for i in range(3)}
     for text in ax.texts:
         assert _inside(fig, text, ax), text.get_text()
     log = result.log
@@ -435,8 +435,9 @@ def test_s2s_moving_obstacle_is_drawn_above_the_line_and_its_start_named(p_runs)
     result = p_runs["s2"]
     ax = run_figure("trajectory", result).axes[0]
     labels = ax.get_legend_handles_labels()[1]
-    assert "obstacle 1's path (moving)" in labels and "obstacle 1 at the start" in labels
-    path = next(line for line in ax.lines if line.get_label() == "obstacle 1's path (moving)")
+    moving = obstacle_label(1)  # s2's obstacles[1], the moving one
+    assert f"{moving}'s path (moving)" in labels and f"{moving} at the start" in labels
+    path = next(line for line in ax.lines if line.get_label() == f"{moving}'s path (moving)")
     straight = next(line for line in ax.lines if line.get_label() == "straight line")
     assert path.get_zorder() > straight.get_zorder()
     assert path.get_color() == OBSTACLE_COLORS[1]
@@ -469,7 +470,7 @@ def test_fig27_has_one_legend_and_its_own_limits_per_panel():
     [legend] = fig.legends
     texts = {t.get_text() for t in legend.get_texts()}
     assert {"robot (centre)", "target", "start"} <= texts
-    assert "obstacle 1's path (moving)" in texts  # s2's, from a panel other than (a)
+    assert f"{obstacle_label(1)}'s path (moving)" in texts  # s2's, not from panel (a)
     # every panel keeps its own limits (sharing a row's squashed (d) into (c)'s range)
     from fuzzynav.app.figures.style import _new_figure
     from fuzzynav.app.figures.trajectory import draw_trajectory
@@ -532,7 +533,7 @@ def test_trajectory_labels_never_overlap(geometry):
             _assert_apart(fig, ax, (s, c))
             labels = ax.get_legend_handles_labels()[1]
             for col in _moving_columns(result.log):
-                name = f"obstacle {result.log.obstacle_ids[col]}"
+                name = obstacle_label(result.log.obstacle_ids[col])
                 assert f"{name} at its closest approach" in labels, (s, c, labels)
     fig = comparison_figure(grid, controllers=FIG27_COLUMNS)
     fig.canvas.draw()

@@ -18,6 +18,7 @@ rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader
 
 from fuzzynav.app.cli import main
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.app.recordings import arrow, blueprint, style
 from fuzzynav.app.recordings import internals as internals_module
 from fuzzynav.app.recordings import live as live_module
@@ -281,7 +282,7 @@ def test_series_equal_the_simulation_arrays(s1_p):
     for entity, want in expected.items():
         assert same(rec.scalars(entity)[1], want), entity  # bit for bit (float64)
     for col, oid in enumerate(log.obstacle_ids):
-        got = rec.series("/plots/distance", f"obstacle {oid}")[1]
+        got = rec.series("/plots/distance", obstacle_label(oid))[1]
         assert same(got, log.center_distance_m[:, col]), oid
     assert same(rec.series("/plots/voltage", "right")[1], log.voltages_v[:, 1])
     assert same(rec.series("/plots/ranges", "front (m)")[1], ranges[:, 1])
@@ -375,7 +376,7 @@ def test_the_moving_obstacle_moves(s2_p):
     segs = np.array([s[0] for s in segs])
     assert np.allclose(segs[:, 0], log.obstacle_xy[:-1, col], atol=1e-5)
     assert np.allclose(segs[:, 1], log.obstacle_xy[1:, col], atol=1e-5)
-    t, values = rec.series("/plots/distance", f"obstacle {oid}")
+    t, values = rec.series("/plots/distance", obstacle_label(oid))
     assert same(values, log.center_distance_m[:, col])
 
 
@@ -1401,7 +1402,7 @@ def test_events_are_marked_in_the_recording(s3_paper):
     for col, oid in enumerate(log.obstacle_ids):
         k = int(np.nanargmin(log.center_distance_m[:, col]))
         d = log.center_distance_m[k, col]
-        want = f"closest to obstacle {oid}: {d:.2f} m centre to centre"
+        want = f"closest to {obstacle_label(oid)}: {d:.2f} m centre to centre"
         [hit] = [j for j, x in enumerate(texts) if want in x]
         assert times[hit] == nanos(log.time_s[k])
         # the world marks where the robot was then
@@ -1441,7 +1442,7 @@ def test_the_summary_sets_the_run_beside_the_paper(s3_paper):
     ours = result.metrics["path_length_m"]
     diff = 100 * (ours - paper["path_length_m"]) / paper["path_length_m"]
     assert f"| path_length_m | {ours:.4g} | {paper['path_length_m']:.4g} | {diff:+.1f} % |" in text
-    assert "closest to obstacle 0" in text and "(paper:" in text
+    assert f"closest to {obstacle_label(0)}" in text and "(paper:" in text
     assert "summary" in _views(path)  # in the first view, beside the world
 
 

@@ -16,6 +16,7 @@ import pytest
 rr = pytest.importorskip("rerun")
 from test_recording import Recording, _views, nanos  # noqa: E402
 
+from fuzzynav.app.figures.style import obstacle_label  # noqa: E402
 from fuzzynav.app.recordings.blueprint import CLEARANCE_SHOWN_M  # noqa: E402
 from fuzzynav.app.recordings.events import run_events  # noqa: E402
 from fuzzynav.app.recordings.internals import (  # noqa: E402
@@ -232,11 +233,11 @@ def _curve_of(rec, origin: str, oid, t_ns: int):
     """The value of obstacle ``oid``'s curve on the plot ``origin`` at ``t_ns``, or None
     if the plot has no curve of that obstacle."""
     names = rec.static.get(origin, {}).get("SeriesLines:names", [])
-    if oid is None or f"obstacle {oid}" not in names:
+    if oid is None or obstacle_label(oid) not in names:
         return None
     times, matrix = rec.scalars(origin)
     return matrix[
-        int(np.searchsorted(times, t_ns, side="right")) - 1, names.index(f"obstacle {oid}")
+        int(np.searchsorted(times, t_ns, side="right")) - 1, names.index(obstacle_label(oid))
     ]
 
 

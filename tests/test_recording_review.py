@@ -19,6 +19,7 @@ from test_recording import Recording, _views, nanos  # noqa: E402
 
 from fuzzynav.app import palette  # noqa: E402
 from fuzzynav.app.cli import main  # noqa: E402
+from fuzzynav.app.figures.style import obstacle_label  # noqa: E402
 from fuzzynav.app.recordings.blueprint import CLEARANCE_SHOWN_M  # noqa: E402
 from fuzzynav.app.recordings.record import record_simulation  # noqa: E402
 from fuzzynav.app.recordings.style import SAFE_DISTANCE_M, rgba  # noqa: E402
@@ -181,7 +182,7 @@ def test_an_obstacle_has_one_colour_in_lanes_plots_and_world(which, request):
         assert plot[col + 1] == want
         assert rec.static[f"/world/obstacles/{oid}/body"]["Points2D:colors"][0] == want
         for state in shown:
-            if state.startswith(f"obstacle {oid}:"):
+            if state.startswith(f"{obstacle_label(oid)}:"):
                 assert lane[state] == want, state
         path_style = rec.static.get(f"/world/obstacles/{oid}/path", {})
         if "LineStrips2D:colors" in path_style:  # a moving obstacle
@@ -296,14 +297,14 @@ def test_the_safe_distance_is_an_event_a_lane_and_a_summary_line(which, request)
         oid = log.obstacle_ids[col]
         closest = float(np.min(log.clearance_m[a : b + 1, col]))
         want = (
-            f"inside the {SAFE_DISTANCE_M:g} m safe distance of obstacle {oid} from "
+            f"inside the {SAFE_DISTANCE_M:g} m safe distance of {obstacle_label(oid)} from "
             f"{log.time_s[a]:.2f} s to {log.time_s[b]:.2f} s, closest {closest:.2f} m"
         )
         [hit] = [j for j, x in enumerate(texts) if want in x]
         assert times[hit] == nanos(log.time_s[a])
         assert want in summary
         [k] = [j for j, t in enumerate(lane_t) if t == nanos(log.time_s[a])]
-        assert lane[k] == f"inside: obstacle {oid}, closest {closest:.2f} m"
+        assert lane[k] == f"inside: {obstacle_label(oid)}, closest {closest:.2f} m"
         assert _lane_colours(rec, "safe_distance")[lane[k]] == rgba(palette.rgb(palette.BREACH))
     if not breaches:
         assert f"never inside the {SAFE_DISTANCE_M:g} m safe distance" in summary
@@ -419,11 +420,11 @@ def test_a_collided_run_marks_its_collision_not_a_stack_of_closest_approaches(s2
     for col, oid in enumerate(log.obstacle_ids):
         d = log.center_distance_m[:, col]
         if oid != hit and int(np.nanargmin(d)) == last:
-            assert not any(f"closest to obstacle {oid}:" in x for x in at_end)
-            assert any(f"obstacle {oid}:" in x and "still approaching" in x for x in at_end)
+            assert not any(f"closest to {obstacle_label(oid)}:" in x for x in at_end)
+            assert any(f"{obstacle_label(oid)}:" in x and "still approaching" in x for x in at_end)
     collision = rec.static["/world/events/collision"]
     assert np.allclose(collision["Points2D:positions"][0], log.pose[last, :2], atol=1e-5)
-    assert f"collided with obstacle {hit}" in collision["Points2D:labels"][0]
+    assert f"collided with {obstacle_label(hit)}" in collision["Points2D:labels"][0]
     marks = np.array(rec.static.get("/world/events/closest", {}).get("Points2D:positions", []))
     for k in range(len(marks)):
         assert np.hypot(*(marks[k] - log.pose[last, :2])) > 0.05  # not on the collision
@@ -656,5 +657,5 @@ def test_the_distance_panel_spans_its_data_not_a_legend(s1_paper):
     assert hi - lo <= 1.15 * span, (name, lo, hi, values.min(), values.max())
     assert view.get("PlotLegend/PlotLegend:visible") == [False], name
     for oid in result.log.obstacle_ids:
-        assert f"obstacle {oid} (" in name, name
+        assert f"{obstacle_label(oid)} (" in name, name
     assert "target (green)" in name

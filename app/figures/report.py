@@ -19,6 +19,7 @@ from pathlib import Path
 
 from fuzzynav.app.args import UsageError, add_force_option
 from fuzzynav.app.experiments.compare import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.safe_files import check_output_path, write_bytes_atomically, write_text_atomically
@@ -165,7 +166,7 @@ def _markdown(rows: list[dict], perception: str) -> str:
                     f" ({e['paper_distance_m']:g}; {_percent(e['distance_difference_percent'])})"
                 )
             out.append(
-                f"| {row['geometry']} | {row['scenario']} | {e['obstacle']} "
+                f"| {row['geometry']} | {row['scenario']} | {obstacle_label(e['obstacle'])} "
                 f"| {time_cell} | {dist_cell} |"
             )
     return "\n".join(out) + "\n"

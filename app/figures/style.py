@@ -2,9 +2,10 @@
 files written whole, time axes, and legends (what a figure asks of a controller, its fuzzy
 system and name, is app.recordings.internals's).
 
-The colours are :mod:`app.palette`'s: red, orange, purple... mean obstacles 0, 1, 2...
-everywhere (figures, recordings, viewer); the right wheel and the heading take colours no
-obstacle has.
+The colours are :mod:`app.palette`'s: red, orange, purple... mean obstacles 1, 2, 3...
+(ids 0, 1, 2...) everywhere (figures, recordings, viewer); the right wheel and the heading
+take colours no obstacle has. What a person reads is :func:`obstacle_label`'s, 1-based
+everywhere; ids, entity paths and data stay 0-based.
 """
 
 from __future__ import annotations
@@ -90,8 +91,26 @@ def _metadata(ext: str) -> dict:
     return {}
 
 
+def obstacle_label(obstacle_id: int) -> str:
+    """What a person reads for an obstacle, everywhere (figures, recordings, viewer,
+    docs): ``obstacle 1`` for id 0, as the viewer and the paper count them.
+
+    Parameters
+    ----------
+    obstacle_id : int
+        The obstacle's id (0-based: the scenario's ``obstacles[k]`` has id k), as in
+        entity paths, JSON fields and the trace's columns.
+
+    Returns
+    -------
+    str
+        ``obstacle <id + 1>``.
+    """
+    return f"obstacle {int(obstacle_id) + 1}"
+
+
 def _obstacle_label(log, col: int) -> str:
-    return f"obstacle {log.obstacle_ids[col]}"
+    return obstacle_label(log.obstacle_ids[col])
 
 
 def disturbance_window_s(scenario) -> tuple[float, float] | None:

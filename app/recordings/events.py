@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.world.geometry import circle_points
 
 from .arrow import StaticBatch, time_column
@@ -100,7 +101,7 @@ def run_events(result) -> list[Event]:
                 Event(
                     float(t[k]),
                     "approaching at the end",
-                    f"obstacle {oid}: {d[k]:.2f} m centre to centre when the run ended "
+                    f"{obstacle_label(oid)}: {d[k]:.2f} m centre to centre when the run ended "
                     "(still approaching: no closest approach)",
                     oid,
                     float(d[k]),
@@ -112,7 +113,7 @@ def run_events(result) -> list[Event]:
             Event(
                 float(t[k]),
                 "closest",
-                f"closest to obstacle {oid}: {d[k]:.2f} m centre to centre{surface}",
+                f"closest to {obstacle_label(oid)}: {d[k]:.2f} m centre to centre{surface}",
                 oid,
                 float(d[k]),
                 row=k,
@@ -125,7 +126,7 @@ def run_events(result) -> list[Event]:
             Event(
                 float(t[a]),
                 "safe distance",
-                f"inside the {SAFE_DISTANCE_M:g} m safe distance of obstacle {oid} from "
+                f"inside the {SAFE_DISTANCE_M:g} m safe distance of {obstacle_label(oid)} from "
                 f"{t[a]:.2f} s to {t[b]:.2f} s, closest {closest:.2f} m at {t[k]:.2f} s",
                 oid,
                 closest,
@@ -151,7 +152,9 @@ def run_events(result) -> list[Event]:
         text = f"reached the target at {m.get('time_to_target_s', end):.2f} s"
     elif outcome == "collided":
         who = (
-            f" with obstacle {log.obstacle_ids[collided_with]}" if collided_with is not None else ""
+            f" with {obstacle_label(log.obstacle_ids[collided_with])}"
+            if collided_with is not None
+            else ""
         )
         text = f"collided{who} at {end:.2f} s"
     else:
@@ -230,14 +233,14 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
     closest_states = []
     for e in events:
         if e.kind == "closest":
-            state = f"obstacle {e.obstacle}: {e.distance_m:.2f} m"
+            state = f"{obstacle_label(e.obstacle)}: {e.distance_m:.2f} m"
             col = list(log.obstacle_ids).index(e.obstacle)
             colours[state] = obstacle_color(col)  # the obstacle's colour in every lane
             closest_states.append((e.time_s, state))
     safe = [(t0, "clear")]
     for e in events:
         if e.kind == "safe distance":
-            state = f"inside: obstacle {e.obstacle}, closest {e.distance_m:.2f} m"
+            state = f"inside: {obstacle_label(e.obstacle)}, closest {e.distance_m:.2f} m"
             safe.append((e.time_s, state))
             after = int(np.searchsorted(log.time_s, e.end_s, side="right"))
             if after < len(log):
@@ -351,7 +354,7 @@ def _world_marks(static: StaticBatch, log, events) -> None:
                     strips=[circle_points(radius, RING_SEGMENTS) + xy[k]],
                     colors=[color],
                     radii=0.015,
-                    labels=[f"obstacle {e.obstacle} at {e.time_s:.1f} s"],
+                    labels=[f"{obstacle_label(e.obstacle)} at {e.time_s:.1f} s"],
                     show_labels=False,  # (the closest approach's label says when)
                     draw_order=float(OBSTACLE_ORDER),
                 ),

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
+
 from .arrow import RowBatch
 from .series import shared_views
 from .style import BREACH, COLLISION, DISTURBANCE, TARGET, obstacle_color
@@ -115,8 +117,9 @@ def _mark_value(names, values, obstacle, top) -> float:
     """Where a mark sits on a plot (its series ``names``, their ``values``): on the
     obstacle's curve if the plot has one, else on the first curve with a value; NaN if
     none has (no mark)."""
-    if obstacle is not None and f"obstacle {obstacle}" in names:
-        value = float(values[names.index(f"obstacle {obstacle}")])
+    label = None if obstacle is None else obstacle_label(obstacle)  # the series' name
+    if label is not None and label in names:
+        value = float(values[names.index(label)])
     else:
         finite = values[np.isfinite(values)]
         value = float(finite[0]) if finite.size else float("nan")

@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.world.geometry import (
     beam_cones,
     beam_geometries,
@@ -214,7 +215,7 @@ class SceneColumns:
                 "Points2D",
                 colors=obstacle_color(col),
                 radii=radius,
-                labels=f"obstacle {oid}",
+                labels=obstacle_label(oid),
                 draw_order=float(OBSTACLE_ORDER),
             )
             self._send_sparse(

@@ -30,6 +30,7 @@ from functools import cached_property
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 from .style import (
@@ -70,9 +71,9 @@ class Setup:
 
     @property
     def obstacles(self) -> list[str]:
-        """``obstacle <id>`` of every obstacle: the series names of a plot with one
-        series an obstacle."""
-        return [f"obstacle {i}" for i in self.obstacle_ids]
+        """``obstacle <id + 1>`` of every obstacle (:func:`obstacle_label`): the series
+        names of a plot with one series an obstacle."""
+        return [obstacle_label(i) for i in self.obstacle_ids]
 
     @property
     def obstacle_colors(self) -> list:
@@ -214,7 +215,7 @@ class Plot:
 
 
 def distance_colours(obstacle_ids) -> str:
-    """``obstacle 0 (red), obstacle 1 (orange)...``: the distance panel's key.
+    """``obstacle 1 (red), obstacle 2 (orange)...``: the distance panel's key.
 
     Parameters
     ----------
@@ -222,7 +223,7 @@ def distance_colours(obstacle_ids) -> str:
         The run's obstacles, in the log's column order.
     """
     parts = [
-        f"obstacle {oid} ({OBSTACLE_NAMES[col % len(OBSTACLE_NAMES)]})"
+        f"{obstacle_label(oid)} ({OBSTACLE_NAMES[col % len(OBSTACLE_NAMES)]})"
         for col, oid in enumerate(obstacle_ids)
     ]
     return ", ".join(parts) if parts else "no obstacle"

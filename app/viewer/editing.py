@@ -12,6 +12,7 @@ import re
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.app.viewer.budget import (
     ADDED_OBSTACLE_BYTES,
     MAX_KEPT_SCENARIOS,
@@ -180,12 +181,13 @@ class ScenarioEditing:
 
     @staticmethod
     def plain_names(text: str) -> str:
-        """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1."""
+        """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1
+        (:func:`~fuzzynav.app.figures.style.obstacle_label`)."""
         # "static obstacle obstacles[1]" (the file's wording) reads "static obstacle 2",
         # not "static obstacle obstacle 2" (issue 38)
         return re.sub(
             r"(?:\bobstacle\s+)?obstacles\[(\d+)\]",
-            lambda m: f"obstacle {int(m.group(1)) + 1}",
+            lambda m: obstacle_label(int(m.group(1))),
             text,
         )
 

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 
+from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.resources import shorten
 
@@ -199,8 +200,10 @@ class DragHandles:
 
     @staticmethod
     def _obstacle_label(number: int, static: bool) -> str:
-        """What the arena calls an obstacle: the number the messages use."""
-        return f"obstacle {number}" + ("" if static else " (moving)")
+        """What the arena calls an obstacle: the number the messages use (its place in
+        the layout from 1), in :func:`obstacle_label`'s words, as the recordings and the
+        figures say it."""
+        return obstacle_label(number - 1) + ("" if static else " (moving)")
 
     def _first_drag(self) -> None:
         """The arena's drag hint has done its job."""
