@@ -38,15 +38,15 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
                                             per series (named in the legend; the order
                                             is :func:`.columns.plot_layout`'s, each plot
                                             an entry of :data:`.series.PLOTS`)
-      /distance          target, obstacle {id}...          paper Fig. 13 (centre to centre;
+      /distance          target, obstacle {id+1}...        paper Fig. 13 (centre to centre;
                                                            s2: 18, s3: 23, as every panel)
       /angles/phi_t, /angles/heading                       Fig. 14, one panel
-      /obstacle_angles   obstacle {id}...                  Fig. 15 (bearing from the heading)
+      /obstacle_angles   obstacle {id+1}...                Fig. 15 (bearing from the heading)
       /voltage           left, right (applied), left and right before the limit, the
                          +-12 V limit (one name for both lines)   Fig. 16
       /inputs/distances  d_t, d_o (m) as the controller saw them
       /inputs/angles     phi_t, phi_o (rad) as the controller saw them
-      /clearance         obstacle {id}..., the 0.25 m safe distance (footprint to surface)
+      /clearance         obstacle {id+1}..., the 0.25 m safe distance (footprint to surface)
       /wheels            w_LW, w_RW (rad/s)
       /velocity          v_MH (m/s), w_JH (rad/s)
       /current           i_L1, i_L2 (A)
