@@ -51,7 +51,7 @@ READINGS = [
     for none in ("matlab", "unsensed")
     for fov in (180.0, 360.0)
 ]
-FORCE_STORY = ("12V", "static_later", "bounds", "chatter")
+FORCE_STORY = ("12V", "static_later", "bounds", "chatter", "count")
 CHECK_PERIOD_S = 0.02  # fuzzynav run's own period: the numbers a user recomputes
 
 
@@ -108,7 +108,8 @@ def forced(measured: list[dict], names) -> float:
     """``--force``: an uncapped hinge, 100 per unit, for a story bound the fit's own
     cost caps (the 12 V term is flat below 7 V), or for every numeric done bound
     (``bounds``: the fit's own penalty is flat past 1.3 times a bound), or for the
-    jumps over 2 V past the two a run may have (``chatter``), or for one numeric done
+    jumps over 2 V past the two a run may have (``chatter``), or 1000 for each done
+    bound not met (``count``: the bounds counted first), or for one numeric done
     bound by its name (``s1.path``, ten times the weight ``bounds`` gives each): what
     meeting them costs the others."""
     by = {m["scenario"]: m for m in measured}
@@ -126,6 +127,8 @@ def forced(measured: list[dict], names) -> float:
     if "chatter" in names:  # the jumps over 2 V past the two a run may have
         for m in measured:
             cost += 100.0 * max(0, m["chatter_steps"] - MAX_JUMPS) ** 2
+    if "count" in names:  # the done bounds counted first: 1000 for each not met
+        cost += 1000.0 * sum(not check["met"] for check in bound_checks(by))
     for check in bound_checks(by):  # one numeric bound by name: ten times the weight
         if check["name"] in names and check["scaled"] is not None:
             cost += 1000.0 * max(0.0, check["scaled"] - 0.9) ** 2
