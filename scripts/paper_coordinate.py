@@ -26,11 +26,12 @@ from fuzzynav.controller.paper_design import PaperDesignTunable
 STEPS = (-0.2, -0.1, -0.05, 0.05, 0.1, 0.2)
 
 
-def judge(fit, vectors):
+def judge(fit, vectors, max_time_s: float | None = None):
     """(bounds met, cost) of each vector: the paper's geometry against issue 35's done
-    bounds, or (a twin's fit) the Husky's in both perception modes against the twin's."""
+    bounds, or (a twin's fit) the Husky's in both perception modes against the twin's
+    (``max_time_s``: a vector with a run slower than this is refused)."""
     if fit.husky and not fit.paper_geometry:
-        return judge_twin(fit, vectors)
+        return judge_twin(fit, vectors, max_time_s)
     out = []
     for runs in fit_measures(fit, SCENARIOS, vectors, "paper", "ideal"):
         if runs is None:
@@ -41,12 +42,15 @@ def judge(fit, vectors):
     return out
 
 
-def judge_twin(fit, vectors):
+def judge_twin(fit, vectors, max_time_s: float | None = None):
     modes = [fit_measures(fit, SCENARIOS, vectors, "husky", p) for p in fit.husky_perception]
     out = []
     for k in range(len(vectors)):
         runs = [mode[k] for mode in modes]
-        if any(r is None for r in runs):
+        if any(r is None for r in runs) or (
+            max_time_s is not None
+            and any((m["time_to_target_s"] or float("inf")) > max_time_s for r in runs for m in r)
+        ):
             out.append((-1, float("inf")))
             continue
         met = sum(sum(twin_checks(m, m["scenario"]).values()) for r in runs for m in r)
@@ -65,6 +69,12 @@ def main(argv=None) -> int:
         action="store_true",
         help="the Husky twin: its geometry, both perception modes, its bounds, MATLAB's NONE",
     )
+    p.add_argument(
+        "--max-time-s",
+        type=float,
+        default=None,
+        help="with --twin: refuse a move that makes any run arrive later than this (s)",
+    )
     args = p.parse_args(argv)
     tunable = PaperDesignTunable()
     lo, hi = np.array(tunable.bounds()).T
@@ -79,7 +89,7 @@ def main(argv=None) -> int:
         )
     else:
         fit = FitCost(0.02, stall_s=None)
-    (best,) = judge(fit, [x])
+    (best,) = judge(fit, [x], args.max_time_s)
     start = best
     print(f"start: {best[0]} bounds, cost {best[1]:.1f}", flush=True)
     history = []
@@ -91,7 +101,7 @@ def main(argv=None) -> int:
                 v[k] = float(np.clip(x[k] * (1 + step), lo[k], hi[k]))
                 if v[k] != x[k]:
                     moves.append((k, step, v))
-        scores = judge(fit, [v for _, _, v in moves])
+        scores = judge(fit, [v for _, _, v in moves], args.max_time_s)
         i = max(range(len(moves)), key=lambda j: (scores[j][0], -scores[j][1]))
         if (scores[i][0], -scores[i][1]) <= (best[0], -best[1]):
             print(f"round {round_ + 1}: no move helps", flush=True)
@@ -114,7 +124,8 @@ def main(argv=None) -> int:
     ]
     header = "\n".join(header_lines) + (
         f"\nStage 3: python scripts/paper_coordinate.py --rules <stage 2's> --rounds {args.rounds}"
-        f" ({start[0]} -> {best[0]} done bounds, cost {start[1]:.3f} -> {best[1]:.3f}; moves: "
+        + (f" --twin --max-time-s {args.max_time_s:g}" if args.max_time_s else "")
+        + f" ({start[0]} -> {best[0]} done bounds, cost {start[1]:.3f} -> {best[1]:.3f}; moves: "
         f"{', '.join(history) or 'none'})"
     )
     tunable.save(x, args.out, header=header, unsensed_none=fit.reading.none_reading == "unsensed")
