@@ -44,6 +44,7 @@ from fuzzynav.app.experiments.evolution import cmaes
 from fuzzynav.app.experiments.paper_docs import MAX_JUMPS, bound_checks
 from fuzzynav.controller.design_rules import violations
 from fuzzynav.controller.paper_design import PaperDesignTunable
+from fuzzynav.safe_files import write_text_atomically
 
 READINGS = [
     paper_fit.Reading(heading, none, fov)
@@ -244,7 +245,8 @@ def main(argv=None) -> int:
         k: getattr(args, k)
         for k in ("screen", "popsize", "maxiter", "sigma", "seed", "dt", "x0", "bound", "force")
     }
-    args.json.write_text(json.dumps({"budget": budget, "results": results}, indent=1) + "\n")
+    text = json.dumps({"budget": budget, "results": results}, indent=1) + "\n"
+    write_text_atomically(args.json, text)  # whole or not at all, after the fits
     print("selected:", paper_fit.select_reading(results)["reading"])
     return 0
 

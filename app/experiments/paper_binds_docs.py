@@ -6,6 +6,14 @@ twin (``docs/data/paper_twin_binds.json``), rendered as tables
 
 from __future__ import annotations
 
+from fuzzynav.app.experiments.paper_fit import (
+    TWIN_CLEARANCE_M,
+    TWIN_MAD_FACTOR,
+    TWIN_PATH_M,
+    TWIN_PHI_RAD,
+)
+from fuzzynav.app.published import paper_results
+
 __all__ = ["render_binds", "render_twin_binds"]
 
 
@@ -95,14 +103,6 @@ def render_twin_binds(table: dict) -> str:
 
 def _twin_value(experiment: dict) -> str:
     """The forced bound's number in the search's best run, beside the bound."""
-    from fuzzynav.app.experiments.paper_fit import (
-        TWIN_CLEARANCE_M,
-        TWIN_MAD_FACTOR,
-        TWIN_PATH_M,
-        TWIN_PHI_RAD,
-    )
-    from fuzzynav.app.published import paper_results
-
     perception, scenario, bound = experiment["forced"].split(".")
     run = experiment["runs"][f"{perception}.{scenario}"]
     mad_bound = TWIN_MAD_FACTOR * paper_results()["table4"][scenario]["mad_m"]
