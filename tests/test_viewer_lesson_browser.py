@@ -795,6 +795,14 @@ def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
         open_tab(page, "Editor")
         page.get_by_role("button", name="Undo").click()
         assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == n, timeout=10)
+        # the page shows the rule picked after the undo (the last) before we type: the
+        # server sends it just after the rules change, and it overwrote a sentence typed
+        # meanwhile (the suite under load did it, and Apply then applied a valid rule)
+        page.wait_for_function(
+            "([e, t]) => e.value === t",
+            arg=[box.element_handle(), app.editor().rule_text(n)],
+            timeout=10_000,
+        )
         # a sentence with a wrong term is refused with its reason
         box.fill("if d_t is HUGE then left is VS")
         page.get_by_role("button", name="Apply").click()
