@@ -5,6 +5,7 @@ Teacher folder). The helpers are tests/test_viewer_browser.py's."""
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 import pytest
@@ -443,9 +444,24 @@ def test_what_ifs_boxes_take_every_value_their_sliders_offer_and_the_refusal_goe
         boxes = page.locator(".fz-inference >> xpath=ancestor::*[.//input][1]").locator(
             "input[inputmode='decimal']:visible"
         )
+        # the box shows the moment's d_t first (else the server's first value for it can
+        # land after the typing and overwrite it: CI's stop 44 failed so)
+        shown = round(float(app.what_if[0]), 2)
+        deadline = time.monotonic() + 10.0
+        while time.monotonic() < deadline:
+            text = boxes.nth(0).input_value() if boxes.nth(0).is_enabled() else ""
+            if text and abs(float(text) - shown) < 5e-3:
+                break
+            page.wait_for_timeout(50)
+        else:
+            raise AssertionError(f"the d_t box never showed {shown}")
         boxes.nth(0).fill(str(value))
         boxes.nth(0).press("Enter")
-        assert app.wait_for(lambda a: a.what_if[0] == value, timeout=10), app.what_if
+        assert app.wait_for(lambda a: a.what_if[0] == value, timeout=10), (
+            app.what_if,
+            boxes.nth(0).input_value(),
+            app.snapshot().message,
+        )
         assert app.snapshot().message_level not in ("error", "warning")
         # a refusal while trying inputs goes when What-if is left
         app._notice("d_t = 99: must be between -1.13 and 30", "error")
