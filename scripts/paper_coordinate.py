@@ -5,6 +5,10 @@ From a rule base's 12 numbers, each round tries every number moved by -20, -10, 
 paper's geometry at the loop's 0.02 s on the batch engine, and takes the best move if it
 is better: more of issue 35's 36 done bounds met, or as many at a lower fit cost. Stops
 when no move helps or after ``--rounds``. Deterministic (no random draws).
+``--steps`` sets the moves (finer ones near a bound); ``--toward-missed`` ranks moves
+meeting as many bounds by how far the missed numeric bounds still lie beyond their bounds
+instead of by the fit's cost. A rule base's own NONE (``unsensed_none`` or not) is the
+reading the runs take.
 
     .venv/bin/python scripts/paper_coordinate.py --rules assets/rules/paper.toml \\
         --rounds 6 --out paper.toml
@@ -14,22 +18,33 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from fuzzynav.app.experiments.batch_runs import fit_measures
 from fuzzynav.app.experiments.paper_docs import bound_checks, twin_checks
-from fuzzynav.app.experiments.paper_fit import SCENARIOS, FitCost, Reading, read_fitted
+from fuzzynav.app.experiments.paper_fit import (
+    SCENARIOS,
+    SHIPPED_READING,
+    FitCost,
+    Reading,
+    read_fitted,
+)
 from fuzzynav.controller.paper_design import PaperDesignTunable
+from fuzzynav.controller.rulebase import read_toml
 
 STEPS = (-0.2, -0.1, -0.05, 0.05, 0.1, 0.2)
 
 
-def judge(fit, vectors, max_time_s: float | None = None):
+def judge(fit, vectors, max_time_s: float | None = None, toward_missed: bool = False):
     """(bounds met, cost) of each vector: the paper's geometry against issue 35's done
     bounds, or (a twin's fit) the Husky's in both perception modes against the twin's
-    (``max_time_s``: a vector with a run slower than this is refused)."""
+    (``max_time_s``: a vector with a run slower than this is refused). With
+    ``toward_missed`` (the paper's geometry) the cost is how far the numeric bounds not
+    met lie beyond their bounds (the sum of residual / bound - 1) instead of the fit's
+    cost: a move that brings a missed bound closer, losing none, is taken."""
     if fit.husky and not fit.paper_geometry:
         return judge_twin(fit, vectors, max_time_s)
     out = []
@@ -37,8 +52,10 @@ def judge(fit, vectors, max_time_s: float | None = None):
         if runs is None:
             out.append((-1, float("inf")))
             continue
-        met = sum(c["met"] for c in bound_checks({m["scenario"]: m for m in runs}))
-        out.append((met, fit.combine([runs])))
+        checks = bound_checks({m["scenario"]: m for m in runs})
+        met = sum(c["met"] for c in checks)
+        beyond = sum(c["scaled"] - 1 for c in checks if not c["met"] and c["scaled"] is not None)
+        out.append((met, beyond if toward_missed else fit.combine([runs])))
     return out
 
 
@@ -63,7 +80,20 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rules", type=Path, required=True)
     p.add_argument("--rounds", type=int, default=6)
+    p.add_argument(
+        "--steps",
+        type=lambda text: tuple(float(v) for v in text.split(",")),
+        default=STEPS,
+        help="the relative moves tried on each number, comma-separated "
+        f"(default {','.join(f'{v:g}' for v in STEPS)})",
+    )
     p.add_argument("--out", type=Path, required=True)
+    p.add_argument(
+        "--toward-missed",
+        action="store_true",
+        help="the paper's geometry: among moves meeting as many bounds, take the one that "
+        "brings the missed numeric bounds closest (not the lowest fit cost)",
+    )
     p.add_argument(
         "--twin",
         action="store_true",
@@ -87,21 +117,22 @@ def main(argv=None) -> int:
             paper_geometry=False,
             reading=Reading(none_reading="matlab"),
         )
-    else:
-        fit = FitCost(0.02, stall_s=None)
-    (best,) = judge(fit, [x], args.max_time_s)
+    else:  # the shipped reading, with the rule base's own NONE (a file for another reading)
+        none = "unsensed" if read_toml(args.rules).unsensed_none else "matlab"
+        fit = FitCost(0.02, stall_s=None, reading=replace(SHIPPED_READING, none_reading=none))
+    (best,) = judge(fit, [x], args.max_time_s, args.toward_missed)
     start = best
     print(f"start: {best[0]} bounds, cost {best[1]:.1f}", flush=True)
     history = []
     for round_ in range(args.rounds):
         moves = []
         for k in range(len(x)):
-            for step in STEPS:
+            for step in args.steps:
                 v = x.copy()
                 v[k] = float(np.clip(x[k] * (1 + step), lo[k], hi[k]))
                 if v[k] != x[k]:
                     moves.append((k, step, v))
-        scores = judge(fit, [v for _, _, v in moves], args.max_time_s)
+        scores = judge(fit, [v for _, _, v in moves], args.max_time_s, args.toward_missed)
         i = max(range(len(moves)), key=lambda j: (scores[j][0], -scores[j][1]))
         if (scores[i][0], -scores[i][1]) <= (best[0], -best[1]):
             print(f"round {round_ + 1}: no move helps", flush=True)
@@ -124,6 +155,8 @@ def main(argv=None) -> int:
     ]
     header = "\n".join(header_lines) + (
         f"\nStage 3: python scripts/paper_coordinate.py --rules <stage 2's> --rounds {args.rounds}"
+        + (f" --steps={','.join(f'{v:g}' for v in args.steps)}" if args.steps != STEPS else "")
+        + (" --toward-missed" if args.toward_missed else "")
         + (f" --twin --max-time-s {args.max_time_s:g}" if args.max_time_s else "")
         + f" ({start[0]} -> {best[0]} done bounds, cost {start[1]:.3f} -> {best[1]:.3f}; moves: "
         f"{', '.join(history) or 'none'})"
