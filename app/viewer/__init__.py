@@ -39,6 +39,7 @@ The teaching views as pure functions, and the rest:
 - :mod:`.lesson`       lesson files, saved from the page and opened again;
 - :mod:`.classroom`    ``serve --classroom``: a world per tab, a teacher's push;
 - :mod:`.guards`, :mod:`.origin_guard`  what the server takes from a browser;
+- :mod:`.compat_viser` what the viewer reads of viser's internals, checked (version, names);
 - :mod:`.budget`       what a browser can make the server keep (memory, ``--rrd``'s disk);
 - :mod:`.serve`        the ``fuzzynav serve`` command.
 """

@@ -23,6 +23,7 @@ import traceback
 import viser
 
 from fuzzynav.app.viewer.budget import MemoryBudget
+from fuzzynav.app.viewer.compat_viser import handle_uuid
 from fuzzynav.app.viewer.model import ViewerError
 from fuzzynav.app.viewer.origin_guard import guarded_server_start
 
@@ -167,7 +168,7 @@ class ClassroomServer:
             # (viser labels the box with <label for=uuid> beside it: the row that holds
             # that label holds the box.)
             gui.add_html(
-                f"<style>div:has(> div > p > label[for='{box._impl.uuid}']) input"
+                f"<style>div:has(> div > p > label[for='{handle_uuid(box)}']) input"
                 "{-webkit-text-security:disc;text-security:disc}</style>"
             )
             push = gui.add_button(

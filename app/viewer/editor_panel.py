@@ -5,6 +5,7 @@ All of the Editor panel's code is here: its layout, its callbacks and its sync."
 
 from __future__ import annotations
 
+from fuzzynav.app.viewer.compat_viser import handle_uuid
 from fuzzynav.controller.inference import CHOICES
 
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
@@ -157,7 +158,7 @@ class EditorPanel:
         if key == getattr(self, "_term_plots_for", None):
             return
         self._term_plots_for = key
-        ids = {name: slider._impl.uuid for name, slider in self.editor_sliders.items()}
+        ids = {name: handle_uuid(slider) for name, slider in self.editor_sliders.items()}
         ranges = {name: (s.min, s.max) for name, s in self.editor_sliders.items()}
         for group, (element, names) in self.term_plots.items():
             try:

@@ -15,6 +15,9 @@ A raw websocket client can send any message a browser could, with any values (is
   server's budget while under way, and one not whole
   :data:`.budget.UPLOAD_TIMEOUT_S` after its first message is dropped (1,000 uploads
   left one byte short were kept for ever: 98 to 603 MB in 22 s).
+
+viser has no public API for its handlers, widgets' state or uploads under way: every
+private name of viser read here is read through :mod:`.compat_viser`.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import math
 import time
 from collections.abc import Callable
 
+from fuzzynav.app.viewer import compat_viser as _viser
 from fuzzynav.app.viewer.budget import MAX_UPLOADS_IN_FLIGHT, UPLOAD_TIMEOUT_S
 
 __all__ = ["install_message_guards", "value_sent", "ALLOWED_GUI_PROPS"]
@@ -71,9 +75,8 @@ def value_sent(handle):
 
 def _unchanged(handle, value) -> bool:
     """Whether viser would take ``value`` as no change of an input's value."""
-    impl = handle._impl
-    current = impl.value
-    if impl.is_button or getattr(impl, "removed", False) or isinstance(current, tuple):
+    current = _viser.handle_value(handle)
+    if _viser.is_button(handle) or _viser.is_removed(handle) or isinstance(current, tuple):
         return False
     try:
         return current == type(current)(value)
@@ -84,23 +87,21 @@ def _unchanged(handle, value) -> bool:
 async def _run_callbacks(gui, client_id, handle) -> None:
     """Call an input's update callbacks as viser does for a changed value."""
     from viser import GuiEvent
-    from viser._threadpool_exceptions import print_threadpool_errors
 
-    client = gui._resolve_client(client_id)
+    client = _viser.resolve_client(gui, client_id)
     if client is None:
         return
-    for cb in list(handle._impl.update_cb):
+    for cb in list(_viser.update_callbacks(handle)):
         if inspect.iscoroutinefunction(cb):
             await cb(GuiEvent(client, client_id, handle))
         else:
-            gui._thread_executor.submit(cb, GuiEvent(client, client_id, handle)).add_done_callback(
-                print_threadpool_errors
-            )
+            _viser.submit_callback(gui, cb, GuiEvent(client, client_id, handle))
 
 
-def _wrap(interface, message_cls, make_guard) -> None:
-    """Put a guard in front of each handler ``interface`` has for ``message_cls``."""
-    handlers = interface._incoming_handlers.get(message_cls, [])
+def _wrap(gui, message_name, make_guard) -> None:
+    """Put a guard in front of each handler ``gui``'s server has for a message class
+    (named as :data:`.compat_viser.MESSAGE_FIELDS` names it)."""
+    handlers = _viser.incoming_handlers(gui, _viser.message_class(message_name))
     for k, handler in enumerate(list(handlers)):
         handlers[k] = make_guard(handler)
 
@@ -118,7 +119,7 @@ class UploadsUnderWay:
 
     def sweep(self) -> None:
         """Forget the uploads that ended; drop those not whole in time."""
-        states = self.gui._current_file_upload_states
+        states = _viser.upload_states(self.gui)
         now = self.clock()
         for transfer, (began, charged) in list(self.began.items()):
             if transfer in states and now - began <= UPLOAD_TIMEOUT_S:
@@ -161,22 +162,20 @@ def install_message_guards(
     """Guard the GUI and upload messages of a ``viser.ViserServer`` (module doc).
     ``on_refused(text)`` is told of each refusal (the viewer shows it); ``account`` is
     charged the uploads under way. Returns what counts them."""
-    from viser import _messages
-
+    _viser.warn_if_unsupported()
     gui = server.gui
-    interface = gui._websock_interface
     say = on_refused or (lambda text: None)
     uploads = UploadsUnderWay(gui, account, clock, say)
 
     def gui_guard(handler):
         async def guarded(client_id, message):
-            handle = gui._gui_input_handle_from_uuid.get(message.uuid)
+            handle = _viser.input_handle(gui, message.uuid)
             updates = message.updates if isinstance(message.updates, dict) else {}
             kept = {k: v for k, v in updates.items() if k in ALLOWED_GUI_PROPS}
             if not kept:
                 return
             if "value" in kept and handle is not None:
-                current = handle._impl.value
+                current = _viser.handle_value(handle)
                 numeric = isinstance(current, int | float | tuple) and not isinstance(current, bool)
                 if numeric and not _finite(kept["value"]):
                     say(f"refused a value that is not a finite number: {kept['value']!r}")
@@ -186,7 +185,8 @@ def install_message_guards(
             if "value" in kept and handle is not None:
                 # (a value viser's cast refuses is refused as viser would have)
                 with contextlib.suppress(TypeError, ValueError, IndexError):
-                    token = _SENT.set((handle, _cast_as_viser(handle._impl.value, kept["value"])))
+                    sent = _cast_as_viser(_viser.handle_value(handle), kept["value"])
+                    token = _SENT.set((handle, sent))
             try:
                 if "value" in kept and handle is not None and _unchanged(handle, kept["value"]):
                     # viser drops a value equal to the widget's as "no change". But the
@@ -230,23 +230,24 @@ def install_message_guards(
 
     def part_guard(handler):
         def guarded(client_id, message):
-            state = gui._current_file_upload_states.get(message.transfer_uuid)
+            states = _viser.upload_states(gui)
+            state = states.get(message.transfer_uuid)
             if state is not None:
                 content = message.content if isinstance(message.content, bytes) else b""
                 if state["transferred_bytes"] + len(content) > state["total_bytes"]:
-                    gui._current_file_upload_states.pop(message.transfer_uuid, None)
+                    states.pop(message.transfer_uuid, None)
                     uploads.sweep()
                     say("upload refused: more bytes than it declared")
                     return
             try:
                 return handler(client_id, message)
             finally:
-                if message.transfer_uuid not in gui._current_file_upload_states:
+                if message.transfer_uuid not in _viser.upload_states(gui):
                     uploads.sweep()  # ended: its charge is given back
 
         return guarded
 
-    _wrap(interface, _messages.GuiUpdateMessage, gui_guard)
-    _wrap(interface, _messages.FileTransferStartUpload, start_guard)
-    _wrap(interface, _messages.FileTransferPart, part_guard)
+    _wrap(gui, "GuiUpdateMessage", gui_guard)
+    _wrap(gui, "FileTransferStartUpload", start_guard)
+    _wrap(gui, "FileTransferPart", part_guard)
     return uploads

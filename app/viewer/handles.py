@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from fuzzynav.app.figures.style import obstacle_label
+from fuzzynav.app.viewer.compat_viser import is_removed
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.resources import shorten
 
@@ -238,11 +239,11 @@ class DragHandles:
                     app.move_obstacle(obstacle_id, (x, y))
                 # Another tab may have reset the run meanwhile: this node is then gone
                 # (the new run's node follows the world), and the drag goes on.
-                if not gizmo._impl.removed:
+                if not is_removed(gizmo):
                     gizmo.position = (x, y, float(gizmo.position[2]))
             except ViewerError as exc:  # a malformed or refused position (issue 26)
                 app._notice(str(exc), "warning")
-                if not gizmo._impl.removed:
+                if not is_removed(gizmo):
                     self._snap_back(gizmo, obstacle_id)
                 grab.clear()
                 self.dragging.discard(name)  # or its drawing stays frozen

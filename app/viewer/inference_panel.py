@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from fuzzynav.app.viewer import views
+from fuzzynav.app.viewer.compat_viser import handle_uuid
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
 
@@ -271,7 +272,7 @@ class InferencePanel:
         drag = None
         if what_if:  # each input's plot drags its what-if slider (not fuzzynav's phi_plan)
             drag = {
-                i: (box._impl.uuid, box.min, box.max)
+                i: (handle_uuid(box), box.min, box.max)
                 for i, name in enumerate(labels)
                 if name in WHAT_IF_INPUTS
                 for box in (self.what_if_boxes[WHAT_IF_INPUTS.index(name)],)
