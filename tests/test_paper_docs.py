@@ -62,6 +62,7 @@ def test_the_page_is_rendered_from_the_data():
         _load("paper_profiles.json"),
         _load("paper_binds.json"),
         _load("paper_twin_binds.json"),
+        _load("paper_readings_count.json"),
     )
     found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
     assert set(blocks) <= set(found), set(blocks) - set(found)
@@ -155,3 +156,16 @@ def test_the_shipped_right_wheel_ceiling_is_the_stored_one():
     found = right_wheel_ceiling(system, s3_farthest_m())
     assert found["right_max_v"] == pytest.approx(stored["in_s3"]["right_max_v"], abs=1e-9)
     assert found["right_max_v"] < 12.0
+
+
+def test_the_selection_counted_first_selects_what_ships():
+    """The readings searched again with the done bounds counted first, one budget each
+    (scripts/paper_readings_count.py): the reading selected is the shipped one, and the
+    shipped rule base meets at least as many bounds as that search's best."""
+    from fuzzynav.app.experiments.paper_fit import select_reading
+
+    counted = _load("paper_readings_count.json")
+    chosen = select_reading(counted["results"])
+    assert chosen["reading"] == select_reading(_load("paper_readings.json")["results"])["reading"]
+    shipped = paper_docs.bound_checks(_load("paper_controller.json")["paper"])
+    assert sum(c["met"] for c in shipped) >= chosen["bounds_met"]
