@@ -5,7 +5,6 @@ imports, refusals; and the examples/ run as a user would run them."""
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
 import math
 import subprocess
@@ -14,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from load_file import load_file
 
 import fuzzynav
 from fuzzynav.app.cli import main
@@ -149,10 +149,7 @@ def test_sweep_returns_the_command_lines_rows(tmp_path):
 
 
 def _example(name: str):
-    spec = importlib.util.spec_from_file_location(f"example_{name}", EXAMPLES / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file(EXAMPLES / f"{name}.py", f"example_{name}")
 
 
 def test_every_example_has_a_docstring_and_one_main():

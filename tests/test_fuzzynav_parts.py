@@ -2,12 +2,12 @@
 every switch in it really switches its part off, and back on; the ablation study
 (scripts/fuzzynav_ablation.py) counts what it runs."""
 
-import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from load_file import load_file
 
 from fuzzynav.controller.fuzzynav import CRISP_DEFAULTS, DECISION_FIELDS, fuzzynav_controller
 from fuzzynav.controller.fuzzynav_parts import load_parts
@@ -19,12 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location(
-        "fuzzynav_ablation", ROOT / "scripts" / "fuzzynav_ablation.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file(ROOT / "scripts" / "fuzzynav_ablation.py")
 
 
 PARTS = load_parts()

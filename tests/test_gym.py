@@ -239,13 +239,9 @@ def test_the_docs_numbers_are_the_examples():
 
 
 def test_the_example_runs_small(capsys):
-    import importlib.util
+    from load_file import load_file
 
-    spec = importlib.util.spec_from_file_location(
-        "gym_random_search", ROOT / "examples" / "gym_random_search.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_file(ROOT / "examples" / "gym_random_search.py")
     assert module.main(
         ["--generations", "1", "--population", "3", "--elite", "2", "--layouts", "2",
          "--held-out", "4"]

@@ -4,11 +4,10 @@ residual uncapped beyond, chatter counted, a forced bound ten times (issue 35)."
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+from load_file import load_file
 
 from fuzzynav.app.published import paper_results
 
@@ -17,16 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def search():
-    sys.path.insert(0, str(ROOT / "scripts"))
-    try:
-        spec = importlib.util.spec_from_file_location(
-            "paper_search", ROOT / "scripts/paper_search.py"
-        )
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "scripts"))
-    return module
+    return load_file(ROOT / "scripts" / "paper_search.py")
 
 
 def _run(**changes) -> dict:

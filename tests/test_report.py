@@ -220,28 +220,23 @@ def test_report_refuses_an_unknown_controller(tmp_path, capsys):
 
 def test_make_report_figure_scripts_run(tmp_path, monkeypatch):
     """`make report` also runs the fuzzynav figure scripts: they write their PNGs."""
-    import importlib.util
     import sys
     from pathlib import Path
+
+    from load_file import load_file
 
     root = Path(__file__).resolve().parents[1]
     for name, argv in (
         ("fuzzynav_figure", [str(tmp_path / "design.png")]),
         ("crossing_figure", None),
     ):
-        spec = importlib.util.spec_from_file_location(name, root / "scripts" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
+        module = load_file(root / "scripts" / f"{name}.py")
         if argv is not None:
             monkeypatch.setattr(sys, "argv", ["x"] + argv)
             module.main()
         else:
             module.main(tmp_path / "crossing.png")
-    spec = importlib.util.spec_from_file_location(
-        "jitter_figure", root / "scripts" / "jitter_figure.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_file(root / "scripts" / "jitter_figure.py")
     module.main(tmp_path / "jitter.png", n_per_scenario=1)
     for png in ("design.png", "crossing.png", "jitter.png"):
         data = (tmp_path / png).read_bytes()

@@ -5,12 +5,12 @@ the guide and with docs/data/viewer_guide.json. After a rule base changes, rerun
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 from pathlib import Path
 
 import pytest
+from load_file import load_file
 
 from fuzzynav.controller.registry import controller_names
 
@@ -20,10 +20,7 @@ pytestmark = pytest.mark.skipif("paper" not in controller_names(), reason="no pa
 
 @pytest.fixture(scope="module")
 def guide():
-    spec = importlib.util.spec_from_file_location("viewer_guide", ROOT / "scripts/viewer_guide.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file(ROOT / "scripts" / "viewer_guide.py")
 
 
 @pytest.fixture(scope="module")
