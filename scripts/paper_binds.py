@@ -55,7 +55,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "data" / "paper_binds.json"
 TWIN_OUT = ROOT / "docs" / "data" / "paper_twin_binds.json"
 #: The twin's bounds rules/paper_husky.toml misses; ``--twin`` forces each in turn.
-TWIN_UNMET = ("ideal.s1.mad", "ultrasonic.s1.mad", "ultrasonic.s1.clearance")
+TWIN_UNMET = ("ideal.s1.mad", "ultrasonic.s1.mad")  # the bounds today's twin misses
 TWIN_SEARCH = [
     "--heading", "0", "--none", "matlab", "--modes", "husky-ideal,husky-ultrasonic",
     "--husky-weight", "1", "--maxiter", "30", "--popsize", "16", "--seed", "13",

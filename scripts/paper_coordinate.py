@@ -7,7 +7,8 @@ is better: more of issue 35's 36 done bounds met, or as many at a lower fit cost
 when no move helps or after ``--rounds``. Deterministic (no random draws).
 ``--steps`` sets the moves (finer ones near a bound); ``--toward-missed`` ranks moves
 meeting as many bounds by how far the missed numeric bounds still lie beyond their bounds
-instead of by the fit's cost. A rule base's own NONE (``unsensed_none`` or not) is the
+instead of by the fit's cost (with ``--twin``, the twin's MAD, clearance, path and final
+bearing). A rule base's own NONE (``unsensed_none`` or not) is the
 reading the runs take.
 
     .venv/bin/python scripts/paper_coordinate.py --rules assets/rules/paper.toml \\
@@ -28,10 +29,15 @@ from fuzzynav.app.experiments.paper_docs import bound_checks, twin_checks
 from fuzzynav.app.experiments.paper_fit import (
     SCENARIOS,
     SHIPPED_READING,
+    TWIN_CLEARANCE_M,
+    TWIN_MAD_FACTOR,
+    TWIN_PATH_M,
+    TWIN_PHI_RAD,
     FitCost,
     Reading,
     read_fitted,
 )
+from fuzzynav.app.published import paper_results
 from fuzzynav.controller.paper_design import PaperDesignTunable
 from fuzzynav.controller.rulebase import read_toml
 
@@ -46,7 +52,7 @@ def judge(fit, vectors, max_time_s: float | None = None, toward_missed: bool = F
     met lie beyond their bounds (the sum of residual / bound - 1) instead of the fit's
     cost: a move that brings a missed bound closer, losing none, is taken."""
     if fit.husky and not fit.paper_geometry:
-        return judge_twin(fit, vectors, max_time_s)
+        return judge_twin(fit, vectors, max_time_s, toward_missed)
     out = []
     for runs in fit_measures(fit, SCENARIOS, vectors, "paper", "ideal"):
         if runs is None:
@@ -59,7 +65,19 @@ def judge(fit, vectors, max_time_s: float | None = None, toward_missed: bool = F
     return out
 
 
-def judge_twin(fit, vectors, max_time_s: float | None = None):
+def twin_excess(run: dict) -> float:
+    """How far a twin's run lies beyond the twin's numeric bounds it misses (the sum of
+    each residual / bound - 1): ``--toward-missed`` for the twin."""
+    mad_bound = TWIN_MAD_FACTOR * paper_results()["table4"][run["scenario"]]["mad_m"]
+    return (
+        max(0.0, run["mad_m"] / mad_bound - 1)
+        + max(0.0, 1 - run["min_clearance_m"] / TWIN_CLEARANCE_M)
+        + max(0.0, run["path_length_m"] / TWIN_PATH_M - 1)
+        + max(0.0, abs(run["final_phi_t_rad"]) / TWIN_PHI_RAD - 1)
+    )
+
+
+def judge_twin(fit, vectors, max_time_s: float | None = None, toward_missed: bool = False):
     modes = [fit_measures(fit, SCENARIOS, vectors, "husky", p) for p in fit.husky_perception]
     out = []
     for k in range(len(vectors)):
@@ -72,7 +90,10 @@ def judge_twin(fit, vectors, max_time_s: float | None = None):
             continue
         met = sum(sum(twin_checks(m, m["scenario"]).values()) for r in runs for m in r)
         chatter = sum(max(0, m["chatter_steps"] - 2) for r in runs for m in r)
-        out.append((met, fit.combine(runs) + chatter))
+        if toward_missed:
+            out.append((met, sum(twin_excess(m) for r in runs for m in r) + chatter))
+        else:
+            out.append((met, fit.combine(runs) + chatter))
     return out
 
 
@@ -91,8 +112,8 @@ def main(argv=None) -> int:
     p.add_argument(
         "--toward-missed",
         action="store_true",
-        help="the paper's geometry: among moves meeting as many bounds, take the one that "
-        "brings the missed numeric bounds closest (not the lowest fit cost)",
+        help="among moves meeting as many bounds, take the one that brings the missed "
+        "numeric bounds closest (not the lowest fit cost); the twin's too, with --twin",
     )
     p.add_argument(
         "--twin",

@@ -60,3 +60,20 @@ def test_steps_are_parsed_and_a_bad_one_is_refused(coordinate, tmp_path, capsys)
         )
     assert exc.value.code == 2
     assert "--steps" in capsys.readouterr().err
+
+
+def test_the_twins_excess_is_how_far_past_its_bounds_a_run_lies(coordinate):
+    from fuzzynav.app.experiments.paper_fit import TWIN_MAD_FACTOR
+    from fuzzynav.app.published import paper_results
+
+    mad_bound = TWIN_MAD_FACTOR * paper_results()["table4"]["s1"]["mad_m"]
+    run = {
+        "scenario": "s1",
+        "mad_m": 0.5 * mad_bound,
+        "min_clearance_m": 0.4,
+        "path_length_m": 12.0,
+        "final_phi_t_rad": 0.1,
+    }
+    assert coordinate.twin_excess(run) == 0.0  # every bound met
+    run.update(mad_m=1.5 * mad_bound, min_clearance_m=0.2)  # MAD 50 %, clearance 20 % short
+    assert coordinate.twin_excess(run) == pytest.approx(0.5 + 0.2)

@@ -1,7 +1,8 @@
-"""The "What binds" blocks of docs/paper-controller.md: ``scripts/paper_binds.py``'s
+"""Two kinds of blocks of docs/paper-controller.md. "What binds": ``scripts/paper_binds.py``'s
 experiments on the paper's rule base (``docs/data/paper_binds.json``) and on its Husky
-twin (``docs/data/paper_twin_binds.json``), rendered as tables
-(:func:`fuzzynav.app.experiments.paper_docs.blocks` places them).
+twin (``docs/data/paper_twin_binds.json``). "The selection again":
+``scripts/paper_readings_count.py``'s searches (``docs/data/paper_readings_count.json``).
+Rendered as tables; :func:`fuzzynav.app.experiments.paper_docs.blocks` places them.
 """
 
 from __future__ import annotations
@@ -11,10 +12,11 @@ from fuzzynav.app.experiments.paper_fit import (
     TWIN_MAD_FACTOR,
     TWIN_PATH_M,
     TWIN_PHI_RAD,
+    select_reading,
 )
 from fuzzynav.app.published import paper_results
 
-__all__ = ["render_binds", "render_twin_binds"]
+__all__ = ["render_binds", "render_readings_count", "render_twin_binds"]
 
 
 def render_binds(table: dict) -> str:
@@ -137,3 +139,54 @@ def _binds_by_bound(found: list) -> list[str]:
 
 def _check(result: dict, name: str) -> dict:
     return next(c for c in result["checks"] if c["name"] == name)
+
+
+def render_readings_count(
+    table: dict, readings: dict | None = None, shipped_met: set[str] | None = None
+) -> str:
+    """``scripts/paper_readings_count.py``: every reading searched again with the done
+    bounds counted first, one budget each, and the selection rule applied again (beside
+    the readings table's selection, and what its pick trades against ``shipped_met``,
+    the names of the bounds the shipped rule base meets)."""
+    chosen = select_reading(table["results"])
+    lines = [
+        "| reading | readings table | stage 1 | stage 2 | worst residual (x its bound) | not met after stage 2 |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in table["results"]:
+        mark = " **(selected)**" if r is chosen else ""
+        missed = ", ".join(c["name"] for c in r["stages"][-1]["checks"] if not c["met"])
+        stages = " | ".join(str(s["bounds_met"]) for s in r["stages"])
+        lines.append(
+            f"| {r['reading']}{mark} | {r['table_bounds_met']} | {stages} "
+            f"| {r['worst_scaled']:.2f} | {missed or 'none'} |"
+        )
+    runner_up = max((r for r in table["results"] if r is not chosen), key=lambda r: r["bounds_met"])
+    said = f"Selected: {chosen['reading']}"
+    if readings is not None:
+        before = select_reading(readings["results"])["reading"]
+        same = before == chosen["reading"]
+        said += ", as in the readings table" if same else f" (the readings table: {before})"
+    behind = chosen["bounds_met"] - runner_up["bounds_met"]
+    lines += ["", f"{said}; next: {runner_up['reading']}, {behind} bound(s) behind."]
+    if shipped_met is not None:  # what the selected reading's search trades otherwise
+        shipped = shipped_met
+        found = {c["name"] for c in chosen["stages"][-1]["checks"] if c["met"]}
+        lines += [
+            "",
+            f"Its stage 2 ({chosen['bounds_met']} met) beside `rules/paper.toml` "
+            f"({len(shipped)} met): met here only: "
+            f"{', '.join(sorted(found - shipped)) or 'none'}; met by the rule base only: "
+            f"{', '.join(sorted(shipped - found)) or 'none'}.",
+        ]
+    stages = "; ".join(
+        f"stage {k + 1}: CMA-ES 16 x {gens}, sigma {sigma}, seed {seed}"
+        for k, (sigma, gens, seed) in enumerate(table["budget"]["stages"])
+    )
+    lines += [
+        "",
+        f"Bounds met of 36, judged on the pymunk engine at 0.02 s. Each reading from its "
+        f"readings-table vector, the done bounds counted first (`--force "
+        f"{' --force '.join(table['budget']['force'])}`) at 0.02 s; {stages}.",
+    ]
+    return "\n".join(lines)

@@ -16,7 +16,11 @@ from __future__ import annotations
 
 import re
 
-from fuzzynav.app.experiments.paper_binds_docs import render_binds, render_twin_binds
+from fuzzynav.app.experiments.paper_binds_docs import (
+    render_binds,
+    render_readings_count,
+    render_twin_binds,
+)
 from fuzzynav.app.experiments.paper_fit import (
     MIN_RIGHT_OFFSET_M,
     SATURATION_V,
@@ -187,7 +191,17 @@ def render_paper(data: dict) -> str:
         )
         + ".",
     ]
+    narrow = [c for c in checks if c["met"] and c["scaled"] is not None and c["scaled"] > NARROW]
+    if narrow:
+        lines[-1] += " Met within 5 % of the bound's edge: " + ", ".join(
+            f"{c['name']} ({c['scaled']:.3f} x)" for c in narrow
+        )
+        lines[-1] += "."
     return "\n".join(lines)
+
+
+#: A bound met with less than 5 % of its tolerance to spare is said to be met narrowly.
+NARROW = 0.95
 
 
 def render_twin(data: dict) -> str:
@@ -211,6 +225,14 @@ def render_twin(data: dict) -> str:
                 f"| {m['chatter_steps']} | {sum(checks.values())} of {len(checks)} |"
             )
     lines += ["", f"**The twin's bounds: {met} of {total} met.**"]
+    narrow = [
+        f"{perception} {name}'s clearance ({m['min_clearance_m']:.5f} m)"
+        for perception, runs in data["husky"].items()
+        for name, m in runs.items()
+        if TWIN_CLEARANCE_M <= m["min_clearance_m"] < TWIN_CLEARANCE_M / NARROW
+    ]
+    if narrow:
+        lines[-1] += " Met within 5 % of the bound: " + ", ".join(narrow) + "."
     return "\n".join(lines)
 
 
@@ -238,59 +260,6 @@ def render_readings(table: dict) -> str:
         f"Budget per reading: {budget['screen']} seeded uniform draws plus the hand layout, "
         f"then CMA-ES {budget['popsize']} x {budget['maxiter']} (seed {budget['seed']}, "
         f"sigma {budget['sigma']}) at {budget['dt']} s; judged on the pymunk engine at 0.02 s.",
-    ]
-    return "\n".join(lines)
-
-
-def render_readings_count(
-    table: dict, readings: dict | None = None, shipped_runs: dict | None = None
-) -> str:
-    """``scripts/paper_readings_count.py``: every reading searched again with the done
-    bounds counted first, one budget each, and the selection rule applied again (beside
-    the readings table's selection, and what its pick trades against ``shipped_runs``,
-    the shipped rule base's runs)."""
-    from fuzzynav.app.experiments.paper_fit import select_reading
-
-    chosen = select_reading(table["results"])
-    lines = [
-        "| reading | readings table | stage 1 | stage 2 | worst residual (x its bound) | not met after stage 2 |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in table["results"]:
-        mark = " **(selected)**" if r is chosen else ""
-        missed = ", ".join(c["name"] for c in r["stages"][-1]["checks"] if not c["met"])
-        stages = " | ".join(str(s["bounds_met"]) for s in r["stages"])
-        lines.append(
-            f"| {r['reading']}{mark} | {r['table_bounds_met']} | {stages} "
-            f"| {r['worst_scaled']:.2f} | {missed or 'none'} |"
-        )
-    runner_up = max((r for r in table["results"] if r is not chosen), key=lambda r: r["bounds_met"])
-    said = f"Selected: {chosen['reading']}"
-    if readings is not None:
-        before = select_reading(readings["results"])["reading"]
-        same = before == chosen["reading"]
-        said += ", as in the readings table" if same else f" (the readings table: {before})"
-    behind = chosen["bounds_met"] - runner_up["bounds_met"]
-    lines += ["", f"{said}; next: {runner_up['reading']}, {behind} bound(s) behind."]
-    if shipped_runs is not None:  # what the selected reading's search trades otherwise
-        shipped = {c["name"] for c in bound_checks(shipped_runs) if c["met"]}
-        found = {c["name"] for c in chosen["stages"][-1]["checks"] if c["met"]}
-        lines += [
-            "",
-            f"Its stage 2 ({chosen['bounds_met']} met) beside `rules/paper.toml` "
-            f"({len(shipped)} met): met here only: "
-            f"{', '.join(sorted(found - shipped)) or 'none'}; met by the rule base only: "
-            f"{', '.join(sorted(shipped - found)) or 'none'}.",
-        ]
-    stages = "; ".join(
-        f"stage {k + 1}: CMA-ES 16 x {gens}, sigma {sigma}, seed {seed}"
-        for k, (sigma, gens, seed) in enumerate(table["budget"]["stages"])
-    )
-    lines += [
-        "",
-        f"Bounds met of 36, judged on the pymunk engine at 0.02 s. Each reading from its "
-        f"readings-table vector, the done bounds counted first (`--force "
-        f"{' --force '.join(table['budget']['force'])}`) at 0.02 s; {stages}.",
     ]
     return "\n".join(lines)
 
@@ -563,7 +532,8 @@ def blocks(
     if twin_binds is not None:
         out["twin-binds"] = render_twin_binds(twin_binds)
     if readings_count is not None:
-        out["readings-count"] = render_readings_count(readings_count, readings, data["paper"])
+        shipped = {c["name"] for c in bound_checks(data["paper"]) if c["met"]}
+        out["readings-count"] = render_readings_count(readings_count, readings, shipped)
     return out
 
 
