@@ -46,6 +46,7 @@ from fuzzynav.app.experiments.paper_ceiling import (  # noqa: E402
     right_wheel_ceiling,
     s3_farthest_m,
 )
+from fuzzynav.app.experiments.paper_docs import twin_checks  # noqa: E402
 from fuzzynav.controller.paper import RULES_BY_GEOMETRY  # noqa: E402
 from fuzzynav.controller.paper_design import PaperDesignTunable  # noqa: E402
 from fuzzynav.controller.rulebase import read_toml  # noqa: E402
@@ -54,8 +55,6 @@ from fuzzynav.safe_files import write_text_atomically  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "data" / "paper_binds.json"
 TWIN_OUT = ROOT / "docs" / "data" / "paper_twin_binds.json"
-#: The twin's bounds rules/paper_husky.toml misses; ``--twin`` forces each in turn.
-TWIN_UNMET = ("ideal.s1.mad", "ultrasonic.s1.mad")  # the bounds today's twin misses
 TWIN_SEARCH = [
     "--heading", "0", "--none", "matlab", "--modes", "husky-ideal,husky-ultrasonic",
     "--husky-weight", "1", "--maxiter", "30", "--popsize", "16", "--seed", "13",
@@ -222,13 +221,27 @@ def main(argv=None) -> int:
     return 0
 
 
+def twin_unmet() -> list[str]:
+    """The twin's forceable bounds rules/paper_husky.toml misses (``ideal.s1.mad``, ...),
+    read from its runs in docs/data/paper_controller.json (tests/test_paper_docs.py holds
+    that file to today's rule bases); ``--twin`` forces each in turn."""
+    runs = json.loads((ROOT / "docs" / "data" / "paper_controller.json").read_text())["husky"]
+    return [
+        f"{perception}.{scenario}.{bound}"
+        for perception, by_scenario in runs.items()
+        for scenario, run in by_scenario.items()
+        for bound, met in twin_checks(run, scenario).items()
+        if not met and bound in paper_search.TWIN_FORCEABLE
+    ]
+
+
 def twin_experiments() -> list[dict]:
     """Each bound the twin misses forced in turn (ten times the others' weight, the
     twin's bounds counted first) from today's twin: what meeting it costs the others."""
     twin = RULES_BY_GEOMETRY["husky"]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in TWIN_UNMET:
+        for name in twin_unmet():
             out = Path(tmp) / "twin.json"
             arguments = [*TWIN_SEARCH, "--force-twin", name, "--x0", str(twin)]
             print(f"== {name} forced: paper_search.py {' '.join(arguments)}", flush=True)

@@ -169,3 +169,13 @@ def test_the_selection_counted_first_selects_what_ships():
     assert chosen["reading"] == select_reading(_load("paper_readings.json")["results"])["reading"]
     shipped = paper_docs.bound_checks(_load("paper_controller.json")["paper"])
     assert sum(c["met"] for c in shipped) >= chosen["bounds_met"]
+
+
+def test_the_twins_forced_experiments_are_the_bounds_it_misses_today():
+    """docs/data/paper_twin_binds.json forces exactly the bounds today's twin misses
+    (rerun scripts/paper_binds.py --twin after the twin changes)."""
+    from load_file import load_file
+
+    binds = load_file(ROOT / "scripts" / "paper_binds.py")
+    forced = [e["forced"] for e in _load("paper_twin_binds.json")["experiments"]]
+    assert forced == binds.twin_unmet()
