@@ -4,6 +4,7 @@ instead of silently slowing down or changing a run."""
 
 from __future__ import annotations
 
+import asyncio
 import re
 import warnings
 
@@ -122,6 +123,39 @@ def test_the_installed_viser_has_every_private_name_the_viewer_reads(viser_serve
     assert not compat_viser.is_removed(node)
     node.remove()
     assert compat_viser.is_removed(node)
+
+
+def test_the_accessors_the_tests_play_a_client_with_are_what_they_take_them_for(
+    monkeypatch, viser_server
+):
+    from viser import _gui_api
+
+    from fuzzynav.app.viewer import compat_viser
+
+    gui = viser_server.gui
+    box = gui.add_number("compat client", 1.5)
+    try:
+        real_sync = compat_viser.sync_callback(box)
+        synced = []
+        compat_viser.set_sync_callback(box, lambda *args: synced.append(args))
+        update = compat_viser.message_class("GuiUpdateMessage")
+        uuid = compat_viser.handle_uuid(box)
+        asyncio.run(compat_viser.handle_incoming(gui, 7, update(uuid, {"value": 2.5})))
+        assert box.value == 2.5 and synced == [(7, {"value": 2.5})]
+        compat_viser.set_sync_callback(box, real_sync)
+        assert compat_viser.sync_callback(box) is real_sync
+        compat_viser.set_handle_value(box, 3.5)
+        assert compat_viser.handle_value(box) == 3.5 == box.value
+    finally:
+        box.remove()
+    assert compat_viser.thread_executor(gui).submit(lambda: 4).result(timeout=10) == 4
+    camera = compat_viser.message_class("ViewerCameraMessage")
+    assert camera(**{k: None for k in compat_viser.CLIENT_MESSAGE_FIELDS[camera.__name__]})
+    monkeypatch.setattr(_gui_api, "_global_order_counter", 10)
+    compat_viser.raise_order_counter(5000)
+    assert _gui_api._global_order_counter == 5000
+    compat_viser.raise_order_counter(20)  # never lowered
+    assert _gui_api._global_order_counter == 5000
 
 
 def test_compat_viser_finds_a_name_that_is_gone(monkeypatch):

@@ -10,9 +10,13 @@ from types import SimpleNamespace
 
 import pytest
 
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import MAX_UPLOAD_BYTES, ViewerApp
 
-viser_messages = pytest.importorskip("viser._messages")
+pytest.importorskip("viser")
+GuiUpdateMessage = compat_viser.message_class("GuiUpdateMessage")
+FileTransferStartUpload = compat_viser.message_class("FileTransferStartUpload")
+FileTransferPart = compat_viser.message_class("FileTransferPart")
 
 
 @pytest.fixture
@@ -26,54 +30,53 @@ def served():
 
 def _deliver(server, message) -> None:
     """Dispatch ``message`` as if a client had sent it."""
-    interface = server.server.gui._websock_interface
-    asyncio.run(interface._handle_incoming_message(1, message))
+    asyncio.run(compat_viser.handle_incoming(server.server.gui, 1, message))
 
 
 def test_a_gui_update_sets_only_the_value(served):
     """The key update_cb replaced the scenario dropdown's callbacks for every client."""
-    impl = served.controls.scenario_dd._impl
-    callbacks = list(impl.update_cb)
+    dropdown = served.controls.scenario_dd
+    uuid = compat_viser.handle_uuid(dropdown)
+    callbacks = list(compat_viser.update_callbacks(dropdown))
     assert callbacks
-    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"update_cb": []}))
-    assert impl.update_cb == callbacks
+    _deliver(served, GuiUpdateMessage(uuid, {"update_cb": []}))
+    assert compat_viser.update_callbacks(dropdown) == callbacks
     # a value is still taken. This raw client is not connected, so viser calls no
     # callback and the render thread's sync would soon put the world's s1 back: stop it
     # first, so that what is checked is what the guard let through.
     served.render.stop()
-    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": "s2"}))
-    assert impl.value == "s2"
+    _deliver(served, GuiUpdateMessage(uuid, {"value": "s2"}))
+    assert compat_viser.handle_value(dropdown) == "s2"
 
 
 @pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
 def test_a_slider_never_becomes_nan(served, value):
     """An editor slider set to NaN stayed NaN."""
-    impl = served.controls.noise._impl
-    before = impl.value
-    _deliver(served, viser_messages.GuiUpdateMessage(impl.uuid, {"value": value}))
-    assert impl.value == before and math.isfinite(impl.value)
+    slider = served.controls.noise
+    before = compat_viser.handle_value(slider)
+    _deliver(served, GuiUpdateMessage(compat_viser.handle_uuid(slider), {"value": value}))
+    after = compat_viser.handle_value(slider)
+    assert after == before and math.isfinite(after)
 
 
 def test_an_upload_is_refused_at_its_declared_size(served):
     """Declared 1 TB, then 400 MB of parts: the server grew by 500 MB before refusing."""
     gui = served.server.gui
-    uuid = served.controls.scenario_upload._impl.uuid
-    start = viser_messages.FileTransferStartUpload(
+    uuid = compat_viser.handle_uuid(served.controls.scenario_upload)
+    start = FileTransferStartUpload(
         uuid, "t1", "big.toml", "text/plain", part_count=10_000_000, size_bytes=10**12
     )
     _deliver(served, start)
-    assert "t1" not in gui._current_file_upload_states
-    part = viser_messages.FileTransferPart(uuid, "t1", 0, b"x" * 1024)
+    assert "t1" not in compat_viser.upload_states(gui)
+    part = FileTransferPart(uuid, "t1", 0, b"x" * 1024)
     _deliver(served, part)
-    assert "t1" not in gui._current_file_upload_states
+    assert "t1" not in compat_viser.upload_states(gui)
     # declared small, sent large: dropped at the part that passes the declared size
-    small = viser_messages.FileTransferStartUpload(
-        uuid, "t2", "s.toml", "text/plain", part_count=2, size_bytes=10
-    )
+    small = FileTransferStartUpload(uuid, "t2", "s.toml", "text/plain", part_count=2, size_bytes=10)
     _deliver(served, small)
-    assert "t2" in gui._current_file_upload_states
-    _deliver(served, viser_messages.FileTransferPart(uuid, "t2", 0, b"x" * (MAX_UPLOAD_BYTES)))
-    assert "t2" not in gui._current_file_upload_states
+    assert "t2" in compat_viser.upload_states(gui)
+    _deliver(served, FileTransferPart(uuid, "t2", 0, b"x" * (MAX_UPLOAD_BYTES)))
+    assert "t2" not in compat_viser.upload_states(gui)
 
 
 def _event(position, phase="update"):

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from net_helpers import INTERRUPTIBLE_CLI, port_is_free
 
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import UPLOADED_PREFIX, ViewerApp, ViewerError, safe_display_name
 from fuzzynav.controller.fis import write_fis
 from fuzzynav.controller.registry import controller_names
@@ -808,7 +809,7 @@ def test_a_drag_goes_on_when_another_tab_resets_the_run(served, capfd):
     asyncio.run(on_drag(event("update", (ox - 0.5, oy, 0.5))))
     a.reset()  # another tab
     deadline = time.monotonic() + 10
-    while not node["handle"]._impl.removed:  # the render loop drew the new run
+    while not compat_viser.is_removed(node["handle"]):  # the render loop drew the new run
         assert time.monotonic() < deadline
         time.sleep(0.05)
     x, y, _ = a.sim.arena.pose

@@ -14,10 +14,13 @@ import tracemalloc
 import pytest
 
 from fuzzynav.app.viewer import budget as budgets
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import ViewerApp, ViewerError
 from fuzzynav.world.scenario import ObstacleSpec, load_scenario
 
-viser_messages = pytest.importorskip("viser._messages")
+pytest.importorskip("viser")
+FileTransferStartUpload = compat_viser.message_class("FileTransferStartUpload")
+FileTransferPart = compat_viser.message_class("FileTransferPart")
 
 
 def _moving(n: int, duration_s: float = 3600.0):
@@ -229,12 +232,11 @@ def served():
 
 
 def _deliver(server, message) -> None:
-    interface = server.server.gui._websock_interface
-    asyncio.run(interface._handle_incoming_message(1, message))
+    asyncio.run(compat_viser.handle_incoming(server.server.gui, 1, message))
 
 
 def _start(uuid, transfer, size=1000, parts=1):
-    return viser_messages.FileTransferStartUpload(
+    return FileTransferStartUpload(
         uuid, transfer, f"{transfer}.toml", "text/plain", part_count=parts, size_bytes=size
     )
 
@@ -245,34 +247,34 @@ def test_an_upload_left_short_is_dropped_after_its_timeout(served, monkeypatch):
     clock = [0.0]
     served.uploads.clock = lambda: clock[0]
     gui = served.server.gui
-    uuid = served.controls.scenario_upload._impl.uuid
+    uuid = compat_viser.handle_uuid(served.controls.scenario_upload)
     _deliver(served, _start(uuid, "short", size=1000, parts=2))
-    _deliver(served, viser_messages.FileTransferPart(uuid, "short", 0, b"x" * 999))
-    assert "short" in gui._current_file_upload_states
+    _deliver(served, FileTransferPart(uuid, "short", 0, b"x" * 999))
+    assert "short" in compat_viser.upload_states(gui)
     assert served.app.account.held("uploads") == 1000
     clock[0] = budgets.UPLOAD_TIMEOUT_S + 1
     served.uploads.sweep()  # (on the event loop, it is swept when due)
-    assert "short" not in gui._current_file_upload_states
+    assert "short" not in compat_viser.upload_states(gui)
     assert served.app.account.held("uploads") == 0
     assert "upload dropped" in served.app.message
 
 
 def test_uploads_under_way_are_capped_and_their_charge_given_back(served):
     gui = served.server.gui
-    uuid = served.controls.scenario_upload._impl.uuid
+    uuid = compat_viser.handle_uuid(served.controls.scenario_upload)
     for k in range(budgets.MAX_UPLOADS_IN_FLIGHT + 3):
         _deliver(served, _start(uuid, f"t{k}", size=500, parts=2))
-    under_way = [t for t in gui._current_file_upload_states if t.startswith("t")]
+    under_way = [t for t in compat_viser.upload_states(gui) if t.startswith("t")]
     assert len(under_way) == budgets.MAX_UPLOADS_IN_FLIGHT
     assert "under way already" in served.app.message
     assert served.app.account.held("uploads") == 500 * budgets.MAX_UPLOADS_IN_FLIGHT
     # one finishes: its charge is given back, and another may start
     for part in range(2):
-        _deliver(served, viser_messages.FileTransferPart(uuid, "t0", part, b"x" * 250))
-    assert "t0" not in gui._current_file_upload_states
+        _deliver(served, FileTransferPart(uuid, "t0", part, b"x" * 250))
+    assert "t0" not in compat_viser.upload_states(gui)
     assert served.app.account.held("uploads") == 500 * (budgets.MAX_UPLOADS_IN_FLIGHT - 1)
     _deliver(served, _start(uuid, "again", size=500, parts=2))
-    assert "again" in gui._current_file_upload_states
+    assert "again" in compat_viser.upload_states(gui)
 
 
 # -- serve --rrd: the disk ----------------------------------------------------------------

@@ -17,11 +17,14 @@ import msgspec
 import pytest
 import viser
 import websockets
-from viser import _messages as messages
 
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import ViewerApp
 
 pytestmark = pytest.mark.timeout(180)
+
+ViewerCameraMessage = compat_viser.message_class("ViewerCameraMessage")
+GuiUpdateMessage = compat_viser.message_class("GuiUpdateMessage")
 
 
 class ScriptedClients:
@@ -48,7 +51,7 @@ class ScriptedClients:
             max_size=None,
             open_timeout=60,
         )
-        camera = messages.ViewerCameraMessage(
+        camera = ViewerCameraMessage(
             wxyz=(1.0, 0.0, 0.0, 0.0),
             position=(0.0, 0.0, 20.0),
             fov=0.78,
@@ -98,7 +101,8 @@ class ScriptedClients:
 
     def press(self, ws, handle, value) -> None:
         """What the page sends when a button (of a button group: ``value``) is clicked."""
-        message = messages.GuiUpdateMessage(uuid=handle._impl.uuid, updates={"value": value})
+        uuid = compat_viser.handle_uuid(handle)
+        message = GuiUpdateMessage(uuid=uuid, updates={"value": value})
         self._run(ws.send(msgspec.msgpack.encode(message.as_serializable_dict())))
 
     def close(self) -> None:
@@ -422,22 +426,22 @@ def test_a_press_applies_the_value_sent_even_when_the_render_thread_syncs_first(
     handle = getattr(served.controls, name)
     before = now(served.app)
     assert before != pressed
-    executor = served.server.gui._thread_executor
-    real_submit, real_sync = executor.submit, handle._impl.sync_cb
+    executor = compat_viser.thread_executor(served.server.gui)
+    real_submit, real_sync = executor.submit, compat_viser.sync_callback(handle)
 
     def sync_first(fn, *args, **kwargs):
         handle.value = before  # what ControlPanel.sync does before the callback runs
         return real_submit(fn, *args, **kwargs)
 
     def sync_in_between(client_id, updates):
-        handle._impl.value = before  # the same, at the worst moment
+        compat_viser.set_handle_value(handle, before)  # the same, at the worst moment
         if real_sync is not None:
             real_sync(client_id, updates)
 
     if when == "before the worker":
         executor.submit = sync_first
     else:
-        handle._impl.sync_cb = sync_in_between
+        compat_viser.set_sync_callback(handle, sync_in_between)
     clients = ScriptedClients(served.url)
     try:
         (ws,) = clients.connect(1)
@@ -447,7 +451,8 @@ def test_a_press_applies_the_value_sent_even_when_the_render_thread_syncs_first(
             served.app.message,
         )
     finally:
-        executor.submit, handle._impl.sync_cb = real_submit, real_sync
+        executor.submit = real_submit
+        compat_viser.set_sync_callback(handle, real_sync)
         clients.close()
 
 

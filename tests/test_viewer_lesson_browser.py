@@ -18,6 +18,7 @@ from test_viewer_browser import (  # noqa: F401  (browser: a fixture)
     open_tab,
 )
 
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import ViewerApp
 from fuzzynav.controller.registry import controller_names
 
@@ -347,12 +348,10 @@ def test_classroom_teacher_folder_stays_last_token_masked_and_push_says_layout_e
     server-wide order counter passed 1000 (later tabs, a scenario change); the token
     stayed readable on the projected teacher's tab; after a push of an edited layout
     the students' status did not say "layout edited"."""
-    import viser._gui_api as gui_api
-
     from fuzzynav.app.viewer.classroom import ClassroomServer
 
     # a server that has served many tabs: viser's counter is far past 1000
-    gui_api._global_order_counter = max(gui_api._global_order_counter, 5000)
+    compat_viser.raise_order_counter(5000)
     classroom = ClassroomServer(lambda: ViewerApp("s1", "paper"), port=0, token="teach-me")
     pages = []
     try:
@@ -375,7 +374,7 @@ def test_classroom_teacher_folder_stays_last_token_masked_and_push_says_layout_e
         classroom.sessions[first].app.load_scenario("s1")
         # the token is typed as discs, and gone from the page once taken
         teacher.get_by_text("Teacher", exact=True).click()
-        uuid = classroom.sessions[first].teacher_token_box._impl.uuid
+        uuid = compat_viser.handle_uuid(classroom.sessions[first].teacher_token_box)
         box = teacher.locator(f"div:has(> div > p > label[for='{uuid}']) input")
         box.scroll_into_view_if_needed()
         box.fill("teach")  # (the whole token is taken as soon as it is typed)
@@ -716,9 +715,8 @@ def test_the_teacher_sees_the_class_and_locks_the_students_controls(browser):  #
             f"() => ({JS_FOLLOWS})(['.fz-status', 'Teacher']) !== null", timeout=30_000
         )
         teacher.get_by_text("Teacher", exact=True).click()
-        box = teacher.locator(
-            f"div:has(> div > p > label[for='{t_view.teacher_token_box._impl.uuid}']) input"
-        )
+        uuid = compat_viser.handle_uuid(t_view.teacher_token_box)
+        box = teacher.locator(f"div:has(> div > p > label[for='{uuid}']) input")
         box.scroll_into_view_if_needed()
         box.fill("teach-me")
         lock = teacher.get_by_role("checkbox", name="Lock the students' controls")
@@ -786,14 +784,12 @@ def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
     page.get_by_text("Rules (add, change, remove)", exact=True).click()
     try:
         n = len(app.fuzzy_system().rules)
-        number = page.locator(
-            f"div:has(> div > p > label[for='{server.editor.rule_number._impl.uuid}']) input"
-        )
+        uuid = compat_viser.handle_uuid(server.editor.rule_number)
+        number = page.locator(f"div:has(> div > p > label[for='{uuid}']) input")
         number.fill("3")
         number.press("Enter")
-        box = page.locator(
-            f"div:has(> div > p > label[for='{server.editor.rule_text._impl.uuid}']) input"
-        )
+        uuid = compat_viser.handle_uuid(server.editor.rule_text)
+        box = page.locator(f"div:has(> div > p > label[for='{uuid}']) input")
         page.wait_for_function(
             "(e) => e.value.startsWith('IF')", arg=box.element_handle(), timeout=10_000
         )

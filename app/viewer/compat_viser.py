@@ -23,6 +23,13 @@ panels need, so they read viser's internals, here and nowhere else:
 - ``viser._messages``' ``GuiUpdateMessage``, ``FileTransferStartUpload`` and
   ``FileTransferPart`` (and the fields the guards read): the messages guarded.
 
+The tests, which play a raw or malicious client, take a few more, through the same
+accessors: ``WebsockMessageHandler._handle_incoming_message`` (a message handled as if a
+client had sent it), ``GuiApi._thread_executor`` itself, a GUI handle's ``_impl.sync_cb``
+and its ``_impl.value`` set (a race with the render thread played),
+``viser._messages.ViewerCameraMessage`` (a scripted tab's first message) and
+``viser._gui_api._global_order_counter`` (a server that has served many tabs).
+
 They were checked on the viser versions :data:`SUPPORTED` names. On another version the
 viewer still runs, but :func:`warn_if_unsupported` (called when the guards are
 installed) warns once; ``tests/test_compat.py`` fails loudly when the installed viser
@@ -57,6 +64,12 @@ __all__ = [
     "incoming_handlers",
     "resolve_client",
     "submit_callback",
+    "handle_incoming",
+    "thread_executor",
+    "sync_callback",
+    "set_sync_callback",
+    "set_handle_value",
+    "raise_order_counter",
 ]
 
 #: The viser versions whose private names were checked: (oldest, newest) "major.minor",
@@ -64,7 +77,7 @@ __all__ = [
 SUPPORTED = ("1.1", "1.1")
 
 #: The fields of a GUI handle's state (``_GuiHandleState``) read here.
-GUI_STATE_FIELDS = ("uuid", "value", "update_cb", "is_button", "removed")
+GUI_STATE_FIELDS = ("uuid", "value", "update_cb", "is_button", "removed", "sync_cb")
 #: The fields of a scene node handle's state (``_SceneNodeHandleState``) read here.
 SCENE_STATE_FIELDS = ("removed",)
 #: The keys of an upload under way (``_FileUploadState``) the guards read.
@@ -74,6 +87,21 @@ MESSAGE_FIELDS = {
     "GuiUpdateMessage": ("uuid", "updates"),
     "FileTransferStartUpload": ("transfer_uuid", "size_bytes", "part_count"),
     "FileTransferPart": ("transfer_uuid", "content"),
+}
+#: The messages the tests send as a client would, beyond those guarded, and the fields
+#: they set.
+CLIENT_MESSAGE_FIELDS = {
+    "ViewerCameraMessage": (
+        "wxyz",
+        "position",
+        "fov",
+        "near",
+        "far",
+        "image_height",
+        "image_width",
+        "look_at",
+        "up_direction",
+    ),
 }
 #: The attributes of a live ``GuiApi`` (set in its ``__init__``) read here.
 GUI_API_ATTRIBUTES = (
@@ -164,6 +192,8 @@ def _missing_in_modules() -> list[str]:
         needs(where, SCENE_STATE_FIELDS, _field_names(state))
     gui_api = module("viser._gui_api")
     if gui_api is not None:
+        if not isinstance(getattr(gui_api, "_global_order_counter", None), int):
+            missing.append("viser._gui_api._global_order_counter")
         if not callable(getattr(getattr(gui_api, "GuiApi", None), "_resolve_client", None)):
             missing.append("viser._gui_api.GuiApi._resolve_client")
         upload = getattr(gui_api, "_FileUploadState", None)
@@ -176,9 +206,11 @@ def _missing_in_modules() -> list[str]:
         or not isinstance(getattr(handler_cls(), "_incoming_handlers", None), dict)
     ):
         missing.append("viser.infra.WebsockMessageHandler._incoming_handlers")
+    if infra is not None and not callable(getattr(handler_cls, "_handle_incoming_message", None)):
+        missing.append("viser.infra.WebsockMessageHandler._handle_incoming_message")
     messages = module("viser._messages")
     if messages is not None:
-        for name, fields in MESSAGE_FIELDS.items():
+        for name, fields in (MESSAGE_FIELDS | CLIENT_MESSAGE_FIELDS).items():
             cls = getattr(messages, name, None)
             if cls is None:
                 missing.append(f"viser._messages.{name}")
@@ -308,7 +340,8 @@ def upload_states(gui: Any) -> dict[str, Any]:
 
 
 def message_class(name: str) -> type:
-    """One of viser's message classes, by name (a key of :data:`MESSAGE_FIELDS`).
+    """One of viser's message classes, by name (a key of :data:`MESSAGE_FIELDS` or of
+    :data:`CLIENT_MESSAGE_FIELDS`).
 
     Parameters
     ----------
@@ -363,3 +396,83 @@ def submit_callback(gui: Any, callback: Callable[..., Any], event: Any) -> None:
     from viser._threadpool_exceptions import print_threadpool_errors
 
     gui._thread_executor.submit(callback, event).add_done_callback(print_threadpool_errors)
+
+
+async def handle_incoming(gui: Any, client_id: int, message: Any) -> None:
+    """Hand ``message`` to viser's handlers as if client ``client_id`` had sent it (each
+    guard and handler in turn, as viser's websocket does).
+
+    Parameters
+    ----------
+    gui : viser.GuiApi
+        A server's (or a client's) GUI.
+    client_id : int
+        The client the message is said to come from.
+    message : viser message
+        A message (an instance of a :func:`message_class`).
+    """
+    await gui._websock_interface._handle_incoming_message(client_id, message)
+
+
+def thread_executor(gui: Any) -> Any:
+    """viser's thread pool, on which it calls update callbacks: viser's own executor.
+
+    Parameters
+    ----------
+    gui : viser.GuiApi
+        A server's (or a client's) GUI.
+    """
+    return gui._thread_executor
+
+
+def sync_callback(handle: Any) -> Callable[..., Any] | None:
+    """The callback viser calls, with ``(client_id, updates)``, between setting a GUI
+    input's value from a client's update and calling its update callbacks, or None.
+
+    Parameters
+    ----------
+    handle : viser GUI handle
+        A GUI input.
+    """
+    return handle._impl.sync_cb
+
+
+def set_sync_callback(handle: Any, callback: Callable[..., Any] | None) -> None:
+    """Replace the callback :func:`sync_callback` returns.
+
+    Parameters
+    ----------
+    handle : viser GUI handle
+        A GUI input.
+    callback : callable or None
+        Called with ``(client_id, updates)``; None for none.
+    """
+    handle._impl.sync_cb = callback
+
+
+def set_handle_value(handle: Any, value: Any) -> None:
+    """Set the value viser holds for a GUI input (no cast, no callback, nothing sent to
+    the clients): what :func:`handle_value` then returns.
+
+    Parameters
+    ----------
+    handle : viser GUI handle
+        A GUI input.
+    value : object
+        Its new value.
+    """
+    handle._impl.value = value
+
+
+def raise_order_counter(at_least: int) -> None:
+    """Raise viser's server-wide counter of GUI element orders to ``at_least`` (left as
+    it is when already past it), as if many elements had been added.
+
+    Parameters
+    ----------
+    at_least : int
+        The lowest value the counter is left at.
+    """
+    from viser import _gui_api
+
+    _gui_api._global_order_counter = max(_gui_api._global_order_counter, at_least)
