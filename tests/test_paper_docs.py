@@ -179,3 +179,46 @@ def test_the_twins_forced_experiments_are_the_bounds_it_misses_today():
     binds = load_file(ROOT / "scripts" / "paper_binds.py")
     forced = [e["forced"] for e in _load("paper_twin_binds.json")["experiments"]]
     assert forced == binds.twin_unmet()
+
+
+def _probe(label: str, smallest: dict, bound: float = 0.731) -> dict:
+    return {
+        "label": label,
+        "mad_bound_m": bound,
+        "evaluations": 10,
+        "safe_arrivals": {p: int(v is not None) for p, v in smallest.items()},
+        "smallest_safe_mad_m": smallest,
+    }
+
+
+def test_the_mad_alone_block_says_whether_any_safe_arrival_meets_the_bound():
+    """``paper_binds.py --twin-mad``'s summary line reads the probes: none within the
+    bound, or the modes where one is."""
+    from fuzzynav.app.experiments.paper_binds_docs import render_twin_binds
+
+    none_within = {
+        "experiments": [],
+        "mad_alone": [
+            _probe("a", {"ideal": 1.3, "ultrasonic": None}),
+            _probe("b", {"ideal": 1.2, "ultrasonic": 1.25}),
+        ],
+    }
+    text = render_twin_binds(none_within)
+    assert "Of 20 candidates, no safe arrival within the bound in either mode" in text
+    assert "1.200 m (ideal), 1.250 m (ultrasonic)" in text
+    assert "| a | 10 | 1 / 0 | 1.300 / — |" in text
+    one_within = dict(none_within, mad_alone=[_probe("c", {"ideal": 0.7, "ultrasonic": 0.9})])
+    assert "safe arrivals within the bound in ideal perception." in render_twin_binds(one_within)
+
+
+def test_the_mad_alone_probes_start_from_today_twin():
+    """The first ``--twin-mad`` probe started from today's twin: its smallest safe s1 MAD
+    is no larger than the twin's own (the batch engine at the fit's period, within 5 %)
+    in the mode where the twin keeps its clearance (rerun after the twin changes)."""
+    probes = _load("paper_twin_binds.json")["mad_alone"]
+    twin = _load("paper_controller.json")["husky"]
+    assert probes[0]["start"] == "husky"
+    for perception, smallest in probes[0]["smallest_safe_mad_m"].items():
+        own = twin[perception]["s1"]
+        if own["min_clearance_m"] >= 0.26:  # safely inside the bound on both engines
+            assert smallest is not None and smallest <= 1.05 * own["mad_m"], perception

@@ -100,7 +100,48 @@ def render_twin_binds(table: dict) -> str:
         )
     sizes = "-".join(str(n) for n in sorted({e["evaluations"] for e in table["experiments"]}))
     lines += ["", f"{len(table['experiments'])} searches of {sizes} candidates."]
+    if table.get("mad_alone"):
+        lines += ["", *_mad_alone(table["mad_alone"])]
     return "\n".join(lines)
+
+
+def _mad_alone(probes: list) -> list[str]:
+    """``scripts/paper_binds.py --twin-mad``: s1's MAD searched alone, every other bound
+    dropped but the clearance, from each start."""
+    bound = probes[0]["mad_bound_m"]
+    lines = [
+        f"s1's MAD searched alone (bound {bound:.3f} m; every other bound dropped but the "
+        "clearance): a safe arrival is s1 reached with 0.25 m kept.",
+        "",
+        "| start | candidates | safe arrivals ideal / ultrasonic "
+        "| smallest MAD of a safe arrival, ideal / ultrasonic m |",
+        "|---|---|---|---|",
+    ]
+    for probe in probes:
+        safe, smallest = probe["safe_arrivals"], probe["smallest_safe_mad_m"]
+        shown = " / ".join("—" if smallest[p] is None else f"{smallest[p]:.3f}" for p in safe)
+        lines.append(
+            f"| {probe['label']} | {probe['evaluations']} "
+            f"| {' / '.join(str(n) for n in safe.values())} | {shown} |"
+        )
+    best = {
+        p: min((v for q in probes if (v := q["smallest_safe_mad_m"][p]) is not None), default=None)
+        for p in probes[0]["safe_arrivals"]
+    }
+    within = [p for p, v in best.items() if v is not None and v <= bound]
+    total = sum(q["evaluations"] for q in probes)
+    lines += [
+        "",
+        f"Of {total} candidates, "
+        + (
+            f"safe arrivals within the bound in {' and '.join(within)} perception."
+            if within
+            else "no safe arrival within the bound in either mode; the smallest: "
+            + ", ".join(f"{v:.3f} m ({p})" for p, v in best.items() if v is not None)
+            + "."
+        ),
+    ]
+    return lines
 
 
 def _twin_value(experiment: dict) -> str:
