@@ -790,10 +790,13 @@ def test_a_rule_is_edited_added_and_undone_in_the_page(lesson):
         number.press("Enter")
         uuid = compat_viser.handle_uuid(server.editor.rule_text)
         box = page.locator(f"div:has(> div > p > label[for='{uuid}']) input")
+        # the box shows rule 1's sentence first: wait for rule 3's (a value merely
+        # starting with IF raced the server's update of the box)
+        want = app.editor().rule_text(3)
         page.wait_for_function(
-            "(e) => e.value.startsWith('IF')", arg=box.element_handle(), timeout=10_000
+            "([e, want]) => e.value === want", arg=[box.element_handle(), want], timeout=10_000
         )
-        assert box.input_value() == app.editor().rule_text(3)
+        assert box.input_value() == want
         box.fill("if d_t is VS then left is VS and right is VS")
         page.get_by_role("button", name="Add as new").click()
         assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == n + 1, timeout=10)
