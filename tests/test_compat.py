@@ -56,6 +56,21 @@ def test_the_fast_space_step_is_space_step():
     assert public[2] >= 1  # the contact callback ran under both
 
 
+def test_removed_shapes_are_let_go_outside_a_step_and_kept_inside_one():
+    space = pymunk.Space()
+    shapes = [pymunk.Circle(space.static_body, 0.2, (k, 0.0)) for k in range(3)]
+    space.add(*shapes)
+    space.remove(*shapes)
+    assert len(space._removed_shapes) == 3  # pymunk keeps them until its next step ...
+    space._locked = True  # ... which a step in progress needs
+    compat_pymunk.forget_removed_shapes(space)
+    assert len(space._removed_shapes) == 3
+    space._locked = False
+    compat_pymunk.forget_removed_shapes(space)  # outside a step nothing needs them
+    assert len(space._removed_shapes) == 0
+    space.step(0.01)  # and the space steps on
+
+
 def test_numpys_c_einsum_is_there_and_gives_np_einsums_bits():
     if np.__version__.split(".")[0] != compat_numpy.SUPPORTED_MAJOR:
         pytest.fail(
@@ -123,6 +138,7 @@ def test_the_installed_viser_has_every_private_name_the_viewer_reads(viser_serve
     assert not compat_viser.is_removed(node)
     node.remove()
     assert compat_viser.is_removed(node)
+    compat_viser.sweep_scene_buffer(viser_server)  # viser's own sweep, called as it calls it
 
 
 def test_the_accessors_the_tests_play_a_client_with_are_what_they_take_them_for(
@@ -165,6 +181,15 @@ def test_compat_viser_finds_a_name_that_is_gone(monkeypatch):
 
     monkeypatch.delattr(_messages, "FileTransferPart")
     assert compat_viser.missing_names() == ["viser._messages.FileTransferPart"]
+
+
+def test_compat_viser_finds_the_scene_sweep_gone(monkeypatch):
+    from viser import _viser
+
+    from fuzzynav.app.viewer import compat_viser
+
+    monkeypatch.delattr(_viser.ViserServer, "_run_garbage_collector")
+    assert compat_viser.missing_names() == ["viser._viser.ViserServer._run_garbage_collector"]
 
 
 @pytest.mark.parametrize("version", ["1.0.3", "1.2.0", "2.0.0", "0.2.7"])

@@ -31,6 +31,7 @@ __all__ = [
     "can_step_fast",
     "step_space",
     "shape_count",
+    "forget_removed_shapes",
     "cpBodyGetAngle",
     "cpBodyGetPosition",
     "cpBodySetAngularVelocity",
@@ -169,3 +170,22 @@ def shape_count(space: pymunk.Space) -> int | None:
     """
     shapes = getattr(space, "_shapes", None)
     return None if shapes is None else len(shapes)
+
+
+def forget_removed_shapes(space: pymunk.Space) -> None:
+    """Let go of the shapes removed from ``space`` since its last step.
+
+    ``Space`` keeps every removed shape until its next ``step()`` (for the callbacks of a
+    step in progress): resets or scenario loads without a step in between kept them all
+    (300 viewer Resets among 200 obstacles: 60,000 shapes and 58 MB; issue 37). Outside a
+    step nothing needs them. Nothing happens inside a step, or on a pymunk that keeps
+    them otherwise.
+
+    Parameters
+    ----------
+    space : pymunk.Space
+        A space, not stepping.
+    """
+    removed = getattr(space, "_removed_shapes", None)
+    if isinstance(removed, dict) and not getattr(space, "_locked", False):
+        removed.clear()

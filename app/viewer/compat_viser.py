@@ -65,6 +65,7 @@ __all__ = [
     "resolve_client",
     "submit_callback",
     "handle_incoming",
+    "sweep_scene_buffer",
     "thread_executor",
     "sync_callback",
     "set_sync_callback",
@@ -190,6 +191,11 @@ def _missing_in_modules() -> list[str]:
         state = getattr(scene, "_SceneNodeHandleState", None)
         where = "viser._scene_handles._SceneNodeHandleState"
         needs(where, SCENE_STATE_FIELDS, _field_names(state))
+    viser_module = module("viser._viser")
+    if viser_module is not None and not callable(
+        getattr(getattr(viser_module, "ViserServer", None), "_run_garbage_collector", None)
+    ):
+        missing.append("viser._viser.ViserServer._run_garbage_collector")
     gui_api = module("viser._gui_api")
     if gui_api is not None:
         if not isinstance(getattr(gui_api, "_global_order_counter", None), int):
@@ -476,3 +482,19 @@ def raise_order_counter(at_least: int) -> None:
     from viser import _gui_api
 
     _gui_api._global_order_counter = max(_gui_api._global_order_counter, at_least)
+
+
+def sweep_scene_buffer(server: Any) -> None:
+    """Drop from ``server``'s scene message buffer the removal messages every tab has
+    read, and what else targets a removed node: viser's own sweep
+    (``ViserServer._run_garbage_collector``), which it runs only when a tab connects.
+    A server without it (a classroom tab's scene, or another viser) is left alone.
+
+    Parameters
+    ----------
+    server : viser.ViserServer
+        A started server.
+    """
+    collect = getattr(server, "_run_garbage_collector", None)
+    if collect is not None:
+        collect()

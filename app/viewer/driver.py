@@ -23,6 +23,7 @@ from fuzzynav.app.viewer.state import (
     _Ring,
     _Trail,
 )
+from fuzzynav.world.compat_pymunk import forget_removed_shapes
 from fuzzynav.world.scenario import (
     Scenario,
     ScenarioError,
@@ -53,18 +54,11 @@ def signal_row(sim, controller) -> tuple:
 
 
 def drop_removed_shapes(sim) -> None:
-    """Let go of the obstacles a reset or a removal took out of pymunk's space.
-
-    pymunk's ``Space`` keeps every removed shape until its next ``step()`` (for the
-    callbacks of a step in progress); a reset removes every obstacle's. Resets or
-    scenario loads without a step in between kept them all: 300 Resets among 200
-    obstacles, 60,000 shapes and 58 MB; a load of a scenario of 1,000, 5.5 MB
-    (issue 37). Outside a step nothing needs them. (world.arena is the place for this;
-    done here until it is.)"""
+    """Let go of the obstacles a reset or a removal took out of pymunk's space
+    (:func:`fuzzynav.world.compat_pymunk.forget_removed_shapes`)."""
     space = getattr(getattr(sim, "arena", None), "space", None)
-    removed = getattr(space, "_removed_shapes", None)
-    if isinstance(removed, dict) and not getattr(space, "_locked", False):
-        removed.clear()
+    if space is not None:
+        forget_removed_shapes(space)
 
 
 class RunDriver:

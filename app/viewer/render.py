@@ -14,6 +14,7 @@ import threading
 import time
 from collections import deque
 
+from fuzzynav.app.viewer import compat_viser
 from fuzzynav.app.viewer.model import Snapshot
 
 FRAME_HZ = 30.0
@@ -106,12 +107,10 @@ class RenderLoop:
         """Drop from the scene's message buffer the removal messages every tab has read,
         and what else targets a removed node (viser's own sweep, which it runs only when
         a tab connects). A classroom tab's scene is its own, with no such buffer."""
-        collect = getattr(self.view.server, "_run_garbage_collector", None)
-        if collect is not None:
-            try:
-                collect()
-            except Exception as exc:  # (viser's internals: never stop the drawing)
-                self.app._notice(f"scene sweep failed: {type(exc).__name__}: {exc}", "warning")
+        try:
+            compat_viser.sweep_scene_buffer(self.view.server)
+        except Exception as exc:  # (viser's internals: never stop the drawing)
+            self.app._notice(f"scene sweep failed: {type(exc).__name__}: {exc}", "warning")
 
     def _draw_panels(self, snap: Snapshot) -> None:
         view = self.view
