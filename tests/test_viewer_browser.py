@@ -869,9 +869,26 @@ def test_firing_rules_only_and_the_pinned_aggregate(served, page):
     firing = sorted(int(r) + 1 for r in np.flatnonzero(info["strengths"] > 0))
     assert 0 < len(firing) < 40
     page.get_by_role("checkbox", name="Firing rules only").click()
-    page.wait_for_function(
-        "(n) => document.querySelectorAll('.fz-hit rect').length == n", arg=len(firing)
-    )
+    try:
+        page.wait_for_function(
+            "(n) => document.querySelectorAll('.fz-hit rect').length == n",
+            arg=len(firing),
+            timeout=15_000,
+        )
+    except Exception:
+        now = app.teaching()
+        raise AssertionError(
+            {
+                "page rows": page.evaluate(
+                    "() => document.querySelectorAll('.fz-hit rect').length"
+                ),
+                "firing then": firing,
+                "firing now": sorted(int(r) + 1 for r in np.flatnonzero(now["strengths"] > 0)),
+                "checkbox": served.inference.firing_only_cb.value,
+                "playing": app.playing,
+                "time": app.sim.time_s,
+            }
+        ) from None
     shown = page.evaluate(
         "() => [...document.querySelectorAll('.fz-hit rect')].map(e => +e.dataset.rule)"
     )
