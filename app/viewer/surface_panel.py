@@ -223,7 +223,9 @@ class SurfacePanel:
             rgb = surface_view.diverging_rgb(mid, limit)
             colours = np.repeat(rgb[:, None, :], 2, axis=1)
             nodes = {
-                "lines": scene.add_line_segments("/surface3d/lines", segs, colours, line_width=2.5),
+                "lines": scene.add_line_segments(
+                    "/surface3d/lines", segs, colours, thickness=2.5, thickness_units="screen"
+                ),
                 "label": scene.add_label(
                     "/surface3d/label",
                     f"{title}: speed (V) over {fis.input_names[xi]} → , {fis.input_names[yi]} ↑",
