@@ -238,6 +238,30 @@ def test_the_docs_numbers_are_the_examples():
         assert re.sub(r"\s+", " ", phrase) in flat, phrase
 
 
+def test_the_docs_rows_are_todays_controllers():
+    """The stored rows are what the stored linear policy and today's shipped paper
+    controller (the Husky twin) do on the held-out layouts now: a rule base refitted
+    since makes the file stale (rerun the example with --write)."""
+    from load_file import load_file
+
+    module = load_file(ROOT / "examples" / "gym_random_search.py")
+    data = json.loads((ROOT / "docs" / "data" / "gym_random_search.json").read_text())
+    n, seed = data["held_out"], data["args"]["seed"] + 1
+    weights = np.asarray(data["weights"])[None]
+    policies = {
+        "linear (CEM)": lambda k: module.linear_policy(weights, np.zeros(k, dtype=int)),
+        "paper (fuzzy)": module.paper_policy,
+    }
+    for row in data["rows"]:
+        now = module.held_out(policies[row["policy"]], n, seed)
+        assert now["mean_return"] == pytest.approx(row["mean_return"], rel=1e-9, abs=1e-12), row[
+            "policy"
+        ]
+        assert {k: now[k] for k in ("reached", "collided", "timeout")} == {
+            k: row[k] for k in ("reached", "collided", "timeout")
+        }, row["policy"]
+
+
 def test_the_example_runs_small(capsys):
     from load_file import load_file
 
