@@ -20,6 +20,7 @@ arrives (slow), or it never arrives (stuck or orbiting).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 import time
@@ -101,6 +102,11 @@ def paper_modes(layouts, field_of_view_deg: float) -> list[dict]:
         row = {
             "controller": "paper",
             "rule_base": RULES_BY_GEOMETRY[geometry].name,
+            # which file's runs these are: tests/test_paper_docs.py finds the data stale
+            # when the shipped rule base is no longer this one
+            "rule_base_sha256": hashlib.sha256(
+                RULES_BY_GEOMETRY[geometry].read_bytes()
+            ).hexdigest(),
             "geometry": geometry,
             "perception": perception
             + (f", front {field_of_view_deg:g} deg" if perception == "ideal" else ""),
