@@ -142,7 +142,7 @@ def test_husky_geometry_reaches_safely_and_short_ideal(scenario):
     _not_met(
         {
             "s1": "not met by the twin: MAD 1.193 m (<= 0.731); clearance 0.25003 m past the "
-            "first obstacle with the sonars 45 degrees apart (>= 0.25), met by 0.03 mm",
+            "third obstacle (>= 0.25), met by 0.03 mm",
         }
     ),
 )
