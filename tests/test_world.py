@@ -622,3 +622,22 @@ def test_controller_with_ranges_gets_them():
     ctrl = WantsRanges(1, 1)
     Simulation(open_field(duration_s=0.2), ctrl).run()
     assert ctrl.calls == 10
+
+
+def test_an_arena_keeps_no_shape_it_removed_without_a_step():
+    """pymunk keeps a removed shape until the space's next step; resets and removals with
+    no step between (the viewer's Reset and Remove) kept them all (issue 37). The arena
+    lets them go itself."""
+    import gc
+
+    import pymunk
+
+    specs = [ObstacleSpec((3.0 + k, 5.0), 0.2) for k in range(50)]
+    arena = arena_with(specs)
+    for _ in range(20):
+        arena.reset((0.0, 0.0), 0.0, (50.0, 50.0), specs)
+    for obstacle_id in list(arena.obstacles)[:10]:
+        arena.remove_obstacle(obstacle_id)
+    gc.collect()
+    alive = sum(1 for o in gc.get_objects() if isinstance(o, pymunk.Circle))
+    assert alive <= len(arena.obstacles) + 10, alive

@@ -23,7 +23,6 @@ from fuzzynav.app.viewer.state import (
     _Ring,
     _Trail,
 )
-from fuzzynav.world.compat_pymunk import forget_removed_shapes
 from fuzzynav.world.scenario import (
     Scenario,
     ScenarioError,
@@ -51,14 +50,6 @@ def signal_row(sim, controller) -> tuple:
     limit = sim.voltage_limit_v
     applied = np.clip(controller.last_output, -limit, limit)
     return (sim.time_s - sim.control_period_s, *controller.last_inputs, *applied)
-
-
-def drop_removed_shapes(sim) -> None:
-    """Let go of the obstacles a reset or a removal took out of pymunk's space
-    (:func:`fuzzynav.world.compat_pymunk.forget_removed_shapes`)."""
-    space = getattr(getattr(sim, "arena", None), "space", None)
-    if space is not None:
-        forget_removed_shapes(space)
 
 
 class RunDriver:
@@ -384,7 +375,6 @@ class RunDriver:
         app.history_index = None
         app._history.close()
         app.sim.reset(seed=app.seed, scenario=scenario)
-        drop_removed_shapes(app.sim)
         app.setup._apply_disturbance_locked()
         app._layout = [
             (obstacle_id, spec)

@@ -19,7 +19,6 @@ from fuzzynav.app.viewer.budget import (
     MAX_LAYOUT_OBSTACLES,
     scenario_charge,
 )
-from fuzzynav.app.viewer.driver import drop_removed_shapes
 from fuzzynav.app.viewer.state import (
     EDITED_LABEL,
     MAX_UPLOAD_BYTES,
@@ -431,7 +430,6 @@ class ScenarioEditing:
             if obstacle_id not in arena.obstacles:
                 raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
-            drop_removed_shapes(app.sim)
             app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
             self.charge_layout_locked()
             app.layout_id += 1
