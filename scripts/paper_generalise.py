@@ -31,6 +31,7 @@ import numpy as np
 
 from fuzzynav.controller.batch import batch_controller
 from fuzzynav.controller.paper import RULES_BY_GEOMETRY, paper_controller
+from fuzzynav.safe_files import write_text_atomically
 from fuzzynav.world.batch import run_batch
 from fuzzynav.world.layouts import generate_layouts
 
@@ -177,12 +178,13 @@ def main(argv=None) -> int:
         rows += [r for r in old["rows"] if r["controller"] == "fuzzynav"]
     elif args.fuzzynav_n:
         rows += fuzzynav_modes(layouts, args.fuzzynav_n)
-    args.json.write_text(
+    write_text_atomically(
+        args.json,
         json.dumps(
             {"family": "standard", "seed": args.seed, "budget_factor": BUDGET_FACTOR, "rows": rows},
             indent=1,
         )
-        + "\n"
+        + "\n",
     )
     return 0
 
