@@ -22,8 +22,10 @@ from fuzzynav.app.experiments.paper_binds_docs import (
     render_twin_binds,
 )
 from fuzzynav.app.experiments.paper_fit import (
+    DISTURBANCE_DELAY_S,
+    DISTURBANCE_WIDENING_M,
+    MIN_APPROACH_SPEED_RATIO,
     MIN_RIGHT_OFFSET_M,
-    SATURATION_V,
     TWIN_CLEARANCE_M,
     TWIN_MAD_FACTOR,
     TWIN_PATH_M,
@@ -51,6 +53,8 @@ KEYS = (
     "max_voltage_v",
     "largest_right_offset_m",
     "chatter_steps",
+    "approach_speed_ratio",
+    "horizon_s",
 )
 
 
@@ -107,11 +111,14 @@ def bound_checks(runs: dict, paper: dict | None = None) -> list[dict]:
         r = abs(m["final_phi_t_rad"]) / FINAL_PHI_BOUND_RAD
         add(f"{name}.final_phi_t", r <= 1, r)
         add(f"{name}.no_chatter", m["chatter_steps"] <= MAX_JUMPS)
+        add(f"{name}.no_crawl", m["approach_speed_ratio"] >= MIN_APPROACH_SPEED_RATIO)
     s1 = [d for _, d in runs["s1"]["passes"]]
     add("s1.first_passed_farthest", s1[0] > max(s1[1:]))
     add("s1.from_the_right", runs["s1"]["largest_right_offset_m"] >= MIN_RIGHT_OFFSET_M)
-    add("s3.static_later_than_s2", runs["s3"]["passes"][0][0] > runs["s2"]["passes"][0][0])
-    add("s3.right_wheel_12V", runs["s3"]["max_voltage_v"][1] >= SATURATION_V - 0.01)
+    (t2, d2), (t3, d3) = runs["s2"]["passes"][0], runs["s3"]["passes"][0]
+    add("s3.static_pass_delayed", DISTURBANCE_DELAY_S[0] <= t3 - t2 <= DISTURBANCE_DELAY_S[1])
+    add("s3.static_pass_wider", DISTURBANCE_WIDENING_M[0] <= d3 - d2 <= DISTURBANCE_WIDENING_M[1])
+    add("s3.mad_at_least_s2", runs["s3"]["mad_m"] >= runs["s2"]["mad_m"])
     return out
 
 
