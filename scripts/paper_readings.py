@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from dataclasses import replace
@@ -54,7 +53,10 @@ from fuzzynav.safe_files import write_text_atomically
 BASE = paper_fit.Reading(0.0, "unsensed", 180.0)
 READINGS = [
     BASE,
-    *(replace(BASE, field_of_view_deg=fov) for fov in (paper_fit.sonar_coverage_deg(), 60, 90, 120)),
+    *(
+        replace(BASE, field_of_view_deg=fov)
+        for fov in (paper_fit.sonar_coverage_deg(), 60, 90, 120)
+    ),
     replace(BASE, horizon="fixed"),
     replace(BASE, layout="clues"),
 ]
@@ -70,7 +72,9 @@ def fit_reading(reading, args) -> dict:
     def costs(vectors):
         measured = fit_measures(fit, paper_fit.SCENARIOS, list(vectors), "paper", "ideal")
         return [
-            1e6 if m is None else fit.combine([m]) + forced([reading.scored(r) for r in m], args.force)
+            1e6
+            if m is None
+            else fit.combine([m]) + forced([reading.scored(r) for r in m], args.force)
             for m in measured
         ]
 

@@ -502,6 +502,12 @@ def fit_measures(
                 scenario.target,
             ),
             "horizon_s": load_scenario(scenario_names[i % len(scenario_names)]).duration_s,
+            "largest_line_offset_m": largest_line_offset(scenario, result.poses[i]),
+            "pass_clearances_m": pass_clearances(
+                scenario,
+                result.poses[i],
+                np.arange(len(result.poses[i])) * fit_cost.control_period_s,
+            ),
         }
         k = built[int(run_sets[i])]
         out[k] = (out[k] or []) + [measured]
@@ -538,6 +544,40 @@ def approach_speed_ratio(poses, time_s, target, within_m: float = APPROACH_M) ->
     if not near.any() or median <= 0.0:
         return math.nan
     return float(step_m[near].sum() / step_s[near].sum() / median)
+
+
+def largest_line_offset(scenario, poses) -> float:
+    """How far from the start-target line the robot's centre went, either side (m)."""
+    start = np.asarray(scenario.start, dtype=float)
+    line = np.asarray(scenario.target, dtype=float) - start
+    xy = np.asarray(poses, dtype=float)[:, :2] - start
+    side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
+    return float(np.abs(side).max())
+
+
+def pass_clearances(scenario, poses, time_s) -> list[float]:
+    """Per obstacle, the least clearance from the robot's footprint to its surface over
+    the logged poses (m): how close each pass came. Each obstacle moves by its law."""
+    from fuzzynav.world.geometry import rectangle_clearances
+    from fuzzynav.world.robot import HUSKY
+
+    pose = np.asarray(poses, dtype=float)
+    t = np.asarray(time_s, dtype=float)[:, None]
+    length, width = HUSKY.footprint_m
+    out = []
+    for obstacle in scenario.obstacles:
+        centre = (
+            np.asarray(obstacle.position, dtype=float)
+            + np.asarray(obstacle.velocity, dtype=float) * t
+            + 0.5 * np.asarray(obstacle.acceleration, dtype=float) * t**2
+        )
+        clearance = rectangle_clearances(
+            np.cos(pose[:, 2]), np.sin(pose[:, 2]),
+            centre[:, 0] - pose[:, 0], centre[:, 1] - pose[:, 1],
+            obstacle.radius_m, 0.5 * length, 0.5 * width,
+        )  # fmt: skip
+        out.append(float(np.min(clearance)))
+    return out
 
 
 def fit_costs(fit_cost, vectors, scenario_names=("s1", "s2", "s3")) -> list[float]:

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from fuzzynav.app.experiments.paper_binds_docs import (
     render_binds,
     render_readings_count,
@@ -27,9 +29,12 @@ from fuzzynav.app.experiments.paper_fit import (
     MIN_APPROACH_SPEED_RATIO,
     MIN_RIGHT_OFFSET_M,
     TWIN_CLEARANCE_M,
+    TWIN_LINE_OFFSET_M,
     TWIN_MAD_FACTOR,
+    TWIN_MEDIAN_PASS_M,
     TWIN_PATH_M,
     TWIN_PHI_RAD,
+    TWIN_TOP_VOLTAGE_V,
     measure,
 )
 from fuzzynav.app.published import SCENARIOS, paper_results
@@ -55,6 +60,8 @@ KEYS = (
     "chatter_steps",
     "approach_speed_ratio",
     "horizon_s",
+    "largest_line_offset_m",
+    "pass_clearances_m",
 )
 
 
@@ -123,7 +130,7 @@ def bound_checks(runs: dict, paper: dict | None = None) -> list[dict]:
 
 
 def twin_checks(run: dict, name: str, paper: dict | None = None) -> dict[str, bool]:
-    """The Husky twin's bounds on one run (issue 35)."""
+    """The Husky twin's bounds on one run: where it arrives and how it drives there."""
     paper = paper or paper_results()
     reached = run["reached"] and not run["collided"]
     return {
@@ -133,6 +140,11 @@ def twin_checks(run: dict, name: str, paper: dict | None = None) -> dict[str, bo
         "mad": reached and run["mad_m"] <= TWIN_MAD_FACTOR * paper["table4"][name]["mad_m"],
         "phi_t": reached and abs(run["final_phi_t_rad"]) <= TWIN_PHI_RAD,
         "no_chatter": run["chatter_steps"] <= MAX_JUMPS,
+        "close_passes": reached
+        and float(np.median(run["pass_clearances_m"])) <= TWIN_MEDIAN_PASS_M,
+        "near_the_line": reached and run["largest_line_offset_m"] <= TWIN_LINE_OFFSET_M,
+        "top_voltage": max(run["max_voltage_v"]) >= TWIN_TOP_VOLTAGE_V,
+        "no_crawl": reached and run["approach_speed_ratio"] >= MIN_APPROACH_SPEED_RATIO,
     }
 
 

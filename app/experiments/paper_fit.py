@@ -27,7 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.experiments.batch_runs import approach_speed_ratio, largest_right_offset
+from fuzzynav.app.experiments.batch_runs import (
+    approach_speed_ratio,
+    largest_line_offset,
+    largest_right_offset,
+)
 from fuzzynav.app.published import SCENARIOS, paper_results
 from fuzzynav.safe_files import write_text_atomically
 
@@ -44,6 +48,9 @@ CHATTER_FREE_STEPS = 10
 # The Husky twin's bounds (issue 35; docs/paper-controller.md, "The Husky twin"):
 # clearance from the footprint, path, MAD as a multiple of the paper's, phi_t at arrival.
 TWIN_CLEARANCE_M, TWIN_PATH_M, TWIN_MAD_FACTOR, TWIN_PHI_RAD = 0.25, 13.0, 2.0, 0.3
+# ... and how it drives: the median footprint clearance of its obstacle passes (m), how
+# far from the start-target line it may swing (m), the top voltage it must use (V).
+TWIN_MEDIAN_PASS_M, TWIN_LINE_OFFSET_M, TWIN_TOP_VOLTAGE_V = 0.7, 1.2, 9.0
 # ... and as the fit keeps them, each with a margin by a hinge.
 HUSKY_SAFE_CLEARANCE_M = TWIN_CLEARANCE_M + 0.03
 HUSKY_MAX_PATH_M = TWIN_PATH_M - 0.2
@@ -184,6 +191,8 @@ def measure(result) -> dict:
         "largest_right_offset_m": largest_right_offset(result.scenario, log.pose),
         "approach_speed_ratio": approach_speed_ratio(log.pose, log.time_s, result.scenario.target),
         "horizon_s": result.scenario.duration_s,
+        "largest_line_offset_m": largest_line_offset(result.scenario, log.pose),
+        "pass_clearances_m": [float(np.nanmin(c)) for c in np.asarray(log.clearance_m).T],
     }
 
 
