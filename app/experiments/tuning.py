@@ -446,6 +446,7 @@ def _save_tuned(t, x, out: Path, header: str) -> list[Path]:
 def cmd_tune(args) -> int:
     from rich.console import Console
 
+    default_out = args.out is None and not getattr(args, "force", False)
     t, names, x0, free = _checked_options(args)
     cases = build_cases(args.scenarios, args.perception, args.layouts, args.n, args.layout_seed)
     console = Console(stderr=True)
@@ -465,6 +466,19 @@ def cmd_tune(args) -> int:
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
         f"cost: app/experiments/objective.py)"
     )
+    if default_out and os.path.lexists(args.out):  # made meanwhile (another tune?)
+        from fuzzynav.safe_files import free_path
+
+        taken, args.out = args.out, free_path(args.out)
+        console.print(
+            escape_controls(
+                f"fuzzynav: {taken} exists now (not written by this tune): the tuned "
+                f"file is written as {args.out}"
+            ),
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
     paths = _save_tuned(t, result.x, args.out, header)
     out = {
         "controller": t.name,
