@@ -17,7 +17,6 @@ import pytest
 
 import fuzzynav
 from fuzzynav.app.cli import main
-from fuzzynav.safe_files import OutputScope, discard, free_path, write_text_atomically
 from tests.test_robustness_edges import run_cli
 
 MINE = b"a file of the user's own\n"
@@ -31,6 +30,8 @@ def _listing(folder) -> list[str]:
 
 
 def test_a_scope_refuses_what_it_did_not_write_and_rewrites_its_own(tmp_path):
+    from fuzzynav.safe_files import OutputScope, write_text_atomically
+
     mine, new = tmp_path / "mine.txt", tmp_path / "new.txt"
     mine.write_bytes(MINE)
     with OutputScope("OUT") as scope:
@@ -49,6 +50,8 @@ def test_a_scope_refuses_what_it_did_not_write_and_rewrites_its_own(tmp_path):
 
 
 def test_a_partial_file_never_replaces_an_earlier_one(tmp_path):
+    from fuzzynav.safe_files import discard, free_path
+
     target = tmp_path / "run.rrd"
     (tmp_path / "run.partial.rrd").write_bytes(MINE)
     assert free_path(tmp_path / "run.partial.rrd") == tmp_path / "run.partial-2.rrd"
