@@ -204,6 +204,24 @@ def test_tune_default_name_taken_meanwhile_gets_a_fresh_name(capsys, tmp_path, m
     assert "# tuned vector:" in (tmp_path / "paper_tuned-2.toml").read_text()
 
 
+def test_fit_paper_default_name_taken_meanwhile_gets_a_fresh_name(capsys, tmp_path, monkeypatch):
+    """``fit-paper`` as ``tune``: ./paper.toml made while it fitted is kept."""
+    from fuzzynav.app.experiments import paper_fit_command
+    from fuzzynav.controller.paper_design import PaperDesignTunable
+
+    monkeypatch.chdir(tmp_path)
+
+    def another_fit_finishes_first(*args, **kwargs):  # the fit itself is not what is tested
+        (tmp_path / "paper.toml").write_bytes(MINE)
+        return PaperDesignTunable().initial_vector(), 1.0, 1, 2
+
+    monkeypatch.setattr(paper_fit_command, "fit", another_fit_finishes_first)
+    code, err = run_cli(capsys, "fit-paper", "--maxiter", "1", "--popsize", "2", "--json")
+    assert code == 0 and "paper.toml exists now" in err and "paper-2.toml" in err
+    assert (tmp_path / "paper.toml").read_bytes() == MINE
+    assert "# tuned vector:" in (tmp_path / "paper-2.toml").read_text()
+
+
 # ------------------------------------------------------------------------ fis export
 
 
