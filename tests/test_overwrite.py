@@ -238,6 +238,36 @@ def test_fis_export_into_a_folder_never_replaces_a_file_unless_forced(capsys, tm
     assert (folder / "fuzzynav_avoid.fis").read_text().startswith("[System]")
 
 
+def test_the_blocks_export_from_code_never_replaces_a_file_unless_overwrite(tmp_path):
+    from fuzzynav.controller.fuzzynav import export_fis
+
+    (tmp_path / "fuzzynav_avoid.fis").write_bytes(MINE)
+    with pytest.raises(ValueError, match=r"fuzzynav_avoid.fis: exists already.*overwrite=True"):
+        export_fis(tmp_path)
+    assert _listing(tmp_path) == ["fuzzynav_avoid.fis"]  # neither block written
+    assert export_fis(tmp_path, overwrite=True) == [
+        tmp_path / "fuzzynav_goal.fis",
+        tmp_path / "fuzzynav_avoid.fis",
+    ]
+    assert (tmp_path / "fuzzynav_avoid.fis").read_text().startswith("[System]")
+
+
+def test_tuned_memberships_never_replace_rule_bases_beside_the_file(tmp_path):
+    """``FuzzyNavTunable(tune_memberships=True).save(x, path)`` wrote the two rule bases
+    beside ``path`` over whatever was there."""
+    from fuzzynav.controller.fuzzynav_tuning import FuzzyNavTunable
+
+    tunable = FuzzyNavTunable(tune_memberships=True)
+    x = tunable.initial_vector()
+    (tmp_path / "fuzzynav_goal.toml").write_bytes(MINE)
+    with pytest.raises(ValueError, match="fuzzynav_goal.toml: exists already"):
+        tunable.save(x, tmp_path / "params.toml")
+    assert _listing(tmp_path) == ["fuzzynav_goal.toml"]  # not even the parameters
+    written = tunable.save(x, tmp_path / "params.toml", overwrite=True)
+    assert [p.name for p in written] == ["params.toml", "fuzzynav_goal.toml", "fuzzynav_avoid.toml"]
+    assert (tmp_path / "fuzzynav_goal.toml").read_bytes() != MINE
+
+
 # --------------------------------------------------------------- partial recordings
 
 
