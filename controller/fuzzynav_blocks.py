@@ -40,13 +40,22 @@ def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
     )
 
 
-def export_fis(directory: str | Path) -> list[Path]:
-    """Write the two blocks as MATLAB .fis files (one per block)."""
+#: The two blocks' names and shipped rule bases.
+BLOCK_FILES = (("goal", GOAL_PATH), ("avoid", AVOID_PATH))
+
+
+def export_fis(directory: str | Path, overwrite: bool = False) -> list[Path]:
+    """Write the two blocks as MATLAB .fis files (one per block) into ``directory``;
+    an existing file of the same name is refused (ValueError, before either is
+    written) unless ``overwrite``."""
+    from fuzzynav.safe_files import OutputScope
+
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, path in (("goal", GOAL_PATH), ("avoid", AVOID_PATH)):
-        out = directory / f"fuzzynav_{name}.fis"
-        write_fis(read_toml(path), out)
-        paths.append(out)
-    return paths
+    blocks = {directory / f"fuzzynav_{name}.fis": path for name, path in BLOCK_FILES}
+    remedy = "pass overwrite=True to replace it, or another folder"
+    with OutputScope("export_fis: directory", overwrite=overwrite, remedy=remedy) as outputs:
+        outputs.check(blocks)
+        directory.mkdir(parents=True, exist_ok=True)
+        for out, path in blocks.items():
+            write_fis(read_toml(path), out)
+    return list(blocks)

@@ -398,7 +398,7 @@ def run_hook(args, sim):
     if path is None:
         return None
     from fuzzynav.app.args import run_inputs
-    from fuzzynav.safe_files import check_output_path, partial_path
+    from fuzzynav.safe_files import check_output_path, free_path, partial_path
 
     check_output_path(path, "--rrd", run_inputs(args))  # not an input, nor a shipped file
     argv = command_line()
@@ -415,7 +415,7 @@ def run_hook(args, sim):
                 if len(result.log)
                 else "yes (before the first step)"
             )
-            target = partial_path(path)
+            target = free_path(partial_path(path))  # never over an earlier partial run
         try:
             record_simulation(sim, result, target, extra_metadata=extra)
         except KeyboardInterrupt:
