@@ -10,7 +10,7 @@ restarts its law from where it is put, keeping its current velocity.
 
 Contacts are reported by pymunk in the step they happen (the robot's shape is a sensor,
 so pymunk reports the overlap without pushing anything) and kept as
-:class:`Collision` events. **One contact rule for both engines** (issue 37): the robot
+:class:`Collision` events. **One contact rule for both engines**: the robot
 touches an obstacle when its footprint-to-surface clearance is ``<= 0``, touching
 included, as the batch engine (:mod:`world.batch`) judges it. Chipmunk does not always
 count an exact touch (clearance 0.0, e.g. an obstacle that comes to rest against the
@@ -234,7 +234,7 @@ class Arena:
         for obstacle in list(self.obstacles.values()):
             self.space.remove(obstacle.body, obstacle.shape)
         # pymunk keeps removed shapes until the next step; resets without one kept them
-        # all (300 viewer Resets among 200 obstacles: 58 MB, issue 37)
+        # all (300 viewer Resets among 200 obstacles: 58 MB)
         _compat.forget_removed_shapes(self.space)
         self.obstacles.clear()
         self._changed()
