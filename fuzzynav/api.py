@@ -138,7 +138,7 @@ class Run:
 
             # app.recordings.trace is not annotated: its rows are lists of strings
             trace_rows = cast("Callable[[SimulationLog], Iterator[list[str]]]", untyped_trace_rows)
-            # Streamed into the columns, a row at a time (issue 37: a list of every row's
+            # Streamed into the columns, a row at a time (a list of every row's
             # strings first took 1.3 GB beside 86 MB of arrays at 720,000 steps).
             n_rows = len(self.result.log)
             columns = np.empty((len(TRACE_COLUMNS), n_rows))

@@ -1,6 +1,6 @@
 """Writing output files whole or not at all, and never over what must not be written.
 
-The one writer of the project (issue 26): every file fuzzynav writes (recordings,
+The one writer of the project: every file fuzzynav writes (recordings,
 traces, figures, rule bases, checkpoints, ``.fis`` exports, reports) goes through
 :func:`write_bytes_atomically`, :func:`write_text_atomically` or :func:`atomic_output`.
 
@@ -353,7 +353,7 @@ def check_output_path(
     replace: bool = True,
     folder: bool = False,
 ) -> Path:
-    """The one output guard (issues 26 and 37): every writer of the command line and of
+    """The one output guard: every writer of the command line and of
     the Python interface asks it before it writes. Raise ValueError (naming ``option``,
     the path and why) when ``path`` must not be written:
 
@@ -414,7 +414,7 @@ def _same_file(a: StrPath, b: StrPath) -> bool:
 def check_distinct_outputs(outputs: Iterable[tuple[str, StrPath | None]]) -> None:
     """ValueError when two of one command's outputs, ``(option, path)`` pairs (a None
     path is skipped), name the same file (through links too): one would overwrite the
-    other (``run --trace same.out --rrd same.out`` lost the recording, issue 37)."""
+    other (``run --trace same.out --rrd same.out`` lost the recording)."""
     from fuzzynav.resources import escape_controls
 
     seen: list[tuple[str, StrPath]] = []
