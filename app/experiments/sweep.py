@@ -238,7 +238,7 @@ def _write_failures(out: dict, runs, directory, progress, source: str) -> list[d
         result = sim.run()
         if (result.outcome, result.metrics["collided"]) != (run["outcome"], run["collided"]):
             # Rows run here are deterministic; one that disagrees was read back from
-            # --out and edited, or made elsewhere: bad input, not a crash (issue 26)
+            # --out and edited, or made elsewhere: bad input, not a crash
             raise ValueError(
                 f"{scenario_file}: the run ended '{result.outcome}' when driven "
                 f"again, '{run['outcome']}' in the sweep's row"

@@ -307,7 +307,7 @@ def _checked_options(args):
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
     # a path given is asked for; the default name never replaces an earlier result
-    # unless --force (issue 37)
+    # unless --force
     replace = args.out is not None or getattr(args, "force", False)
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"

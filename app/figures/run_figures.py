@@ -286,7 +286,7 @@ def _voltages_figure(result, title: str, voltage_limit_v: float):
 def _drawable_output(values, limit_v: float) -> tuple[np.ndarray, str]:
     """A controller's output before saturation as the voltage figure draws it, and its
     label: within +-OUTPUT_DRAWN_FACTOR x the limit (a controller answering +-1e308
-    made matplotlib's scaling overflow: RuntimeWarnings, issue 37), the label saying
+    made matplotlib's scaling overflow: RuntimeWarnings), the label saying
     so when it cut anything."""
     bound = OUTPUT_DRAWN_FACTOR * max(abs(limit_v), 1e-9)
     values = np.asarray(values, dtype=float)

@@ -133,7 +133,7 @@ def recording_sink(path) -> Iterator[str]:
     path = Path(path)
     check_replaceable(path)  # a name the command chose: before the recording is made
     tmp = None
-    if is_stream_target(path):  # never renamed over: written as it goes (issue 26)
+    if is_stream_target(path):  # never renamed over: written as it goes
 
         def write(chunks):
             write_chunks_atomically(path, chunks)

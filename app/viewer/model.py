@@ -263,7 +263,7 @@ class ViewerApp:
 
     def _end_mode_message_locked(self, mode: str) -> None:
         """What-if mode or the time slider's past ended: a warning or an error said in
-        it (a refused value) goes with it (issue 38: the red message outlived both)."""
+        it (a refused value) goes with it."""
         if (
             self.message
             and getattr(self, "_message_mode", None) == mode
