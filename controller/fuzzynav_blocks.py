@@ -1,7 +1,7 @@
 """fuzzynav's two fuzzy blocks, as one system and as MATLAB files.
 
-The goal and avoidance blocks (items 3 and 4 of :mod:`fuzzynav.controller.fuzzynav`'s
-docstring) live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``. For
+The goal and avoidance blocks (items 3 and 4 of docs/fuzzynav.md's
+design) live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``. For
 speed the controller evaluates them as one merged system (:func:`merge_blocks`: same
 rules, disjoint variables, exactly the same outputs); :func:`export_fis` writes each
 block as a ``.fis`` file.
