@@ -22,11 +22,12 @@ N_INPUTS, N_OUTPUTS = 4, 2
 #: The controller's inputs and outputs, in the order the loop passes and takes them.
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
 OUTPUT_NAMES = ("left", "right")
-#: The readings of Table 1's NONE (docs/paper-controller.md). "matlab": MATLAB's rule editor's "none",
-#: the input takes no part in the rule (the engine's default). "unsensed": the paper's
-#: text, "for more distance, it is 'none'": a rule with NONE for d_o holds only while no
-#: obstacle is sensed (d_o NaN), so the goal rules 1-25 are off while one is
-#: (``FuzzySystem(unsensed_none=("d_o",))``; a rule base file says it in its [system]).
+#: The readings of Table 1's NONE (docs/paper-controller.md). "matlab": MATLAB's rule
+#: editor's "none", the input takes no part in the rule (the engine's default).
+#: "unsensed": the paper's text, "for more distance, it is 'none'": a rule with NONE for
+#: d_o holds only while no obstacle is sensed (d_o NaN), so the goal rules 1-25 are off
+#: while one is (``FuzzySystem(unsensed_none=("d_o",))``; a rule base file says it in its
+#: [system]).
 NONE_READINGS = ("matlab", "unsensed")
 GATED_INPUT = INPUT_NAMES.index("d_o")
 
