@@ -137,8 +137,8 @@ class StatusLine:
         )
 
     def _rule_base_note(self, snap: Snapshot) -> str:
-        """Which of the paper's rule bases drives (docs/paper-controller.md): its twin in the Husky's
-        world, the paper-geometry fit in the paper's."""
+        """Which of the paper's rule bases drives (docs/paper-controller.md): its twin in
+        the Husky's world, the paper-geometry fit in the paper's."""
         if snap.controller_label != "paper":
             return ""
         from fuzzynav.controller.paper import RULE_BASE_SHORT
