@@ -46,9 +46,9 @@ from fuzzynav.controller.paper_partition import TableOneTunable
 
 _SIGMA_PER_SPACING = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 
-# name, lower, upper, start (a hand layout: turns from +-0.6 rad, obstacles felt from
-# 2.4 m, a slow wheel near 0 V and a top speed near 10 V). The bounds keep the design
-# rules by construction, the two added by issue 35 included: ``span`` (d_t's VL and the
+# name, lower, upper, start (a hand layout: turns from +-0.9 rad, obstacles felt from
+# 2.4 m at +-0.6 rad, a slow wheel near 0 V and a top speed near 10 V). The bounds keep the design
+# rules by construction, ``span`` and ``rates`` included: ``span`` (d_t's VL and the
 # wheels' VL in the upper half of their universes: ``d_t.top`` >= 14.5 m of [-1.13, 30],
 # ``v.top`` >= 7 V of [-0.28, 14]; an angle's VP in the upper half of [0, max], ``phi_*.vp``)
 # and ``rates`` (an angle's outer ramp from once to 8 times its inner spacing, ``phi_*.q``; d_t's and the wheels' growth ratios keep each

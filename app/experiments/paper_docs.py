@@ -4,7 +4,7 @@ Every number the page gives about the shipped rule bases comes from here:
 :func:`shipped_runs` runs s1-s3 the way ``fuzzynav run sN --controller paper`` does (the
 paper's geometry with ``rules/paper.toml``; the Husky's with its twin
 ``rules/paper_husky.toml``, ideal and ultrasonic), :func:`bound_checks` holds them to
-issue 35's done bounds, and :func:`render` writes the page's generated blocks (between
+the done bounds, and :func:`render` writes the page's generated blocks (between
 ``<!-- generated:NAME -->`` and ``<!-- /generated:NAME -->``) from that data, from the
 readings table (``docs/data/paper_readings.json``) and from the held-out layouts
 (``docs/data/paper_generalise.json``). ``scripts/paper_check.py`` writes
@@ -42,7 +42,7 @@ from fuzzynav.app.experiments.paper_fit import (
 from fuzzynav.app.published import SCENARIOS, paper_results
 
 HUSKY_PERCEPTION = ("ideal", "ultrasonic")
-# issue 35's done bounds (paper geometry) and the twin's (Husky geometry)
+# the done bounds (paper geometry) and the twin's (Husky geometry)
 PATH_BOUND, TABLE4_BOUND = 0.03, 0.25
 EVENT_TIME_BOUND, EVENT_DISTANCE_BOUND_M = 0.20, 0.15
 FINAL_PHI_BOUND_RAD, MAX_JUMPS = 0.1, 2
@@ -96,7 +96,7 @@ def shipped_runs() -> dict:
 
 
 def bound_checks(runs: dict, paper: dict | None = None) -> list[dict]:
-    """Issue 35's done bounds on paper-geometry runs ``{s: run}``: name, met, and for a
+    """The done bounds on paper-geometry runs ``{s: run}``: name, met, and for a
     numeric bound the residual in units of its bound (|error| / bound)."""
     paper = paper or paper_results()
     out = []
@@ -472,7 +472,7 @@ def render_readme_headline(data: dict, generalise: dict | None) -> str:
         "results support, chosen among eight by a rule written down before the fits: a start "
         "facing +x, ideal perception of the front half-plane, and Table 1's NONE as the "
         "text has it (the goal rules hold only while no obstacle is sensed). It reaches "
-        f"s1-s3 and meets **{met} of issue 35's {len(checks)} bounds**: Table 4's MAD, RMSE "
+        f"s1-s3 and meets **{met} of the {len(checks)} done bounds**: Table 4's MAD, RMSE "
         f"and minimum distance within {max(worst['mad_m'], worst['rmse_m'], worst['min_center_distance_m']):.0f} % "
         f"(paths {worst['path_length_m']:.1f} % short at most), s1's obstacles passed at "
         f"{s1} m coming from the right of the line, the target bearing settling to "

@@ -36,7 +36,7 @@ from fuzzynav.app.published import SCENARIOS, paper_results
 from fuzzynav.safe_files import write_text_atomically
 
 HUSKY_PERCEPTION = ("ideal", "ultrasonic")
-# What the reconstruction aims at (issue 25): path 2 %, the other Table 4 numbers 10 %,
+# What the reconstruction aims at: path 2 %, the other Table 4 numbers 10 %,
 # event times 3 s (about 10 %), event distances 0.05 m, phi_t at the end 0.05 rad.
 PATH_TOL = 0.02
 TABLE4_TOL = 0.10
@@ -45,7 +45,7 @@ EVENT_DISTANCE_TOL_M = 0.05
 FINAL_PHI_TOL_RAD = 0.05
 # Voltage jumps over 2 V (world.metrics.voltage_jumps) allowed before a penalty.
 CHATTER_FREE_STEPS = 10
-# The Husky twin's bounds (issue 35; docs/paper-controller.md, "The Husky twin"):
+# The Husky twin's bounds (docs/paper-controller.md, "The Husky twin"):
 # clearance from the footprint, path, MAD as a multiple of the paper's, phi_t at arrival.
 TWIN_CLEARANCE_M, TWIN_PATH_M, TWIN_MAD_FACTOR, TWIN_PHI_RAD = 0.25, 13.0, 2.0, 0.3
 # ... and how it drives: the median footprint clearance of its obstacle passes (m), how
@@ -131,7 +131,7 @@ def sonar_coverage_deg(robot=None) -> float:
 
 
 SCENARIO_FILE_READING = Reading()
-#: The reading shipped (issue 35's table selected it): the scenario files' heading and
+#: The reading shipped (the readings table selected it): the scenario files' heading and
 #: field of view, and Table 1's NONE for d_o read as the text has it.
 SHIPPED_READING = Reading(none_reading="unsensed")
 
@@ -263,7 +263,7 @@ RESIDUAL_CAP = 16.0  # a residual counts at most as 4 tolerances: one bad number
 NOT_REACHED_COST = 1500.0
 
 
-# The bounds below which the reconstruction does not count as done (issue 25): path 3 %;
+# The bounds below which the reconstruction does not count as done: path 3 %;
 # MAD, RMSE, minimum distance 25 %; event times 20 %, event distances 0.15 m; phi_t at
 # the end 0.1 rad. A residual past 80 % of its bound is penalised steeply, so the fit
 # keeps inside them before it polishes the aim.
