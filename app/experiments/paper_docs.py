@@ -301,10 +301,10 @@ def render_behaviour_readings(table: dict) -> str:
 
     chosen = select_reading(table["results"])
     lines = [
-        "| reading | design rules | bounds met | worst residual (x its bound) "
+        "| reading | design rules | bounds met | worst residual (x its bound) | arrived "
         "| s1 passes m | s2 / s3 static pass s, m | last 2 m speed / median s1, s2, s3 "
         "| MAD s1, s2, s3 m | s3 right wheel max V |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table["results"]:
         runs = r["runs"]
@@ -312,11 +312,12 @@ def render_behaviour_readings(table: dict) -> str:
         (t2, d2), (t3, d3) = runs["s2"]["passes"][0], runs["s3"]["passes"][0]
         ratios = ", ".join(f"{runs[s]['approach_speed_ratio']:.2f}" for s in SCENARIOS)
         mads = ", ".join(f"{runs[s]['mad_m']:.3f}" for s in SCENARIOS)
+        arrived = ", ".join(s for s in SCENARIOS if runs[s]["reached"]) or "none"
         kept = "kept" if not r["design_rules_broken"] else f"{len(r['design_rules_broken'])} broken"
         mark = " **(selected)**" if r is chosen else ""
         lines.append(
             f"| {r['reading']}{mark} | {kept} | {r['bounds_met']} of {r['bounds']} "
-            f"| {r['worst_scaled']:.2f} | {passes} | {t2:.1f}, {d2:.2f} / {t3:.1f}, {d3:.2f} "
+            f"| {r['worst_scaled']:.2f} | {arrived} | {passes} | {t2:.1f}, {d2:.2f} / {t3:.1f}, {d3:.2f} "
             f"| {ratios} | {mads} | {runs['s3']['max_voltage_v'][1]:.2f} |"
         )
     budget = table["budget"]
