@@ -239,7 +239,7 @@ class FuzzyNavController(ControlSteps):
         self.params = dict(CRISP_DEFAULTS)
         self.params.update(params or {})
         self._merged = merge_blocks(goal, avoid)
-        self._eval = self._merged.evaluate_one_list
+        self._infer = self._merged.evaluate_one_list
         self._eval_goal = goal.evaluate_one_list
         self._eval_avoid = avoid.evaluate_one_list
         dt = self.params["control_period_s"]

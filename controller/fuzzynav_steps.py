@@ -69,7 +69,7 @@ class ControlSteps:
     creep_s: float
     unstick_s: float
     reverse_s: float
-    _eval: Any
+    _infer: Any
     _eval_goal: Any
     _eval_avoid: Any
 
@@ -195,7 +195,7 @@ class ControlSteps:
         if alpha >= 1.0:
             a_speed, a_turn = self._eval_avoid(avoid_in)
             return 0.0, 0.0, a_speed, a_turn
-        return self._eval((phi, d_t) + avoid_in)
+        return self._infer((phi, d_t) + avoid_in)
 
     def _guard(self, g_speed, g_turn, d_t, left, right):
         """The goal block's ``(speed, turn)``, kept from turning back into an obstacle
