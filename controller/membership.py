@@ -90,6 +90,23 @@ _COMPARE = {
 }
 
 
+_ALLOWED = (
+    ast.Constant,
+    ast.Name,
+    ast.Load,
+    ast.Tuple,
+    ast.BinOp,
+    ast.UnaryOp,
+    ast.BoolOp,
+    ast.Compare,
+    ast.And,
+    ast.Or,
+    *_BINARY,
+    *_UNARY,
+    *_COMPARE,
+)
+
+
 class Expression:
     """A small expression over parameter names, parsed once and walked (never run as
     Python): numbers, the names, ``+ - * /``, comparisons (chained too), ``and``,
@@ -118,6 +135,8 @@ class Expression:
         for node in ast.walk(self._tree):
             if isinstance(node, ast.Name) and node.id not in names:
                 raise ValueError(f"expression {text!r}: unknown name {node.id!r} (have {names})")
+            if not isinstance(node, _ALLOWED):
+                raise ValueError(f"expression {text!r}: {type(node).__name__} is not allowed")
 
     def __call__(self, values: Sequence[float]):
         """The expression's value for ``values`` (one per name, in order)."""

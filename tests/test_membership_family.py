@@ -197,3 +197,16 @@ def test_the_design_rules_read_centre_and_ramps_from_the_table():
     assert mf.SHAPES["trimf"].ramps_of((0.0, 1.0, 3.0)) == (1.0, 2.0)
     with pytest.raises(ValueError, match="has no centre"):
         centre(Term("t", "trapmf", (0.0, 1.0, 2.0, 3.0)))
+
+
+def test_a_family_s_expressions_are_parsed_not_run():
+    """The conditions, centres and ramps are read by a small walker: a call, an
+    attribute or an unknown name is refused when the family is made."""
+    for requires in ("__import__('os').getcwd()", "w.real > 0", "q > 0", "[w][0] > 0"):
+        with pytest.raises(ValueError, match="expression"):
+            mf.Shape("bad", ("c", "w"), requires, _cosmf, "refused")
+    shape = mf.Shape("ok", ("c", "w"), "not w <= 0 and -1 < c / w < 1 or c == 0", _cosmf, "ok")
+    assert shape.holds((0.5, 1.0)) and not shape.holds((2.0, 1.0)) and shape.holds((0.0, -1.0))
+    assert mf.Shape("r", ("c", "w"), "w > 0", _cosmf, "r", ramps="(w - c, 2 * w)").ramps_of(
+        (1.0, 3.0)
+    ) == (2.0, 6.0)
