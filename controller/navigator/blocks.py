@@ -1,6 +1,6 @@
 """fuzzynav's two fuzzy blocks, as one system and as MATLAB files.
 
-The goal and avoidance blocks (items 3 and 4 of :mod:`fuzzynav.controller.fuzzynav`'s
+The goal and avoidance blocks (items 3 and 4 of :mod:`fuzzynav.controller.navigator.controller`'s
 docstring) live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``. For
 speed the controller evaluates them as one merged system (:func:`merge_blocks`: same
 rules, disjoint variables, exactly the same outputs); :func:`export_fis` writes each
@@ -14,7 +14,7 @@ from pathlib import Path
 
 from fuzzynav.controller.fis import write_fis
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule
-from fuzzynav.controller.fuzzynav_params import AVOID_PATH, GOAL_PATH
+from fuzzynav.controller.navigator.params import AVOID_PATH, GOAL_PATH
 from fuzzynav.controller.rulebase import read_toml
 
 

@@ -1,4 +1,4 @@
-"""fuzzynav's tracker (items 7 and 10 of :mod:`fuzzynav.controller.fuzzynav`'s docstring):
+"""fuzzynav's tracker (items 7 and 10 of :mod:`fuzzynav.controller.navigator.controller`'s docstring):
 the nearest obstacle's centre and velocity, and where the target stands, in a frame of its
 own dead reckoned with the turn's real lag (``turn_lag``).
 
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.controller.fuzzynav_robot import (
+from fuzzynav.controller.navigator.robot import (
     _AXES,
     _HX,
     _HY,

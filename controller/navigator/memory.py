@@ -1,4 +1,4 @@
-"""fuzzynav's perception memory (items 1, 2 and 7 of :mod:`fuzzynav.controller.fuzzynav`'s
+"""fuzzynav's perception memory (items 1, 2 and 7 of :mod:`fuzzynav.controller.navigator.controller`'s
 docstring): what it makes of its readings over time.
 
 - **Odometry**: the pose dead-reckoned from the voltages the controller commanded, with
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.controller.fuzzynav_robot import (
+from fuzzynav.controller.navigator.robot import (
     _AXES,
     _HX,
     _HY,

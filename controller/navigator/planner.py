@@ -1,4 +1,4 @@
-"""fuzzynav's bearing planner (item 2 of :mod:`fuzzynav.controller.fuzzynav`'s docstring):
+"""fuzzynav's bearing planner (item 2 of :mod:`fuzzynav.controller.navigator.controller`'s docstring):
 the free bearing nearest the target's, past every remembered echo, and the side it passes on.
 
 Each remembered point between ``plan_nearest_m`` and ``plan_horizon_m`` (and not beyond
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.controller.fuzzynav_robot import _AXES, _HX, _HY
+from fuzzynav.controller.navigator.robot import _AXES, _HX, _HY
 
 
 def blocked_cones(
