@@ -125,7 +125,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
 
 def cmd_parts(args) -> int:
     """List fuzzynav's parts (assets/rules/fuzzynav_parts.toml): the names ``--off`` takes."""
-    from fuzzynav.controller.fuzzynav_parts import PARTS_PATH, load_parts
+    from fuzzynav.controller.navigator.parts import PARTS_PATH, load_parts
 
     parts = load_parts()
     if args.json:

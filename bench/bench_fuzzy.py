@@ -2,9 +2,8 @@
 
     .venv/bin/python bench/bench_fuzzy.py [--rules assets/rules/paper.toml] [--quick]
 
-Prints a table of median times (medians over repeats): our evaluate_one (and its
-generated front, against the memberships alone computed by numpy with a call per
-family: why the front is generated), our evaluate on one row, our batch per row
+Prints a table of median times (medians over repeats): our evaluate_one (and its first
+stage, the inputs to the firing strengths), our evaluate on one row, our batch per row
 (N = 10,000), simpful per call, scikit-fuzzy per call, and the ratios; evaluate per row for small N against its two paths (the dispatch threshold); plus the
 largest differences seen between the engines on the same inputs, and a calibration
 figure for the machine (a plain Python loop), because absolute times on a shared VM
@@ -28,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.controller import fuzzy_blockwise as fuzzy_module
+from fuzzynav.controller import fuzzy as fuzzy_module
 from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.rulebase import read_toml
@@ -242,32 +241,6 @@ def _dispatch_table(system: FuzzySystem, reps: int):
     return t, worst
 
 
-def _plain_memberships(system: FuzzySystem):
-    """The memberships of one input vector the plain way, for the record against the
-    generated front (controller/fuzzy_front.py): one call of each family's numpy formula
-    with its terms as rows (per-row parameters), the form the front would take without
-    code generation (firing strengths and slot levels not even counted)."""
-    families: dict[str, list] = {}
-    for i, v in enumerate(system.inputs):
-        for t in v.terms:
-            families.setdefault(t.shape, []).append((i, t.params))
-    calls = [
-        (
-            mf.SHAPES[shape].formula,
-            np.array([i for i, _ in terms]),
-            list(np.array([p for _, p in terms]).T),
-        )
-        for shape, terms in families.items()
-    ]
-
-    def run(x):
-        xa = np.array(x)
-        with mf.quiet():
-            return [formula(xa[rows], *columns) for formula, rows, columns in calls]
-
-    return run
-
-
 def _verdict(target: float, wall: float, cpu: float) -> str:
     def mark(v):
         return "[green]met[/]" if v <= target else "[red]missed[/]"
@@ -302,9 +275,7 @@ def main(argv=None) -> int:
     one_arr_s = statistics.median(
         _median_single(system.evaluate_one, list(X[:2000])) for _ in range(reps)
     )
-    front_s = statistics.median(_median_single(system._front, xs) for _ in range(reps))
-    plain = _plain_memberships(system)
-    plain_s = statistics.median(_median_single(plain, xs) for _ in range(reps))
+    front_s = statistics.median(_median_single(system._strengths_one, xs) for _ in range(reps))
     batch_times, batch_cpu = [], []
     for _ in range(reps * 2):
         t0, c0 = time.perf_counter(), time.thread_time()
@@ -357,17 +328,10 @@ def main(argv=None) -> int:
         "",
     )
     t.add_row(
-        "  its generated front (memberships to levels)",
+        "  its first stage (memberships to firing strengths)",
         f"{front_s * us:.1f} us",
         "",
         f"{front_s / one_s:.2f}",
-        "",
-    )
-    t.add_row(
-        "  numpy memberships alone, a call per family",
-        f"{plain_s * us:.1f} us",
-        "",
-        f"{plain_s / one_s:.2f}",
         "",
     )
     t.add_row(

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.controller.fuzzynav import fuzzynav_controller
+from fuzzynav.controller.navigator.controller import fuzzynav_controller
 from fuzzynav.world.scenario import load_scenario
 from fuzzynav.world.simulation import Simulation
 

@@ -65,7 +65,7 @@ class BaselineController:
     def merged(self) -> FuzzySystem:
         """Both blocks as one system (for the membership figures; outputs prefixed
         ``goal_`` / ``avoid_``)."""
-        from fuzzynav.controller.fuzzynav_blocks import merge_blocks
+        from fuzzynav.controller.navigator.blocks import merge_blocks
 
         return merge_blocks(self.goal, self.avoid)
 

@@ -1,14 +1,14 @@
 """MATLAB Fuzzy Logic Toolbox ``.fis`` files: a strict reader and a writer.
 
 Supported: what the engine in :mod:`controller.fuzzy` computes -- a Mamdani system with
-AndMethod 'min' or 'prod', OrMethod 'max' or 'probor' (kept, but without effect: there
-are no OR rules), ImpMethod 'min' or 'prod', AggMethod 'max', 'sum' or 'probor',
-DefuzzMethod 'centroid', 'bisector', 'mom', 'som' or 'lom' (MATLAB's meanings:
-:mod:`controller.inference`), the membership functions of
+AndMethod 'min' or 'prod', OrMethod 'max' or 'probor', ImpMethod 'min' or 'prod',
+AggMethod 'max', 'sum' or 'probor', DefuzzMethod 'centroid', 'bisector', 'mom', 'som' or
+'lom' (MATLAB's meanings: :mod:`controller.inference`), the membership functions of
 :data:`controller.membership.SHAPES` by their MATLAB names (trimf, trapmf, linsmf, linzmf,
-gaussmf, gauss2mf), and AND rules without NOT. Everything else (Sugeno, custom methods,
-other membership functions, OR rules, negated clauses) is rejected with an error that
-names the file, the line and the value. The file is parsed, never evaluated.
+gaussmf, gauss2mf), AND and OR rules (connection 1 and 2) and NOT in an antecedent (a
+negative term index: 1 - the term's membership). Everything else (Sugeno, custom methods,
+other membership functions, NOT in a consequent) is rejected with an error that names the
+file, the line and the value. The file is parsed, never evaluated.
 
 The format::
 
@@ -38,8 +38,8 @@ The format::
     [Rules]
     5 0 1 0, 4 1 (1) : 1
 
-A rule line lists, per input, the 1-based term index (0 = the input takes no part), a
-comma, per output the 1-based term index (0 = none), the weight in parentheses, a colon
+A rule line lists, per input, the 1-based term index (0 = the input takes no part; -k =
+NOT term k), a comma, per output the 1-based term index (0 = none), the weight in parentheses, a colon
 and the connection (1 = AND, 2 = OR).
 
 Not stored in a .fis file: the defuzzification grid size (MATLAB passes it to evalfis;
@@ -342,14 +342,8 @@ def _rule(
     conn = rd.int_(lineno, conn_t, "connection", 2)
     if conn not in (1, 2):
         raise rd.err(lineno, "connection must be 1 (AND) or 2 (OR)", conn_t)
-    if conn == 2 and sum(a != 0 for a in ant) > 1:
-        raise rd.err(lineno, "OR rules are not supported (only AND)", line)
     for v, a in zip(inputs, ant):
-        if a < 0:
-            raise rd.err(
-                lineno, f"negated clauses (NOT) are not supported (input {v.name!r})", line
-            )
-        if a > len(v.terms):
+        if abs(a) > len(v.terms):
             raise rd.err(
                 lineno,
                 f"term index {a} out of range for input {v.name!r} ({len(v.terms)} MFs)",
@@ -366,9 +360,10 @@ def _rule(
             )
     try:
         return Rule(
-            tuple(a - 1 if a else None for a in ant),
+            tuple(None if a == 0 else a - 1 if a > 0 else a for a in ant),
             tuple(c - 1 if c else None for c in con),
             w,
+            "and" if conn == 1 else "or",
         )
     except ValueError as e:
         raise rd.err(lineno, str(e), line) from None
@@ -484,9 +479,10 @@ def dumps_fis(system: FuzzySystem) -> str:
                 )
     L += ["", "[Rules]"]
     for r in system.rules:
-        ant = " ".join(str(0 if a is None else a + 1) for a in r.antecedent)
+        # 1-based; NOT term k (~k = -k - 1) is MATLAB's negative index -(k + 1) as it is
+        ant = " ".join(str(0 if a is None else a + 1 if a >= 0 else a) for a in r.antecedent)
         con = " ".join(str(0 if c is None else c + 1) for c in r.consequent)
-        L.append(f"{ant}, {con} ({_num(r.weight)}) : 1")
+        L.append(f"{ant}, {con} ({_num(r.weight)}) : {1 if r.connection == 'and' else 2}")
     return "\n".join(L) + "\n"
 
 

@@ -198,20 +198,10 @@ class FisBatch:
         readings = {c.none_reading for c in controllers}
         if len(readings) > 1:
             raise NotBatchable("one batch reads NONE one way: the controllers mix readings")
-        # the text's reading of NONE: the obstacle rules alone where d_o is sensed
-        self.fuzzy = BatchFuzzy([c.fis.replace(unsensed_none=()) for c in controllers])
-        self.sensed = (
-            BatchFuzzy([c.sensed_fis for c in controllers]) if readings == {"unsensed"} else None
-        )
+        # the text's reading of NONE is the systems' own (unsensed_none): the engine
+        # leaves a rule with NONE for d_o out of a row whose d_o is sensed
+        self.fuzzy = BatchFuzzy([c.fis for c in controllers])
         self.run_sets = None if run_sets is None else np.asarray(run_sets, dtype=np.intp)
 
     def decide(self, inputs, runs, ranges_m=None) -> np.ndarray:
-        groups = run_groups(runs, self.run_sets)
-        if self.sensed is None:
-            return self.fuzzy.evaluate(inputs, groups)
-        sensed = ~np.isnan(inputs[:, GATED_INPUT])
-        out = np.empty((len(inputs), 2))
-        for mask, fuzzy in ((sensed, self.sensed), (~sensed, self.fuzzy)):
-            if mask.any():
-                out[mask] = fuzzy.evaluate(inputs[mask], None if groups is None else groups[mask])
-        return out
+        return self.fuzzy.evaluate(inputs, run_groups(runs, self.run_sets))

@@ -49,6 +49,7 @@ def _structure(system: FuzzySystem) -> tuple:
         system.rules,
         system.n_points,
         system.inference,
+        system.unsensed_none,
     )
 
 
@@ -94,7 +95,7 @@ class BatchFuzzy:
             for j, term in enumerate(variable.terms):
                 params = np.array([s.inputs[i].terms[j].params for s in systems], dtype=float)
                 self._input_terms.append(
-                    (first._batch_terms_row(i, j), i, SHAPES[term.shape].formula, params.T.copy())
+                    (first._term_row[i][j], i, SHAPES[term.shape].formula, params.T.copy())
                 )
         # Every set's output terms sampled on the grid once: (K, n_out, kmax, G).
         self._mfg = np.stack([s._mfg for s in systems])
@@ -150,17 +151,9 @@ class BatchFuzzy:
         with quiet():
             for row, i, formula, columns in self._input_terms:
                 rows[row] = formula(X[:, i], *(column[groups] for column in columns))
-        rows[system._ONE] = np.ones(n)
+        system._complete_rows(rows, X.T, np.ones(n), np.zeros(n))
         F = np.empty((len(system.rules), n))
-        for r_i, rr in enumerate(system._rule_rows):
-            if len(rr) == 1:
-                F[r_i] = rows[rr[0]]
-            else:
-                np.minimum(rows[rr[0]], rows[rr[1]], out=F[r_i])
-                for q in rr[2:]:
-                    np.minimum(F[r_i], rows[q], out=F[r_i])
-        if system._weighted:
-            F *= system._W[:, None]
+        system._rule_strengths(rows, F)
         kmax = system._kmax
         G = system.n_points
         Y = np.empty((n, system.n_outputs))

@@ -2,7 +2,7 @@
 
 :class:`Term` (a membership function by its MATLAB shape name and parameters),
 :class:`Variable` (a range and its terms) and :class:`Rule` (term indices of the inputs
-and outputs, and a weight), each checked when made; :func:`_check_structure` checks that
+and outputs, NOT, AND or OR, and a weight), each checked when made; :func:`_check_structure` checks that
 rules fit their variables, :func:`rule_sentence` says a rule in words. The engine that
 infers with them is :class:`controller.fuzzy.FuzzySystem`; :class:`Aggregation` is what
 its :meth:`~controller.fuzzy.FuzzySystem.aggregated` returns. All are importable from
@@ -91,37 +91,51 @@ class Variable:
         raise KeyError(f"variable {self.name!r} has no term {name!r} (terms: {self.term_names})")
 
 
+#: How a rule combines its antecedents: MATLAB's ``connection`` 1 (AND) and 2 (OR).
+CONNECTIONS = ("and", "or")
+
+
+def negated(k: int) -> int:
+    """The antecedent entry for NOT term ``k``: ``~k`` (= -k - 1, which is also MATLAB's
+    1-based negative index of that term)."""
+    return ~k
+
+
 @dataclass(frozen=True)
 class Rule:
-    """One rule. ``antecedent[i]`` is the index of a term of input i, or None (NONE: the
-    input takes no part). ``consequent[o]`` is the index of a term of output o, or None
-    (the rule says nothing about that output). ``weight`` in [0, 1] multiplies the firing
+    """One rule. ``antecedent[i]`` is the index of a term of input i, ``~k`` (= -k - 1)
+    for NOT term k (membership 1 - mu), or None (NONE: the input takes no part).
+    ``consequent[o]`` is the index of a term of output o, or None (the rule says nothing
+    about that output). ``connection`` combines the antecedents: ``"and"`` (the system's
+    AND method) or ``"or"`` (its OR method). ``weight`` in [0, 1] multiplies the firing
     strength. Indices are 0-based (a .fis file counts from 1)."""
 
     antecedent: tuple[int | None, ...]
     consequent: tuple[int | None, ...]
     weight: float = 1.0
+    connection: str = "and"
 
     def __post_init__(self):
-        def norm(seq, what):
+        def norm(seq, what, lowest):
             out = []
             for v in seq:
                 if v is None:
                     out.append(None)
-                elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0:
+                elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= lowest:
                     out.append(int(v))
                 else:
-                    raise ValueError(
-                        f"rule {what} entries must be term indices >= 0 or None, got {v!r}"
-                    )
+                    kinds = "term indices, ~index for NOT," if lowest < 0 else "term indices >= 0"
+                    raise ValueError(f"rule {what} entries must be {kinds} or None, got {v!r}")
             return tuple(out)
 
-        object.__setattr__(self, "antecedent", norm(self.antecedent, "antecedent"))
-        object.__setattr__(self, "consequent", norm(self.consequent, "consequent"))
+        object.__setattr__(self, "antecedent", norm(self.antecedent, "antecedent", -(2**62)))
+        object.__setattr__(self, "consequent", norm(self.consequent, "consequent", 0))
         w = float(self.weight)
         if not (math.isfinite(w) and 0.0 <= w <= 1.0):
             raise ValueError(f"rule weight must be in [0, 1], got {self.weight!r}")
         object.__setattr__(self, "weight", w)
+        if self.connection not in CONNECTIONS:
+            raise ValueError(f"rule connection must be 'and' or 'or', got {self.connection!r}")
         if all(a is None for a in self.antecedent):
             raise ValueError("rule has no antecedent (every input is NONE)")
         if all(c is None for c in self.consequent):
@@ -138,14 +152,18 @@ class Aggregation(NamedTuple):
 
 def rule_sentence(inputs: Sequence[Variable], outputs: Sequence[Variable], rule: Rule) -> str:
     """A rule in words: 'IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS'
-    (with ' WEIGHT w' if w != 1); the rule-base reader parses the same sentence back."""
+    (OR between the antecedents of an OR rule, 'IS NOT' for a NOT term, ' WEIGHT w' if
+    w != 1); the rule-base reader parses the same sentence back."""
 
-    def clause(variables, indices):
-        return " AND ".join(
-            f"{v.name} IS {v.terms[k].name}" for v, k in zip(variables, indices) if k is not None
+    def clause(variables, indices, joint):
+        return f" {joint} ".join(
+            f"{v.name} IS NOT {v.terms[~k].name}" if k < 0 else f"{v.name} IS {v.terms[k].name}"
+            for v, k in zip(variables, indices)
+            if k is not None
         )
 
-    text = f"IF {clause(inputs, rule.antecedent)} THEN {clause(outputs, rule.consequent)}"
+    condition = clause(inputs, rule.antecedent, rule.connection.upper())
+    text = f"IF {condition} THEN {clause(outputs, rule.consequent, 'AND')}"
     if rule.weight != 1.0:
         text += f" WEIGHT {float(rule.weight)!r}"
     return text
@@ -183,7 +201,7 @@ def _check_structure(
                 f"the system has {len(outputs)} outputs"
             )
         for var, idx in zip(inputs + outputs, r.antecedent + r.consequent):
-            if idx is not None and idx >= len(var.terms):
+            if idx is not None and (idx >= len(var.terms) or ~idx >= len(var.terms)):
                 raise ValueError(
                     f"rule {r_i + 1}: term index {idx} out of range for "
                     f"{var.name!r} ({len(var.terms)} terms)"

@@ -4,9 +4,8 @@ A :class:`~controller.fuzzy.FuzzySystem` infers with one :class:`Inference`:
 
 * ``and_method``: how a rule combines its antecedents: ``min`` or ``prod`` (the product,
   in input order); an input the rule does not use takes no part;
-* ``or_method``: ``max`` or ``probor``, kept for the .fis file (MATLAB's OrMethod). It
-  changes nothing here: every rule is an AND rule (a .fis rule with connection 2 and a
-  single antecedent is the same rule);
+* ``or_method``: how an OR rule (``Rule(connection="or")``, a .fis rule's connection 2)
+  combines its antecedents: ``max`` or ``probor`` (``a + b - a*b``, in input order);
 * ``imp_method`` (implication): the rule's output set is ``min(w, MF)`` (clipped at the
   weighted firing strength ``w``) or ``w * MF`` (scaled);
 * ``agg_method`` (aggregation over the rules, in rule order): ``max``, ``sum`` (not
@@ -85,8 +84,9 @@ class Inference:
 
     @property
     def is_default(self) -> bool:
-        """Whether inference is MATLAB's default (min AND, min implication, max
-        aggregation, centroid; the OR method changes nothing)."""
+        """Whether inference takes the engine's fast path: MATLAB's default min AND, min
+        implication, max aggregation and centroid (any OR method: it only changes how
+        OR rules fire)."""
         return (self.and_method, self.imp_method, self.agg_method, self.defuzz_method) == (
             "min",
             "min",

@@ -313,9 +313,9 @@ register_controller(
 )
 register_controller(
     "fuzzynav",
-    "fuzzynav.controller.fuzzynav:fuzzynav_controller",
+    "fuzzynav.controller.navigator.controller:fuzzynav_controller",
     description="fuzzynav's own navigator: sector avoidance that takes precedence",
-    tunable="fuzzynav.controller.fuzzynav_tuning:tunable",
+    tunable="fuzzynav.controller.navigator.tuning:tunable",
     fis_export=True,
 )
 register_controller(

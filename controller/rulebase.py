@@ -7,8 +7,8 @@ Format (every key below is allowed; any other key is an error)::
     description = "..."                  # optional
     points = 101                         # optional: defuzzification grid points (default 101)
     # Inference (optional keys, MATLAB's names and meanings, the defaults first;
-    # controller/inference.py): and = "min" | "prod", or = "max" | "probor" (no effect:
-    # every rule is an AND rule), implication = "min" | "prod",
+    # controller/inference.py): and = "min" | "prod", or = "max" | "probor" (the OR
+    # rules'), implication = "min" | "prod",
     # aggregation = "max" | "sum" | "probor",
     # defuzzification = "centroid" | "bisector" | "mom" | "som" | "lom"
     # unsensed_none = ["d_o"]            # optional: inputs whose NONE in a rule means
@@ -31,14 +31,18 @@ Format (every key below is allowed; any other key is an error)::
     rules = [
       "IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS",
       "IF d_o IS near AND phi_o IS Z THEN left IS VS AND right IS M WEIGHT 0.5",
+      "IF d_o IS near OR phi_o IS NOT Z THEN left IS S",
       ...
     ]
 
-A rule sentence is ``IF <input> IS <term> [AND <input> IS <term>]... THEN <output> IS
-<term> [AND <output> IS <term>]... [WEIGHT <w>]``. An input that takes no part (the
-paper's NONE) is simply left out; so is an output the rule says nothing about. The
-keywords IF, AND, THEN, IS, WEIGHT are case-insensitive; variable and term names are
-case-sensitive. The weight defaults to 1 and must lie in [0, 1].
+A rule sentence is ``IF <input> IS [NOT] <term> [AND <input> IS [NOT] <term>]... THEN
+<output> IS <term> [AND <output> IS <term>]... [WEIGHT <w>]``, or the same with OR in
+place of every AND of the antecedent (an OR rule, MATLAB's connection 2; one rule is all
+AND or all OR, as in MATLAB). ``IS NOT <term>`` takes 1 - the term's membership
+(MATLAB's negative term index). An input that takes no part (the paper's NONE) is simply
+left out; so is an output the rule says nothing about. The keywords IF, AND, OR, NOT,
+THEN, IS, WEIGHT are case-insensitive; variable and term names are case-sensitive. The
+weight defaults to 1 and must lie in [0, 1].
 
 The reader is strict: unknown keys, unknown variable or term names, bad shapes or
 parameter counts, non-finite numbers and malformed rules raise ValueError naming the
@@ -120,52 +124,62 @@ def parse_rule(text: str, inputs: list[Variable], outputs: list[Variable]) -> Ru
             raise ValueError(f"weight {wtxt} is not in [0, 1]")
         end = t_w
 
-    def clauses(part: list[str], variables: list[Variable], side: str) -> tuple[int | None, ...]:
-        by_name = {v.name: i for i, v in enumerate(variables)}
-        picked: list[int | None] = [None] * len(variables)
-        if not part:
-            raise ValueError(f"the {side} is empty")
-        # split on AND
-        groups: list[list[str]] = [[]]
-        for t in part:
-            if t.upper() == "AND":
-                groups.append([])
-            else:
-                groups[-1].append(t)
-        for g in groups:
-            if len(g) != 3 or g[1].upper() != "IS":
-                raise ValueError(
-                    f"expected '<variable> IS <term>' in the {side}, got {' '.join(g)!r}"
-                    + (
-                        " (only AND is supported, no OR/NOT)"
-                        if any(x.upper() in ("OR", "NOT") for x in g)
-                        else ""
-                    )
-                )
-            var, term = g[0], g[2]
-            if var not in by_name:
-                other = "an output" if side == "antecedent" else "an input"
-                known = [v.name for v in variables]
-                if any(v.name == var for v in (outputs if side == "antecedent" else inputs)):
-                    raise ValueError(f"{var!r} is {other}; it cannot appear in the {side}")
-                raise ValueError(f"unknown variable {var!r} in the {side} (known: {known})")
-            i = by_name[var]
-            if picked[i] is not None:
-                raise ValueError(f"variable {var!r} appears twice in the {side}")
-            v = variables[i]
-            if term not in v.term_names:
-                hint = (
-                    " (leave the input out instead of writing NONE)"
-                    if term.upper() == "NONE"
-                    else ""
-                )
-                raise ValueError(f"unknown term {term!r} of {var!r} (terms: {v.term_names}){hint}")
-            picked[i] = v.term_names.index(term)
-        return tuple(picked)
+    ant, connection = _clauses(toks[1:t_then], inputs, outputs, "antecedent")
+    con, _ = _clauses(toks[t_then + 1 : end], outputs, inputs, "consequent")
+    return Rule(ant, con, weight, connection)
 
-    ant = clauses(toks[1:t_then], inputs, "antecedent")
-    con = clauses(toks[t_then + 1 : end], outputs, "consequent")
-    return Rule(ant, con, weight)
+
+def _clauses(
+    part: list[str], variables: list[Variable], others: list[Variable], side: str
+) -> tuple[tuple[int | None, ...], str]:
+    """One side of a rule sentence: its term indices (``~k`` for NOT term k) and its
+    connective ("and" or "or"; a consequent is joined by AND, without NOT)."""
+    by_name = {v.name: i for i, v in enumerate(variables)}
+    picked: list[int | None] = [None] * len(variables)
+    if not part:
+        raise ValueError(f"the {side} is empty")
+    groups: list[list[str]] = [[]]
+    joints = set()
+    for t in part:
+        if t.upper() in ("AND", "OR"):
+            joints.add(t.upper())
+            groups.append([])
+        else:
+            groups[-1].append(t)
+    if len(joints) > 1:
+        raise ValueError(
+            f"the {side} mixes AND and OR; a rule is all AND or all OR (write two rules)"
+        )
+    if side == "consequent" and joints == {"OR"}:
+        raise ValueError("the consequent joins its outputs with AND, not OR")
+    for g in groups:
+        negate = len(g) == 4 and g[1].upper() == "IS" and g[2].upper() == "NOT"
+        if negate and side == "consequent":
+            raise ValueError(f"NOT is for the antecedent, not the consequent: {' '.join(g)!r}")
+        if not negate and (len(g) != 3 or g[1].upper() != "IS"):
+            raise ValueError(
+                f"expected '<variable> IS <term>' or '<variable> IS NOT <term>' in the {side}, "
+                f"got {' '.join(g)!r}"
+            )
+        var, term = g[0], g[-1]
+        if var not in by_name:
+            known = [v.name for v in variables]
+            if any(v.name == var for v in others):
+                other = "an output" if side == "antecedent" else "an input"
+                raise ValueError(f"{var!r} is {other}; it cannot appear in the {side}")
+            raise ValueError(f"unknown variable {var!r} in the {side} (known: {known})")
+        i = by_name[var]
+        if picked[i] is not None:
+            raise ValueError(f"variable {var!r} appears twice in the {side}")
+        v = variables[i]
+        if term not in v.term_names:
+            hint = (
+                " (leave the input out instead of writing NONE)" if term.upper() == "NONE" else ""
+            )
+            raise ValueError(f"unknown term {term!r} of {var!r} (terms: {v.term_names}){hint}")
+        k = v.term_names.index(term)
+        picked[i] = ~k if negate else k
+    return tuple(picked), "or" if joints == {"OR"} else "and"
 
 
 def format_rule(system: FuzzySystem, rule: Rule) -> str:
@@ -402,7 +416,7 @@ def dumps_toml(system: FuzzySystem) -> str:
         lines.append(f"description = {_str(system.description)}")
     lines.append(f"points = {system.n_points}")
     inference = system.inference.as_dict()
-    if inference["or_method"] == "max":  # the default, without effect: left out
+    if inference["or_method"] == "max":  # the default: left out
         del inference["or_method"]
     lines += [f"{TOML_KEYS[field]} = {_str(value)}" for field, value in inference.items()]
     if system.unsensed_none:

@@ -29,7 +29,7 @@ from fuzzynav.app.experiments.studies import (
     StudyInterrupted,
     run_study,
 )
-from fuzzynav.controller.fuzzynav_parts import load_parts
+from fuzzynav.controller.navigator.parts import load_parts
 from fuzzynav.world.layouts import FAMILIES
 
 ROOT = Path(__file__).resolve().parents[1]

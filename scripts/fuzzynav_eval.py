@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def make(name, vector=None):
     if name == "fuzzynav" and vector is not None:
-        from fuzzynav.controller.fuzzynav_tuning import tunable
+        from fuzzynav.controller.navigator.tuning import tunable
 
         return tunable().build(vector)
     from fuzzynav.controller.registry import make_controller

@@ -17,9 +17,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import FancyBboxPatch
 
-from fuzzynav.controller.fuzzynav_params import AVOID_PATH, GOAL_PATH, load_params
-from fuzzynav.controller.fuzzynav_planner import blocked_cones, free_bearing
-from fuzzynav.controller.fuzzynav_robot import _HX, _HY
+from fuzzynav.controller.navigator.params import AVOID_PATH, GOAL_PATH, load_params
+from fuzzynav.controller.navigator.planner import blocked_cones, free_bearing
+from fuzzynav.controller.navigator.robot import _HX, _HY
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fuzzynav.controller.fuzzynav import fuzzynav_controller
+from fuzzynav.controller.navigator.controller import fuzzynav_controller
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.scenario import load_scenario
 from fuzzynav.world.simulation import Simulation

@@ -21,8 +21,8 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from fuzzynav.app.published import PAPER_TABLE4, SCENARIOS
-from fuzzynav.controller.fuzzynav_params import PARAMS_PATH
-from fuzzynav.controller.fuzzynav_tuning import tunable
+from fuzzynav.controller.navigator.params import PARAMS_PATH
+from fuzzynav.controller.navigator.tuning import tunable
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.scenario import load_scenario
 from fuzzynav.world.simulation import Simulation

@@ -147,7 +147,7 @@ def test_a_reader_that_leaves_early_gets_no_traceback():
 
 def test_parts_lists_what_off_takes(capsys):
     """`fuzzynav parts`: every name it lists is one `run --off` takes."""
-    from fuzzynav.controller.fuzzynav_parts import load_parts
+    from fuzzynav.controller.navigator.parts import load_parts
 
     assert main(["parts", "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)

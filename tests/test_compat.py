@@ -1,4 +1,4 @@
-"""The private names fuzzynav takes from pymunk, numpy and viser are there, and do what
+"""The private names fuzzynav takes from pymunk and viser are there, and do what
 the public API does (issue 36 item 5): an upgrade that moves one fails here, loudly,
 instead of silently slowing down or changing a run."""
 
@@ -8,11 +8,10 @@ import asyncio
 import re
 import warnings
 
-import numpy as np
 import pymunk
 import pytest
 
-from fuzzynav.world import compat_numpy, compat_pymunk
+from fuzzynav.world import compat_pymunk
 
 
 def test_the_installed_pymunk_has_every_private_name_the_fast_path_uses():
@@ -69,18 +68,6 @@ def test_removed_shapes_are_let_go_outside_a_step_and_kept_inside_one():
     compat_pymunk.forget_removed_shapes(space)  # outside a step nothing needs them
     assert len(space._removed_shapes) == 0
     space.step(0.01)  # and the space steps on
-
-
-def test_numpys_c_einsum_is_there_and_gives_np_einsums_bits():
-    if np.__version__.split(".")[0] != compat_numpy.SUPPORTED_MAJOR:
-        pytest.fail(
-            f"numpy {np.__version__}: world/compat_numpy.py was written for "
-            f"{compat_numpy.SUPPORTED_MAJOR}.x; check c_einsum and update it"
-        )
-    assert compat_numpy.FAST, "numpy._core._multiarray_umath.c_einsum is gone"
-    rng = np.random.default_rng(3)
-    z, m = rng.normal(size=(7, 8)), rng.normal(size=(12, 8))
-    assert np.array_equal(compat_numpy.einsum("ij,kj->ik", z, m), np.einsum("ij,kj->ik", z, m))
 
 
 # -- viser (app/viewer/compat_viser.py) ---------------------------------------------------

@@ -87,7 +87,7 @@ def test_run_figures_of_fuzzynav_show_both_blocks_membership(tmp_path):
     """fuzzynav has no single ``fis``: its figures carry the membership functions of
     both blocks' inputs and outputs (goal: phi_t, d_t; avoidance: left, front, right,
     side), outputs named by block."""
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
     from fuzzynav.world.scenario import load_scenario
 
     scenario = load_scenario("s1").replace(duration_s=4.0)

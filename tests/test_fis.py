@@ -208,8 +208,8 @@ BAD = [
     ("Name='food'", "Name='food'\nColor='red'", "unknown [Input2] key 'Color'", 24),
     ("Name='tipper'", "Name='tipper'\nDisableStructuralChecks=0", "unknown [System] key", 3),
     ("1 1, 1 (1) : 1", "1 1, 1 (1) : 1\n\n", None, None),  # blank lines are fine (control)
-    ("2 0, 2 (1) : 1", "2 1, 2 (1) : 2", "OR rules are not supported", 39),
-    ("2 0, 2 (1) : 1", "-2 0, 2 (1) : 1", "negated clauses (NOT)", 39),
+    ("2 0, 2 (1) : 1", "2 1, 2 (1) : 0", "connection must be 1 (AND) or 2 (OR)", 39),
+    ("2 0, 2 (1) : 1", "-4 0, 2 (1) : 1", "term index -4 out of range for input 'service'", 39),
     ("2 0, 2 (1) : 1", "2 0, -2 (1) : 1", "negated consequents", 39),
     ("2 0, 2 (1) : 1", "4 0, 2 (1) : 1", "term index 4 out of range for input 'service'", 39),
     ("2 0, 2 (1) : 1", "2 0 1, 2 (1) : 1", "3 antecedent indices", 39),

@@ -21,7 +21,6 @@ from hypothesis import strategies as st
 
 from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
-from fuzzynav.controller.fuzzy_front import scalar_function
 from fuzzynav.controller.rulebase import (
     dumps_toml,
     format_rule,
@@ -162,17 +161,15 @@ def shape_and_params(draw):
     ),
     use_params=st.booleans(),
 )
-def test_formula_per_row_and_scalar_front_identical(sp, xs, use_params):
-    """Each family's one formula, with one parameter set and with the set repeated per
-    row, and the single-sample front's scalar code generated from its table entry agree
-    to the last bit (the engine's two paths rely on it); the parameters themselves are
-    also evaluation points, to hit the edges."""
+def test_formula_per_row_and_one_by_one_identical(sp, xs, use_params):
+    """Each family's one formula, with one parameter set, with the set repeated per row
+    and value by value agree to the last bit (the engine's two paths rely on it); the
+    parameters themselves are also evaluation points, to hit the edges."""
     shape, p = sp
     x = np.array(xs + (list(p) if use_params else []), dtype=float)
     ref = mf.SHAPES[shape].evaluate(x, p)
     per_row = mf.SHAPES[shape].evaluate(x, np.tile(p, (x.size, 1)))
-    scalar = scalar_function(shape, p)
-    sca = np.array([scalar(float(v)) for v in x])
+    sca = np.array([mf.SHAPES[shape].evaluate(np.array([v]), np.array([p]))[0] for v in x])
     assert np.array_equal(ref, per_row), (shape, p, x, ref, per_row)
     assert np.array_equal(ref, sca), (shape, p, x, ref, sca)
     assert np.all((ref >= 0) & (ref <= 1))
@@ -783,8 +780,23 @@ _GOOD = PAPER_TOML.read_text(encoding="utf-8")
         ),
         (
             '"IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS"',
-            '"IF d_t IS VL OR phi_t IS VN THEN left IS L"',
-            "only AND",
+            '"IF d_t IS VL OR phi_t IS VN AND d_o IS near THEN left IS L"',
+            "mixes AND and OR",
+        ),
+        (
+            '"IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS"',
+            '"IF d_t IS VL THEN left IS NOT L"',
+            "NOT is for the antecedent",
+        ),
+        (
+            '"IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS"',
+            '"IF d_t IS VL THEN left IS L OR right IS VS"',
+            "joins its outputs with AND",
+        ),
+        (
+            '"IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS"',
+            '"IF d_t IS NOT THEN left IS L"',
+            "unknown term 'NOT'",
         ),
         (
             '"IF d_t IS VL AND phi_t IS VN THEN left IS L AND right IS VS"',

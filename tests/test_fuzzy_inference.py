@@ -35,7 +35,6 @@ from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fis import FisFormatError, dumps_fis, loads_fis
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule
 from fuzzynav.controller.fuzzy_batch import BatchFuzzy
-from fuzzynav.controller.fuzzy_front import generate_front
 from fuzzynav.controller.inference import CHOICES, Inference, defuzzify
 from fuzzynav.controller.rulebase import dumps_toml, loads_toml, read_toml
 
@@ -342,7 +341,6 @@ def test_defaults_are_unchanged_and_the_plain_path_gives_their_bits(paper):
     assert paper.inference == Inference() and not paper._plain
     plain = paper.replace()
     plain._plain = True
-    plain._front = generate_front(plain, per_rule=True)
     X = _inputs(300, seed=4)
     assert np.array_equal(plain.evaluate(X), paper.evaluate(X))
     assert np.array_equal(plain.evaluate_one(X[5]), paper.evaluate_one(X[5]))

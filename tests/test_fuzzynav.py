@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fuzzynav.controller.fis import read_fis
-from fuzzynav.controller.fuzzynav import (
+from fuzzynav.controller.navigator.controller import (
     AVOID_PATH,
     GOAL_PATH,
     FuzzyNavController,
@@ -20,8 +20,8 @@ from fuzzynav.controller.fuzzynav import (
     fuzzynav_controller,
     merge_blocks,
 )
-from fuzzynav.controller.fuzzynav_planner import blocked_cones, free_bearing
-from fuzzynav.controller.fuzzynav_tuning import tunable
+from fuzzynav.controller.navigator.planner import blocked_cones, free_bearing
+from fuzzynav.controller.navigator.tuning import tunable
 from fuzzynav.controller.rulebase import read_toml
 from fuzzynav.world.layouts import generate_layouts
 from fuzzynav.world.scenario import load_scenario
@@ -253,13 +253,13 @@ def test_free_bearing_is_the_nearest_free_bearing_on_its_side(cones, phi_t, side
 def test_shipped_params_file_is_the_hand_design():
     """The README says the shipped parameters are the hand design (tuning did not validate):
     the file and CRISP_DEFAULTS must not drift apart."""
-    from fuzzynav.controller.fuzzynav import CRISP_DEFAULTS, load_params
+    from fuzzynav.controller.navigator.controller import CRISP_DEFAULTS, load_params
 
     assert load_params() == CRISP_DEFAULTS
 
 
 def test_range_at_clearance_hand_cases():
-    from fuzzynav.controller.fuzzynav_robot import _HX, _HY, range_at_clearance
+    from fuzzynav.controller.navigator.robot import _HX, _HY, range_at_clearance
 
     assert range_at_clearance(0.0, 0.5) == pytest.approx(_HX + 0.5)  # ahead
     assert range_at_clearance(math.pi / 2, 0.5) == pytest.approx(_HY + 0.5)  # beside
@@ -271,7 +271,7 @@ def test_range_at_clearance_hand_cases():
 def test_range_at_clearance_puts_the_point_at_that_clearance(bearing, clearance):
     """The stored surface point is exactly d_o from the footprint (the sectors read d_o
     back), also off a corner, where d_o beyond the footprint's extent would be too near."""
-    from fuzzynav.controller.fuzzynav_robot import _HX, _HY, range_at_clearance
+    from fuzzynav.controller.navigator.robot import _HX, _HY, range_at_clearance
 
     r = range_at_clearance(bearing, clearance)
     x, y = abs(r * math.cos(bearing)), abs(r * math.sin(bearing))
@@ -291,7 +291,7 @@ def test_range_at_clearance_puts_the_point_at_that_clearance(bearing, clearance)
 )
 def test_closest_approach_matches_dense_sampling(rel, v_obstacle, v_robot, horizon):
     """The closed form against the distance sampled on a fine time grid."""
-    from fuzzynav.controller.fuzzynav_tracker import closest_approach_m
+    from fuzzynav.controller.navigator.tracker import closest_approach_m
 
     t = np.linspace(0.0, horizon, 4001)
     dx = rel[0] + (v_obstacle[0] - v_robot[0]) * t
@@ -303,8 +303,8 @@ def test_closest_approach_matches_dense_sampling(rel, v_obstacle, v_robot, horiz
 
 
 def test_dodge_speed_yields_passes_first_or_keeps_going():
-    from fuzzynav.controller.fuzzynav_robot import VOLTAGE_LIMIT_V
-    from fuzzynav.controller.fuzzynav_tracker import dodge_speed
+    from fuzzynav.controller.navigator.robot import VOLTAGE_LIMIT_V
+    from fuzzynav.controller.navigator.tracker import dodge_speed
 
     # Heading +x at about 0.5 m/s (10 V). An obstacle 2 m ahead, 1.5 m to the right,
     # crossing towards the line at 0.5 m/s: it gets there when we do -> stop.

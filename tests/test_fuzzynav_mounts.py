@@ -33,7 +33,7 @@ def test_the_memory_keeps_side_echoes_on_the_robots_axes(side_deg):
 
 
 def test_the_default_mounts_are_the_worlds():
-    from fuzzynav.controller.fuzzynav_robot import _MOUNTS, mounts_of
+    from fuzzynav.controller.navigator.robot import _MOUNTS, mounts_of
 
     assert _MOUNTS == mounts_of(default_mounts())
     sim = build_simulation("s1", "fuzzynav", perception="ultrasonic")

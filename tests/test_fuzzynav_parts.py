@@ -9,8 +9,12 @@ import numpy as np
 import pytest
 from load_file import load_file
 
-from fuzzynav.controller.fuzzynav import CRISP_DEFAULTS, DECISION_FIELDS, fuzzynav_controller
-from fuzzynav.controller.fuzzynav_parts import load_parts
+from fuzzynav.controller.navigator.controller import (
+    CRISP_DEFAULTS,
+    DECISION_FIELDS,
+    fuzzynav_controller,
+)
+from fuzzynav.controller.navigator.parts import load_parts
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.scenario import load_scenario
 from fuzzynav.world.simulation import Simulation

@@ -1,8 +1,8 @@
 """The membership-function families are one table (controller.membership.SHAPES):
-every family's scalar source (the single-sample front's) gives its formula's bits, with
-one parameter set and with one per row; and a new family added to the table at run time
-is taken by the scalar engine, the batch engine and the rule-base and .fis formats with
-no other change (issue 36, done-when (e))."""
+every family's one formula gives the same bits with one parameter set and with one per
+row (the single-row path evaluates a family's terms as rows); and a new family added to
+the table at run time is taken by the single-row and batch paths, the batch engine and
+the rule-base and .fis formats with no other change."""
 
 from __future__ import annotations
 
@@ -13,7 +13,6 @@ from fuzzynav.controller import membership as mf
 from fuzzynav.controller.fis import dumps_fis, loads_fis
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
 from fuzzynav.controller.fuzzy_batch import BatchFuzzy
-from fuzzynav.controller.fuzzy_front import scalar_function
 from fuzzynav.controller.rulebase import dumps_toml, loads_toml
 
 BUILT_IN = sorted(mf.SHAPES)
@@ -31,8 +30,8 @@ def _grid(params) -> np.ndarray:
 def _same_bits(shape: mf.Shape, params) -> None:
     x = _grid(params)
     ref = shape.evaluate(x, params)
-    scalar = scalar_function(shape.name, params)
-    assert np.array_equal(ref, [scalar(float(v)) for v in x]), (shape.name, params)
+    one_by_one = [shape.evaluate(np.array([v]), np.array([params]))[0] for v in x]
+    assert np.array_equal(ref, one_by_one), (shape.name, params)
     per_row = shape.evaluate(x, np.tile(params, (x.size, 1)))
     assert np.array_equal(ref, per_row), (shape.name, params)
     two_d = shape.evaluate(np.column_stack([x, x]), np.tile(params, (x.size, 1)))
@@ -41,7 +40,7 @@ def _same_bits(shape: mf.Shape, params) -> None:
 
 
 @pytest.mark.parametrize("name", BUILT_IN)
-def test_every_family_has_examples_and_its_scalar_source_gives_the_formula_bits(name):
+def test_every_family_has_examples_and_gives_the_same_bits_per_row(name):
     shape = mf.SHAPES[name]
     assert shape.examples, f"{name} lists no example parameters"
     for params in shape.examples:
@@ -77,13 +76,6 @@ COSMF = mf.Shape(
     ("c", "w"),
     "w > 0",
     _cosmf,
-    """
-u = (x - c) / w
-if -1.0 < u < 1.0:
-    m = 0.5 + 0.5 * float(np.cos(3.141592653589793 * u))
-else:
-    m = 0.0
-""",
     "raised cosine: centre c, half-width w",
     examples=((0.0, 1.0), (2.5, 0.3)),
     centre="c",
@@ -151,7 +143,7 @@ def test_the_scalar_engine_takes_a_new_family(cosmf):
     system = _system()
     X = _inputs(400)
     Y = system.evaluate(X)  # the batch path of the engine
-    one = np.array([system.evaluate_one(x) for x in X])  # the generated single-sample front
+    one = np.array([system.evaluate_one(x) for x in X])  # the single-row path
     assert np.array_equal(Y, one)
     mu = system.memberships(X)[0][:, 1]
     assert mu[0] == 1.0 and mu[1] == 0.0 and mu[2] == 0.0 and mu[3] == pytest.approx(0.5)
@@ -184,10 +176,10 @@ def test_the_rule_base_and_fis_formats_round_trip_a_new_family(cosmf):
 def test_registration_refuses_a_taken_name_and_a_family_matlab_does_not_know(cosmf, monkeypatch):
     with pytest.raises(ValueError, match="registered already"):
         mf.register_shape(COSMF)
-    twin = mf.Shape("cos2", ("c", "w"), "w > 0", _cosmf, COSMF.scalar, "twin", matlab="cosmf")
+    twin = mf.Shape("cos2", ("c", "w"), "w > 0", _cosmf, "twin", matlab="cosmf")
     with pytest.raises(ValueError, match="MATLAB name 'cosmf' belongs to 'cosmf'"):
         mf.register_shape(twin)
-    own = mf.Shape("ownmf", ("c", "w"), "w > 0", _cosmf, COSMF.scalar, "ours only", matlab=None)
+    own = mf.Shape("ownmf", ("c", "w"), "w > 0", _cosmf, "ours only", matlab=None)
     monkeypatch.setitem(mf.SHAPES, "ownmf", own)
     system = _system().with_term_params("a", "mid", (0.0, 1.0), shape="ownmf")
     assert np.array_equal(system.evaluate(_inputs(50)), _system().evaluate(_inputs(50)))
@@ -205,3 +197,16 @@ def test_the_design_rules_read_centre_and_ramps_from_the_table():
     assert mf.SHAPES["trimf"].ramps_of((0.0, 1.0, 3.0)) == (1.0, 2.0)
     with pytest.raises(ValueError, match="has no centre"):
         centre(Term("t", "trapmf", (0.0, 1.0, 2.0, 3.0)))
+
+
+def test_a_family_s_expressions_are_parsed_not_run():
+    """The conditions, centres and ramps are read by a small walker: a call, an
+    attribute or an unknown name is refused when the family is made."""
+    for requires in ("__import__('os').getcwd()", "w.real > 0", "q > 0", "[w][0] > 0"):
+        with pytest.raises(ValueError, match="expression"):
+            mf.Shape("bad", ("c", "w"), requires, _cosmf, "refused")
+    shape = mf.Shape("ok", ("c", "w"), "not w <= 0 and -1 < c / w < 1 or c == 0", _cosmf, "ok")
+    assert shape.holds((0.5, 1.0)) and not shape.holds((2.0, 1.0)) and shape.holds((0.0, -1.0))
+    assert mf.Shape("r", ("c", "w"), "w > 0", _cosmf, "r", ramps="(w - c, 2 * w)").ramps_of(
+        (1.0, 3.0)
+    ) == (2.0, 6.0)

@@ -118,7 +118,7 @@ def test_the_description_is_husky_toml():
 
 
 def test_the_worlds_defaults_are_the_description():
-    from fuzzynav.controller.fuzzynav_robot import _HX, _HY, _MOUNTS, VOLTAGE_LIMIT_V, mounts_of
+    from fuzzynav.controller.navigator.robot import _HX, _HY, _MOUNTS, VOLTAGE_LIMIT_V, mounts_of
     from fuzzynav.world.arena import Arena
     from fuzzynav.world.layouts import PASSABLE_GAP_M, SAFE_DISTANCE_M
     from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M

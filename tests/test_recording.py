@@ -729,7 +729,7 @@ def test_live_recorder_closed_before_any_row(tmp_path):
 
 
 def _fuzzynav_crossing():
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     controller = fuzzynav_controller()
     sim = build_simulation("crossing", "fuzzynav", controller_object=controller)
@@ -762,7 +762,7 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     decides nothing again. A copy that did not drive is replayed instead; both give
     the same plot."""
     from fuzzynav.app.recordings.internals import INTERNALS_PATH
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     assert len(controller.decisions) == len(result.log) - 1  # one per decided row
@@ -790,7 +790,7 @@ def test_fuzzynav_rule_firing_is_recorded_as_the_teaching_view_shows_it(tmp_path
     where avoidance takes a good part of the command (alpha > 0.3) an avoidance rule
     fires."""
     from fuzzynav.app.recordings.internals import INTERNALS_PATH
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     sim, result, controller = _fuzzynav_crossing()
     layouts = []
@@ -841,7 +841,7 @@ def test_fuzzynav_logged_decisions_that_differ_are_noted(tmp_path):
 def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
     """A reviewer can rebuild fuzzynav from the recording: both rule blocks as TOML and
     the crisp parameters, not the controller's running state."""
-    from fuzzynav.controller.fuzzynav_params import params_toml
+    from fuzzynav.controller.navigator.params import params_toml
     from fuzzynav.controller.rulebase import dumps_toml
 
     _, result, controller = _fuzzynav_crossing()
@@ -859,7 +859,7 @@ def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
     from fuzzynav.app.recordings.internals import INTERNALS_PATH
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     controller = fuzzynav_controller()
     sim = build_simulation("s3", "fuzzynav", controller_object=controller)
@@ -876,7 +876,7 @@ def test_fuzzynav_internals_a_replay_that_differs_is_noted(tmp_path):
     """Recorded with a controller other than the one that drove (other parameters): the
     replay differs at once, the plot stops there and the metadata says so."""
     from fuzzynav.app.recordings.internals import INTERNALS_PATH
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     _, result, _ = _fuzzynav_crossing()
     other = fuzzynav_controller()
@@ -893,7 +893,7 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
     """A live recording ends with the same data and the same layout (with its internals
     tab) as one written after the run."""
     from fuzzynav.app.recordings.internals import INTERNALS_PATH
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     layouts = []
     real = blueprint.blueprint
@@ -929,7 +929,7 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
 def test_a_run_with_fuzzynav_parts_off_says_so(tmp_path):
     """A recording of fuzzynav with parts switched off names them, and its "reproduce"
     line switches them off again; its crisp parameters are the switched ones."""
-    from fuzzynav.controller.fuzzynav import fuzzynav_controller
+    from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     controller = fuzzynav_controller()
     controller.set_parts_off(["edge following", "echo memory"])

@@ -411,7 +411,7 @@ def test_scene_shows_fuzzynav_memory_where_the_obstacles_are(app):
     # sonar echoes are remembered now (no exact surface points of ideal perception):
     # an echo is placed on its beam's axis though it may come from anywhere in the 15 deg
     # cone (0.26-0.52 m off at 2-4 m), and echoes stored while turning are smeared by up
-    # to about 10 degrees of dead-reckoned heading (controller/fuzzynav.py, item 7).
+    # to about 10 degrees of dead-reckoned heading (controller/navigator/controller.py, item 7).
     assert np.median(gaps) < 0.4 and max(gaps) < 1.0, gaps
     assert math.isfinite(snap.steer_heading_rad)
 

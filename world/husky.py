@@ -35,7 +35,6 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import expm
 
-from fuzzynav.world import compat_numpy
 from fuzzynav.world.husky_params import (
     DEFAULT_PARAMETER_FILE,
     INPUT_NAMES,
@@ -195,9 +194,6 @@ def zoh_discretise(A: np.ndarray, B: np.ndarray, dt_s: float) -> DiscreteHusky:
     )
 
 
-_einsum = compat_numpy.einsum  # np.einsum's C function (world/compat_numpy.py)
-
-
 def step_product(step_matrix: np.ndarray, z: np.ndarray) -> np.ndarray:
     """The plant's step for rows of ``[x; u]``: ``z`` (n, 8) -> (n, 12), row ``i`` being
     ``step_matrix @ z[i]`` (the new state, then the step-mean state).
@@ -208,7 +204,7 @@ def step_product(step_matrix: np.ndarray, z: np.ndarray) -> np.ndarray:
     rows around it (its kernels block them), einsum's does not, so a run gives the same
     numbers alone, in a batch of any size, and on the pymunk engine.
     """
-    return _einsum("ij,kj->ik", z, step_matrix)
+    return np.einsum("ij,kj->ik", z, step_matrix)
 
 
 class HuskyModel:

@@ -166,7 +166,7 @@ class RunSettings:
     @staticmethod
     def part_options():
         """fuzzynav's parts that can be switched off (name, what switching it off does)."""
-        from fuzzynav.controller.fuzzynav_parts import load_parts
+        from fuzzynav.controller.navigator.parts import load_parts
 
         return load_parts()
 

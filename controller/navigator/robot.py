@@ -6,9 +6,9 @@ The limit, the footprint and the mounts are the world's robot description
 (:data:`fuzzynav.world.robot.HUSKY` by default; the simulation gives the controller its
 own robot, :meth:`FuzzyNavController.set_robot`), never numbers of its own.
 
-Shared by the echo memory (:mod:`fuzzynav.controller.fuzzynav_memory`), the tracker
-(:mod:`fuzzynav.controller.fuzzynav_tracker`) and the controller
-(:mod:`fuzzynav.controller.fuzzynav`; its design is in docs/fuzzynav.md).
+Shared by the echo memory (:mod:`fuzzynav.controller.navigator.memory`), the tracker
+(:mod:`fuzzynav.controller.navigator.tracker`) and the controller
+(:mod:`fuzzynav.controller.navigator.controller`; its design is in docs/fuzzynav.md).
 """
 
 from __future__ import annotations

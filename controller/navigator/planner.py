@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.controller.fuzzynav_robot import _AXES, _HX, _HY
+from fuzzynav.controller.navigator.robot import _AXES, _HX, _HY
 
 
 def blocked_cones(

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.controller.fuzzynav import FuzzyNavController
-from fuzzynav.controller.fuzzynav_params import (
+from fuzzynav.controller.navigator.controller import FuzzyNavController
+from fuzzynav.controller.navigator.params import (
     AVOID_PATH,
     CRISP_BOUNDS,
     CRISP_DEFAULTS,

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from fuzzynav.controller.fuzzynav_params import CRISP_DEFAULTS, RULES_DIR
+from fuzzynav.controller.navigator.params import CRISP_DEFAULTS, RULES_DIR
 
 PARTS_PATH = RULES_DIR / "fuzzynav_parts.toml"
 _KEYS = ("name", "what", "item", "off")

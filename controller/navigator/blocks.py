@@ -14,7 +14,7 @@ from pathlib import Path
 
 from fuzzynav.controller.fis import write_fis
 from fuzzynav.controller.fuzzy import FuzzySystem, Rule
-from fuzzynav.controller.fuzzynav_params import AVOID_PATH, GOAL_PATH
+from fuzzynav.controller.navigator.params import AVOID_PATH, GOAL_PATH
 from fuzzynav.controller.rulebase import read_toml
 
 
@@ -29,10 +29,11 @@ def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
         dataclasses.replace(v, name=f"avoid_{v.name}") for v in avoid.outputs
     ]
     rules = [
-        Rule(r.antecedent + (None,) * ai, r.consequent + (None,) * ao, r.weight) for r in goal.rules
+        Rule(r.antecedent + (None,) * ai, r.consequent + (None,) * ao, r.weight, r.connection)
+        for r in goal.rules
     ]
     rules += [
-        Rule((None,) * gi + r.antecedent, (None,) * go + r.consequent, r.weight)
+        Rule((None,) * gi + r.antecedent, (None,) * go + r.consequent, r.weight, r.connection)
         for r in avoid.rules
     ]
     return FuzzySystem(

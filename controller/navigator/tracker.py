@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from fuzzynav.controller.fuzzynav_robot import (
+from fuzzynav.controller.navigator.robot import (
     _AXES,
     _HX,
     _HY,

@@ -1,8 +1,8 @@
 """fuzzynav's crisp parameters: their defaults, tuning bounds and the shipped file
 (read by :func:`load_params`, written by :func:`write_params`).
 
-Apart from :mod:`fuzzynav.controller.fuzzynav` so that the parts table
-(:mod:`fuzzynav.controller.fuzzynav_parts`), which names these parameters, and the
+Apart from :mod:`fuzzynav.controller.navigator.controller` so that the parts table
+(:mod:`fuzzynav.controller.navigator.parts`), which names these parameters, and the
 controller, which uses the parts table, import in one direction only.
 """
 
@@ -108,7 +108,7 @@ def params_toml(params: dict) -> str:
 
     header = (
         "# fuzzynav's crisp parameters (arbitration, memory, escape); see\n"
-        "# controller/fuzzynav.py. Written by FuzzyNavTunable.save.\n\n"
+        "# controller/navigator/controller.py. Written by FuzzyNavTunable.save.\n\n"
     )
     return header + tomli_w.dumps({"crisp": {k: float(params[k]) for k in CRISP_DEFAULTS}})
 
