@@ -21,13 +21,26 @@ import numpy as np
 from .style import rgba
 
 TIMELINE = "sim_time"
+#: The second timeline: the log's row, the control step (row N of the ``--trace`` CSV,
+#: the first row after its header being 0), to jump to a row of the trace.
+STEP_TIMELINE = "step"
 
 
-def time_column(time_s: np.ndarray):
+def time_indexes(time_s: np.ndarray, steps) -> list:
+    """The ``send_columns`` indexes of rows at ``time_s`` (s), the log's rows ``steps``."""
     import rerun as rr
 
     nanos = np.round(np.asarray(time_s, dtype=float) * 1e9).astype(np.int64)
-    return rr.TimeColumn(TIMELINE, duration=nanos.astype("timedelta64[ns]"))
+    return [
+        rr.TimeColumn(TIMELINE, duration=nanos.astype("timedelta64[ns]")),
+        rr.TimeColumn(STEP_TIMELINE, sequence=np.asarray(steps, dtype=np.int64)),
+    ]
+
+
+def steps_at(log_time_s: np.ndarray, time_s) -> np.ndarray:
+    """The log's row at each of ``time_s`` (the last at or before it)."""
+    rows = np.searchsorted(log_time_s, np.asarray(time_s, dtype=float) + 1e-9, side="right") - 1
+    return np.clip(rows, 0, max(len(log_time_s) - 1, 0)).astype(np.int64)
 
 
 @functools.cache
@@ -245,13 +258,16 @@ class RowBatch:
     entity, the chunks ``send_columns`` would make, for one call instead of one per
     entity (about 0.3 ms each, which adds up over ~70 series and every live chunk)."""
 
-    def __init__(self, time_s: np.ndarray):
+    def __init__(self, time_s: np.ndarray, steps):
         import pyarrow as pa
 
         nanos = np.round(np.asarray(time_s, dtype=float) * 1e9).astype(np.int64)
         self.n = len(nanos)
-        self.fields = [pa.field(TIMELINE, pa.duration("ns"))]
-        self.arrays = [pa.array(nanos.astype("timedelta64[ns]"), type=pa.duration("ns"))]
+        self.fields = [pa.field(TIMELINE, pa.duration("ns")), pa.field(STEP_TIMELINE, pa.int64())]
+        self.arrays = [
+            pa.array(nanos.astype("timedelta64[ns]"), type=pa.duration("ns")),
+            pa.array(np.asarray(steps, dtype=np.int64), type=pa.int64()),
+        ]
         self.unit_offsets = pa.array(np.arange(self.n + 1, dtype=np.int32))
 
     def add(
@@ -289,9 +305,9 @@ class RowBatch:
     def send(self, rec) -> None:
         import pyarrow as pa
 
-        if len(self.fields) > 1:
+        if len(self.fields) > 2:
             batch = pa.RecordBatch.from_arrays(self.arrays, schema=pa.schema(self.fields))
-            rec.send_record_batch(batch, index=TIMELINE)
+            rec.send_record_batch(batch, index=[TIMELINE, STEP_TIMELINE])
 
 
 def text_array(texts):

@@ -84,6 +84,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         self.internals_source: str | None = None  # "decisions" or "replay", from chunk 1
         self.replica = None
         self.replica_error: str | None = None
+        self._flag_states: dict[str, str] = {}  # each flag's lane state at the last row
         self.footprint_m = (float(footprint_m[0]), float(footprint_m[1]))
         self.sensor_config = sensor_config
         self.sensor_names = [m.name for m in sensor_config.mounts]
@@ -125,7 +126,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         key = time_s.tobytes()
         batch = self._sparse.get(key)
         if batch is None:
-            batch = self._sparse[key] = RowBatch(time_s)
+            steps = self._rows_start + np.searchsorted(self._rows_time, time_s)
+            batch = self._sparse[key] = RowBatch(time_s, steps)
         batch.add(path, archetype, name, array, lengths=lengths)
 
     def _style(self, path: str, archetype: str, **components) -> None:
@@ -271,9 +273,9 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         if end <= start:
             return
         t = log.time_s[start:end]
-        rows = self._rows = RowBatch(t)
+        rows = self._rows = RowBatch(t, np.arange(start, end))
         self._sparse: dict[bytes, RowBatch] = {}
-        self._rows_time = t
+        self._rows_time, self._rows_start = t, start
         pose = log.pose[start:end]
 
         # -- the robot, and the target (only the rows where it moved)

@@ -162,8 +162,26 @@ def _run_document(
         + _markdown_table(run)
         + shown
         + "\n\n# Versions\n\n"
-        + _markdown_table(package_versions())
+        + _markdown_table(versions_with_tree(package_versions()))
     )
+
+
+def git_tree_state(revision: str | None) -> str:
+    """What ``git describe --dirty`` says of the checkout the run came from: ``clean``,
+    ``dirty`` (uncommitted changes: the revision alone does not reproduce the run), or
+    ``not a git checkout`` (an installed package: its version says which)."""
+    if not revision:
+        return "not a git checkout"
+    if revision.endswith("-dirty"):
+        return "dirty (uncommitted changes: the revision alone does not reproduce the run)"
+    return "clean"
+
+
+def versions_with_tree(versions: dict) -> dict:
+    """``versions`` with the git tree's state (:func:`git_tree_state`) after its revision."""
+    out = dict(versions)
+    out["git tree"] = git_tree_state(versions.get("git"))
+    return out
 
 
 def metadata(

@@ -173,7 +173,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
         return
     # every entity's column in one record batch (one chunk each, as send_columns made,
     # for one call instead of two or three a variable)
-    batch = RowBatch(log.time_s[rows])
+    batch = RowBatch(log.time_s[rows], rows)
     grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):
         _, _, sx = _scale(var)

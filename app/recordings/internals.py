@@ -13,7 +13,7 @@ import copy
 
 import numpy as np
 
-from .arrow import StaticBatch, tensor_rows, time_column
+from .arrow import StaticBatch, tensor_rows, time_indexes
 from .style import SERIES_PALETTE
 
 
@@ -70,6 +70,17 @@ INTERNALS = (
     "following an edge (1)",
     "target reading doubted (1)",
 )
+#: The state's numbers plotted at INTERNALS_PATH (its first two); its flags (the rest)
+#: are lanes of their own (:data:`INTERNAL_FLAGS`): on one axis with the weights, the
+#: 0/1 flags hid one another.
+INTERNAL_WEIGHTS = INTERNALS[:2]
+INTERNAL_FLAGS_PATH = "/internals/flags"
+#: Each flag's lane (under INTERNAL_FLAGS_PATH) and its states by value.
+INTERNAL_FLAGS = {
+    "yield_or_pass": {1.0: "yield", -1.0: "pass first", 0.0: "-"},
+    "edge": {1.0: "following an edge", 0.0: "-"},
+    "target_doubted": {1.0: "target reading doubted", 0.0: "-"},
+}
 
 
 def controller_label(controller, unknown: str | None = "unknown") -> str | None:
@@ -96,8 +107,8 @@ HEATMAP_IMAGE_PATH = f"{RULES_HEATMAP_PATH}/image"
 HEATMAP_ROWS_PATH = f"{RULES_HEATMAP_PATH}/rows"
 HEATMAP_TIMES_PATH = f"{RULES_HEATMAP_PATH}/times"
 #: The heatmap image is drawn this many rows wide (its columns scaled to it), so that
-#: it fills a panel about three times as wide as high, whatever the number of bins.
-HEATMAP_ASPECT = 3.0
+#: it fills its tab (a panel about as wide as high), whatever the number of bins.
+HEATMAP_ASPECT = 1.0
 #: Where the row names stand, left of the image (in rows).
 HEATMAP_LABEL_X = -2.5
 #: The most time bins of the rule heatmap (a long run is binned: the max per bin).
@@ -234,22 +245,19 @@ def _bin_maxima(bins: np.ndarray, starts: np.ndarray, first_row: int, rows: np.n
 
 
 def heatmap_row_labels(n_rules: int) -> list[int]:
-    """The rules (1 to n) named beside the heatmap's rows: every one up to 15, else R1,
-    every fifth and the last (rerun writes a label about 16 px high: one a row would
-    overlap at 40 rules in a panel 300 px high)."""
-    if n_rules <= 15:
-        return list(range(1, n_rules + 1))
-    rows = [1] + list(range(5, n_rules + 1, 5))
-    if n_rules - rows[-1] >= 3:
-        rows.append(n_rules)
-    return rows
+    """The rules (1 to n) named beside the heatmap's rows: every one (with every fifth
+    only, R9 was read as R10); the heatmap has a tab of its own, tall enough for a
+    label a row (:data:`HEATMAP_PANEL_PX`, :func:`heatmap_row_px`)."""
+    return list(range(1, int(n_rules) + 1))
 
 
-#: The heatmap panel's size at 1600 x 1000 (px, about: the rules tab's third view) and
-#: how far below its anchor point rerun writes a label's middle (5 px, then half its
+#: The heatmap panel's size at 1600 x 1000 (px, about: its own tab, in the right half)
+#: and how far below its anchor point rerun writes a label's middle (5 px, then half its
 #: height): the row names are anchored this much above their rows.
-HEATMAP_PANEL_PX = (780.0, 330.0)
+HEATMAP_PANEL_PX = (780.0, 880.0)
 LABEL_DROP_PX = 14.0
+#: How high rerun writes a label (px): a row of the heatmap at least this high.
+LABEL_HEIGHT_PX = 16.0
 
 
 def heatmap_bounds(n_rules: int) -> tuple[list[float], list[float]]:
@@ -260,11 +268,15 @@ def heatmap_bounds(n_rules: int) -> tuple[list[float], list[float]]:
     return [HEATMAP_LABEL_X - 2.5, width + 1.0], [-1.0, n + 0.12 * n + 3.0]
 
 
+def heatmap_row_px(n_rules: int) -> float:
+    """How high a row of the heatmap is drawn (px) at :data:`HEATMAP_PANEL_PX`."""
+    (x0, x1), (y0, y1) = heatmap_bounds(n_rules)
+    return min(HEATMAP_PANEL_PX[0] / (x1 - x0), HEATMAP_PANEL_PX[1] / (y1 - y0))
+
+
 def _label_drop(n_rules: int) -> float:
     """:data:`LABEL_DROP_PX` in the heatmap view's units (rows), at its panel's size."""
-    (x0, x1), (y0, y1) = heatmap_bounds(n_rules)
-    px_per_unit = min(HEATMAP_PANEL_PX[0] / (x1 - x0), HEATMAP_PANEL_PX[1] / (y1 - y0))
-    return LABEL_DROP_PX / px_per_unit
+    return LABEL_DROP_PX / heatmap_row_px(n_rules)
 
 
 def time_ticks(first_s: float, last_s: float, most: int = 8) -> list[float]:
@@ -375,9 +387,10 @@ class ControllerColumns:
             absent=~decided,  # the chart at the final instant shows the last decision
         )
         times = np.asarray(self._rows_time, dtype=float)[decided]
-        self._send_strongest(times, self.rule_heat.add(times, strengths[decided]))
+        steps = self._rows_start + np.flatnonzero(decided)
+        self._send_strongest(times, steps, self.rule_heat.add(times, strengths[decided]))
 
-    def _send_strongest(self, times: np.ndarray, strengths: np.ndarray) -> None:
+    def _send_strongest(self, times: np.ndarray, steps, strengths: np.ndarray) -> None:
         """The strongest rule at each decision, where it changes (from the chunk before
         too): a labelled lane, sent a chunk at a time."""
         if not len(times):
@@ -397,7 +410,7 @@ class ControllerColumns:
         labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
         self.rec.send_columns(
             RULES_STRONGEST_PATH,
-            indexes=[time_column(times[change])],
+            indexes=time_indexes(times[change], steps[change]),
             columns=rr.StateChange.columns(state=labels),
             strict=True,
         )
@@ -474,13 +487,15 @@ class ControllerColumns:
             self.replica_error = f"its {how} from the run at t = {log.time_s[k]:.2f} s"
             return
         out[decided] = state
+        weights = len(INTERNAL_WEIGHTS)
         self._plot(
             INTERNALS_PATH,
-            list(INTERNALS),
-            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
-            [1.5] * len(INTERNALS),
-            out,
+            list(INTERNAL_WEIGHTS),
+            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(weights)],
+            [1.5] * weights,
+            out[:, :weights],
         )
+        self._send_flags(log, start, out[:, weights:], decided)
         if self.blocks is not None:
             strengths = np.full((end - start, len(self.blocks.rules)), np.nan)
             if decided.any():
@@ -494,9 +509,33 @@ class ControllerColumns:
         controller's own decisions (as :meth:`_internals` plotted it from them; NaN at a
         row without a decision): for the legend of a run recorded whole."""
         decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
-        out = np.full((end - start, len(INTERNALS)), np.nan)
-        out[decided] = self._logged_decisions(start, decided)[:, 2 : 2 + len(INTERNALS)]
+        out = np.full((end - start, len(INTERNAL_WEIGHTS)), np.nan)
+        out[decided] = self._logged_decisions(start, decided)[:, 2 : 2 + len(INTERNAL_WEIGHTS)]
         return out
+
+    def _send_flags(self, log, start: int, flags: np.ndarray, decided: np.ndarray) -> None:
+        """Each flag of fuzzynav's state as a lane (:data:`INTERNAL_FLAGS`), where it
+        changes (from the chunk before too); a row without a decision keeps the state."""
+        import rerun as rr
+
+        last = self._flag_states
+        rows = np.flatnonzero(decided)
+        for j, (lane, states) in enumerate(INTERNAL_FLAGS.items()):
+            values = flags[rows, j]
+            texts = [states.get(float(v), f"{v:g}") for v in values.tolist()]
+            keep = [
+                k for k, text in enumerate(texts) if text != (texts[k - 1] if k else last.get(lane))
+            ]
+            if texts:
+                last[lane] = texts[-1]
+            if not keep:
+                continue
+            steps = start + rows[keep]
+            self.rec.send_columns(
+                f"{INTERNAL_FLAGS_PATH}/{lane}",
+                indexes=time_indexes(log.time_s[steps], steps),
+                columns=rr.StateChange.columns(state=[texts[k] for k in keep]),
+            )
 
     def _logged_decisions(self, start: int, decided: np.ndarray):
         """The driving controller's own decisions for the decided rows of [start, end)

@@ -164,7 +164,7 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
     entries = {}
     for mask, plots in by_mask.items():
         keep = np.array(mask)
-        batch = RowBatch(times[keep])
+        batch = RowBatch(times[keep], np.array([m[1] for m in marks])[keep])
         shape_array, color_array = pa.array(shapes[keep]), pa.array(colors[keep])
         for path, column in plots:
             entity = f"{path}/{EVENTS_CHILD}"

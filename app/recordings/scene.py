@@ -23,9 +23,10 @@ from fuzzynav.world.geometry import (
     points_along,
 )
 
-from .arrow import StaticBatch, strips_array, vec2_array, vec3_array
+from .arrow import StaticBatch, strips_array, vec2_array
 from .style import (
     BEAM_ORDER,
+    DISTURBANCE,
     HEADING,
     HEADING_ARROW_M,
     HEADING_ORDER,
@@ -44,6 +45,9 @@ from .style import (
     TRAIL_ORDER,
     obstacle_color,
 )
+
+#: The trail's segments inside the disturbance window, under the trail.
+TRAIL_DISTURBED_PATH = "/world/robot/trail_disturbed"
 
 
 class SceneColumns:
@@ -103,6 +107,22 @@ class SceneColumns:
             "LineStrips2D",
             "strips",
             strips_array(np.stack([starts, pose[:, :2]], axis=1)),
+        )
+        # The trail again, in the disturbance's colour, where the inputs were disturbed.
+        disturbed = np.abs(log.disturbance[start : start + len(pose)]) > 0.0
+        self._style(
+            TRAIL_DISTURBED_PATH,
+            "LineStrips2D",
+            colors=DISTURBANCE,
+            radii=0.045,
+            draw_order=float(TRAIL_ORDER - 1),
+        )
+        rows.add(
+            TRAIL_DISTURBED_PATH,
+            "LineStrips2D",
+            "strips",
+            strips_array(np.stack([starts[disturbed], pose[disturbed, :2]], axis=1)),
+            lengths=disturbed.astype(np.int32),
         )
 
     def _send_target(self, t, target) -> None:
@@ -226,36 +246,20 @@ class SceneColumns:
                 vec2_array("Points2D", "positions", pos),
                 lengths,
             )
-            # The safe ring: one static circle around the origin, moved by a translation
-            # where the obstacle moves (12 bytes a row, not 49 points).
-            # The circle is sent where the obstacle appears or vanishes, the translation
-            # where it moves.
+            # The safe ring, drawn around the obstacle at every row where it moves (a
+            # circle moved by a transform was drawn where the obstacle ended, whatever
+            # the time cursor said), none where it is absent.
             ring_path = f"{base}/safe_ring"
-            shown_now = present[rows]
-            before = np.empty_like(shown_now)
-            before[1:] = shown_now[:-1]
-            before[0] = (not shown_now[0]) if prev is None else prev[0]
-            flips = np.flatnonzero(shown_now != before)
             self._style(ring_path, "LineStrips2D", colors=SAFE_RING, radii=0.01)
-            if len(flips):
-                circle = circle_points(radius + SAFE_DISTANCE_M, RING_SEGMENTS)
-                strips = np.repeat(circle[None], int(shown_now[flips].sum()), axis=0)
-                self._send_sparse(
-                    ring_path,
-                    t[rows[flips]],
-                    "LineStrips2D",
-                    "strips",
-                    strips_array(strips),
-                    shown_now[flips].astype(np.int32),
-                )
-            if shown_now.any():
-                self._send_sparse(
-                    ring_path,
-                    t[rows[shown_now]],
-                    "Transform3D",
-                    "translation",
-                    vec3_array(pos),
-                )
+            circle = circle_points(radius + SAFE_DISTANCE_M, RING_SEGMENTS)
+            self._send_sparse(
+                ring_path,
+                t[rows],
+                "LineStrips2D",
+                "strips",
+                strips_array(circle[None, :, :] + pos[:, None, :]),
+                lengths,
+            )
             # The path: a segment for every move between two present rows.
             present_rows = rows[present[rows]]
             if len(present_rows):
