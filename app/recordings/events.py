@@ -23,6 +23,7 @@ from .style import (
     SAFE_DISTANCE_M,
     TARGET,
     obstacle_color,
+    time_text,
 )
 
 EVENTS_LOG_PATH = "/events/log"  # TextLog at each event's time
@@ -224,7 +225,7 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
         EVENTS_LOG_PATH,
         indexes=time_indexes(times, steps_at(log.time_s, times)),
         columns=rr.TextLog.columns(
-            text=[f"{e.time_s:7.2f} s  {e.text}" for e in events],
+            text=[f"{time_text(e.time_s):>9}  {e.text}" for e in events],
             level=["WARN" if e.kind in ("collided", "timeout") else "INFO" for e in events],
         ),
         strict=True,
@@ -338,7 +339,7 @@ def _world_marks(rec, static: StaticBatch, log, events) -> None:
                 positions=[xy + LABEL_OFFSET_M * away],
                 radii=[0.001],
                 colors=[EVENT],
-                labels=[f"{e.distance_m:.2f} m at {e.time_s:.1f} s"],
+                labels=[f"{e.distance_m:.2f} m at {time_text(e.time_s, 1)}"],
                 draw_order=[float(HEADING_ORDER + 1)],
             ),
         )

@@ -18,9 +18,11 @@ FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
 #: Where a variable's value is written: under the middle of its axis.
 VALUE_LABEL_AT = (0.5 * FUZZY_W, -0.12)
 #: The least distance between two term names in a row (a name of two letters is about
-#: 0.25 wide in a view of the tab).
-TERM_NAME_GAP = 0.4
-TERM_NAME_ROWS = (1.04, 1.16)
+#: 0.3 wide in a view of the tab, at 1600 x 1000).
+TERM_NAME_GAP = 0.5
+#: The two rows of term names, a label's height apart (0.12 apart, phi_t's N, Z and P
+#: sat on one another).
+TERM_NAME_ROWS = (1.06, 1.3)
 
 
 def term_name_positions(peaks) -> list[tuple[float, float]]:
@@ -114,13 +116,15 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
                 labels=[t.name for t in var.terms],
             ),
         )
+        # the range's ends, with the unit (the view's name says the variable: a name
+        # over the plot sat on the term names, "input d_t (m)" on L)
         static.add_archetype(
             f"{base}/axis",
             rr.Points2D(
-                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.32)],
+                positions=[(0.0, -0.12), (FUZZY_W, -0.12)],
                 radii=0.001,
-                colors=[(90, 90, 90)] * 3,
-                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
+                colors=[(90, 90, 90)] * 2,
+                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}"],
             ),
         )
         static.add_archetype(
