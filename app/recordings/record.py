@@ -4,8 +4,8 @@
 :class:`~fuzzynav.app.recordings.live.LiveRecorder` appends the steps of a running
 simulation in chunks, for the viewer (re-exported here, where the viewer imports it).
 Both go through :class:`~fuzzynav.app.recordings.columns.ColumnWriter` and send whole
-columns on the timeline ``sim_time`` (a duration, nanosecond resolution), never one
-call per step: the entities that have a row at every step go out together as one
+columns on the timelines ``sim_time`` (a duration, nanosecond resolution) and ``step``
+(the log's row: the ``--trace`` CSV's row), never one call per step: the entities that have a row at every step go out together as one
 Arrow record batch (``RecordingStream.send_record_batch``: one chunk per entity, as
 ``send_columns`` would make, for one call instead of ~20); the obstacles and the
 target, logged only where they change, with ``send_columns``; styles (colours, names,
@@ -20,9 +20,10 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /robot/heading                        Arrows2D from the centre along the heading
       /robot/trail                          LineStrips2D: the segment travelled in each step
                                             (the default view shows every segment up to the cursor)
+      /robot/trail_disturbed                the same where the inputs were disturbed
       /obstacles/{id}/body                  Points2D of the obstacle's radius (moving ones move)
       /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface,
-                                            sent once and moved by a Transform3D translation
+                                            about the obstacle at every row where it moves
       /obstacles/{id}/path                  LineStrips2D segments of a moving obstacle's path
       /target                               Points2D, radius = arrival tolerance
       /start, /ideal_line, /scale           static: the start, the straight start-target line,
@@ -32,8 +33,9 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /sensors/{sensor}/beam                ultrasonic perception: the cone, as long as the
                                             reading
       /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
-      /events/closest, /events/moving_{id}  static: the robot at each closest approach; a
-                                            moving obstacle then, and its track
+      /events/closest/{id}, /events/moving_{id}  from their time on: the robot at each
+                                            closest approach; a moving obstacle then (its
+                                            track static); a collision
     /plots                                  Scalars: one entity per plot, one instance
                                             per series (named in the legend; the order
                                             is :func:`.columns.plot_layout`'s, each plot
@@ -41,7 +43,8 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /distance          target, obstacle {id+1}...        paper Fig. 13 (centre to centre;
                                                            s2: 18, s3: 23, as every panel)
       /angles/phi_t, /angles/heading                       Fig. 14, one panel
-      /obstacle_angles   obstacle {id+1}...                Fig. 15 (bearing from the heading)
+      /obstacle_angles   obstacle {id+1}...                Fig. 15 (bearing from the heading;
+                                                           NaN where it crosses +-pi)
       /voltage           left, right (applied), left and right before the limit, the
                          +-12 V limit (one name for both lines)   Fig. 16
       /inputs/distances  d_t, d_o (m) as the controller saw them
@@ -52,8 +55,9 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /current           i_L1, i_L2 (A)
       /ranges            left, front, right sensor readings (m); NaN = no echo
       /disturbance       the value added to the inputs
-      /<plot>/events     every plot: SeriesPoints at the events' times on its curves,
-                         shape and colour per row (:mod:`.plot_events`)
+      /internals         fuzzynav: alpha and the planner offset (its flags: /internals)
+      /<plot>/events/<kind>  every plot: SeriesPoints at the events' times on its
+                         curves, a colour and legend entry per kind (:mod:`.plot_events`)
     /rules                                  fuzzy controllers only
       /firing            BarChart per decision: the bar at abscissa k is rule Rk (float32);
                          null at the last row (no decision)
@@ -61,11 +65,12 @@ Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
       /strongest         StateChange: the strongest rule where it changes
       /heatmap           static Tensor: rules x time (binned, max per bin)
       /heatmap/image, /rows, /times, /ticks   static: the same as a colour-mapped
-                         DepthImage, the rows named R1, R5, ..., seconds under it
+                         DepthImage, every row named (R1 ... Rn), seconds under it
       /texts             static TextDocument: every rule in words
     /fuzzy/inputs/{name}, /fuzzy/outputs/{name}   a controller with a fis: the membership
                          functions, the input's value / the aggregated output and its
                          centroid at each decision (the viewer's inference view)
+    /internals/flags/{yield_or_pass,edge,target_doubted}   fuzzynav: StateChange lanes
     /events/log                             TextLog: closest approaches, disturbance, end
     /events/lanes/{closest_approach,disturbance,outcome}   StateChange lanes
     /meta                                   static TextDocuments
