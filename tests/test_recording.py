@@ -19,7 +19,7 @@ from rerun.chunk import RrdReader
 
 from fuzzynav.app.cli import main
 from fuzzynav.app.figures.style import obstacle_label
-from fuzzynav.app.recordings import arrow, blueprint, style
+from fuzzynav.app.recordings import blueprint, style
 from fuzzynav.app.recordings import internals as internals_module
 from fuzzynav.app.recordings import live as live_module
 from fuzzynav.app.recordings import record as recording
@@ -421,9 +421,9 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     assert np.isnan(result.log.controller_output_v[-1]).all()
     assert np.array_equal(times, nanos(result.log.time_s[:-1]))
     assert same(rows, strengths[:-1].astype(np.float32))  # one bar per rule, float32
-    # ... absent there (null), not an empty list, which would clear the chart at the end
+    # ... no row there at all, not an empty list, which would clear the chart at the end
     raw_times, raw = rec.rows(RULES_PATH, "BarChart:values")
-    assert raw_times[-1] == nanos(result.log.time_s[-1]) and raw[-1] is None
+    assert raw_times[-1] == nanos(result.log.time_s[-2]) and all(raw)
     assert strengths.max() > 0.5  # something fired
     # bar k stands at abscissa k + 1: rule R(k+1)
     abscissa = rec.static[RULES_PATH]["BarChart:abscissa"][0]["buffer"]
@@ -702,19 +702,21 @@ def test_check_writable_file_leaves_nothing_behind(tmp_path):
     assert path.read_bytes() == b"old"
 
 
-def test_component_metadata_matches_the_sdk():
-    """The record batches carry the same descriptors rr.log would."""
-    scalars = rr.Scalars(scalars=[1.0]).as_component_batches()[0].component_descriptor()
-    d, arrow_type = arrow.component_types()[("Scalars", "scalars")]
-    assert (d.archetype, d.component, d.component_type) == (
-        scalars.archetype,
-        scalars.component,
-        scalars.component_type,
-    )
-    assert arrow_type == pa.float64()
-    field, _ = arrow.component_field("/x", "SeriesLines", "names")
-    assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
-    assert field.metadata[b"rerun:entity_path"] == b"/x"
+def test_the_recordings_go_through_rerun_s_columns_and_archetypes():
+    """No module builds rerun's record batches by hand (``arrow.py`` is gone): the
+    columns go through ``rr.send_columns`` with the archetypes' ``columns``, the static
+    parts through ``rr.log``; pyarrow is imported only where the SDK has no batch of
+    tensors (the rules' bar chart) and where recordings are read back (compare-runs)."""
+    import importlib.util
+    from pathlib import Path
+
+    import fuzzynav.app.recordings as package
+
+    assert importlib.util.find_spec("fuzzynav.app.recordings.arrow") is None
+    folder = Path(package.__file__).parent
+    users = sorted(p.name for p in folder.glob("*.py") if "pyarrow" in p.read_text())
+    assert users == ["compare.py", "internals.py"], users
+    assert not any("send_record_batch" in p.read_text() for p in folder.glob("*.py"))
 
 
 def test_live_recorder_closed_before_any_row(tmp_path):

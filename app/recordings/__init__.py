@@ -14,7 +14,7 @@
 - :mod:`.documents`  the run's documents under ``/meta`` (run, versions, rules, summary);
 - :mod:`.blueprint`  the default layout and the application id;
 - :mod:`.legend`     where a plot's legend goes, and the headroom made for it;
-- :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;
+- :mod:`.sending`    the timelines, and the columns and static parts sent to rerun;
 - :mod:`.style`      colours, draw orders and sizes;
 - :mod:`.trace`      ``run --trace PATH.csv``: one row per control step;
 - :mod:`.compare`    ``fuzzynav compare-runs A.rrd B.rrd``: what differs between two runs.

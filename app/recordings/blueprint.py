@@ -20,7 +20,6 @@ import numpy as np
 from fuzzynav.app.figures.numbering import numbered_scenario, paper_figure_number, scenario_stem
 from fuzzynav.world.metrics import row_blocks
 
-from .arrow import TIMELINE
 from .events import EVENTS_LANES, EVENTS_LOG_PATH
 from .fuzzy import FUZZY_PATH, FUZZY_W
 from .internals import (
@@ -36,6 +35,7 @@ from .internals import (
     rule_system,
 )
 from .scene import TRAIL_DISTURBED_PATH
+from .sending import TIMELINE
 from .series import CLEARANCE_SHOWN_M as CLEARANCE_SHOWN_M
 from .series import PAPER, Setup, panel_name, paper_kinds, tab_panels
 from .series import clearance_range as clearance_range

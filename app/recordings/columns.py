@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrow import RowBatch, StaticBatch
 from .internals import (
     INTERNALS,
     INTERNALS_PATH,
@@ -23,6 +22,7 @@ from .internals import (
 )
 from .legend import LegendFit, legend_placement
 from .scene import SceneColumns
+from .sending import Columns, Statics
 from .series import Rows, Setup, plot_spec, shared_views
 
 #: Rows of the log read at a time to place the legends of a run recorded whole.
@@ -95,7 +95,7 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         self.sent = 0
         self._styled: set[str] = set()
         self._plot_styles: dict[str, tuple] = {}
-        self._static = self.static = StaticBatch()
+        self._static = self.static = Statics()
         self._obstacles: dict[int, tuple[bool, tuple[float, float]]] = {}
         self._target: tuple[float, float] | None = None
         self.obstacle_ids: list[int] = []
@@ -117,18 +117,21 @@ class ColumnWriter(SceneColumns, ControllerColumns):
 
     # -- low level ---------------------------------------------------------------------
 
-    def _send_sparse(self, path: str, time_s, archetype: str, name: str, array, lengths=None):
+    def _send_sparse(self, path: str, time_s, archetype: str, name: str, values, lengths=None):
         """A component on rows of its own (where something changed: the target, the
         obstacles), sent at the chunk's end with every other column on the same rows in
         one record batch (a static obstacle's body, ring and translation, and the
         target, all at the first row: one batch, not a send_columns call each)."""
         time_s = np.asarray(time_s, dtype=float)
-        key = time_s.tobytes()
-        batch = self._sparse.get(key)
-        if batch is None:
-            steps = self._rows_start + np.searchsorted(self._rows_time, time_s)
-            batch = self._sparse[key] = RowBatch(time_s, steps)
-        batch.add(path, archetype, name, array, lengths=lengths)
+        steps = self._rows_start + np.searchsorted(self._rows_time, time_s)
+        self._columns_at(time_s, steps).add(path, archetype, name, values, lengths=lengths)
+
+    def _columns_at(self, time_s: np.ndarray, steps) -> Columns:
+        """The chunk's columns on the rows at ``time_s`` (the log's rows ``steps``)."""
+        key = np.asarray(time_s, dtype=float).tobytes()
+        if key not in self._sparse:
+            self._sparse[key] = Columns(time_s, steps)
+        return self._sparse[key]
 
     def _style(self, path: str, archetype: str, **components) -> None:
         """Static styling of an entity, sent with the chunk's other styles."""
@@ -273,8 +276,8 @@ class ColumnWriter(SceneColumns, ControllerColumns):
         if end <= start:
             return
         t = log.time_s[start:end]
-        rows = self._rows = RowBatch(t, np.arange(start, end))
-        self._sparse: dict[bytes, RowBatch] = {}
+        rows = self._rows = Columns(t, np.arange(start, end))
+        self._sparse: dict[bytes, Columns] = {}
         self._rows_time, self._rows_start = t, start
         pose = log.pose[start:end]
 

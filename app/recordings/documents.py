@@ -13,8 +13,8 @@ import numpy as np
 from fuzzynav.app.figures.numbering import scenario_stem
 from fuzzynav.app.provenance import command_line, package_versions, reproduce_run, wrap_command
 
-from .arrow import StaticBatch
 from .internals import controller_label
+from .sending import Statics
 
 
 def _markdown_table(rows: dict) -> str:
@@ -185,7 +185,7 @@ def versions_with_tree(versions: dict) -> dict:
 
 
 def metadata(
-    static: StaticBatch,
+    static: Statics,
     *,
     scenario,
     controller,
@@ -227,7 +227,7 @@ def metadata(
     )
 
 
-def metrics(static: StaticBatch, metrics: dict, outcome: str) -> None:
+def metrics(static: Statics, metrics: dict, outcome: str) -> None:
     import rerun as rr
 
     rows = {"outcome": outcome, **metrics}
@@ -241,7 +241,7 @@ def metrics(static: StaticBatch, metrics: dict, outcome: str) -> None:
     static.add_archetype("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
 
-def summary(static: StaticBatch, result, controller, events) -> None:
+def summary(static: Statics, result, controller, events) -> None:
     """/meta/summary: the outcome, Table 4's metrics beside the paper's published values
     (s1-s3, the paper and baseline controllers), and the events."""
     import rerun as rr

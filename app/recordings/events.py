@@ -11,7 +11,7 @@ import numpy as np
 from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.world.geometry import circle_points
 
-from .arrow import StaticBatch, steps_at, time_indexes
+from .sending import Statics, steps_at, time_indexes
 from .style import (
     BREACH,
     COLLISION,
@@ -190,7 +190,7 @@ def _lane_colour(state: str):
     return (170, 170, 170)
 
 
-def _send_lane_styles(static: StaticBatch, path: str, states: list[str], colours: dict) -> None:
+def _send_lane_styles(static: Statics, path: str, states: list[str], colours: dict) -> None:
     """Each state's colour in its lane (rerun >= 0.41's StateConfiguration; rerun picks
     its own colours by the state's text before, which made obstacle 1 purple in one
     recording and green in another), with the recording's other static parts (one
@@ -210,7 +210,7 @@ def _send_lane_styles(static: StaticBatch, path: str, states: list[str], colours
     )
 
 
-def send_events(rec, static: StaticBatch, result) -> list[Event]:
+def send_events(rec, static: Statics, result) -> list[Event]:
     """The events as a text log and state lanes on the timeline, and, in the world,
     a marker where the robot was at each closest approach and each moving obstacle
     drawn where it was then, with its whole track."""
@@ -287,7 +287,7 @@ def _mark_at(rec, path: str, event: Event, columns) -> None:
     rec.send_columns(path, indexes=time_indexes([event.time_s], [event.row]), columns=columns)
 
 
-def _world_marks(rec, static: StaticBatch, log, events) -> None:
+def _world_marks(rec, static: Statics, log, events) -> None:
     """In the world, each from its time on: a marker where the robot was at each closest
     approach (``closest/<id>``; its label set off from the robot, away from the
     obstacle, so that it crosses no safety ring: ``closest/<id>/label``), a moving

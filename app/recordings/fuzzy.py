@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrow import RowBatch, StaticBatch, strips_array, text_array
+from .sending import Columns, Statics
 from .style import AGGREGATED, TERM_PALETTE, VALUE
 
 FUZZY_PATH = "/fuzzy"
@@ -73,7 +73,7 @@ def _scale(var):
     return lo, hi, sx
 
 
-def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
+def fuzzy_view(static: Statics, fis, log) -> list[str]:
     """The static part of the viewer's inference view, replayed from the recording:
     every input's and output's membership functions, labels and frame, and the styles of
     the per-decision entities that :func:`send_fuzzy_rows` sends. Returns the variables
@@ -177,7 +177,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
         return
     # every entity's column in one record batch (one chunk each, as send_columns made,
     # for one call instead of two or three a variable)
-    batch = RowBatch(log.time_s[rows], rows)
+    batch = Columns(log.time_s[rows], rows)
     grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):
         _, _, sx = _scale(var)
@@ -197,7 +197,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             heights = memberships[:, k, take]
             xs = np.broadcast_to(sx(grid[take]), heights.shape)
             shape = np.stack([xs, heights], axis=-1)
-            batch.add(f"{base}/aggregated", "LineStrips2D", "strips", strips_array(shape))
+            batch.add(f"{base}/aggregated", "LineStrips2D", "strips", shape)
         seen = np.isfinite(value)
         at = np.clip(sx(value[seen]), 0.0, FUZZY_W)
         marker = np.stack(
@@ -208,6 +208,6 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             axis=1,
         )
         lengths = seen.astype(np.int32)
-        batch.add(f"{base}/value", "LineStrips2D", "strips", strips_array(marker), lengths)
-        batch.add(f"{base}/value_label", "Points2D", "labels", text_array(text), lengths)
+        batch.add(f"{base}/value", "LineStrips2D", "strips", marker, lengths)
+        batch.add(f"{base}/value_label", "Points2D", "labels", text, lengths)
     batch.send(rec)

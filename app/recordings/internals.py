@@ -13,7 +13,7 @@ import copy
 
 import numpy as np
 
-from .arrow import StaticBatch, tensor_rows, time_indexes
+from .sending import Statics, time_indexes
 from .style import SERIES_PALETTE
 
 
@@ -290,7 +290,7 @@ def time_ticks(first_s: float, last_s: float, most: int = 8) -> list[float]:
     return [float(t) for t in np.arange(start, last_s + 1e-9, step)]
 
 
-def send_heatmap_image(static: StaticBatch, heatmap: np.ndarray, first_s, per_bin_s) -> None:
+def send_heatmap_image(static: Statics, heatmap: np.ndarray, first_s, per_bin_s) -> None:
     """The heatmap as rerun draws an image, with its rows named: a colour-mapped depth
     image of the same values (viridis, 0 to 1) scaled to :data:`HEATMAP_ASPECT` times
     as wide as high, ``R1`` ... ``Rn`` left of its rows (:func:`heatmap_row_labels`,
@@ -346,6 +346,56 @@ def send_heatmap_image(static: StaticBatch, heatmap: np.ndarray, first_s, per_bi
     )
 
 
+def bar_chart_rows(values: np.ndarray):
+    """Rows of float32 bars (n, k) as a ``send_columns`` column of BarChart values, one
+    bar chart a row. rerun 0.41's converters make one tensor of a 2D array and refuse a
+    batch of tensors ("Tensors do not support batches"), and ``rr.log`` a row at a time
+    took 1.5 ms a row: so the column's Arrow array (TensorData: shape [k], the values as
+    F32) is made here from numpy, and handed to the SDK's own batch and descriptor."""
+    import pyarrow as pa
+    import rerun as rr
+
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    n, k = values.shape
+    sample = rr.BarChart(values=np.zeros(1, dtype=np.float32)).as_component_batches()
+    [arrow_type] = [
+        b.as_arrow_array().type
+        for b in sample
+        if b.component_descriptor().component == "BarChart:values"
+    ]
+    shape = pa.ListArray.from_arrays(
+        pa.array(np.arange(n + 1, dtype=np.int32)),
+        pa.array(np.full(n, k, dtype=np.uint64)),
+        type=arrow_type.field("shape").type,
+    )
+    names = pa.nulls(n, arrow_type.field("names").type)
+    union = arrow_type.field("buffer").type
+    children = [
+        pa.ListArray.from_arrays(
+            pa.array(np.arange(0, n * k + 1, k, dtype=np.int32)),
+            pa.array(values.reshape(-1)),
+            type=child.type,
+        )
+        if child.name == "F32"
+        else pa.array([], type=child.type)
+        for child in union
+    ]
+    code = union.type_codes[[child.name for child in union].index("F32")]
+    buffer = pa.Array.from_buffers(
+        union,
+        n,
+        [
+            None,
+            pa.py_buffer(np.full(n, code, dtype=np.int8).tobytes()),
+            pa.py_buffer(np.arange(n, dtype=np.int32).tobytes()),
+        ],
+        children=children,
+    )
+    tensors = pa.StructArray.from_arrays([shape, names, buffer], fields=list(arrow_type))
+    batch = rr.components.TensorDataBatch(tensors)
+    return [rr.ComponentColumn(rr.BarChart.descriptor_values(), batch)]
+
+
 class ControllerColumns:
     """The controller's inside, rows [start, end) at a time: every rule's firing and
     fuzzynav's inner state (:data:`INTERNALS`). A part of
@@ -364,10 +414,21 @@ class ControllerColumns:
         decided = np.asarray(decided, bool)
         self.n_rules = strengths.shape[1]
         if RULES_PATH not in self._styled:  # rule Rk at abscissa k (1 to n)
-            self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
-            numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
-            self._static.add_array(RULES_PATH, "BarChart", "abscissa", tensor_rows(numbers))
             import rerun as rr
+
+            self._styled.add(RULES_PATH)
+            numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)
+            self._static.add_batches(
+                RULES_PATH,
+                [
+                    rr.components.ColorBatch([(230, 160, 40)]).described(
+                        rr.BarChart.descriptor_color()
+                    ),
+                    rr.components.TensorDataBatch(numbers).described(
+                        rr.BarChart.descriptor_abscissa()
+                    ),
+                ],
+            )
 
             self._static.add_archetype(  # the chart's axis from 0 to 1, whatever fires
                 RULES_SCALE_PATH,
@@ -378,15 +439,12 @@ class ControllerColumns:
                     color=(200, 200, 200),
                 ),
             )
-        self._rows.add(
-            RULES_PATH,
-            "BarChart",
-            "values",
-            tensor_rows(strengths[decided]),
-            lengths=decided.astype(np.int32),
-            absent=~decided,  # the chart at the final instant shows the last decision
-        )
         times = np.asarray(self._rows_time, dtype=float)[decided]
+        if decided.any():  # (only there: the chart at the final instant shows the last)
+            steps = self._rows_start + np.flatnonzero(decided)
+            self._columns_at(times, steps).add_columns(
+                RULES_PATH, bar_chart_rows(strengths[decided])
+            )
         steps = self._rows_start + np.flatnonzero(decided)
         self._send_strongest(times, steps, self.rule_heat.add(times, strengths[decided]))
 
@@ -415,7 +473,7 @@ class ControllerColumns:
             strict=True,
         )
 
-    def send_heatmap(self, static: StaticBatch) -> None:
+    def send_heatmap(self, static: Statics) -> None:
         """The rule firing of the whole run as a heatmap: rules down, time across (at
         most :data:`HEATMAP_MAX_BINS` bins, each the max over its rows, so a brief
         firing stays visible), with the rules in words beside it (:class:`RuleHeat`

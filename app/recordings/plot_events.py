@@ -25,7 +25,7 @@ import numpy as np
 
 from fuzzynav.app.figures.style import obstacle_label
 
-from .arrow import RowBatch
+from .sending import Columns
 from .series import shared_views
 from .style import BREACH, COLLISION, DISTURBANCE, EVENT, TARGET
 
@@ -130,8 +130,6 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
     placement."""
     if not len(log) or not events:
         return {}
-    import pyarrow as pa
-
     from .series import CLEARANCE_SHOWN_M
 
     time_s = np.asarray(log.time_s, dtype=float)
@@ -164,7 +162,7 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
             entity = f"{path}/{EVENTS_CHILD}/{kind['key']}"
             times = np.array([m[0] for m in kind_marks])[keep]
             rows = np.array([m[1] for m in kind_marks])[keep]
-            shapes = np.array([_marker(m[3]) for m in kind_marks], dtype=np.uint8)[keep]
+            shapes = [m[3] for m, kept in zip(kind_marks, keep) if kept]
             by_rows.setdefault((times.tobytes(), rows.tobytes()), [times, rows, []])[2].append(
                 (entity, column[keep, None], shapes)
             )
@@ -177,15 +175,9 @@ def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
             )
             entries[path] = entries.get(path, 0) + 1
     for times, rows, columns in by_rows.values():
-        batch = RowBatch(times, rows)
+        batch = Columns(times, rows)
         for entity, column, shapes in columns:
             batch.add_series(entity, column)
-            batch.add(entity, "SeriesPoints", "markers", pa.array(shapes))
+            batch.add(entity, "SeriesPoints", "markers", shapes)
         batch.send(rec)
     return entries
-
-
-def _marker(name: str) -> int:
-    import rerun as rr
-
-    return int(rr.components.MarkerShape.auto(name).value)

@@ -5,13 +5,13 @@
 simulation in chunks, for the viewer (re-exported here, where the viewer imports it).
 Both go through :class:`~fuzzynav.app.recordings.columns.ColumnWriter` and send whole
 columns on the timelines ``sim_time`` (a duration, nanosecond resolution) and ``step``
-(the log's row: the ``--trace`` CSV's row), never one call per step: the entities that have a row at every step go out together as one
-Arrow record batch (``RecordingStream.send_record_batch``: one chunk per entity, as
-``send_columns`` would make, for one call instead of ~20); the obstacles and the
-target, logged only where they change, with ``send_columns``; styles (colours, names,
-radii) once, as static components. Related series share one
-entity (a plot) as instances: each entity costs a chunk with its own row ids and times,
-which for one entity per series made most of a file and of the time to write it.
+(the log's row: the ``--trace`` CSV's row), never one call per step:
+``rr.send_columns`` with the archetypes' ``columns``, an entity at a time
+(:mod:`.sending`); the obstacles and the target only where they change; styles
+(colours, names, radii) once, as static components (``rr.log(..., static=True)``).
+Related series share one entity (a plot) as instances: each entity costs a chunk with
+its own row ids and times, which for one entity per series made most of a file and of
+the time to write it.
 
 Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
 
@@ -100,7 +100,7 @@ a static ``Transform3D`` that mirrors y, and the default view has origin ``/``, 
 map is drawn with y up, as in the paper's figures; the logged coordinates are the
 simulation's own.
 
-``rerun`` and ``pyarrow`` are imported inside the functions: the command line imports
+``rerun`` is imported inside the functions: the command line imports
 this module for its options on every call.
 """
 

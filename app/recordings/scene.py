@@ -23,7 +23,7 @@ from fuzzynav.world.geometry import (
     points_along,
 )
 
-from .arrow import StaticBatch, strips_array, vec2_array
+from .sending import Statics
 from .style import (
     BEAM_ORDER,
     DISTURBANCE,
@@ -71,7 +71,7 @@ class SceneColumns:
             "/world/robot/footprint",
             "LineStrips2D",
             "strips",
-            strips_array(footprint_outlines(pose, *self.footprint_m)),
+            footprint_outlines(pose, *self.footprint_m),
         )
         self._style(
             "/world/robot/heading",
@@ -85,13 +85,13 @@ class SceneColumns:
             "/world/robot/heading",
             "Arrows2D",
             "origins",
-            vec2_array("Arrows2D", "origins", pose[:, :2]),
+            pose[:, :2],
         )
         rows.add(
             "/world/robot/heading",
             "Arrows2D",
             "vectors",
-            vec2_array("Arrows2D", "vectors", heading),
+            heading,
         )
         previous = log.pose[start - 1, :2] if start > 0 else pose[0, :2]
         starts = np.vstack([previous[None, :], pose[:-1, :2]])
@@ -106,7 +106,7 @@ class SceneColumns:
             "/world/robot/trail",
             "LineStrips2D",
             "strips",
-            strips_array(np.stack([starts, pose[:, :2]], axis=1)),
+            np.stack([starts, pose[:, :2]], axis=1),
         )
         # The trail again, in the disturbance's colour, where the inputs were disturbed.
         disturbed = np.abs(log.disturbance[start : start + len(pose)]) > 0.0
@@ -121,7 +121,7 @@ class SceneColumns:
             TRAIL_DISTURBED_PATH,
             "LineStrips2D",
             "strips",
-            strips_array(np.stack([starts[disturbed], pose[disturbed, :2]], axis=1)),
+            np.stack([starts[disturbed], pose[disturbed, :2]], axis=1),
             lengths=disturbed.astype(np.int32),
         )
 
@@ -141,7 +141,7 @@ class SceneColumns:
                 t[k],
                 "Points2D",
                 "positions",
-                vec2_array("Points2D", "positions", target[k]),
+                target[k],
             )
         self._target = (float(target[-1, 0]), float(target[-1, 1]))
 
@@ -171,7 +171,7 @@ class SceneColumns:
             "/world/robot/sensed",
             "LineStrips2D",
             "strips",
-            strips_array(strips),
+            strips,
             lengths=sensed.astype(np.int32),
         )
 
@@ -197,7 +197,7 @@ class SceneColumns:
                 f"/world/sensors/{name}/beam",
                 "LineStrips2D",
                 "strips",
-                strips_array(np.stack([o, left, right, o], axis=1)),
+                np.stack([o, left, right, o], axis=1),
             )
             hits = points_along(o, d, np.where(echo, r, 0.0))[echo]
             self._style(f"/world/sensors/{name}/hit", "Points2D", colors=color, radii=0.06)
@@ -205,7 +205,7 @@ class SceneColumns:
                 f"/world/sensors/{name}/hit",
                 "Points2D",
                 "positions",
-                vec2_array("Points2D", "positions", hits),
+                hits,
                 lengths=echo.astype(np.int32),
             )
 
@@ -243,7 +243,7 @@ class SceneColumns:
                 t[rows],
                 "Points2D",
                 "positions",
-                vec2_array("Points2D", "positions", pos),
+                pos,
                 lengths,
             )
             # The safe ring, drawn around the obstacle at every row where it moves (a
@@ -257,7 +257,7 @@ class SceneColumns:
                 t[rows],
                 "LineStrips2D",
                 "strips",
-                strips_array(circle[None, :, :] + pos[:, None, :]),
+                circle[None, :, :] + pos[:, None, :],
                 lengths,
             )
             # The path: a segment for every move between two present rows.
@@ -286,7 +286,7 @@ class SceneColumns:
                         t[present_rows[moved]],
                         "LineStrips2D",
                         "strips",
-                        strips_array(segs),
+                        segs,
                     )
         last = len(xy) - 1
         self._obstacles[oid] = (
@@ -295,7 +295,7 @@ class SceneColumns:
         )
 
 
-def static_world(static: StaticBatch, scenario) -> None:
+def static_world(static: Statics, scenario) -> None:
     """The y-up mirror of /world, the start and the straight start-target line."""
     import rerun as rr
 
