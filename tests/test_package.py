@@ -87,12 +87,6 @@ def test_only_the_entry_point_imports_the_command_line():
     assert importers <= ENTRY_POINTS, sorted(importers - ENTRY_POINTS)
 
 
-SIZE_LIMIT_LINES = 600
-#: Modules over the limit, each waiting for its split by responsibility (issue 36); none
-#: may join them, and the list only shrinks: a module split under the limit leaves it
-#: (test_the_oversize_list_names_only_oversize_modules).
-KNOWN_OVERSIZE: set[str] = set()
-
 FUNCTION_LIMIT_LINES = 100
 #: Production functions over FUNCTION_LIMIT_LINES (``def`` to its last line, docstring
 #: included), each waiting for its split by responsibility (issue 36); none may join
@@ -176,24 +170,6 @@ def test_app_is_rooms_with_a_small_top_level():
             assert f":mod:`.{module.stem}`" in doc or module.stem == "__init__", (
                 f"{room.name}/__init__.py does not name {module.stem}"
             )
-
-
-def test_no_new_module_over_the_size_limit():
-    for name, path in _module_files().items():
-        lines = len(path.read_text(encoding="utf-8").splitlines())
-        if lines > SIZE_LIMIT_LINES:
-            assert name in KNOWN_OVERSIZE, f"{name}: {lines} lines (limit {SIZE_LIMIT_LINES})"
-
-
-def test_the_oversize_list_names_only_oversize_modules():
-    """A module split (or moved) leaves KNOWN_OVERSIZE, so that the list only shrinks."""
-    modules = _module_files()
-    for name in sorted(KNOWN_OVERSIZE):
-        assert name in modules, f"{name}: no such module; remove it from KNOWN_OVERSIZE"
-        lines = len(modules[name].read_text(encoding="utf-8").splitlines())
-        assert lines > SIZE_LIMIT_LINES, (
-            f"{name}: {lines} lines, within the limit; remove it from KNOWN_OVERSIZE"
-        )
 
 
 def test_layers_import_one_way():

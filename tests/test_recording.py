@@ -787,10 +787,10 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     sim, result, controller = _fuzzynav_crossing()
     assert len(controller.decisions) == len(result.log) - 1  # one per decided row
     replays = []
+    from fuzzynav.app.recordings import columns as writer_module
+
     real = internals_module.controller_replica
-    monkeypatch.setattr(
-        internals_module, "controller_replica", lambda c: replays.append(c) or real(c)
-    )
+    monkeypatch.setattr(writer_module, "controller_replica", lambda c: replays.append(c) or real(c))
     logged = Recording(record_run(result, tmp_path / "logged.rrd", controller=controller))
     assert replays == []
     replayed = Recording(
