@@ -380,3 +380,19 @@ def test_a_time_past_a_minute_is_also_written_as_the_time_axis_writes_it(s1_pape
     _, texts = rec.rows("/events/log", "TextLog:text")
     minutes, seconds = divmod(end, 60.0)
     assert texts[-1][0].lstrip().startswith(f"{end:.2f} s = +{int(minutes)}m {seconds:.2f}s")
+
+
+def test_fuzzynavs_flag_lanes_have_their_own_colours(s2_fuzzynav):
+    """rerun colours a lane's states by their text unless told: the flags' lanes store
+    theirs, "-" (the flag down) grey in every lane."""
+    from fuzzynav.app.recordings.internals import FLAG_COLORS, INTERNAL_FLAGS, INTERNAL_FLAGS_PATH
+    from fuzzynav.app.recordings.style import rgba
+
+    rec = s2_fuzzynav[2]
+    for lane, states in INTERNAL_FLAGS.items():
+        style = rec.static[f"{INTERNAL_FLAGS_PATH}/{lane}"]
+        [values] = [v for k, v in style.items() if k.endswith(":values")]
+        [colours] = [v for k, v in style.items() if k.endswith(":colors")]
+        assert values == list(states.values())
+        assert colours == [rgba(FLAG_COLORS[s]) for s in values]
+        assert colours[values.index("-")] == rgba(FLAG_COLORS["-"])

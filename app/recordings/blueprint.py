@@ -305,6 +305,7 @@ def blueprint(
                     "target reading doubted",
                     time_view=rrb.TimeAxis(view_range=whole_run),
                 ),
+                row_shares=[2, 1],
                 name="internals",
             )
         )

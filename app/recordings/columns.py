@@ -24,6 +24,7 @@ from fuzzynav.world.geometry import (
 )
 
 from .internals import (
+    FLAG_COLORS,
     INTERNAL_FLAGS,
     INTERNAL_FLAGS_PATH,
     INTERNAL_WEIGHTS,
@@ -789,8 +790,18 @@ class ColumnWriter:
             if not keep:
                 continue
             steps = start + rows[keep]
+            path = f"{INTERNAL_FLAGS_PATH}/{lane}"
+            if path not in self._styled:  # each state's colour (rerun's own: by its text)
+                self._styled.add(path)
+                self._static.add_archetype(
+                    path,
+                    rr.StateConfiguration(
+                        values=list(states.values()),
+                        colors=[FLAG_COLORS.get(s, SERIES_PALETTE[0]) for s in states.values()],
+                    ),
+                )
             self.rec.send_columns(
-                f"{INTERNAL_FLAGS_PATH}/{lane}",
+                path,
                 indexes=time_indexes(log.time_s[steps], steps),
                 columns=rr.StateChange.columns(state=[texts[k] for k in keep]),
             )

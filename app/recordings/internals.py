@@ -81,6 +81,16 @@ INTERNAL_FLAGS = {
 }
 
 
+#: The flags' states' colours in their lanes ("-": the flag is down).
+FLAG_COLORS = {
+    "-": (215, 215, 215),
+    "yield": (230, 160, 40),
+    "pass first": (70, 130, 200),
+    "following an edge": (150, 110, 200),
+    "target reading doubted": (220, 80, 60),
+}
+
+
 def controller_label(controller, unknown: str | None = "unknown") -> str | None:
     """The controller's name (its ``name``, else its class's); ``unknown`` for None."""
     if controller is None:
