@@ -160,9 +160,8 @@ class ColumnWriter:
 
     def _send_sparse(self, path: str, time_s, archetype: str, name: str, values, lengths=None):
         """A component on rows of its own (where something changed: the target, the
-        obstacles), sent at the chunk's end with every other column on the same rows in
-        one record batch (a static obstacle's body, ring and translation, and the
-        target, all at the first row: one batch, not a send_columns call each)."""
+        obstacles), sent at the chunk's end with every other column of the entity on
+        the same rows (:meth:`_columns_at`)."""
         time_s = np.asarray(time_s, dtype=float)
         steps = self._rows_start + np.searchsorted(self._rows_time, time_s)
         self._columns_at(time_s, steps).add(path, archetype, name, values, lengths=lengths)

@@ -193,8 +193,7 @@ def _lane_colour(state: str):
 def _send_lane_styles(static: Statics, path: str, states: list[str], colours: dict) -> None:
     """Each state's colour in its lane (rerun >= 0.41's StateConfiguration; rerun picks
     its own colours by the state's text before, which made obstacle 1 purple in one
-    recording and green in another), with the recording's other static parts (one
-    record batch, not a ``log`` call a lane)."""
+    recording and green in another), with the recording's other static parts."""
     import rerun as rr
 
     configuration = getattr(rr, "StateConfiguration", None)

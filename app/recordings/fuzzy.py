@@ -175,8 +175,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
     rows = _decided(log, start, end)
     if not len(rows):
         return
-    # every entity's column in one record batch (one chunk each, as send_columns made,
-    # for one call instead of two or three a variable)
+    # every entity's columns on the decided rows, sent an entity at a time
     batch = Columns(log.time_s[rows], rows)
     grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):

@@ -16,7 +16,7 @@ value range: an obstacle's own curve for that obstacle's events where the plot h
 (distance, obstacle angles, clearance), else the plot's first curve with a value at
 that time (on the clearance panel never above the part shown); a plot with no value at
 an event's time (the sensor ranges without an echo) has no mark there. The marks that
-fall at the same times go out in one record batch.
+fall at the same times go out together.
 """
 
 from __future__ import annotations

@@ -256,8 +256,8 @@ def _send_statics(
     extra_metadata,
     voltage_limit_v,
 ) -> list:
-    """Every static part in one record batch (styles, the world's statics, documents),
-    the events, and the inference at each decision; returns the fuzzy views' names."""
+    """Every static part (styles, the world's statics, documents), the events, and the
+    inference at each decision; returns the fuzzy views' names."""
     scenario = result.scenario
     log = result.log
     extra = dict(extra_metadata or {})
