@@ -539,3 +539,28 @@ def test_trajectory_labels_never_overlap(geometry):
     fig.canvas.draw()
     for ax in fig.axes:
         _assert_apart(fig, ax, ax.get_gid())
+
+
+def test_membership_figures_under_the_papers_numbers_say_they_are_fitted(
+    tmp_path, paper_fis, monkeypatch
+):
+    """Figs. 6-11 are drawn from fuzzynav's fitted membership functions: a figure under
+    the paper's number says so on itself (its title); one without a number does not."""
+    import matplotlib.figure
+
+    from fuzzynav.app.figures.membership import FITTED_NOTE
+    from fuzzynav.app.figures.numbering import MEMBERSHIP_FIGURE
+
+    drawn = []
+    monkeypatch.setattr(
+        matplotlib.figure.Figure, "savefig", lambda self, *a, **k: drawn.append(self)
+    )
+    write_membership_figures(paper_fis, tmp_path, formats=("png",), numbers=MEMBERSHIP_FIGURE)
+    titles = [fig.axes[0].get_title() for fig in drawn]
+    assert len(titles) == 6
+    for title in titles:
+        assert title.startswith("Fig. ") and FITTED_NOTE in title, title
+        assert "fitted" in FITTED_NOTE and "not the paper's" in FITTED_NOTE
+    drawn.clear()
+    write_membership_figures(paper_fis, tmp_path, formats=("png",))
+    assert drawn and not any(FITTED_NOTE in fig.axes[0].get_title() for fig in drawn)

@@ -19,7 +19,7 @@ from rerun.chunk import RrdReader
 
 from fuzzynav.app.cli import main
 from fuzzynav.app.figures.style import obstacle_label
-from fuzzynav.app.recordings import arrow, blueprint, style
+from fuzzynav.app.recordings import blueprint, style
 from fuzzynav.app.recordings import internals as internals_module
 from fuzzynav.app.recordings import live as live_module
 from fuzzynav.app.recordings import record as recording
@@ -103,6 +103,11 @@ class Recording:
         assert all(t["shape"] == tensors[0]["shape"] for t in tensors)
         matrix = np.array([[np.nan if x is None else x for x in t["buffer"]] for t in tensors])
         return times, matrix.reshape(len(tensors), -1)
+
+
+def title_of(view_name: str) -> str:
+    """A panel's name without its head (the paper's figure number and the unit)."""
+    return re.sub(r"^(Fig\. \d+ )?(\[[^\]]*\] )?", "", view_name)
 
 
 def nanos(time_s) -> np.ndarray:
@@ -244,7 +249,7 @@ def test_entity_paths(s1_p):
     [app_id] = [r.application_id for r in rec.recordings]
     assert re.fullmatch(r"fuzzynav-s1-p-husky-[0-9a-f]{8}", app_id)
     assert rec.blueprints, "the default layout is stored with the recording"
-    assert rec.timelines == {"sim_time"}
+    assert rec.timelines == {"sim_time", "step"}
 
 
 def test_time_span_and_row_count(s1_p):
@@ -324,13 +329,11 @@ def test_world_geometry_follows_the_pose(s1_p):
         assert list(t) == [0] and np.allclose(pos[0][0], log.obstacle_xy[0, col], atol=1e-6)
         radius = rec.static[f"/world/obstacles/{oid}/body"]["Points2D:radii"][0]
         assert radius == pytest.approx(log.obstacle_radii_m[col], abs=1e-6)
-        # The ring: a circle about the origin, sent once, moved by a translation.
+        # The ring: a circle about the obstacle, sent once for a static obstacle.
         t, ring = rec.rows(f"/world/obstacles/{oid}/safe_ring", "LineStrips2D:strips")
         assert list(t) == [0]
-        ring = np.array(ring[0][0])
+        ring = np.array(ring[0][0]) - log.obstacle_xy[0, col]
         assert np.allclose(np.hypot(*ring.T), log.obstacle_radii_m[col] + 0.25, atol=1e-5)
-        t, shift = rec.rows(f"/world/obstacles/{oid}/safe_ring", "Transform3D:translation")
-        assert list(t) == [0] and np.allclose(shift[0][0][:2], log.obstacle_xy[0, col], atol=1e-5)
     t, target = rec.rows("/world/target", "Points2D:positions")
     assert list(t) == [0] and np.allclose(target[0][0], result.scenario.target)
     # The sensed obstacle: where d_o is finite, a line from the centre to the centre of
@@ -418,9 +421,9 @@ def test_fuzzy_controller_records_every_rule(fuzzy_run):
     assert np.isnan(result.log.controller_output_v[-1]).all()
     assert np.array_equal(times, nanos(result.log.time_s[:-1]))
     assert same(rows, strengths[:-1].astype(np.float32))  # one bar per rule, float32
-    # ... absent there (null), not an empty list, which would clear the chart at the end
+    # ... no row there at all, not an empty list, which would clear the chart at the end
     raw_times, raw = rec.rows(RULES_PATH, "BarChart:values")
-    assert raw_times[-1] == nanos(result.log.time_s[-1]) and raw[-1] is None
+    assert raw_times[-1] == nanos(result.log.time_s[-2]) and all(raw)
     assert strengths.max() > 0.5  # something fired
     # bar k stands at abscissa k + 1: rule R(k+1)
     abscissa = rec.static[RULES_PATH]["BarChart:abscissa"][0]["buffer"]
@@ -699,19 +702,21 @@ def test_check_writable_file_leaves_nothing_behind(tmp_path):
     assert path.read_bytes() == b"old"
 
 
-def test_component_metadata_matches_the_sdk():
-    """The record batches carry the same descriptors rr.log would."""
-    scalars = rr.Scalars(scalars=[1.0]).as_component_batches()[0].component_descriptor()
-    d, arrow_type = arrow.component_types()[("Scalars", "scalars")]
-    assert (d.archetype, d.component, d.component_type) == (
-        scalars.archetype,
-        scalars.component,
-        scalars.component_type,
-    )
-    assert arrow_type == pa.float64()
-    field, _ = arrow.component_field("/x", "SeriesLines", "names")
-    assert field.metadata[b"rerun:component_type"] == b"rerun.components.Name"
-    assert field.metadata[b"rerun:entity_path"] == b"/x"
+def test_the_recordings_go_through_rerun_s_columns_and_archetypes():
+    """No module builds rerun's record batches by hand (``arrow.py`` is gone): the
+    columns go through ``rr.send_columns`` with the archetypes' ``columns``, the static
+    parts through ``rr.log``; pyarrow is imported only where the SDK has no batch of
+    tensors (the rules' bar chart) and where recordings are read back (compare-runs)."""
+    import importlib.util
+    from pathlib import Path
+
+    import fuzzynav.app.recordings as package
+
+    assert importlib.util.find_spec("fuzzynav.app.recordings.arrow") is None
+    folder = Path(package.__file__).parent
+    users = sorted(p.name for p in folder.glob("*.py") if "pyarrow" in p.read_text())
+    assert users == ["compare.py", "internals.py"], users
+    assert not any("send_record_batch" in p.read_text() for p in folder.glob("*.py"))
 
 
 def test_live_recorder_closed_before_any_row(tmp_path):
@@ -739,22 +744,37 @@ def _fuzzynav_crossing():
 def test_fuzzynav_internals_are_recorded(tmp_path):
     """The crossing run yields to the moving obstacle: the recording's internals plot
     shows it (yield = 1 on some rows), alpha stays in [0, 1], one row per log row."""
-    from fuzzynav.app.recordings.internals import INTERNALS, INTERNALS_PATH
+    from fuzzynav.app.recordings.internals import INTERNAL_WEIGHTS, INTERNALS_PATH
 
     sim, result, controller = _fuzzynav_crossing()
     path = record_run(result, tmp_path / "fn.rrd", controller=controller)
     rec = Recording(path)
     times, values = rec.scalars(INTERNALS_PATH)
     assert np.array_equal(times, nanos(result.log.time_s))
-    assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNALS)
+    assert rec.static[INTERNALS_PATH]["SeriesLines:names"] == list(INTERNAL_WEIGHTS)
     decided = values[:-1]  # the last row has no decision
     assert np.all(np.isnan(values[-1]))
-    alpha, offset, dodge, follow, doubted = decided.T
+    alpha, offset = decided.T
     assert np.all((alpha >= 0) & (alpha <= 1))
-    assert np.any(dodge == 1.0), "the robot never yielded on crossing"
-    assert set(np.unique(follow)) <= {0.0, 1.0}
-    assert not np.any(doubted)  # crossing has no disturbance
+    # the flags: lanes of their own, each state where it changes, from the decisions
+    state = np.array([d[4:7] for d in controller.decisions])  # (after v, v, alpha, offset)
+    dodge = flag_lane(rec, "yield_or_pass", result.log)
+    assert np.any(dodge == "yield"), "the robot never yielded on crossing"
+    assert list(dodge) == [{1.0: "yield", -1.0: "pass first", 0.0: "-"}[v] for v in state[:, 0]]
+    follow = flag_lane(rec, "edge", result.log)
+    assert list(follow) == ["following an edge" if v else "-" for v in state[:, 1]]
+    assert set(flag_lane(rec, "target_doubted", result.log)) == {"-"}  # no disturbance
     assert "controller internals" not in rec.text("/meta/run")
+
+
+def flag_lane(rec, lane: str, log) -> np.ndarray:
+    """A flag's lane of fuzzynav's internals at every decided row (latest-at)."""
+    from fuzzynav.app.recordings.internals import INTERNAL_FLAGS_PATH
+
+    t, states = rec.rows(f"{INTERNAL_FLAGS_PATH}/{lane}", "StateChange:state")
+    at = np.searchsorted(t, nanos(log.time_s[:-1]), side="right") - 1
+    assert np.all(at >= 0) and len(t) == len(states)
+    return np.array([states[k][0] for k in at])
 
 
 def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, monkeypatch):
@@ -767,10 +787,10 @@ def test_fuzzynav_internals_come_from_its_decisions_without_a_replay(tmp_path, m
     sim, result, controller = _fuzzynav_crossing()
     assert len(controller.decisions) == len(result.log) - 1  # one per decided row
     replays = []
+    from fuzzynav.app.recordings import columns as writer_module
+
     real = internals_module.controller_replica
-    monkeypatch.setattr(
-        internals_module, "controller_replica", lambda c: replays.append(c) or real(c)
-    )
+    monkeypatch.setattr(writer_module, "controller_replica", lambda c: replays.append(c) or real(c))
     logged = Recording(record_run(result, tmp_path / "logged.rrd", controller=controller))
     assert replays == []
     replayed = Recording(
@@ -865,8 +885,7 @@ def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     sim = build_simulation("s3", "fuzzynav", controller_object=controller)
     result = sim.run()
     rec = Recording(record_run(result, tmp_path / "s3.rrd", controller=controller))
-    times, values = rec.scalars(INTERNALS_PATH)
-    doubted = values[:-1, 4] == 1.0
+    doubted = flag_lane(rec, "target_doubted", result.log) == "target reading doubted"
     t = result.log.time_s[:-1]
     assert not np.any(doubted & ((t < 25.0) | (t > 35.0)))
     assert doubted[(t >= 25.0) & (t <= 35.0)].mean() > 0.7
@@ -919,6 +938,10 @@ def test_fuzzynav_internals_live_equal_whole(tmp_path, monkeypatch):
         t_live, v_live = read(live_rec, path)
         t_whole, v_whole = read(whole_rec, path)
         assert np.array_equal(t_live, t_whole) and same(v_live, v_whole), path
+    for lane in ("yield_or_pass", "edge", "target_doubted"):
+        assert list(flag_lane(live_rec, lane, whole.log)) == list(
+            flag_lane(whole_rec, lane, whole.log)
+        )
     heatmap = "Tensor:data"
     assert (
         live_rec.static[RULES_HEATMAP_PATH][heatmap]
@@ -1308,10 +1331,12 @@ def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp
         ("obstacle_angles", "obstacle angles"),
         ("voltages", "wheel voltages"),
     ):
-        [name] = [n for n in names if n.startswith(key)]
-        assert name.endswith(f"(Fig. {paper_figure_number('s3', kind)})"), name
-    assert {n for n in names if "(Fig. 1" in n} == set()  # no s1 number in s3's panels
-    # every plot names its unit
+        [name] = [n for n in names if title_of(n).startswith(key)]
+        # first, where a panel too narrow for its name still shows them (at 1600 px
+        # "..., centre to centre, m (Fig. 23)" was cut to "...centre to centre >")
+        assert name.startswith(f"Fig. {paper_figure_number('s3', kind)} ["), name
+    assert {n for n in names if n.startswith("Fig. 1")} == set()  # no s1 number in s3's
+    # every plot names its unit at the start of its name, in brackets
     plots = [
         n
         for n, v in _views(s3_paper[3]).items()
@@ -1319,12 +1344,14 @@ def test_panels_carry_the_scenarios_figure_numbers_and_units(s3_paper, s1_p, tmp
     ]
     assert len(plots) >= 12
     for name in plots:
-        assert re.search(r"\b(m|rad|V|A|rad/s|m/s)\b", name), name
+        head = re.match(r"^(Fig\. \d+ )?\[([^\]]+)\] ", name)
+        assert head and re.fullmatch(r"(m|rad|V|A|rad/s|m/s|[a-z/, ]+)", head.group(2)), name
+        assert len(head.group(0)) <= 20, name  # short: it survives any cut
 
 
 def test_the_voltage_panel_has_no_legend_over_its_start(s3_paper):
     views = _views(s3_paper[3])
-    [voltage] = [v for n, v in views.items() if n.startswith("wheel voltages")]
+    [voltage] = [v for n, v in views.items() if title_of(n).startswith("wheel voltages")]
     assert voltage["PlotLegend/PlotLegend:visible"] == [False]
     names = s3_paper[2].static["/plots/voltage"]["SeriesLines:names"]
     assert names[-1] == names[-2] == "±12 V limit"  # one legend entry for both limits
@@ -1356,8 +1383,8 @@ def test_inputs_are_split_by_unit_and_say_why_d_o_has_gaps(s3_paper):
     assert same(rec.scalars("/plots/inputs/angles")[1], log.inputs[:, [2, 3]])
     assert np.isnan(log.inputs[:, 1]).any()  # s3 has stretches with nothing sensed
     names = list(_views(path))
-    assert any(n.startswith("inputs d_t, d_o, m") and "nothing sensed" in n for n in names)
-    assert any(n.startswith("inputs phi_t, phi_o, rad") and "nothing sensed" in n for n in names)
+    assert any(n.startswith("[m] inputs d_t, d_o") and "nothing sensed" in n for n in names)
+    assert any(n.startswith("[rad] inputs phi_t, phi_o") and "nothing sensed" in n for n in names)
 
 
 def test_world_colours_follow_the_plots_and_the_heading_stands_out(s3_paper):
@@ -1406,9 +1433,11 @@ def test_events_are_marked_in_the_recording(s3_paper):
         [hit] = [j for j, x in enumerate(texts) if want in x]
         assert times[hit] == nanos(log.time_s[k])
         # the world marks where the robot was then
-    marks = rec.static["/world/events/closest"]["Points2D:positions"]
     rows = [int(np.nanargmin(log.center_distance_m[:, c])) for c in range(len(log.obstacle_ids))]
-    assert np.allclose(marks, log.pose[rows, :2], atol=1e-5)
+    for row, oid in zip(rows, log.obstacle_ids):  # each from its time on, not before
+        t, marks = rec.rows(f"/world/events/closest/{oid}", "Points2D:positions")
+        assert list(t) == [nanos(log.time_s[row])] and oid not in rec.static
+        assert np.allclose(marks[0], log.pose[row, :2], atol=1e-5)
     # s3's disturbance window: on at 25 s, off at 35 s, in the log and in its lane
     assert any("disturbance on" in x for x in texts) and any("disturbance off" in x for x in texts)
     t, states = rec.rows("/events/lanes/disturbance", "StateChange:state")
@@ -1424,9 +1453,9 @@ def test_events_are_marked_in_the_recording(s3_paper):
     assert moving
     for col in moving:
         oid = log.obstacle_ids[col]
-        ring = np.array(
-            rec.static[f"/world/events/moving_{oid}/at_closest"]["LineStrips2D:strips"][0]
-        )
+        t, ring = rec.rows(f"/world/events/moving_{oid}/at_closest", "LineStrips2D:strips")
+        assert list(t) == [nanos(log.time_s[rows[col]])]
+        ring = np.array(ring[0][0])
         assert np.allclose(ring.mean(axis=0)[:2], log.obstacle_xy[rows[col], col], atol=0.02)
         track = np.array(rec.static[f"/world/events/moving_{oid}/track"]["LineStrips2D:strips"][0])
         assert len(track) == len(log)
@@ -1486,7 +1515,7 @@ def test_every_plot_has_a_value_range_that_holds_its_data(s3_paper):
         "wheel voltages": ["/plots/voltage"],
     }
     for start, entities in origin.items():
-        [view] = [v for n, v in views.items() if n.startswith(start)]
+        [view] = [v for n, v in views.items() if title_of(n).startswith(start)]
         lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
         values = np.concatenate([rec.scalars(e)[1].reshape(-1) for e in entities])
         values = values[np.isfinite(values)]

@@ -30,7 +30,7 @@ from fuzzynav.app.recordings.internals import (  # noqa: E402
     heatmap_row_labels,
 )
 from fuzzynav.app.recordings.record import record_simulation  # noqa: E402
-from fuzzynav.app.recordings.style import obstacle_color, rgba  # noqa: E402
+from fuzzynav.app.recordings.style import rgba  # noqa: E402
 from fuzzynav.app.runs import build_simulation  # noqa: E402
 
 
@@ -144,7 +144,7 @@ def _plot_values(rec, origin: str, t_ns: int) -> np.ndarray:
         entities = [origin] + sorted(e for e in rec.entities if e.startswith(origin + "/"))
     values = []
     for entity in entities:
-        if entity in rec._temporal and not entity.endswith("/events"):
+        if entity in rec._temporal and "/events/" not in entity + "/":
             times, matrix = rec.scalars(entity)
             k = int(np.searchsorted(times, t_ns, side="right")) - 1
             values.append(matrix[k])
@@ -156,7 +156,7 @@ def _expected_marks(result) -> list[tuple]:
     events make, from :func:`run_events`: each closest approach (but one at a
     collision: the collision's), each stretch inside the safe distance's start and end,
     the disturbance on and off, the end."""
-    from fuzzynav.app.recordings.style import BREACH, COLLISION, DISTURBANCE, TARGET
+    from fuzzynav.app.recordings.style import BREACH, COLLISION, DISTURBANCE, EVENT, TARGET
 
     shape = rr.components.MarkerShape
     log = result.log
@@ -166,9 +166,8 @@ def _expected_marks(result) -> list[tuple]:
     marks = []
     for e in events:
         if e.kind == "closest" and not (collided and e.row == len(log) - 1):
-            marks.append(
-                (e.time_s, shape.Diamond, obstacle_color(ids.index(e.obstacle)), e.obstacle)
-            )
+            assert e.obstacle in ids
+            marks.append((e.time_s, shape.Diamond, EVENT, e.obstacle))
         elif e.kind == "safe distance":
             marks.append((e.time_s, shape.Down, BREACH, e.obstacle))
             marks.append((e.end_s, shape.Up, BREACH, e.obstacle))
@@ -190,8 +189,6 @@ def test_every_plot_marks_the_runs_events_on_its_curves(which, request):
     event's shape and colour, on one of the panel's own curves at that time (an
     obstacle's event on that obstacle's curve where the panel has one), inside its
     stored value range; none where no curve has a value (ranges without an echo)."""
-    from fuzzynav.app.recordings.plot_events import MARK_NAME
-
     _, result, rec, path = request.getfixturevalue(which)
     marks = _expected_marks(result)
     kinds = {m[1] for m in marks}
@@ -207,16 +204,18 @@ def test_every_plot_marks_the_runs_events_on_its_curves(which, request):
         entity = f"{origin}/events"
         expected = [m for m in marks if np.isfinite(_plot_values(rec, origin, nanos(m[0]))).any()]
         assert len(expected) == len(marks) or origin == "/plots/ranges", name
+        got = plot_marks(rec, origin)
         if not expected:
-            assert entity not in rec.entities
+            assert not got
             continue
-        assert rec.static[entity]["SeriesPoints:names"] == [MARK_NAME], entity
-        t_ns, values = rec.scalars(entity)
-        _, shapes = rec.rows(entity, "SeriesPoints:markers")
-        _, colours = rec.rows(entity, "SeriesPoints:colors")
-        got = list(zip(t_ns, values[:, 0], shapes, colours))
+        # each kind its own entity, colour and legend name (the legend's swatch took
+        # the first event's colour when every mark was one entity)
+        key = {(t, s, c) for t, _, s, c, _ in got}
+        assert len(key) == len(got) == len(expected), entity
+        got.sort(key=lambda g: (g[0], g[2], g[3]))
+        expected = sorted(expected, key=lambda m: (nanos(m[0]), m[1].value, rgba(m[2])))
         assert [g[0] for g in got] == [nanos(m[0]) for m in expected], entity
-        for (t, value, [marker], [colour]), (_, want_shape, want_colour, oid) in zip(got, expected):
+        for (t, value, marker, colour, _), (_, want_shape, want_colour, oid) in zip(got, expected):
             assert marker == want_shape.value and colour == rgba(want_colour), (entity, t)
             curves = _plot_values(rec, origin, int(t))
             own = _curve_of(rec, origin, oid, int(t))
@@ -227,6 +226,20 @@ def test_every_plot_marks_the_runs_events_on_its_curves(which, request):
             else:
                 assert value == curves[np.isfinite(curves)][0], (entity, t, value, curves)
             assert lo <= value <= hi, (entity, value, lo, hi)
+
+
+def plot_marks(rec, origin: str) -> list[tuple]:
+    """(time in ns, value, marker, colour, legend name) of every mark on a plot: the
+    rows of its ``<origin>/events/<kind>`` entities, each kind's colour and name static,
+    its marks' shapes a row each."""
+    out = []
+    for entity in sorted(e for e in rec.entities if e.startswith(f"{origin}/events/")):
+        style = rec.static[entity]
+        [colour], [name] = style["SeriesPoints:colors"], style["SeriesPoints:names"]
+        t_ns, values = rec.scalars(entity)
+        _, markers = rec.rows(entity, "SeriesPoints:markers")
+        out += [(t, v, m, colour, name) for t, v, [m] in zip(t_ns, values[:, 0], markers)]
+    return out
 
 
 def _curve_of(rec, origin: str, oid, t_ns: int):
@@ -243,31 +256,24 @@ def _curve_of(rec, origin: str, oid, t_ns: int):
 
 def test_a_closest_approach_marks_the_minimum_of_its_obstacles_distance(s1_paper, s2_collided):
     """On the distance panel a closest approach is its obstacle's curve's minimum, a
-    diamond in that obstacle's colour; a collided run has no closest-approach mark at
+    diamond named "closest approach"; a collided run has no closest-approach mark at
     the collision (the cross says it)."""
     _, result, rec, _ = s1_paper
     log = result.log
-    t_ns, values = rec.scalars("/plots/distance/events")
-    _, shapes = rec.rows("/plots/distance/events", "SeriesPoints:markers")
-    _, colours = rec.rows("/plots/distance/events", "SeriesPoints:colors")
-    diamonds = [
-        (t, v, c[0])
-        for t, v, s, c in zip(t_ns, values[:, 0], shapes, colours)
-        if s == [rr.components.MarkerShape.Diamond.value]
-    ]
+    diamond = rr.components.MarkerShape.Diamond.value
+    diamonds = [(t, v, n) for t, v, s, _, n in plot_marks(rec, "/plots/distance") if s == diamond]
     assert len(diamonds) == len(log.obstacle_ids)
-    for col, _ in enumerate(log.obstacle_ids):
+    for col in range(len(log.obstacle_ids)):
         d = log.center_distance_m[:, col]
-        [(t, value, colour)] = [x for x in diamonds if x[2] == rgba(obstacle_color(col))]
-        assert value == float(np.nanmin(d)) and t == nanos(log.time_s[np.nanargmin(d)])
+        t_min = nanos(log.time_s[np.nanargmin(d)])
+        [(t, value, name)] = [x for x in diamonds if x[0] == t_min]
+        assert value == float(np.nanmin(d)) and name == "closest approach"
 
     _, result, rec, _ = s2_collided
-    t_ns, _ = rec.scalars("/plots/distance/events")
-    _, shapes = rec.rows("/plots/distance/events", "SeriesPoints:markers")
     last = nanos(result.log.time_s[-1])
-    at_end = [s for t, s in zip(t_ns, shapes) if t == last]
-    assert at_end[-1] == [rr.components.MarkerShape.Cross.value]
-    assert [rr.components.MarkerShape.Diamond.value] not in at_end
+    at_end = [s for t, _, s, _, _ in plot_marks(rec, "/plots/distance") if t == last]
+    assert rr.components.MarkerShape.Cross.value in at_end
+    assert diamond not in at_end
 
 
 def test_the_legends_make_room_for_the_marks(s1_paper, monkeypatch):
@@ -292,13 +298,14 @@ def test_the_legends_make_room_for_the_marks(s1_paper, monkeypatch):
     sim, result, rec, path = s1_paper
     record_simulation(sim, result, path.with_name("again.rrd"))
     [extra] = extras
-    marked = {
-        e.removesuffix("/events")
-        for e in rec.entities
-        if e.startswith("/plots/") and e.endswith("/events")
-    }
-    assert extra == dict.fromkeys(marked, 1)
-    assert "/plots/angles" in extra and 3 in fits  # phi_t, heading and the marks
+    marked: dict[str, int] = {}
+    for e in rec.entities:
+        if e.startswith("/plots/") and "/events/" in e:
+            plot = e.split("/events/")[0]
+            marked[plot] = marked.get(plot, 0) + 1
+    assert extra == marked
+    # phi_t, heading and the marks' kinds
+    assert "/plots/angles" in extra and 2 + extra["/plots/angles"] in fits
 
 
 # ---------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ import pytest
 
 rr = pytest.importorskip("rerun")
 from rerun.chunk import RrdReader  # noqa: E402
-from test_recording import Recording, _views, nanos  # noqa: E402
+from test_recording import Recording, _views, nanos, title_of  # noqa: E402
 
 from fuzzynav.app import palette  # noqa: E402
 from fuzzynav.app.cli import main  # noqa: E402
@@ -124,7 +124,7 @@ def test_two_perceptions_of_one_scenario_keep_their_own_layouts_and_ranges(s2_tw
             if not values.size:
                 continue
             lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
-            if view_name.startswith("footprint clearance"):  # (shown up to 2 m: its name)
+            if title_of(view_name).startswith("footprint clearance"):  # (shown up to 2 m: its name)
                 assert f"up to {CLEARANCE_SHOWN_M:g} m shown" in view_name
                 values = values[values <= CLEARANCE_SHOWN_M]
             assert lo <= values.min() and values.max() <= hi, (view_name, lo, hi)
@@ -316,7 +316,7 @@ def test_the_safe_distance_line_can_be_seen_on_the_clearance_panel(s1_paper):
     a tenth of the panel's height above its bottom and below its top (it spanned ~22 m
     for the legend's room, the line sat on zero), and it holds the closest approach."""
     _, result, rec, path = s1_paper
-    [view] = [v for n, v in _views(path).items() if n.startswith("footprint clearance")]
+    [view] = [v for n, v in _views(path).items() if title_of(n).startswith("footprint clearance")]
     lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
     assert (SAFE_DISTANCE_M - lo) / (hi - lo) >= 0.1
     assert (hi - SAFE_DISTANCE_M) / (hi - lo) >= 0.1
@@ -404,6 +404,15 @@ def test_a_paper_rule_base_that_changed_is_refused(tmp_path, capsys, monkeypatch
 # Defect 4: the world view
 
 
+def _closest_marks(rec, obstacle_ids, component: str, child: str = "") -> list:
+    """(time, value) of each obstacle's closest-approach mark in the world, if any."""
+    out = []
+    for oid in obstacle_ids:
+        t, values = rec.rows(f"/world/events/closest/{oid}{child}", component)
+        out += list(zip(t, values))
+    return out
+
+
 def test_a_collided_run_marks_its_collision_not_a_stack_of_closest_approaches(s2_collided):
     """In a collided run an obstacle the robot was still approaching at the end has no
     "closest approach" (it was "closest to obstacle 1" at the last step), the collision
@@ -422,10 +431,14 @@ def test_a_collided_run_marks_its_collision_not_a_stack_of_closest_approaches(s2
         if oid != hit and int(np.nanargmin(d)) == last:
             assert not any(f"closest to {obstacle_label(oid)}:" in x for x in at_end)
             assert any(f"{obstacle_label(oid)}:" in x and "still approaching" in x for x in at_end)
-    collision = rec.static["/world/events/collision"]
-    assert np.allclose(collision["Points2D:positions"][0], log.pose[last, :2], atol=1e-5)
-    assert f"collided with {obstacle_label(hit)}" in collision["Points2D:labels"][0]
-    marks = np.array(rec.static.get("/world/events/closest", {}).get("Points2D:positions", []))
+    t, where = rec.rows("/world/events/collision", "Points2D:positions")
+    _, labels = rec.rows("/world/events/collision", "Points2D:labels")
+    assert list(t) == [nanos(log.time_s[last])]  # from the collision on
+    assert np.allclose(where[0], log.pose[last, :2], atol=1e-5)
+    assert f"collided with {obstacle_label(hit)}" in labels[0][0]
+    marks = np.array(
+        [p[0] for _, p in _closest_marks(rec, log.obstacle_ids, "Points2D:positions")]
+    ).reshape(-1, 2)
     for k in range(len(marks)):
         assert np.hypot(*(marks[k] - log.pose[last, :2])) > 0.05  # not on the collision
         for j in range(k):
@@ -439,17 +452,18 @@ def test_closest_approach_labels_stay_off_the_safety_rings(s1_paper):
     _, result, rec, _ = s1_paper
     log = result.log
     ids = list(log.obstacle_ids)
-    marks = rec.static["/world/events/closest"]["Points2D:positions"]
-    labelled = rec.static["/world/events/closest_labels"]
-    for xy, text in zip(labelled["Points2D:positions"], labelled["Points2D:labels"]):
+    marks = _closest_marks(rec, ids, "Points2D:positions")
+    labelled = _closest_marks(rec, ids, "Points2D:positions", "/label")
+    texts = _closest_marks(rec, ids, "Points2D:labels", "/label")
+    for (_, [xy]), (_, [text]) in zip(labelled, texts):
         t = float(re.search(r"at ([0-9.]+) s", text).group(1))
         k = int(np.argmin(np.abs(log.time_s - t)))
         for col in range(len(ids)):
             centre = log.obstacle_xy[k, col]
             ring = log.obstacle_radii_m[col] + SAFE_DISTANCE_M
             assert np.hypot(*(np.asarray(xy) - centre)) > ring + 0.05, text
-    assert "Points2D:labels" not in rec.static["/world/events/closest"]
-    assert len(marks) == len(labelled["Points2D:positions"])
+    assert not any(_closest_marks(rec, ids, "Points2D:labels"))
+    assert len(marks) == len(labelled) == len(texts) > 0
 
 
 def test_the_start_and_the_scale_can_be_read(s1_paper):
@@ -575,11 +589,11 @@ def test_the_rules_page_numbers_the_bars_as_the_chart_does(s1_paper):
 def test_an_ideal_run_says_its_sensor_ranges_were_not_used(s1_paper, s2_two_perceptions):
     """Ideal perception drives on the true obstacles: its "sensor ranges" panel says the
     readings were not used; an ultrasonic run's does not."""
-    ideal = [n for n in _views(s1_paper[3]) if n.startswith("sensor ranges")]
+    ideal = [n for n in _views(s1_paper[3]) if title_of(n).startswith("sensor ranges")]
     assert len(ideal) == 1 and "not used" in ideal[0] and "ideal perception" in ideal[0]
     sonar = s2_two_perceptions[1]
     assert sonar[1].perception == "ultrasonic"
-    [name] = [n for n in _views(sonar[3]) if n.startswith("sensor ranges")]
+    [name] = [n for n in _views(sonar[3]) if title_of(n).startswith("sensor ranges")]
     assert "not used" not in name
 
 
@@ -649,7 +663,9 @@ def test_the_distance_panel_spans_its_data_not_a_legend(s1_paper):
     no legend, its name says which colour is which, and its range is its data's with
     rerun's 5 % margin."""
     _, result, rec, path = s1_paper
-    [(name, view)] = [(n, v) for n, v in _views(path).items() if n.startswith("distance to")]
+    [(name, view)] = [
+        (n, v) for n, v in _views(path).items() if title_of(n).startswith("distance to")
+    ]
     lo, hi = view["ScalarAxis/ScalarAxis:range"][0]
     values = _series_of_view(rec, "/plots/distance")
     span = values.max() - values.min()

@@ -11,6 +11,10 @@ import numpy as np
 from fuzzynav.app.figures.style import FORMATS, TERMS, _new_figure, _save, check_writable_dir
 from fuzzynav.safe_files import atomic_output
 
+#: Written on a membership figure drawn under the paper's number (Figs. 6-11): the
+#: paper's figures are not in its text, and these curves were fitted by fuzzynav.
+FITTED_NOTE = "(fitted by fuzzynav: not the paper's curves, which its text does not give)"
+
 
 def membership_figure_names(fis) -> list[str]:
     return [f"membership_{v.name}" for v in tuple(fis.inputs) + tuple(fis.outputs)]
@@ -36,7 +40,8 @@ def write_membership_figures(
     for kind, var in variables:
         lo, hi = var.range
         x = np.linspace(lo, hi, points)
-        fig, ax = _new_figure(7.6, 3.2 if title_suffix else 3.0)
+        lines = bool(title_suffix) + bool((numbers or {}).get(var.name) is not None)
+        fig, ax = _new_figure(7.6, 3.0 + 0.2 * lines)
         a = ax[0, 0]
         for k, term in enumerate(var.terms):
             y = np.asarray(term(x), dtype=float)
@@ -66,8 +71,11 @@ def write_membership_figures(
         desc = getattr(var, "description", "")
         number = (numbers or {}).get(var.name)
         head = f"Fig. {number}. " if number is not None else ""
+        # the paper's number, not the paper's curves: said under the title
+        note = f"\n{FITTED_NOTE}" if number is not None else ""
         a.set_title(
-            f"{head}{kind} {var.name}" + (f": {desc}" if desc else "") + title_suffix, fontsize=9
+            f"{head}{kind} {var.name}" + (f": {desc}" if desc else "") + title_suffix + note,
+            fontsize=9,
         )
         a.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.0, 0.5))
         name = stem(var.name) if stem is not None else f"{prefix}membership_{var.name}"

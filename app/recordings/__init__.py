@@ -4,17 +4,17 @@
   ``run --rrd``'s options; the list of every entity a recording holds;
 - :mod:`.live`       the live recorder: a running simulation, a chunk of steps at a time;
 - :mod:`.files`      a recording written whole beside its target, or ``RecordingError``;
-- :mod:`.columns`    the column writer both share, and the plots (one entity each);
+- :mod:`.columns`    the column writer both share: the world, the plots, the controller;
 - :mod:`.series`     the table of the plots: entity, panel, series, columns, live view;
-- :mod:`.scene`      the world's entities: robot, target, obstacles, beams, the map;
-- :mod:`.internals`  the controller's inside: which it is, rule firing, fuzzynav's state;
+- :mod:`.scene`      the world's static parts: the y-up mirror, the start, a scale;
+- :mod:`.internals`  the controller's inside: which it is, its rules' heatmap, its state;
 - :mod:`.fuzzy`      the fuzzy inference at the time cursor (a controller with a ``fis``);
 - :mod:`.events`     closest approaches, the disturbance window and the end;
 - :mod:`.plot_events` those events marked on every time-series plot;
 - :mod:`.documents`  the run's documents under ``/meta`` (run, versions, rules, summary);
 - :mod:`.blueprint`  the default layout and the application id;
 - :mod:`.legend`     where a plot's legend goes, and the headroom made for it;
-- :mod:`.arrow`      rerun components as Arrow arrays and the batches that send them;
+- :mod:`.sending`    the timelines, and the columns and static parts sent to rerun;
 - :mod:`.style`      colours, draw orders and sizes;
 - :mod:`.trace`      ``run --trace PATH.csv``: one row per control step;
 - :mod:`.compare`    ``fuzzynav compare-runs A.rrd B.rrd``: what differs between two runs.

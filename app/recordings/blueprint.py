@@ -20,10 +20,10 @@ import numpy as np
 from fuzzynav.app.figures.numbering import numbered_scenario, paper_figure_number, scenario_stem
 from fuzzynav.world.metrics import row_blocks
 
-from .arrow import TIMELINE
 from .events import EVENTS_LANES, EVENTS_LOG_PATH
 from .fuzzy import FUZZY_PATH, FUZZY_W
 from .internals import (
+    INTERNAL_FLAGS_PATH,
     INTERNALS_PATH,
     RULES_HEATMAP_PATH,
     RULES_PATH,
@@ -34,8 +34,10 @@ from .internals import (
     heatmap_bounds,
     rule_system,
 )
+from .scene import TRAIL_DISTURBED_PATH
+from .sending import TIMELINE
 from .series import CLEARANCE_SHOWN_M as CLEARANCE_SHOWN_M
-from .series import PAPER, Setup, paper_kinds, tab_panels
+from .series import PAPER, Setup, panel_name, paper_kinds, tab_panels
 from .series import clearance_range as clearance_range
 from .series import distance_colours as distance_colours
 
@@ -94,12 +96,11 @@ def world_bounds(scenario, log=None) -> tuple[list[float], list[float]]:
     return [min(xs) - margin, max(xs) + margin], [min(ys) - margin, max(ys) + margin]
 
 
-def figure_tag(scenario_label: str, path: str) -> str:
-    """`` (Fig. 18)`` for s2's distance panel: the paper's number of the figure a panel
-    draws (:func:`app.figures.numbering.paper_figure_number`, one numbering everywhere), or ""."""
+def figure_number(scenario_label: str, path: str) -> int | None:
+    """18 for s2's distance panel: the paper's number of the figure a panel draws
+    (:func:`app.figures.numbering.paper_figure_number`, one numbering everywhere), or None."""
     kind = paper_kinds().get(path)
-    number = paper_figure_number(scenario_label, kind) if kind else None
-    return f" (Fig. {number})" if number is not None else ""
+    return paper_figure_number(scenario_label, kind) if kind else None
 
 
 def _world_view(rrb, scenario, obstacle_ids, log):
@@ -113,7 +114,7 @@ def _world_view(rrb, scenario, obstacle_ids, log):
         start=rrb.TimeRangeBoundary.infinite(),
         end=rrb.TimeRangeBoundary.cursor_relative(),
     )
-    overrides = {"/world/robot/trail": everything}
+    overrides = {"/world/robot/trail": everything, TRAIL_DISTURBED_PATH: everything}
     for oid in obstacle_ids:
         overrides[f"/world/obstacles/{oid}/path"] = everything
     return rrb.Spatial2DView(
@@ -129,7 +130,7 @@ def _plotter(rrb, whole_run, placements, label):
     """``plot(origin, name, ...)``: a time-series panel over the whole run, its legend
     and value range from ``placements`` (:func:`.legend.legend_placement`'s corners)."""
 
-    def plot(origin, name, *, contents=None, legend=True, value_range=None, **kw):
+    def plot(origin, name, *, contents=None, legend=True, value_range=None, unit="", **kw):
         # (Linking the axes to the global range would drop this view range in 0.41.)
         axis = rrb.TimeAxis(view_range=whole_run)
         placement = placements.get(origin)
@@ -147,9 +148,8 @@ def _plotter(rrb, whole_run, placements, label):
             kw["axis_y"] = rrb.ScalarAxis(range=value_range)
         if contents is not None:
             kw["contents"] = contents
-        return rrb.TimeSeriesView(
-            origin=origin, name=name + figure_tag(label, origin), axis_x=axis, **kw
-        )
+        name = panel_name(name, unit, figure_number(label, origin))
+        return rrb.TimeSeriesView(origin=origin, name=name, axis_x=axis, **kw)
 
     return plot
 
@@ -160,7 +160,7 @@ LANES_SHARE = 1.15
 
 def _panel(plot, entry, placements, setup):
     """The panel of ``entry`` (:class:`.series.Plot`: the first of its panel's entities)."""
-    kw = {}
+    kw = {"unit": entry.unit}
     if entry.view is not None:
         kw["contents"] = [f"{entry.view}/**"]
     if not entry.legend:
@@ -211,28 +211,29 @@ def _firing_view(rrb, when: str):
     )
 
 
-def _rules_tab(rrb, n_rules: int, whole_run):
-    """The strongest rule over time, the firing at the cursor, the heatmap, the rules."""
+def _rules_tabs(rrb, n_rules: int, whole_run) -> list:
+    """The strongest rule over time, the firing at the cursor and the rules; in a tab
+    of its own, as tall as the window, the heatmap (a name beside every row)."""
     heat_x, heat_y = heatmap_bounds(n_rules)
-    return rrb.Vertical(
+    rules = rrb.Vertical(
         rrb.StateTimelineView(
             origin=RULES_STRONGEST_PATH,
-            name="the strongest rule at each decision (s)",
+            name="the strongest rule at each decision",
             time_view=rrb.TimeAxis(view_range=whole_run),
         ),
         _firing_view(rrb, "at the time cursor"),
-        rrb.Spatial2DView(
-            origin=RULES_HEATMAP_PATH,
-            # (the image and its names; not the tensor, which holds the values)
-            contents=[f"+ {RULES_HEATMAP_PATH}/**", f"- {RULES_HEATMAP_PATH}"],
-            name="rule firing over the run: rows R1 (top) to Rn, time across (s), "
-            "dark 0 to yellow 1",
-            visual_bounds=rrb.VisualBounds2D(x_range=heat_x, y_range=heat_y),
-        ),
         rrb.TextDocumentView(origin=RULES_TEXT_PATH, name="the rules"),
-        row_shares=[1, 2, 3, 1.5],
+        row_shares=[1, 2, 2],
         name="rules",
     )
+    heatmap = rrb.Spatial2DView(
+        origin=RULES_HEATMAP_PATH,
+        # (the image and its names; not the tensor, which holds the values)
+        contents=[f"+ {RULES_HEATMAP_PATH}/**", f"- {RULES_HEATMAP_PATH}"],
+        name="rule firing over the run: rows R1 (top) to Rn, time across, dark 0 to yellow 1",
+        visual_bounds=rrb.VisualBounds2D(x_range=heat_x, y_range=heat_y),
+    )
+    return [rules, rrb.Vertical(heatmap, name="heatmap")]
 
 
 def _fuzzy_tab(rrb, fuzzy):
@@ -287,12 +288,26 @@ def blueprint(
     setup = Setup(obstacle_ids=tuple(obstacle_ids), perception=perception)
     tabs = _plot_tabs(rrb, plot, whole_run, placements, setup)
     if n_rules:
-        tabs.append(_rules_tab(rrb, n_rules, whole_run))
+        tabs += _rules_tabs(rrb, n_rules, whole_run)
     if fuzzy:  # the inference at the time cursor, as the viewer's inference view
         tabs.append(_fuzzy_tab(rrb, fuzzy))
     if internals:
         tabs.append(
-            plot(INTERNALS_PATH, "fuzzynav: arbitration, planner, yield, escape, doubted target")
+            rrb.Vertical(
+                plot(
+                    INTERNALS_PATH,
+                    "fuzzynav: avoidance weight alpha (0 to 1), planner offset",
+                    unit="1, rad",
+                ),
+                rrb.StateTimelineView(
+                    origin=INTERNAL_FLAGS_PATH,
+                    name="fuzzynav's flags: yield or pass first, following an edge, "
+                    "target reading doubted",
+                    time_view=rrb.TimeAxis(view_range=whole_run),
+                ),
+                row_shares=[2, 1],
+                name="internals",
+            )
         )
     tabs.append(
         rrb.Tabs(
@@ -303,9 +318,6 @@ def blueprint(
             name="run information",
         )
     )
-    # Short tab names (a long one hid "run information"); the internals' tab says whose.
-    if internals:
-        tabs[-2] = rrb.Vertical(tabs[-2], name="internals")
     right = rrb.Tabs(*tabs, active_tab=0)
     left = rrb.Vertical(
         world,

@@ -13,8 +13,8 @@ import numpy as np
 from fuzzynav.app.figures.numbering import scenario_stem
 from fuzzynav.app.provenance import command_line, package_versions, reproduce_run, wrap_command
 
-from .arrow import StaticBatch
 from .internals import controller_label
+from .sending import Statics
 
 
 def _markdown_table(rows: dict) -> str:
@@ -162,12 +162,30 @@ def _run_document(
         + _markdown_table(run)
         + shown
         + "\n\n# Versions\n\n"
-        + _markdown_table(package_versions())
+        + _markdown_table(versions_with_tree(package_versions()))
     )
 
 
+def git_tree_state(revision: str | None) -> str:
+    """What ``git describe --dirty`` says of the checkout the run came from: ``clean``,
+    ``dirty`` (uncommitted changes: the revision alone does not reproduce the run), or
+    ``not a git checkout`` (an installed package: its version says which)."""
+    if not revision:
+        return "not a git checkout"
+    if revision.endswith("-dirty"):
+        return "dirty (uncommitted changes: the revision alone does not reproduce the run)"
+    return "clean"
+
+
+def versions_with_tree(versions: dict) -> dict:
+    """``versions`` with the git tree's state (:func:`git_tree_state`) after its revision."""
+    out = dict(versions)
+    out["git tree"] = git_tree_state(versions.get("git"))
+    return out
+
+
 def metadata(
-    static: StaticBatch,
+    static: Statics,
     *,
     scenario,
     controller,
@@ -209,7 +227,7 @@ def metadata(
     )
 
 
-def metrics(static: StaticBatch, metrics: dict, outcome: str) -> None:
+def metrics(static: Statics, metrics: dict, outcome: str) -> None:
     import rerun as rr
 
     rows = {"outcome": outcome, **metrics}
@@ -223,7 +241,7 @@ def metrics(static: StaticBatch, metrics: dict, outcome: str) -> None:
     static.add_archetype("/meta/metrics", rr.TextDocument(text, media_type=rr.MediaType.MARKDOWN))
 
 
-def summary(static: StaticBatch, result, controller, events) -> None:
+def summary(static: Statics, result, controller, events) -> None:
     """/meta/summary: the outcome, Table 4's metrics beside the paper's published values
     (s1-s3, the paper and baseline controllers), and the events."""
     import rerun as rr

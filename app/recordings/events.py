@@ -11,7 +11,7 @@ import numpy as np
 from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.world.geometry import circle_points
 
-from .arrow import StaticBatch, time_column
+from .sending import Statics, steps_at, time_indexes
 from .style import (
     BREACH,
     COLLISION,
@@ -23,11 +23,13 @@ from .style import (
     SAFE_DISTANCE_M,
     TARGET,
     obstacle_color,
+    time_text,
 )
 
 EVENTS_LOG_PATH = "/events/log"  # TextLog at each event's time
 EVENTS_LANES = "/events/lanes"  # StateChange lanes: closest, disturbance, outcome
-EVENTS_WORLD = "/world/events"  # static: where the robot was at each event
+EVENTS_WORLD = "/world/events"  # where the robot was at each event, from its time on
+EVENTS_CLOSEST = f"{EVENTS_WORLD}/closest"  # <id>: the robot at the obstacle's closest approach
 
 
 @dataclasses.dataclass(frozen=True)
@@ -188,11 +190,10 @@ def _lane_colour(state: str):
     return (170, 170, 170)
 
 
-def _send_lane_styles(static: StaticBatch, path: str, states: list[str], colours: dict) -> None:
+def _send_lane_styles(static: Statics, path: str, states: list[str], colours: dict) -> None:
     """Each state's colour in its lane (rerun >= 0.41's StateConfiguration; rerun picks
     its own colours by the state's text before, which made obstacle 1 purple in one
-    recording and green in another), with the recording's other static parts (one
-    record batch, not a ``log`` call a lane)."""
+    recording and green in another), with the recording's other static parts."""
     import rerun as rr
 
     configuration = getattr(rr, "StateConfiguration", None)
@@ -208,7 +209,7 @@ def _send_lane_styles(static: StaticBatch, path: str, states: list[str], colours
     )
 
 
-def send_events(rec, static: StaticBatch, result) -> list[Event]:
+def send_events(rec, static: Statics, result) -> list[Event]:
     """The events as a text log and state lanes on the timeline, and, in the world,
     a marker where the robot was at each closest approach and each moving obstacle
     drawn where it was then, with its whole track."""
@@ -221,9 +222,9 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
     times = np.array([e.time_s for e in events])
     rec.send_columns(
         EVENTS_LOG_PATH,
-        indexes=[time_column(times)],
+        indexes=time_indexes(times, steps_at(log.time_s, times)),
         columns=rr.TextLog.columns(
-            text=[f"{e.time_s:7.2f} s  {e.text}" for e in events],
+            text=[f"{time_text(e.time_s):>9}  {e.text}" for e in events],
             level=["WARN" if e.kind in ("collided", "timeout") else "INFO" for e in events],
         ),
         strict=True,
@@ -262,12 +263,15 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
         path = f"{EVENTS_LANES}/{lane.replace(' ', '_')}"
         rec.send_columns(
             path,
-            indexes=[time_column(np.array([c[0] for c in changes]))],
+            indexes=time_indexes(
+                np.array([c[0] for c in changes]),
+                steps_at(log.time_s, [c[0] for c in changes]),
+            ),
             columns=rr.StateChange.columns(state=[c[1] for c in changes]),
             strict=True,
         )
         _send_lane_styles(static, path, [c[1] for c in changes], colours)
-    _world_marks(static, log, events)
+    _world_marks(rec, static, log, events)
     return events
 
 
@@ -276,24 +280,33 @@ def send_events(rec, static: StaticBatch, result) -> list[Event]:
 LABEL_OFFSET_M = 0.55
 
 
-def _world_marks(static: StaticBatch, log, events) -> None:
-    """In the world: a marker where the robot was at each closest approach (its label
-    set off from the robot, away from the obstacle, so that it crosses no safety ring),
-    a moving obstacle where it was then with its whole track, and a collision's place."""
+def _mark_at(rec, path: str, event: Event, columns) -> None:
+    """One row of an archetype's ``columns`` (each of length 1) at the ``event``'s time
+    (and row): a mark in the world that appears when its event happens and stays."""
+    rec.send_columns(path, indexes=time_indexes([event.time_s], [event.row]), columns=columns)
+
+
+def _world_marks(rec, static: Statics, log, events) -> None:
+    """In the world, each from its time on: a marker where the robot was at each closest
+    approach (``closest/<id>``; its label set off from the robot, away from the
+    obstacle, so that it crosses no safety ring: ``closest/<id>/label``), a moving
+    obstacle where it was then (its whole track static), and a collision's place."""
     import rerun as rr
 
     ids = list(log.obstacle_ids)
     outcome = events[-1] if events else None
     if outcome is not None and outcome.kind == "collided":
         k = len(log) - 1
-        static.add_archetype(
+        _mark_at(
+            rec,
             f"{EVENTS_WORLD}/collision",
-            rr.Points2D(
-                positions=[log.pose[k, :2]],
-                radii=0.11,
+            outcome,
+            rr.Points2D.columns(
+                positions=log.pose[k : k + 1, :2],
+                radii=[0.11],
                 colors=[COLLISION],
                 labels=[outcome.text],
-                draw_order=float(HEADING_ORDER + 2),
+                draw_order=[float(HEADING_ORDER + 2)],
             ),
         )
     # a closest approach at the collision is the collision's (one mark, one label)
@@ -302,60 +315,58 @@ def _world_marks(static: StaticBatch, log, events) -> None:
         for e in events
         if e.kind == "closest" and not (outcome.kind == "collided" and e.row == len(log) - 1)
     ]
-    if closest:
-        rows = [e.row for e in closest]
-        where = np.array([log.pose[k, :2] for k in rows], dtype=float)
-        labels = []
-        for e, k, xy in zip(closest, rows, where):
-            centre = log.obstacle_xy[k, ids.index(e.obstacle)]
-            away = xy - centre
-            norm = float(np.hypot(*away))
-            away = away / norm if norm > 1e-9 else np.array([0.0, 1.0])
-            labels.append(xy + LABEL_OFFSET_M * away)
-        static.add_archetype(
-            f"{EVENTS_WORLD}/closest",
-            rr.Points2D(
-                positions=where,
-                radii=0.07,
-                colors=[EVENT] * len(rows),
-                draw_order=float(HEADING_ORDER + 1),
+    for e in closest:
+        k, col = e.row, ids.index(e.obstacle)
+        xy = np.asarray(log.pose[k, :2], dtype=float)
+        away = xy - log.obstacle_xy[k, col]
+        norm = float(np.hypot(*away))
+        away = away / norm if norm > 1e-9 else np.array([0.0, 1.0])
+        mark = f"{EVENTS_CLOSEST}/{e.obstacle}"
+        _mark_at(
+            rec,
+            mark,
+            e,
+            rr.Points2D.columns(
+                positions=[xy], radii=[0.07], colors=[EVENT], draw_order=[float(HEADING_ORDER + 1)]
             ),
         )
-        static.add_archetype(
-            f"{EVENTS_WORLD}/closest_labels",
-            rr.Points2D(
-                positions=np.array(labels),
-                radii=0.001,
-                colors=[EVENT] * len(rows),
-                labels=[f"{e.distance_m:.2f} m at {e.time_s:.1f} s" for e in closest],
-                draw_order=float(HEADING_ORDER + 1),
+        _mark_at(
+            rec,
+            f"{mark}/label",
+            e,
+            rr.Points2D.columns(
+                positions=[xy + LABEL_OFFSET_M * away],
+                radii=[0.001],
+                colors=[EVENT],
+                labels=[f"{e.distance_m:.2f} m at {time_text(e.time_s, 1)}"],
+                draw_order=[float(HEADING_ORDER + 1)],
             ),
         )
-        for e, k in zip(closest, rows):
-            col = ids.index(e.obstacle)
-            xy = log.obstacle_xy[:, col]
-            present = np.all(np.isfinite(xy), axis=1)
-            if not present.any() or np.ptp(xy[present], axis=0).max() <= 1e-9:
-                continue  # a static obstacle is drawn where it is
-            color = obstacle_color(col)
-            radius = float(log.obstacle_radii_m[col])
-            static.add_archetype(
-                f"{EVENTS_WORLD}/moving_{e.obstacle}/track",
-                rr.LineStrips2D(
-                    strips=[xy[present]],
-                    colors=[(*color, 140)],
-                    radii=0.012,
-                    draw_order=float(OBSTACLE_ORDER - 1),
-                ),
-            )
-            static.add_archetype(
-                f"{EVENTS_WORLD}/moving_{e.obstacle}/at_closest",
-                rr.LineStrips2D(
-                    strips=[circle_points(radius, RING_SEGMENTS) + xy[k]],
-                    colors=[color],
-                    radii=0.015,
-                    labels=[f"{obstacle_label(e.obstacle)} at {e.time_s:.1f} s"],
-                    show_labels=False,  # (the closest approach's label says when)
-                    draw_order=float(OBSTACLE_ORDER),
-                ),
-            )
+        track = log.obstacle_xy[:, col]
+        present = np.all(np.isfinite(track), axis=1)
+        if not present.any() or np.ptp(track[present], axis=0).max() <= 1e-9:
+            continue  # a static obstacle is drawn where it is
+        color = obstacle_color(col)
+        radius = float(log.obstacle_radii_m[col])
+        static.add_archetype(
+            f"{EVENTS_WORLD}/moving_{e.obstacle}/track",
+            rr.LineStrips2D(
+                strips=[track[present]],
+                colors=[(*color, 140)],
+                radii=0.012,
+                draw_order=float(OBSTACLE_ORDER - 1),
+            ),
+        )
+        _mark_at(
+            rec,
+            f"{EVENTS_WORLD}/moving_{e.obstacle}/at_closest",
+            e,
+            rr.LineStrips2D.columns(
+                strips=[circle_points(radius, RING_SEGMENTS) + track[k]],
+                colors=[color],
+                radii=[0.015],
+                labels=[f"{obstacle_label(e.obstacle)} at {e.time_s:.1f} s"],
+                show_labels=[False],  # (the closest approach's label says when)
+                draw_order=[float(OBSTACLE_ORDER)],
+            ),
+        )

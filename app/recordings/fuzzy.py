@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .arrow import RowBatch, StaticBatch, strips_array, text_array
+from .sending import Columns, Statics
 from .style import AGGREGATED, TERM_PALETTE, VALUE
 
 FUZZY_PATH = "/fuzzy"
@@ -18,9 +18,11 @@ FUZZY_POINTS = 31  # samples of an aggregated output drawn per decision
 #: Where a variable's value is written: under the middle of its axis.
 VALUE_LABEL_AT = (0.5 * FUZZY_W, -0.12)
 #: The least distance between two term names in a row (a name of two letters is about
-#: 0.25 wide in a view of the tab).
-TERM_NAME_GAP = 0.4
-TERM_NAME_ROWS = (1.04, 1.16)
+#: 0.3 wide in a view of the tab, at 1600 x 1000).
+TERM_NAME_GAP = 0.5
+#: The two rows of term names, a label's height apart (0.12 apart, phi_t's N, Z and P
+#: sat on one another).
+TERM_NAME_ROWS = (1.06, 1.3)
 
 
 def term_name_positions(peaks) -> list[tuple[float, float]]:
@@ -71,7 +73,7 @@ def _scale(var):
     return lo, hi, sx
 
 
-def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
+def fuzzy_view(static: Statics, fis, log) -> list[str]:
     """The static part of the viewer's inference view, replayed from the recording:
     every input's and output's membership functions, labels and frame, and the styles of
     the per-decision entities that :func:`send_fuzzy_rows` sends. Returns the variables
@@ -114,13 +116,15 @@ def fuzzy_view(static: StaticBatch, fis, log) -> list[str]:
                 labels=[t.name for t in var.terms],
             ),
         )
+        # the range's ends, with the unit (the view's name says the variable: a name
+        # over the plot sat on the term names, "input d_t (m)" on L)
         static.add_archetype(
             f"{base}/axis",
             rr.Points2D(
-                positions=[(0.0, -0.12), (FUZZY_W, -0.12), (0.5 * FUZZY_W, 1.32)],
+                positions=[(0.0, -0.12), (FUZZY_W, -0.12)],
                 radii=0.001,
-                colors=[(90, 90, 90)] * 3,
-                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}", f"{kind[:-1]} {var.name} ({unit})"],
+                colors=[(90, 90, 90)] * 2,
+                labels=[f"{lo:.3g} {unit}", f"{hi:.3g} {unit}"],
             ),
         )
         static.add_archetype(
@@ -171,9 +175,8 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
     rows = _decided(log, start, end)
     if not len(rows):
         return
-    # every entity's column in one record batch (one chunk each, as send_columns made,
-    # for one call instead of two or three a variable)
-    batch = RowBatch(log.time_s[rows])
+    # every entity's columns on the decided rows, sent an entity at a time
+    batch = Columns(log.time_s[rows], rows)
     grids, memberships, outputs = _aggregated_rows(fis, log.inputs[rows])
     for kind, k, var in _variables(fis):
         _, _, sx = _scale(var)
@@ -193,7 +196,7 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             heights = memberships[:, k, take]
             xs = np.broadcast_to(sx(grid[take]), heights.shape)
             shape = np.stack([xs, heights], axis=-1)
-            batch.add(f"{base}/aggregated", "LineStrips2D", "strips", strips_array(shape))
+            batch.add(f"{base}/aggregated", "LineStrips2D", "strips", shape)
         seen = np.isfinite(value)
         at = np.clip(sx(value[seen]), 0.0, FUZZY_W)
         marker = np.stack(
@@ -204,6 +207,6 @@ def send_fuzzy_rows(rec, fis, log, start: int, end: int) -> None:
             axis=1,
         )
         lengths = seen.astype(np.int32)
-        batch.add(f"{base}/value", "LineStrips2D", "strips", strips_array(marker), lengths)
-        batch.add(f"{base}/value_label", "Points2D", "labels", text_array(text), lengths)
+        batch.add(f"{base}/value", "LineStrips2D", "strips", marker, lengths)
+        batch.add(f"{base}/value_label", "Points2D", "labels", text, lengths)
     batch.send(rec)

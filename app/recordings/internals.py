@@ -1,10 +1,9 @@
 """What a controller did inside, in a recording: which controller it is, its fuzzy
 system, the firing of its rules (a bar chart per decision, a heatmap of the run, the
 rules in words) and fuzzynav's inner state (from the decisions it logged while it drove,
-or replayed through a copy).
-
-:class:`ControllerColumns` is the part of the column writer
-(:class:`~fuzzynav.app.recordings.columns.ColumnWriter`) that sends them.
+or replayed through a copy): the entities' paths, what a controller offers (its
+``fis``, its logged ``decisions``), the heatmap's binning and drawing. The column writer
+(:class:`~fuzzynav.app.recordings.columns.ColumnWriter`) sends them with a run's rows.
 """
 
 from __future__ import annotations
@@ -13,8 +12,7 @@ import copy
 
 import numpy as np
 
-from .arrow import StaticBatch, tensor_rows, time_column
-from .style import SERIES_PALETTE
+from .sending import Statics
 
 
 def controller_fis(controller, *, merged: bool = False):
@@ -70,6 +68,27 @@ INTERNALS = (
     "following an edge (1)",
     "target reading doubted (1)",
 )
+#: The state's numbers plotted at INTERNALS_PATH (its first two); its flags (the rest)
+#: are lanes of their own (:data:`INTERNAL_FLAGS`): on one axis with the weights, the
+#: 0/1 flags hid one another.
+INTERNAL_WEIGHTS = INTERNALS[:2]
+INTERNAL_FLAGS_PATH = "/internals/flags"
+#: Each flag's lane (under INTERNAL_FLAGS_PATH) and its states by value.
+INTERNAL_FLAGS = {
+    "yield_or_pass": {1.0: "yield", -1.0: "pass first", 0.0: "-"},
+    "edge": {1.0: "following an edge", 0.0: "-"},
+    "target_doubted": {1.0: "target reading doubted", 0.0: "-"},
+}
+
+
+#: The flags' states' colours in their lanes ("-": the flag is down).
+FLAG_COLORS = {
+    "-": (215, 215, 215),
+    "yield": (230, 160, 40),
+    "pass first": (70, 130, 200),
+    "following an edge": (150, 110, 200),
+    "target reading doubted": (220, 80, 60),
+}
 
 
 def controller_label(controller, unknown: str | None = "unknown") -> str | None:
@@ -96,8 +115,8 @@ HEATMAP_IMAGE_PATH = f"{RULES_HEATMAP_PATH}/image"
 HEATMAP_ROWS_PATH = f"{RULES_HEATMAP_PATH}/rows"
 HEATMAP_TIMES_PATH = f"{RULES_HEATMAP_PATH}/times"
 #: The heatmap image is drawn this many rows wide (its columns scaled to it), so that
-#: it fills a panel about three times as wide as high, whatever the number of bins.
-HEATMAP_ASPECT = 3.0
+#: it fills its tab (a panel about as wide as high), whatever the number of bins.
+HEATMAP_ASPECT = 1.0
 #: Where the row names stand, left of the image (in rows).
 HEATMAP_LABEL_X = -2.5
 #: The most time bins of the rule heatmap (a long run is binned: the max per bin).
@@ -234,22 +253,19 @@ def _bin_maxima(bins: np.ndarray, starts: np.ndarray, first_row: int, rows: np.n
 
 
 def heatmap_row_labels(n_rules: int) -> list[int]:
-    """The rules (1 to n) named beside the heatmap's rows: every one up to 15, else R1,
-    every fifth and the last (rerun writes a label about 16 px high: one a row would
-    overlap at 40 rules in a panel 300 px high)."""
-    if n_rules <= 15:
-        return list(range(1, n_rules + 1))
-    rows = [1] + list(range(5, n_rules + 1, 5))
-    if n_rules - rows[-1] >= 3:
-        rows.append(n_rules)
-    return rows
+    """The rules (1 to n) named beside the heatmap's rows: every one (with every fifth
+    only, R9 was read as R10); the heatmap has a tab of its own, tall enough for a
+    label a row (:data:`HEATMAP_PANEL_PX`, :func:`heatmap_row_px`)."""
+    return list(range(1, int(n_rules) + 1))
 
 
-#: The heatmap panel's size at 1600 x 1000 (px, about: the rules tab's third view) and
-#: how far below its anchor point rerun writes a label's middle (5 px, then half its
+#: The heatmap panel's size at 1600 x 1000 (px, about: its own tab, in the right half)
+#: and how far below its anchor point rerun writes a label's middle (5 px, then half its
 #: height): the row names are anchored this much above their rows.
-HEATMAP_PANEL_PX = (780.0, 330.0)
+HEATMAP_PANEL_PX = (780.0, 880.0)
 LABEL_DROP_PX = 14.0
+#: How high rerun writes a label (px): a row of the heatmap at least this high.
+LABEL_HEIGHT_PX = 16.0
 
 
 def heatmap_bounds(n_rules: int) -> tuple[list[float], list[float]]:
@@ -260,11 +276,15 @@ def heatmap_bounds(n_rules: int) -> tuple[list[float], list[float]]:
     return [HEATMAP_LABEL_X - 2.5, width + 1.0], [-1.0, n + 0.12 * n + 3.0]
 
 
+def heatmap_row_px(n_rules: int) -> float:
+    """How high a row of the heatmap is drawn (px) at :data:`HEATMAP_PANEL_PX`."""
+    (x0, x1), (y0, y1) = heatmap_bounds(n_rules)
+    return min(HEATMAP_PANEL_PX[0] / (x1 - x0), HEATMAP_PANEL_PX[1] / (y1 - y0))
+
+
 def _label_drop(n_rules: int) -> float:
     """:data:`LABEL_DROP_PX` in the heatmap view's units (rows), at its panel's size."""
-    (x0, x1), (y0, y1) = heatmap_bounds(n_rules)
-    px_per_unit = min(HEATMAP_PANEL_PX[0] / (x1 - x0), HEATMAP_PANEL_PX[1] / (y1 - y0))
-    return LABEL_DROP_PX / px_per_unit
+    return LABEL_DROP_PX / heatmap_row_px(n_rules)
 
 
 def time_ticks(first_s: float, last_s: float, most: int = 8) -> list[float]:
@@ -278,7 +298,7 @@ def time_ticks(first_s: float, last_s: float, most: int = 8) -> list[float]:
     return [float(t) for t in np.arange(start, last_s + 1e-9, step)]
 
 
-def send_heatmap_image(static: StaticBatch, heatmap: np.ndarray, first_s, per_bin_s) -> None:
+def send_heatmap_image(static: Statics, heatmap: np.ndarray, first_s, per_bin_s) -> None:
     """The heatmap as rerun draws an image, with its rows named: a colour-mapped depth
     image of the same values (viridis, 0 to 1) scaled to :data:`HEATMAP_ASPECT` times
     as wide as high, ``R1`` ... ``Rn`` left of its rows (:func:`heatmap_row_labels`,
@@ -334,201 +354,51 @@ def send_heatmap_image(static: StaticBatch, heatmap: np.ndarray, first_s, per_bi
     )
 
 
-class ControllerColumns:
-    """The controller's inside, rows [start, end) at a time: every rule's firing and
-    fuzzynav's inner state (:data:`INTERNALS`). A part of
-    :class:`~fuzzynav.app.recordings.columns.ColumnWriter`, whose state it uses: the
-    stream, the styles and the plots (``_style``, ``_plot``, ``_rows``), the controller,
-    its ``fis`` or ``blocks``, and what earlier chunks chose (``internals_source``,
-    ``replica``)."""
+def bar_chart_rows(values: np.ndarray):
+    """Rows of float32 bars (n, k) as a ``send_columns`` column of BarChart values, one
+    bar chart a row. rerun 0.41's converters make one tensor of a 2D array and refuse a
+    batch of tensors ("Tensors do not support batches"), and ``rr.log`` a row at a time
+    took 1.5 ms a row: so the column's Arrow array (TensorData: shape [k], the values as
+    F32) is made here from numpy, and handed to the SDK's own batch and descriptor."""
+    import pyarrow as pa
+    import rerun as rr
 
-    def _plot_rules(self, strengths: np.ndarray, decided: np.ndarray) -> None:
-        """Every rule's firing strength at every row with a decision as one bar chart
-        (bar k-1 is rule Rk, its abscissa k; float32), taken into the run's heatmap
-        (:class:`RuleHeat`, :meth:`send_heatmap`) and the strongest rule's lane. A row without a decision (the last) has no strengths:
-        nothing is logged there, so the chart at the end shows the last decision's. One
-        bar chart, not 40 lines in a 10-colour palette that made R1, R11 and R21 alike."""
-        strengths = np.ascontiguousarray(strengths, dtype=np.float32)
-        decided = np.asarray(decided, bool)
-        self.n_rules = strengths.shape[1]
-        if RULES_PATH not in self._styled:  # rule Rk at abscissa k (1 to n)
-            self._style(RULES_PATH, "BarChart", color=(230, 160, 40))
-            numbers = np.arange(1, self.n_rules + 1, dtype=np.float32)[None, :]
-            self._static.add_array(RULES_PATH, "BarChart", "abscissa", tensor_rows(numbers))
-            import rerun as rr
-
-            self._static.add_archetype(  # the chart's axis from 0 to 1, whatever fires
-                RULES_SCALE_PATH,
-                rr.BarChart(
-                    np.array([1.0], dtype=np.float32),
-                    abscissa=np.array([0.0], dtype=np.float32),
-                    widths=np.array([0.35], dtype=np.float32),
-                    color=(200, 200, 200),
-                ),
-            )
-        self._rows.add(
-            RULES_PATH,
-            "BarChart",
-            "values",
-            tensor_rows(strengths[decided]),
-            lengths=decided.astype(np.int32),
-            absent=~decided,  # the chart at the final instant shows the last decision
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    n, k = values.shape
+    sample = rr.BarChart(values=np.zeros(1, dtype=np.float32)).as_component_batches()
+    [arrow_type] = [
+        b.as_arrow_array().type
+        for b in sample
+        if b.component_descriptor().component == "BarChart:values"
+    ]
+    shape = pa.ListArray.from_arrays(
+        pa.array(np.arange(n + 1, dtype=np.int32)),
+        pa.array(np.full(n, k, dtype=np.uint64)),
+        type=arrow_type.field("shape").type,
+    )
+    names = pa.nulls(n, arrow_type.field("names").type)
+    union = arrow_type.field("buffer").type
+    children = [
+        pa.ListArray.from_arrays(
+            pa.array(np.arange(0, n * k + 1, k, dtype=np.int32)),
+            pa.array(values.reshape(-1)),
+            type=child.type,
         )
-        times = np.asarray(self._rows_time, dtype=float)[decided]
-        self._send_strongest(times, self.rule_heat.add(times, strengths[decided]))
-
-    def _send_strongest(self, times: np.ndarray, strengths: np.ndarray) -> None:
-        """The strongest rule at each decision, where it changes (from the chunk before
-        too): a labelled lane, sent a chunk at a time."""
-        if not len(times):
-            return
-        import rerun as rr
-
-        heat = self.rule_heat
-        top = np.argmax(strengths, axis=1)
-        fired = strengths[np.arange(len(top)), top] > 0
-        state = np.where(fired, top, -1)
-        change = np.ones(len(state), bool)
-        change[1:] = state[1:] != state[:-1]
-        change[0] = heat.last_state is None or state[0] != heat.last_state
-        heat.last_state = int(state[-1])
-        if not change.any():
-            return
-        labels = [f"R{k + 1}" if k >= 0 else "none fires" for k in state[change]]
-        self.rec.send_columns(
-            RULES_STRONGEST_PATH,
-            indexes=[time_column(times[change])],
-            columns=rr.StateChange.columns(state=labels),
-            strict=True,
-        )
-
-    def send_heatmap(self, static: StaticBatch) -> None:
-        """The rule firing of the whole run as a heatmap: rules down, time across (at
-        most :data:`HEATMAP_MAX_BINS` bins, each the max over its rows, so a brief
-        firing stays visible), with the rules in words beside it (:class:`RuleHeat`
-        collected it; the lane of the strongest rule went with the chunks)."""
-        heat = self.rule_heat
-        if not heat.calls:
-            return
-        import rerun as rr
-
-        heatmap = heat.heatmap()
-        bins = heatmap.shape[1]
-        first, last = heat.first_s, heat.last_s
-        span = f"{first:.2f} s to {last:.2f} s" if heat.count else "no rows"
-        per_bin = (last - first) / max(bins - 1, 1) if heat.count > 1 else 0.0
-        static.add_archetype(
-            RULES_HEATMAP_PATH,
-            rr.Tensor(
-                heatmap,
-                dim_names=[
-                    f"rule R1-R{heatmap.shape[0]}",
-                    f"time {span}, {per_bin:.3g} s a column",
-                ],
-                value_range=[0.0, 1.0],
-            ),
-        )
-        if bins:
-            send_heatmap_image(static, heatmap, first, per_bin)
-        lines = [
-            f"# Rule firing, {span}",
-            "",
-            f"Heatmap: row k, counted from 1 at the top, is rule Rk; {bins} columns over "
-            f"the run ({heat.count} steps, the largest strength in each column).",
-            "Bar chart: the bar at k (1 to n on its axis) is rule Rk, at the time cursor.",
-            "",
-        ]
-        lines += [f"- **R{k + 1}**: {text}" for k, text in enumerate(self.rule_texts())]
-        static.add_archetype(
-            RULES_TEXT_PATH, rr.TextDocument("\n".join(lines), media_type=rr.MediaType.MARKDOWN)
-        )
-
-    def rule_texts(self) -> list[str]:
-        system = self.fis if self.fis is not None else self.blocks
-        if system is None or not hasattr(system, "rule_text"):
-            return [f"(rule {k + 1})" for k in range(self.n_rules)]
-        return [system.rule_text(k) for k in range(min(self.n_rules, len(system.rules)))]
-
-    def _internals(self, log, start: int, end: int) -> None:
-        """Plot the controller's inner state on rows [start, end): from the decisions it
-        logged while it drove (``decisions``), when they line up with the run (the same
-        voltages, row for row), else by replaying the rows through the replica. Either
-        way the state must come with exactly the voltages the run logged; if not (the
-        controller was changed mid-run, say), nothing more is plotted and the metadata
-        says why."""
-        decided_v = log.controller_output_v[start:end]
-        decided = np.all(np.isfinite(decided_v), axis=1)  # the last row has no decision
-        out = np.full((end - start, len(INTERNALS)), np.nan)
-        try:
-            logged = self._logged_decisions(start, decided)
-            decisions = logged if logged is not None else self._replay(log, start, decided)
-        except ValueError as exc:  # decisions of another shape than this writer expects
-            self.replica_error = f"its decisions do not fit ({exc})"
-            return
-        voltages, state = decisions[:, :2], decisions[:, 2 : 2 + len(INTERNALS)]
-        # NaN (no decision to compare) counts as differing.
-        differs = np.flatnonzero(~np.all(np.abs(voltages - decided_v[decided]) <= 1e-9, axis=1))
-        if len(differs):
-            k = start + np.flatnonzero(decided)[differs[0]]
-            how = "logged decisions differ" if logged is not None else "replay differs"
-            self.replica_error = f"its {how} from the run at t = {log.time_s[k]:.2f} s"
-            return
-        out[decided] = state
-        self._plot(
-            INTERNALS_PATH,
-            list(INTERNALS),
-            [SERIES_PALETTE[k % len(SERIES_PALETTE)] for k in range(len(INTERNALS))],
-            [1.5] * len(INTERNALS),
-            out,
-        )
-        if self.blocks is not None:
-            strengths = np.full((end - start, len(self.blocks.rules)), np.nan)
-            if decided.any():
-                strengths[decided] = self.blocks.firing_strengths(
-                    decisions[:, 2 + len(INTERNALS) :]
-                )
-            self._plot_rules(strengths, decided)
-
-    def _logged_state(self, log, start: int, end: int) -> np.ndarray:
-        """The inner state plotted on rows [start, end), read again from the driving
-        controller's own decisions (as :meth:`_internals` plotted it from them; NaN at a
-        row without a decision): for the legend of a run recorded whole."""
-        decided = np.all(np.isfinite(log.controller_output_v[start:end]), axis=1)
-        out = np.full((end - start, len(INTERNALS)), np.nan)
-        out[decided] = self._logged_decisions(start, decided)[:, 2 : 2 + len(INTERNALS)]
-        return out
-
-    def _logged_decisions(self, start: int, decided: np.ndarray):
-        """The driving controller's own decisions for the decided rows of [start, end)
-        as an array (voltages, then the state); None to replay the rows instead (the
-        first chunk chooses: a controller that did not log its decisions from the run's
-        start is replayed throughout)."""
-        inner = getattr(self.controller, "inner", self.controller)  # the viewer's wrapper
-        decisions = getattr(inner, "decisions", None)
-        rows = np.flatnonzero(decided) + start
-        covered = isinstance(decisions, list) and (not len(rows) or rows[-1] < len(decisions))
-        if self.internals_source is None:
-            self.internals_source = "decisions" if covered and start == 0 else "replay"
-        if self.internals_source == "replay":
-            return None
-        if not covered:  # swapped for another controller mid-run: nothing to line up
-            return np.full((len(rows), self.decision_width), np.nan)
-        return np.array([decisions[k] for k in rows], dtype=float).reshape(
-            len(rows), self.decision_width
-        )
-
-    def _replay(self, log, start: int, decided: np.ndarray):
-        """The decisions of the decided rows of [start, end), replayed through a copy
-        of the controller (made at the first chunk); a replay that departs from the run
-        stops there (its later rows are NaN)."""
-        if self.replica is None:
-            self.replica = controller_replica(self.controller)
-        replica = self.replica
-        rows = np.flatnonzero(decided) + start
-        result = np.full((len(rows), self.decision_width), np.nan)
-        for j, k in enumerate(rows):
-            replica(log.inputs[k], ranges_m=log.ranges_m[k])
-            result[j] = replica.decisions[-1]
-            if np.any(np.abs(result[j, :2] - log.controller_output_v[k]) > 1e-9):
-                break
-        return result
+        if child.name == "F32"
+        else pa.array([], type=child.type)
+        for child in union
+    ]
+    code = union.type_codes[[child.name for child in union].index("F32")]
+    buffer = pa.Array.from_buffers(
+        union,
+        n,
+        [
+            None,
+            pa.py_buffer(np.full(n, code, dtype=np.int8).tobytes()),
+            pa.py_buffer(np.arange(n, dtype=np.int32).tobytes()),
+        ],
+        children=children,
+    )
+    tensors = pa.StructArray.from_arrays([shape, names, buffer], fields=list(arrow_type))
+    batch = rr.components.TensorDataBatch(tensors)
+    return [rr.ComponentColumn(rr.BarChart.descriptor_values(), batch)]

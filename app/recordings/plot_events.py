@@ -3,20 +3,20 @@ approaches, the stretches inside the safe distance (where they begin and end), t
 disturbance switched on and off and the end of the run, each a marker on the curves of
 every plot at its time, beside the lanes and the log that say them in words.
 
-Every plot has one more entity, ``<plot>/events`` (``/plots/distance/events``...):
-rerun's ``Scalars`` at the events' times, drawn as points (``SeriesPoints``) whose
-shape and colour are logged with each row (:func:`mark_kinds`: a diamond in the
-obstacle's colour for a closest approach, down and up triangles where a stretch inside
-the safe distance begins and ends, right and left triangles for the disturbance on and
-off, an asterisk for the target reached, a cross for a collision), under one name,
-"events" (one legend entry). A mark sits on a curve of its plot, so that it is seen
-where the run was then and is inside the plot's value range: an obstacle's own curve
-for that obstacle's events where the plot has one (distance, obstacle angles,
-clearance), else the plot's first curve with a value at that time (on the clearance
-panel never above the part shown); a plot with no value at an event's time (the sensor
-ranges without an echo) has no mark there. The plots whose marks fall at the same
-times go out in one record batch (one chunk per entity, as ``send_columns`` would
-make): one batch for most runs, where a batch for each kind of event cost 3 ms apiece.
+Every plot has one entity more per kind of mark, ``<plot>/events/<key>``
+(``/plots/distance/events/closest``...): rerun's ``Scalars`` at the events' times,
+drawn as points (``SeriesPoints``) in the kind's colour and under its name
+(:func:`mark_kinds`: a diamond for a closest approach, down and up triangles where a
+stretch inside the safe distance begins and ends, right and left triangles for the
+disturbance on and off, an asterisk for the target reached, a cross for a collision;
+the shape logged with each row, the colour and the name once), so that each legend
+entry has its kind's colour. A mark sits on
+a curve of its plot, so that it is seen where the run was then and is inside the plot's
+value range: an obstacle's own curve for that obstacle's events where the plot has one
+(distance, obstacle angles, clearance), else the plot's first curve with a value at
+that time (on the clearance panel never above the part shown); a plot with no value at
+an event's time (the sensor ranges without an echo) has no mark there. The marks that
+fall at the same times go out together.
 """
 
 from __future__ import annotations
@@ -25,30 +25,31 @@ import numpy as np
 
 from fuzzynav.app.figures.style import obstacle_label
 
-from .arrow import RowBatch
+from .sending import Columns
 from .series import shared_views
-from .style import BREACH, COLLISION, DISTURBANCE, TARGET, obstacle_color
+from .style import BREACH, COLLISION, DISTURBANCE, EVENT, TARGET
 
 #: The marks' size (rerun's marker size: a radius in UI points).
 MARK_SIZE = 6.0
-#: The one name every mark has (in a legend: one entry; a panel's legend has room for
-#: few, and rerun 0.41 left out a fifth). Which event a mark is says its shape and
-#: colour, and the lanes and the log at its time.
-MARK_NAME = "events"
-EVENTS_CHILD = "events"  # <plot>/events
+EVENTS_CHILD = "events"  # <plot>/events/<kind>
 
 
 def mark_kinds(events, obstacle_ids) -> list[dict]:
-    """Every kind of mark the run's events make: ``{"key", "name", "marker", "color",
-    "marks": [(time_s, row or None, obstacle id or None)]}``; ``name`` says the kind of
-    event (every mark's legend name is :data:`MARK_NAME`)."""
+    """Every kind of mark the run's events make, one colour and one legend entry each
+    (at most four: a panel's legend has room for few): ``{"key", "name", "color",
+    "marks": [(time_s, row or None, obstacle id or None, marker)]}``. A closest
+    approach is a diamond in the events' colour (as in the world; it sits on its
+    obstacle's curve where the plot has one), a stretch inside the safe distance a
+    triangle down where it begins and up where it ends, the disturbance a triangle
+    right when on and left when off, the end an asterisk (reached; grey: timeout) or a
+    cross (collided)."""
     ids = list(obstacle_ids)
     kinds: dict[str, dict] = {}
 
-    def add(key, name, marker, color, mark):
-        kinds.setdefault(
-            key, {"key": key, "name": name, "marker": marker, "color": color, "marks": []}
-        )["marks"].append(mark)
+    def add(key, name, color, mark):
+        kinds.setdefault(key, {"key": key, "name": name, "color": color, "marks": []})[
+            "marks"
+        ].append(mark)
 
     last = events[-1] if events else None
     collided_row = last.row if last is not None and last.kind == "collided" else None
@@ -56,27 +57,22 @@ def mark_kinds(events, obstacle_ids) -> list[dict]:
         if e.kind == "closest" and e.obstacle in ids:
             if collided_row is not None and e.row == collided_row:
                 continue  # the collision's mark says it (as in the world view)
-            color = obstacle_color(ids.index(e.obstacle))
-            add(
-                f"closest_{e.obstacle}",
-                "closest approach",
-                "diamond",
-                color,
-                (e.time_s, e.row, e.obstacle),
-            )
+            add("closest", "closest approach", EVENT, (e.time_s, e.row, e.obstacle, "diamond"))
         elif e.kind == "safe distance":
-            add("safe_in", "safe distance in/out", "down", BREACH, (e.time_s, None, e.obstacle))
-            add("safe_out", "safe distance in/out", "up", BREACH, (e.end_s, None, e.obstacle))
+            name = "safe distance in / out"
+            add("safe_distance", name, BREACH, (e.time_s, None, e.obstacle, "down"))
+            add("safe_distance", name, BREACH, (e.end_s, None, e.obstacle, "up"))
         elif e.kind in ("disturbance on", "disturbance off"):
-            key = e.kind.replace(" ", "_")
             marker = "right" if e.kind.endswith("on") else "left"
-            add(key, "disturbance on/off", marker, DISTURBANCE, (e.time_s, None, None))
+            add("disturbance", "disturbance on / off", DISTURBANCE, (e.time_s, None, None, marker))
     if last is not None and last.kind not in ("closest", "approaching at the end"):
         style = {
             "reached": ("asterisk", TARGET),
             "collided": ("cross", COLLISION),
         }.get(last.kind, ("asterisk", (110, 110, 110)))
-        add("end", last.kind, style[0], style[1], (last.time_s, last.row, None))
+        add("end", last.kind, style[1], (last.time_s, last.row, None, style[0]))
+    for kind in kinds.values():
+        kind["marks"].sort(key=lambda mark: mark[0])
     return list(kinds.values())
 
 
@@ -128,56 +124,60 @@ def _mark_value(names, values, obstacle, top) -> float:
 
 def send_plot_events(rec, writer, log, events, static) -> dict[str, int]:
     """Mark ``events`` (:func:`.events.run_events`) on every plot of ``writer`` (a
-    :class:`~.columns.ColumnWriter` that sent ``log``); the styles go into ``static``.
-    Returns ``{view path: legend entries added}`` for the legends' placement."""
-    import pyarrow as pa
-
+    :class:`~.columns.ColumnWriter` that sent ``log``), one child entity per kind of
+    mark (``<plot>/events/<key>``), its shape, colour and name static; the styles go
+    into ``static``. Returns ``{view path: legend entries added}`` for the legends'
+    placement."""
     if not len(log) or not events:
         return {}
     from .series import CLEARANCE_SHOWN_M
-    from .style import rgba
 
     time_s = np.asarray(log.time_s, dtype=float)
-    marks = sorted(
-        (
-            (t, row if row is not None else _row_at(time_s, t), oid, kind)
-            for kind in mark_kinds(events, log.obstacle_ids)
-            for t, row, oid in kind["marks"]
-        ),
-        key=lambda mark: mark[0],
-    )
-    if not marks:
+    kinds = mark_kinds(events, log.obstacle_ids)
+    if not kinds:
         return {}
-    times = np.array([m[0] for m in marks], dtype=float)
-    shapes = np.array([_marker(m[3]["marker"]) for m in marks], dtype=np.uint8)
-    colors = np.array([rgba(m[3]["color"]) for m in marks], dtype=np.uint32)
-    values_at = _plot_rows(writer, log, [m[1] for m in marks])
+    marks = [
+        [
+            (t, row if row is not None else _row_at(time_s, t), oid, marker)
+            for t, row, oid, marker in kind["marks"]
+        ]
+        for kind in kinds
+    ]
+    values_at = _plot_rows(writer, log, [m[1] for kind in marks for m in kind])
     tops = {"/plots/clearance": 0.97 * CLEARANCE_SHOWN_M}
-    by_mask: dict[tuple, list] = {}  # plots with a mark at the same events: one batch
-    for path in values_at[marks[0][1]]:
-        column = np.array(
-            [_mark_value(*values_at[row][path], oid, tops.get(path)) for _, row, oid, _ in marks]
-        )
-        mask = tuple(bool(x) for x in np.isfinite(column))
-        if any(mask):
-            by_mask.setdefault(mask, []).append((path, column))
-    entries = {}
-    for mask, plots in by_mask.items():
-        keep = np.array(mask)
-        batch = RowBatch(times[keep])
-        shape_array, color_array = pa.array(shapes[keep]), pa.array(colors[keep])
-        for path, column in plots:
-            entity = f"{path}/{EVENTS_CHILD}"
-            batch.add_series(entity, column[keep, None])
-            batch.add(entity, "SeriesPoints", "markers", shape_array)
-            batch.add(entity, "SeriesPoints", "colors", color_array)
-            static.add(entity, "SeriesPoints", names=MARK_NAME, marker_sizes=MARK_SIZE)
-            entries[path] = 1
+    first = marks[0][0][1]
+    by_rows: dict[tuple, list] = {}  # the columns on the same rows: one batch
+    entries: dict[str, int] = {}
+    for path in values_at[first]:
+        for kind, kind_marks in zip(kinds, marks):
+            column = np.array(
+                [
+                    _mark_value(*values_at[row][path], oid, tops.get(path))
+                    for _, row, oid, _ in kind_marks
+                ]
+            )
+            keep = np.isfinite(column)
+            if not keep.any():
+                continue
+            entity = f"{path}/{EVENTS_CHILD}/{kind['key']}"
+            times = np.array([m[0] for m in kind_marks])[keep]
+            rows = np.array([m[1] for m in kind_marks])[keep]
+            shapes = [m[3] for m, kept in zip(kind_marks, keep) if kept]
+            by_rows.setdefault((times.tobytes(), rows.tobytes()), [times, rows, []])[2].append(
+                (entity, column[keep, None], shapes)
+            )
+            static.add(
+                entity,
+                "SeriesPoints",
+                names=kind["name"],
+                colors=kind["color"],
+                marker_sizes=MARK_SIZE,
+            )
+            entries[path] = entries.get(path, 0) + 1
+    for times, rows, columns in by_rows.values():
+        batch = Columns(times, rows)
+        for entity, column, shapes in columns:
+            batch.add_series(entity, column)
+            batch.add(entity, "SeriesPoints", "markers", shapes)
         batch.send(rec)
     return entries
-
-
-def _marker(name: str) -> int:
-    import rerun as rr
-
-    return int(rr.components.MarkerShape.auto(name).value)

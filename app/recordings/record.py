@@ -4,11 +4,13 @@
 :class:`~fuzzynav.app.recordings.live.LiveRecorder` (re-exported here, where the viewer
 imports it) appends the steps of a running simulation in chunks. Both go through
 :class:`~fuzzynav.app.recordings.columns.ColumnWriter`, which sends whole columns on the
-timeline ``sim_time``, never one call per step; the layout is :mod:`.blueprint`'s. What
-each entity and tab shows: docs/recordings.md; how the files are written (whole, beside
-the target, renamed; a partial run as ``<stem>.partial.rrd``): docs/robustness.md.
+timelines ``sim_time`` and ``step`` (the log's row: the ``--trace`` CSV's row) through
+``rr.send_columns`` and the archetypes' ``columns`` (:mod:`.sending`), never one call per
+step; the layout is :mod:`.blueprint`'s. What each entity and tab shows, and how the
+columns are sent: docs/recordings.md; how the files are written (whole, beside the
+target, renamed; a partial run as ``<stem>.partial.rrd``): docs/robustness.md.
 
-``rerun`` and ``pyarrow`` are imported inside the functions: the command line imports
+``rerun`` is imported inside the functions: the command line imports
 this module for its options on every call.
 """
 
@@ -164,8 +166,8 @@ def _send_statics(
     extra_metadata,
     voltage_limit_v,
 ) -> list:
-    """Every static part in one record batch (styles, the world's statics, documents),
-    the events, and the inference at each decision; returns the fuzzy views' names."""
+    """Every static part (styles, the world's statics, documents), the events, and the
+    inference at each decision; returns the fuzzy views' names."""
     scenario = result.scenario
     log = result.log
     extra = dict(extra_metadata or {})

@@ -125,6 +125,49 @@ class Rows:
             return np.zeros((self.n, 0))
         return obstacle_bearings(self.pose, self.logged("obstacle_xy"))
 
+    def previous_row(self, name: str) -> np.ndarray | None:
+        """The log's array ``name`` at the row before ``start`` (None at the first)."""
+        return None if self.start == 0 else getattr(self.log, name)[self.start - 1]
+
+    @cached_property
+    def bearings_broken(self) -> np.ndarray:
+        """:attr:`bearings`, NaN where one crosses the +-pi wrap (a gap, as Fig. 20)."""
+        if not len(self.log.obstacle_ids):
+            return self.bearings
+        before = None
+        if self.start > 0:
+            k = self.start - 1
+            before = obstacle_bearings(self.log.pose[k : k + 1], self.log.obstacle_xy[k : k + 1])[0]
+        return broken_at_wrap(self.bearings, before)
+
+    @cached_property
+    def target_bearing_broken(self) -> np.ndarray:
+        """(n, 1): phi_t without the disturbance, NaN where it crosses the +-pi wrap."""
+        before = None
+        if self.start > 0:
+            k = self.start - 1
+            pose, target = self.log.pose[k : k + 1], self.log.target_xy[k : k + 1]
+            before = target_geometry(pose, target)[1]
+        return broken_at_wrap(self.target_geometry[1][:, None], before)
+
+
+def broken_at_wrap(angles_rad: np.ndarray, before_rad=None) -> np.ndarray:
+    """Angles (rows, series) in (-pi, pi] with NaN at each row where a series jumps by
+    more than pi from the row before (``before_rad``: the row before the first, if
+    any): it went across the wrap, and a plot joining the two rows would draw a stroke
+    the height of the panel. The NaN breaks the line there, as the paper's Fig. 20 does.
+    """
+    angles = np.array(angles_rad, dtype=float)
+    if not angles.size:
+        return angles
+    previous = np.empty_like(angles)
+    previous[1:] = angles[:-1]
+    previous[0] = np.nan if before_rad is None else np.asarray(before_rad, dtype=float)
+    with np.errstate(invalid="ignore"):
+        jump = np.abs(angles - previous) > math.pi
+    angles[jump] = np.nan
+    return angles
+
 
 @dataclass(frozen=True)
 class LiveLine:
@@ -169,7 +212,9 @@ class Plot:
     ``share``: the panel's height share in its tab. ``place``: its rank in the tab
     (lower first; equal ranks keep the table's order). ``figure``: the kind of the
     paper's figure it draws (``app.figures.numbering``: the panel's name gets its
-    number). ``live``: its plot in the viewer's Signals tab, if any."""
+    number). ``live``: its plot in the viewer's Signals tab, if any. ``unit``: the
+    values' unit, written at the start of the panel's name (a long name is cut at its
+    end in a narrow panel)."""
 
     path: str
     title: str | Callable[[Setup], str]
@@ -185,6 +230,7 @@ class Plot:
     place: int = 0
     figure: str | None = None
     live: Live | None = None
+    unit: str = ""
 
     @property
     def origin(self) -> str:
@@ -212,6 +258,23 @@ class Plot:
             The run's obstacles and perception.
         """
         return self.title(setup) if callable(self.title) else self.title
+
+
+def panel_name(title: str, unit: str = "", figure_number: int | None = None) -> str:
+    """A panel's name: the paper's figure number and the unit first, where a panel too
+    narrow for the whole name still shows them (``Fig. 18 [m] distance to ...``).
+
+    Parameters
+    ----------
+    title : str
+        What the panel shows.
+    unit : str
+        The values' unit ("" for none).
+    figure_number : int or None
+        The paper's figure the panel draws.
+    """
+    head = f"Fig. {figure_number} " if figure_number is not None else ""
+    return f"{head}[{unit}] {title}" if unit else f"{head}{title}"
 
 
 def distance_colours(obstacle_ids) -> str:
@@ -287,7 +350,7 @@ PLOTS: list[Plot] = [
         lambda s: (
             "distance to the target (green) and to "
             + distance_colours(s.obstacle_ids)
-            + ", centre to centre, m"
+            + ", centre to centre"
         ),
         PAPER,
         lambda s: ["target"] + s.obstacles,
@@ -299,18 +362,20 @@ PLOTS: list[Plot] = [
         legend=False,
         share=1.2,
         figure="distances",
+        unit="m",
     ),
     Plot(
         "/plots/angles/phi_t",
-        "target angle phi_t and heading, rad",
+        "target angle phi_t and heading",
         PAPER,
         ["phi_t"],
         [INPUT_COLORS["phi_t"]],
         _ONE,
-        lambda r: r.target_geometry[1][:, None],
+        lambda r: r.target_bearing_broken,
         view="/plots/angles",  # one panel with the heading, as the paper's Fig. 14
         share=1.15,
         figure="angles",
+        unit="rad",
     ),
     Plot(
         "/plots/angles/heading",
@@ -324,19 +389,20 @@ PLOTS: list[Plot] = [
     ),
     Plot(
         "/plots/obstacle_angles",
-        "obstacle angles from the heading, rad",
+        "obstacle angles from the heading (gap: across ±π)",
         PAPER,
         lambda s: s.obstacles,
         lambda s: s.obstacle_colors,
         lambda s: [1.5] * len(s.obstacle_ids),
-        lambda r: r.bearings,
+        lambda r: r.bearings_broken,
         share=1.15,
         figure="obstacle_angles",
+        unit="rad",
     ),
     Plot(
         "/plots/voltage",
         # Five series: a legend would cover the start; the name says which is which.
-        "wheel voltages, V: blue left, black right (pale: before the limit), grey ±12 V",
+        "wheel voltages: blue left, black right (pale: before the limit), grey ±12 V",
         PAPER,
         _voltage_series,
         [_P[0], RIGHT, (150, 190, 230), (150, 150, 150), LIMIT, LIMIT],
@@ -345,6 +411,7 @@ PLOTS: list[Plot] = [
         legend=False,
         share=1.35,
         figure="voltages",
+        unit="V",
         live=Live(
             "Wheel voltages (V, after the 12 V limit)",
             (
@@ -357,13 +424,14 @@ PLOTS: list[Plot] = [
     ),
     Plot(
         "/plots/inputs/distances",
-        "inputs d_t, d_o, m, as the controller saw them (d_o gap: nothing sensed)",
+        "inputs d_t, d_o as the controller saw them (d_o gap: nothing sensed)",
         PLANT,
         ["d_t", "d_o"],
         [INPUT_COLORS["d_t"], INPUT_COLORS["d_o"]],
         _TWO,
         lambda r: r.inputs[:, [0, 1]],
         place=1,
+        unit="m",
         live=Live(
             "Distances (m)",
             (
@@ -383,13 +451,14 @@ PLOTS: list[Plot] = [
     ),
     Plot(
         "/plots/inputs/angles",
-        "inputs phi_t, phi_o, rad, as the controller saw them (phi_o gap: nothing sensed)",
+        "inputs phi_t, phi_o as the controller saw them (phi_o gap: nothing sensed)",
         PLANT,
         ["phi_t", "phi_o"],
         [INPUT_COLORS["phi_t"], INPUT_COLORS["phi_o"]],
         _TWO,
         lambda r: r.inputs[:, [2, 3]],
         place=1,
+        unit="rad",
         live=Live(
             "Bearings (rad, + = to the left)",
             (
@@ -402,7 +471,7 @@ PLOTS: list[Plot] = [
     ),
     Plot(
         "/plots/clearance",
-        f"footprint clearance, m, up to {CLEARANCE_SHOWN_M:g} m shown, obstacles in their "
+        f"footprint clearance, up to {CLEARANCE_SHOWN_M:g} m shown, obstacles in their "
         f"colours, grey the {SAFE_DISTANCE_M:g} m safe distance",
         SENSING,
         lambda s: s.obstacles + [f"safe {SAFE_DISTANCE_M} m"],
@@ -412,38 +481,42 @@ PLOTS: list[Plot] = [
         legend=False,
         value_range=clearance_range,
         place=1,
+        unit="m",
     ),
     Plot(
         "/plots/wheels",
-        "wheel speeds w_LW, w_RW, rad/s",
+        "wheel speeds w_LW, w_RW",
         PLANT,
         ["w_LW (rad/s)", "w_RW (rad/s)"],
         [_P[0], RIGHT],
         _TWO,
         lambda r: r.logged("lg_state")[:, 0:2],
+        unit="rad/s",
     ),
     Plot(
         "/plots/velocity",
-        "v_MH, m/s, and w_JH, rad/s",
+        "v_MH and w_JH",
         PLANT,
         ["v_MH (m/s)", "w_JH (rad/s)"],
         [_P[0], HEADING],
         _TWO,
         lambda r: r.logged("lg_state")[:, 2:4],
+        unit="m/s, rad/s",
     ),
     Plot(
         "/plots/current",
-        "motor currents i_L1, i_L2, A",
+        "motor currents i_L1, i_L2",
         PLANT,
         ["i_L1 left (A)", "i_L2 right (A)"],
         [_P[0], RIGHT],
         _TWO,
         lambda r: r.logged("lg_state")[:, 4:6],
+        unit="A",
     ),
     Plot(
         "/plots/ranges",
         lambda s: (
-            "sensor ranges, m (gap: no echo)"
+            "sensor ranges (gap: no echo)"
             + (
                 " — not used: ideal perception drives on the true obstacles"
                 if s.perception == "ideal"
@@ -455,6 +528,7 @@ PLOTS: list[Plot] = [
         lambda s: [SENSOR_COLORS.get(m, (120, 120, 120)) for m in s.sensor_names],
         lambda s: [1.5] * len(s.sensor_names),
         lambda r: np.where(np.isinf(r.ranges), np.nan, r.ranges),
+        unit="m",
     ),
     Plot(
         "/plots/disturbance",
@@ -466,6 +540,7 @@ PLOTS: list[Plot] = [
         lambda r: r.logged("disturbance")[:, None],
         legend=False,
         place=1,
+        unit="m or rad",
     ),
 ]
 

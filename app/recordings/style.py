@@ -49,6 +49,25 @@ def obstacle_color(col: int) -> tuple[int, int, int]:
     return OBSTACLE_PALETTE[col % len(OBSTACLE_PALETTE)]
 
 
+def time_text(time_s: float, digits: int = 2) -> str:
+    """A time as the recordings write it: seconds, and past a minute also as rerun's
+    time axis writes it (``100.52 s = +1m 40.52s``), so that a time in a text is
+    found on the axis.
+
+    Parameters
+    ----------
+    time_s : float
+        Simulated time (s).
+    digits : int
+        Digits after the point.
+    """
+    text = f"{time_s:.{digits}f} s"
+    if time_s >= 60.0:
+        minutes, seconds = divmod(float(time_s), 60.0)
+        text += f" = +{int(minutes)}m {seconds:.{digits}f}s"
+    return text
+
+
 def rgba(color) -> int:
     """(r, g, b) or (r, g, b, a) packed as 0xRRGGBBAA, rerun's colour component."""
     r, g, b, a = (tuple(color) + (255,))[:4]
