@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any, TypeAlias
 
 import gymnasium as gym
@@ -33,11 +35,19 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from fuzzynav.app.args import integer_value
 from fuzzynav.world.batch_world import BatchWorld
 from fuzzynav.world.kernels import law_centre, obstacle_law
 from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M
-from fuzzynav.world.scenario import Scenario, load_scenario
+from fuzzynav.world.scenario import (
+    DEFAULT_FOOTPRINT_M,
+    MAX_DURATION_S,
+    Scenario,
+    check_scenario,
+    load_scenario,
+)
+from fuzzynav.world.scenario_format import MAX_DISTURBANCE
 
 __all__ = [
     "ENV_ID",
@@ -56,16 +66,90 @@ FloatArray: TypeAlias = npt.NDArray[np.float64]
 BoolArray: TypeAlias = npt.NDArray[np.bool_]
 #: The observation's entries, in order (units in :class:`HuskyEnv`'s docstring).
 OBSERVATION_NAMES = ("d_t", "d_o", "phi_t", "phi_o", "obstacle_seen", "v", "w")
-#: Reward on arriving at the target, and on touching an obstacle.
+#: The default rewards: per metre of progress to the target, on arriving at the target,
+#: and on touching an obstacle (``progress_reward_per_m``, ``reach_reward``,
+#: ``collision_reward`` change them).
+PROGRESS_REWARD_PER_M = 1.0
 REACH_REWARD = 10.0
 COLLISION_REWARD = -10.0
-_OBS_LOW = np.array([-np.inf, -np.inf, -np.inf, -np.inf, 0.0, -np.inf, -np.inf])
-_OBS_HIGH = np.array([np.inf, np.inf, np.inf, np.inf, 1.0, np.inf, np.inf])
+#: Bounds of the observation: distances (m) beyond any scenario's coordinates (10 km)
+#: and disturbance; angles (rad) a bearing plus the largest disturbance; the speeds
+#: (m/s, rad/s) several times what the Husky reaches at 12 V. Observations are clipped
+#: to them.
+DISTANCE_BOUND_M = 1.0e5
+ANGLE_BOUND_RAD = float(np.float32(math.pi + MAX_DISTURBANCE))
+SPEED_BOUND_MPS = 10.0
+YAW_RATE_BOUND_RADPS = 20.0
+#: Maximum ``num_envs`` of :class:`HuskyVectorEnv` (a sweep's largest ``n``).
+MAX_NUM_ENVS = 100_000
+OBSERVATION_HIGH = np.array(
+    [
+        DISTANCE_BOUND_M,
+        DISTANCE_BOUND_M,
+        ANGLE_BOUND_RAD,
+        ANGLE_BOUND_RAD,
+        1.0,
+        SPEED_BOUND_MPS,
+        YAW_RATE_BOUND_RADPS,
+    ]
+)
+OBSERVATION_LOW = -OBSERVATION_HIGH
+OBSERVATION_LOW[4] = 0.0
 
 
 @functools.lru_cache(maxsize=8192)
 def _layout(family: str, seed: int, index: int) -> Scenario:
     return generate_layout(family, seed, index)
+
+
+def _positive_seconds(value: object, name: str) -> float:
+    """``value`` as a float of seconds in (0, :data:`MAX_DURATION_S`]; ValueError naming
+    ``name`` otherwise (NaN, inf, 0, a negative time, a bool, a string)."""
+    if not isinstance(value, bool) and isinstance(value, numbers.Real):
+        seconds = float(value)
+        if math.isfinite(seconds) and 0.0 < seconds <= MAX_DURATION_S:
+            return seconds
+    raise ValueError(
+        f"{name} = {value!r}: must be a number of seconds > 0 and at most {MAX_DURATION_S:g}"
+    )
+
+
+def _finite(value: object, name: str) -> float:
+    if not isinstance(value, bool) and isinstance(value, numbers.Real):
+        number = float(value)
+        if math.isfinite(number):
+            return number
+    raise ValueError(f"{name} = {value!r}: must be a finite number")
+
+
+def _layout_range(layouts: object) -> tuple[int, int]:
+    """``(first, stop)`` of layout indices, both integers, ``0 <= first < stop``."""
+    rule = "must be (first, stop): two integers with 0 <= first < stop"
+    if isinstance(layouts, str | bytes) or not isinstance(layouts, Sequence) or len(layouts) != 2:
+        raise ValueError(f"layouts = {layouts!r}: {rule}")
+    pair = []
+    for value in layouts:
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise ValueError(f"layouts = {layouts!r}: {rule} ({value!r} is not an integer)")
+        pair.append(int(value))
+    low, high = pair
+    if not 0 <= low < high:
+        raise ValueError(f"layouts = {layouts!r}: {rule}")
+    return low, high
+
+
+def _action(action: npt.ArrayLike, shape: tuple[int, ...]) -> FloatArray:
+    """An action (or a vector env's actions) as floats, of exactly ``shape`` and finite;
+    ValueError naming what is wrong (a string, a (2, 1) array, NaN)."""
+    raw = np.asarray(action)
+    if raw.dtype.kind not in "biuf":
+        raise ValueError(f"action = {raw.tolist()!r}: must be real numbers, not {raw.dtype}")
+    if raw.shape != shape:
+        raise ValueError(f"action of shape {raw.shape}: must be of shape {shape}")
+    values: FloatArray = raw.astype(float)
+    if not np.isfinite(values).all():
+        raise ValueError(f"action = {values.tolist()}: must be finite")
+    return values
 
 
 class _Setup:
@@ -77,22 +161,34 @@ class _Setup:
         family: str,
         layout_seed: int,
         layouts: tuple[int, int],
-        scenarios: Sequence[Scenario | str] | None,
+        scenarios: Sequence[Scenario | str | Path] | Scenario | str | Path | None,
         perception: str,
         geometry: str,
         control_period_s: float,
         max_duration_s: float | None,
+        rewards: tuple[float, float, float],
     ):
+        # a start is checked against the robot that drives, as simulate checks it
+        self.footprint_m = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
+        if max_duration_s is not None:
+            max_duration_s = _positive_seconds(max_duration_s, "max_duration_s")
+        self.progress_reward, self.reach_reward, self.collision_reward = (
+            _finite(value, name)
+            for value, name in zip(
+                rewards, ("progress_reward_per_m", "reach_reward", "collision_reward")
+            )
+        )
         self.scenarios: list[Scenario] | None = None
         if scenarios is not None:
-            self.scenarios = [load_scenario(sc) if isinstance(sc, str) else sc for sc in scenarios]
+            if isinstance(scenarios, Scenario | str | Path):
+                scenarios = [scenarios]  # one scenario, not a string read per character
+            self.scenarios = [self.scenario(sc, "scenarios") for sc in scenarios]
             if not self.scenarios:
                 raise ValueError("scenarios: the list is empty")
         else:
-            low, high = (int(v) for v in layouts)
-            if not 0 <= low < high:
-                raise ValueError(f"layouts = {layouts!r}: must be (first, stop) with first < stop")
-            generate_layout(family, layout_seed, low)  # a bad family fails here
+            layouts = _layout_range(layouts)
+            layout_seed = integer_value(layout_seed, "layout_seed", 0)
+            generate_layout(family, layout_seed, layouts[0])  # a bad family fails here
         self.family, self.layout_seed, self.layouts = family, int(layout_seed), layouts
         self.world = BatchWorld(
             perception=perception,
@@ -101,6 +197,20 @@ class _Setup:
             max_duration_s=max_duration_s,
         )
         self.limit = self.world.limit
+
+    def scenario(self, value: object, name: str) -> Scenario:
+        """A scenario given by the user, checked as :func:`fuzzynav.simulate` checks it: a
+        :class:`Scenario` as a file is (a NaN target, an obstacle on the robot's start are
+        refused), a shipped name (``"s1"``) or a file read and checked."""
+        if isinstance(value, Scenario):
+            check_scenario(value, self.footprint_m)
+            return value
+        if isinstance(value, str | Path):
+            return load_scenario(value, footprint_m=self.footprint_m)
+        raise ValueError(
+            f"{name}: {value!r} is not a scenario (give a Scenario, a shipped name such "
+            "as 's1', or a scenario file's path)"
+        )
 
     def draw(self, rng: np.random.Generator) -> tuple[Scenario, int]:
         """A reset's scenario and sonar seed, from the environment's generator."""
@@ -111,12 +221,13 @@ class _Setup:
             scenario = _layout(self.family, self.layout_seed, index)
         return scenario, int(rng.integers(2**31))
 
-    def observations(self) -> np.ndarray:
-        """(n, 7) observations of the world's runs now (its ``observe`` stage)."""
+    def observations(self) -> FloatArray:
+        """(n, 7) observations of the world's runs now (its ``observe`` stage), clipped
+        to the observation space's bounds."""
         inputs, _ = self.world.observe()
         seen = np.isfinite(inputs[:, 1])
         lg = self.world.lg_state
-        return np.stack(
+        observed = np.stack(
             [
                 inputs[:, 0],
                 np.where(seen, inputs[:, 1], OBSTACLE_CUTOFF_M),
@@ -128,6 +239,8 @@ class _Setup:
             ],
             axis=1,
         )
+        clipped: FloatArray = np.clip(observed, OBSERVATION_LOW, OBSERVATION_HIGH)
+        return clipped
 
     def distances(self) -> FloatArray:
         """The true distance of each run's centre to its target, m (n,)."""
@@ -135,19 +248,21 @@ class _Setup:
         distance: FloatArray = np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
         return distance
 
-    def voltages(self, actions: npt.ArrayLike) -> FloatArray:
-        return np.asarray(actions, dtype=float) * self.limit
+    def voltages(self, actions: FloatArray) -> FloatArray:
+        volts: FloatArray = actions * self.limit
+        return volts
 
-    @staticmethod
-    def rewards(before: FloatArray, after: FloatArray, codes: npt.NDArray[np.int_]) -> FloatArray:
-        reward = before - after
-        reward = np.where(codes == 0, reward + REACH_REWARD, reward)
-        rewarded: FloatArray = np.where(codes == 1, reward + COLLISION_REWARD, reward)
+    def rewards(
+        self, before: FloatArray, after: FloatArray, codes: npt.NDArray[np.int_]
+    ) -> FloatArray:
+        reward = self.progress_reward * (before - after)
+        reward = np.where(codes == 0, reward + self.reach_reward, reward)
+        rewarded: FloatArray = np.where(codes == 1, reward + self.collision_reward, reward)
         return rewarded
 
 
 def _spaces() -> tuple[spaces.Box[np.float64], spaces.Box[np.float64]]:
-    observation = spaces.Box(_OBS_LOW, _OBS_HIGH, dtype=np.float64)
+    observation = spaces.Box(OBSERVATION_LOW, OBSERVATION_HIGH, dtype=np.float64)
     action = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64)
     return observation, action
 
@@ -173,25 +288,29 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
 
     ## Observation Space
 
-    ``Box((7,), float64)``, the controller's inputs as the robot senses them (the
-    scenario's disturbance added, as the paper's controller sees them) and its speeds:
+    ``Box((7,), float64)`` with finite bounds, the controller's inputs as the robot
+    senses them (the scenario's disturbance added, as the paper's controller sees them)
+    and its speeds, clipped to the bounds (:data:`OBSERVATION_LOW`,
+    :data:`OBSERVATION_HIGH`; no run of a valid scenario reaches them):
 
     | Num | Observation | Unit | Min | Max |
     |-----|-------------|------|-----|-----|
-    | 0 | ``d_t``: distance to the target | m | -inf | inf |
-    | 1 | ``d_o``: clearance to the nearest sensed obstacle; the cutoff (``OBSTACLE_CUTOFF_M``) if none | m | -inf | inf |
-    | 2 | ``phi_t``: bearing of the target from the heading, (-pi, pi] | rad | -inf | inf |
-    | 3 | ``phi_o``: bearing of that obstacle (ideal) or its sonar's angle; 0 if none | rad | -inf | inf |
+    | 0 | ``d_t``: distance to the target | m | -1e5 | 1e5 |
+    | 1 | ``d_o``: clearance to the nearest sensed obstacle; the cutoff (``OBSTACLE_CUTOFF_M``) if none | m | -1e5 | 1e5 |
+    | 2 | ``phi_t``: bearing of the target from the heading, (-pi, pi] | rad | -(pi + 1000) | pi + 1000 |
+    | 3 | ``phi_o``: bearing of that obstacle (ideal) or its sonar's angle; 0 if none | rad | -(pi + 1000) | pi + 1000 |
     | 4 | ``obstacle_seen``: 1 when an obstacle is sensed within the cutoff, else 0 | - | 0 | 1 |
-    | 5 | ``v``: forward speed of the hull (LG state v_MH) | m/s | -inf | inf |
-    | 6 | ``w``: yaw rate (LG state w_JH) | rad/s | -inf | inf |
+    | 5 | ``v``: forward speed of the hull (LG state v_MH) | m/s | -10 | 10 |
+    | 6 | ``w``: yaw rate (LG state w_JH) | rad/s | -20 | 20 |
 
-    The bounds are infinite because the disturbance is added to entries 0-3.
+    Entries 0-3 are signed because a scenario's disturbance (up to 1000 in amplitude)
+    is added to them.
 
     ## Rewards
 
-    Each step: the decrease of the centre's distance to the target over the step (m),
-    plus 10 on arriving and -10 on touching an obstacle.
+    Each step: ``progress_reward_per_m`` (default 1) times the decrease of the centre's
+    distance to the target over the step (m), plus ``reach_reward`` (10) on arriving
+    and ``collision_reward`` (-10) on touching an obstacle.
 
     ## Starting State
 
@@ -205,7 +324,8 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     3. Truncation: the scenario's duration (or ``max_duration_s``) has passed (timeout).
 
     ``info["outcome"]`` on the last step: 0 reached, 1 collided, 2 timeout (an index
-    into :data:`world.run_limits.OUTCOMES`).
+    into :data:`world.run_limits.OUTCOMES`). A ``step`` after the last one, or before
+    the first ``reset``, raises ``gymnasium.error.ResetNeeded``: call ``reset``.
 
     ## Arguments
 
@@ -217,9 +337,10 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         The family's seed.
     layouts : tuple of int
         ``(first, stop)``: the layout indices a reset draws from (keep a range apart
-        for held-out tests).
-    scenarios : sequence of Scenario or str, optional
-        Draw from these instead (scenario objects or names such as ``"s1"``).
+        for held-out tests); two integers, ``0 <= first < stop``.
+    scenarios : Scenario, str, Path or a sequence of them, optional
+        Draw from these instead (scenario objects, names such as ``"s1"`` or scenario
+        files), each checked as :func:`fuzzynav.simulate` checks a scenario.
     perception : {"ideal", "ultrasonic"}
         How obstacles are sensed.
     geometry : {"husky", "paper"}
@@ -227,9 +348,11 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     control_period_s : float
         The step, s (the paper's 20 ms by default).
     max_duration_s : float, optional
-        Truncate every episode at this time at the latest, s.
+        Truncate every episode at this time at the latest, s (> 0, at most an hour).
     render_mode : {"rgb_array"}, optional
         :meth:`render` returns an (H, W, 3) uint8 picture of the scene.
+    progress_reward_per_m, reach_reward, collision_reward : float
+        The reward's terms (see Rewards).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -239,23 +362,28 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         family: str = "standard",
         layout_seed: int = 0,
         layouts: tuple[int, int] = (0, 1000),
-        scenarios: Sequence[Scenario | str] | None = None,
+        scenarios: Sequence[Scenario | str | Path] | Scenario | str | Path | None = None,
         perception: str = "ideal",
         geometry: str = "husky",
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
+        progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
+        reach_reward: float = REACH_REWARD,
+        collision_reward: float = COLLISION_REWARD,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
         self._setup = _Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
+            (progress_reward_per_m, reach_reward, collision_reward),
         )  # fmt: skip
         self.observation_space, self.action_space = _spaces()
         self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / control_period_s)}
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self._setup.world.dt)}
         self.scenario: Scenario | None = None
+        self._episode_over = True  # no episode yet: reset() starts one
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -267,7 +395,9 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         seed : int, optional
             Seeds the environment's generator (the scenario and the sonar noise).
         options : dict, optional
-            ``{"scenario": Scenario}`` runs that scenario instead of drawing one.
+            ``{"scenario": S}`` runs ``S`` instead of drawing one: a Scenario, a
+            shipped name (``"s1"``) or a scenario file, checked as
+            :func:`fuzzynav.simulate` checks it (ValueError).
 
         Returns
         -------
@@ -277,10 +407,11 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         super().reset(seed=seed)
         scenario, sonar_seed = self._setup.draw(self.np_random)
         if options and options.get("scenario") is not None:
-            scenario = options["scenario"]
+            scenario = self._setup.scenario(options["scenario"], 'options["scenario"]')
         self.scenario = scenario
         self._setup.world.reset([scenario], [sonar_seed])
         self._distance = self._setup.distances()
+        self._episode_over = False
         return self._setup.observations()[0], {}
 
     def step(self, action: npt.ArrayLike) -> tuple[FloatArray, float, bool, bool, dict[str, int]]:
@@ -296,14 +427,22 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         tuple
             observation, reward, terminated, truncated, info.
         """
+        if self._episode_over:
+            raise gym.error.ResetNeeded(
+                "step() before reset(): call reset() to start an episode"
+                if self.scenario is None
+                else "step() after the episode ended (terminated or truncated): "
+                "call reset() to start another"
+            )
         setup = self._setup
-        code = setup.world.step(setup.voltages(action).reshape(1, 2))
+        code = setup.world.step(setup.voltages(_action(action, (2,))).reshape(1, 2))
         distance = setup.distances()
         reward = setup.rewards(self._distance, distance, code)
         self._distance = distance
         observation = setup.observations()[0]
         k = int(code[0])
         info = {"outcome": k} if k >= 0 else {}
+        self._episode_over = k >= 0
         return observation, float(reward[0]), k in (0, 1), k == 2, info
 
     def render(self) -> npt.NDArray[np.uint8] | None:
@@ -329,8 +468,10 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
     Parameters
     ----------
     num_envs : int
-        Sub-environments.
+        Sub-environments, 1 to :data:`MAX_NUM_ENVS`.
     family, layout_seed, layouts, scenarios, perception, geometry, control_period_s, max_duration_s
+        As :class:`HuskyEnv`.
+    progress_reward_per_m, reach_reward, collision_reward : float
         As :class:`HuskyEnv`.
     render_mode : None
         Not drawn (render a :class:`HuskyEnv`).
@@ -344,20 +485,23 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         family: str = "standard",
         layout_seed: int = 0,
         layouts: tuple[int, int] = (0, 1000),
-        scenarios: Sequence[Scenario | str] | None = None,
+        scenarios: Sequence[Scenario | str | Path] | Scenario | str | Path | None = None,
         perception: str = "ideal",
         geometry: str = "husky",
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
+        progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
+        reach_reward: float = REACH_REWARD,
+        collision_reward: float = COLLISION_REWARD,
     ) -> None:
-        if num_envs < 1:
-            raise ValueError(f"num_envs = {num_envs!r}: must be at least 1")
+        num_envs = integer_value(num_envs, "num_envs", 1, MAX_NUM_ENVS)
         if render_mode is not None:
             raise ValueError(f"render_mode = {render_mode!r}: the vector form draws nothing")
         self._setup = _Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
+            (progress_reward_per_m, reach_reward, collision_reward),
         )  # fmt: skip
         self.num_envs = num_envs
         self.single_observation_space, self.single_action_space = _spaces()
@@ -439,7 +583,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
         setup = self._setup
-        volts = setup.voltages(actions).reshape(self.num_envs, 2)
+        volts = setup.voltages(_action(actions, (self.num_envs, 2)))
         again = self._autoreset
         if again.any():
             volts = np.where(again[:, None], 0.0, volts)  # ignored: they start again
