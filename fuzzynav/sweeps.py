@@ -7,6 +7,7 @@ sweep`` runs the same studies (:mod:`fuzzynav.app.experiments.studies`).
 from __future__ import annotations
 
 import contextlib
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
@@ -145,8 +146,15 @@ def sweep(
         check_controller(controller)  # every problem named before a run starts
     jobs = _jobs(controller, n, seed, family, perception, geometry, scenarios)
     with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
-        rows = run_jobs(jobs, runner, log=log, progress=progress, engine=engine)
+        rows = run_jobs(
+            jobs, runner, log=log, progress=progress, engine=engine, on_fallback=_warn_fallback
+        )
     return cast(list[SweepRow], rows)
+
+
+def _warn_fallback(message: str) -> None:
+    """A study the batch engine cannot drive runs on pymunk: said, as the command line says it."""
+    warnings.warn(message, UserWarning, stacklevel=2)
 
 
 def _jobs(
