@@ -44,14 +44,15 @@ declared by the attributes below, never guessed:
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, Protocol, runtime_checkable
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, ClassVar, Protocol, TypeAlias, runtime_checkable
 
 import numpy as np
 
 __all__ = [
     "INPUT_NAMES",
     "Controller",
+    "ControllerFunction",
     "RangeController",
     "ContextController",
     "MountAwareController",
@@ -78,8 +79,13 @@ class Controller(Protocol):
     def reset(self) -> None:
         """Forget everything of the previous run (called before each)."""
 
-    def __call__(self, inputs: np.ndarray) -> Sequence[float]:
+    def __call__(self, inputs: np.ndarray) -> Sequence[float] | np.ndarray:
         """``(v_s1, v_s2)`` in V for ``inputs = [d_t, d_o, phi_t, phi_o]``."""
+
+
+#: A controller as one plain function, no class: ``f(inputs (4,)) -> (left, right)`` V,
+#: or vectorised, ``f(inputs (n, 4)) -> voltages (n, 2)`` (:mod:`controller.function`).
+ControllerFunction: TypeAlias = Callable[[np.ndarray], Any]
 
 
 @runtime_checkable

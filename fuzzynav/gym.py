@@ -42,12 +42,11 @@ from fuzzynav.world.layouts import generate_layout
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M
 from fuzzynav.world.scenario import (
     DEFAULT_FOOTPRINT_M,
-    MAX_DURATION_S,
     Scenario,
     check_scenario,
     load_scenario,
 )
-from fuzzynav.world.scenario_format import MAX_DISTURBANCE
+from fuzzynav.world.scenario_format import MAX_DISTURBANCE, MAX_DURATION_S
 
 __all__ = [
     "ENV_ID",

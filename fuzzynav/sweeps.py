@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 from fuzzynav.controller.checker import check_controller
+from fuzzynav.controller.interface import Controller, ControllerFunction
 from fuzzynav.world.run_limits import Outcome
 from fuzzynav.world.scenario import Scenario
 
@@ -68,7 +69,7 @@ class SweepRow(TypedDict, total=False):
 
 
 def sweep(
-    controller: str | object = "paper",
+    controller: str | Controller | ControllerFunction = "paper",
     n: int | None = None,
     seed: int | None = None,
     family: str = "standard",
@@ -90,9 +91,10 @@ def sweep(
     ----------
     controller : str or controller object
         A registered name (``fuzzynav sweep --help`` lists them; a controller of your
-        own joins with :func:`fuzzynav.register_controller`), ``"module:factory"``, or a
+        own joins with :func:`fuzzynav.register_controller`), ``"module:factory"``, a
         controller object (a copy drives each run; it must pickle to run in worker
-        processes).
+        processes), or one plain function as :func:`fuzzynav.simulate` takes it (a
+        vectorised one runs on the batch engine as it is).
     n : int, optional
         How many layouts (layouts 0 .. n - 1 of the family and seed); default the
         command line's (``fuzzynav sweep --n``). Not with ``scenarios``.
@@ -143,6 +145,9 @@ def sweep(
     from fuzzynav.app.experiments.studies import run_jobs
 
     if not isinstance(controller, str):
+        from fuzzynav.controller.function import as_controller
+
+        controller = as_controller(controller)  # a plain function is a controller too
         check_controller(controller)  # every problem named before a run starts
     jobs = _jobs(controller, n, seed, family, perception, geometry, scenarios)
     with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
@@ -158,7 +163,7 @@ def _warn_fallback(message: str) -> None:
 
 
 def _jobs(
-    controller: str | object,
+    controller: str | Controller | ControllerFunction,
     n: int | None,
     seed: int | None,
     family: str,
