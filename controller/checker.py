@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from fuzzynav.controller.interface import (
+    SAMPLE_INPUTS,
+    SAMPLE_RANGES_M,
     BatchController,
     PartsController,
     RuleBlocksController,
@@ -25,33 +27,6 @@ from fuzzynav.controller.interface import (
 from fuzzynav.world.run_limits import wheel_voltages
 
 __all__ = ["ControllerCheckError", "check_controller", "check_registered", "SAMPLE_INPUTS"]
-
-_NAN = math.nan
-#: Inputs ``[d_t, d_o, phi_t, phi_o]`` a check decides on: obstacle ahead, beside,
-#: none sensed, the target behind, at the target, far away.
-SAMPLE_INPUTS = np.array(
-    [
-        [5.0, 1.0, 0.0, 0.0],
-        [5.0, 0.3, 0.5, -0.8],
-        [5.0, 0.05, -0.5, 1.2],
-        [3.0, _NAN, 0.2, _NAN],
-        [3.0, _NAN, math.pi, _NAN],
-        [0.0, _NAN, 0.0, _NAN],
-        [40.0, 2.0, -3.0, 3.0],
-    ]
-)
-#: Sonar readings (left, front, right; m, inf = nothing) that go with them.
-SAMPLE_RANGES_M = np.array(
-    [
-        [math.inf, 1.0, math.inf],
-        [0.3, math.inf, math.inf],
-        [math.inf, math.inf, 0.05],
-        [math.inf, math.inf, math.inf],
-        [math.inf, math.inf, math.inf],
-        [math.inf, math.inf, math.inf],
-        [2.0, 2.5, math.inf],
-    ]
-)
 
 
 class ControllerCheckError(ValueError):

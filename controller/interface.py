@@ -44,6 +44,7 @@ declared by the attributes below, never guessed:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar, Protocol, TypeAlias, runtime_checkable
 
@@ -51,6 +52,8 @@ import numpy as np
 
 __all__ = [
     "INPUT_NAMES",
+    "SAMPLE_INPUTS",
+    "SAMPLE_RANGES_M",
     "Controller",
     "ControllerFunction",
     "RangeController",
@@ -70,6 +73,33 @@ __all__ = [
 
 #: The inputs, in the order of the array a controller receives.
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
+
+_NAN = math.nan
+#: Inputs ``[d_t, d_o, phi_t, phi_o]`` a check decides on: obstacle ahead, beside,
+#: none sensed, the target behind, at the target, far away.
+SAMPLE_INPUTS = np.array(
+    [
+        [5.0, 1.0, 0.0, 0.0],
+        [5.0, 0.3, 0.5, -0.8],
+        [5.0, 0.05, -0.5, 1.2],
+        [3.0, _NAN, 0.2, _NAN],
+        [3.0, _NAN, math.pi, _NAN],
+        [0.0, _NAN, 0.0, _NAN],
+        [40.0, 2.0, -3.0, 3.0],
+    ]
+)
+#: Sonar readings (left, front, right; m, inf = nothing) that go with them.
+SAMPLE_RANGES_M = np.array(
+    [
+        [math.inf, 1.0, math.inf],
+        [0.3, math.inf, math.inf],
+        [math.inf, math.inf, 0.05],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [2.0, 2.5, math.inf],
+    ]
+)
 
 
 @runtime_checkable

@@ -17,6 +17,7 @@ never loads the fuzzy engine.
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -96,13 +97,15 @@ class ControllerEntry:
             controller (an object with ``reset()`` that is called on the inputs); the
             message names the controller and its factory.
         """
-        factory = import_factory(self.factory) if isinstance(self.factory, str) else self.factory
+        factory = _imported(self.factory) if isinstance(self.factory, str) else self.factory
         where = f"controller {self.name!r} (factory {_factory_label(self.factory)})"
         try:
             made = factory(geometry=geometry) if self.geometry_aware else factory()
         except TypeError as exc:
             args = "geometry=" if self.geometry_aware else "no arguments"
             raise ValueError(f"{where}: calling it with {args} failed: {exc}") from exc
+        except ValueError as exc:  # a controller function that decides nothing usable
+            raise ValueError(f"{where}: {exc}") from exc
         if not (callable(getattr(made, "reset", None)) and callable(made)):
             raise ValueError(
                 f"{where}: made {shown(made)}, not a controller (an object with reset() "
@@ -173,6 +176,14 @@ def register_controller(
         raise ValueError(f"factory {factory!r}: not callable")
     if not isinstance(description, str) or not description.strip():
         raise ValueError(f"controller {name!r}: give a one-line description")
+    if not isinstance(factory, str):
+        from fuzzynav.controller.function import function_controller, is_controller_function
+
+        if is_controller_function(factory) and not geometry_aware:
+            # a controller written as one function, not a factory: wrapped
+            factory = functools.partial(function_controller, factory)
+            if batchable is None:
+                batchable = _declares_batched(type(factory()))
     if batchable is None:
         batchable = not isinstance(factory, str) and _declares_batched(factory)
     entry = ControllerEntry(
@@ -222,9 +233,21 @@ def import_factory(spec: str) -> Callable[..., Any]:
     return cast("Callable[..., Any]", found)
 
 
+def _imported(spec: str) -> Callable[..., Any]:
+    """The factory ``spec`` names; a controller written as one function, wrapped."""
+    from fuzzynav.controller.function import function_controller, is_controller_function
+
+    factory = import_factory(spec)
+    if is_controller_function(factory):
+        return functools.partial(function_controller, factory)
+    return factory
+
+
 def _factory_label(factory: Callable[..., Any] | str) -> str:
     if isinstance(factory, str):
         return repr(factory)
+    if isinstance(factory, functools.partial):
+        return _factory_label(factory.args[0])
     return getattr(factory, "__qualname__", None) or type(factory).__name__
 
 
@@ -288,7 +311,13 @@ def controller_entry(name: str) -> ControllerEntry:
         return _REGISTRY[name]
     if isinstance(name, str) and IMPORT_PATTERN.fullmatch(name):
         # imported now, as it is about to drive: a class's batch form is detected
-        batchable = _declares_batched(import_factory(name))
+        factory = _imported(name)
+        if isinstance(factory, functools.partial):  # a function: its wrapper's class says
+            try:
+                factory = type(factory())
+            except ValueError as exc:
+                raise ValueError(f"controller {name!r}: {exc}") from exc
+        batchable = _declares_batched(factory)
         return ControllerEntry(name, f"imported from {name}", name, batchable=batchable)
     raise ValueError(
         f"controller = {name!r}: unknown (choose from {', '.join(controller_names())}, or "

@@ -206,7 +206,8 @@ def test_a_controller_that_declares_needs_context_gets_the_world_as_the_simulati
         ("no_such_module_xyz:Factory", "importing no_such_module_xyz failed"),
         ("toy_controller:NoSuchFactory", "has no 'NoSuchFactory'"),
         ("toy_controller:math", "is not callable"),
-        ("math:sqrt", "calling it with no arguments failed"),
+        ("math:pow", "calling it with no arguments failed"),
+        ("math:sqrt", "it raised TypeError"),  # one argument: a controller function
         ("os:getcwd", "not a controller"),
     ],
 )
@@ -298,3 +299,49 @@ def test_sweep_takes_a_module_factory_name_as_simulate_does():
     assert rows[0]["path_length_m"] == again[0]["path_length_m"]
     with pytest.raises(ValueError, match="no_such_module_xyz"):
         fuzzynav.sweep("no_such_module_xyz:Factory", n=2)
+
+
+def test_a_controller_as_one_plain_function_runs_everywhere_without_a_class():
+    """A scalar function and a vectorised one: simulate, sweep on both engines (the
+    vectorised one on the batch engine itself, no fallback), the registry and the
+    viewer; the same runs as the class they are the law of."""
+    import warnings
+
+    from toy_controller import toy_decide, toy_law
+
+    from fuzzynav.app.viewer.model import ViewerApp
+
+    reference = fuzzynav.simulate("s1", ToyController())
+    for function in (toy_law, toy_decide):
+        run = fuzzynav.simulate("s1", function)
+        np.testing.assert_allclose(run.trace["x_m"], reference.trace["x_m"], rtol=0, atol=1e-9)
+        assert run.metrics["controller"] == function.__name__
+    expected = fuzzynav.sweep(BatchableToy(), n=3, seed=2, engine="pymunk")
+    with pytest.warns(UserWarning, match="pymunk engine"):  # a scalar function: no batch form
+        scalar = fuzzynav.sweep(toy_law, n=3, seed=2, engine="batch")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the vectorised one is batched: nothing to warn of
+        batched = fuzzynav.sweep(toy_decide, n=3, seed=2, engine="batch")
+    pymunk = fuzzynav.sweep(toy_decide, n=3, seed=2, engine="pymunk")
+    for rows in (scalar, batched, pymunk):
+        assert [r["outcome"] for r in rows] == [r["outcome"] for r in expected]
+        assert [r["path_length_m"] for r in rows] == pytest.approx(
+            [r["path_length_m"] for r in expected], rel=1e-9
+        )
+    for name, function, batchable in (
+        ("fn-scalar", toy_law, False),
+        ("fn-vector", toy_decide, True),
+    ):
+        entry = register_controller(name, function, description="one plain function")
+        try:
+            assert entry.batchable is batchable
+            check_registered(name)
+            app = ViewerApp("s1", name)
+            assert name in app.controller_options()
+            for _ in range(30):
+                app.step_once()
+            assert app.sim.time_s > 0.5
+        finally:
+            unregister_controller(name)
+    assert controller_entry("toy_controller:toy_decide").batchable
+    assert isinstance(make_controller("toy_controller:toy_law").function, type(toy_law))
