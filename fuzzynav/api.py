@@ -84,10 +84,13 @@ class Run:
     outcome : str
         ``"reached"``, ``"collided"`` or ``"timeout"``.
     metrics : dict
-        The fields of ``fuzzynav run --json``: path_length_m, mad_m, rmse_m,
-        min_clearance_m, time_to_target_s, ... (SI units in the names; a number that
-        does not apply, e.g. the time to target of a run that never arrived, is None,
-        as in sweep's rows and the JSON files: NaN only in numpy arrays).
+        The fields of ``fuzzynav run --json`` but its ``wall_time_s``: path_length_m,
+        mad_m, rmse_m, min_clearance_m, time_to_target_s, ... (SI units in the names; a
+        number that does not apply, e.g. the time to target of a run that never arrived,
+        is None, as in sweep's rows and the JSON files: NaN only in numpy arrays).
+        The same run gives the same metrics on any machine.
+    timing : dict
+        ``wall_time_s``: the wall-clock seconds the run took here.
     trace : dict of str to numpy.ndarray
         One array per column of ``fuzzynav run --trace`` (``time_s``, ``x_m``, ``y_m``,
         ``heading_rad``, the four controller inputs, the voltages, ...), one element per
@@ -126,8 +129,17 @@ class Run:
     def metrics(self) -> dict[str, Any]:  # numbers, and the labels and outcome as text
         from fuzzynav.app.runs import summary
 
-        # None for a number that does not apply, as in sweep's rows and ``run --json``
-        return summary(self.result, self._controller_label, self._scenario_label)
+        # None for a number that does not apply, as in sweep's rows and ``run --json``;
+        # the wall-clock time is no property of the run (it is in ``timing``)
+        row = summary(self.result, self._controller_label, self._scenario_label)
+        row.pop("wall_time_s", None)
+        return row
+
+    @property
+    def timing(self) -> dict[str, float]:
+        """How long the run took on this machine: ``wall_time_s``, the seconds spent in
+        its steps (varies from run to run; not a metric of the run)."""
+        return {"wall_time_s": float(self.result.wall_time_s)}
 
     @property
     def trace(self) -> dict[str, npt.NDArray[np.float64]]:

@@ -1,0 +1,49 @@
+"""What the Python interface promises a study built on it: a missing scenario file is a
+FileNotFoundError (and still the documented ValueError), a run's wall-clock time is kept
+apart from its metrics, and the library prints nothing (what it has to say is a
+warning)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+import fuzzynav
+
+
+def test_a_missing_scenario_file_is_a_file_not_found_error(tmp_path):
+    missing = tmp_path / "nowhere.toml"
+    for call in (
+        lambda: fuzzynav.load_scenario(missing),
+        lambda: fuzzynav.simulate(missing),
+        lambda: fuzzynav.simulate("no-such-scenario"),
+    ):
+        with pytest.raises(FileNotFoundError, match="no such scenario file") as error:
+            call()
+        assert isinstance(error.value, ValueError)  # still the documented ValueError
+
+
+def test_wall_time_is_timing_not_a_metric():
+    run = fuzzynav.simulate("s1", "p")
+    again = fuzzynav.simulate("s1", "p")
+    assert "wall_time_s" not in run.metrics
+    assert run.metrics == again.metrics  # the same run: the same metrics, every time
+    assert run.timing["wall_time_s"] > 0.0
+
+
+def test_the_library_prints_nothing():
+    code = """
+import warnings
+warnings.simplefilter("ignore")
+import fuzzynav
+fuzzynav.simulate("s1", "p")
+fuzzynav.sweep("p", n=2, seed=1)
+fuzzynav.sweep("fuzzynav", n=1, seed=1, engine="batch")  # falls back: a warning, no print
+fuzzynav.make_controller("paper")
+fuzzynav.load_scenario("s2")
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "" and done.stderr == ""
