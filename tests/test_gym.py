@@ -349,6 +349,8 @@ def test_settings_out_of_reason_are_refused_by_name():
             fgym.HuskyVectorEnv(num_envs=bad)
     with pytest.raises(ValueError, match="reach_reward = "):
         fgym.HuskyEnv(reach_reward=float("nan"))
+    text = (ROOT / "docs" / "gym.md").read_text()
+    assert f"`num_envs` is 1 to {fgym.MAX_NUM_ENVS:,}" in text  # as the doc says
 
 
 def test_one_scenario_name_is_one_scenario_not_its_characters():
