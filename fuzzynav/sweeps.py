@@ -7,6 +7,7 @@ sweep`` runs the same studies (:mod:`fuzzynav.app.experiments.studies`).
 from __future__ import annotations
 
 import contextlib
+import logging
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -23,6 +24,11 @@ if TYPE_CHECKING:
     from fuzzynav.app.experiments.studies import LayoutJob
 
 __all__ = ["SweepRow", "sweep"]
+
+#: What a sweep has to say besides its rows goes to the ``fuzzynav`` logger (silent
+#: unless the program configures logging); a fallback to the pymunk engine is a warning.
+_LOG = logging.getLogger("fuzzynav")
+_LOG.addHandler(logging.NullHandler())
 
 #: What ``scenarios`` takes: a scenario file, a folder of them, a shipped name, a
 #: Scenario, or a list of any of these.
@@ -154,6 +160,8 @@ def sweep(
         rows = run_jobs(
             jobs, runner, log=log, progress=progress, engine=engine, on_fallback=_warn_fallback
         )
+    if log is not None and log.dropped_partial_line:
+        _LOG.warning("%s: an unfinished last line was dropped and run again", log.shown)
     return cast(list[SweepRow], rows)
 
 

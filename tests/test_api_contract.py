@@ -47,3 +47,15 @@ fuzzynav.load_scenario("s2")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout == "" and done.stderr == ""
+
+
+def test_what_a_sweep_has_to_say_goes_to_the_fuzzynav_logger(tmp_path, caplog, capsys):
+    out = tmp_path / "rows.jsonl"
+    fuzzynav.sweep("p", n=2, seed=1, out=out)
+    with out.open("a") as f:
+        f.write('{"index": 7, "contr')  # a run cut off mid-line
+    with caplog.at_level("WARNING", logger="fuzzynav"):
+        rows = fuzzynav.sweep("p", n=3, seed=1, out=out, resume=True)
+    assert len(rows) == 3
+    assert any("unfinished last line was dropped" in r.getMessage() for r in caplog.records)
+    assert capsys.readouterr() == ("", "")  # said to the logger, not printed
