@@ -59,3 +59,18 @@ def test_what_a_sweep_has_to_say_goes_to_the_fuzzynav_logger(tmp_path, caplog, c
     assert len(rows) == 3
     assert any("unfinished last line was dropped" in r.getMessage() for r in caplog.records)
     assert capsys.readouterr() == ("", "")  # said to the logger, not printed
+
+
+@pytest.mark.parametrize("folder", ["assets", "world", "controller", "fuzzynav"])
+def test_no_output_goes_into_the_package_however_it_is_installed(folder):
+    """An editable install as the Makefile makes it (a tree of links) or as an import
+    hook, or a wheel: the package's own folders are never written into."""
+    import os
+    from importlib.util import find_spec
+
+    name = "fuzzynav" if folder == "fuzzynav" else f"fuzzynav.{folder}"
+    where = os.path.dirname(os.path.realpath(find_spec(name).origin))
+    target = os.path.join(where, "written_by_a_test.fis")
+    with pytest.raises(ValueError, match="inside the installed fuzzynav package"):
+        fuzzynav.write_fis(fuzzynav.make_controller("paper").fis, target)
+    assert not os.path.exists(target)
