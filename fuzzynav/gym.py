@@ -44,6 +44,7 @@ from fuzzynav.gym_setup import (
     REACH_REWARD,
     BoolArray,
     FloatArray,
+    ObservationArray,
     Setup,
     checked_action,
 )
@@ -68,13 +69,15 @@ __all__ = [
 ENV_ID = "fuzzynav/Husky-v0"
 
 
-def _spaces() -> tuple[spaces.Box[np.float64], spaces.Box[np.float64]]:
-    observation = spaces.Box(OBSERVATION_LOW, OBSERVATION_HIGH, dtype=np.float64)
+def _spaces(dtype: np.dtype[Any]) -> tuple[spaces.Box[Any], spaces.Box[np.float64]]:
+    observation = spaces.Box(
+        OBSERVATION_LOW.astype(dtype), OBSERVATION_HIGH.astype(dtype), dtype=dtype.type
+    )
     action = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64)
     return observation, action
 
 
-class HuskyEnv(gym.Env[FloatArray, FloatArray]):
+class HuskyEnv(gym.Env[ObservationArray, FloatArray]):
     """The LG Husky of the paper among circular obstacles, driven by its wheel voltages.
 
     ## Description
@@ -95,7 +98,7 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
 
     ## Observation Space
 
-    ``Box((7,), float64)`` with finite bounds, the controller's inputs as the robot
+    ``Box((7,), float64)`` (or float32: ``observation_dtype``) with finite bounds, the controller's inputs as the robot
     senses them (the scenario's disturbance added, as the paper's controller sees them)
     and its speeds, clipped to the bounds (:data:`OBSERVATION_LOW`,
     :data:`OBSERVATION_HIGH`; no run of a valid scenario reaches them):
@@ -160,6 +163,10 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         :meth:`render` returns an (H, W, 3) uint8 picture of the scene.
     progress_reward_per_m, reach_reward, collision_reward : float
         The reward's terms (see Rewards).
+    observation_dtype : {"float64", "float32"}
+        The observations' dtype: float64, the engine's numbers exactly (what
+        :func:`controller_inputs` needs to drive a fuzzynav controller as the engine
+        does), or float32 (the same numbers rounded), as many learning libraries want.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -178,15 +185,16 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
         reach_reward: float = REACH_REWARD,
         collision_reward: float = COLLISION_REWARD,
+        observation_dtype: str = "float64",
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
         self._setup = Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
-            (progress_reward_per_m, reach_reward, collision_reward),
+            (progress_reward_per_m, reach_reward, collision_reward), observation_dtype,
         )  # fmt: skip
-        self.observation_space, self.action_space = _spaces()
+        self.observation_space, self.action_space = _spaces(self._setup.observation_dtype)
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "render_fps": round(1.0 / self._setup.world.dt)}
         self.scenario: Scenario | None = None
@@ -194,7 +202,7 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[FloatArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, dict[str, Any]]:
         """Start an episode on a newly drawn scenario (see the class docstring).
 
         Parameters
@@ -221,7 +229,9 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         self._episode_over = False
         return self._setup.observations()[0], {}
 
-    def step(self, action: npt.ArrayLike) -> tuple[FloatArray, float, bool, bool, dict[str, int]]:
+    def step(
+        self, action: npt.ArrayLike
+    ) -> tuple[ObservationArray, float, bool, bool, dict[str, int]]:
         """One control period with the wheel voltages ``12 * action`` V.
 
         Parameters
@@ -262,7 +272,7 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         )
 
 
-class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
+class HuskyVectorEnv(VectorEnv[ObservationArray, FloatArray, FloatArray | BoolArray]):
     """``num_envs`` :class:`HuskyEnv` s stepped together on the batch engine.
 
     Fixed ``num_envs``; a sub-environment whose episode ended (terminated or truncated)
@@ -278,7 +288,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         Sub-environments, 1 to :data:`MAX_NUM_ENVS`.
     family, layout_seed, layouts, scenarios, perception, geometry, control_period_s, max_duration_s
         As :class:`HuskyEnv`.
-    progress_reward_per_m, reach_reward, collision_reward : float
+    progress_reward_per_m, reach_reward, collision_reward, observation_dtype
         As :class:`HuskyEnv`.
     render_mode : None
         Not drawn (render a :class:`HuskyEnv`).
@@ -301,6 +311,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
         reach_reward: float = REACH_REWARD,
         collision_reward: float = COLLISION_REWARD,
+        observation_dtype: str = "float64",
     ) -> None:
         num_envs = integer_value(num_envs, "num_envs", 1, MAX_NUM_ENVS)
         if render_mode is not None:
@@ -308,10 +319,12 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         self._setup = Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
-            (progress_reward_per_m, reach_reward, collision_reward),
+            (progress_reward_per_m, reach_reward, collision_reward), observation_dtype,
         )  # fmt: skip
         self.num_envs = num_envs
-        self.single_observation_space, self.single_action_space = _spaces()
+        self.single_observation_space, self.single_action_space = _spaces(
+            self._setup.observation_dtype
+        )
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.render_mode = None
@@ -324,7 +337,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         *,
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
-    ) -> tuple[FloatArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, dict[str, Any]]:
         """Start every sub-environment's episode (or those of ``options["reset_mask"]``).
 
         Parameters
@@ -374,7 +387,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
 
     def step(
         self, actions: npt.ArrayLike
-    ) -> tuple[FloatArray, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
         """One control period of every sub-environment (module docstring: autoreset).
 
         Parameters

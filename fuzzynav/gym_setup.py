@@ -11,7 +11,7 @@ import math
 import numbers
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +36,7 @@ __all__ = [
     "REACH_REWARD",
     "COLLISION_REWARD",
     "MAX_NUM_ENVS",
+    "OBSERVATION_DTYPES",
     "Setup",
     "checked_action",
 ]
@@ -43,6 +44,11 @@ __all__ = [
 #: Observations, actions, rewards and wheel voltages: float64 arrays (``step`` takes any
 #: array_like action).
 FloatArray: TypeAlias = npt.NDArray[np.float64]
+#: Observations: float64 (the default: the engine's own numbers, exactly) or float32
+#: (``observation_dtype="float32"``, as many learning libraries want them).
+ObservationArray: TypeAlias = npt.NDArray[np.floating[Any]]
+#: The observation dtypes an environment offers.
+OBSERVATION_DTYPES = ("float64", "float32")
 #: Terminations and truncations: bool arrays.
 BoolArray: TypeAlias = npt.NDArray[np.bool_]
 #: The observation's entries, in order (units in :class:`fuzzynav.gym.HuskyEnv`'s docstring).
@@ -119,6 +125,19 @@ def _layout_range(layouts: object) -> tuple[int, int]:
     return low, high
 
 
+def _observation_dtype(value: object) -> np.dtype[Any]:
+    """``value`` as one of :data:`OBSERVATION_DTYPES` (a name, a numpy type or dtype)."""
+    for name in OBSERVATION_DTYPES:
+        dtype = np.dtype(name)
+        if isinstance(value, str | type | np.dtype) and (
+            value == name or value is dtype.type or value == dtype
+        ):
+            return dtype
+    raise ValueError(
+        f"observation_dtype = {value!r}: must be one of {', '.join(OBSERVATION_DTYPES)}"
+    )
+
+
 def checked_action(action: npt.ArrayLike, shape: tuple[int, ...]) -> FloatArray:
     """An action (or a vector env's actions) as floats, of exactly ``shape`` and finite;
     ValueError naming what is wrong (a string, a (2, 1) array, NaN)."""
@@ -148,7 +167,9 @@ class Setup:
         control_period_s: float,
         max_duration_s: float | None,
         rewards: tuple[float, float, float],
+        observation_dtype: object = "float64",
     ):
+        self.observation_dtype = _observation_dtype(observation_dtype)
         # a start is checked against the robot that drives, as simulate checks it
         self.footprint_m = (0.0, 0.0) if geometry == "paper" else DEFAULT_FOOTPRINT_M
         if max_duration_s is not None:
@@ -202,7 +223,7 @@ class Setup:
             scenario = _layout(self.family, self.layout_seed, index)
         return scenario, int(rng.integers(2**31))
 
-    def observations(self) -> FloatArray:
+    def observations(self) -> ObservationArray:
         """(n, 7) observations of the world's runs now (its ``observe`` stage), clipped
         to the observation space's bounds."""
         inputs, _ = self.world.observe()
@@ -220,7 +241,9 @@ class Setup:
             ],
             axis=1,
         )
-        clipped: FloatArray = np.clip(observed, OBSERVATION_LOW, OBSERVATION_HIGH)
+        clipped: ObservationArray = np.clip(observed, OBSERVATION_LOW, OBSERVATION_HIGH).astype(
+            self.observation_dtype, copy=False
+        )  # the bounds are float32 numbers: a clipped value stays within them when cast
         return clipped
 
     def distances(self) -> FloatArray:

@@ -394,3 +394,23 @@ def test_the_reward_is_configurable_and_observations_stay_in_bounds():
         assert scaled_reward == pytest.approx(2.0 * reward, rel=1e-12)
     space = plain.observation_space
     assert np.isfinite(space.low).all() and np.isfinite(space.high).all()
+
+
+def test_float32_observations_pass_the_checker_and_round_the_float64_ones():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(fgym.ENV_ID, observation_dtype="float32", **FAST).unwrapped
+    assert env.observation_space.dtype == np.float32
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env)
+    exact = fgym.HuskyEnv(**FAST)
+    obs32, _ = env.reset(seed=4)
+    obs64, _ = exact.reset(seed=4)
+    assert obs32.dtype == np.float32 and obs64.dtype == np.float64
+    assert np.array_equal(obs32, obs64.astype(np.float32))
+    vector = fgym.HuskyVectorEnv(num_envs=3, observation_dtype=np.float32, **FAST)
+    assert vector.reset(seed=1)[0].dtype == np.float32
+    assert vector.observation_space.contains(vector.step(np.zeros((3, 2)))[0])
+    with pytest.raises(ValueError, match="observation_dtype = "):
+        fgym.HuskyEnv(observation_dtype="float16")
