@@ -176,7 +176,7 @@ def add_perception_option(parser: argparse.ArgumentParser) -> None:
 
 def add_force_option(parser: argparse.ArgumentParser, what: str) -> None:
     """``--force``: replace ``what``, a file the command names by itself (a default
-    output, or one beside the folder given), when it exists. A path the user gives is
+    output, one in or beside the folder given), when it exists. A path the user gives is
     asked for and needs no ``--force``; a name the command chose never replaces a file
     without it (:func:`fuzzynav.safe_files.check_output_path`, ``replace``)."""
     parser.add_argument(

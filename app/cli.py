@@ -65,7 +65,7 @@ class _Terminated:
 
 
 def _on_sigterm(signum, frame):
-    # SIGTERM is handled as Ctrl-C everywhere (issue 26): every command's Ctrl-C path
+    # SIGTERM is handled as Ctrl-C everywhere: every command's Ctrl-C path
     # says what was kept and removes its temporary files; only the exit status differs.
     _Terminated.received = True
     raise KeyboardInterrupt
@@ -152,7 +152,7 @@ def cmd_run(args) -> int:
     from fuzzynav.app.runs import build_simulation, summary
     from fuzzynav.safe_files import check_distinct_outputs
 
-    # before anything runs: two outputs on one file would lose one of them (issue 37)
+    # before anything runs: two outputs on one file would lose one of them
     check_distinct_outputs(
         (f"--{name}", getattr(args, name, None)) for name in ("trace", "rrd", "figures")
     )
@@ -420,7 +420,7 @@ FIT_PAPER_DEFAULT_OUT = "paper.toml"
 
 def _check_fit_paper_default(args) -> None:
     """``fit-paper`` without ``--out`` writes ./paper.toml: an earlier fit there is never
-    replaced unless ``--force`` (issue 37), checked by the one output guard before the
+    replaced unless ``--force``, checked by the one output guard before the
     fit starts. (Here, not in paper_fit.py, which is another piece of work's.)"""
     if getattr(args, "command", None) != "fit-paper" or getattr(args, "out", None) is not None:
         return
@@ -436,7 +436,7 @@ def _check_fit_paper_default(args) -> None:
 
 def _escaped(message) -> str:
     """An error message with every control character escaped: file names, addresses
-    and values in it come from the user, and none may drive the terminal (issue 26)."""
+    and values in it come from the user, and none may drive the terminal."""
     from fuzzynav.resources import escape_controls
 
     return escape_controls(str(message))

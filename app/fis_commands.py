@@ -20,14 +20,20 @@ from fuzzynav.safe_files import check_output_path
 
 
 def export_fis(
-    path: str | Path, controller: str = "paper", geometry: str = "husky", *, replace: bool = True
+    path: str | Path,
+    controller: str = "paper",
+    geometry: str = "husky",
+    *,
+    replace: bool = True,
+    force: bool = False,
 ) -> list[Path]:
     """Write ``controller``'s fuzzy systems under ``path`` (MATLAB .fis); returns the files.
 
     One system (``paper``): ``path`` is the file, ending in ``.fis``. Several blocks
     (``fuzzynav``, ``baseline``): ``path`` is a directory, made if its parent exists.
     ``replace=False`` (a default name, no ``--force``): an existing file is refused,
-    before anything is written.
+    before anything is written. The files in a directory are named by the command: an
+    existing one is refused unless ``force``.
     """
     from fuzzynav.controller.interface import RuleBlocksController
     from fuzzynav.controller.registry import controller_names, make_controller
@@ -56,13 +62,13 @@ def export_fis(
         raise ValueError(f"{path}: directory {path.parent} does not exist")
     files = {path / f"{controller}_{name}.fis": system for name, system in systems.items()}
     for file in files:  # every file checked before the folder is made or one is written
-        check_output_path(file, "fis export", replace=replace, folder=True)
+        check_output_path(file, "fis export", replace=force, folder=True)
     try:
         path.mkdir(exist_ok=True)
     except OSError as exc:
         raise ValueError(f"{path}: cannot create the directory ({exc.strerror or exc})") from None
     for file, system in files.items():
-        _write(system, file, replace)
+        _write(system, file, force)
     return list(files)
 
 
@@ -95,7 +101,8 @@ def cmd_fis_export(args) -> int:
     target = args.path if args.path is not None else default_export_path(args.controller)
     # a path given is asked for; the default name never replaces a file unless --force
     replace = args.path is not None or getattr(args, "force", False)
-    for path in export_fis(target, args.controller, args.geometry, replace=replace):
+    force = getattr(args, "force", False)
+    for path in export_fis(target, args.controller, args.geometry, replace=replace, force=force):
         # Read back: what is printed is what the file holds.
         from fuzzynav.resources import escape_controls
 
@@ -133,5 +140,5 @@ def add_commands(subparsers) -> None:
         help="the paper controller's rule base for this geometry: tuned for the Husky's "
         "footprint (default) or fitted to Table 4 in the paper's point-robot geometry",
     )
-    add_force_option(export, "the default paper.fis (CONTROLLER_fis/ files)")
+    add_force_option(export, "the default paper.fis, or the files in a directory")
     export.set_defaults(func=cmd_fis_export)

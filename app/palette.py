@@ -1,6 +1,6 @@
 """One palette: the colours every recording, figure and the viewer draw a quantity with.
 
-A quantity has one colour wherever it is drawn (issue 39, defect 3):
+A quantity has one colour wherever it is drawn:
 
 - the robot and its trail blue, the target green, the heading teal;
 - obstacle ``k`` (by its column in the run's log) ``OBSTACLES[k]``: red, orange, purple...

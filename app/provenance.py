@@ -79,7 +79,7 @@ def command_line() -> str:
     return " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name] + sys.argv[1:])
 
 
-#: The options that pin a run's reproduce command to what it ran (issue 39, defect 9):
+#: The options that pin a run's reproduce command to what it ran:
 #: ``run`` refuses to run when the scenario, the controller's rules and parameters, or
 #: fuzzynav's version differ from the recorded ones.
 RULES_DIGEST_OPTION = "--rules-sha256"

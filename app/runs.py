@@ -45,8 +45,8 @@ def check_run_options(
     """The run options, checked (ValueError naming the argument and its range) and as
     floats; None (the scenario's field of view, the default mounting) stays None.
     :func:`build_simulation` calls it, for the command line (whose options argparse
-    has checked against the same ranges) and the Python interface alike (issue 37:
-    ``sensor_noise_std_m=1e300`` and ``control_period_s=True`` were taken from Python)."""
+    has checked against the same ranges) and the Python interface alike (Python once took
+    ``sensor_noise_std_m=1e300`` and ``control_period_s=True``)."""
     from fuzzynav.app.args import (
         FIELD_OF_VIEW_LIMITS_DEG,
         SENSOR_NOISE_LIMITS_M,

@@ -32,7 +32,8 @@ Fuzzy Logic Designer; one that fails has a fault a reviewer would see in the fig
     N(x) = P(-x), Z(x) = Z(-x).
 ``span``
     The terms span their universe: the first term's centre lies in the lower half of
-    the universe, the last term's in the upper half (voltage terms that all stop at
+    the universe, the last term's in the upper half; for a mirrored angle input, in the
+    outer half of each side (VP's centre at least half the universe's upper end) (voltage terms that all stop at
     6 V of a -0.28..14 V universe leave the robot's top half of speeds unused).
 ``rates``
     Neighbours change at comparable rates: the graded part of each term (where it is
@@ -209,19 +210,22 @@ def _variable_violations(variable: Variable, is_input: bool) -> list[Violation]:
                     f"holds {level:.3f} at {there.name}'s centre "
                     f"{centre(there):.4g} (> {MAX_AT_NEIGHBOUR_CENTRE})",
                 )
-    middle = 0.5 * (lo + hi)
-    if not centres[0] <= middle + _TOL:
+    # a mirrored input spans each half: its outer terms in the outer half of each side
+    lower_middle, middle = (0.5 * lo, 0.5 * hi) if name in ANGLE_INPUTS else (0.5 * (lo + hi),) * 2
+    if not centres[0] <= lower_middle + _TOL:
         fault(
             "span",
             variable.terms[0].name,
-            f"the first term's centre {centres[0]:.4g} is above the universe's middle {middle:.4g}",
+            f"the first term's centre {centres[0]:.4g} is above {lower_middle:.4g}, the "
+            "middle of the universe (of its lower half, for a mirrored input)",
         )
     if not centres[-1] >= middle - _TOL:
         fault(
             "span",
             variable.terms[-1].name,
-            f"the last term's centre {centres[-1]:.4g} is below the universe's middle "
-            f"{middle:.4g}: the terms leave the upper half of [{lo:g}, {hi:g}] unused",
+            f"the last term's centre {centres[-1]:.4g} is below {middle:.4g}: the terms "
+            f"leave the upper half of [{lo:g}, {hi:g}] (of its upper half, for a mirrored "
+            "input) unused",
         )
     graded = [_measure(x, (m > GRADED_LOW) & (m < GRADED_HIGH)) for m in mu]
     for k in range(len(graded) - 1):

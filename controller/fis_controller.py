@@ -22,11 +22,12 @@ N_INPUTS, N_OUTPUTS = 4, 2
 #: The controller's inputs and outputs, in the order the loop passes and takes them.
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
 OUTPUT_NAMES = ("left", "right")
-#: The readings of Table 1's NONE (issue 35). "matlab": MATLAB's rule editor's "none",
-#: the input takes no part in the rule (the engine's default). "unsensed": the paper's
-#: text, "for more distance, it is 'none'": a rule with NONE for d_o holds only while no
-#: obstacle is sensed (d_o NaN), so the goal rules 1-25 are off while one is
-#: (``FuzzySystem(unsensed_none=("d_o",))``; a rule base file says it in its [system]).
+#: The readings of Table 1's NONE (docs/paper-controller.md). "matlab": MATLAB's rule
+#: editor's "none", the input takes no part in the rule (the engine's default).
+#: "unsensed": the paper's text, "for more distance, it is 'none'": a rule with NONE for
+#: d_o holds only while no obstacle is sensed (d_o NaN), so the goal rules 1-25 are off
+#: while one is (``FuzzySystem(unsensed_none=("d_o",))``; a rule base file says it in its
+#: [system]).
 NONE_READINGS = ("matlab", "unsensed")
 GATED_INPUT = INPUT_NAMES.index("d_o")
 
@@ -42,7 +43,7 @@ def binding(names, expected, what: str, source: str) -> tuple[int, ...] | None:
     ValueError
         Some of the names are the controller's but not all of them, or one twice: the
         file cannot be bound either way, and binding by position would drive the robot
-        with a wrong input (issue 26).
+        with a wrong input.
     """
     names = tuple(names)
     if names == tuple(expected):
@@ -122,8 +123,8 @@ class FisController:
 
     @fis.setter
     def fis(self, system: FuzzySystem) -> None:
-        # ``c.fis = read_fis(f)`` binds as FisController(read_fis(f)) does (issue 37: an
-        # assigned system was bound by position, its inputs renumbered drove wrongly).
+        # ``c.fis = read_fis(f)`` binds as FisController(read_fis(f)) does (an
+        # assigned system bound by position would drive with its inputs renumbered).
         self._bind(system, "controller.fis")
 
     def _bind(self, fis: FuzzySystem, source: str) -> None:
@@ -137,7 +138,7 @@ class FisController:
                 f"{fis.n_outputs} outputs; the robot needs {N_INPUTS} inputs "
                 f"(d_t, d_o, phi_t, phi_o) and {N_OUTPUTS} outputs (left, right voltage)"
             )
-        # A file's Input1 named phi_t is phi_t, wherever it stands (issue 26): the system
+        # A file's Input1 named phi_t is phi_t, wherever it stands: the system
         # is reordered into the loop's order once, so that everything that reads it
         # (the viewer's panel, the recordings' firing strengths) sees the same order.
         inputs = binding([v.name for v in fis.inputs], INPUT_NAMES, "inputs", source)

@@ -1,70 +1,17 @@
 """A small, fast, vectorised Mamdani fuzzy inference engine (MATLAB-compatible semantics).
 
-Inference (the MATLAB Fuzzy Logic Toolbox defaults for a Mamdani FIS; the other choices
-MATLAB offers -- AND = product, implication = product, aggregation = sum or probabilistic
-OR, defuzzification = bisector, mean / smallest / largest of maximum -- are
-:mod:`controller.inference`'s, picked with ``FuzzySystem(..., inference=Inference(...))``):
-
-* AND = min over the inputs a rule uses (an input marked ``None`` -- the paper's NONE --
-  takes no part in the rule);
-* the rule weight multiplies the firing strength;
-* implication = min (the consequent term is clipped at the weighted firing strength);
-* aggregation = max over rules;
-* defuzzification = centroid over an evenly spaced grid of the output range,
-  ``np.linspace(lo, hi, n_points)``, 101 points by default (MATLAB's default):
-  ``sum(g * agg(g)) / sum(agg(g))``.
-
-Conventions that are not obvious:
-
-* **NaN input = nothing sensed.** Every membership of a NaN input is 0, so a rule that
-  uses that input does not fire, while a rule with NONE for it is unaffected.
-* **NONE, two readings.** By default (MATLAB's rule editor) a rule's NONE for an input
-  means the input takes no part in the rule. ``unsensed_none`` names inputs for which
-  NONE reads as the paper's text has it for d_o ("for more distance, it is 'none'"): a
-  rule with NONE for such an input holds only while that input sensed nothing (NaN).
-  Evaluated exactly: each row is decided by the rules its sensed inputs allow (the
-  others fire at 0); a ``.fis`` cannot say this, and the writer refuses it.
-* **No rule fired -> middle of the range.** When the aggregated membership of an output
-  is zero over the whole grid (no rule fired for that output, or the fired terms vanish on
-  every grid point), the output is ``(lo + hi) / 2``, which is MATLAB's ``evalfis``
-  convention (MATLAB also prints a warning; we do not, this runs in a control loop).
-* Inputs are **not** clipped to their ranges (MATLAB warns but does not clip either):
-  the membership functions are simply evaluated where the value lies; +-inf is allowed.
-
-Speed (the numbers are in bench/bench_fuzzy.py):
-
-* the max over rules of min(w_r, MF_{c_r}(grid)) is computed per consequent term,
-  max_k min(max_{r: c_r = k} w_r, MF_k(grid)) (exactly equal), with every output term
-  sampled on the grid once and only over the grid points where it is not zero;
-* :meth:`FuzzySystem.evaluate` (batch) works block-wise with reusable buffers (fresh
-  multi-megabyte temporaries cost a page fault per 4 KiB page on every call) and lays
-  the aggregate out as (grid point, sample) so every numpy call works on long rows;
-* :meth:`FuzzySystem.evaluate_one` (the control loop) runs memberships, firing strengths
-  and per-term levels as generated straight-line Python (:mod:`controller.fuzzy_front`:
-  numpy calls on tiny arrays cost 1-3 us each), then a handful of numpy calls on the grid.
-
-Those tricks are the default inference's. Any other choice takes the plain path: each
-rule's implied set on the grid, folded over the rules in rule order
-(:func:`controller.inference.aggregate`), then :func:`controller.inference.defuzzify`;
-one code for one row and for many, so the two agree to the last bit there too.
-
-The membership parameters as one flat vector (what the optimisers change) and the copies
-built from one are :mod:`controller.fuzzy_params`'s; the ``FuzzySystem`` methods of the
-same names call it.
-
-``evaluate_one(x)`` and ``evaluate(X)[i]`` are identical to the last bit: they do the
-same floating-point operations (min and max are exact; the memberships are each family's
-formula and the scalar source generated from the same table entry, held to the same
-bits by tests/test_membership_family.py; exp is numpy's in both, as math.exp differs in the last bit for a few
-percent of arguments; the two centroid sums run in grid order in both: a cumsum in one,
-a reduce over axis 0 of >= 2 columns in the other).
-
-The system's parts (:class:`Term`, :class:`Variable`, :class:`Rule`, the structure check
-and :func:`rule_sentence`) are :mod:`controller.fuzzy_data`'s, imported here; the batch
-path (:meth:`FuzzySystem.evaluate`, :meth:`~FuzzySystem.firing_strengths`,
-:meth:`~FuzzySystem.memberships`, :meth:`~FuzzySystem.aggregated_many`) is
-:mod:`controller.fuzzy_blockwise`'s, mixed in; this module compiles the system and holds
-the single-sample path.
+:class:`FuzzySystem` holds the inputs, outputs and rules (:class:`Term`,
+:class:`Variable`, :class:`Rule` and :func:`rule_sentence` are
+:mod:`controller.fuzzy_data`'s, imported here). ``evaluate_one(x)`` infers one row (the
+control loop; this module), ``evaluate(X)`` many (:mod:`controller.fuzzy_blockwise`,
+mixed in); the two agree to the last bit. The inference is MATLAB's default Mamdani:
+AND min, the rule weight times the firing strength, implication min, aggregation max,
+centroid over ``n_points`` (101) grid points of the output range; every other choice
+MATLAB offers is :mod:`controller.inference`'s, picked with
+``FuzzySystem(..., inference=Inference(...))``. A NaN input is nothing sensed; an output
+no rule fired is the middle of its range; inputs are not clipped to their ranges (all
+of it in docs/api.md, "The engine's conventions"). The membership parameters as one
+flat vector (what the optimisers change) are :mod:`controller.fuzzy_params`'s.
 """
 
 from __future__ import annotations

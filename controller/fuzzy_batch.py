@@ -15,8 +15,7 @@ The inference is :meth:`FuzzySystem.evaluate`'s (Mamdani min/max, centroid on th
   :mod:`controller.membership` with per-row parameter columns (the same operations as
   with one set, so the same bits), the firing strengths and slot levels are min/max
   (exact), and the centroid's two sums run in grid order as ``evaluate``'s: equal to
-  ``evaluate`` row by row, bit for bit (tests/test_batch.py checks it, and the issue's
-  1e-12 V).
+  ``evaluate`` row by row, bit for bit (tests/test_batch.py checks it).
 
 Inference choices other than the default (:mod:`controller.inference`: product AND or
 implication, sum or probor aggregation, another defuzzification) are supported the cheap

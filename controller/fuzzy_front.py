@@ -1,7 +1,7 @@
 """The single-sample path's generated front end (:meth:`FuzzySystem._agg_one`).
 
 Kept for the bench row "fuzzy engine, one evaluation (bench/bench_fuzzy.py) <= 30 us" of
-docs/speed.md (issue 24 item 6): per rule base, straight-line Python is generated and
+docs/speed.md: per rule base, straight-line Python is generated and
 exec'd that takes the input vector to the memberships, the firing strengths and the
 consequent slots' levels. Measured on the paper's rule base (bench/bench_fuzzy.py), this
 front costs 3 us a call; the memberships alone, computed by the families' numpy formulas

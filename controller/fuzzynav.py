@@ -1,140 +1,19 @@
 """fuzzynav's own navigator: two small Mamdani blocks, arbitration by "near", a short memory.
 
-Design (the README's figure is ``docs/img/fuzzynav_design.png``)::
+:func:`fuzzynav_controller` builds :class:`FuzzyNavController` from the shipped files:
+the two blocks (``assets/rules/fuzzynav_goal.toml``, ``fuzzynav_avoid.toml``), evaluated
+as one merged system, and the crisp parameters (``assets/rules/fuzzynav_params.toml``).
+It is called as every controller is, ``controller(inputs) -> (left, right)`` volts, and
+keeps a memory that :meth:`~FuzzyNavController.reset` clears;
+:meth:`~FuzzyNavController.set_parts_off` switches parts off
+(``assets/rules/fuzzynav_parts.toml``) and :meth:`~FuzzyNavController.new_target`
+announces a target moved on purpose.
 
-    ranges (left, front, right) --+--> echo memory ----> L, F, R --+--> AVOID block --+
-    d_o, phi_o (ideal only) ------+         |                       |   (L, F, R, side)|
-                                            v        side chooser --+                  |--> blend --> mix --> (left, right) V
-    d_t, phi_t --> bearing planner / escape: phi --> GOAL block (phi, d_t) ------------+
-                                                    alpha = strength of "near" (L, F, R)
-
-1. **Sectors.** The three ultrasonic readings give the distance seen to the left (+45 deg),
-   ahead and to the right (-45 deg). The same readings exist in both perception modes, so
-   the design works in both. In ``ideal`` perception the nearest obstacle all around
-   (``d_o``, ``phi_o``) is folded into its sector (ahead within ``side_fold_deg``, else left
-   or right), which covers the gaps between the beams and the robot's flanks; in
-   ``ultrasonic`` mode ``d_o``/``phi_o`` come from the beams anyway.
-2. **Echo memory** (state, cleared by :meth:`reset`). Every ``store_s`` the echoes nearer
-   than ``store_range_m`` are stored as points in an odometry frame (dead reckoning from
-   the voltages this controller commanded, with the plant's gains and lag), each as a short
-   arc (the axis +- ``echo_spread_deg``: an echo may come from anywhere across the 15 deg
-   beam), and the nearest echo as the point on its axis d_o from the footprint. Only
-   sonar sightings are remembered (in ideal perception too): the all-around nearest
-   obstacle of ideal perception is used in the moment only, because a disturbed sample
-   (s3's disturbance) remembered for ``memory_s`` was a phantom obstacle. A new
-   point within ``merge_m`` of an old one replaces it; points are forgotten after
-   ``memory_s``. At the sensors' 25 Hz the remembered footprint distance per sector (ahead
-   = within the flanks + ``front_corridor_m``) is recomputed, so an obstacle that has left
-   the beams while beside the robot still holds it off; a remembered sector distance
-   grows back only at ``memory_grow_mps``.
-   **Bearing planner** (:mod:`.fuzzynav_planner`): each remembered point
-   between ``plan_nearest_m`` and ``plan_horizon_m`` ahead (and not beyond the target)
-   blocks the cone of bearings whose ray passes it nearer than the half-width +
-   ``plan_margin_m``; the goal block is fed the free bearing nearest the target's instead
-   of the target's own. Its side is latched while points are within ``plan_latch_m``, and
-   changes farther out only for a detour shorter by ``plan_switch_rad`` (near, only when
-   the latched detour exceeds ``plan_flip_rad``, and then only to a detour under
-   ``plan_flip_rad``, at most once per ``plan_flip_min_s``, while the robot makes
-   progress). Once the robot has made no progress for ``plan_stuck_s``, a side it changed
-   to is kept for ``plan_flip_hold_s``: at the mouth of a U both detours are near 90
-   degrees and the side would otherwise flip every second or so, the robot turning on
-   the spot until it times out. Points beside the robot (back to its rear edge) block
-   bearings too, so that a detour past 90 degrees sees the trap's arm it would turn into.
-   With points near and all-around sensing (ideal perception), a change of side also
-   charges each detour the turn to its bearing from the heading (``plan_turn_weight`` x
-   that bearing): a robot turning on the spot towards one side no longer sees the other
-   side come out shorter at each new echo and turn back.
-3. **Goal block** (8 rules): target bearing (NB NS Z PS PB) x distance (near far) ->
-   speed and turn. A target off to the side is turned to *in place* (speed "stop"), so the
-   robot never orbits its target (the paper's trap: its outputs cannot go negative).
-4. **Avoidance block** (13 rules): left / front / right distance (near medium far) and the
-   chosen side -> speed and turn. Close ahead it backs off and turns hard to the chosen
-   side; close beside, it turns away; passing at a medium distance it holds its heading.
-5. **Side chooser** (crisp, with memory): the planner's side when it has one; otherwise,
-   when something appears ahead (``latch_front_m``), the robot picks the side to pass on
-   (away from the obstacle's bearing when known, else the target's side unless that side is
-   the more obstructed) and *latches* it until the front is clear again, so it never
-   dithers between two sides. While an obstacle is being passed (within ``guard_m`` on the
-   far side) and the planner is idle, the goal block may not turn back into it.
-6. **Arbitration**: ``alpha`` = the strength of "near" over the sectors (a linear-Z of
-   the front distance, and one of the side distances); the command is
-   ``alpha * avoid + (1 - alpha) * goal``: avoidance takes precedence as obstacles get near.
-   Within ``arrive_m`` of the target, obstacles beside (or beyond the target) yield.
-7. **Moving obstacles**: the front reading's rate of change, and in ideal perception the
-   nearest obstacle's, are watched; an obstacle closing faster than the robot's own motion
-   explains counts as nearer by ``ttc_gain_s`` x the excess speed (time to contact), so the
-   robot turns away and slows earlier. **Yield or pass first** (ideal perception): every
-   ``store_s`` the nearest obstacle's centre is estimated (``dodge_radius_m`` beyond its
-   surface along its bearing) and its velocity followed; once it has been seen
-   ``dodge_sightings`` times in a row moving faster than ``dodge_min_speed_mps``, the
-   closest approach of robot and obstacle over the next ``dodge_horizon_s`` is predicted
-   (both at constant velocity, :func:`.fuzzynav_tracker.closest_approach_m`); if it is under
-   ``dodge_safe_m``, the robot stops or goes on at full speed, whichever keeps the
-   obstacle farther (:func:`.fuzzynav_tracker.dodge_speed`): it lets a crossing obstacle pass, or clears
-   its path first. The tracker dead-reckons its own heading with the turn's real lag
-   (``turn_lag``, fitted on logged runs: the plant's turn settles in a few periods, its
-   speed in about fifteen); the echo memory keeps the slower ``odo_lag`` for both, which
-   smears echoes stored while turning by up to about 10 degrees, and the planner was
-   designed with that smear (correcting it made U-trap escapes worse, 56 -> 42 % on the
-   design seeds, so it is kept and stated here). An ultrasonic sighting's bearing is the
-   sensor's axis, which says nothing of motion across the beam: the tracker ignores it,
-   so in ultrasonic perception only the time-to-contact rule acts.
-8. **Escape from local minima** (memory): if the target distance has not improved for
-   ``stall_s`` seconds, the robot follows the obstacle boundary on its latched side (the
-   goal block is fed a virtual bearing ``follow_bias_rad`` towards it) until it is
-   ``leave_margin_m`` closer to the target than where it got stuck (the Bug-2 idea), or
-   loses the boundary. The virtual bearing sits at the goal block's PS peak, so that block
-   drives on at speed on an arc towards the boundary while the avoidance block holds the
-   distance; at 0.6 rad (fully PB) it turned on the spot towards the boundary, the
-   avoidance block turned it back, and the robot crept along the edge at about 0.13 m/s.
-9. **Mixing**: left = speed - turn, right = speed + turn; if that exceeds 12 V the speed is
-   reduced, never the turn (the loop's saturation would otherwise eat the turn). A command
-   near zero for ``deadlock_s`` (the two blocks cancelling) turns the robot on the spot
-   towards its side for ``deadlock_s``; reversing lasts at most ``back_max_s`` at a time
-   (nothing looks backwards), then it turns on the spot; except in ideal perception while
-   the nearest obstacle all around is ahead and closing by itself (a moving obstacle
-   coming at the robot): nothing is nearer behind, and turning on the spot in its way
-   was how a robot that had yielded got hit.
-10. **Doubted inputs** (:meth:`.fuzzynav_tracker.Tracker.check_target`): the target stands
-   still, so a reading of it that places it (dead reckoned) more than ``target_gate_m``
-   from where the agreeing readings put it is doubted; the robot steers by the tracked
-   target instead, and ignores the nearest-obstacle reading of the same moment (the four
-   inputs arrive together; the sonar ranges, read apart, still guard it). s3's
-   disturbance, ``sin(2 t)`` on every input for 10 s, swings the target by up to a metre
-   and a radian; it cost fuzzynav 0.6 m of path in ideal perception and is now ignored.
-   A doubted reading that keeps still for ``target_settle_s`` is the target moved, and
-   is taken: a disturbance does not keep still. A move that is meant (the viewer's
-   drag) is announced with :meth:`FuzzyNavController.new_target`.
-
-Each part above can be switched off by its crisp parameters
-(``assets/rules/fuzzynav_parts.toml``, :meth:`FuzzyNavController.set_parts_off`): the
-viewer's "fuzzynav's parts" checkboxes, ``fuzzynav run --off PART`` and the ablation study
-``scripts/fuzzynav_ablation.py`` (what each part buys) use it.
-
-Both blocks live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``
-(readable rules; ``.fis`` export one file per block: :func:`export_fis`); the crisp
-parameters are in ``assets/rules/fuzzynav_params.toml``. For speed the two blocks are
-evaluated as one merged system (same rules, disjoint variables: exactly the same outputs).
-
-Where each part lives: this module holds the design, the decision
-(:class:`FuzzyNavController`: the step in order, the state it keeps, what teaching and
-recording read) and the factory. The step's stages (the readings, dead reckoning and
-sensing, then the crisp decisions: side chooser, arbitration, escape, guard, deadlock and
-reverse limits, items 5, 6, 8, 9) are ``fuzzynav_steps.py``'s, mixed into the
-controller; the blocks merged into one system and exported as ``.fis`` (items 3, 4) are
-``fuzzynav_blocks.py``'s. Its parts hold their own state:
-
-- ``fuzzynav_memory.py``: the perception memory (items 1, 2 and the time to contact of
-  7): odometry, echo memory, remembered and folded sectors;
-- ``fuzzynav_planner.py``: the bearing planner (item 2);
-- ``fuzzynav_tracker.py``: the tracker of the nearest obstacle and of the target
-  (items 7 and 10): yield or pass first, doubted inputs;
-- ``fuzzynav_robot.py``: the robot as the controller knows it (gains, footprint, mounts);
-- ``fuzzynav_params.py``, ``fuzzynav_parts.py``, ``fuzzynav_tuning.py``: the crisp
-  parameters and their file, the parts that switch off, the tuning protocol.
-
-The design above is this module's docstring: the numbered items are what
-``fuzzynav_parts.toml`` and the docs refer to.
+This module holds the decision (the step in order and the state it keeps) and the
+factory; the step's stages are ``fuzzynav_steps.py``'s, the merged blocks
+``fuzzynav_blocks.py``'s, and the parts with state of their own ``fuzzynav_memory.py``,
+``fuzzynav_planner.py`` and ``fuzzynav_tracker.py``. The design, item by item with its
+parameters: docs/fuzzynav.md, "The design, parameter by parameter".
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """fuzzynav's two fuzzy blocks, as one system and as MATLAB files.
 
-The goal and avoidance blocks (items 3 and 4 of :mod:`fuzzynav.controller.fuzzynav`'s
-docstring) live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``. For
+The goal and avoidance blocks (items 3 and 4 of docs/fuzzynav.md's
+design) live in ``assets/rules/fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``. For
 speed the controller evaluates them as one merged system (:func:`merge_blocks`: same
 rules, disjoint variables, exactly the same outputs); :func:`export_fis` writes each
 block as a ``.fis`` file.
@@ -40,13 +40,22 @@ def merge_blocks(goal: FuzzySystem, avoid: FuzzySystem) -> FuzzySystem:
     )
 
 
-def export_fis(directory: str | Path) -> list[Path]:
-    """Write the two blocks as MATLAB .fis files (one per block)."""
+#: The two blocks' names and shipped rule bases.
+BLOCK_FILES = (("goal", GOAL_PATH), ("avoid", AVOID_PATH))
+
+
+def export_fis(directory: str | Path, overwrite: bool = False) -> list[Path]:
+    """Write the two blocks as MATLAB .fis files (one per block) into ``directory``;
+    an existing file of the same name is refused (ValueError, before either is
+    written) unless ``overwrite``."""
+    from fuzzynav.safe_files import OutputScope
+
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, path in (("goal", GOAL_PATH), ("avoid", AVOID_PATH)):
-        out = directory / f"fuzzynav_{name}.fis"
-        write_fis(read_toml(path), out)
-        paths.append(out)
-    return paths
+    blocks = {directory / f"fuzzynav_{name}.fis": path for name, path in BLOCK_FILES}
+    remedy = "pass overwrite=True to replace it, or another folder"
+    with OutputScope("export_fis: directory", overwrite=overwrite, remedy=remedy) as outputs:
+        outputs.check(blocks)
+        directory.mkdir(parents=True, exist_ok=True)
+        for out, path in blocks.items():
+            write_fis(read_toml(path), out)
+    return list(blocks)

@@ -1,5 +1,5 @@
-"""fuzzynav's perception memory (items 1, 2 and 7 of :mod:`fuzzynav.controller.fuzzynav`'s
-docstring): what it makes of its readings over time.
+"""fuzzynav's perception memory (items 1, 2 and 7 of docs/fuzzynav.md's
+design): what it makes of its readings over time.
 
 - **Odometry**: the pose dead-reckoned from the voltages the controller commanded, with
   the plant's gains and a first-order lag (``odo_lag``), in which echoes are stored.

@@ -21,8 +21,8 @@ _KEYS = ("name", "what", "item", "off")
 
 @dataclass(frozen=True)
 class Part:
-    """One part: its name, what switching it off does, the docstring item that describes
-    it, and the crisp parameter values that switch it off."""
+    """One part: its name, what switching it off does, the design item that describes it
+    (docs/fuzzynav.md), and the crisp parameter values that switch it off."""
 
     name: str
     what: str

@@ -1,4 +1,4 @@
-"""fuzzynav's bearing planner (item 2 of :mod:`fuzzynav.controller.fuzzynav`'s docstring):
+"""fuzzynav's bearing planner (item 2 of docs/fuzzynav.md's design):
 the free bearing nearest the target's, past every remembered echo, and the side it passes on.
 
 Each remembered point between ``plan_nearest_m`` and ``plan_horizon_m`` (and not beyond

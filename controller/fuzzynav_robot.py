@@ -8,7 +8,7 @@ own robot, :meth:`FuzzyNavController.set_robot`), never numbers of its own.
 
 Shared by the echo memory (:mod:`fuzzynav.controller.fuzzynav_memory`), the tracker
 (:mod:`fuzzynav.controller.fuzzynav_tracker`) and the controller
-(:mod:`fuzzynav.controller.fuzzynav`, whose docstring is the design).
+(:mod:`fuzzynav.controller.fuzzynav`; its design is in docs/fuzzynav.md).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ _HX, _HY = HUSKY.half_length_m, HUSKY.half_width_m
 def mounts_of(sensor_mounts) -> tuple[tuple[float, float, float], ...]:
     """``(x, y, angle)`` of each sonar (robot frame) from the world's
     :class:`~fuzzynav.world.sensors.SensorMount` list: the robot's own mounts, not a copy
-    (``--sonar-side 15`` moves them, and the memory must follow: issue 36)."""
+    (``--sonar-side 15`` moves them, and the memory must follow)."""
     return tuple((float(m.x_m), float(m.y_m), float(m.angle_rad)) for m in sensor_mounts)
 
 

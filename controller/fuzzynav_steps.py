@@ -1,7 +1,7 @@
 """The stages of fuzzynav's control step, as :meth:`FuzzyNavController.__call__
 <fuzzynav.controller.fuzzynav.FuzzyNavController.__call__>` takes them.
 
-Item numbers are those of :mod:`fuzzynav.controller.fuzzynav`'s docstring (the design).
+Item numbers are those of docs/fuzzynav.md's design, parameter by parameter.
 The readings as floats, the dead reckoning and the check of the target reading (item 10),
 the memory, planner and tracker updated and the sector distances (items 1, 2, 7); then
 the crisp decisions: the side chooser and its latch (item 5), the progress watch that

@@ -1,4 +1,4 @@
-"""fuzzynav's tracker (items 7 and 10 of :mod:`fuzzynav.controller.fuzzynav`'s docstring):
+"""fuzzynav's tracker (items 7 and 10 of docs/fuzzynav.md's design):
 the nearest obstacle's centre and velocity, and where the target stands, in a frame of its
 own dead reckoned with the turn's real lag (``turn_lag``).
 
@@ -79,7 +79,7 @@ class Tracker:
 
     def reset(self) -> None:
         # Tracker of the nearest obstacle (ideal perception), in its own dead-reckoned
-        # frame whose heading uses the turn's real lag (see the module docstring, 7).
+        # frame whose heading uses the turn's real lag (docs/fuzzynav.md's design, item 7).
         self.track_pose = [0.0, 0.0, 0.0]
         self.track_w = 0.0
         self.lose()

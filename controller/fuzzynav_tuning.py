@@ -91,17 +91,24 @@ class FuzzyNavTunable:
         goal, avoid, params = self._split(vector)
         return FuzzyNavController(goal, avoid, params)
 
-    def save(self, vector, path) -> list[Path]:
+    def save(self, vector, path, overwrite: bool = False) -> list[Path]:
         """Write the tuned parameters to ``path`` (and, when memberships are tuned, the two
-        rule bases beside it); never into the installed package unless asked to."""
+        rule bases beside it, ``fuzzynav_goal.toml`` and ``fuzzynav_avoid.toml``: an
+        existing file of those names is refused, ValueError before anything is written,
+        unless ``overwrite``); never into the installed package unless asked to."""
+        from fuzzynav.safe_files import OutputScope
+
         goal, avoid, params = self._split(vector)
         params_path = Path(path)
+        beside = [params_path.parent / f"fuzzynav_{n}.toml" for n in ("goal", "avoid")]
+        if self.tune_memberships:
+            remedy = "pass overwrite=True to replace it, or another folder"
+            OutputScope("save: beside path", overwrite=overwrite, remedy=remedy).check(beside)
         written = [write_params(params, params_path)]
         if self.tune_memberships:
-            base = params_path.parent
-            write_toml(goal, base / "fuzzynav_goal.toml")
-            write_toml(avoid, base / "fuzzynav_avoid.toml")
-            written += [base / "fuzzynav_goal.toml", base / "fuzzynav_avoid.toml"]
+            write_toml(goal, beside[0])
+            write_toml(avoid, beside[1])
+            written += beside
         return written
 
 

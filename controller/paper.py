@@ -22,22 +22,7 @@ docs/paper-controller.md tells the stages.
 of rules, ranges and names every layout fills in).
 
 :class:`PaperTunable` is the earlier 27-number layout, kept because the viewer's editor
-can still read rule bases written in it; its shapes can break the design rules (holes,
-spikes, terms that never reach 1), which is why the shipped rule base no longer uses it.
-Its description:
-
-* ``d_t`` (5): anchors a0 < a1 < a2 < a3 < a4 (a0 and four widths);
-  VS = linzmf[a0, a1], S = trimf[a0, a1, a2], M = gaussmf[(a3 - a1)/4.71, a2],
-  L = trimf[a2, a3, a4], VL = linsmf[a3, a4].
-* ``d_o`` (3): b0 < b1 < b2; near = linzmf[b0, b1], medium = gaussmf[(b2 - b0)/4.71, b1],
-  far = linsmf[b1, b2].
-* ``phi_t`` (4) and ``phi_o`` (5), symmetric left/right: peak p, width w, zero half-width
-  z, foot f (a fraction of p); VN = linzmf[-(p + w), -p], N = trimf[-(p + w), -p, -f p],
-  Z = trimf[-z, 0, z], P = trimf[f p, p, p + w], VP = linsmf[p, p + w]; for ``phi_o`` a
-  tail t makes VP = trimf[p, p + w, p + w + t] (VN mirrored).
-* outputs ``left`` and ``right`` (10, shared): VS = linzmf[e, e + r_vs]; S, M, L =
-  triangles with ordered centres and half-widths of their own; VL = linsmf[c_L + o_VL,
-  c_L + o_VL + r_VL].
+can still read rule bases written in it (its shapes can break the design rules).
 """
 
 from __future__ import annotations
@@ -165,10 +150,25 @@ def _angles(peak, width, halfwidth, foot, tail=None):
 
 
 class PaperTunable(TableOneTunable):
-    """The paper controller's membership functions as 27 bounded numbers (module doc).
+    """The paper controller's membership functions as 27 bounded numbers.
 
     Only membership parameters change: the rules (Table 1), ranges, term names and shape
-    kinds come from the first design and stay as they are.
+    kinds come from the first design and stay as they are. Its shapes can break the
+    design rules (holes, spikes, terms that never reach 1), which is why the shipped rule
+    base does not use it:
+
+    * ``d_t`` (5): anchors a0 < a1 < a2 < a3 < a4 (a0 and four widths);
+      VS = linzmf[a0, a1], S = trimf[a0, a1, a2], M = gaussmf[(a3 - a1)/4.71, a2],
+      L = trimf[a2, a3, a4], VL = linsmf[a3, a4].
+    * ``d_o`` (3): b0 < b1 < b2; near = linzmf[b0, b1], medium = gaussmf[(b2 - b0)/4.71, b1],
+      far = linsmf[b1, b2].
+    * ``phi_t`` (4) and ``phi_o`` (5), symmetric left/right: peak p, width w, zero half-width
+      z, foot f (a fraction of p); VN = linzmf[-(p + w), -p], N = trimf[-(p + w), -p, -f p],
+      Z = trimf[-z, 0, z], P = trimf[f p, p, p + w], VP = linsmf[p, p + w]; for ``phi_o`` a
+      tail t makes VP = trimf[p, p + w, p + w + t] (VN mirrored).
+    * outputs ``left`` and ``right`` (10, shared): VS = linzmf[e, e + r_vs]; S, M, L =
+      triangles with ordered centres and half-widths of their own; VL = linsmf[c_L + o_VL,
+      c_L + o_VL + r_VL].
     """
 
     PARAMETERS = _PARAMETERS

@@ -22,9 +22,10 @@ Parameters (:data:`DESIGN_PARAMETERS`; metres, radians, volts):
   the last is ``top``.
 * ``d_o`` (2): ``near``, where "near" stops holding 1; ``far``, where "far" holds 1
   (<= 3 m, the sensing limit); "medium" half-way.
-* ``phi_t`` (2) and ``phi_o`` (2), mirrored (Table 1 is): ``p``, the centre of P (N at
-  ``-p``); ``q``, how much further VP holds 1, as a multiple of ``p`` (VP at
-  ``p (1 + q)``, kept inside the universe; VN mirrored). Z is a Gaussian at 0.
+* ``phi_t`` (2) and ``phi_o`` (2), mirrored (Table 1 is): ``vp``, where VP holds 1 (VN
+  at ``-vp``), in the upper half of the positive half-universe (the ``span`` rule on a
+  mirrored input); ``q``, how much further out than P's centre, as a multiple of it
+  (P at ``vp / (1 + q)``, N mirrored). Z is a Gaussian at 0.
 * the outputs (3), one set for both wheels: ``e0``, where VS holds 1 (the slow wheel of a
   turn); ``top``, where VL holds 1; ``r``, the growth of the spacing from one term to the
   next (centres ``e0 + g (1 + r + ... )`` with ``g`` set so that the last is ``top``).
@@ -45,12 +46,12 @@ from fuzzynav.controller.paper_partition import TableOneTunable
 
 _SIGMA_PER_SPACING = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 
-# name, lower, upper, start (a hand layout: turns from +-0.6 rad, obstacles felt from
-# 2.4 m, a slow wheel near 0 V and a top speed near 10 V). The bounds keep the design
-# rules by construction, the two added by issue 35 included: ``span`` (d_t's VL and the
+# name, lower, upper, start (a hand layout: turns from +-0.9 rad, obstacles felt from
+# 2.4 m at +-0.6 rad, a slow wheel near 0 V and a top speed near 10 V). The bounds keep the design
+# rules by construction, ``span`` and ``rates`` included: ``span`` (d_t's VL and the
 # wheels' VL in the upper half of their universes: ``d_t.top`` >= 14.5 m of [-1.13, 30],
-# ``v.top`` >= 7 V of [-0.28, 14]) and ``rates`` (an angle's outer ramp from once to
-# 8 times its inner spacing, ``phi_*.q``; d_t's and the wheels' growth ratios keep each
+# ``v.top`` >= 7 V of [-0.28, 14]; an angle's VP in the upper half of [0, max], ``phi_*.vp``)
+# and ``rates`` (an angle's outer ramp from once to 8 times its inner spacing, ``phi_*.q``; d_t's and the wheels' growth ratios keep each
 # term's graded part within 4x of its neighbours'); every ramp stays >= 2 % of its
 # universe (``width``: hence q >= 1 and d_t.r <= 2.2).
 DESIGN_PARAMETERS: list[tuple[str, float, float, float]] = [
@@ -59,10 +60,10 @@ DESIGN_PARAMETERS: list[tuple[str, float, float, float]] = [
     ("d_t.r", 1.0, 2.2, 1.5),
     ("d_o.near", 0.0, 1.4, 0.5),
     ("d_o.far", 1.6, 3.0, 2.4),
-    ("phi_t.p", 0.26, 1.5, 0.6),
-    ("phi_t.q", 1.0, 3.0, 1.3),
-    ("phi_o.p", 0.13, 1.5, 0.6),
-    ("phi_o.q", 1.0, 8.0, 1.3),
+    ("phi_t.vp", math.pi, 2.0 * math.pi, 3.5),
+    ("phi_t.q", 1.0, 8.0, 3.0),
+    ("phi_o.vp", 0.5 * math.pi, math.pi, 1.8),
+    ("phi_o.q", 1.0, 8.0, 2.0),
     ("v.e0", -0.15, 1.0, 0.3),
     ("v.top", 7.0, 14.0, 10.0),
     ("v.r", 0.6, 2.0, 1.0),
@@ -94,10 +95,10 @@ def design_partition(centres, gaussian_middle: bool) -> list[tuple[str, tuple[fl
     return terms
 
 
-def _mirrored(p: float, q: float, half_range: float) -> list[float]:
-    """N at -p, VN at -p (1 + q), clipped at the universe's edge; mirrored."""
-    outer = min(p * (1.0 + q), half_range)
-    return [-outer, -p, 0.0, p, outer]
+def _mirrored(vp: float, q: float) -> list[float]:
+    """VP at ``vp``, P at ``vp / (1 + q)``; N and VN mirrored."""
+    p = vp / (1.0 + q)
+    return [-vp, -p, 0.0, p, vp]
 
 
 def output_centres(e0: float, top: float, ratio: float) -> list[float]:
@@ -131,18 +132,20 @@ class PaperDesignTunable(TableOneTunable):
     )
 
     def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
-        v = self._vector(vector)
-        d_t = output_centres(v[0], v[1], v[2])
-        d_o = [v[3], (v[3] + v[4]) / 2.0, v[4]]
-        outputs = design_partition(output_centres(v[9], v[10], v[11]), gaussian_middle=False)
-        return {
-            "d_t": design_partition(d_t, gaussian_middle=True),
-            "d_o": design_partition(d_o, gaussian_middle=True),
-            "phi_t": design_partition(_mirrored(v[5], v[6], 2 * math.pi), gaussian_middle=True),
-            "phi_o": design_partition(_mirrored(v[7], v[8], math.pi), gaussian_middle=True),
-            "left": outputs,
-            "right": outputs,
-        }
+        return design_terms(self._vector(vector))
+
+
+def design_terms(v) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
+    """Every variable's shapes from the 12 numbers of :data:`DESIGN_PARAMETERS`."""
+    outputs = design_partition(output_centres(v[9], v[10], v[11]), gaussian_middle=False)
+    return {
+        "d_t": design_partition(output_centres(v[0], v[1], v[2]), gaussian_middle=True),
+        "d_o": design_partition([v[3], (v[3] + v[4]) / 2.0, v[4]], gaussian_middle=True),
+        "phi_t": design_partition(_mirrored(v[5], v[6]), gaussian_middle=True),
+        "phi_o": design_partition(_mirrored(v[7], v[8]), gaussian_middle=True),
+        "left": outputs,
+        "right": outputs,
+    }
 
 
 def corners(tunable: PaperDesignTunable | None = None) -> np.ndarray:
@@ -152,3 +155,43 @@ def corners(tunable: PaperDesignTunable | None = None) -> np.ndarray:
     n = len(lo)
     bits = (np.arange(2**n)[:, None] >> np.arange(n)) & 1
     return np.where(bits == 1, hi, lo)
+
+
+#: The range clues' layout drops the two first centres it fixes (below).
+CLUE_PARAMETERS: list[tuple[str, float, float, float]] = [
+    p for p in DESIGN_PARAMETERS if p[0] not in ("d_t.c0", "v.e0")
+]
+
+
+def _from_edge(edge: float, top: float, ratio: float) -> list[float]:
+    """0, then four centres from ``edge`` to ``top``, spacings growing by ``ratio``."""
+    first = (top - edge) / sum(ratio**k for k in range(3))
+    return [0.0, *_spaced(edge, first, ratio, 4)]
+
+
+class PaperCluesTunable(PaperDesignTunable):
+    """The layout the printed ranges hint at: d_t's universe starts at -1.13 m and the
+    wheels' at -0.28 V, the lower foot of a first term centred on 0, as a designer's
+    tool leaves it. d_t's VS and the wheels' VS are triangles on 0 with their feet on
+    the printed lower edge and its mirror (so S sits at 1.13 m and 0.28 V); the other
+    centres as in :class:`PaperDesignTunable`, which this shares everything else with:
+    10 numbers. Its output VS's 0.28 V ramps sit under the ``width`` rule's 2 % of the
+    universe (0.2856 V): the clue and that design rule cannot both hold."""
+
+    PARAMETERS = CLUE_PARAMETERS
+
+    def terms(self, vector) -> dict[str, list[tuple[str, tuple[float, ...]]]]:
+        v = dict(zip(self.parameter_names(), self._vector(vector)))
+        full = [v.get(name, 0.0) for name, *_ in DESIGN_PARAMETERS]
+        out = design_terms(full)
+        for name, top, ratio in (("d_t", "d_t.top", "d_t.r"), ("left", "v.top", "v.r")):
+            edge = -self._range(name)[0]
+            shapes = design_partition(_from_edge(edge, v[top], v[ratio]), name == "d_t")
+            shapes[0] = ("trimf", (-edge, 0.0, edge))
+            out[name] = shapes
+        out["right"] = out["left"]
+        return out
+
+    def _range(self, name: str) -> tuple[float, float]:
+        system = self._template
+        return next(x for x in system.inputs + system.outputs if x.name == name).range

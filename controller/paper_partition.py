@@ -22,7 +22,7 @@ origin, so every vector in the bounds is a valid, ordered system):
   gaps -> triangle centres ``e0 .. e4`` (volts) for VS .. VL, and a half-width per term.
   Output sets need not cover anything; their centroids and areas set the voltages.
 
-This layout made the paper-geometry rule base before issue 25 (with a fitted start
+This layout made an earlier paper-geometry rule base (with a fitted start
 heading); its output sets need not overlap and its triangles may be spikes, so it can
 break the design rules of :mod:`fuzzynav.controller.design_rules`. Today's rule base is
 drawn from :mod:`fuzzynav.controller.paper_design`; :class:`TableOneTunable`, the base

@@ -89,7 +89,7 @@ _API = frozenset(__all__) - {"__version__"}
 
 def __getattr__(name: str) -> object:
     # Read on first use: importlib.metadata costs tens of milliseconds at every start of
-    # the command line, and a Ctrl-C in them could not be caught yet (issue 19).
+    # the command line, and a Ctrl-C in them could not be caught yet.
     if name == "__version__":
         from importlib.metadata import PackageNotFoundError, version
 

@@ -151,7 +151,7 @@ class Run:
 
             # app.recordings.trace is not annotated: its rows are lists of strings
             trace_rows = cast("Callable[[SimulationLog], Iterator[list[str]]]", untyped_trace_rows)
-            # Streamed into the columns, a row at a time (issue 37: a list of every row's
+            # Streamed into the columns, a row at a time (a list of every row's
             # strings first took 1.3 GB beside 86 MB of arrays at 720,000 steps).
             n_rows = len(self.result.log)
             columns = np.empty((len(TRACE_COLUMNS), n_rows))
@@ -179,22 +179,27 @@ class Run:
             extra_metadata={"made by": "fuzzynav.simulate (Python)"},
         )
 
-    def figures(self, folder: str | Path) -> list[Path]:
+    def figures(self, folder: str | Path, overwrite: bool = False) -> list[Path]:
         """Write the paper's figures of the run (PNG and SVG) into ``folder`` (created
-        if needed), as ``fuzzynav run --figures`` does. Returns the files written."""
+        if needed), as ``fuzzynav run --figures`` does. A file of the same name already
+        there is never replaced (ValueError naming it, before any figure is written)
+        unless ``overwrite``. Returns the files written."""
         from fuzzynav.app.figures.run_figures import write_run_figures
         from fuzzynav.app.figures.style import check_writable_dir
+        from fuzzynav.safe_files import OutputScope
 
         check_writable_dir(folder, option="figures: folder")  # the one output guard within
         sim = self._simulation
         params = sim.model.parameters
-        return write_run_figures(
-            self.result,
-            folder,
-            controller=sim.controller,
-            footprint_m=(params.footprint_length_m, params.footprint_width_m),
-            voltage_limit_v=sim.voltage_limit_v,
-        )
+        remedy = "pass overwrite=True to replace it, or another folder"
+        with OutputScope("figures: folder", overwrite=overwrite, remedy=remedy):
+            return write_run_figures(
+                self.result,
+                folder,
+                controller=sim.controller,
+                footprint_m=(params.footprint_length_m, params.footprint_width_m),
+                voltage_limit_v=sim.voltage_limit_v,
+            )
 
     def _inputs(self) -> list[Path]:
         """The files this run read (its scenario's, a ``.fis`` or rule base file): no

@@ -119,7 +119,7 @@ def read_user_bytes(
     path: str | PathLike[str], what: str = "file", max_bytes: int = MAX_INPUT_BYTES
 ) -> bytes:
     """The bytes of a user's file, or :class:`InputError` saying what the path is: the
-    project's one reader of the files a user names (issue 26).
+    project's one reader of the files a user names.
 
     A directory, a FIFO, a device or a socket is named as such (a FIFO is never opened:
     that would wait for a writer; ``/dev/zero`` is never read: it never ends); a missing

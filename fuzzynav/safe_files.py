@@ -1,6 +1,6 @@
 """Writing output files whole or not at all, and never over what must not be written.
 
-The one writer of the project (issue 26): every file fuzzynav writes (recordings,
+The one writer of the project: every file fuzzynav writes (recordings,
 traces, figures, rule bases, checkpoints, ``.fis`` exports, reports) goes through
 :func:`write_bytes_atomically`, :func:`write_text_atomically` or :func:`atomic_output`.
 
@@ -16,6 +16,13 @@ rename over the link would replace the link itself, e.g. ``/dev/stdout``). A tar
 that is not a regular file is never renamed over: a pipe (FIFO) or a terminal is
 written through a stream, anything else (a device, a socket, a directory) is refused.
 
+A file whose name the command chose (in a folder it was given: a report's, a sweep's
+failures, figures) is written inside an :class:`OutputScope`: while one is active, no
+writer of this module replaces a file that exists and that this same scope did not write
+(ValueError naming it), unless the scope was opened with ``overwrite`` (``--force``,
+``overwrite=True``). A path the user named is asked for and written as before.
+:func:`free_path` chooses a fresh name instead (a partial recording beside an old one).
+
 This module sits at the package's root (beside :mod:`fuzzynav.resources`) so that the
 controller's own savers use it too.
 """
@@ -23,6 +30,7 @@ controller's own savers use it too.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import os
 import stat
@@ -35,6 +43,9 @@ from typing import TypeAlias
 StrPath: TypeAlias = str | os.PathLike[str]
 
 __all__ = [
+    "OutputScope",
+    "free_path",
+    "check_replaceable",
     "partial_path",
     "temporary_beside",
     "commit",
@@ -56,6 +67,89 @@ def partial_path(path: StrPath) -> Path:
     """Where a partial file for ``path`` is kept: ``run.rrd`` -> ``run.partial.rrd``."""
     path = Path(path)
     return path.with_name(f"{path.stem}.partial{path.suffix}")
+
+
+def free_path(path: StrPath) -> Path:
+    """``path`` if no file is there, else the first free ``<stem>-2<suffix>``,
+    ``<stem>-3<suffix>``, ...: a fresh name, for the caller to say."""
+    path = Path(path)
+    candidate, number = path, 2
+    while os.path.lexists(candidate):
+        candidate = path.with_name(f"{path.stem}-{number}{path.suffix}")
+        number += 1
+    return candidate
+
+
+class OutputScope:
+    """The files one command (or one call of the Python interface) writes under names
+    it chose: none of them replaces a file that exists and was not written within this
+    scope, unless ``overwrite``.
+
+    Active within a ``with`` block (in this thread): :func:`commit` and every writer of
+    this module ask it before they write (:func:`check_replaceable`) and record what
+    they wrote. Call :meth:`check` first with the names known in advance, so that a
+    long command is refused before its work, not after.
+
+    Parameters
+    ----------
+    option : the option or argument named in the message (``OUT_DIR``, ``--failures``)
+    overwrite : replace existing files (``--force``, ``overwrite=True``)
+    remedy : what the message offers (default: give --force, or another folder)
+    """
+
+    def __init__(
+        self,
+        option: str,
+        *,
+        overwrite: bool = False,
+        remedy: str = "give --force to replace it, or another folder",
+    ) -> None:
+        self.option = option
+        self.overwrite = overwrite
+        self.remedy = remedy
+        self._written: set[Path] = set()
+        self._tokens: list[contextvars.Token] = []
+
+    def check(self, paths: Iterable[StrPath]) -> None:
+        """ValueError naming the first of ``paths`` that exists and was not written in
+        this scope (nothing when ``overwrite``)."""
+        if self.overwrite:
+            return
+        from fuzzynav.resources import escape_controls
+
+        for path in paths:
+            if os.path.lexists(path) and _target(path) not in self._written:
+                raise ValueError(
+                    f"{self.option} {escape_controls(str(path))}: exists already, and was "
+                    "not written by this command: a name the command chose never replaces "
+                    f"a file unless asked ({self.remedy}); nothing was written over"
+                )
+
+    def claim(self, path: StrPath) -> Path:
+        """:meth:`check` ``path``, then count it as written in this scope."""
+        self.check([path])
+        self._written.add(_target(path))
+        return Path(path)
+
+    def __enter__(self) -> OutputScope:
+        self._tokens.append(_ACTIVE_SCOPE.set(self))
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        _ACTIVE_SCOPE.reset(self._tokens.pop())
+
+
+_ACTIVE_SCOPE: contextvars.ContextVar[OutputScope | None] = contextvars.ContextVar(
+    "fuzzynav_output_scope", default=None
+)
+
+
+def check_replaceable(path: StrPath) -> None:
+    """ValueError when an :class:`OutputScope` is active and ``path`` exists without
+    having been written in it: asked by every writer before it starts."""
+    scope = _ACTIVE_SCOPE.get()
+    if scope is not None:
+        scope.check([path])
 
 
 def _umask() -> int:
@@ -101,16 +195,20 @@ def commit(tmp: StrPath, path: StrPath) -> Path:
         os.close(fd)
     target = _target(path)
     _refuse_non_regular(target)  # checked again: it may have changed since the start
+    scope = _ACTIVE_SCOPE.get()
+    if scope is not None:  # a name the command chose: never over a file it did not write
+        scope.claim(path)
     os.replace(tmp, target)
     return Path(path)
 
 
 def discard(tmp: StrPath, path: StrPath, keep_partial: bool = False) -> Path | None:
     """Remove a temporary file that will not be committed, or with ``keep_partial``
-    rename it to :func:`partial_path` (``path``); returns where it is kept, or None."""
+    rename it to :func:`partial_path` (``path``), or a :func:`free_path` beside it when
+    that exists; returns where it is kept, or None."""
     try:
         if keep_partial and Path(tmp).exists() and Path(tmp).stat().st_size > 0:
-            kept = partial_path(path)
+            kept = free_path(partial_path(path))  # never over an earlier partial file
             os.replace(tmp, kept)
             return kept
         os.unlink(tmp)
@@ -203,6 +301,7 @@ def atomic_output(path: StrPath) -> Iterator[Path]:
     >>> with atomic_output("out.png") as tmp:  # doctest: +SKIP
     ...     figure.savefig(tmp, format="png")
     """
+    check_replaceable(path)
     _refuse_non_regular(_target(path))
     tmp = temporary_beside(path)
     try:
@@ -278,7 +377,7 @@ def check_output_path(
     replace: bool = True,
     folder: bool = False,
 ) -> Path:
-    """The one output guard (issues 26 and 37): every writer of the command line and of
+    """The one output guard: every writer of the command line and of
     the Python interface asks it before it writes. Raise ValueError (naming ``option``,
     the path and why) when ``path`` must not be written:
 
@@ -339,7 +438,7 @@ def _same_file(a: StrPath, b: StrPath) -> bool:
 def check_distinct_outputs(outputs: Iterable[tuple[str, StrPath | None]]) -> None:
     """ValueError when two of one command's outputs, ``(option, path)`` pairs (a None
     path is skipped), name the same file (through links too): one would overwrite the
-    other (``run --trace same.out --rrd same.out`` lost the recording, issue 37)."""
+    other (``run --trace same.out --rrd same.out`` lost the recording)."""
     from fuzzynav.resources import escape_controls
 
     seen: list[tuple[str, StrPath]] = []

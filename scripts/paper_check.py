@@ -74,6 +74,7 @@ def main(argv=None) -> int:
         load("paper_binds.json"),
         load("paper_twin_binds.json"),
         load("paper_readings_count.json"),
+        load("paper_readings_behaviour.json"),
     )
     text = PAGE.read_text(encoding="utf-8")
     new = paper_docs.with_blocks(text, blocks)

@@ -32,9 +32,12 @@ from fuzzynav.app.experiments.evolution import cmaes
 from fuzzynav.app.experiments.paper_docs import MAX_JUMPS, twin_checks
 from fuzzynav.app.experiments.paper_fit import (
     TWIN_CLEARANCE_M,
+    TWIN_LINE_OFFSET_M,
     TWIN_MAD_FACTOR,
+    TWIN_MEDIAN_PASS_M,
     TWIN_PATH_M,
     TWIN_PHI_RAD,
+    TWIN_TOP_VOLTAGE_V,
 )
 from fuzzynav.controller.paper_design import PaperDesignTunable
 from fuzzynav.safe_files import write_text_atomically
@@ -46,23 +49,30 @@ MODES = {
 }
 
 
-TWIN_FORCEABLE = ("clearance", "path", "mad", "phi_t")
+TWIN_FORCEABLE = (
+    "clearance", "path", "mad", "phi_t", "close_passes", "near_the_line", "top_voltage", "no_crawl"
+)  # fmt: skip
 
 
 def twin_scaled(measured: dict, paper: dict) -> dict[str, float]:
     """A reached run's residual on each numeric twin bound, scaled by the bound (1: on it)."""
     mad_bound = TWIN_MAD_FACTOR * paper["table4"][measured["scenario"]]["mad_m"]
+    ratio = measured["approach_speed_ratio"]
     return {
         "clearance": TWIN_CLEARANCE_M / max(measured["min_clearance_m"], 1e-3),
         "path": measured["path_length_m"] / TWIN_PATH_M,
         "mad": measured["mad_m"] / mad_bound,
         "phi_t": abs(measured["final_phi_t_rad"]) / TWIN_PHI_RAD,
+        "close_passes": float(np.median(measured["pass_clearances_m"])) / TWIN_MEDIAN_PASS_M,
+        "near_the_line": measured["largest_line_offset_m"] / TWIN_LINE_OFFSET_M,
+        "top_voltage": TWIN_TOP_VOLTAGE_V / max(max(measured["max_voltage_v"]), 0.1),
+        "no_crawl": paper_fit.MIN_APPROACH_SPEED_RATIO / max(ratio if ratio == ratio else 0, 0.01),
     }
 
 
 def twin_bounds_cost(measured: dict, paper: dict, forced=()) -> float:
     """``--bounds-first``: the twin's bounds counted first (docs/paper-controller.md,
-    'The Husky twin'): 1000 for each of a run's six not met, then each residual scaled
+    'The Husky twin'): 1000 for each of a run's bounds not met, then each residual scaled
     by its bound as an uncapped hinge (100 per unit past 0.9 of it: a 10 % margin) and
     10 for each jump over 2 V past the two a run may have. ``paper_fit.husky_cost``
     caps each hinge (past the cap a worse residual stopped pulling) and leaves chatter
@@ -70,7 +80,7 @@ def twin_bounds_cost(measured: dict, paper: dict, forced=()) -> float:
     bounds of this run (``TWIN_FORCEABLE`` names) whose hinge weighs ten times more
     (what meeting them costs the others)."""
     if not measured["reached"]:
-        return 6000.0 + 10.0 * measured["closest_to_target_m"]
+        return 10000.0 + 10.0 * measured["closest_to_target_m"]
     checks = twin_checks(measured, measured["scenario"], paper)
     scaled = twin_scaled(measured, paper)
     cost = 1000.0 * sum(not met for met in checks.values())
@@ -118,9 +128,13 @@ class SearchCost:
                     "min_clearance_m": m["min_clearance_m"],
                     "final_phi_t_rad": m["final_phi_t_rad"],
                     "chatter_steps": int(m["chatter_steps"]),
+                    "pass_clearances_m": m["pass_clearances_m"],
+                    "largest_line_offset_m": m["largest_line_offset_m"],
+                    "max_voltage_v": m["max_voltage_v"],
+                    "approach_speed_ratio": m["approach_speed_ratio"],
                     "checks": {k: bool(v) for k, v in checks.items()},
                 }
-        return {"bounds_met": met, "bounds": 6 * len(runs), "runs": runs}
+        return {"bounds_met": met, "bounds": len(checks) * len(runs), "runs": runs}
 
     def measure(self, vectors):
         return [fit_measures(self.fit, paper_fit.SCENARIOS, vectors, g, p) for g, p in self.modes]
@@ -159,6 +173,9 @@ def main(argv=None) -> int:
         choices=("matlab", "unsensed"),
         default="matlab",
         help="how Table 1's NONE reads (docs/paper-controller.md, 'Readings of the text')",
+    )
+    p.add_argument(
+        "--fov", type=float, default=None, help="the field of view, degrees (the scenarios')"
     )
     p.add_argument("--maxiter", type=int, default=40)
     p.add_argument("--popsize", type=int, default=24)
@@ -202,7 +219,9 @@ def main(argv=None) -> int:
     tunable = PaperDesignTunable()
     names = tunable.parameter_names()
     modes = args.modes.split(",")
-    reading = paper_fit.Reading(heading_rad=args.heading, none_reading=args.none)
+    reading = paper_fit.Reading(
+        heading_rad=args.heading, none_reading=args.none, field_of_view_deg=args.fov
+    )
     cost = SearchCost(
         modes, args.husky_weight, args.dt, reading, args.bounds_first, args.force_twin
     )
@@ -263,7 +282,8 @@ def main(argv=None) -> int:
     if args.out:
         command = (
             f"python scripts/paper_search.py --heading {args.heading:.6g} --none {args.none} "
-            f"--maxiter {args.maxiter} --popsize {args.popsize} --seed {args.seed} "
+            + (f"--fov {args.fov:g} " if args.fov else "")
+            + f"--maxiter {args.maxiter} --popsize {args.popsize} --seed {args.seed} "
             f"--sigma {args.sigma:g} --dt {args.dt:g} --husky-weight {args.husky_weight:g} "
             f"--modes {args.modes}"
             + (" --bounds-first" if args.bounds_first else "")

@@ -1,10 +1,12 @@
 """Every public function of fuzzynav's API documents each of its parameters in a
-numpydoc ``Parameters`` section (as python-control's docstrings_test.py asks)."""
+numpydoc ``Parameters`` section (as python-control's docstrings_test.py asks), and
+production code names no issue numbers (a reader cannot open them; history is in git)."""
 
 from __future__ import annotations
 
 import inspect
 import re
+from pathlib import Path
 
 import pytest
 
@@ -49,3 +51,76 @@ def test_an_undocumented_parameter_is_found():
         """
 
     assert set(inspect.signature(f).parameters) - documented(inspect.getdoc(f)) == {"b"}
+
+
+ROOT = Path(__file__).resolve().parents[1]
+PRODUCTION = ("world", "controller", "app", "fuzzynav")
+
+#: "issue 35", "issues 25 and 35", "(issue 35)", "issue-35", "issue #35", and the same
+#: broken over a line ("issue\n    # 35"); a web address (``.../issues/1387``) is not one.
+ISSUE_NUMBER = re.compile(r"\bissues?\b[\s#:\-]*[0-9]+", re.IGNORECASE)
+
+#: Files another piece of work is rewriting; each leaves this set once its references go
+#: (test_pending_files_still_name_issues says when).
+PENDING: set[str] = set()
+
+
+def issue_references(text: str) -> list[tuple[int, str]]:
+    """(line number, matched text) of every issue number in ``text``."""
+    return [
+        (text.count("\n", 0, m.start()) + 1, " ".join(m.group(0).split()))
+        for m in ISSUE_NUMBER.finditer(text)
+    ]
+
+
+def production_files() -> list[Path]:
+    return sorted(
+        path
+        for folder in PRODUCTION
+        for path in (ROOT / folder).rglob("*.py")
+        if "__pycache__" not in path.parts
+    )
+
+
+def test_production_code_names_no_issue_numbers():
+    found = [
+        f"{path.relative_to(ROOT).as_posix()}:{line}: {match}"
+        for path in production_files()
+        if path.relative_to(ROOT).as_posix() not in PENDING
+        for line, match in issue_references(path.read_text(encoding="utf-8"))
+    ]
+    assert found == [], "say what the reference meant, or point into docs/:\n" + "\n".join(found)
+
+
+def test_pending_files_still_name_issues():
+    """An allowance outlives its reason once the file is clean: delete it from PENDING."""
+    clean = sorted(
+        name
+        for name in PENDING
+        if not (ROOT / name).exists()
+        or not issue_references((ROOT / name).read_text(encoding="utf-8"))
+    )
+    assert clean == [], f"now clean, delete from PENDING in {__file__}: {clean}"
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "as issue 35 asked",
+        "(issues 25 and 35)",
+        "fixed in issue-35",
+        "see Issue #35",
+        "(issue\n        # 38: the grid)",
+        "issues: 12",
+    ],
+)
+def test_an_issue_number_is_found(text):
+    assert len(issue_references(text)) == 1, text
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["https://github.com/rerun-io/rerun/issues/1387", "no issue here, 35 rows", "tissue 3"],
+)
+def test_what_is_not_an_issue_number(text):
+    assert issue_references(text) == [], text

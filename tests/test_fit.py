@@ -144,18 +144,23 @@ def test_the_papers_own_numbers_cost_nothing_and_any_arrival_beats_none():
 
 
 def test_the_story_costs_nothing_when_told_and_something_when_not():
-    def run(name, passes):
-        return {"scenario": name, "passes": passes}
+    def run(name, passes, mad_m=0.6, approach=1.0):
+        return {"scenario": name, "passes": passes, "mad_m": mad_m, "approach_speed_ratio": approach}
 
     told = [
         run("s1", [(30.0, 0.46), (45.0, 0.29), (60.0, 0.26)]),
-        run("s2", [(29.0, 0.38), (61.0, 0.72)]),
-        run("s3", [(33.0, 0.63), (57.0, 0.73)]),
+        run("s2", [(29.0, 0.38), (61.0, 0.72)], mad_m=0.57),
+        run("s3", [(33.0, 0.63), (57.0, 0.73)], mad_m=0.63),
     ]
     assert story_cost(told) == 0.0
     first_closest = [run("s1", [(30.0, 0.22), (45.0, 0.82), (60.0, 0.96)])] + told[1:]
-    s3_early = told[:2] + [run("s3", [(28.0, 0.63), (57.0, 0.73)])]
-    assert story_cost(first_closest) > 0.0 and story_cost(s3_early) > 0.0
+    s3_early = told[:2] + [run("s3", [(28.0, 0.63), (57.0, 0.73)], mad_m=0.63)]
+    s3_too_late = told[:2] + [run("s3", [(37.0, 0.63), (57.0, 0.73)], mad_m=0.63)]
+    s3_as_close = told[:2] + [run("s3", [(33.0, 0.40), (57.0, 0.73)], mad_m=0.63)]
+    s3_straighter = told[:2] + [run("s3", [(33.0, 0.63), (57.0, 0.73)], mad_m=0.50)]
+    crawl = [run("s1", told[0]["passes"], approach=0.2)] + told[1:]
+    for untold in (first_closest, s3_early, s3_too_late, s3_as_close, s3_straighter, crawl):
+        assert story_cost(untold) > 0.0
 
 
 def test_the_shipped_rule_base_is_rebuilt_from_its_own_header():

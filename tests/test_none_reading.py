@@ -111,16 +111,30 @@ def _shifted_outputs(system, top):
     return out
 
 
+def _layout_system():
+    from fuzzynav.controller.paper_design import PaperDesignTunable
+
+    tunable = PaperDesignTunable()
+    return tunable.system(tunable.initial_vector())
+
+
 def test_span_catches_terms_that_leave_the_upper_half_unused():
-    good = read_toml(FIRST_DESIGN)
+    good = _layout_system()
     assert not [v for v in violations(good) if v.rule == "span"]
     squeezed = _shifted_outputs(good, top=6.0)
     found = [v for v in violations(squeezed) if v.rule == "span"]
     assert {(v.variable, v.term) for v in found} == {("left", "VL"), ("right", "VL")}, found
 
 
+def test_span_bites_on_mirrored_angle_inputs():
+    """A mirrored angle input spans each half: the hand-made first design's phi_t holds
+    VP from 1.6 rad of a +-2 pi universe and is caught; phi_o's VP from 1.8 rad of +-pi is not."""
+    found = [v for v in violations(read_toml(FIRST_DESIGN)) if v.rule == "span"]
+    assert {(v.variable, v.term) for v in found} == {("phi_t", "VN"), ("phi_t", "VP")}, found
+
+
 def test_rates_catches_a_near_crisp_ramp_beside_a_gentle_one():
-    good = read_toml(FIRST_DESIGN)
+    good = _layout_system()
     assert not [v for v in violations(good) if v.rule == "rates"]
     # phi_o's VP ramp 0.13 rad against N's about 1 rad (the fault issue 35 found)
     p, w = 0.9, 0.13

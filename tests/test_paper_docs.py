@@ -63,6 +63,7 @@ def test_the_page_is_rendered_from_the_data():
         _load("paper_binds.json"),
         _load("paper_twin_binds.json"),
         _load("paper_readings_count.json"),
+        _load("paper_readings_behaviour.json"),
     )
     found = paper_docs.generated(PAGE.read_text(encoding="utf-8"))
     assert set(blocks) <= set(found), set(blocks) - set(found)
@@ -85,14 +86,29 @@ def test_the_readme_headline_is_rendered_from_the_data():
 
 
 def test_the_readings_table_selects_what_ships():
-    """The shipped paper rule base reads NONE as the selected reading does."""
-    from fuzzynav.app.experiments.paper_fit import select_reading
+    """The shipped paper rule base and the scenario files take the reading the readings
+    table with the behaviour selects: its NONE, its field of view, its horizon, its
+    layout."""
+    from fuzzynav.app.experiments.paper_fit import SHIPPED_READING, Reading, select_reading
     from fuzzynav.controller.paper import PAPER_RULES
     from fuzzynav.controller.rulebase import read_toml
+    from fuzzynav.world.scenario import load_scenario
 
-    chosen = select_reading(_load("paper_readings.json")["results"])
+    results = _load("paper_readings_behaviour.json")["results"]
+    chosen = select_reading(results)
+    assert (
+        chosen["reading"]
+        == Reading(
+            0.0,
+            SHIPPED_READING.none_reading,
+            load_scenario("s1").field_of_view_deg,
+            SHIPPED_READING.horizon,
+            SHIPPED_READING.layout,
+        ).label
+    )
     unsensed = "NONE unsensed" in chosen["reading"]
     assert (read_toml(PAPER_RULES).unsensed_none == ("d_o",)) == unsensed
+    assert not chosen["design_rules_broken"]
 
 
 def test_a_stale_block_is_found():
@@ -142,45 +158,6 @@ def test_the_readme_table_is_todays_compare(capsys):
                     )
 
 
-def test_the_shipped_right_wheel_ceiling_is_the_stored_one():
-    """docs/data/paper_binds.json's ceiling of rules/paper.toml's right wheel (the 12 V
-    the paper's s3 reaches): recomputed on the same grid. Where s3 drives (d_t up to its
-    start-target distance plus the disturbance) it is far below 12 V."""
-    from fuzzynav.app.experiments.paper_ceiling import right_wheel_ceiling, s3_farthest_m
-    from fuzzynav.controller.paper import RULES_BY_GEOMETRY
-    from fuzzynav.controller.rulebase import read_toml
-
-    stored = _load("paper_binds.json")["shipped_ceiling"]
-    system = read_toml(RULES_BY_GEOMETRY["paper"])
-    assert stored["d_t_max_m"] == pytest.approx(s3_farthest_m())
-    found = right_wheel_ceiling(system, s3_farthest_m())
-    assert found["right_max_v"] == pytest.approx(stored["in_s3"]["right_max_v"], abs=1e-9)
-    assert found["right_max_v"] < 12.0
-
-
-def test_the_selection_counted_first_selects_what_ships():
-    """The readings searched again with the done bounds counted first, one budget each
-    (scripts/paper_readings_count.py): the reading selected is the shipped one, and the
-    shipped rule base meets at least as many bounds as that search's best."""
-    from fuzzynav.app.experiments.paper_fit import select_reading
-
-    counted = _load("paper_readings_count.json")
-    chosen = select_reading(counted["results"])
-    assert chosen["reading"] == select_reading(_load("paper_readings.json")["results"])["reading"]
-    shipped = paper_docs.bound_checks(_load("paper_controller.json")["paper"])
-    assert sum(c["met"] for c in shipped) >= chosen["bounds_met"]
-
-
-def test_the_twins_forced_experiments_are_the_bounds_it_misses_today():
-    """docs/data/paper_twin_binds.json forces exactly the bounds today's twin misses
-    (rerun scripts/paper_binds.py --twin after the twin changes)."""
-    from load_file import load_file
-
-    binds = load_file(ROOT / "scripts" / "paper_binds.py")
-    forced = [e["forced"] for e in _load("paper_twin_binds.json")["experiments"]]
-    assert forced == binds.twin_unmet()
-
-
 def _probe(label: str, smallest: dict, bound: float = 0.731) -> dict:
     return {
         "label": label,
@@ -209,19 +186,6 @@ def test_the_mad_alone_block_says_whether_any_safe_arrival_meets_the_bound():
     assert "| a | 10 | 1 / 0 | 1.300 / — |" in text
     one_within = dict(none_within, mad_alone=[_probe("c", {"ideal": 0.7, "ultrasonic": 0.9})])
     assert "safe arrivals within the bound in ideal perception." in render_twin_binds(one_within)
-
-
-def test_the_mad_alone_probes_start_from_today_twin():
-    """The first ``--twin-mad`` probe started from today's twin: its smallest safe s1 MAD
-    is no larger than the twin's own (the batch engine at the fit's period, within 5 %)
-    in the mode where the twin keeps its clearance (rerun after the twin changes)."""
-    probes = _load("paper_twin_binds.json")["mad_alone"]
-    twin = _load("paper_controller.json")["husky"]
-    assert probes[0]["start"] == "husky"
-    for perception, smallest in probes[0]["smallest_safe_mad_m"].items():
-        own = twin[perception]["s1"]
-        if own["min_clearance_m"] >= 0.26:  # safely inside the bound on both engines
-            assert smallest is not None and smallest <= 1.05 * own["mad_m"], perception
 
 
 def test_the_generalisation_data_are_the_shipped_rule_bases_runs():

@@ -147,7 +147,7 @@ def test_figures_on_a_full_disk_leave_the_old_files_whole(capsys, monkeypatch, t
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(Figure, "savefig", full)
-    code, err = run_cli(capsys, "run", tiny, "--controller", "p", "--figures", figs)
+    code, err = run_cli(capsys, "run", tiny, "--controller", "p", "--figures", figs, "--force")
     assert code == 2 and "No space left on device" in err
     assert {p.name: p.read_bytes() for p in figs.iterdir()} == before  # no temporaries
 

@@ -3,40 +3,16 @@
 The arena does not compute dynamics of its own: the LG model gives the body's mean
 forward speed ``v`` (m/s) and yaw rate ``w`` (rad/s) over each step, and the arena moves
 the pymunk body with them, so the pose (x, y, heading) always comes from pymunk.
-
 Obstacles follow the constant-acceleration law of the paper (Eq. 13-14),
-``p(t) = p0 + v0 (t - t0) + a (t - t0)^2 / 2``. Moving an obstacle (a drag in the viewer)
+``p(t) = p0 + v0 (t - t0) + a (t - t0)^2 / 2``; moving one (a drag in the viewer)
 restarts its law from where it is put, keeping its current velocity.
 
-Contacts are reported by pymunk in the step they happen (the robot's shape is a sensor,
-so pymunk reports the overlap without pushing anything) and kept as
-:class:`Collision` events. **One contact rule for both engines** (issue 37): the robot
-touches an obstacle when its footprint-to-surface clearance is ``<= 0``, touching
-included, as the batch engine (:mod:`world.batch`) judges it. Chipmunk does not always
-count an exact touch (clearance 0.0, e.g. an obstacle that comes to rest against the
-robot's side), so at the end of every step the arena also reports a contact for an
-obstacle whose computed clearance (:meth:`Arena.clearances`, the batch engine's formula)
-is ``<= 0`` and was ``> 0`` at the step's start, unless pymunk or the sweep already
-did; a touch it reported is not reported again when Chipmunk sees the overlap in the
-next step. (The paper's point robot is a 0.1 mm circle: Chipmunk sees a centre on a
-surface as an overlap, as the batch engine does.)
-
-pymunk compares the shapes only at the end of each step, so a
-fast obstacle (the schema allows 100 m/s: 2 m a 20 ms step) could pass through the robot
-between two steps; the arena therefore also judges every step as a sweep (see
-:meth:`Arena._sweep`): the robot along its exact arc, every obstacle along its law,
-sampled wherever a contact could hide between the ends of the step, so nothing passes
-through anything silently, and :attr:`Arena.min_clearance_m` is the true minimum
-clearance (to within :data:`SWEEP_SPACING_M`), not only the one at the step ends.
-
-Speed: the control loop runs tens of thousands of steps per second, where every
-pymunk property read builds a ``Vec2d`` and every tiny numpy call costs a microsecond
-or more. So the hot path talks to the same Chipmunk functions pymunk's properties call,
-through pymunk's own cffi binding (:mod:`world.compat_pymunk`, checked against the
-pymunk version it was written for), and keeps the per-step scene (obstacle
-centres and clearances) as plain floats, computed once per step and shared by the
-perception, the sensors' prefilter and the log. The public methods return exactly the
-numbers they returned before.
+Contacts are kept as :class:`Collision` events. The robot touches an obstacle when its
+footprint-to-surface clearance is ``<= 0``, as the batch engine (:mod:`world.batch`)
+judges it, and every step is also judged as a sweep (:meth:`Arena._sweep`), so nothing
+passes through anything between two steps and :attr:`Arena.min_clearance_m` is the true
+minimum clearance (to within :data:`SWEEP_SPACING_M`). How and why: docs/robustness.md,
+"How collisions are judged".
 """
 
 from __future__ import annotations
@@ -234,7 +210,7 @@ class Arena:
         for obstacle in list(self.obstacles.values()):
             self.space.remove(obstacle.body, obstacle.shape)
         # pymunk keeps removed shapes until the next step; resets without one kept them
-        # all (300 viewer Resets among 200 obstacles: 58 MB, issue 37)
+        # all (300 viewer Resets among 200 obstacles: 58 MB)
         _compat.forget_removed_shapes(self.space)
         self.obstacles.clear()
         self._changed()

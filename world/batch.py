@@ -2,52 +2,17 @@
 
 :func:`run_batch` drives N scenarios (each with its own start, target, obstacles,
 duration and disturbance) one control period per step, every quantity of every run in
-one array. It is :class:`world.simulation.Simulation` without pymunk:
-
-* **the same plant**: the LG model's exact zero-order-hold step matrix
-  (:meth:`world.husky.HuskyModel.discrete`), applied to all runs as one (N x 8) x (8 x
-  12) product;
-* **the same motion**: the body moves as the pymunk body is moved (velocity = chord of
-  the step's arc along the mid-step heading, then Chipmunk's ``p += v dt``,
-  ``a += w dt``), so in ideal perception the poses agree with the pymunk engine to
-  rounding;
-* **the same inputs**: Eqs. 7-12 / the Husky geometry's footprint clearances
-  (:mod:`world.perception`), the three sonars (3 beams x 5 rays; Chipmunk's own
-  ray-circle formula, its "ray starts inside" rule, the same range, blind zone, update
-  schedule and per-run seeded noise as :mod:`world.sensors`), the disturbance of each
-  scenario, the obstacles' constant-acceleration laws;
-* **the same contacts**: the footprint rectangle (or the paper's point robot) against
-  every circle at the end of the step, as pymunk judges it, and the arena's swept test
-  between the steps (:meth:`world.arena.Arena._sweep`, its constants and formula);
-* **the same metrics**, accumulated per run as the run goes (no per-step log is kept,
-  so 10,000 runs fit in memory): every number :func:`world.metrics.compute_metrics`
-  gives that a sweep row carries.
-
-What is shared and what is not: the plant step is one function for both engines
-(:func:`world.husky.step_product`), so are the swept clearance
-(:func:`world.kernels.swept_clearances`), the constants (sensor model, sweep, cutoff,
-jump threshold), the metrics' row, safety distance and jump rule
-(:mod:`world.metrics`) and, in ``app``, the rows, the tuning and fit costs and the
-stall rule; the inputs, the obstacles' law, the clearances, the disturbance and the
-angle wrapping are defined once as arrays (:mod:`world.kernels`,
-:func:`world.geometry.wrap_angles`), and the pymunk engine keeps a plain-float form of
-each for its speed, the same operations in the same order, checked against the arrays
-on many values (tests/test_one_step.py); the ray casts and the collision tests are
-closed forms instead of Chipmunk's queries. In practice a run's trajectory is the
-pymunk engine's bit for bit (tests/test_batch.py, bench/bench_batch.py --crosscheck);
-the known sources of last-bit differences are ``math.hypot`` and ``math.atan2`` there
-against numpy's ``hypot`` and ``arctan2`` here. A run
-that ends is dropped from the arrays: it costs nothing after its last step.
-
-The engine is a stepping form, :class:`world.batch_world.BatchWorld` (``reset``,
-``observe``, ``step``), made of the array stages of :mod:`world.kernels`; the metrics
-are :mod:`world.batch_metrics`. :func:`run_batch` is the loop over it.
+one array; a run that ends is dropped from the arrays. It is
+:class:`world.simulation.Simulation` without pymunk, its runs the pymunk engine's to
+rounding (what is shared and how it is checked: docs/experiments.md, "Two engines").
+The stepping form is :class:`world.batch_world.BatchWorld` (``reset``, ``observe``,
+``step``), made of the array stages of :mod:`world.kernels`; the metrics, accumulated as
+the runs go (no per-step log is kept), are :mod:`world.batch_metrics`'s.
 
 The world knows nothing of the controller: it calls ``controller.decide(inputs, runs,
 ranges_m)`` (:class:`BatchController`) with the active runs' inputs (n, 4), their
 indices in the batch (n,) and their sonar readings (n, 3); the controller returns the
-wheel voltages (n, 2). The glue for fuzzynav's controllers is
-:mod:`controller.batch`.
+wheel voltages (n, 2). The glue for fuzzynav's controllers is :mod:`controller.batch`.
 """
 
 from __future__ import annotations

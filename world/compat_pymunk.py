@@ -177,7 +177,7 @@ def forget_removed_shapes(space: pymunk.Space) -> None:
 
     ``Space`` keeps every removed shape until its next ``step()`` (for the callbacks of a
     step in progress): resets or scenario loads without a step in between kept them all
-    (300 viewer Resets among 200 obstacles: 60,000 shapes and 58 MB; issue 37). Outside a
+    (300 viewer Resets among 200 obstacles: 60,000 shapes and 58 MB). Outside a
     step nothing needs them. Nothing happens inside a step, or on a pymunk that keeps
     them otherwise.
 

@@ -3,7 +3,7 @@ r"""Linear-graph (LG) state-space model of the Clearpath Husky A200.
 The plant of the paper (Eq. 1-6, Tables 2-3), taken from E. McCormick, H. Lang and
 C. W. de Silva, "Dynamic Modeling and Simulation of a Four-Wheel Skid-Steer Mobile
 Robot Using Linear Graphs", Electronics 11(15):2453, 2022, with the sign errors of
-the printed :math:`A` corrected (see :func:`paper_printed_A` and the project notes).
+the printed :math:`A` corrected (see :func:`paper_printed_A`).
 
 State, input and output, in the paper's order:
 
@@ -17,65 +17,13 @@ with the left and right drivetrain speeds [rad/s], the hull's forward speed [m/s
 and yaw rate [rad/s, counter-clockwise positive], the left and right motor currents
 [A]; :math:`v_{s1}` drives the LEFT motor, :math:`v_{s2}` the right one [V].
 
-Model
------
-Each wheel :math:`k \in \{FL, RL, FR, RR\}` is a damper :math:`B_k` between its
-side's drivetrain and the hull, through two transformers
-:math:`TF_{odd} = 1/r_w` (forward speed) and :math:`TF_{even,k} = \mp c/r_w`
-(yaw rate; minus on the left wheels, plus on the right, x forward, y left). The
-damper sees the slip rate
-
-.. math::
-
-    s_k = \omega_{side(k)} - TF_{odd}\, v_{MH} - TF_{even,k}\, \omega_{JH}
-
-and puts the torque :math:`-B_k s_k` on the drivetrain, the force
-:math:`B_k s_k TF_{odd}` on the hull and the yaw moment :math:`B_k s_k TF_{even,k}`.
-With the hull yaw damping :math:`B_H` and DC motors
-(:math:`L\, di/dt = v_s - R i - T_M \omega_{side}`, torque :math:`T_M i` on the
-drivetrain, :math:`T_M = k_t\, GR`) the whole plant is
-
-.. math::
-
-    E \dot x = (G - D)\, x + F u, \qquad
-    E = \mathrm{diag}(J_{LW}, J_{RW}, M_H, J_H, L, L),
-
-    D = \sum_k B_k g_k g_k^T + B_H e_4 e_4^T + R (e_5 e_5^T + e_6 e_6^T), \qquad
-    G = T_M (e_1 e_5^T - e_5 e_1^T + e_2 e_6^T - e_6 e_2^T),
-
-where :math:`s_k = g_k^T x` and :math:`F = [e_5, e_6]`; hence
-:math:`A = E^{-1}(G - D)` and :math:`B = E^{-1} F`. :math:`D` is symmetric positive
-semi-definite and :math:`G` skew, so the stored energy
-:math:`H = \tfrac12 x^T E x` obeys
-
-.. math::
-
-    \dot H = u^T i - R\,|i|^2 - \sum_k B_k s_k^2 - B_H \omega_{JH}^2 ,
-
-i.e. the model is passive. That is exactly what the printed signs break.
-
-Discretisation
---------------
-:math:`A` is constant, so the zero-order-hold solution is exact for piecewise
-constant voltages at any step size (the plant is stiff: :math:`L/R = 0.48` ms, and
-explicit Euler diverges at 10 ms). With :math:`M = [[A, B], [0, 0]]` and
-:math:`z = [x; u]`,
-
-.. math::
-
-    \exp\left(\begin{bmatrix} M & I \\ 0 & 0 \end{bmatrix} \Delta t\right)
-    = \begin{bmatrix} \Phi & \Gamma \\ 0 & I \end{bmatrix}, \qquad
-    \Phi = e^{M \Delta t}, \quad \Gamma = \int_0^{\Delta t} e^{M s}\, ds,
-
-so :math:`x(\Delta t) = [\Phi z_0]_{1:6}` and the mean state over the step is
-:math:`\bar x = \tfrac{1}{\Delta t}\int_0^{\Delta t} x\, dt = [\Gamma z_0]_{1:6} /
-\Delta t`.
-
 The parameters (``husky.toml``) and the assembly of :math:`A` and :math:`B` are
-:mod:`world.husky_params`'s; this module discretises them (:func:`zoh_discretise`,
-:class:`HuskyModel`) and keeps the paper's printed :math:`A` (:func:`paper_printed_A`).
-The names of :data:`__all__` (and ``N_STATES``, ``ROBOT_TABLES``) are imported here, so
-that ``fuzzynav.world.husky`` still offers them.
+:mod:`world.husky_params`'s; this module discretises them with the exact zero-order
+hold (:func:`zoh_discretise`, :class:`HuskyModel`, whose step also gives the mean state
+over the step) and keeps the paper's printed :math:`A` (:func:`paper_printed_A`). The
+equations and why they are passive: docs/model.md, "The plant's equations". The names
+of :data:`__all__` (and ``N_STATES``, ``ROBOT_TABLES``) are imported here, so that
+``fuzzynav.world.husky`` still offers them.
 """
 
 from __future__ import annotations

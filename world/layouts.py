@@ -3,7 +3,7 @@
 Families
 --------
 ``standard``
-    The sweep of issue 3: 1-4 static obstacles of radius 0.15-0.35 m near the straight
+    The standard sweep: 1-4 static obstacles of radius 0.15-0.35 m near the straight
     start-target line, every gap between two obstacles passable (wider than the robot
     plus both safe distances), a moving obstacle in a quarter of the layouts, a random
     start heading, the target 6-12 m away in a random direction.

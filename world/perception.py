@@ -74,7 +74,7 @@ def check_controller(controller) -> None:
     """ValueError, with a sentence, unless ``controller`` is what the loop drives with
     these inputs: an object with ``reset()`` (called at every start) and
     ``__call__(inputs) -> voltages``. The simulation checks it before anything starts
-    (issue 37: one without ``reset()`` failed deep inside with an AttributeError)."""
+    (one without ``reset()`` is refused here, not deep inside with an AttributeError)."""
     missing = [
         what
         for what, present in (
@@ -96,7 +96,7 @@ def check_controller(controller) -> None:
 @dataclass(frozen=True)
 class ControlContext:
     """What a controller that declares ``needs_context = True`` is given besides its
-    inputs, as ``controller(inputs, context=ControlContext(...))`` (issue 40): the
+    inputs, as ``controller(inputs, context=ControlContext(...))``: the
     world as the simulation knows it at the decision. A controller meant to reproduce the
     paper should not need it; one that plans, learns or is judged against the truth may.
 

@@ -27,7 +27,7 @@ MAX_CONTROL_PERIOD_S = 1.0
 #: floats a step plus 4 per obstacle, so 2 million steps of a run with a few obstacles
 #: write under 0.6 GB to the log's spool (an hour at 2 ms; 1e-5 s asked 4.3 GB).
 MAX_STEPS = 2_000_000
-#: The size one run's log may reach (issue 26): a legal scenario of 1000 obstacles and
+#: The size one run's log may reach: a legal scenario of 1000 obstacles and
 #: 3600 s reached 9.7 GB of memory. Checked before the first step with
 #: :func:`log_bytes`; beyond :data:`LOG_BLOCK_BYTES` the log is on the disk.
 MEMORY_BUDGET_BYTES = 2 * 1024**3

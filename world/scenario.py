@@ -128,7 +128,7 @@ class Scenario:
 
     def __post_init__(self):
         # A scenario made or replaced in code is held to the file's rule for its
-        # duration, a positive finite number of seconds (issue 37: NaN failed deep inside
+        # duration, a positive finite number of seconds (NaN failed deep inside
         # with "cannot convert float NaN to integer", a negative one ran one step); only
         # the file's hour-long cap is left to files (the log spools a longer run).
         _Reader(self.source).number(self.duration_s, "duration_s", positive=True)

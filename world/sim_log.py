@@ -5,7 +5,7 @@ see :mod:`world.simulation`). While a run goes on, :class:`_LogBuffer` collects 
 as plain floats and writes them into wide matrices a block at a time; a long run's rows
 beyond :data:`LOG_BLOCK_BYTES` go to :class:`_LogSpool`, a pair of unnamed temporary
 files, and come back as copy-on-write memory maps, so a run's memory does not grow with
-its length (issue 26).
+its length.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 
 from fuzzynav.world.run_limits import LOG_FLOATS_PER_OBSTACLE, LOG_FLOATS_PER_STEP
 
-#: The most the log of one run keeps in memory (issue 26): a longer run's rows go to an
+#: The most the log of one run keeps in memory: a longer run's rows go to an
 #: unnamed temporary file a block at a time, and the finished log maps them back
 #: (read-only pages the operating system may drop and read again), so a run's memory
 #: does not grow with its length. Runs shorter than a block never touch the disk.

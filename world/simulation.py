@@ -23,11 +23,8 @@ Row ``k`` of the log holds the state at ``time_s[k]``, the inputs sensed then an
 voltages applied from then to ``time_s[k + 1]``; the last row is the final state, with
 NaN voltages because no decision follows it.
 
-Speed (issue 2): a step does a few dozen small operations, so the loop works on plain
-floats (perception, saturation and the log row build no small numpy arrays; only the
-controller's ``inputs`` and the plant's ``[x; u]`` are arrays) and writes log rows in
-blocks; the numbers are in docs/speed.md. Every operation on the numbers is the one the
-straightforward code did, in the same order, so runs are the same to the bit.
+The loop works on plain floats (only the controller's ``inputs`` and the plant's
+``[x; u]`` are arrays) and writes log rows in blocks: docs/speed.md has its numbers.
 
 The bounds of a run and its outcomes are :mod:`world.run_limits`'s, the log and its
 spool :mod:`world.sim_log`'s; their public names are imported here too, so that

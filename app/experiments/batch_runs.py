@@ -496,6 +496,18 @@ def fit_measures(
             "closest_to_target_m": float(result.min_target_distance_m[i]),
             "max_voltage_v": tuple(float(v) for v in trace.max_v[i]),
             "largest_right_offset_m": largest_right_offset(scenario, result.poses[i]),
+            "approach_speed_ratio": approach_speed_ratio(
+                result.poses[i],
+                np.arange(len(result.poses[i])) * fit_cost.control_period_s,
+                scenario.target,
+            ),
+            "horizon_s": load_scenario(scenario_names[i % len(scenario_names)]).duration_s,
+            "largest_line_offset_m": largest_line_offset(scenario, result.poses[i]),
+            "pass_clearances_m": pass_clearances(
+                scenario,
+                result.poses[i],
+                np.arange(len(result.poses[i])) * fit_cost.control_period_s,
+            ),
         }
         k = built[int(run_sets[i])]
         out[k] = (out[k] or []) + [measured]
@@ -511,6 +523,61 @@ def largest_right_offset(scenario, poses) -> float:
     # the cross product's sign: negative = right of the line, looking along it
     side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
     return float(max(0.0, -side.min()))
+
+
+#: "The last 2 m" of a run: how near the target its approach speed is measured (m).
+APPROACH_M = 2.0
+
+
+def approach_speed_ratio(poses, time_s, target, within_m: float = APPROACH_M) -> float:
+    """The mean speed over the part of the run within ``within_m`` of the target, over
+    the run's median speed (both from the logged poses, m/s): 1 for an even pace, near 0
+    for a crawl to the target; NaN if the run never came that near or never moved."""
+    xy = np.asarray(poses, dtype=float)[:, :2]
+    t = np.asarray(time_s, dtype=float)
+    step_m = np.hypot(*np.diff(xy, axis=0).T)
+    step_s = np.diff(t)
+    moving = step_s > 0
+    speed = step_m[moving] / step_s[moving]
+    near = (np.hypot(*(xy[1:] - np.asarray(target, dtype=float)).T) <= within_m) & moving
+    median = float(np.median(speed)) if speed.size else 0.0
+    if not near.any() or median <= 0.0:
+        return math.nan
+    return float(step_m[near].sum() / step_s[near].sum() / median)
+
+
+def largest_line_offset(scenario, poses) -> float:
+    """How far from the start-target line the robot's centre went, either side (m)."""
+    start = np.asarray(scenario.start, dtype=float)
+    line = np.asarray(scenario.target, dtype=float) - start
+    xy = np.asarray(poses, dtype=float)[:, :2] - start
+    side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
+    return float(np.abs(side).max())
+
+
+def pass_clearances(scenario, poses, time_s) -> list[float]:
+    """Per obstacle, the least clearance from the robot's footprint to its surface over
+    the logged poses (m): how close each pass came. Each obstacle moves by its law."""
+    from fuzzynav.world.geometry import rectangle_clearances
+    from fuzzynav.world.robot import HUSKY
+
+    pose = np.asarray(poses, dtype=float)
+    t = np.asarray(time_s, dtype=float)[:, None]
+    length, width = HUSKY.footprint_m
+    out = []
+    for obstacle in scenario.obstacles:
+        centre = (
+            np.asarray(obstacle.position, dtype=float)
+            + np.asarray(obstacle.velocity, dtype=float) * t
+            + 0.5 * np.asarray(obstacle.acceleration, dtype=float) * t**2
+        )
+        clearance = rectangle_clearances(
+            np.cos(pose[:, 2]), np.sin(pose[:, 2]),
+            centre[:, 0] - pose[:, 0], centre[:, 1] - pose[:, 1],
+            obstacle.radius_m, 0.5 * length, 0.5 * width,
+        )  # fmt: skip
+        out.append(float(np.min(clearance)))
+    return out
 
 
 def fit_costs(fit_cost, vectors, scenario_names=("s1", "s2", "s3")) -> list[float]:

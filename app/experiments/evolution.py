@@ -102,7 +102,7 @@ def add_sigma_option(parser) -> None:
     parser.add_argument(
         "--sigma",
         # a fraction of the span: 0, a negative step or NaN ran every generation at cost
-        # inf and wrote its file (issue 26)
+        # inf and wrote its file
         type=float_in(SIGMA_RANGE[0], SIGMA_RANGE[1]),
         default=0.15,
         metavar="FRACTION",

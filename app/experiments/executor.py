@@ -110,8 +110,8 @@ def _unguarded_main_line() -> tuple[str, int] | None:
     ``spawn`` and ``forkserver`` start each worker by running that script again (as
     ``__mp_main__``): without the guard every worker starts the pool again, fails
     ("An attempt has been made to start a new process before the current process has
-    finished its bootstrapping phase"), and the pool replaces it, for ever (issue 37:
-    ``fuzzynav.sweep('paper', n=4, workers=2)`` at the top of a script printed 626
+    finished its bootstrapping phase"), and the pool replaces it, for ever
+    (``fuzzynav.sweep('paper', n=4, workers=2)`` at the top of a script printed 626
     tracebacks in 45 s and never ended)."""
     import ast
 

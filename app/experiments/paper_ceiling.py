@@ -1,4 +1,4 @@
-"""How high the paper rule base's right wheel can go where s3 drives (issue 35's 12 V).
+"""How high the paper rule base's right wheel can go where s3 drives (the 12 V of Fig. 26's text).
 
 The paper's s3 right wheel "attempts to exceed 12 volts" (Fig. 26's text). A Mamdani
 rule base's output is a centroid, so it has a ceiling for every set of inputs;

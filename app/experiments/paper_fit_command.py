@@ -17,7 +17,7 @@ from fuzzynav.app.provenance import reproduce_line
 def cmd_fit_paper(args) -> int:
     from rich.console import Console
 
-    from fuzzynav.app.experiments.tuning import check_output_file
+    from fuzzynav.app.experiments.tuning import check_output_file, fresh_default_out
     from fuzzynav.controller.paper_design import PaperDesignTunable
 
     if args.husky_only and not args.husky:
@@ -81,6 +81,8 @@ def cmd_fit_paper(args) -> int:
         "The start heading is the scenarios' (a reading of the text), never fitted; Table 1's "
         "NONE for d_o reads as the text has it (docs/paper-controller.md)."
     )
+    if args.out is None and not getattr(args, "force", False):  # checked at the start
+        out = fresh_default_out(out, console, "fit-paper")
     [path] = PaperDesignTunable().save(
         x, out, header=header, unsensed_none=SHIPPED_READING.none_reading == "unsensed"
     )

@@ -4,7 +4,7 @@ Each line is one finished run, written whole with its newline in one call and fl
 so that a crash or Ctrl-C loses at most the run in progress. ``--resume`` reads the file
 back: its rows are not run again and never written twice.
 
-What ``--resume`` trusts (issue 26): nothing. The file is read through the project's
+What ``--resume`` trusts: nothing. The file is read through the project's
 safe reader (a regular file, at most :data:`MAX_RESULTS_BYTES`; a FIFO or ``/dev/zero``
 is refused, never read). Every line must be a JSON object with ``\\n`` line ends
 (carriage returns are refused) whose every field passes ``check_row`` (its type and
@@ -268,7 +268,7 @@ class ResultLog:
             self._file.write(line + "\n")
             self._file.flush()
             os.fsync(self._file.fileno())  # a machine that goes down keeps it too
-        except OSError as exc:  # a full disk: say which file (issue 26)
+        except OSError as exc:  # a full disk: say which file
             raise OSError(exc.errno, exc.strerror or str(exc), self.shown) from None
         self.rows[k] = row
 

@@ -88,7 +88,7 @@ def check_row(row: dict) -> None:
     if not (isinstance(fingerprint, str) and len(fingerprint) == 16):
         raise bad(
             "fingerprint",
-            "missing or malformed: written by another fuzzynav version (before issue 26)",
+            "missing or malformed: written by another fuzzynav version",
         )
     for name in ("outcome", "reached", "collided", "success", "n_obstacles", *_ROW_NUMBERS):
         if name not in row:

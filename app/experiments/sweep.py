@@ -9,12 +9,14 @@ summarised (:func:`summarize`: success and safe-success rates, medians) and show
 from __future__ import annotations
 
 import math
+import os
 import statistics
 import time
 from pathlib import Path
 
 from fuzzynav.app.args import (
     add_field_of_view_option,
+    add_force_option,
     add_geometry_option,
     add_off_option,
     add_perception_option,
@@ -144,31 +146,77 @@ def failed_runs(out: dict) -> list[dict]:
     return [r for r in out["runs"] if not (r["reached"] and not r["collided"])]
 
 
-def write_failures(out: dict, directory, progress=None, source: str = "") -> list[dict]:
+def failure_paths(
+    directory, family: str, seed: int, controller: str, perception: str, index: int
+) -> tuple[Path, Path]:
+    """Where ``--failures DIR`` puts layout ``index``'s scenario file and recording."""
+    stem = f"{family}_seed{seed}_{index:03d}"
+    directory = Path(directory)
+    return directory / f"{stem}.toml", directory / f"{stem}_{controller}_{perception}.rrd"
+
+
+def check_failures_dir(directory, args) -> None:
+    """Before the sweep: ValueError when ``directory`` holds a file that a failed run of
+    these ``args`` (any of its ``--n`` layouts) would be written to, unless ``--force``."""
+    from fuzzynav.safe_files import OutputScope
+
+    if getattr(args, "force", False):
+        return
+    present = set(os.listdir(directory))
+    names = {
+        path.name: path
+        for index in range(args.n)
+        for path in failure_paths(
+            directory, args.family, args.seed, args.controller, args.perception, index
+        )
+    }
+    OutputScope("--failures").check(names[name] for name in sorted(present & names.keys()))
+
+
+def write_failures(
+    out: dict, directory, progress=None, source: str = "", overwrite: bool = False
+) -> list[dict]:
     """For every failed run of the sweep ``out``: its layout as a scenario file and a
-    rerun recording of the run, in ``directory`` (which must exist).
+    rerun recording of the run, in ``directory`` (which must exist). No file there is
+    replaced (ValueError naming it, before any is written) unless ``overwrite``.
 
     The scenario file runs again with ``fuzzynav run FILE --controller C --perception P
     --seed S`` (the command is in its header and in the recording); the run is driven
     again here to record it, and must end as it did in the sweep. Returns one dict per
     failure: index, outcome, ``scenario_file``, ``recording``.
     """
+    from fuzzynav.safe_files import OutputScope
+
+    family, seed = out["family"], out["seed"]
+    controller, perception = out["controller"], out["perception"]
+    runs = failed_runs(out)
+    outputs = OutputScope("--failures", overwrite=overwrite)
+    outputs.check(
+        path
+        for run in runs
+        for path in failure_paths(directory, family, seed, controller, perception, run["index"])
+    )
+    with outputs:  # a name checked, then taken meanwhile, is refused at its write
+        return _write_failures(out, runs, directory, progress, source)
+
+
+def _write_failures(out: dict, runs, directory, progress, source: str) -> list[dict]:
     from fuzzynav.app.recordings.record import record_simulation
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.safe_files import write_text_atomically
     from fuzzynav.world.layouts import generate_layout
     from fuzzynav.world.scenario import load_scenario
 
-    directory = Path(directory)
     family, seed = out["family"], out["seed"]
     controller, perception = out["controller"], out["perception"]
     parts_off = out.get("parts_off") or []
     options = out.get("options") or {}
     off = off_flag(parts_off)
     written = []
-    for done, run in enumerate(failed_runs(out), start=1):
-        stem = f"{family}_seed{seed}_{run['index']:03d}"
-        scenario_file = directory / f"{stem}.toml"
+    for done, run in enumerate(runs, start=1):
+        scenario_file, recording = failure_paths(
+            directory, family, seed, controller, perception, run["index"]
+        )
         command = (
             f"fuzzynav run {scenario_file} --controller {controller}{off} "
             f"--perception {perception} --seed {seed}"
@@ -187,14 +235,13 @@ def write_failures(out: dict, directory, progress=None, source: str = "") -> lis
         result = sim.run()
         if (result.outcome, result.metrics["collided"]) != (run["outcome"], run["collided"]):
             # Rows run here are deterministic; one that disagrees was read back from
-            # --out and edited, or made elsewhere: bad input, not a crash (issue 26)
+            # --out and edited, or made elsewhere: bad input, not a crash
             raise ValueError(
                 f"{scenario_file}: the run ended '{result.outcome}' when driven "
                 f"again, '{run['outcome']}' in the sweep's row"
                 + (f" ({source})" if source else "")
                 + ": that row does not hold this run's result"
             )
-        recording = directory / f"{stem}_{controller}_{perception}.rrd"
         record_simulation(
             sim,
             result,
@@ -232,6 +279,7 @@ def cmd_sweep(args) -> int:
         from fuzzynav.app.figures.run_figures import check_writable_dir
 
         check_writable_dir(args.failures, "--failures")  # before the sweep, not after
+        check_failures_dir(args.failures, args)
     beside = args.beside
     if beside == "auto":
         beside = "paper" if args.controller != "paper" else "none"
@@ -262,6 +310,7 @@ def cmd_sweep(args) -> int:
             args.failures,
             args.json,
             f"rows read back from --out {args.out}" if args.resume else "",
+            overwrite=getattr(args, "force", False),
         )
         if args.failures is not None
         else None
@@ -307,7 +356,7 @@ def cmd_sweep(args) -> int:
     return 0
 
 
-def _write_failures_with_bar(out, directory, quiet, source=""):
+def _write_failures_with_bar(out, directory, quiet, source="", overwrite=False):
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
@@ -321,7 +370,11 @@ def _write_failures_with_bar(out, directory, quiet, source=""):
     ) as bar:
         task = bar.add_task("failures", total=n)
         return write_failures(
-            out, directory, progress=lambda done: bar.update(task, completed=done), source=source
+            out,
+            directory,
+            progress=lambda done: bar.update(task, completed=done),
+            source=source,
+            overwrite=overwrite,
         )
 
 
@@ -373,6 +426,7 @@ def add_commands(subparsers) -> None:
         metavar="DIR",
         help="write every failed run of --controller to DIR: its layout as a "
         "scenario file (to run again) and a rerun recording (1-4 MB "
-        "each)",
+        "each); a file already there is never replaced without --force",
     )
+    add_force_option(p, "files already in --failures DIR")
     p.set_defaults(func=cmd_sweep)

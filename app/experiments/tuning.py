@@ -307,7 +307,7 @@ def _checked_options(args):
         raise UsageError("--radius must be > 0")
     t = get_tunable(args.controller)
     # a path given is asked for; the default name never replaces an earlier result
-    # unless --force (issue 37)
+    # unless --force
     replace = args.out is not None or getattr(args, "force", False)
     if args.out is None:  # never the shipped file: that lives inside the installation
         args.out = Path.cwd() / f"{args.controller}_tuned.toml"
@@ -429,6 +429,27 @@ def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: flo
     return result, history
 
 
+def fresh_default_out(out: Path, console, command: str) -> Path:
+    """``out``, a default name checked free when the command started, or, when a file
+    was made there meanwhile (another run of the command), a fresh name beside it, said
+    on ``console``: a name the command chose never replaces a file it did not write."""
+    from fuzzynav.safe_files import free_path
+
+    if not os.path.lexists(out):
+        return out
+    fresh = free_path(out)
+    console.print(
+        escape_controls(
+            f"fuzzynav: {out} exists now (not written by this {command}): the result is "
+            f"written as {fresh}"
+        ),
+        markup=False,
+        highlight=False,
+        soft_wrap=True,
+    )
+    return fresh
+
+
 def _save_tuned(t, x, out: Path, header: str) -> list[Path]:
     """The tuned files, the command that reproduces them in their header (a tunable that
     takes no header gets it prepended to its .toml file)."""
@@ -446,6 +467,7 @@ def _save_tuned(t, x, out: Path, header: str) -> list[Path]:
 def cmd_tune(args) -> int:
     from rich.console import Console
 
+    default_out = args.out is None and not getattr(args, "force", False)
     t, names, x0, free = _checked_options(args)
     cases = build_cases(args.scenarios, args.perception, args.layouts, args.n, args.layout_seed)
     console = Console(stderr=True)
@@ -465,6 +487,8 @@ def cmd_tune(args) -> int:
         f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
         f"cost: app/experiments/objective.py)"
     )
+    if default_out:  # checked at the start; made meanwhile (another tune?)
+        args.out = fresh_default_out(args.out, console, "tune")
     paths = _save_tuned(t, result.x, args.out, header)
     out = {
         "controller": t.name,

@@ -19,10 +19,16 @@ from pathlib import Path
 
 from fuzzynav.app.args import UsageError, add_force_option
 from fuzzynav.app.experiments.compare import SCENARIOS, TABLE4_ROWS, table4_row
+from fuzzynav.app.figures.numbering import FIG27_COLUMNS
 from fuzzynav.app.figures.style import obstacle_label
 from fuzzynav.app.published import published_table4
 from fuzzynav.controller.rulebase import read_toml
-from fuzzynav.safe_files import check_output_path, write_bytes_atomically, write_text_atomically
+from fuzzynav.safe_files import (
+    OutputScope,
+    check_output_path,
+    write_bytes_atomically,
+    write_text_atomically,
+)
 from fuzzynav.world.perception import GEOMETRIES
 
 DEFAULT_CONTROLLERS = ("paper", "baseline", "fuzzynav")
@@ -189,25 +195,65 @@ def write_report(
     perception : ``ideal`` or ``ultrasonic`` (the paper's geometry takes only ideal)
     readme_images : optional folder for the docs' copies (see the module docstring)
     geometries : any of ``husky`` and ``paper``
-    force : replace an existing ``table4.md`` beside ``readme_images`` (a file outside
-        the folders named, never replaced unless asked)
+    force : replace existing files: without it, no file the report names (in
+        ``out_dir``, in ``readme_images``, ``table4.md`` beside it) replaces one it did
+        not write itself (ValueError, before the runs where the name is known)
     """
-    from rich.progress import Progress
-
-    from fuzzynav.app.figures.paper_set import write_figure_index, write_paper_figures
-    from fuzzynav.app.figures.style import FORMATS, check_writable_dir
-    from fuzzynav.app.recordings.record import record_run
-    from fuzzynav.app.runs import build_simulation
+    from fuzzynav.app.figures.style import check_writable_dir
     from fuzzynav.world.perception import check_geometry
 
     geometries = tuple(geometries)
     for geometry in geometries:
         check_geometry(geometry, perception)
+    # Every file is named by the report: none replaces one it did not write, unless
+    # force; the names known in advance are checked before the first run.
+    outputs = OutputScope("report", overwrite=force)
     if readme_images is not None:  # before the runs, through the one output guard
         images = Path(readme_images)
         check_output_path(images, "--readme-images", folder=True)  # not in the package
-        check_output_path(readme_table_path(images), "--readme-images", replace=force, folder=True)
+        check_output_path(readme_table_path(images), "--readme-images", folder=True)
+        outputs.check(_readme_paths(images, controllers, geometries))
+    outputs.check(_report_paths(Path(out_dir), controllers, geometries))
     out = check_writable_dir(out_dir, option="OUT_DIR")
+    with outputs:
+        table = _run_and_write(out, controllers, perception, geometries)
+        if readme_images is not None:
+            _copy_readme_images(out, out / "figures", Path(readme_images), controllers, geometries)
+    return table
+
+
+def _report_paths(out: Path, controllers, geometries) -> list[Path]:
+    """The report's files whose names are known before its runs (the figures' are
+    checked as they are written)."""
+    paths = [out / "table4.json", out / "table4.md", out / "figures" / "index.md"]
+    paths += [
+        out / "rrd" / g / f"{s}_{c}.rrd" for g in geometries for s in SCENARIOS for c in controllers
+    ]
+    return paths
+
+
+def _readme_paths(images: Path, controllers, geometries) -> list[Path]:
+    """What ``--readme-images DIR`` may write (see :func:`_copy_readme_images`)."""
+    paths = [readme_table_path(images)]
+    if "husky" in geometries:
+        paths += [images / f"{s}_{c}_trajectory.png" for s in SCENARIOS for c in controllers]
+        if any(c in FIG27_COLUMNS for c in controllers):  # Fig. 27 drawn
+            paths.append(images / "comparison.png")
+    if "paper" in controllers:
+        paths.append(images / "paper_membership.png")
+    return paths
+
+
+def _run_and_write(out: Path, controllers, perception, geometries) -> dict:
+    """Run, record and draw every (geometry, scenario, controller) into ``out``; write
+    the figure index and Table 4; returns the table."""
+    from rich.progress import Progress
+
+    from fuzzynav.app.figures.paper_set import write_figure_index, write_paper_figures
+    from fuzzynav.app.figures.style import FORMATS
+    from fuzzynav.app.recordings.record import record_run
+    from fuzzynav.app.runs import build_simulation
+
     fig_dir = out / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     rows, entries = [], []
@@ -248,8 +294,6 @@ def write_report(
     }
     write_text_atomically(out / "table4.json", json.dumps(table, indent=2))
     write_text_atomically(out / "table4.md", _markdown(rows, perception))
-    if readme_images is not None:
-        _copy_readme_images(out, fig_dir, Path(readme_images), controllers, geometries)
     return table
 
 
@@ -365,5 +409,5 @@ def add_commands(subparsers) -> None:
         help="also copy the husky geometry's trajectories and Fig. 27 here (the docs' "
         "docs/img), and table4.md beside it (an existing one only with --force)",
     )
-    add_force_option(p, "the table4.md beside --readme-images DIR")
+    add_force_option(p, "an earlier report's files (in OUT_DIR, --readme-images DIR, table4.md)")
     p.set_defaults(func=cmd_report)

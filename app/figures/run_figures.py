@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fuzzynav.app.figures.membership import write_membership_figures
+from fuzzynav.app.figures.membership import membership_figure_names, write_membership_figures
 from fuzzynav.app.figures.numbering import (
     MEMBERSHIP_FIGURE,
     RUN_FIGURES,
@@ -68,6 +68,7 @@ from fuzzynav.app.figures.trajectory import (
 from fuzzynav.app.recordings.internals import controller_fis
 from fuzzynav.app.recordings.internals import controller_label as label_of
 from fuzzynav.resources import escape_controls
+from fuzzynav.safe_files import check_replaceable
 from fuzzynav.world.geometry import obstacle_bearings, target_geometry
 
 
@@ -285,7 +286,7 @@ def _voltages_figure(result, title: str, voltage_limit_v: float):
 def _drawable_output(values, limit_v: float) -> tuple[np.ndarray, str]:
     """A controller's output before saturation as the voltage figure draws it, and its
     label: within +-OUTPUT_DRAWN_FACTOR x the limit (a controller answering +-1e308
-    made matplotlib's scaling overflow: RuntimeWarnings, issue 37), the label saying
+    made matplotlib's scaling overflow: RuntimeWarnings), the label saying
     so when it cut anything."""
     bound = OUTPUT_DRAWN_FACTOR * max(abs(limit_v), 1e-9)
     values = np.asarray(values, dtype=float)
@@ -336,6 +337,10 @@ def write_run_figures(
     Returns the files written, in order.
     """
     out_dir = check_writable_dir(out_dir, option="out_dir")
+    for path in run_figure_paths(
+        out_dir, controller, prefix=prefix, names=names, formats=formats, membership=membership
+    ):
+        check_replaceable(path)  # within an OutputScope: before any figure is drawn
     label = controller_label or label_of(controller, unknown=None)
     written: list[Path] = []
     for kind in RUN_FIGURES:
@@ -354,43 +359,78 @@ def write_run_figures(
     return written
 
 
+def run_figure_paths(
+    out_dir, controller=None, *, prefix="", names=None, formats=FORMATS, membership=True
+) -> list[Path]:
+    """The files :func:`write_run_figures` writes with these arguments, in order."""
+    stems = [names[kind] if names is not None else f"{prefix}{kind}" for kind in RUN_FIGURES]
+    fis = controller_fis(controller, merged=True) if membership else None
+    if fis is not None:
+        stems += [f"{prefix}{name}" for name in membership_figure_names(fis)]
+    return [Path(out_dir) / f"{stem}.{ext}" for stem in stems for ext in formats]
+
+
 def add_run_options(parser) -> None:
     parser.add_argument(
         "--figures",
         type=Path,
         metavar="DIR",
-        help="write the paper's figures of the run (PNG and SVG) into DIR",
+        help="write the paper's figures of the run (PNG and SVG) into DIR (a file of the "
+        "same name already there is never replaced without --force)",
     )
+    from fuzzynav.app.args import add_force_option
+
+    add_force_option(parser, "figure files already in --figures DIR")
+
+
+def _planned_paths(out_dir: Path, names: dict, membership_stem, fis) -> list[Path]:
+    """The files ``run --figures`` writes, known before the run."""
+    paths = run_figure_paths(out_dir, names=names, membership=False)
+    if fis is not None:
+        stems = [membership_stem(v.name) for v in (*fis.inputs, *fis.outputs)]
+        paths += [out_dir / f"{stem}.{ext}" for stem in stems for ext in FORMATS]
+    return paths
 
 
 def run_hook(args, sim):
+    from fuzzynav.safe_files import OutputScope
+
     out_dir = getattr(args, "figures", None)
     if out_dir is None:
         return None
     check_writable_dir(out_dir)
+    # Named as the report names them: by the paper's figure numbers (fig12_s1_...).
+    name = label_of(sim.controller, unknown="controller")
+    names = {kind: run_figure_stem(sim.scenario, kind, name) for kind in RUN_FIGURES}
+
+    def membership_stem(var: str) -> str:
+        return membership_figure_stem(var, name)
+
+    fis = controller_fis(sim.controller, merged=True)
+    # none replaces a file this command did not write, unless --force: checked before the run
+    outputs = OutputScope("--figures", overwrite=getattr(args, "force", False))
+    outputs.check(_planned_paths(Path(out_dir), names, membership_stem, fis))
 
     def write(result, interrupted: bool) -> None:
         params = sim.model.parameters
-        # Named as the report names them: by the paper's figure numbers (fig12_s1_...).
-        name = label_of(sim.controller, unknown="controller")
         try:
-            paths = write_run_figures(
-                result,
-                out_dir,
-                controller=sim.controller,
-                names={kind: run_figure_stem(result.scenario, kind, name) for kind in RUN_FIGURES},
-                footprint_m=(params.footprint_length_m, params.footprint_width_m),
-                voltage_limit_v=sim.voltage_limit_v,
-                membership=False,
-            )
-            fis = controller_fis(sim.controller, merged=True)
-            if fis is not None:
-                paths += write_membership_figures(
-                    fis,
+            with outputs:
+                paths = write_run_figures(
+                    result,
                     out_dir,
-                    stem=lambda var: membership_figure_stem(var, name),
-                    numbers=MEMBERSHIP_FIGURE if name == "paper" else None,
+                    controller=sim.controller,
+                    names=names,
+                    footprint_m=(params.footprint_length_m, params.footprint_width_m),
+                    voltage_limit_v=sim.voltage_limit_v,
+                    membership=False,
                 )
+                if fis is not None:
+                    paths += write_membership_figures(
+                        fis,
+                        out_dir,
+                        stem=membership_stem,
+                        numbers=MEMBERSHIP_FIGURE if name == "paper" else None,
+                    )
         except OSError as exc:  # a full disk, a folder removed meanwhile
             raise ValueError(
                 f"--figures {escape_controls(str(out_dir))}: the figures were not written "

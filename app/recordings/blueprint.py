@@ -349,8 +349,8 @@ def application_id(
     folders differ here), the geometry, the controller's rules and parameters
     (:func:`app.provenance.rules_digest`), its rule count and internals (the rules tab),
     the perception, the seed, the sensor noise, the control period, the voltage limit
-    and the robot's parameters (issue 39: s2 ideal and s2 ultrasonic shared a layout,
-    and the later one's ranges clipped the first's curves)."""
+    and the robot's parameters (two runs that shared a layout had the later one's ranges
+    clip the first's curves)."""
     import hashlib
 
     from fuzzynav.app.provenance import rules_digest

@@ -1,5 +1,5 @@
 """A run's events in a recording: closest approaches, the disturbance window and the
-end (issue 28), as a text log, state lanes on the timeline and markers in the world."""
+end, as a text log, state lanes on the timeline and markers in the world."""
 
 from __future__ import annotations
 

@@ -122,6 +122,7 @@ def recording_sink(path) -> Iterator[str]:
     binary stream, read a block at a time, makes a file of several
     streams that rerun's reader refuses.)"""
     from fuzzynav.safe_files import (
+        check_replaceable,
         commit,
         discard,
         is_stream_target,
@@ -130,8 +131,9 @@ def recording_sink(path) -> Iterator[str]:
     )
 
     path = Path(path)
+    check_replaceable(path)  # a name the command chose: before the recording is made
     tmp = None
-    if is_stream_target(path):  # never renamed over: written as it goes (issue 26)
+    if is_stream_target(path):  # never renamed over: written as it goes
 
         def write(chunks):
             write_chunks_atomically(path, chunks)

@@ -88,7 +88,7 @@ RULES_TEXT_PATH = "/rules/texts"  # static TextDocument: R1 ... Rn in words
 RULES_STRONGEST_PATH = "/rules/strongest"  # StateChange: the strongest rule where it changes
 #: A static bar of height 1 at abscissa 0, in the bar chart's view: rerun's bar chart
 #: fits its axis to the bars it draws (0.41 has no axis range for it), so without it
-#: the axis followed the strongest rule of the moment (issue 39, defect 5).
+#: the axis followed the strongest rule of the moment.
 RULES_SCALE_PATH = f"{RULES_PATH}/scale"
 #: The heatmap drawn with its rows named (a rerun tensor view names no row): the same
 #: values as a colour-mapped image, R1 ... Rn beside its rows, seconds under its columns.

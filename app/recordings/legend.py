@@ -1,5 +1,5 @@
 """Where a plot's legend goes: the corner of a stacked panel its curves leave emptiest,
-and how far the value axis is stretched to make room (issue 39: the legends hid curves).
+and how far the value axis is stretched to make room (a legend must not hide curves).
 
 :class:`LegendFit` is fed a run's rows a block at a time (a long run's log is never
 whole in memory); :func:`legend_placement` does it for a whole array at once.

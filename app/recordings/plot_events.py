@@ -1,4 +1,4 @@
-"""A run's events marked on its time-series plots (issue 39, defect 10): the closest
+"""A run's events marked on its time-series plots: the closest
 approaches, the stretches inside the safe distance (where they begin and end), the
 disturbance switched on and off and the end of the run, each a marker on the curves of
 every plot at its time, beside the lanes and the log that say them in words.

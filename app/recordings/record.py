@@ -1,99 +1,12 @@
 """Every run as a rerun recording: the 2D world, the paper's time series and more.
 
 ``record_run(result, path)`` writes one finished (or interrupted) run to a ``.rrd`` file;
-:class:`~fuzzynav.app.recordings.live.LiveRecorder` appends the steps of a running
-simulation in chunks, for the viewer (re-exported here, where the viewer imports it).
-Both go through :class:`~fuzzynav.app.recordings.columns.ColumnWriter` and send whole
-columns on the timeline ``sim_time`` (a duration, nanosecond resolution), never one
-call per step: the entities that have a row at every step go out together as one
-Arrow record batch (``RecordingStream.send_record_batch``: one chunk per entity, as
-``send_columns`` would make, for one call instead of ~20); the obstacles and the
-target, logged only where they change, with ``send_columns``; styles (colours, names,
-radii) once, as static components. Related series share one
-entity (a plot) as instances: each entity costs a chunk with its own row ids and times,
-which for one entity per series made most of a file and of the time to write it.
-
-Entities (``{id}`` is the obstacle id, ``{sensor}`` left / front / right)::
-
-    /world                                  the map; y is up (see "Orientation" below)
-      /robot/footprint                      LineStrips2D: closed outline of the real footprint
-      /robot/heading                        Arrows2D from the centre along the heading
-      /robot/trail                          LineStrips2D: the segment travelled in each step
-                                            (the default view shows every segment up to the cursor)
-      /obstacles/{id}/body                  Points2D of the obstacle's radius (moving ones move)
-      /obstacles/{id}/safe_ring             LineStrips2D circle, 0.25 m beyond the surface,
-                                            sent once and moved by a Transform3D translation
-      /obstacles/{id}/path                  LineStrips2D segments of a moving obstacle's path
-      /target                               Points2D, radius = arrival tolerance
-      /start, /ideal_line, /scale           static: the start, the straight start-target line,
-                                            a 1 m scale bar
-      /robot/sensed                         ideal perception: LineStrips2D to the centre of
-                                            the obstacle the controller reacts to
-      /sensors/{sensor}/beam                ultrasonic perception: the cone, as long as the
-                                            reading
-      /sensors/{sensor}/hit                 Points2D: the echo (none when nothing echoes)
-      /events/closest, /events/moving_{id}  static: the robot at each closest approach; a
-                                            moving obstacle then, and its track
-    /plots                                  Scalars: one entity per plot, one instance
-                                            per series (named in the legend; the order
-                                            is :func:`.columns.plot_layout`'s, each plot
-                                            an entry of :data:`.series.PLOTS`)
-      /distance          target, obstacle {id+1}...        paper Fig. 13 (centre to centre;
-                                                           s2: 18, s3: 23, as every panel)
-      /angles/phi_t, /angles/heading                       Fig. 14, one panel
-      /obstacle_angles   obstacle {id+1}...                Fig. 15 (bearing from the heading)
-      /voltage           left, right (applied), left and right before the limit, the
-                         +-12 V limit (one name for both lines)   Fig. 16
-      /inputs/distances  d_t, d_o (m) as the controller saw them
-      /inputs/angles     phi_t, phi_o (rad) as the controller saw them
-      /clearance         obstacle {id+1}..., the 0.25 m safe distance (footprint to surface)
-      /wheels            w_LW, w_RW (rad/s)
-      /velocity          v_MH (m/s), w_JH (rad/s)
-      /current           i_L1, i_L2 (A)
-      /ranges            left, front, right sensor readings (m); NaN = no echo
-      /disturbance       the value added to the inputs
-      /<plot>/events     every plot: SeriesPoints at the events' times on its curves,
-                         shape and colour per row (:mod:`.plot_events`)
-    /rules                                  fuzzy controllers only
-      /firing            BarChart per decision: the bar at abscissa k is rule Rk (float32);
-                         null at the last row (no decision)
-      /firing/scale      static BarChart: a grey bar of 1 at abscissa 0 (the axis 0 to 1)
-      /strongest         StateChange: the strongest rule where it changes
-      /heatmap           static Tensor: rules x time (binned, max per bin)
-      /heatmap/image, /rows, /times, /ticks   static: the same as a colour-mapped
-                         DepthImage, the rows named R1, R5, ..., seconds under it
-      /texts             static TextDocument: every rule in words
-    /fuzzy/inputs/{name}, /fuzzy/outputs/{name}   a controller with a fis: the membership
-                         functions, the input's value / the aggregated output and its
-                         centroid at each decision (the viewer's inference view)
-    /events/log                             TextLog: closest approaches, disturbance, end
-    /events/lanes/{closest_approach,disturbance,outcome}   StateChange lanes
-    /meta                                   static TextDocuments
-      /run, /metrics, /scenario, /rules, /robot, /summary
-
-The default blueprint (:mod:`.blueprint`; a live recording sends it first, so that a
-viewer opening the stream uses it at once, and again at the end with the legends
-placed; ``record_run``, whose file appears whole, once at the end) puts the world on
-the left and the paper's figures stacked on the right, with tabs for the plant, the
-sensors, the rules and the run's documents. The application id
-(:func:`.blueprint.application_id`) is
-``fuzzynav-<scenario>-<controller>-<geometry>-<key of the scenario's content>``, so
-recordings whose layouts differ keep their own in a viewer. docs/recordings.md says what
-every entity and tab shows; docs/robustness.md how files are written (whole, beside the
-target, renamed; a partial run as ``<stem>.partial.rrd``; ``record_run`` sends a long
-run :data:`SEND_ROWS` rows at a time).
-
-Row conventions follow :mod:`world.simulation`: row k holds the state at ``time_s[k]``;
-the voltages of the last row are NaN (no decision follows it), and are logged as NaN.
-A sensor reading of ``inf`` (no echo) is logged as NaN so that plots show a gap. The
-hit point is drawn on the beam's axis at the reading's distance: the log keeps the
-range, not which ray of the cone echoed. Readings are held between sensor updates
-(25 Hz) while the robot moves on, so a hit point may lag its obstacle by one update.
-
-Orientation: rerun's 2D views draw y downwards (rerun issue #1387). ``/world`` carries
-a static ``Transform3D`` that mirrors y, and the default view has origin ``/``, so the
-map is drawn with y up, as in the paper's figures; the logged coordinates are the
-simulation's own.
+:class:`~fuzzynav.app.recordings.live.LiveRecorder` (re-exported here, where the viewer
+imports it) appends the steps of a running simulation in chunks. Both go through
+:class:`~fuzzynav.app.recordings.columns.ColumnWriter`, which sends whole columns on the
+timeline ``sim_time``, never one call per step; the layout is :mod:`.blueprint`'s. What
+each entity and tab shows: docs/recordings.md; how the files are written (whole, beside
+the target, renamed; a partial run as ``<stem>.partial.rrd``): docs/robustness.md.
 
 ``rerun`` and ``pyarrow`` are imported inside the functions: the command line imports
 this module for its options on every call.
@@ -294,7 +207,7 @@ def _record(
 ) -> None:
     """Send the recording of ``result`` to rerun's file sink ``sink``, a block of
     :data:`SEND_ROWS` rows at a time: what is held is one block's (its Arrow arrays, the
-    aggregated outputs of its decisions), however long the run (issue 26)."""
+    aggregated outputs of its decisions), however long the run."""
     import rerun as rr
 
     fis = controller_fis(controller)
@@ -398,7 +311,7 @@ def run_hook(args, sim):
     if path is None:
         return None
     from fuzzynav.app.args import run_inputs
-    from fuzzynav.safe_files import check_output_path, partial_path
+    from fuzzynav.safe_files import check_output_path, free_path, partial_path
 
     check_output_path(path, "--rrd", run_inputs(args))  # not an input, nor a shipped file
     argv = command_line()
@@ -415,7 +328,7 @@ def run_hook(args, sim):
                 if len(result.log)
                 else "yes (before the first step)"
             )
-            target = partial_path(path)
+            target = free_path(partial_path(path))  # never over an earlier partial run
         try:
             record_simulation(sim, result, target, extra_metadata=extra)
         except KeyboardInterrupt:

@@ -54,7 +54,7 @@ PAPER, PLANT, SENSING = "paper figures", "plant and inputs", "sensors and safety
 TABS = (PAPER, PLANT, SENSING)
 
 #: The clearance panel shows at most this much (m): the 0.25 m safe distance must be
-#: seen, and a clearance of 10 m would flatten it onto zero (issue 39, defect 7).
+#: seen, and a clearance of 10 m would flatten it onto zero.
 CLEARANCE_SHOWN_M = 2.0
 
 

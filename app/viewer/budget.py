@@ -1,5 +1,4 @@
-"""What a browser can make the viewer's server hold, bounded and counted together
-(issue 37 items 4 and 5).
+"""What a browser can make the viewer's server hold, bounded and counted together.
 
 One :class:`MemoryBudget` per server (a classroom's tabs share their server's): the
 2 GiB of :data:`world.simulation.MEMORY_BUDGET_BYTES`, the budget an uploaded

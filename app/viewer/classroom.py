@@ -49,7 +49,7 @@ class ClassroomServer:
         self.sessions: dict = {}  # client id -> ViewerServer
         self.teachers: set[int] = set()
         self.locked = False  # the teacher has locked the students' controls
-        # what every tab's world makes the server keep, counted together (issue 37)
+        # what every tab's world makes the server keep, counted together
         self.budget = MemoryBudget()
         self._lock = threading.Lock()
         self._queue: queue.Queue = queue.Queue()

@@ -10,7 +10,7 @@ panels need, so they read viser's internals, here and nowhere else:
   before viser casts it (the guards compare and cast as viser does);
 - its ``_impl.update_cb`` and ``_impl.is_button``: the callbacks viser calls on a
   changed value, which the guards call themselves for an update viser would drop as
-  "no change" (issue 27);
+  "no change";
 - a GUI or scene handle's ``_impl.removed``: whether viser has removed it (a drag may
   outlive its node when another tab resets the run);
 - ``GuiApi._gui_input_handle_from_uuid``: the handle a client's update names;

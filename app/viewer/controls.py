@@ -44,7 +44,7 @@ def colour_key_html() -> str:
     return f"<div class='fz-colour-key' style='font-size:0.8em;padding:0 6px'>{rows}</div>"
 
 
-# The keyboard (issue 38): space plays or pauses, the right arrow steps, R resets. viser
+# The keyboard: space plays or pauses, the right arrow steps, R resets. viser
 # offers no key events, and its HTML element sets innerHTML, where a <script> never
 # runs: an image that cannot load runs its onerror once, which installs one listener on
 # the page. A key presses the Run button of that name, so it travels as the button's own
@@ -215,7 +215,7 @@ class ControlPanel:
     def _build_lesson_and_view_folders(self, gui) -> None:
         """Lesson (save, open) and View (handles, 3D, presentation mode)."""
         with gui.add_folder("Lesson", expand_by_default=False):
-            # A lesson saved and opened again (issue 38): scenario, layout, controller
+            # A lesson saved and opened again: scenario, layout, controller
             # and its edits, settings, view and time, in one JSON file.
             self.lesson_save = gui.add_button(
                 "Save lesson (.json)",
@@ -348,8 +348,8 @@ class ControlPanel:
 
 
 def paper_rule_base_hint(geometry: str) -> str:
-    """Which rule base ``paper`` drives in this world (issue 35: the paper's controller
-    in its own geometry, its twin fitted for the Husky's body in the Husky's)."""
+    """Which rule base ``paper`` drives in this world: the paper's controller
+    in its own geometry, its twin fitted for the Husky's body in the Husky's."""
     from fuzzynav.controller.paper import RULE_BASE_NAMES, RULES_BY_GEOMETRY
 
     return (

@@ -199,7 +199,7 @@ PALETTE = palette.VIEWER_SERIES
 
 
 def _choice(fis, field: str, default: str) -> str:
-    """One of the system's inference choices (controller/inference.py, issue 27)."""
+    """One of the system's inference choices (controller/inference.py)."""
     return getattr(getattr(fis, "inference", None), field, default)
 
 

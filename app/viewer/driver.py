@@ -60,7 +60,7 @@ class RunDriver:
         # the lock on ``.<name>.serving`` while this server holds --rrd (_hold_rrd_path)
         self._serving_fd: int | None = None
         self._serving_marker: Path | None = None
-        # serve --rrd's disk: runs a minute and bytes a session (issue 37 item 5)
+        # serve --rrd's disk: runs a minute and bytes a session
         self.recording_budget = RecordingBudget()
         self._unrecorded_run = -1  # the run not recorded (the budget said no)
         self._size_checked = -math.inf  # wall time the recording's size was last read
@@ -128,7 +128,7 @@ class RunDriver:
         """The file of the next run: ``--rrd`` itself first, then ``<stem>-runK.rrd``
         with the first K whose file does not exist, reserved at once (created empty,
         exclusively), so that a second ``serve --rrd`` on the same path never takes,
-        nor overwrites, this one's runs (issue 26). ``--rrd`` itself only while this
+        nor overwrites, this one's runs. ``--rrd`` itself only while this
         server holds it (:meth:`_hold_rrd_path`): a second server on the same path
         while the first runs numbers its first run too."""
         app = self.app
@@ -410,7 +410,7 @@ class RunDriver:
         """Paused, or after the run's end: read the world again as it stands now (the
         beams, the four inputs, from the robot where it is) and ask a stateless
         controller again, so that every drag, switch and edit shows at once, with no
-        Step (issue 38). While the run plays the next step does it anyway.
+        Step. While the run plays the next step does it anyway.
 
         The read leaves the run as it was: the sensors' noise stream and their update
         cadence are put back afterwards (the next step draws the same noise it would

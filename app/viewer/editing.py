@@ -101,7 +101,7 @@ class ScenarioEditing:
             raise ViewerError(str(exc)) from None
         from fuzzynav.world.simulation import check_run_size
 
-        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks
             check_run_size(scenario.duration_s, app.sim.control_period_s, len(scenario.obstacles))
         except ValueError as exc:
             raise ViewerError(f"{label}: {exc}") from None
@@ -183,7 +183,7 @@ class ScenarioEditing:
         """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1
         (:func:`~fuzzynav.app.figures.style.obstacle_label`)."""
         # "static obstacle obstacles[1]" (the file's wording) reads "static obstacle 2",
-        # not "static obstacle obstacle 2" (issue 38)
+        # not "static obstacle obstacle 2"
         return re.sub(
             r"(?:\bobstacle\s+)?obstacles\[(\d+)\]",
             lambda m: obstacle_label(int(m.group(1))),
@@ -279,7 +279,7 @@ class ScenarioEditing:
         app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
 
     def set_inference_choice(self, field: str, value: str) -> None:
-        """Change one of the paper controller's inference choices (issue 27: AND,
+        """Change one of the paper controller's inference choices (AND,
         implication, aggregation, defuzzification) and drive with it at once."""
         app = self.app
         try:
@@ -289,7 +289,7 @@ class ScenarioEditing:
         app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
 
     def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
-        """Change the paper controller's rules (issue 38): ``set`` rule ``number`` to
+        """Change the paper controller's rules: ``set`` rule ``number`` to
         ``text``, ``add`` ``text`` as a new rule, ``remove`` rule ``number``, ``undo`` the
         last rule edit; the robot drives with the edited system at once."""
         app = self.app

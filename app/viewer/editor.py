@@ -1,8 +1,8 @@
 """Edit the paper controller's membership functions while it drives.
 
 The sliders move the numbers of a layout that can rebuild the shipped rule base: the
-design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``
-of issue 25: every slider position keeps the design rules), or, for rule bases written
+design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``:
+every slider position keeps the design rules), or, for rule bases written
 by older fits and tunes, the partition layout of
 :mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
 :class:`fuzzynav.controller.paper.PaperTunable`. All build their shapes from positive
@@ -14,7 +14,7 @@ file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they r
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
 
-Beside the shapes, the inference choices (issue 27): AND min or product, implication min
+Beside the shapes, the inference choices: AND min or product, implication min
 or product, aggregation max, sum or probabilistic OR, defuzzification centroid,
 bisector, mean / smallest / largest of maximum, with MATLAB's meanings
 (:mod:`fuzzynav.controller.inference`). A choice rebuilds the controller as a slider
@@ -71,7 +71,7 @@ class PaperEditor:
         self.geometry = geometry
         self.shipped = paper_controller(geometry=geometry)
         path = RULES_BY_GEOMETRY[geometry]
-        # The layout the shipped file was made in: the design layout (issue 25) for the
+        # The layout the shipped file was made in: the design layout for the
         # shipped paper controller; the partition one (no holes) and the earlier
         # 27-number one for rule bases written by older fits and tunes.
         for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
@@ -85,7 +85,7 @@ class PaperEditor:
         self.edited = False
         self._controller = self.shipped
         self.inference = self.shipped.fis.inference
-        self.rules = None  # the rules as edited (issue 38); None: the shipped ones
+        self.rules = None  # the rules as edited; None: the shipped ones
         self._rule_undo: list = []  # the rules before each rule edit
 
     def choice(self, field: str) -> str:
@@ -147,7 +147,7 @@ class PaperEditor:
             fis = fis.replace(rules=self.rules)
         return FisController(fis, name="paper (edited)")
 
-    # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
+    # -- the rules (add, change, remove, undo; validated; exported) -------------------
 
     def rule_text(self, number: int) -> str:
         """Rule ``number`` (from 1) as a sentence the editor reads back."""

@@ -1,20 +1,18 @@
 """What the viewer's server takes from a browser: checked before viser acts on it.
 
-A raw websocket client can send any message a browser could, with any values (issue
-26). viser trusts them; these guards sit in front of its handlers:
+A raw websocket client can send any message a browser could, with any values. viser
+trusts them; these guards sit in front of its handlers:
 
-- a GUI update may set a component's ``value`` only (an ``update_cb`` key replaced
-  the scenario dropdown's callbacks for every client), and a number never becomes NaN
-  or infinite (an editor slider stayed NaN);
-- an upload declared larger than the viewer takes is refused at its first message (a
-  declared 1 TB followed by 400 MB of parts grew the server by 500 MB before the size
-  was refused), and one whose parts pass their declared size is dropped;
-- uploads under way are bounded (issue 37): at most
-  :data:`.budget.MAX_UPLOADS_IN_FLIGHT` at once on one GUI (a tab's in a classroom, the
-  server's otherwise), each charged its declared size to the world's account in the
-  server's budget while under way, and one not whole
-  :data:`.budget.UPLOAD_TIMEOUT_S` after its first message is dropped (1,000 uploads
-  left one byte short were kept for ever: 98 to 603 MB in 22 s).
+- a GUI update may set a component's ``value`` only (an ``update_cb`` key would replace
+  a widget's callbacks for every client), and a number never becomes NaN or infinite;
+- an upload declared larger than the viewer takes is refused at its first message, and
+  one whose parts pass their declared size is dropped;
+- uploads under way are bounded: at most :data:`.budget.MAX_UPLOADS_IN_FLIGHT` at once
+  on one GUI (a tab's in a classroom, the server's otherwise), each charged its declared
+  size to the world's account in the server's budget while under way, and one not whole
+  :data:`.budget.UPLOAD_TIMEOUT_S` after its first message is dropped.
+
+What each guard stops, and the test that shows it: docs/robustness.md.
 
 viser has no public API for its handlers, widgets' state or uploads under way: every
 private name of viser read here is read through :mod:`.compat_viser`.
@@ -192,8 +190,7 @@ def install_message_guards(
                     # viser drops a value equal to the widget's as "no change". But the
                     # render thread's sync may have just written a stale value into the
                     # widget (taken before a scenario load ended): the press that restores
-                    # it was dropped. The client changed its widget, so its callbacks run
-                    # (issue 27).
+                    # it was dropped. The client changed its widget, so its callbacks run.
                     await _run_callbacks(gui, client_id, handle)
                     return
                 result = handler(client_id, message)

@@ -14,7 +14,7 @@ from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.resources import shorten
 
 # Low posts: seen from above in perspective, a tall one away from the middle showed its
-# side beside its top, a double circle (issue 38, in trap).
+# side beside its top, a double circle (in trap).
 OBSTACLE_HEIGHT_M = 0.2
 CROWDED_M = 1.5  # an obstacle this near another is labelled by its number, on its top
 # The target is drawn (and picked) above the obstacles: dropped on one, it is still
@@ -96,8 +96,8 @@ class DragHandles:
             self.target.position = (target[0], target[1], TARGET_HEIGHT_M)
 
     def hint_follow(self, snap: Snapshot) -> None:
-        """The arena's drag hint goes once the robot nears the target (issue 38: it
-        stayed until someone dragged, and covered the robot at the end of the run)."""
+        """The arena's drag hint goes once the robot nears the target (kept, it
+        would cover the robot at the end of the run)."""
         if self.drag_hint.visible and not snap.history:
             x, y, _ = snap.pose
             if math.hypot(snap.target[0] - x, snap.target[1] - y) < HINT_CLEAR_M:
@@ -241,7 +241,7 @@ class DragHandles:
                 # (the new run's node follows the world), and the drag goes on.
                 if not is_removed(gizmo):
                     gizmo.position = (x, y, float(gizmo.position[2]))
-            except ViewerError as exc:  # a malformed or refused position (issue 26)
+            except ViewerError as exc:  # a malformed or refused position
                 app._notice(str(exc), "warning")
                 if not is_removed(gizmo):
                     self._snap_back(gizmo, obstacle_id)
@@ -275,7 +275,7 @@ class DragHandles:
                     app.move_obstacle(obstacle_id, (x, y))
             except ViewerError as exc:
                 # refused (1e300, NaN, no position): drawn back where it is, and no
-                # longer held as dragged, or its drawing stays frozen (issue 26)
+                # longer held as dragged, or its drawing stays frozen
                 app._notice(str(exc), "warning")
                 self._snap_back(event.target, obstacle_id)
                 self.dragging.discard(name)

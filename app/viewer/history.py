@@ -29,7 +29,7 @@ class ObstaclePositions(Mapping):
     """Where the obstacles were at a recorded step, id -> (x, y): the ids' rows (one
     dict shared by every step of a layout) and a float64 array of positions, shared
     with the step before when nothing moved. (A dict per step held 110 obstacles in
-    about 20 kB: 1 MB a simulated second, issue 37.)"""
+    about 20 kB: 1 MB a simulated second.)"""
 
     __slots__ = ("rows", "xy")
 

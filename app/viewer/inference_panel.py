@@ -53,7 +53,7 @@ class InferencePanel:
         self._build_stepwise()
         self.stage_html = gui.add_html("", order=0.9)
         self.inference_html = gui.add_html("", order=1.0)
-        # Under the inference (issue 38: above it, it pushed the rule grid off screen).
+        # Under the inference (above it, it pushed the rule grid off screen).
         self.timeline_html = gui.add_html("", order=1.2)
 
     def _build_what_if(self) -> None:
@@ -92,7 +92,7 @@ class InferencePanel:
                 self.what_if_boxes.append(box)
 
     def _build_stepwise(self) -> None:
-        """One inference step by step (issue 38): Next walks the moment shown through
+        """One inference step by step: Next walks the moment shown through
         fuzzification, AND, implication, aggregation and defuzzification (the run
         pauses, so the moment stays); Back goes a stage back; Off leaves."""
         gui = self.view.server.gui
@@ -134,7 +134,7 @@ class InferencePanel:
         """Each what-if slider spans its input's range in the rule base now driving (the
         one :meth:`ViewerApp.set_what_if_input` checks against), rounded inwards to the
         slider's 0.01 steps: a value the slider or its box offers is never refused
-        (issue 38: the d_t box refused 50 as "between -1.13 and 30", its slider ran 0-20)."""
+        (the d_t box once refused 50 as "between -1.13 and 30", its slider ran 0-20)."""
         fis = self.app.what_if_system()
         if fis is None or id(fis) == self._ranges_for:
             return

@@ -1,4 +1,4 @@
-"""Lesson files (issue 38): a lesson saved from the page and opened again, from the page
+"""Lesson files: a lesson saved from the page and opened again, from the page
 (**Lesson → Open lesson**) or at start (``fuzzynav serve --lesson FILE``).
 
 A lesson is a JSON file holding:

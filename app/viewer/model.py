@@ -1,26 +1,9 @@
-"""The interactive browser viewer: watch the fuzzy-controlled Husky drive, and push the world around.
+"""The interactive browser viewer's app model: the world, the run, what every press does.
 
 ``fuzzynav serve [SCENARIO]`` (and ``fuzzynav demo``, which is ``serve s1``) starts a viser
-server on 127.0.0.1 and prints its URL. The page shows, seen from above:
+server on 127.0.0.1 and prints its URL; what the page shows and does is docs/viewer.md.
 
-- the arena: a ground grid with metre marks, the obstacles as cylinders (static grey-blue,
-  moving orange), the target, the robot's trail;
-- the Husky as a yellow box (its real 0.99 x 0.67 m footprint) with a heading arrow, the
-  25 cm safe-distance ring around it (it turns red when an obstacle is inside), and its
-  three ultrasonic beams coloured by what they read (red = close, green = far, grey =
-  no echo);
-- a handle on every obstacle and on the target, constrained to the ground plane: dragging
-  one moves it in the world at once, and the robot reacts on its next control step.
-
-Around the scene: play / pause / step / reset, the speed (0.1x to 10x real time), the
-scenario, add / remove obstacle, the controller (whatever ``controller_names()`` offers,
-or an uploaded MATLAB ``.fis``), the perception (ideal or ultrasonic), the disturbance and
-the sensor noise; live plots of the controller's inputs and the wheel voltages; a
-teaching panel with the rules that fire now (and how strongly) and the aggregated output
-membership functions with their centroids; and, when a run ends, its outcome and the
-paper's Table 4 metrics.
-
-Structure: :class:`ViewerApp` (this module) owns the simulation and its thread and has a
+:class:`ViewerApp` (this module) owns the simulation and its thread and has a
 method for every user action; it knows nothing about viser and is tested without a
 browser. It holds the state and the lock; its parts do the work, one job each:
 :mod:`.driver` (the run and its thread), :mod:`.history` (the run's history and
@@ -263,7 +246,7 @@ class ViewerApp:
 
     def _end_mode_message_locked(self, mode: str) -> None:
         """What-if mode or the time slider's past ended: a warning or an error said in
-        it (a refused value) goes with it (issue 38: the red message outlived both)."""
+        it (a refused value) goes with it."""
         if (
             self.message
             and getattr(self, "_message_mode", None) == mode

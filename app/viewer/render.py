@@ -6,7 +6,7 @@ surface, the inputs on the robot, the result) at ``PANEL_HZ``, the plots at ``PL
 Threads: the render thread alone owns the frame times (a deque it appends to); what other
 threads may read of them is published as one immutable tuple, replaced whole
 (:attr:`RenderLoop.frame_window`). A reader that iterated the deque itself raced the
-appends ("deque mutated during iteration", issue 34)."""
+appends ("deque mutated during iteration")."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ PLOT_HZ = 2.0  # the signal plots (viser sends their whole window as float64 eac
 #: How often the scene's message buffer is swept of removed nodes' messages. viser keeps
 #: a removal message per node name until a tab connects (its own sweep); a scene node's
 #: name holds its run, so each Reset or scenario load left three messages an obstacle:
-#: 400 uploads of 1,000 obstacles grew the server by 518 MB (issue 37).
+#: 400 uploads of 1,000 obstacles grew the server by 518 MB.
 SWEEP_PERIOD_S = 5.0
 
 
@@ -114,7 +114,7 @@ class RenderLoop:
 
     def _draw_panels(self, snap: Snapshot) -> None:
         view = self.view
-        # What answers a drag first (issue 38: paused, the page answers at once): the
+        # What answers a drag first (paused, the page answers at once): the
         # status, the inference, the inputs on the robot; then the rest.
         view.status_line.draw(snap)
         view.inference.sync(snap)

@@ -42,7 +42,7 @@ class RunSettings:
         from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
-        options.append(STARTER_LABEL)  # a lesson's first system (issue 38)
+        options.append(STARTER_LABEL)  # a lesson's first system
         if app.paper_edit is not None and app.paper_edit.edited:
             options.append(EDITED_LABEL)
         if app.uploaded_label:
@@ -110,8 +110,8 @@ class RunSettings:
             c.last_output = np.asarray(inner(c.last_inputs), dtype=float).reshape(2)
         elif not app.playing:
             # Paused, any other controller (fuzzynav, with a memory; baseline; p) is
-            # asked through a copy of itself: its answer and its inference are shown
-            # (issue 38), and the controller that drives is not disturbed by the call.
+            # asked through a copy of itself: its answer and its inference are shown,
+            # and the controller that drives is not disturbed by the call.
             import copy
 
             try:
@@ -323,7 +323,7 @@ class RunSettings:
             self.set_geometry(settings["geometry"])
         label = settings["scenario_label"]
         # The teacher's scenario as loaded, then the teacher's edits on it: the students'
-        # status then says "layout edited" when the teacher's did (issue 38), and their
+        # status then says "layout edited" when the teacher's did, and their
         # Restore goes back to the scenario as loaded.
         base = settings.get("base_scenario", settings["scenario"])
         with app.lock:

@@ -534,7 +534,7 @@ class Scene:
     # -- panels ------------------------------------------------------------------------
 
 
-#: At most this many metre marks along each side of the arena (issue 37: a legal scenario
+#: At most this many metre marks along each side of the arena (a legal scenario
 #: 20 km wide sent 20,007 labels to every tab).
 MAX_MARKS_PER_SIDE = 24
 

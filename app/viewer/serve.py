@@ -86,7 +86,7 @@ def check_port(host: str, port: int) -> int:
     above it (as the server would search), found before the server starts; 0 stays 0
     (any free port). ViewerError (exit status 2) when every port from ``port`` up to
     the last one the search reaches is taken: viser's own search ran past 65535 into
-    ``OverflowError`` in a thread and waited for ever (issue 37)."""
+    ``OverflowError`` in a thread and waited for ever."""
     if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= MAX_PORT:
         raise ViewerError(f"--port {port!r}: must be an integer from 0 to {MAX_PORT}")
     if port == 0:

@@ -96,7 +96,7 @@ class ViewerServer:
         if budget is not None:
             app.attach_budget(budget)
         self.host = host
-        #: a classroom's teacher has locked this tab's controls (issue 38): presses and
+        #: a classroom's teacher has locked this tab's controls: presses and
         #: drags are refused with a word; the teacher's own folder still answers
         self.locked = False
         #: () -> None, drawn with the panels (the classroom's overview, in a teacher's tab)

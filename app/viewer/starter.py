@@ -1,4 +1,4 @@
-"""A small fuzzy system to start a lesson with (issue 38): two inputs, d_t and phi_t, and
+"""A small fuzzy system to start a lesson with: two inputs, d_t and phi_t, and
 six rules, beside the paper's forty.
 
 It only heads for the target: it reads no obstacle (d_o and phi_o take part in no rule),
@@ -70,7 +70,7 @@ def starter_system():
         (left, right),
         rules,
         name="starter",
-        description="a lesson's first system: head for the target (issue 38)",
+        description="a lesson's first system: head for the target",
     )
 
 

@@ -110,8 +110,8 @@ class StatusLine:
             extras += " · layout edited"
         big = self.view.presentation
         return (
-            # The time and the state wrap onto two lines where one is too narrow (issue
-            # 38: "looking back (paused" was cut at the panel's edge), and keep clear of
+            # The time and the state wrap onto two lines where one is too narrow
+            # ("looking back (paused" was cut at the panel's edge), and keep clear of
             # the panel's scrollbar.
             "<div class='fz-status' style='font-family:system-ui,sans-serif;line-height:1.35;"
             f"padding:0 14px 0 8px;font-size:{'1.3em' if big else '1em'}'>"
@@ -137,8 +137,8 @@ class StatusLine:
         )
 
     def _rule_base_note(self, snap: Snapshot) -> str:
-        """Which of the paper's rule bases drives (issue 35): its twin in the Husky's
-        world, the paper-geometry fit in the paper's."""
+        """Which of the paper's rule bases drives (docs/paper-controller.md): its twin in
+        the Husky's world, the paper-geometry fit in the paper's."""
         if snap.controller_label != "paper":
             return ""
         from fuzzynav.controller.paper import RULE_BASE_SHORT

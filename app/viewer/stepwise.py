@@ -1,4 +1,4 @@
-"""One inference taken apart, stage by stage (issue 38): the moment shown in the
+"""One inference taken apart, stage by stage: the moment shown in the
 Inference tab (live, paused, looked back at, or tried in what-if mode) walked through
 Mamdani's five stages, one at a time, each drawn and said in a sentence with its
 numbers:

@@ -29,7 +29,7 @@ class SurfacePanel:
     def build(self) -> None:
         gui = self.view.server.gui
         self._build_surface_choice()
-        # The first plane as a 3-D surface in the scene, beside the arena (issue 38):
+        # The first plane as a 3-D surface in the scene, beside the arena:
         # with View → 3D view the class turns it; the operating point moves on it.
         self.surface_3d_cb = gui.add_checkbox(
             "3D surface beside the arena",

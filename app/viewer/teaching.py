@@ -140,8 +140,8 @@ class Teaching:
                 fis, x, state = seen
         if view is None and self._blended(shown):
             # a stateless controller of two blocks blended (baseline): its merged
-            # system at the inputs its blocks read (issue 38: listed as fuzzy, yet the
-            # Inference tab said it had no rules)
+            # system at the inputs its blocks read (listed as fuzzy, so the
+            # Inference tab must show its rules)
             if not np.isfinite(inputs[0]):
                 return None
             return self._blended_teaching(shown, inputs)

@@ -1,4 +1,4 @@
-"""Membership functions shaped by dragging their corners (issue 38), beside the Editor's
+"""Membership functions shaped by dragging their corners, beside the Editor's
 sliders.
 
 Each variable's terms are drawn with a handle on every corner that one of the Editor's

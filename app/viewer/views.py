@@ -329,8 +329,8 @@ def _block_lines(
                 f"{len(rules)} rules → {html.escape(names)}</div>"
             )
         # The rules first, right under the summary: at 1280 x 800, with What-if open or
-        # in presentation mode, the grid still shows its rows without a scroll (issue
-        # 38: below the term plots it showed its header and its aggregate only).
+        # in presentation mode, the grid still shows its rows without a scroll
+        # (below the term plots it showed its header and its aggregate only).
         lines.append(
             "<div style='font-weight:600;margin-top:6px'>Rules"
             + (" that fire" if only_firing else "")
