@@ -9,12 +9,17 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
+# An editable install whose package is a tree of links (setuptools' strict mode), not an
+# import hook: type checkers (mypy) find fuzzynav through it. A new module file needs
+# the install again (make clean, or touch pyproject.toml).
+EDITABLE := --config-settings editable_mode=strict
+
 $(VENV)/.installed: pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e .
+	$(PY) -m pip install --quiet -e . $(EDITABLE)
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[test]' $(EDITABLE)
 	touch $@ $(VENV)/.installed
 
 demo: $(VENV)/.installed
@@ -35,7 +40,7 @@ test-lowest: $(VENV)/.installed-test
 	$(PY) .ci/lowest_constraints.py > .ci/lowest-constraints.txt
 	test -x $(LOWEST)/bin/python || $(PYTHON) -m venv $(LOWEST)
 	$(LOWEST)/bin/python -m pip install --quiet --upgrade pip
-	$(LOWEST)/bin/python -m pip install --quiet -c .ci/lowest-constraints.txt -e '.[test]'
+	$(LOWEST)/bin/python -m pip install --quiet -c .ci/lowest-constraints.txt -e '.[test]' $(EDITABLE)
 	$(LOWEST)/bin/python -m pip list 2>/dev/null | grep -iE '^(numpy|scipy|pymunk|viser|rerun-sdk|rich|matplotlib|cma|tomli_w|tomli-w) '
 	$(LOWEST)/bin/python -m pytest -n 2 -q -p no:cacheprovider
 

@@ -44,14 +44,18 @@ declared by the attributes below, never guessed:
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, Protocol, runtime_checkable
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, ClassVar, Protocol, TypeAlias, runtime_checkable
 
 import numpy as np
 
 __all__ = [
     "INPUT_NAMES",
+    "SAMPLE_INPUTS",
+    "SAMPLE_RANGES_M",
     "Controller",
+    "ControllerFunction",
     "RangeController",
     "ContextController",
     "MountAwareController",
@@ -70,6 +74,33 @@ __all__ = [
 #: The inputs, in the order of the array a controller receives.
 INPUT_NAMES = ("d_t", "d_o", "phi_t", "phi_o")
 
+_NAN = math.nan
+#: Inputs ``[d_t, d_o, phi_t, phi_o]`` a check decides on: obstacle ahead, beside,
+#: none sensed, the target behind, at the target, far away.
+SAMPLE_INPUTS = np.array(
+    [
+        [5.0, 1.0, 0.0, 0.0],
+        [5.0, 0.3, 0.5, -0.8],
+        [5.0, 0.05, -0.5, 1.2],
+        [3.0, _NAN, 0.2, _NAN],
+        [3.0, _NAN, math.pi, _NAN],
+        [0.0, _NAN, 0.0, _NAN],
+        [40.0, 2.0, -3.0, 3.0],
+    ]
+)
+#: Sonar readings (left, front, right; m, inf = nothing) that go with them.
+SAMPLE_RANGES_M = np.array(
+    [
+        [math.inf, 1.0, math.inf],
+        [0.3, math.inf, math.inf],
+        [math.inf, math.inf, 0.05],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [math.inf, math.inf, math.inf],
+        [2.0, 2.5, math.inf],
+    ]
+)
+
 
 @runtime_checkable
 class Controller(Protocol):
@@ -78,8 +109,13 @@ class Controller(Protocol):
     def reset(self) -> None:
         """Forget everything of the previous run (called before each)."""
 
-    def __call__(self, inputs: np.ndarray) -> Sequence[float]:
+    def __call__(self, inputs: np.ndarray) -> Sequence[float] | np.ndarray:
         """``(v_s1, v_s2)`` in V for ``inputs = [d_t, d_o, phi_t, phi_o]``."""
+
+
+#: A controller as one plain function, no class: ``f(inputs (4,)) -> (left, right)`` V,
+#: or vectorised, ``f(inputs (n, 4)) -> voltages (n, 2)`` (:mod:`controller.function`).
+ControllerFunction: TypeAlias = Callable[[np.ndarray], Any]
 
 
 @runtime_checkable

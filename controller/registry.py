@@ -17,12 +17,18 @@ never loads the fuzzy engine.
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
+
+from fuzzynav.resources import shown
+
+if TYPE_CHECKING:  # numpy is not loaded to list the names
+    from fuzzynav.controller.interface import Controller
 
 __all__ = [
     "ControllerEntry",
@@ -75,7 +81,7 @@ class ControllerEntry:
     tunable: str | None = None
     fis_export: bool = False
 
-    def build(self, geometry: str = "husky") -> Any:
+    def build(self, geometry: str = "husky") -> Controller:
         """A fresh controller for ``geometry`` (other controllers have one design).
 
         Parameters
@@ -83,9 +89,29 @@ class ControllerEntry:
         geometry : str
             ``"husky"`` or ``"paper"``; passed to the factory when it is
             geometry-aware.
+
+        Raises
+        ------
+        ValueError
+            The factory cannot be imported, fails, or makes something that is not a
+            controller (an object with ``reset()`` that is called on the inputs); the
+            message names the controller and its factory.
         """
-        factory = import_factory(self.factory) if isinstance(self.factory, str) else self.factory
-        return factory(geometry=geometry) if self.geometry_aware else factory()
+        factory = _imported(self.factory) if isinstance(self.factory, str) else self.factory
+        where = f"controller {self.name!r} (factory {_factory_label(self.factory)})"
+        try:
+            made = factory(geometry=geometry) if self.geometry_aware else factory()
+        except TypeError as exc:
+            args = "geometry=" if self.geometry_aware else "no arguments"
+            raise ValueError(f"{where}: calling it with {args} failed: {exc}") from exc
+        except ValueError as exc:  # a controller function that decides nothing usable
+            raise ValueError(f"{where}: {exc}") from exc
+        if not (callable(getattr(made, "reset", None)) and callable(made)):
+            raise ValueError(
+                f"{where}: made {shown(made)}, not a controller (an object with reset() "
+                "and __call__(inputs) -> (left, right) voltages)"
+            )
+        return cast("Controller", made)
 
 
 _REGISTRY: dict[str, ControllerEntry] = {}
@@ -97,7 +123,7 @@ def register_controller(
     *,
     description: str,
     geometry_aware: bool = False,
-    batchable: bool = False,
+    batchable: bool | None = None,
     tunable: str | None = None,
     fis_export: bool = False,
     replace: bool = False,
@@ -115,8 +141,10 @@ def register_controller(
         One line saying what it is.
     geometry_aware : bool
         The factory takes ``geometry=``.
-    batchable : bool
-        Its class declares ``batched`` (the batch engine can drive it).
+    batchable : bool, optional
+        Its class declares ``batched`` (the batch engine can drive it). Default:
+        detected when ``factory`` is the class (or carries ``batched``); False for a
+        ``"module:attribute"`` factory, which is not imported here.
     tunable : str, optional
         ``"module:attribute"`` of its :class:`controller.tuning.Tunable` factory.
     fis_export : bool
@@ -148,8 +176,18 @@ def register_controller(
         raise ValueError(f"factory {factory!r}: not callable")
     if not isinstance(description, str) or not description.strip():
         raise ValueError(f"controller {name!r}: give a one-line description")
+    if not isinstance(factory, str):
+        from fuzzynav.controller.function import function_controller, is_controller_function
+
+        if is_controller_function(factory) and not geometry_aware:
+            # a controller written as one function, not a factory: wrapped
+            factory = functools.partial(function_controller, factory)
+            if batchable is None:
+                batchable = _declares_batched(type(factory()))
+    if batchable is None:
+        batchable = not isinstance(factory, str) and _declares_batched(factory)
     entry = ControllerEntry(
-        name, description.strip(), factory, geometry_aware, batchable, tunable, fis_export
+        name, description.strip(), factory, geometry_aware, bool(batchable), tunable, fis_export
     )
     _REGISTRY[name] = entry
     return entry
@@ -175,19 +213,48 @@ def import_factory(spec: str) -> Callable[..., Any]:
     ----------
     spec : str
         ``"package.module:attribute"``.
+
+    Raises
+    ------
+    ValueError
+        The module is missing or fails on import, it has no such attribute, or the
+        attribute is not callable (the message names ``spec`` and the cause).
     """
-    module, _, attribute = spec.partition(":")
-    return getattr(import_module(module), attribute)
-
-
-def _present(entry: ControllerEntry) -> bool:
-    if not isinstance(entry.factory, str):
-        return True
+    module_name, _, attribute = spec.partition(":")
     try:
-        import_module(entry.factory.partition(":")[0])
-    except ModuleNotFoundError:
-        return False
-    return True
+        module = import_module(module_name)
+    except Exception as exc:  # noqa: BLE001 - a user's module may raise anything on import
+        raise ValueError(f"factory {spec!r}: importing {module_name} failed: {exc!r}") from exc
+    if not hasattr(module, attribute):
+        raise ValueError(f"factory {spec!r}: module {module_name} has no {attribute!r}")
+    found = getattr(module, attribute)
+    if not callable(found):
+        raise ValueError(f"factory {spec!r}: {shown(found)} is not callable")
+    return cast("Callable[..., Any]", found)
+
+
+def _imported(spec: str) -> Callable[..., Any]:
+    """The factory ``spec`` names; a controller written as one function, wrapped."""
+    from fuzzynav.controller.function import function_controller, is_controller_function
+
+    factory = import_factory(spec)
+    if is_controller_function(factory):
+        return functools.partial(function_controller, factory)
+    return factory
+
+
+def _factory_label(factory: Callable[..., Any] | str) -> str:
+    if isinstance(factory, str):
+        return repr(factory)
+    if isinstance(factory, functools.partial):
+        return _factory_label(factory.args[0])
+    return getattr(factory, "__qualname__", None) or type(factory).__name__
+
+
+def _declares_batched(factory: object) -> bool:
+    """A controller class (or a factory carrying the attribute) that declares a batch
+    form (:class:`controller.interface.Batchable`)."""
+    return callable(getattr(factory, "batched", None))
 
 
 def controller_names(
@@ -196,7 +263,7 @@ def controller_names(
     tunable: bool | None = None,
     fis_export: bool | None = None,
 ) -> list[str]:
-    """Registered names whose module is present, in registration order.
+    """Registered names, in registration order (no registered module is imported).
 
     Parameters
     ----------
@@ -218,8 +285,7 @@ def controller_names(
         }
         if any(want is not None and has[key] != want for key, want in wanted.items()):
             continue
-        if _present(entry):
-            names.append(entry.name)
+        names.append(entry.name)  # listed, never imported: one broken module breaks no list
     return names
 
 
@@ -244,7 +310,15 @@ def controller_entry(name: str) -> ControllerEntry:
     if isinstance(name, str) and name in _REGISTRY:
         return _REGISTRY[name]
     if isinstance(name, str) and IMPORT_PATTERN.fullmatch(name):
-        return ControllerEntry(name, f"imported from {name}", name)
+        # imported now, as it is about to drive: a class's batch form is detected
+        factory = _imported(name)
+        if isinstance(factory, functools.partial):  # a function: its wrapper's class says
+            try:
+                factory = type(factory())
+            except ValueError as exc:
+                raise ValueError(f"controller {name!r}: {exc}") from exc
+        batchable = _declares_batched(factory)
+        return ControllerEntry(name, f"imported from {name}", name, batchable=batchable)
     raise ValueError(
         f"controller = {name!r}: unknown (choose from {', '.join(controller_names())}, or "
         "give 'module:factory')"
@@ -264,7 +338,7 @@ def describe(name: str) -> str:
 
 def make_controller(
     name: str = "paper", fis_path: str | Path | None = None, geometry: str = "husky"
-) -> Any:
+) -> Controller:
     """A fresh controller by name, or a fuzzy controller read from a MATLAB ``.fis`` file.
 
     Parameters
@@ -279,13 +353,14 @@ def make_controller(
 
     Returns
     -------
-    object
+    Controller
         The controller.
 
     Raises
     ------
     ValueError
-        Unknown name, or a ``.fis`` file that cannot be used (the message names it).
+        Unknown name, a factory that cannot be imported or makes no controller, or a
+        ``.fis`` file that cannot be used (the message names it).
     """
     if fis_path is not None:
         from fuzzynav.controller.fis_controller import FisController

@@ -24,8 +24,28 @@ the sweeps it re-exports, ``sweeps``).
 
 from __future__ import annotations
 
+import os
 from typing import TYPE_CHECKING
 
+
+def _join_checkout_folders() -> None:
+    """Imported straight from a checkout (Python started in its root puts this folder
+    first on ``sys.path``, ahead of the install), the subpackages are this folder's
+    siblings ``world/``, ``controller/``, ``app/``, ``assets/``: looked for there too,
+    as the ``package-dir`` mapping of the install joins them. An installed package has
+    them inside and is left alone."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    root = os.path.dirname(here)
+    if os.path.isdir(os.path.join(here, "world")):
+        return
+    if os.path.isfile(os.path.join(root, "pyproject.toml")) and all(
+        os.path.isfile(os.path.join(root, folder, "__init__.py"))
+        for folder in ("world", "controller", "app")
+    ):
+        __path__.append(root)
+
+
+_join_checkout_folders()
 if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
     from fuzzynav.api import (
         ControllerCheckError,

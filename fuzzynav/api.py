@@ -43,6 +43,7 @@ from fuzzynav.controller.checker import ControllerCheckError, check_controller
 from fuzzynav.controller.fis import dumps_fis
 from fuzzynav.controller.fis import read_fis as _read_fis
 from fuzzynav.controller.fuzzy import FuzzySystem
+from fuzzynav.controller.interface import Controller, ControllerFunction
 from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
 from fuzzynav.sweeps import SweepRow, sweep
@@ -83,10 +84,13 @@ class Run:
     outcome : str
         ``"reached"``, ``"collided"`` or ``"timeout"``.
     metrics : dict
-        The fields of ``fuzzynav run --json``: path_length_m, mad_m, rmse_m,
-        min_clearance_m, time_to_target_s, ... (SI units in the names; a number that
-        does not apply, e.g. the time to target of a run that never arrived, is None,
-        as in sweep's rows and the JSON files: NaN only in numpy arrays).
+        The fields of ``fuzzynav run --json`` but its ``wall_time_s``: path_length_m,
+        mad_m, rmse_m, min_clearance_m, time_to_target_s, ... (SI units in the names; a
+        number that does not apply, e.g. the time to target of a run that never arrived,
+        is None, as in sweep's rows and the JSON files: NaN only in numpy arrays).
+        The same run gives the same metrics on any machine.
+    timing : dict
+        ``wall_time_s``: the wall-clock seconds the run took here.
     trace : dict of str to numpy.ndarray
         One array per column of ``fuzzynav run --trace`` (``time_s``, ``x_m``, ``y_m``,
         ``heading_rad``, the four controller inputs, the voltages, ...), one element per
@@ -125,8 +129,17 @@ class Run:
     def metrics(self) -> dict[str, Any]:  # numbers, and the labels and outcome as text
         from fuzzynav.app.runs import summary
 
-        # None for a number that does not apply, as in sweep's rows and ``run --json``
-        return summary(self.result, self._controller_label, self._scenario_label)
+        # None for a number that does not apply, as in sweep's rows and ``run --json``;
+        # the wall-clock time is no property of the run (it is in ``timing``)
+        row = summary(self.result, self._controller_label, self._scenario_label)
+        row.pop("wall_time_s", None)
+        return row
+
+    @property
+    def timing(self) -> dict[str, float]:
+        """How long the run took on this machine: ``wall_time_s``, the seconds spent in
+        its steps (varies from run to run; not a metric of the run)."""
+        return {"wall_time_s": float(self.result.wall_time_s)}
 
     @property
     def trace(self) -> dict[str, npt.NDArray[np.float64]]:
@@ -219,7 +232,7 @@ def _label_of_scenario(scenario: str | Path | Scenario) -> str:
 
 def simulate(
     scenario: str | Path | Scenario,
-    controller: str | object = "paper",
+    controller: str | Controller | ControllerFunction = "paper",
     perception: str = "ideal",
     geometry: str = "husky",
     seed: int | None = None,
@@ -237,10 +250,12 @@ def simulate(
     scenario : str, Path or Scenario
         A shipped scenario's name (``"s1"``, ``"s2"``, ``"s3"``, ``"crossing"``, ...), the
         path of a scenario TOML file, or a :class:`~fuzzynav.world.scenario.Scenario`.
-    controller : str or controller object
+    controller : str, controller object or function
         A controller's name (``"paper"``, ``"fuzzynav"``, ``"baseline"``, ``"p"``; see
-        ``fuzzynav run --help``) or a controller object, e.g. from
-        :func:`make_controller` with a membership function swapped.
+        ``fuzzynav run --help``; or ``"module:factory"``), a controller object, e.g.
+        from :func:`make_controller` with a membership function swapped, or one plain
+        function, ``f(inputs (4,)) -> (left, right)`` or vectorised ``f(inputs (n, 4))
+        -> (n, 2)`` (:mod:`fuzzynav.controller.function`).
     perception : {"ideal", "ultrasonic"}
         ``ideal``: the exact nearest obstacle; ``ultrasonic``: the three range sensors.
     geometry : {"husky", "paper"}
@@ -286,8 +301,10 @@ def simulate(
     elif fis is not None:
         label = Path(fis).name
     elif not isinstance(controller, str):
+        from fuzzynav.controller.function import as_controller
         from fuzzynav.world.perception import check_controller
 
+        controller = as_controller(controller)  # a plain function is a controller too
         check_controller(controller)  # the loop's own check, before anything is built
         controller_object = controller  # any controller
         label = getattr(controller, "name", type(controller).__name__)
@@ -388,7 +405,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
 
 def make_controller(
     name: str = "paper", *, fis: str | Path | None = None, geometry: str = "husky"
-) -> Any:  # any object with the controller interface (a registered factory's)
+) -> Controller:
     """A fresh controller, by name or from a MATLAB ``.fis`` file.
 
     Parameters
@@ -403,9 +420,11 @@ def make_controller(
 
     Returns
     -------
-    controller object
-        The fuzzy controllers expose their system as ``.fis``; give the controller to
-        :func:`simulate`.
+    Controller
+        Typed as the interface (:class:`fuzzynav.controller.interface.Controller`); the
+        fuzzy controllers are also
+        :class:`~fuzzynav.controller.interface.FuzzyController` s, whose ``.fis`` is
+        their system. Give the controller to :func:`simulate`.
     """
     return _make_controller(name, fis, geometry=geometry)
 

@@ -20,10 +20,10 @@ details and an example.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Iterable, Sequence
-from typing import Any, TypeAlias
+from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -33,126 +33,51 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from fuzzynav.world.batch_world import BatchWorld
+from fuzzynav.app.args import integer_value
+from fuzzynav.gym_setup import (
+    COLLISION_REWARD,
+    MAX_NUM_ENVS,
+    OBSERVATION_HIGH,
+    OBSERVATION_LOW,
+    OBSERVATION_NAMES,
+    PROGRESS_REWARD_PER_M,
+    REACH_REWARD,
+    BoolArray,
+    FloatArray,
+    ObservationArray,
+    Setup,
+    checked_action,
+)
 from fuzzynav.world.kernels import law_centre, obstacle_law
-from fuzzynav.world.layouts import generate_layout
-from fuzzynav.world.perception import OBSTACLE_CUTOFF_M
-from fuzzynav.world.scenario import Scenario, load_scenario
+from fuzzynav.world.scenario import Scenario
 
 __all__ = [
     "ENV_ID",
     "HuskyEnv",
     "HuskyVectorEnv",
+    "MAX_NUM_ENVS",
+    "OBSERVATION_HIGH",
+    "OBSERVATION_LOW",
     "OBSERVATION_NAMES",
+    "PROGRESS_REWARD_PER_M",
+    "REACH_REWARD",
+    "COLLISION_REWARD",
     "controller_inputs",
     "render_rgb",
 ]
 
 ENV_ID = "fuzzynav/Husky-v0"
-#: Observations, actions, rewards and wheel voltages: float64 arrays (``step`` takes any
-#: array_like action).
-FloatArray: TypeAlias = npt.NDArray[np.float64]
-#: Terminations and truncations: bool arrays.
-BoolArray: TypeAlias = npt.NDArray[np.bool_]
-#: The observation's entries, in order (units in :class:`HuskyEnv`'s docstring).
-OBSERVATION_NAMES = ("d_t", "d_o", "phi_t", "phi_o", "obstacle_seen", "v", "w")
-#: Reward on arriving at the target, and on touching an obstacle.
-REACH_REWARD = 10.0
-COLLISION_REWARD = -10.0
-_OBS_LOW = np.array([-np.inf, -np.inf, -np.inf, -np.inf, 0.0, -np.inf, -np.inf])
-_OBS_HIGH = np.array([np.inf, np.inf, np.inf, np.inf, 1.0, np.inf, np.inf])
 
 
-@functools.lru_cache(maxsize=8192)
-def _layout(family: str, seed: int, index: int) -> Scenario:
-    return generate_layout(family, seed, index)
-
-
-class _Setup:
-    """What both forms share: the settings, the engine, the scenario drawn at a reset,
-    the observation and the reward."""
-
-    def __init__(
-        self,
-        family: str,
-        layout_seed: int,
-        layouts: tuple[int, int],
-        scenarios: Sequence[Scenario | str] | None,
-        perception: str,
-        geometry: str,
-        control_period_s: float,
-        max_duration_s: float | None,
-    ):
-        self.scenarios: list[Scenario] | None = None
-        if scenarios is not None:
-            self.scenarios = [load_scenario(sc) if isinstance(sc, str) else sc for sc in scenarios]
-            if not self.scenarios:
-                raise ValueError("scenarios: the list is empty")
-        else:
-            low, high = (int(v) for v in layouts)
-            if not 0 <= low < high:
-                raise ValueError(f"layouts = {layouts!r}: must be (first, stop) with first < stop")
-            generate_layout(family, layout_seed, low)  # a bad family fails here
-        self.family, self.layout_seed, self.layouts = family, int(layout_seed), layouts
-        self.world = BatchWorld(
-            perception=perception,
-            geometry=geometry,
-            control_period_s=control_period_s,
-            max_duration_s=max_duration_s,
-        )
-        self.limit = self.world.limit
-
-    def draw(self, rng: np.random.Generator) -> tuple[Scenario, int]:
-        """A reset's scenario and sonar seed, from the environment's generator."""
-        if self.scenarios is not None:
-            scenario = self.scenarios[int(rng.integers(len(self.scenarios)))]
-        else:
-            index = int(rng.integers(self.layouts[0], self.layouts[1]))
-            scenario = _layout(self.family, self.layout_seed, index)
-        return scenario, int(rng.integers(2**31))
-
-    def observations(self) -> np.ndarray:
-        """(n, 7) observations of the world's runs now (its ``observe`` stage)."""
-        inputs, _ = self.world.observe()
-        seen = np.isfinite(inputs[:, 1])
-        lg = self.world.lg_state
-        return np.stack(
-            [
-                inputs[:, 0],
-                np.where(seen, inputs[:, 1], OBSTACLE_CUTOFF_M),
-                inputs[:, 2],
-                np.where(seen, inputs[:, 3], 0.0),
-                seen.astype(float),
-                lg[:, 2],
-                lg[:, 3],
-            ],
-            axis=1,
-        )
-
-    def distances(self) -> FloatArray:
-        """The true distance of each run's centre to its target, m (n,)."""
-        s = self.world.s
-        distance: FloatArray = np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
-        return distance
-
-    def voltages(self, actions: npt.ArrayLike) -> FloatArray:
-        return np.asarray(actions, dtype=float) * self.limit
-
-    @staticmethod
-    def rewards(before: FloatArray, after: FloatArray, codes: npt.NDArray[np.int_]) -> FloatArray:
-        reward = before - after
-        reward = np.where(codes == 0, reward + REACH_REWARD, reward)
-        rewarded: FloatArray = np.where(codes == 1, reward + COLLISION_REWARD, reward)
-        return rewarded
-
-
-def _spaces() -> tuple[spaces.Box[np.float64], spaces.Box[np.float64]]:
-    observation = spaces.Box(_OBS_LOW, _OBS_HIGH, dtype=np.float64)
+def _spaces(dtype: np.dtype[Any]) -> tuple[spaces.Box[Any], spaces.Box[np.float64]]:
+    observation = spaces.Box(
+        OBSERVATION_LOW.astype(dtype), OBSERVATION_HIGH.astype(dtype), dtype=dtype.type
+    )
     action = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float64)
     return observation, action
 
 
-class HuskyEnv(gym.Env[FloatArray, FloatArray]):
+class HuskyEnv(gym.Env[ObservationArray, FloatArray]):
     """The LG Husky of the paper among circular obstacles, driven by its wheel voltages.
 
     ## Description
@@ -173,25 +98,29 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
 
     ## Observation Space
 
-    ``Box((7,), float64)``, the controller's inputs as the robot senses them (the
-    scenario's disturbance added, as the paper's controller sees them) and its speeds:
+    ``Box((7,), float64)`` (or float32: ``observation_dtype``) with finite bounds, the controller's inputs as the robot
+    senses them (the scenario's disturbance added, as the paper's controller sees them)
+    and its speeds, clipped to the bounds (:data:`OBSERVATION_LOW`,
+    :data:`OBSERVATION_HIGH`; no run of a valid scenario reaches them):
 
     | Num | Observation | Unit | Min | Max |
     |-----|-------------|------|-----|-----|
-    | 0 | ``d_t``: distance to the target | m | -inf | inf |
-    | 1 | ``d_o``: clearance to the nearest sensed obstacle; the cutoff (``OBSTACLE_CUTOFF_M``) if none | m | -inf | inf |
-    | 2 | ``phi_t``: bearing of the target from the heading, (-pi, pi] | rad | -inf | inf |
-    | 3 | ``phi_o``: bearing of that obstacle (ideal) or its sonar's angle; 0 if none | rad | -inf | inf |
+    | 0 | ``d_t``: distance to the target | m | -1e5 | 1e5 |
+    | 1 | ``d_o``: clearance to the nearest sensed obstacle; the cutoff (``OBSTACLE_CUTOFF_M``) if none | m | -1e5 | 1e5 |
+    | 2 | ``phi_t``: bearing of the target from the heading, (-pi, pi] | rad | -(pi + 1000) | pi + 1000 |
+    | 3 | ``phi_o``: bearing of that obstacle (ideal) or its sonar's angle; 0 if none | rad | -(pi + 1000) | pi + 1000 |
     | 4 | ``obstacle_seen``: 1 when an obstacle is sensed within the cutoff, else 0 | - | 0 | 1 |
-    | 5 | ``v``: forward speed of the hull (LG state v_MH) | m/s | -inf | inf |
-    | 6 | ``w``: yaw rate (LG state w_JH) | rad/s | -inf | inf |
+    | 5 | ``v``: forward speed of the hull (LG state v_MH) | m/s | -10 | 10 |
+    | 6 | ``w``: yaw rate (LG state w_JH) | rad/s | -20 | 20 |
 
-    The bounds are infinite because the disturbance is added to entries 0-3.
+    Entries 0-3 are signed because a scenario's disturbance (up to 1000 in amplitude)
+    is added to them.
 
     ## Rewards
 
-    Each step: the decrease of the centre's distance to the target over the step (m),
-    plus 10 on arriving and -10 on touching an obstacle.
+    Each step: ``progress_reward_per_m`` (default 1) times the decrease of the centre's
+    distance to the target over the step (m), plus ``reach_reward`` (10) on arriving
+    and ``collision_reward`` (-10) on touching an obstacle.
 
     ## Starting State
 
@@ -205,7 +134,8 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     3. Truncation: the scenario's duration (or ``max_duration_s``) has passed (timeout).
 
     ``info["outcome"]`` on the last step: 0 reached, 1 collided, 2 timeout (an index
-    into :data:`world.run_limits.OUTCOMES`).
+    into :data:`world.run_limits.OUTCOMES`). A ``step`` after the last one, or before
+    the first ``reset``, raises ``gymnasium.error.ResetNeeded``: call ``reset``.
 
     ## Arguments
 
@@ -217,9 +147,10 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         The family's seed.
     layouts : tuple of int
         ``(first, stop)``: the layout indices a reset draws from (keep a range apart
-        for held-out tests).
-    scenarios : sequence of Scenario or str, optional
-        Draw from these instead (scenario objects or names such as ``"s1"``).
+        for held-out tests); two integers, ``0 <= first < stop``.
+    scenarios : Scenario, str, Path or a sequence of them, optional
+        Draw from these instead (scenario objects, names such as ``"s1"`` or scenario
+        files), each checked as :func:`fuzzynav.simulate` checks a scenario.
     perception : {"ideal", "ultrasonic"}
         How obstacles are sensed.
     geometry : {"husky", "paper"}
@@ -227,9 +158,15 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
     control_period_s : float
         The step, s (the paper's 20 ms by default).
     max_duration_s : float, optional
-        Truncate every episode at this time at the latest, s.
+        Truncate every episode at this time at the latest, s (> 0, at most an hour).
     render_mode : {"rgb_array"}, optional
         :meth:`render` returns an (H, W, 3) uint8 picture of the scene.
+    progress_reward_per_m, reach_reward, collision_reward : float
+        The reward's terms (see Rewards).
+    observation_dtype : {"float64", "float32"}
+        The observations' dtype: float64, the engine's numbers exactly (what
+        :func:`controller_inputs` needs to drive a fuzzynav controller as the engine
+        does), or float32 (the same numbers rounded), as many learning libraries want.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -239,27 +176,33 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         family: str = "standard",
         layout_seed: int = 0,
         layouts: tuple[int, int] = (0, 1000),
-        scenarios: Sequence[Scenario | str] | None = None,
+        scenarios: Sequence[Scenario | str | Path] | Scenario | str | Path | None = None,
         perception: str = "ideal",
         geometry: str = "husky",
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
+        progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
+        reach_reward: float = REACH_REWARD,
+        collision_reward: float = COLLISION_REWARD,
+        observation_dtype: str = "float64",
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode = {render_mode!r}: must be None or 'rgb_array'")
-        self._setup = _Setup(
+        self._setup = Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
+            (progress_reward_per_m, reach_reward, collision_reward), observation_dtype,
         )  # fmt: skip
-        self.observation_space, self.action_space = _spaces()
+        self.observation_space, self.action_space = _spaces(self._setup.observation_dtype)
         self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / control_period_s)}
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self._setup.world.dt)}
         self.scenario: Scenario | None = None
+        self._episode_over = True  # no episode yet: reset() starts one
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[FloatArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, dict[str, Any]]:
         """Start an episode on a newly drawn scenario (see the class docstring).
 
         Parameters
@@ -267,7 +210,9 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         seed : int, optional
             Seeds the environment's generator (the scenario and the sonar noise).
         options : dict, optional
-            ``{"scenario": Scenario}`` runs that scenario instead of drawing one.
+            ``{"scenario": S}`` runs ``S`` instead of drawing one: a Scenario, a
+            shipped name (``"s1"``) or a scenario file, checked as
+            :func:`fuzzynav.simulate` checks it (ValueError).
 
         Returns
         -------
@@ -277,13 +222,16 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         super().reset(seed=seed)
         scenario, sonar_seed = self._setup.draw(self.np_random)
         if options and options.get("scenario") is not None:
-            scenario = options["scenario"]
+            scenario = self._setup.scenario(options["scenario"], 'options["scenario"]')
         self.scenario = scenario
         self._setup.world.reset([scenario], [sonar_seed])
         self._distance = self._setup.distances()
+        self._episode_over = False
         return self._setup.observations()[0], {}
 
-    def step(self, action: npt.ArrayLike) -> tuple[FloatArray, float, bool, bool, dict[str, int]]:
+    def step(
+        self, action: npt.ArrayLike
+    ) -> tuple[ObservationArray, float, bool, bool, dict[str, int]]:
         """One control period with the wheel voltages ``12 * action`` V.
 
         Parameters
@@ -296,14 +244,22 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         tuple
             observation, reward, terminated, truncated, info.
         """
+        if self._episode_over:
+            raise gym.error.ResetNeeded(
+                "step() before reset(): call reset() to start an episode"
+                if self.scenario is None
+                else "step() after the episode ended (terminated or truncated): "
+                "call reset() to start another"
+            )
         setup = self._setup
-        code = setup.world.step(setup.voltages(action).reshape(1, 2))
+        code = setup.world.step(setup.voltages(checked_action(action, (2,))).reshape(1, 2))
         distance = setup.distances()
         reward = setup.rewards(self._distance, distance, code)
         self._distance = distance
         observation = setup.observations()[0]
         k = int(code[0])
         info = {"outcome": k} if k >= 0 else {}
+        self._episode_over = k >= 0
         return observation, float(reward[0]), k in (0, 1), k == 2, info
 
     def render(self) -> npt.NDArray[np.uint8] | None:
@@ -316,7 +272,7 @@ class HuskyEnv(gym.Env[FloatArray, FloatArray]):
         )
 
 
-class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
+class HuskyVectorEnv(VectorEnv[ObservationArray, FloatArray, FloatArray | BoolArray]):
     """``num_envs`` :class:`HuskyEnv` s stepped together on the batch engine.
 
     Fixed ``num_envs``; a sub-environment whose episode ended (terminated or truncated)
@@ -329,8 +285,10 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
     Parameters
     ----------
     num_envs : int
-        Sub-environments.
+        Sub-environments, 1 to :data:`MAX_NUM_ENVS`.
     family, layout_seed, layouts, scenarios, perception, geometry, control_period_s, max_duration_s
+        As :class:`HuskyEnv`.
+    progress_reward_per_m, reach_reward, collision_reward, observation_dtype
         As :class:`HuskyEnv`.
     render_mode : None
         Not drawn (render a :class:`HuskyEnv`).
@@ -344,23 +302,29 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         family: str = "standard",
         layout_seed: int = 0,
         layouts: tuple[int, int] = (0, 1000),
-        scenarios: Sequence[Scenario | str] | None = None,
+        scenarios: Sequence[Scenario | str | Path] | Scenario | str | Path | None = None,
         perception: str = "ideal",
         geometry: str = "husky",
         control_period_s: float = 0.02,
         max_duration_s: float | None = None,
         render_mode: str | None = None,
+        progress_reward_per_m: float = PROGRESS_REWARD_PER_M,
+        reach_reward: float = REACH_REWARD,
+        collision_reward: float = COLLISION_REWARD,
+        observation_dtype: str = "float64",
     ) -> None:
-        if num_envs < 1:
-            raise ValueError(f"num_envs = {num_envs!r}: must be at least 1")
+        num_envs = integer_value(num_envs, "num_envs", 1, MAX_NUM_ENVS)
         if render_mode is not None:
             raise ValueError(f"render_mode = {render_mode!r}: the vector form draws nothing")
-        self._setup = _Setup(
+        self._setup = Setup(
             family, layout_seed, layouts, scenarios, perception, geometry,
             control_period_s, max_duration_s,
+            (progress_reward_per_m, reach_reward, collision_reward), observation_dtype,
         )  # fmt: skip
         self.num_envs = num_envs
-        self.single_observation_space, self.single_action_space = _spaces()
+        self.single_observation_space, self.single_action_space = _spaces(
+            self._setup.observation_dtype
+        )
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.render_mode = None
@@ -373,7 +337,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         *,
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
-    ) -> tuple[FloatArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, dict[str, Any]]:
         """Start every sub-environment's episode (or those of ``options["reset_mask"]``).
 
         Parameters
@@ -423,7 +387,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
 
     def step(
         self, actions: npt.ArrayLike
-    ) -> tuple[FloatArray, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
+    ) -> tuple[ObservationArray, FloatArray, BoolArray, BoolArray, dict[str, Any]]:
         """One control period of every sub-environment (module docstring: autoreset).
 
         Parameters
@@ -439,7 +403,7 @@ class HuskyVectorEnv(VectorEnv[FloatArray, FloatArray, FloatArray | BoolArray]):
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
         setup = self._setup
-        volts = setup.voltages(actions).reshape(self.num_envs, 2)
+        volts = setup.voltages(checked_action(actions, (self.num_envs, 2)))
         again = self._autoreset
         if again.any():
             volts = np.where(again[:, None], 0.0, volts)  # ignored: they start again

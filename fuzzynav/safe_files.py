@@ -329,13 +329,37 @@ def _assets_dir() -> Path | None:
         return None
 
 
+def _installed_roots() -> set[Path]:
+    """The folders of the package and its subpackages, links followed: in a wheel, the
+    package's folder; in a checkout's editable install (a tree of links to the files, or
+    an import hook), the checkout's ``fuzzynav/``, ``world/``, ``controller/``,
+    ``app/`` and ``assets/``."""
+    from importlib.util import find_spec
+
+    roots = {installed_package_dir()}
+    assets = _assets_dir()
+    if assets is not None:
+        roots.add(assets)
+    for name in (
+        "fuzzynav",
+        "fuzzynav.world",
+        "fuzzynav.controller",
+        "fuzzynav.app",
+        "fuzzynav.assets",
+    ):
+        spec = find_spec(name)
+        if spec is not None and spec.origin and spec.origin not in ("built-in", "frozen"):
+            roots.add(Path(os.path.realpath(spec.origin)).parent)
+    return roots
+
+
 def refuse_installed(path: StrPath, option: str) -> None:
     """ValueError when ``path`` (links followed) is inside the installed package: its
     shipped rule bases and scenarios are what every later run reads."""
     from fuzzynav.resources import escape_controls
 
     target = _target(path)
-    for root in {installed_package_dir(), _assets_dir()} - {None}:
+    for root in _installed_roots():
         if target == root or root in target.parents:
             raise ValueError(
                 f"{option} {escape_controls(str(path))}: is inside the installed fuzzynav "

@@ -7,11 +7,14 @@ sweep`` runs the same studies (:mod:`fuzzynav.app.experiments.studies`).
 from __future__ import annotations
 
 import contextlib
+import logging
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias, TypedDict, cast
 
 from fuzzynav.controller.checker import check_controller
+from fuzzynav.controller.interface import Controller, ControllerFunction
 from fuzzynav.world.run_limits import Outcome
 from fuzzynav.world.scenario import Scenario
 
@@ -21,6 +24,11 @@ if TYPE_CHECKING:
     from fuzzynav.app.experiments.studies import LayoutJob
 
 __all__ = ["SweepRow", "sweep"]
+
+#: What a sweep has to say besides its rows goes to the ``fuzzynav`` logger (silent
+#: unless the program configures logging); a fallback to the pymunk engine is a warning.
+_LOG = logging.getLogger("fuzzynav")
+_LOG.addHandler(logging.NullHandler())
 
 #: What ``scenarios`` takes: a scenario file, a folder of them, a shipped name, a
 #: Scenario, or a list of any of these.
@@ -67,7 +75,7 @@ class SweepRow(TypedDict, total=False):
 
 
 def sweep(
-    controller: str | object = "paper",
+    controller: str | Controller | ControllerFunction = "paper",
     n: int | None = None,
     seed: int | None = None,
     family: str = "standard",
@@ -89,9 +97,10 @@ def sweep(
     ----------
     controller : str or controller object
         A registered name (``fuzzynav sweep --help`` lists them; a controller of your
-        own joins with :func:`fuzzynav.register_controller`), ``"module:factory"``, or a
+        own joins with :func:`fuzzynav.register_controller`), ``"module:factory"``, a
         controller object (a copy drives each run; it must pickle to run in worker
-        processes).
+        processes), or one plain function as :func:`fuzzynav.simulate` takes it (a
+        vectorised one runs on the batch engine as it is).
     n : int, optional
         How many layouts (layouts 0 .. n - 1 of the family and seed); default the
         command line's (``fuzzynav sweep --n``). Not with ``scenarios``.
@@ -142,15 +151,27 @@ def sweep(
     from fuzzynav.app.experiments.studies import run_jobs
 
     if not isinstance(controller, str):
+        from fuzzynav.controller.function import as_controller
+
+        controller = as_controller(controller)  # a plain function is a controller too
         check_controller(controller)  # every problem named before a run starts
     jobs = _jobs(controller, n, seed, family, perception, geometry, scenarios)
     with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
-        rows = run_jobs(jobs, runner, log=log, progress=progress, engine=engine)
+        rows = run_jobs(
+            jobs, runner, log=log, progress=progress, engine=engine, on_fallback=_warn_fallback
+        )
+    if log is not None and log.dropped_partial_line:
+        _LOG.warning("%s: an unfinished last line was dropped and run again", log.shown)
     return cast(list[SweepRow], rows)
 
 
+def _warn_fallback(message: str) -> None:
+    """A study the batch engine cannot drive runs on pymunk: said, as the command line says it."""
+    warnings.warn(message, UserWarning, stacklevel=2)
+
+
 def _jobs(
-    controller: str | object,
+    controller: str | Controller | ControllerFunction,
     n: int | None,
     seed: int | None,
     family: str,

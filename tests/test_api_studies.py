@@ -96,9 +96,11 @@ def test_python_and_the_command_line_share_their_defaults():
     assert defaults["n"].default is None and defaults["seed"].default is None  # = the CLI's
 
 
-def test_a_bare_function_is_refused_with_what_it_lacks():
+def test_a_callable_that_is_no_controller_is_refused_with_what_it_lacks():
+    # a function of the inputs is a controller (controller/function.py); one of no
+    # arguments is neither that nor a controller object
     with pytest.raises(ValueError, match="no reset"):
-        fuzzynav.sweep(lambda inputs: (1.0, 1.0), n=2)
+        fuzzynav.sweep(lambda: (1.0, 1.0), n=2)
 
 
 def test_simulate_checks_a_scenario_built_in_code_as_a_file_is():

@@ -6,6 +6,7 @@ item 2, issue 36 item 3)."""
 from __future__ import annotations
 
 import json
+import math
 import re
 import subprocess
 import sys
@@ -40,7 +41,7 @@ def test_check_env_passes(perception):
 
     env = gym.make(fgym.ENV_ID, perception=perception, render_mode="rgb_array", **FAST)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # infinite Box bounds are deliberate (docstring)
+        warnings.simplefilter("error")  # not one warning from gymnasium's checker
         check_env(env.unwrapped)
     env.reset(seed=0)
     frame = env.render()
@@ -283,3 +284,133 @@ def test_an_obstacle_not_sensed_reads_as_the_cutoff():
     env = fgym.HuskyEnv(scenarios=[bare], **FAST)
     obs, _ = env.reset(seed=0)
     assert obs[4] == 0.0 and obs[1] == OBSTACLE_CUTOFF_M and obs[3] == 0.0
+
+
+def test_step_follows_gymnasiums_contract():
+    """No step before the first reset, none after an episode ended: ResetNeeded, not an
+    AttributeError and not a robot driven on through the obstacle it hit."""
+    env = fgym.HuskyEnv(scenarios=["s1"], **FAST)
+    with pytest.raises(gym.error.ResetNeeded, match="before reset"):
+        env.step(np.zeros(2))
+    env.reset(seed=0)
+    for _ in range(200):
+        *_, terminated, truncated, info = env.step(np.array([1.0, 1.0]))
+        if terminated or truncated:
+            break
+    assert terminated or truncated
+    with pytest.raises(gym.error.ResetNeeded, match="episode ended"):
+        env.step(np.array([1.0, 1.0]))
+    env.reset(seed=0)
+    env.step(np.array([1.0, 1.0]))  # a reset starts another
+    vector = fgym.HuskyVectorEnv(num_envs=2, **FAST)
+    with pytest.raises(gym.error.ResetNeeded):
+        vector.step(np.zeros((2, 2)))
+
+
+def _scenario_with(**changes):
+    from fuzzynav.world.scenario import load_scenario
+
+    return load_scenario("s1").replace(**changes)
+
+
+def test_a_reset_scenario_is_checked_as_simulate_checks_it():
+    import fuzzynav
+    from fuzzynav.world.scenario import ObstacleSpec
+
+    env = fgym.HuskyEnv(**FAST)
+    nan_target = _scenario_with(target=(float("nan"), 1.0))
+    s1 = _scenario_with()
+    on_robot = s1.replace(obstacles=(ObstacleSpec(position=s1.start, radius_m=0.3),))
+    for bad in (nan_target, on_robot):
+        with pytest.raises(ValueError) as simulate_error:
+            fuzzynav.simulate(bad)
+        with pytest.raises(ValueError) as reset_error:
+            env.reset(seed=0, options={"scenario": bad})
+        assert str(reset_error.value) == str(simulate_error.value)
+        with pytest.raises(ValueError):
+            fgym.HuskyEnv(scenarios=[bad], **FAST)
+    with pytest.raises(ValueError, match="is not a scenario"):
+        env.reset(options={"scenario": 42})
+    obs, _ = env.reset(seed=0, options={"scenario": "s1"})  # a name, as simulate takes
+    assert env.scenario == s1 and obs[0] == pytest.approx(math.dist(s1.start, s1.target))
+
+
+def test_settings_out_of_reason_are_refused_by_name():
+    for bad in (float("nan"), 0, -1, float("inf"), "6"):
+        with pytest.raises(ValueError, match="max_duration_s = "):
+            fgym.HuskyEnv(max_duration_s=bad)
+    for bad in ((1.5, 3.7), (0, 2.0), (True, 5), "ab", (1, 2, 3), (-1, 4)):
+        with pytest.raises(ValueError, match="layouts = "):
+            fgym.HuskyEnv(layouts=bad)
+    with pytest.raises(ValueError, match="layout_seed = "):
+        fgym.HuskyEnv(layout_seed=1.5)
+    for bad in (10**9, 2.0, True):
+        with pytest.raises(ValueError, match="num_envs = "):
+            fgym.HuskyVectorEnv(num_envs=bad)
+    with pytest.raises(ValueError, match="reach_reward = "):
+        fgym.HuskyEnv(reach_reward=float("nan"))
+    text = (ROOT / "docs" / "gym.md").read_text()
+    assert f"`num_envs` is 1 to {fgym.MAX_NUM_ENVS:,}" in text  # as the doc says
+
+
+def test_one_scenario_name_is_one_scenario_not_its_characters():
+    env = fgym.HuskyEnv(scenarios="s1", **FAST)
+    assert env._setup.scenarios == [_scenario_with()]
+    assert env.reset(seed=3)[0][0] > 0 and env.scenario == _scenario_with()
+
+
+def test_actions_of_another_shape_or_kind_are_refused():
+    env = fgym.HuskyEnv(**FAST)
+    env.reset(seed=0)
+    for bad, says in (
+        (np.zeros((2, 1)), "shape"),
+        (np.zeros(3), "shape"),
+        (np.array(["6", "6"]), "real numbers"),
+        (np.array([np.nan, 0.0]), "finite"),
+    ):
+        with pytest.raises(ValueError, match=says):
+            env.step(bad)
+    env.step([0.5, 0.5])  # a list of two numbers is an action
+    vector = fgym.HuskyVectorEnv(num_envs=2, **FAST)
+    vector.reset(seed=0)
+    with pytest.raises(ValueError, match="shape"):
+        vector.step(np.zeros(4))
+    with pytest.raises(ValueError, match="shape"):
+        vector.step(np.zeros((2, 2, 1)))
+
+
+def test_the_reward_is_configurable_and_observations_stay_in_bounds():
+    plain = fgym.HuskyEnv(scenarios=["s1"], **FAST)
+    scaled = fgym.HuskyEnv(
+        scenarios=["s1"], progress_reward_per_m=2.0, reach_reward=0.0, collision_reward=-1.0,
+        **FAST,
+    )  # fmt: skip
+    plain.reset(seed=0)
+    scaled.reset(seed=0)
+    for _ in range(20):
+        obs, reward, *_ = plain.step(np.array([0.8, 0.7]))
+        assert plain.observation_space.contains(obs)
+        _, scaled_reward, *_ = scaled.step(np.array([0.8, 0.7]))
+        assert scaled_reward == pytest.approx(2.0 * reward, rel=1e-12)
+    space = plain.observation_space
+    assert np.isfinite(space.low).all() and np.isfinite(space.high).all()
+
+
+def test_float32_observations_pass_the_checker_and_round_the_float64_ones():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(fgym.ENV_ID, observation_dtype="float32", **FAST).unwrapped
+    assert env.observation_space.dtype == np.float32
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env)
+    exact = fgym.HuskyEnv(**FAST)
+    obs32, _ = env.reset(seed=4)
+    obs64, _ = exact.reset(seed=4)
+    assert obs32.dtype == np.float32 and obs64.dtype == np.float64
+    assert np.array_equal(obs32, obs64.astype(np.float32))
+    vector = fgym.HuskyVectorEnv(num_envs=3, observation_dtype=np.float32, **FAST)
+    assert vector.reset(seed=1)[0].dtype == np.float32
+    assert vector.observation_space.contains(vector.step(np.zeros((3, 2)))[0])
+    with pytest.raises(ValueError, match="observation_dtype = "):
+        fgym.HuskyEnv(observation_dtype="float16")

@@ -198,3 +198,150 @@ def test_a_controller_that_declares_needs_context_gets_the_world_as_the_simulati
     assert last.pose[:2] == pytest.approx(
         (run.trace["x_m"][len(planner.seen) - 1], run.trace["y_m"][len(planner.seen) - 1])
     )
+
+
+@pytest.mark.parametrize(
+    ("spec", "says"),
+    [
+        ("no_such_module_xyz:Factory", "importing no_such_module_xyz failed"),
+        ("toy_controller:NoSuchFactory", "has no 'NoSuchFactory'"),
+        ("toy_controller:math", "is not callable"),
+        ("math:pow", "calling it with no arguments failed"),
+        ("math:sqrt", "it raised TypeError"),  # one argument: a controller function
+        ("os:getcwd", "not a controller"),
+    ],
+)
+def test_a_module_factory_that_makes_no_controller_is_a_value_error_naming_it(spec, says):
+    with pytest.raises(ValueError, match=says) as error:
+        make_controller(spec)
+    assert spec in str(error.value)
+    with pytest.raises(ValueError, match=says):
+        fuzzynav.simulate("s1", spec)
+
+
+def test_a_registered_module_that_fails_on_import_breaks_no_list(tmp_path, monkeypatch):
+    import sys
+
+    (tmp_path / "broken_controller_mod.py").write_text("raise RuntimeError('a bug of mine')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    register_controller("broken", "broken_controller_mod:Mine", description="mine, broken")
+    try:
+        names = controller_names()
+        assert "broken" in names and "paper" in names
+        assert "broken_controller_mod" not in sys.modules  # listed without importing
+        with pytest.raises(ValueError, match="unknown .*choose from paper"):
+            make_controller("no such controller")
+        from fuzzynav.app.viewer.model import ViewerApp
+
+        assert "broken" in ViewerApp("s1", "p").controller_options()  # the viewer's list
+        with pytest.raises(ValueError, match="a bug of mine") as error:
+            make_controller("broken")
+        assert "broken_controller_mod:Mine" in str(error.value)
+    finally:
+        unregister_controller("broken")
+
+
+class _Says:
+    name = "says-six"
+
+    def __init__(self, returned):
+        self.returned = returned
+
+    def reset(self):
+        pass
+
+    def __call__(self, inputs):
+        return self.returned
+
+
+@pytest.mark.parametrize(
+    "returned", [("6", "6"), (1.0, 2.0, 3.0), [[1.0, 2.0]], "66", None, (True, False)]
+)
+def test_returned_voltages_that_are_not_two_real_numbers_are_refused_naming_the_controller(
+    returned,
+):
+    with pytest.raises(ValueError, match="controller 'says-six' returned .*two real numbers"):
+        fuzzynav.simulate("s1", _Says(returned))
+    with pytest.raises(ControllerCheckError, match="two real numbers"):
+        check_controller(_Says(returned))
+
+
+def test_a_class_that_declares_batched_is_batchable_without_saying_so():
+    import warnings
+
+    entry = register_controller("toy-detected", BatchableToy, description="batch form declared")
+    try:
+        assert entry.batchable and "toy-detected" in controller_names(batchable=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # on the batch engine: no fallback to warn of
+            rows = fuzzynav.sweep("toy-detected", n=3, seed=1)
+        assert len(rows) == 3
+    finally:
+        unregister_controller("toy-detected")
+    assert controller_entry("toy_controller:BatchableToy").batchable  # detected on import
+    assert not controller_entry("toy_controller:ToyController").batchable
+
+
+def test_a_fallback_to_the_pymunk_engine_is_warned_from_python():
+    with pytest.warns(UserWarning, match="cannot be batched.*pymunk engine"):
+        rows = fuzzynav.sweep("toy_controller:ToyController", n=2, seed=1, engine="batch")
+    assert len(rows) == 2
+
+
+def test_sweep_takes_a_module_factory_name_as_simulate_does():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rows = fuzzynav.sweep("toy_controller:BatchableToy", n=2, seed=1)
+    again = fuzzynav.sweep(BatchableToy(), n=2, seed=1)
+    assert [r["outcome"] for r in rows] == [r["outcome"] for r in again]
+    assert rows[0]["path_length_m"] == again[0]["path_length_m"]
+    with pytest.raises(ValueError, match="no_such_module_xyz"):
+        fuzzynav.sweep("no_such_module_xyz:Factory", n=2)
+
+
+def test_a_controller_as_one_plain_function_runs_everywhere_without_a_class():
+    """A scalar function and a vectorised one: simulate, sweep on both engines (the
+    vectorised one on the batch engine itself, no fallback), the registry and the
+    viewer; the same runs as the class they are the law of."""
+    import warnings
+
+    from toy_controller import toy_decide, toy_law
+
+    from fuzzynav.app.viewer.model import ViewerApp
+
+    reference = fuzzynav.simulate("s1", ToyController())
+    for function in (toy_law, toy_decide):
+        run = fuzzynav.simulate("s1", function)
+        np.testing.assert_allclose(run.trace["x_m"], reference.trace["x_m"], rtol=0, atol=1e-9)
+        assert run.metrics["controller"] == function.__name__
+    expected = fuzzynav.sweep(BatchableToy(), n=3, seed=2, engine="pymunk")
+    with pytest.warns(UserWarning, match="pymunk engine"):  # a scalar function: no batch form
+        scalar = fuzzynav.sweep(toy_law, n=3, seed=2, engine="batch")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the vectorised one is batched: nothing to warn of
+        batched = fuzzynav.sweep(toy_decide, n=3, seed=2, engine="batch")
+    pymunk = fuzzynav.sweep(toy_decide, n=3, seed=2, engine="pymunk")
+    for rows in (scalar, batched, pymunk):
+        assert [r["outcome"] for r in rows] == [r["outcome"] for r in expected]
+        assert [r["path_length_m"] for r in rows] == pytest.approx(
+            [r["path_length_m"] for r in expected], rel=1e-9
+        )
+    for name, function, batchable in (
+        ("fn-scalar", toy_law, False),
+        ("fn-vector", toy_decide, True),
+    ):
+        entry = register_controller(name, function, description="one plain function")
+        try:
+            assert entry.batchable is batchable
+            check_registered(name)
+            app = ViewerApp("s1", name)
+            assert name in app.controller_options()
+            for _ in range(30):
+                app.step_once()
+            assert app.sim.time_s > 0.5
+        finally:
+            unregister_controller(name)
+    assert controller_entry("toy_controller:toy_decide").batchable
+    assert isinstance(make_controller("toy_controller:toy_law").function, type(toy_law))

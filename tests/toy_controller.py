@@ -53,3 +53,13 @@ class BatchableToy(ToyController):
     def batched(cls, controllers, run_sets=None):
         """The batch engine's form."""
         return ToyBatch(controllers, run_sets)
+
+
+def toy_law(inputs) -> tuple[float, float]:
+    """ToyController's law as one plain scalar function: (4,) inputs -> two volts."""
+    return tuple(ToyController()(inputs))
+
+
+def toy_decide(inputs: np.ndarray) -> np.ndarray:
+    """The same law vectorised as one plain function: (n, 4) inputs -> (n, 2) volts."""
+    return ToyBatch([ToyController()]).decide(np.asarray(inputs, dtype=float), None)

@@ -409,12 +409,13 @@ class BatchWorld:
     def _saturate(self, wheel_voltages) -> np.ndarray:
         s = self.s
         n = s.run.size
-        raw = np.asarray(wheel_voltages, dtype=float)
-        if raw.shape != (n, 2):
+        raw = np.asarray(wheel_voltages)
+        if raw.dtype.kind not in "iuf" or raw.shape != (n, 2):
             raise ValueError(
-                f"the batch controller returned voltages of shape {raw.shape} for {n} "
-                "runs; it must return (n, 2): left, right"
+                f"the batch controller returned {raw.dtype} voltages of shape {raw.shape} "
+                f"for {n} runs; it must return real numbers of shape (n, 2): left, right"
             )
+        raw = raw.astype(float, copy=False)
         bad = ~np.isfinite(raw).all(axis=1)
         if bad.any():
             row = int(np.flatnonzero(bad)[0])

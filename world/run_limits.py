@@ -99,3 +99,28 @@ def check_run_size(duration_s: float, control_period_s: float, n_obstacles: int)
             "duration, a longer period or fewer obstacles"
         )
     return steps
+
+
+def controller_label(controller: object) -> str:
+    """What an error message calls a controller: its ``name``, else its class's name."""
+    name = getattr(controller, "name", None)
+    return name if isinstance(name, str) and name else type(controller).__name__
+
+
+def wheel_voltages(raw: object, controller: object) -> tuple[float, float]:
+    """A controller's returned voltages as two floats: exactly two real numbers
+    (a sequence or a (2,) array; not strings, not three values), else ValueError naming
+    the controller and what it returned. Finiteness is the caller's check (it names the
+    inputs and the time)."""
+    values = np.asarray(raw)  # object rows: a list holding a string, None, ...
+    if values.dtype.kind not in "iuf" or values.shape != (2,):
+        from fuzzynav.resources import shown
+
+        what = f"{values.dtype} values" if values.dtype.kind not in "iuf" else "shape"
+        raise ValueError(
+            f"controller {controller_label(controller)!r} returned {shown(raw)} "
+            f"(shape {values.shape}, {what}): it must return two real numbers, "
+            "the left and right wheel voltages in V"
+        )
+    left, right = values.astype(float).tolist()
+    return left, right

@@ -65,6 +65,7 @@ from fuzzynav.world.scenario_format import (
     MAX_SPEED_MPS,
     OMITTED_DEFAULTS,
     ScenarioError,
+    ScenarioNotFoundError,
     _fields_of,
     _plain,
     _Reader,
@@ -434,13 +435,14 @@ def load_scenario(
     Raises
     ------
     ScenarioError
-        The file is missing, is not valid TOML, or fails validation.
+        The file is not valid TOML or fails validation; a missing file is a
+        :class:`ScenarioNotFoundError`, also a ``FileNotFoundError``.
     """
     path = resolve_scenario_path(name_or_path)
     source = str(path)
     if not path.exists() and not path.is_symlink():
         known = ", ".join(scenario_names())
-        raise ScenarioError(
+        raise ScenarioNotFoundError(
             source, "file", str(name_or_path), f"no such scenario file (shipped scenarios: {known})"
         )
     try:

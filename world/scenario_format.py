@@ -28,6 +28,11 @@ class ScenarioError(ValueError):
         super().__init__(f"{escape_controls(str(source))}: {key} = {shown(value)}: {reason}")
 
 
+class ScenarioNotFoundError(ScenarioError, FileNotFoundError):
+    """A scenario name or file that does not exist: a :class:`ScenarioError` (so a
+    ``ValueError``) and a ``FileNotFoundError``, as either is caught."""
+
+
 #: The scenario file's format, written once: each table (None: the top level) and its
 #: keys in the order a file has them, each with the :class:`Scenario` field it holds. The
 #: ``[[obstacles]]`` and the ``[disturbance]`` tables hold the fields of

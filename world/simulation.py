@@ -55,6 +55,7 @@ from fuzzynav.world.run_limits import check_loop_settings as check_loop_settings
 from fuzzynav.world.run_limits import check_run_size as check_run_size
 from fuzzynav.world.run_limits import log_bytes as log_bytes
 from fuzzynav.world.run_limits import timeout_slack_s as timeout_slack_s
+from fuzzynav.world.run_limits import wheel_voltages
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 from fuzzynav.world.sim_log import LOG_BLOCK_BYTES as LOG_BLOCK_BYTES
@@ -256,7 +257,7 @@ class Simulation:
         if type(raw) is np.ndarray and raw.dtype is _FLOAT64 and raw.shape == (2,):
             left, right = raw.tolist()
         else:
-            left, right = np.asarray(raw, dtype=float).reshape(2).tolist()
+            left, right = wheel_voltages(raw, controller)
         if not (math.isfinite(left) and math.isfinite(right)):
             raise ValueError(
                 f"controller returned non-finite voltages {[left, right]} "

@@ -57,16 +57,13 @@ def _mean(values):
 def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     """Refuse a sweep that cannot run (before any run); the parts off, normalised."""
     from fuzzynav.controller.interface import PartsController
-    from fuzzynav.controller.registry import controller_names, make_controller
+    from fuzzynav.controller.registry import controller_entry, make_controller
     from fuzzynav.world.layouts import FAMILIES
 
     integer_value(n, "n", 1, MAX_LAYOUTS)  # --n's rule: 2.5 and True are no counts
     if family not in FAMILIES:
         raise ValueError(f"family = {family!r}: must be one of {', '.join(FAMILIES)}")
-    if controller not in controller_names():
-        raise ValueError(
-            f"controller = {controller!r}: choose from {', '.join(controller_names())}"
-        )
+    controller_entry(controller)  # a registered name or "module:factory", else ValueError
     parts_off = tuple(parts_off)
     if parts_off:
         probe = make_controller(controller)

@@ -5,7 +5,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 import fuzzynav
+from fuzzynav.controller.interface import Controller, FuzzyController
 
 
 class Mine:
@@ -14,7 +17,7 @@ class Mine:
     def reset(self) -> None:
         pass
 
-    def __call__(self, inputs) -> tuple[float, float]:
+    def __call__(self, inputs: np.ndarray) -> tuple[float, float]:
         d_t, d_o, phi_t, phi_o = inputs
         turn = 4.0 * phi_t if math.isnan(d_o) else 4.0 * (phi_t - phi_o)
         return 5.0 - turn, 5.0 + turn
@@ -31,7 +34,9 @@ def main(folder: Path) -> None:
     first: fuzzynav.Outcome = rows[0]["outcome"]
     clearance: float | None = rows[0]["min_clearance_m"]
     scenario = fuzzynav.load_scenario("s2")
-    system = fuzzynav.read_fis(
-        fuzzynav.write_fis(fuzzynav.make_controller("paper").fis, folder / "p.fis")
-    )
+    paper: Controller = fuzzynav.make_controller("paper")
+    assert isinstance(paper, FuzzyController)
+    system = fuzzynav.read_fis(fuzzynav.write_fis(paper.fis, folder / "p.fis"))
+    mine_run = fuzzynav.simulate("s1", Mine())
     print(outcome, path, xs[-1], capabilities, first, clearance, scenario.name, system.name)
+    print(mine_run.outcome)
