@@ -93,7 +93,7 @@ def fit_reading(reading, args) -> dict:
     def report(generation, best_f, best_x, sigma):
         print(
             f"  [{reading.label}] gen {generation}: best {best_f:.1f} "
-            f"({time.perf_counter() - started:.0f} s)",
+            f"({time.perf_counter() - started:.0f} s) at {','.join(repr(float(v)) for v in best_x)}",
             flush=True,
         )
 
