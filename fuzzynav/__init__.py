@@ -29,10 +29,12 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
     from fuzzynav.api import (
         ControllerCheckError,
+        Evaluation,
         Outcome,
         Run,
         SweepRow,
         check_controller,
+        evaluate,
         load_scenario,
         make_controller,
         read_fis,
@@ -53,6 +55,8 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "evaluate",
+    "Evaluation",
     "serve",
     "tune",
     "load_scenario",

@@ -18,6 +18,7 @@ Functions
 ---------
 simulate        one run of a scenario; a :class:`Run`
 sweep           seeded random layouts, or your scenarios; one row (a dict) per run
+evaluate        a population of controllers on many layouts, batched (candidates x layouts)
 serve           the viewer, in this process
 tune            a controller's design numbers against a cost of your own (CMA-ES)
 load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
@@ -45,6 +46,7 @@ from fuzzynav.controller.fis import read_fis as _read_fis
 from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
+from fuzzynav.evaluation import Evaluation, evaluate
 from fuzzynav.sweeps import SweepRow, sweep
 from fuzzynav.world.run_limits import OUTCOMES, Outcome
 from fuzzynav.world.scenario import Scenario
@@ -62,6 +64,8 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "evaluate",
+    "Evaluation",
     "serve",
     "tune",
     "load_scenario",

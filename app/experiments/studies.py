@@ -384,7 +384,8 @@ class StudyInterrupted(Exception):
     """Ctrl-C during a study: what was kept has been said on stderr (exit status 130)."""
 
 
-def _progress_bar(label: str, quiet: bool):
+def progress_bar(label: str, quiet: bool):
+    """The commands' progress bar of runs (done / total, runs/s, times), on stderr."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -447,7 +448,7 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
                 # here, naming this one's process id
                 stack.enter_context(log)
             executor = stack.enter_context(executor_from_args(args, jobs=len(jobs)))
-            with _progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
+            with progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
                 task = bar.add_task("runs", total=len(jobs))
 
                 def progress(done, total):
