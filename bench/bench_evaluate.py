@@ -5,7 +5,7 @@ one :func:`fuzzynav.simulate` call per candidate and layout, on one core, in one
         [--sample 8] [--json]
 
 The population: ``--candidates`` design vectors of the paper controller, one
-generation of :class:`~fuzzynav.app.experiments.design_search.DesignSearch` (seed 0,
+generation of :class:`~fuzzynav.app.experiments.search.DesignSearch` (seed 0,
 first step 0.2 of each span), on standard layouts 0 .. ``--layouts`` - 1 (seed 1),
 ideal perception. ``evaluate`` runs them all once; ``simulate`` runs every layout of
 ``--sample`` candidates spread over the population (``--sample`` = ``--candidates``
@@ -49,7 +49,7 @@ def _pin_one_cpu() -> str:
 
 def measure(candidates: int, layouts: int, sample: int) -> dict:
     import fuzzynav
-    from fuzzynav.app.experiments.design_search import DesignSearch
+    from fuzzynav.app.experiments.search import DesignSearch
 
     search = DesignSearch("paper", popsize=candidates, seed=0)
     controllers = [search.build(v) for v in search.ask()]

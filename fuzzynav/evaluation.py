@@ -86,7 +86,7 @@ def evaluate(
     Parameters
     ----------
     controllers : sequence of controller objects
-        The candidates (e.g. :meth:`fuzzynav.app.experiments.design_search.DesignSearch.build`
+        The candidates (e.g. :meth:`fuzzynav.app.experiments.search.DesignSearch.build`
         of each vector a search asks for), or registered names. Candidates of one kind
         (and, for fuzzy ones, one rule structure) share batches.
     layouts : int, or scenarios

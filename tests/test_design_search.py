@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import fuzzynav
-from fuzzynav.app.experiments.design_search import DEFAULTS, DesignSearch
+from fuzzynav.app.experiments.search import DEFAULTS, DesignSearch
 from fuzzynav.controller.design_rules import violations
 
 INPUTS = np.array([4.0, np.nan, 0.5, np.nan])  # the target 4 m away, 0.5 rad to the left

@@ -8,7 +8,7 @@ import warnings
 import pytest
 
 import fuzzynav
-from fuzzynav.app.experiments.design_search import DesignSearch
+from fuzzynav.app.experiments.search import DesignSearch
 
 NUMBERS = (
     "path_length_m",
