@@ -89,25 +89,27 @@ def _study_key(controller, parts_off, family, seed, perception, options) -> tupl
     )
 
 
-def _rules_digest(controller: str) -> str:
-    """SHA-256 of what a controller's runs are made with besides the code: its shipped
-    rule bases (``assets/rules/<controller>*.toml``) and the robot (``husky.toml``)."""
+def _rules_digest(controller: str, geometry: str) -> str:
+    """What a study's runs are made with besides the code: the rules of a fresh
+    controller of that name (:func:`app.runs.rules_digest`; none for a controller
+    object's label, which carries its own digest) and the robot (``husky.toml``)."""
     import hashlib
 
+    from fuzzynav.app.runs import rules_digest
+    from fuzzynav.controller.registry import make_controller
     from fuzzynav.resources import MAX_INPUT_BYTES, asset_path, read_user_bytes
 
-    digest = hashlib.sha256()
-    rules = asset_path("rules")
-    files = sorted(
-        p for p in rules.glob("*.toml") if p.name.split("_")[0].split(".")[0] == controller
-    )
-    for path in [*files, asset_path("husky.toml")]:
-        digest.update(path.name.encode() + b"\0")
-        digest.update(read_user_bytes(path, "shipped file", MAX_INPUT_BYTES))
+    try:
+        rules = rules_digest(make_controller(controller, geometry=geometry))
+    except (ValueError, ImportError, AttributeError):  # a controller object's label
+        rules = None
+    digest = hashlib.sha256(f"{rules}\0".encode())
+    robot = asset_path("husky.toml")
+    digest.update(read_user_bytes(robot, "shipped file", MAX_INPUT_BYTES))
     return digest.hexdigest()
 
 
-_DIGESTS: dict[str, str] = {}
+_DIGESTS: dict[tuple[str, str], str] = {}
 
 
 def study_fingerprint(controller, parts_off, family, seed, perception, options) -> str:
@@ -126,13 +128,14 @@ def _fingerprint(controller, parts_off, family, seed, perception, options) -> st
     # cached: every job's key asks for it (a sweep of 100,000 layouts once, not 100,000 times)
     import hashlib
 
-    if controller not in _DIGESTS:
-        _DIGESTS[controller] = _rules_digest(controller)
+    rules_key = (controller, dict(options).get("geometry", "husky"))
+    if rules_key not in _DIGESTS:
+        _DIGESTS[rules_key] = _rules_digest(*rules_key)
     what = json.dumps(
         [
             fuzzynav_version(),
             controller,
-            _DIGESTS[controller],
+            _DIGESTS[rules_key],
             list(parts_off),
             family,
             seed,
