@@ -18,6 +18,7 @@ Functions
 ---------
 simulate        one run of a scenario; a :class:`Run`
 sweep           seeded random layouts, or your scenarios; one row (a dict) per run
+summarize       what ``fuzzynav sweep`` prints of a sweep's rows (and returns it)
 evaluate        a population of controllers on many layouts, batched (candidates x layouts)
 serve           the viewer, in this process
 tune            a controller's design numbers against a cost of your own (CMA-ES)
@@ -47,7 +48,7 @@ from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
 from fuzzynav.evaluation import Evaluation, evaluate
-from fuzzynav.sweeps import SweepRow, sweep
+from fuzzynav.sweeps import SweepInterrupted, SweepRow, summarize, sweep
 from fuzzynav.world.run_limits import OUTCOMES, Outcome
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
@@ -64,6 +65,8 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "summarize",
+    "SweepInterrupted",
     "evaluate",
     "Evaluation",
     "serve",
@@ -186,6 +189,26 @@ class Run:
             footprint_m=(params.footprint_length_m, params.footprint_width_m),
             voltage_limit_v=sim.voltage_limit_v,
         )
+
+    def to_dataframe(self) -> Any:  # a pandas.DataFrame (pandas is an optional extra)
+        """The run as a pandas DataFrame, one row per control step: the columns of
+        :attr:`trace` (``time_s``, ``x_m``, ``y_m``, ``heading_rad``, the inputs, the
+        voltages...), then ``obstacle_K_x_m`` and ``obstacle_K_y_m`` for each obstacle
+        ``K`` (0, 1, ... in the scenario's order): where it was at that step, a moving
+        one's path over time; NaN while an obstacle is absent (before it appears, after
+        it leaves). Needs pandas (``pip install "fuzzynav[pandas]"``)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(
+                'Run.to_dataframe needs pandas: pip install "fuzzynav[pandas]"'
+            ) from None
+        columns: dict[str, npt.NDArray[np.float64]] = dict(self.trace)
+        obstacle_xy = np.asarray(self.result.log.obstacle_xy, dtype=float)
+        for k in range(obstacle_xy.shape[1]):
+            columns[f"obstacle_{k}_x_m"] = obstacle_xy[:, k, 0]
+            columns[f"obstacle_{k}_y_m"] = obstacle_xy[:, k, 1]
+        return pd.DataFrame(columns)
 
     def _inputs(self) -> list[Path]:
         """The files this run read (its scenario's, a ``.fis`` or rule base file): no

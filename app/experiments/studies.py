@@ -321,14 +321,15 @@ def sweep_jobs(
 
 
 def run_jobs(
-    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None
+    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None, on_row=None
 ) -> list[dict]:
     """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
 
     ``executor``: an :class:`app.experiments.executor.Executor` (default: serial). ``log``: an open
     :class:`app.experiments.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
     new row is written to it as it arrives, and rows of other studies are refused.
-    ``progress(done, total)`` after each row (and once at the start). ``engine``:
+    ``progress(done, total)`` after each row (and once at the start); ``on_row(row)``
+    with each new row as it arrives (what a Ctrl-C keeps). ``engine``:
     ``pymunk`` (one task per run) or ``batch`` (:mod:`app.experiments.batch_runs`: batches of runs
     as tasks; controllers it cannot drive run on pymunk, and ``on_fallback(message)``
     is told so).
@@ -376,6 +377,8 @@ def run_jobs(
                 if log is not None:
                     log.write(row)
                 found[row_key(row)] = row
+                if on_row is not None:
+                    on_row(row)
             if progress:
                 progress(len(found), len(jobs))
     finally:
