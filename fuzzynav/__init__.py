@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # what type checkers see behind the lazy __getattr__ below
     from fuzzynav.api import (
         ControllerCheckError,
+        DesignSearch,
         Evaluation,
         Outcome,
         Run,
@@ -63,6 +64,7 @@ __all__ = [
     "Evaluation",
     "serve",
     "tune",
+    "DesignSearch",
     "load_scenario",
     "make_controller",
     "register_controller",

@@ -22,6 +22,7 @@ summarize       what ``fuzzynav sweep`` prints of a sweep's rows (and returns it
 evaluate        a population of controllers on many layouts, batched (candidates x layouts)
 serve           the viewer, in this process
 tune            a controller's design numbers against a cost of your own (CMA-ES)
+DesignSearch    tune's CMA-ES as ask/tell, for a loop of your own (with ``evaluate``)
 load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
 make_controller a controller by name (``"paper"``, ``"fuzzynav"``, ...) or a ``.fis`` file
 register_controller  offer a controller of your own everywhere (``--controller``, sweeps, the viewer)
@@ -40,7 +41,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 import numpy.typing as npt
 
-from fuzzynav.app.experiments.search import tune
+from fuzzynav.app.experiments.search import DesignSearch, tune
 from fuzzynav.controller.checker import ControllerCheckError, check_controller
 from fuzzynav.controller.fis import dumps_fis
 from fuzzynav.controller.fis import read_fis as _read_fis
@@ -71,6 +72,7 @@ __all__ = [
     "Evaluation",
     "serve",
     "tune",
+    "DesignSearch",
     "load_scenario",
     "make_controller",
     "register_controller",

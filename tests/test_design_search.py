@@ -73,3 +73,32 @@ def test_the_defaults_are_documented_and_used():
         DesignSearch("p")
     with pytest.raises(ValueError, match="12 numbers"):
         search.project([1.0, 2.0])
+
+
+def test_tune_draws_a_progress_bar_and_is_never_worse_than_its_start(capsys):
+    start = _turn_cost(DesignSearch("paper").build())
+    result = fuzzynav.tune(_turn_cost, "paper", generations=2, popsize=4, seed=2, progress=True)
+    assert "generation 2/2" in capsys.readouterr().err
+    assert result.cost <= start and result.generations == 2
+    assert result.evaluations == 2 * 4 + 1  # and the start itself
+    with pytest.raises(ValueError, match="progress"):
+        fuzzynav.tune(_turn_cost, generations=1, popsize=4, progress="yes")
+
+
+def test_the_one_tune_takes_the_commands_searches_with_your_cost():
+    names = DesignSearch("paper").parameter_names
+    free = [i for i, name in enumerate(names) if name.startswith("phi_t")]
+    x0 = DesignSearch("paper").tunable.initial_vector()
+    start = _turn_cost(DesignSearch("paper").build(x0))
+    for method in ("de", "powell"):
+        result = fuzzynav.tune(
+            _turn_cost, "paper", method=method, generations=2, popsize=2, seed=1, free=free
+        )
+        fixed = [i for i in range(len(names)) if i not in free]
+        np.testing.assert_array_equal(result.vector[fixed], x0[fixed])  # only phi_t moved
+        assert result.cost <= start
+        assert result.cost == pytest.approx(_turn_cost(result.controller))
+    with pytest.raises(ValueError, match="one of them"):
+        fuzzynav.tune(controller="paper")
+    with pytest.raises(ValueError, match="method"):
+        fuzzynav.tune(_turn_cost, method="annealing", generations=1, popsize=4)

@@ -85,7 +85,7 @@ class DesignSearch(BoxCMA):
         :class:`controller.tuning.Tunable` object.
     x0 : sequence of float, optional
         Where to start (projected onto the bounds); default the tunable's own start.
-    **options
+    options : keyword arguments
         ``sigma0`` (first step, a fraction of each span; default 0.2), ``popsize``
         (candidates per generation; default 12), ``seed`` (default 0): :data:`DEFAULTS`,
         checked as pycma checks its own. Unknown names are refused.
