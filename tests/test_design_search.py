@@ -102,3 +102,23 @@ def test_the_one_tune_takes_the_commands_searches_with_your_cost():
         fuzzynav.tune(controller="paper")
     with pytest.raises(ValueError, match="method"):
         fuzzynav.tune(_turn_cost, method="annealing", generations=1, popsize=4)
+
+
+@pytest.mark.parametrize("method", ["cmaes", "de"])
+def test_a_population_cost_searches_as_a_cost_of_each_controller(method):
+    calls = []
+
+    def population_cost(controllers):
+        calls.append(len(controllers))
+        return [_turn_cost(c) for c in controllers]
+
+    kwargs = dict(method=method, generations=2, popsize=4, seed=5)
+    one_by_one = fuzzynav.tune(_turn_cost, "paper", **kwargs)
+    together = fuzzynav.tune(population_cost=population_cost, controller="paper", **kwargs)
+    np.testing.assert_array_equal(together.vector, one_by_one.vector)
+    assert together.cost == one_by_one.cost and together.history == one_by_one.history
+    assert max(calls) > 1  # whole generations, not one controller a call
+    with pytest.raises(ValueError, match="one of them"):
+        fuzzynav.tune(_turn_cost, population_cost=population_cost)
+    with pytest.raises(ValueError, match="2 costs for"):
+        fuzzynav.tune(population_cost=lambda cs: [0.0, 1.0], generations=1, popsize=4)

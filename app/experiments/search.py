@@ -304,6 +304,7 @@ def tune(
     controller: str | Any = "paper",
     *,
     cases: Sequence[Case] | None = None,
+    population_cost: Callable[[list[Any]], Sequence[float]] | None = None,
     method: str = "cmaes",
     generations: int = 10,
     x0: Sequence[float] | None = None,
@@ -324,20 +325,20 @@ def tune(
 ) -> TuneResult:
     """Minimise a cost over a controller's design numbers (CMA-ES by default).
 
-    The search space is ``fuzzynav tune``'s: for the paper controller the 12 numbers of
-    its design layout, whose bounds keep every design rule; a start outside the bounds
-    is projected onto them. For ask/tell control, use :class:`DesignSearch`.
+    The space is ``fuzzynav tune``'s: for the paper controller the 12 numbers of its
+    design layout, whose bounds keep every design rule. Ask/tell: :class:`DesignSearch`.
 
     Parameters
     ----------
-    cost : callable, optional
+    cost, population_cost : callable, optional
         ``cost(controller) -> float`` of each candidate's fresh controller (lower is
-        better; NaN and inf count as worst). Not with ``cases``.
+        better; NaN and inf count as worst); or, for CMA-ES and DE, ``population_cost(
+        controllers) -> costs`` of a generation at once (:func:`fuzzynav.evaluate`).
     controller : str or Tunable
         A registered controller with design numbers (``"paper"``, ``"fuzzynav"``) or a
         :class:`fuzzynav.controller.tuning.Tunable`.
     cases : list of Case, optional
-        Instead of ``cost``: ``fuzzynav tune``'s objective, the mean cost of these runs
+        Or ``fuzzynav tune``'s objective, the mean cost of these runs
         (:class:`~fuzzynav.app.experiments.objective.Objective`, ``build_cases``).
     method : {"cmaes", "de", "nelder-mead", "powell"}
         The search (module docstring).
@@ -372,43 +373,62 @@ def tune(
     """
     if isinstance(generations, bool) or not isinstance(generations, int) or generations < 1:
         raise ValueError(f"generations = {generations!r}: an integer >= 1")
-    if (cost is None) == (cases is None):
-        raise ValueError("tune: give a cost (of a controller) or cases (runs), one of them")
     tunable = _tunable(controller)
     all_bounds = np.asarray(tunable.bounds(), float)
     x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
     x0 = np.clip(x0, all_bounds[:, 0], all_bounds[:, 1])
-    objective = _objective(tunable, cost, cases, x0, free, control_period_s, clearance_weight)
+    objective = _objective(
+        tunable, (cost, population_cost, cases), x0, free, control_period_s, clearance_weight
+    )
     lo, hi, start = _search_box(all_bounds, x0, free, radius)
     batched = None
-    if engine == "batch" and cases is not None and method in ("de", "cmaes"):
+    if population_cost is not None:
+        batched = _population_mapper(objective, population_cost, method)
+    elif engine == "batch" and cases is not None and method in ("de", "cmaes"):
         batched = _batch_mapper(objective, start, executor, on_fallback)
     with _generation_reporter(progress, generations, objective, on_generation) as report:
         result = _search(
             objective, method, lo, hi, start, generations, popsize, seed, sigma0,
             executor, workers, batched, report, on_evaluation,
         )  # fmt: skip
-    vector = objective.full(result.x)
+    vector, steps = objective.full(result.x), int(getattr(result, "nit", len(report.history)))
     return TuneResult(
-        vector,
-        float(result.fun),
-        tunable.build(vector),
-        list(tunable.parameter_names()),
-        report.history,
-        int(getattr(result, "nit", len(report.history))),
-        int(result.nfev),
-    )
+        vector, float(result.fun), tunable.build(vector), list(tunable.parameter_names()),
+        report.history, steps, int(result.nfev),
+    )  # fmt: skip
 
 
-def _objective(tunable, cost, cases, x0, free, control_period_s, clearance_weight) -> Any:
-    """The vector's cost :func:`tune` minimises: the runs' objective of ``cases``, or
-    ``cost`` of the built controller; over the ``free`` indices, the rest at ``x0``."""
+def _objective(tunable, costs, x0, free, control_period_s, clearance_weight) -> Any:
+    """The vector's cost :func:`tune` minimises, of one of ``costs`` (a cost of a
+    controller, of a population of them, or the runs' objective of cases) over the
+    ``free`` indices, the rest at ``x0``."""
+    cost, population_cost, cases = costs
+    if sum(c is not None for c in costs) != 1:
+        raise ValueError("tune: give a cost, a population_cost or cases (runs), one of them")
     base = x0 if free is not None else None
     if cases is not None:
         return Objective(
             tunable, list(cases), control_period_s, clearance_weight, base=base, free=free
         )
-    return _ControllerCost(tunable, cost, base=base, free=free)
+    return _ControllerCost(tunable, cost or population_cost, base=base, free=free)
+
+
+def _population_mapper(objective, population_cost, method: str):
+    """A map-like ``mapper(function, vectors) -> costs`` that builds a generation's
+    controllers and prices them in one call of ``population_cost``."""
+    if method not in ("cmaes", "de"):
+        raise ValueError(f"population_cost: for cmaes and de, not {method!r}")
+
+    def mapper(_function, vectors):
+        controllers = [objective.tunable.build(objective.full(v)) for v in vectors]
+        costs = [float(c) for c in population_cost(controllers)]
+        if len(costs) != len(controllers):
+            raise ValueError(
+                f"population_cost: {len(costs)} costs for {len(controllers)} controllers"
+            )
+        return costs
+
+    return mapper
 
 
 def _batch_mapper(objective, start, executor, on_fallback):
