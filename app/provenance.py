@@ -86,17 +86,6 @@ RULES_DIGEST_OPTION = "--rules-sha256"
 VERSION_OPTION = "--fuzzynav-version"
 
 
-def rules_digest(controller) -> str | None:
-    """sha256 of what a controller drives with (its rule base(s) and crisp parameters,
-    as ``app.runs``'s fingerprint writes them), or None (none can be written out)."""
-    import hashlib
-
-    from fuzzynav.app.runs import _fingerprint
-
-    text = _fingerprint(controller) if controller is not None else None
-    return None if text is None else hashlib.sha256(text.encode("utf-8")).hexdigest()
-
-
 def reproduce_run(
     scenario,
     controller,
@@ -112,12 +101,12 @@ def reproduce_run(
     """The run's :class:`app.runs.Reproduction`: the ``fuzzynav run`` command with every
     option that changes the run, and what it cannot carry, pinned to what it ran: the
     scenario's digest (a shipped one too: ``s3.toml`` may change), the controller's
-    rules' digest (:func:`rules_digest`) and fuzzynav's version, which ``run`` checks
+    rules' digest (:func:`app.runs.rules_digest`) and fuzzynav's version, which ``run`` checks
     before it runs (:func:`check_pins`)."""
     import dataclasses
     import shlex
 
-    from fuzzynav.app.runs import SCENARIO_DIGEST_OPTION, reproduce, scenario_digest
+    from fuzzynav.app.runs import SCENARIO_DIGEST_OPTION, reproduce, rules_digest, scenario_digest
 
     again = reproduce(
         scenario,
@@ -160,6 +149,8 @@ def add_pin_options(parser) -> None:
 def check_pins(args, sim) -> None:
     """``run --rules-sha256 / --fuzzynav-version``: refuse (ValueError, said why) a run
     whose controller or fuzzynav differs from the one recorded."""
+    from fuzzynav.app.runs import rules_digest
+
     want = getattr(args, "rules_sha256", None)
     if want:
         have = rules_digest(sim.controller) or "(none: its rules cannot be written out)"

@@ -158,15 +158,6 @@ def scenario_digest(scenario: Scenario) -> str:
     return hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest()
 
 
-def rule_base_digest(fis) -> str:
-    """sha256 of a fuzzy system as its TOML (``controller.rulebase.dumps_toml``)."""
-    import hashlib
-
-    from fuzzynav.controller.rulebase import dumps_toml
-
-    return hashlib.sha256(dumps_toml(fis).encode("utf-8")).hexdigest()
-
-
 def _shipped_name(scenario: Scenario) -> str | None:
     from fuzzynav.world.scenario import SCENARIO_DIR
 
@@ -234,9 +225,10 @@ def _scenario_part(scenario: Scenario) -> tuple[list[str], list[str]]:
     )
 
 
-def _fingerprint(controller) -> str | None:
-    """What a controller drives with, as text: its rule base(s) and crisp parameters;
-    None when they cannot be written out (a fuzzy system the TOML writer refuses)."""
+def rules_text(controller) -> str | None:
+    """What a controller drives with, as text: its class, its rule base(s) as TOML and
+    its crisp parameters (plain attributes for a controller with no rule base); None
+    when they cannot be written out (a fuzzy system the TOML writer refuses)."""
     import json
 
     from fuzzynav.controller.interface import (
@@ -270,6 +262,22 @@ def _fingerprint(controller) -> str | None:
     return "\n".join(parts)
 
 
+def rules_digest(rules) -> str | None:
+    """The one digest of rules: sha256 (hex) of a fuzzy system's TOML (what
+    ``--fis-sha256`` pins), or of what a controller drives with (:func:`rules_text`:
+    ``--rules-sha256``, a recording's layout key, a study's fingerprint); None when
+    they cannot be written out."""
+    import hashlib
+
+    from fuzzynav.controller.fuzzy import FuzzySystem
+    from fuzzynav.controller.rulebase import dumps_toml
+
+    if rules is None:
+        return None
+    text = dumps_toml(rules) if isinstance(rules, FuzzySystem) else rules_text(rules)
+    return None if text is None else hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     """(arguments, notes): ``--controller NAME [--off ...]`` when a fresh controller of
     that name (the same parts off) drives with exactly this one's rules and parameters;
@@ -281,7 +289,7 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     inner = unwrapped(controller)
     name = getattr(inner, "name", None)  # a label, if it has one
     parts_off = tuple(inner.parts_off) if isinstance(inner, PartsController) else ()
-    mine = _fingerprint(controller)
+    mine = rules_text(controller)
     if mine is not None and isinstance(name, str) and name in controller_names():
         if _fresh_fingerprint(name, geometry, parts_off, _controller_files_signature()) == mine:
             args = ["--controller", name]
@@ -291,7 +299,7 @@ def _controller_part(controller, geometry: str) -> tuple[list[str], list[str]]:
     source = str(getattr(inner, "source", "") or "")
     fis = inner.fis if isinstance(inner, FuzzyController) else None
     if source.endswith(".fis") and fis is not None and mine is not None:
-        return ["--fis", source, FIS_DIGEST_OPTION, rule_base_digest(fis)], []
+        return ["--fis", source, FIS_DIGEST_OPTION, rules_digest(fis)], []
     label = name if isinstance(name, str) and name else type(inner).__name__
     return (
         ["--controller", label],
@@ -324,7 +332,7 @@ def _fresh_fingerprint(name: str, geometry: str, parts_off: tuple, signature: tu
     fresh = make_controller(name, geometry=geometry)
     if parts_off and isinstance(fresh, PartsController):
         fresh.set_parts_off(list(parts_off))
-    return _fingerprint(fresh)
+    return rules_text(fresh)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -395,7 +403,7 @@ def check_digests(args, sim) -> None:
     want = getattr(args, "fis_sha256", None)
     if want:
         fis = getattr(sim.controller, "fis", None)
-        have = rule_base_digest(fis) if fis is not None else "(no rule base)"
+        have = rules_digest(fis) if fis is not None else "(no rule base)"
         if have != want.lower():
             raise ValueError(
                 f"{FIS_DIGEST_OPTION} {want}: the rule base read from --fis is not the one "

@@ -19,6 +19,9 @@ What it measures (CPU seconds of this process, pinned to one CPU, one BLAS threa
    run and the process's peak memory (the 10,000-run point is the memory bound), as a
    table and a log-log figure.
 
+``--split PARTS`` instead runs ``--n`` layouts as one batch and as PARTS batches,
+twice, alternating (the CPU a sweep's smaller tasks cost).
+
 ``--crosscheck N`` instead runs the issue's cross-check at full size: N layouts spread
 over every family, both perceptions and the paper, baseline and p controllers (and
 the paper's point robot), default period and full durations, batch against pymunk:
@@ -165,6 +168,31 @@ def scaling_point(n: int) -> dict:
     }
 
 
+def batch_split(n: int, parts: int, repeats: int = 2) -> dict:
+    """CPU of ``n`` standard layouts (seed 1) as one batch against ``parts`` batches of
+    ``n / parts`` (a sweep's tasks: app.experiments.batch_runs.MAX_BATCH), ``repeats``
+    times alternating."""
+    from fuzzynav.app.experiments.batch_runs import run_layouts
+
+    size = n // parts
+    one, split = [], []
+    for _ in range(repeats):
+        t0 = time.process_time()
+        run_layouts("standard", n, 1, indices=range(n))
+        one.append(time.process_time() - t0)
+        t0 = time.process_time()
+        for k in range(parts):
+            run_layouts("standard", size, 1, indices=range(k * size, (k + 1) * size))
+        split.append(time.process_time() - t0)
+    return {
+        "n": n,
+        "parts": parts,
+        "one_batch_cpu_s": one,
+        "split_cpu_s": split,
+        "ratios": [b / a for a, b in zip(one, split)],
+    }
+
+
 def crosscheck(n: int) -> dict:
     from fuzzynav.app.runs import build_simulation
     from fuzzynav.controller.batch import batch_controller
@@ -259,6 +287,9 @@ def main(argv=None) -> int:
     ap.add_argument("--figure", type=Path, default=ROOT / "docs" / "img" / "batch_scaling.png")
     ap.add_argument("--json", type=Path, default=None, help="also write the numbers here")
     ap.add_argument("--crosscheck", type=int, default=0, metavar="N", help="run the cross-check")
+    ap.add_argument(
+        "--split", type=int, default=0, metavar="PARTS", help="--n as one batch and as PARTS"
+    )
     ap.add_argument("--point", type=int, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     pinned = _pin_one_cpu()
@@ -270,6 +301,9 @@ def main(argv=None) -> int:
 
     console = Console(width=150)
     console.print(f"bench_batch: {pinned}; one BLAS thread; load {os.getloadavg()}")
+    if args.split:
+        console.print(json.dumps(batch_split(args.n, args.split), indent=1))
+        return 0
     if args.crosscheck:
         out = crosscheck(args.crosscheck)
         console.print(json.dumps(out, indent=1))

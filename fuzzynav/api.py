@@ -18,8 +18,11 @@ Functions
 ---------
 simulate        one run of a scenario; a :class:`Run`
 sweep           seeded random layouts, or your scenarios; one row (a dict) per run
+summarize       what ``fuzzynav sweep`` prints of a sweep's rows (and returns it)
+evaluate        a population of controllers on many layouts, batched (candidates x layouts)
 serve           the viewer, in this process
 tune            a controller's design numbers against a cost of your own (CMA-ES)
+DesignSearch    tune's CMA-ES as ask/tell, for a loop of your own (with ``evaluate``)
 load_scenario   a shipped scenario by name (``"s1"``) or a scenario TOML file
 make_controller a controller by name (``"paper"``, ``"fuzzynav"``, ...) or a ``.fis`` file
 register_controller  offer a controller of your own everywhere (``--controller``, sweeps, the viewer)
@@ -38,7 +41,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 import numpy.typing as npt
 
-from fuzzynav.app.experiments.design_search import tune
+from fuzzynav.app.experiments.search import DesignSearch, tune
 from fuzzynav.controller.checker import ControllerCheckError, check_controller
 from fuzzynav.controller.fis import dumps_fis
 from fuzzynav.controller.fis import read_fis as _read_fis
@@ -46,7 +49,8 @@ from fuzzynav.controller.fuzzy import FuzzySystem
 from fuzzynav.controller.interface import Controller, ControllerFunction
 from fuzzynav.controller.registry import make_controller as _make_controller
 from fuzzynav.controller.registry import register_controller
-from fuzzynav.sweeps import SweepRow, sweep
+from fuzzynav.evaluation import Evaluation, evaluate
+from fuzzynav.sweeps import SweepInterrupted, SweepRow, summarize, sweep
 from fuzzynav.world.run_limits import OUTCOMES, Outcome
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.scenario import load_scenario as _load_scenario
@@ -63,8 +67,13 @@ __all__ = [
     "Run",
     "simulate",
     "sweep",
+    "summarize",
+    "SweepInterrupted",
+    "evaluate",
+    "Evaluation",
     "serve",
     "tune",
+    "DesignSearch",
     "load_scenario",
     "make_controller",
     "register_controller",
@@ -200,6 +209,26 @@ class Run:
                 footprint_m=(params.footprint_length_m, params.footprint_width_m),
                 voltage_limit_v=sim.voltage_limit_v,
             )
+
+    def to_dataframe(self) -> Any:  # a pandas.DataFrame (pandas is an optional extra)
+        """The run as a pandas DataFrame, one row per control step: the columns of
+        :attr:`trace` (``time_s``, ``x_m``, ``y_m``, ``heading_rad``, the inputs, the
+        voltages...), then ``obstacle_K_x_m`` and ``obstacle_K_y_m`` for each obstacle
+        ``K`` (0, 1, ... in the scenario's order): where it was at that step, a moving
+        one's path over time; NaN while an obstacle is absent (before it appears, after
+        it leaves). Needs pandas (``pip install "fuzzynav[pandas]"``)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(
+                'Run.to_dataframe needs pandas: pip install "fuzzynav[pandas]"'
+            ) from None
+        columns: dict[str, npt.NDArray[np.float64]] = dict(self.trace)
+        obstacle_xy = np.asarray(self.result.log.obstacle_xy, dtype=float)
+        for k in range(obstacle_xy.shape[1]):
+            columns[f"obstacle_{k}_x_m"] = obstacle_xy[:, k, 0]
+            columns[f"obstacle_{k}_y_m"] = obstacle_xy[:, k, 1]
+        return pd.DataFrame(columns)
 
     def _inputs(self) -> list[Path]:
         """The files this run read (its scenario's, a ``.fis`` or rule base file): no

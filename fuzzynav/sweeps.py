@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from fuzzynav.app.experiments.resultlog import ResultLog
     from fuzzynav.app.experiments.studies import LayoutJob
 
-__all__ = ["SweepRow", "sweep"]
+__all__ = ["SweepRow", "SweepInterrupted", "sweep", "summarize"]
 
 #: What a sweep has to say besides its rows goes to the ``fuzzynav`` logger (silent
 #: unless the program configures logging); a fallback to the pymunk engine is a warning.
@@ -41,8 +41,9 @@ class SweepRow(TypedDict, total=False):
     apply, such as the time to target of a run that never arrived, is None).
 
     The study: ``index``, ``controller``, ``parts_off``, ``family`` (``set:...`` for
-    scenarios of one's own), ``seed``, ``perception``, ``options`` (only when not the
-    defaults) and ``fingerprint`` (what made it). The run: ``outcome``, ``reached``,
+    scenarios of one's own), ``scenario`` (its name: a scenario file's stem, ``s1``, or
+    a generated layout's ``standard #3 (seed 1)``), ``seed``, ``perception``,
+    ``options`` (only when not the defaults) and ``fingerprint`` (what made it). The run: ``outcome``, ``reached``,
     ``collided``, ``success`` (reached without collision), the path and clearances in
     metres, the time to target in seconds, and the benchmark ratios against the
     shortest path that keeps the clearance.
@@ -52,6 +53,7 @@ class SweepRow(TypedDict, total=False):
     controller: str
     parts_off: list[str]
     family: str
+    scenario: str
     seed: int
     perception: str
     options: dict[str, object]
@@ -74,6 +76,24 @@ class SweepRow(TypedDict, total=False):
     score: float | None
 
 
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`sweep`: ``rows`` holds every row finished before it (in
+    layout order; on the batch engine the batch in flight, at most 500 runs, is lost).
+    With ``out`` they are in the file too, and ``resume=True`` goes on from them.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The rows finished.
+    total : int
+        The runs the sweep had.
+    """
+
+    def __init__(self, rows: list[SweepRow], total: int) -> None:
+        super().__init__(f"sweep interrupted: {len(rows)} of {total} runs finished")
+        self.rows = rows
+
+
 def sweep(
     controller: str | Controller | ControllerFunction = "paper",
     n: int | None = None,
@@ -82,11 +102,12 @@ def sweep(
     perception: str = "ideal",
     geometry: str = "husky",
     *,
+    start: int = 0,
     scenarios: Scenarios | None = None,
     workers: int = 1,
     executor: str | None = None,
     scheduler: str | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: bool | Callable[[int, int], None] | None = None,
     engine: str = "batch",
     out: str | Path | None = None,
     resume: bool = False,
@@ -102,8 +123,8 @@ def sweep(
         processes), or one plain function as :func:`fuzzynav.simulate` takes it (a
         vectorised one runs on the batch engine as it is).
     n : int, optional
-        How many layouts (layouts 0 .. n - 1 of the family and seed); default the
-        command line's (``fuzzynav sweep --n``). Not with ``scenarios``.
+        How many layouts (layouts ``start`` .. ``start + n - 1`` of the family and seed);
+        default the command line's (``fuzzynav sweep --n``). Not with ``scenarios``.
     seed : int, optional
         The layouts' seed (the same seed gives the same layouts everywhere); default the
         command line's. Not with ``scenarios``.
@@ -112,6 +133,8 @@ def sweep(
         --help``).
     perception, geometry : str
         As :func:`fuzzynav.simulate`.
+    start : int
+        The first layout's index (default 0): a sweep continues another's layouts.
     scenarios : str, Path, Scenario or list of them, optional
         Run these instead of generated layouts: a scenario file, a folder of scenario
         files (``*.toml``, in name order), a shipped scenario's name, a
@@ -126,10 +149,11 @@ def sweep(
         worker, else ``local``.
     scheduler : str, optional
         A dask scheduler's address (``executor="dask"`` only).
-    progress : callable, optional
-        Called as ``progress(done, total)`` at the start and as rows arrive: after
-        each run on the pymunk engine, after each batch of runs (up to a few hundred,
-        finishing together) on the batch engine.
+    progress : bool or callable, optional
+        True: the command line's progress bar on stderr. A callable: called as
+        ``progress(done, total)`` at the start and as rows arrive: after each run on the
+        pymunk engine, after each batch of runs (up to 500, finishing together) on the
+        batch engine.
     engine : {"batch", "pymunk"}
         ``batch``: the runs in lockstep as numpy arrays (world/batch.py; the command
         line's default); ``pymunk``: one world at a time, the reference. Controllers the
@@ -147,19 +171,53 @@ def sweep(
         One row per run, in layout (or scenario) order: the fields ``fuzzynav sweep
         --out`` writes (index, outcome, success, path_length_m, min_clearance_m,
         time_to_target_s, shortest_path_m, ...). A number that does not apply is None.
-    """
-    from fuzzynav.app.experiments.studies import run_jobs
 
+    Raises
+    ------
+    SweepInterrupted
+        Ctrl-C (a KeyboardInterrupt): its ``rows`` are the runs finished before it.
+    """
     if not isinstance(controller, str):
         from fuzzynav.controller.function import as_controller
 
         controller = as_controller(controller)  # a plain function is a controller too
         check_controller(controller)  # every problem named before a run starts
-    jobs = _jobs(controller, n, seed, family, perception, geometry, scenarios)
-    with _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log):
-        rows = run_jobs(
-            jobs, runner, log=log, progress=progress, engine=engine, on_fallback=_warn_fallback
-        )
+    jobs = _jobs(controller, n, seed, family, perception, geometry, scenarios, start)
+    return _run(jobs, executor, workers, scheduler, out, resume, progress, engine)
+
+
+def _run(
+    jobs: Sequence[LayoutJob],
+    executor: str | None,
+    workers: int,
+    scheduler: str | None,
+    out: str | Path | None,
+    resume: bool,
+    progress: bool | Callable[[int, int], None] | None,
+    engine: str,
+) -> list[SweepRow]:
+    """The rows of ``jobs`` (:func:`sweep`'s arguments); SweepInterrupted on Ctrl-C."""
+    from fuzzynav.app.experiments.rows import row_key
+    from fuzzynav.app.experiments.studies import run_jobs
+
+    finished: dict[tuple, dict] = {}
+    try:
+        with (
+            _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log),
+            _progress(progress, len(jobs)) as report,
+        ):
+            rows = run_jobs(
+                jobs,
+                runner,
+                log=log,
+                progress=report,
+                engine=engine,
+                on_fallback=_warn_fallback,
+                on_row=lambda row: finished.setdefault(row_key(row), row),
+            )
+    except KeyboardInterrupt:
+        kept = [finished[job.key()] for job in jobs if job.key() in finished]
+        raise SweepInterrupted(cast(list[SweepRow], kept), len(jobs)) from None
     if log is not None and log.dropped_partial_line:
         _LOG.warning("%s: an unfinished last line was dropped and run again", log.shown)
     return cast(list[SweepRow], rows)
@@ -170,6 +228,71 @@ def _warn_fallback(message: str) -> None:
     warnings.warn(message, UserWarning, stacklevel=2)
 
 
+def summarize(rows: Sequence[SweepRow], *, show: bool = True) -> dict[str, object]:
+    """What ``fuzzynav sweep`` prints of a sweep's rows, and its ``--json`` summary.
+
+    Parameters
+    ----------
+    rows : list of dict
+        :func:`sweep`'s rows of one study: one controller, family, seed and perception
+        (call it once per controller to compare several).
+    show : bool
+        Print the command line's table (default True).
+
+    Returns
+    -------
+    dict
+        The summary ``fuzzynav sweep --json`` prints, without its rows: ``n``,
+        ``success_rate``, ``safe_success_rate``, ``reached``, ``collisions``,
+        ``timeouts``, the medians of the path, its ratios and the clearance, the mean
+        score, and the study's controller, family, seed and perception.
+
+    Raises
+    ------
+    ValueError
+        No rows, or rows of several studies (it names them).
+    """
+    from fuzzynav.app.experiments.sweep import summarize as summarize_rows
+    from fuzzynav.app.experiments.sweep import summary_table
+
+    rows = list(rows)
+    if not rows:
+        raise ValueError("rows: none given")
+    studies = {
+        (r.get("controller"), r.get("family"), r.get("seed"), r.get("perception")) for r in rows
+    }
+    if len(studies) > 1:
+        raise ValueError(
+            f"rows of {len(studies)} studies ({', '.join(map(str, sorted(studies, key=str)))}): "
+            "summarize each study's rows apart"
+        )
+    out = summarize_rows(cast(list[dict], rows))
+    out.pop("runs")
+    out.pop("wall_time_s")
+    if show:
+        from rich.console import Console
+
+        Console().print(summary_table(out, str(out["controller"])))
+    return out
+
+
+@contextlib.contextmanager
+def _progress(
+    progress: bool | Callable[[int, int], None] | None, total: int
+) -> Iterator[Callable[[int, int], None] | None]:
+    """``progress(done, total)`` for run_jobs: the command line's bar for True."""
+    if progress is True:
+        from fuzzynav.app.experiments.studies import progress_bar
+
+        with progress_bar("sweep", quiet=False) as bar:
+            task = bar.add_task("runs", total=total)
+            yield lambda done, total: bar.update(task, completed=done, total=total)
+        return
+    if not (progress is None or progress is False or callable(progress)):
+        raise ValueError(f"progress = {progress!r}: True, False or a callable")
+    yield progress or None
+
+
 def _jobs(
     controller: str | Controller | ControllerFunction,
     n: int | None,
@@ -178,18 +301,23 @@ def _jobs(
     perception: str,
     geometry: str,
     scenarios: Scenarios | None,
+    start: int = 0,
 ) -> Sequence[LayoutJob]:
     """The jobs of :func:`sweep`'s study, every argument checked as the command line's."""
     from fuzzynav.app.args import integer_value
     from fuzzynav.app.experiments import sweep as sweep_command
-    from fuzzynav.app.experiments.studies import sweep_jobs
-    from fuzzynav.app.experiments.study_sources import scenario_list, scenario_set_jobs
-    from fuzzynav.world.layouts import generate_layout
+    from fuzzynav.app.experiments.rows import MAX_LAYOUTS
+    from fuzzynav.app.experiments.studies import LayoutJob, sweep_jobs
+    from fuzzynav.app.experiments.study_sources import (
+        controller_label,
+        scenario_list,
+        scenario_set_jobs,
+    )
 
     options = {} if geometry == "husky" else {"geometry": geometry}
     if scenarios is not None:
-        if n is not None or seed is not None:
-            raise ValueError("n, seed: the layouts' count and seed; not with scenarios")
+        if n is not None or seed is not None or start:
+            raise ValueError("n, seed, start: the layouts' count, seed, first; not with scenarios")
         footprint = (0.0, 0.0) if geometry == "paper" else None
         return scenario_set_jobs(
             scenario_list(scenarios, footprint), controller, perception, options
@@ -197,12 +325,19 @@ def _jobs(
     n = sweep_command.DEFAULT_N if n is None else n
     seed = sweep_command.DEFAULT_SEED if seed is None else seed
     integer_value(seed, "seed", 0)  # as --seed
-    if isinstance(controller, str):
-        sweep_command.check_sweep(controller, n, family)
+    integer_value(start, "start", 0, MAX_LAYOUTS - 1)
+    sweep_command.check_sweep(controller if isinstance(controller, str) else "p", n, family)
+    if start + n > MAX_LAYOUTS:
+        raise ValueError(f"start + n = {start + n}: layouts up to index {MAX_LAYOUTS - 1}")
+    if isinstance(controller, str) and not start:
         return sweep_jobs(controller, n, seed, family, perception, (), options)
-    sweep_command.check_sweep("p", n, family)  # n and family, as --n and --family
-    layouts = (generate_layout(family, seed, i) for i in range(n))
-    return scenario_set_jobs(layouts, controller, perception, options)
+    obj = None if isinstance(controller, str) else controller
+    label = controller if obj is None else controller_label(obj)
+    opts = tuple(sorted(options.items()))
+    return [
+        LayoutJob(family, seed, i, str(label), perception, (), opts, controller_object=obj)
+        for i in range(start, start + n)
+    ]
 
 
 @contextlib.contextmanager

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import fuzzynav
-from fuzzynav.app.experiments.design_search import DEFAULTS, DesignSearch
+from fuzzynav.app.experiments.search import DEFAULTS, DesignSearch
 from fuzzynav.controller.design_rules import violations
 
 INPUTS = np.array([4.0, np.nan, 0.5, np.nan])  # the target 4 m away, 0.5 rad to the left
@@ -73,3 +73,52 @@ def test_the_defaults_are_documented_and_used():
         DesignSearch("p")
     with pytest.raises(ValueError, match="12 numbers"):
         search.project([1.0, 2.0])
+
+
+def test_tune_draws_a_progress_bar_and_is_never_worse_than_its_start(capsys):
+    start = _turn_cost(DesignSearch("paper").build())
+    result = fuzzynav.tune(_turn_cost, "paper", generations=2, popsize=4, seed=2, progress=True)
+    assert "generation 2/2" in capsys.readouterr().err
+    assert result.cost <= start and result.generations == 2
+    assert result.evaluations == 2 * 4 + 1  # and the start itself
+    with pytest.raises(ValueError, match="progress"):
+        fuzzynav.tune(_turn_cost, generations=1, popsize=4, progress="yes")
+
+
+def test_the_one_tune_takes_the_commands_searches_with_your_cost():
+    names = DesignSearch("paper").parameter_names
+    free = [i for i, name in enumerate(names) if name.startswith("phi_t")]
+    x0 = DesignSearch("paper").tunable.initial_vector()
+    start = _turn_cost(DesignSearch("paper").build(x0))
+    for method in ("de", "powell"):
+        result = fuzzynav.tune(
+            _turn_cost, "paper", method=method, generations=2, popsize=2, seed=1, free=free
+        )
+        fixed = [i for i in range(len(names)) if i not in free]
+        np.testing.assert_array_equal(result.vector[fixed], x0[fixed])  # only phi_t moved
+        assert result.cost <= start
+        assert result.cost == pytest.approx(_turn_cost(result.controller))
+    with pytest.raises(ValueError, match="one of them"):
+        fuzzynav.tune(controller="paper")
+    with pytest.raises(ValueError, match="method"):
+        fuzzynav.tune(_turn_cost, method="annealing", generations=1, popsize=4)
+
+
+@pytest.mark.parametrize("method", ["cmaes", "de"])
+def test_a_population_cost_searches_as_a_cost_of_each_controller(method):
+    calls = []
+
+    def population_cost(controllers):
+        calls.append(len(controllers))
+        return [_turn_cost(c) for c in controllers]
+
+    kwargs = dict(method=method, generations=2, popsize=4, seed=5)
+    one_by_one = fuzzynav.tune(_turn_cost, "paper", **kwargs)
+    together = fuzzynav.tune(population_cost=population_cost, controller="paper", **kwargs)
+    np.testing.assert_array_equal(together.vector, one_by_one.vector)
+    assert together.cost == one_by_one.cost and together.history == one_by_one.history
+    assert max(calls) > 1  # whole generations, not one controller a call
+    with pytest.raises(ValueError, match="one of them"):
+        fuzzynav.tune(_turn_cost, population_cost=population_cost)
+    with pytest.raises(ValueError, match="2 costs for"):
+        fuzzynav.tune(population_cost=lambda cs: [0.0, 1.0], generations=1, popsize=4)

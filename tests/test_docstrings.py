@@ -16,7 +16,7 @@ from fuzzynav import api
 PUBLIC = [
     name
     for name in fuzzynav.__all__
-    if name not in ("__version__", "Run", "Outcome", "SweepRow")  # types, not functions
+    if name not in ("__version__", "Run", "Evaluation", "Outcome", "SweepRow")  # types
     # an exception class takes the message alone
     and not (inspect.isclass(getattr(api, name)) and issubclass(getattr(api, name), Exception))
 ]

@@ -127,12 +127,27 @@ def test_tune_de_is_the_same_on_a_pool():
     )
     case = [Case(sc, "ideal", "tiny")]
     t = tunable("paper")
-    serial = tune(t, case, maxiter=1, popsize=1, seed=3, control_period_s=0.1)
+    serial = tune(
+        controller=t,
+        cases=case,
+        method="de",
+        generations=1,
+        popsize=1,
+        seed=3,
+        control_period_s=0.1,
+    )
     with LocalExecutor(2) as executor:
         pooled = tune(
-            t, case, maxiter=1, popsize=1, seed=3, control_period_s=0.1, executor=executor
+            controller=t,
+            cases=case,
+            method="de",
+            generations=1,
+            popsize=1,
+            seed=3,
+            control_period_s=0.1,
+            executor=executor,
         )
-    assert np.array_equal(serial.x, pooled.x) and serial.fun == pooled.fun
+    assert np.array_equal(serial.vector, pooled.vector) and serial.cost == pooled.cost
 
 
 def test_tune_cmaes_is_the_same_on_a_pool():
@@ -141,11 +156,11 @@ def test_tune_cmaes_is_the_same_on_a_pool():
     )
     case = [Case(sc, "ideal", "tiny")]
     t = tunable("paper")
-    kwargs = dict(maxiter=2, popsize=4, seed=3, control_period_s=0.1, method="cmaes")
-    serial = tune(t, case, **kwargs)
+    kwargs = dict(generations=2, popsize=4, seed=3, control_period_s=0.1, method="cmaes")
+    serial = tune(controller=t, cases=case, **kwargs)
     with LocalExecutor(2) as executor:
-        pooled = tune(t, case, executor=executor, **kwargs)
-    assert np.array_equal(serial.x, pooled.x) and serial.fun == pooled.fun
+        pooled = tune(controller=t, cases=case, executor=executor, **kwargs)
+    assert np.array_equal(serial.vector, pooled.vector) and serial.cost == pooled.cost
 
 
 def test_workers_beyond_two_are_accepted_and_zero_refused(capsys):

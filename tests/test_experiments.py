@@ -48,11 +48,28 @@ def tiny_case():
 def test_tune_is_reproducible_with_the_same_seed():
     t = tunable("paper")
     runs = [
-        tune(t, tiny_case(), maxiter=1, popsize=1, seed=7, control_period_s=0.1) for _ in range(2)
+        tune(
+            controller=t,
+            cases=tiny_case(),
+            method="de",
+            generations=1,
+            popsize=1,
+            seed=7,
+            control_period_s=0.1,
+        )
+        for _ in range(2)
     ]
-    assert np.array_equal(runs[0].x, runs[1].x) and runs[0].fun == runs[1].fun
-    other = tune(t, tiny_case(), maxiter=1, popsize=1, seed=8, control_period_s=0.1)
-    assert not np.array_equal(other.x, runs[0].x)
+    assert np.array_equal(runs[0].vector, runs[1].vector) and runs[0].cost == runs[1].cost
+    other = tune(
+        controller=t,
+        cases=tiny_case(),
+        method="de",
+        generations=1,
+        popsize=1,
+        seed=8,
+        control_period_s=0.1,
+    )
+    assert not np.array_equal(other.vector, runs[0].vector)
 
 
 def test_cost_prefers_reaching_over_timeout_over_collision():

@@ -127,7 +127,7 @@ def test_function_lengths_are_measured_from_def_to_end():
     lengths = _all_function_lengths()
     assert lengths["fuzzynav.controller.navigator.controller.FuzzyNavController.__call__"] > 20
     assert lengths["fuzzynav.world.shortest_path.shortest_path"] > 20
-    assert lengths["fuzzynav.app.experiments.search.tune.callback"] < 10
+    assert lengths["fuzzynav.app.experiments.search._search.callback"] < 10
 
 
 def test_no_new_function_over_the_length_limit():

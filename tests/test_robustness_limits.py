@@ -446,6 +446,7 @@ def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
     80 MB) before its first run: the jobs are now made as the executor takes them,
     and the executor is told how many there are."""
     from fuzzynav.app.experiments import studies
+    from fuzzynav.app.experiments.batch_runs import MAX_BATCH
     from fuzzynav.app.experiments.executor import SerialExecutor
     from fuzzynav.app.experiments.rows import MAX_LAYOUTS
 
@@ -478,11 +479,11 @@ def test_a_sweep_builds_no_job_list_before_its_first_run(monkeypatch):
     for engine in ("pymunk", "batch"):
         with pytest.raises(KeyboardInterrupt):
             studies.run_jobs(jobs, FirstRuns(), engine=engine)
-        # three runs, or three batches of at most 1,000 runs: not 200,000
-        assert len(made) <= (3 if engine == "pymunk" else 3000), engine
-        assert seen["total"] == (len(jobs) if engine == "pymunk" else 200), engine
+        # three runs, or three batches of at most MAX_BATCH (500) runs: not 200,000
+        assert len(made) <= (3 if engine == "pymunk" else 3 * MAX_BATCH), engine
+        assert seen["total"] == (len(jobs) if engine == "pymunk" else 400), engine
         made.clear()
-    assert seen["pymunk"] == [0, 1, 2] and seen["batch"] == [0, 1000, 2000]
+    assert seen["pymunk"] == [0, 1, 2] and seen["batch"] == [0, MAX_BATCH, 2 * MAX_BATCH]
 
 
 def test_lazy_batch_tasks_are_the_listed_ones():

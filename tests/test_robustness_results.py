@@ -167,7 +167,7 @@ def test_rows_of_another_version_or_rule_base_are_not_merged(
     monkeypatch.undo()
     experiments._fingerprint.cache_clear()
     fuzzynav_version.cache_clear()
-    monkeypatch.setitem(experiments._DIGESTS, "paper", "another rule base")
+    monkeypatch.setitem(experiments._DIGESTS, ("paper", "husky"), "another rule base")
     assert study_fingerprint("paper", (), "standard", 1, "ideal", {}) != base
     assert study_fingerprint("paper", (), "standard", 1, "ideal", {"engine": "batch"}) != base
     experiments._fingerprint.cache_clear()

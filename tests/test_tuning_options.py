@@ -53,11 +53,18 @@ def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     names, x0 = t.parameter_names(), t.initial_vector()
     free = free_indices(names, ["phi_o.p", "d_o.near"])
     runs = [
-        tune(t, tiny_case(), maxiter=2, method=method, free=free, control_period_s=0.1)
+        tune(
+            controller=t,
+            cases=tiny_case(),
+            generations=2,
+            method=method,
+            free=free,
+            control_period_s=0.1,
+        )
         for _ in range(2)
     ]
-    assert np.array_equal(runs[0].x, runs[1].x) and runs[0].fun == runs[1].fun
-    x = runs[0].x
+    assert np.array_equal(runs[0].vector, runs[1].vector) and runs[0].cost == runs[1].cost
+    x = runs[0].vector
     assert x.shape == x0.shape
     fixed = [i for i in range(len(x0)) if i not in free]
     assert np.array_equal(x[fixed], x0[fixed])
@@ -67,8 +74,17 @@ def test_de_radius_narrows_the_bounds_around_the_start():
     t = tunable("paper")
     x0 = t.initial_vector()
     lo, hi = np.array(t.bounds()).T
-    result = tune(t, tiny_case(), maxiter=1, popsize=1, seed=1, radius=0.01, control_period_s=0.1)
-    assert np.all(np.abs(result.x - x0) <= 0.01 * (hi - lo) + 1e-12)
+    result = tune(
+        controller=t,
+        cases=tiny_case(),
+        method="de",
+        generations=1,
+        popsize=1,
+        seed=1,
+        radius=0.01,
+        control_period_s=0.1,
+    )
+    assert np.all(np.abs(result.vector - x0) <= 0.01 * (hi - lo) + 1e-12)
 
 
 def test_clearance_weight_scales_the_hinge():
@@ -220,9 +236,9 @@ def test_cmaes_never_returns_worse_than_its_start():
     x0 = t.initial_vector()
     objective = Objective(t, tiny_case(), control_period_s=0.1)
     result = tune(
-        t,
-        tiny_case(),
-        maxiter=1,
+        controller=t,
+        cases=tiny_case(),
+        generations=1,
         popsize=4,
         seed=3,
         method="cmaes",
@@ -230,5 +246,5 @@ def test_cmaes_never_returns_worse_than_its_start():
         x0=x0,
         control_period_s=0.1,
     )
-    assert result.fun <= objective(x0) + 1e-12
-    assert result.fun == pytest.approx(objective(result.x))
+    assert result.cost <= objective(x0) + 1e-12
+    assert result.cost == pytest.approx(objective(result.vector))

@@ -6,9 +6,9 @@
 - :mod:`.sweep`       ``sweep``: a controller on seeded layouts, its success rate;
 - :mod:`.compare`     ``compare``: Table 4 on the paper's scenarios, beside the paper;
 - :mod:`.objective`   the cost ``tune`` minimises: a parameter vector's runs;
-- :mod:`.tuning`      ``tune``: evolution of a controller's membership functions;
-- :mod:`.search`      ``tune``'s search: DE, CMA-ES or a local search over the objective;
-- :mod:`.design_search` tuning from Python: ask/tell CMA-ES over design numbers, your cost;
+- :mod:`.tuning`      the ``tune`` command: options, checkpoint, the tuned file;
+- :mod:`.search`      tuning: the one ``tune`` (CMA-ES, DE or a local search; your cost
+  or the objective's runs) and ``DesignSearch``, its ask/tell form;
 - :mod:`.paper_fit`   ``fit-paper``: the paper controller reconstructed from its numbers;
 - :mod:`.paper_fit_command` ``fit-paper``'s command line: options, checks, report;
 - :mod:`.paper_docs`  what docs/paper-controller.md states of the shipped rule bases, computed;
@@ -17,5 +17,5 @@
 - :mod:`.batch_runs`  the same studies on the lockstep batch engine;
 - :mod:`.executor`    where runs execute: this process, every core, or a Dask cluster;
 - :mod:`.resultlog`   ``--out``/``--resume``: rows written as they arrive, read back safely;
-- :mod:`.evolution`   pycma's CMA-ES on a box, seeded: fit-paper's search (and tune --method cmaes).
+- :mod:`.evolution`   pycma's CMA-ES on a box, seeded: the one wrapper (fit-paper, tune).
 """

@@ -22,8 +22,8 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 #: Runs per batch task at most: a batch's arrays stay in the cache's neighbourhood, and
-#: Ctrl-C loses at most one batch per worker.
-MAX_BATCH = 1000
+#: Ctrl-C loses at most one batch per worker (its rows come back when it ends).
+MAX_BATCH = 500
 #: Runs per batch task at least (when there are that many): below it, a step's fixed
 #: cost (a few hundred numpy calls) outweighs the runs it advances.
 MIN_BATCH = 100
@@ -82,6 +82,7 @@ def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> d
         "controller": job.controller,
         "parts_off": list(job.parts_off),
         "family": job.family,
+        "scenario": scenario_label(scenario),
         "seed": job.seed,
         "perception": job.perception,
         **({"options": options} if options else {}),
@@ -102,6 +103,16 @@ def layout_row(job, scenario, metrics: dict, model, voltage_limit_v: float) -> d
         **run_benchmark(run, model, voltage_limit_v),
     }
     return finite_or_none(row)
+
+
+def scenario_label(scenario) -> str:
+    """A row's name for its scenario: a scenario file's stem (``s1`` for the shipped
+    s1), else the scenario's own name (a generated layout's ``standard #3 (seed 1)``)."""
+    from pathlib import Path
+
+    source = str(getattr(scenario, "source", "") or "")
+    label = Path(source).stem if source.endswith(".toml") else scenario.name
+    return (label or "(unnamed)")[:200]  # a name, as rows.check_row reads it back
 
 
 def run_benchmark(result, model, voltage_limit_v: float) -> dict:

@@ -76,6 +76,8 @@ def check_row(row: dict) -> None:
     integer("seed", 0, 2**63 - 1)
     for name in ("controller", "family", "perception"):
         text(name)
+    if "scenario" in row:  # rows before the scenario's name was written have none
+        text("scenario")
     parts = row["parts_off"]
     if not isinstance(parts, list) or not all(isinstance(p, str) for p in parts):
         raise bad("parts_off", "must be a list of part names")

@@ -89,25 +89,27 @@ def _study_key(controller, parts_off, family, seed, perception, options) -> tupl
     )
 
 
-def _rules_digest(controller: str) -> str:
-    """SHA-256 of what a controller's runs are made with besides the code: its shipped
-    rule bases (``assets/rules/<controller>*.toml``) and the robot (``husky.toml``)."""
+def _rules_digest(controller: str, geometry: str) -> str:
+    """What a study's runs are made with besides the code: the rules of a fresh
+    controller of that name (:func:`app.runs.rules_digest`; none for a controller
+    object's label, which carries its own digest) and the robot (``husky.toml``)."""
     import hashlib
 
+    from fuzzynav.app.runs import rules_digest
+    from fuzzynav.controller.registry import make_controller
     from fuzzynav.resources import MAX_INPUT_BYTES, asset_path, read_user_bytes
 
-    digest = hashlib.sha256()
-    rules = asset_path("rules")
-    files = sorted(
-        p for p in rules.glob("*.toml") if p.name.split("_")[0].split(".")[0] == controller
-    )
-    for path in [*files, asset_path("husky.toml")]:
-        digest.update(path.name.encode() + b"\0")
-        digest.update(read_user_bytes(path, "shipped file", MAX_INPUT_BYTES))
+    try:
+        rules = rules_digest(make_controller(controller, geometry=geometry))
+    except (ValueError, ImportError, AttributeError):  # a controller object's label
+        rules = None
+    digest = hashlib.sha256(f"{rules}\0".encode())
+    robot = asset_path("husky.toml")
+    digest.update(read_user_bytes(robot, "shipped file", MAX_INPUT_BYTES))
     return digest.hexdigest()
 
 
-_DIGESTS: dict[str, str] = {}
+_DIGESTS: dict[tuple[str, str], str] = {}
 
 
 def study_fingerprint(controller, parts_off, family, seed, perception, options) -> str:
@@ -126,13 +128,14 @@ def _fingerprint(controller, parts_off, family, seed, perception, options) -> st
     # cached: every job's key asks for it (a sweep of 100,000 layouts once, not 100,000 times)
     import hashlib
 
-    if controller not in _DIGESTS:
-        _DIGESTS[controller] = _rules_digest(controller)
+    rules_key = (controller, dict(options).get("geometry", "husky"))
+    if rules_key not in _DIGESTS:
+        _DIGESTS[rules_key] = _rules_digest(*rules_key)
     what = json.dumps(
         [
             fuzzynav_version(),
             controller,
-            _DIGESTS[controller],
+            _DIGESTS[rules_key],
             list(parts_off),
             family,
             seed,
@@ -318,14 +321,15 @@ def sweep_jobs(
 
 
 def run_jobs(
-    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None
+    jobs, executor=None, *, log=None, progress=None, engine="pymunk", on_fallback=None, on_row=None
 ) -> list[dict]:
     """The rows of ``jobs``, in the jobs' order, whatever order they finish in.
 
     ``executor``: an :class:`app.experiments.executor.Executor` (default: serial). ``log``: an open
     :class:`app.experiments.resultlog.ResultLog`; the jobs it holds rows of are not run again, each
     new row is written to it as it arrives, and rows of other studies are refused.
-    ``progress(done, total)`` after each row (and once at the start). ``engine``:
+    ``progress(done, total)`` after each row (and once at the start); ``on_row(row)``
+    with each new row as it arrives (what a Ctrl-C keeps). ``engine``:
     ``pymunk`` (one task per run) or ``batch`` (:mod:`app.experiments.batch_runs`: batches of runs
     as tasks; controllers it cannot drive run on pymunk, and ``on_fallback(message)``
     is told so).
@@ -373,6 +377,8 @@ def run_jobs(
                 if log is not None:
                     log.write(row)
                 found[row_key(row)] = row
+                if on_row is not None:
+                    on_row(row)
             if progress:
                 progress(len(found), len(jobs))
     finally:
@@ -384,7 +390,8 @@ class StudyInterrupted(Exception):
     """Ctrl-C during a study: what was kept has been said on stderr (exit status 130)."""
 
 
-def _progress_bar(label: str, quiet: bool):
+def progress_bar(label: str, quiet: bool):
+    """The commands' progress bar of runs (done / total, runs/s, times), on stderr."""
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -447,7 +454,7 @@ def run_study(jobs, args, label: str, quiet: bool) -> tuple[list[dict], float]:
                 # here, naming this one's process id
                 stack.enter_context(log)
             executor = stack.enter_context(executor_from_args(args, jobs=len(jobs)))
-            with _progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
+            with progress_bar(f"{label} ({executor.describe()})", quiet) as bar:
                 task = bar.add_task("runs", total=len(jobs))
 
                 def progress(done, total):

@@ -271,6 +271,24 @@ def _fmt(value, digits=3):
     return str(value)
 
 
+def summary_table(out: dict, label: str, other: dict | None = None, beside: str = ""):
+    """The table ``fuzzynav sweep`` prints of a summary (:func:`summarize`), with
+    ``other``'s column (the ``--beside`` controller's) when given: a rich Table."""
+    from rich.table import Table
+
+    table = Table(
+        title=f"sweep: {out['family']} layouts, seed {out['seed']}, {out['perception']} perception"
+    )
+    table.add_column("metric")
+    table.add_column(label, justify="right")
+    if other is not None:
+        table.add_column(beside, justify="right")
+    for key, value in out.items():
+        if key not in ("runs", "controller"):
+            table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
+    return table
+
+
 def cmd_sweep(args) -> int:
     from rich.console import Console
     from rich.table import Table
@@ -322,17 +340,7 @@ def cmd_sweep(args) -> int:
             out["failures"] = failures
         print_json(out)
         return 0
-    table = Table(
-        title=f"sweep: {args.family} layouts, seed {args.seed}, {args.perception} perception"
-    )
-    table.add_column("metric")
-    table.add_column(label, justify="right")
-    if other is not None:
-        table.add_column(beside, justify="right")
-    for key, value in out.items():
-        if key not in ("runs", "controller"):
-            table.add_row(key, _fmt(value), *([_fmt(other[key])] if other is not None else []))
-    Console().print(table)
+    Console().print(summary_table(out, label, other, beside))
     if args.out is not None:
         print(f"every run: {escape_controls(str(args.out))}")
     if failures:

@@ -358,7 +358,7 @@ def _write_checkpoint(console, path: Path, x, step: str, gen: int) -> None:
 
 def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: float):
     """:func:`tune` on the executor of ``args`` with a progress bar (lines on stderr when
-    it is not a terminal) and ``--checkpoint``; ``(result, best cost per generation)``."""
+    it is not a terminal) and ``--checkpoint``; a :class:`.search.TuneResult`."""
     from rich.progress import (
         BarColumn,
         Progress,
@@ -369,7 +369,6 @@ def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: flo
 
     from fuzzynav.app.experiments.executor import SerialExecutor, executor_from_args
 
-    history = []
     # DE and CMA-ES evaluate a population a generation (mapped in order: the same result
     # on any executor); a local search is sequential: no pool or cluster for it
     population = args.method in ("de", "cmaes")
@@ -397,7 +396,6 @@ def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: flo
                 )
 
         def on_generation(gen, best, x):
-            history.append(best)
             if args.checkpoint is not None:
                 _write_checkpoint(console, args.checkpoint, x, step, gen)
             progress.update(task, completed=gen, best=f"{best:.4f}")
@@ -408,9 +406,9 @@ def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: flo
                 )
 
         result = tune(
-            t,
-            cases,
-            maxiter=args.maxiter,
+            controller=t,
+            cases=cases,
+            generations=args.maxiter,
             popsize=args.popsize,
             seed=args.seed,
             executor=executor,
@@ -426,7 +424,7 @@ def _tune_with_progress(args, t, cases, x0, free, console, step: str, start: flo
             engine=getattr(args, "engine", "pymunk"),
             on_fallback=lambda message: console.print(f"fuzzynav: {message}"),
         )
-    return result, history
+    return result
 
 
 def fresh_default_out(out: Path, console, command: str) -> Path:
@@ -480,24 +478,24 @@ def cmd_tune(args) -> int:
     )
     start = time.perf_counter()
     step = "generation" if args.method == "de" else "iteration"
-    result, history = _tune_with_progress(args, t, cases, x0, free, console, step, start)
+    result = _tune_with_progress(args, t, cases, x0, free, console, step, start)
     elapsed = time.perf_counter() - start
     header = (
         reproduce_line(command) + "\n"
-        f"(best cost {result.fun:.6f} after {result.nit} {step}s, {result.nfev} candidates; "
+        f"(best cost {result.cost:.6f} after {result.generations} {step}s, {result.evaluations} candidates; "
         f"cost: app/experiments/objective.py)"
     )
     if default_out:  # checked at the start; made meanwhile (another tune?)
         args.out = fresh_default_out(args.out, console, "tune")
-    paths = _save_tuned(t, result.x, args.out, header)
+    paths = _save_tuned(t, result.vector, args.out, header)
     out = {
         "controller": t.name,
-        "cost": float(result.fun),
-        "generations": int(result.nit),
-        "evaluations": int(result.nfev),
+        "cost": float(result.cost),
+        "generations": int(result.generations),
+        "evaluations": int(result.evaluations),
         "wall_time_s": elapsed,
-        "history": history,
-        "vector": dict(zip(t.parameter_names(), map(float, result.x))),
+        "history": result.history,
+        "vector": dict(zip(t.parameter_names(), map(float, result.vector))),
         "written": [str(p) for p in paths],
         "command": command,
     }
@@ -510,8 +508,8 @@ def cmd_tune(args) -> int:
         Console().print(
             markup(
                 escape_controls(
-                    f"best cost {result.fun:.4f} after {result.nit} {step}s "
-                    f"({result.nfev} candidates, {elapsed:.0f} s); wrote "
+                    f"best cost {result.cost:.4f} after {result.generations} {step}s "
+                    f"({result.evaluations} candidates, {elapsed:.0f} s); wrote "
                     f"{', '.join(map(str, paths))}",
                 )
                 + f"\nreproduce with:\n  {escape_controls(command)}"

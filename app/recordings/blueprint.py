@@ -359,14 +359,13 @@ def application_id(
     or its name; ``key`` is 8 hex digits of a sha256 over everything that changes what
     the layout shows: the scenario's content (two ``layout.toml`` files in different
     folders differ here), the geometry, the controller's rules and parameters
-    (:func:`app.provenance.rules_digest`), its rule count and internals (the rules tab),
+    (:func:`app.runs.rules_digest`), its rule count and internals (the rules tab),
     the perception, the seed, the sensor noise, the control period, the voltage limit
     and the robot's parameters (two runs that shared a layout had the later one's ranges
     clip the first's curves)."""
     import hashlib
 
-    from fuzzynav.app.provenance import rules_digest
-    from fuzzynav.app.runs import scenario_digest
+    from fuzzynav.app.runs import rules_digest, scenario_digest
 
     label = scenario_stem(scenario)
     name = controller_label(controller)
