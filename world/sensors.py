@@ -36,7 +36,7 @@ from fuzzynav.world.arena import RAY_FILTER, Arena
 from fuzzynav.world.compat_pymunk import FAST as _FAST
 from fuzzynav.world.compat_pymunk import cpSpaceSegmentQueryFirst as _cpSpaceSegmentQueryFirst
 from fuzzynav.world.compat_pymunk import ffi as _ffi
-from fuzzynav.world.robot import HUSKY, SensorMount, sonar_mounts
+from fuzzynav.world.robot import HUSKY, SensorMount
 
 # Slack on the prefilter's distances and angles, far above the rounding of the centres
 # and directions it compares: it may let a ray through that misses, never the reverse.
@@ -57,34 +57,35 @@ GAPLESS_SIDE_MOUNT_RAD = HUSKY.gapless_side_mount_rad
 def default_mounts(
     footprint_m: tuple[float, float] | None = None, side_angle_rad: float | None = None
 ) -> tuple[SensorMount, ...]:
-    """Left, front and right sensors on the front edge, the side ones at +-``side_angle_rad``.
+    """The robot's sonars (husky.toml's ``[[sonars]]``), on another footprint or with
+    the side ones at +-``side_angle_rad`` if given.
 
     The paper names three US-100s (15-degree cones) and not how they are mounted. At the
-    robot's default angle (husky.toml's ``[sonars]``, 45 degrees) they leave gaps between
-    the beams but make the sensor that sees the nearest echo say clearly where the
-    obstacle is (left, ahead or right), which is what fuzzynav's navigator was designed
-    on. One beam width apart (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side
-    15``) they cover the sector ahead without a gap: the paper's memoryless controller
-    then passes an obstacle it loses between the wider beams, while fuzzynav's navigator
-    keeps its success rate but less often the safe distance (docs/paper-controller.md,
-    "Sensing").
+    robot's default angle (45 degrees) they leave gaps between the beams but make the
+    sensor that sees the nearest echo say clearly where the obstacle is (left, ahead or
+    right), which is what fuzzynav's navigator was designed on. One beam width apart
+    (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side 15``) they cover the sector
+    ahead without a gap: the paper's memoryless controller then passes an obstacle it
+    loses between the wider beams, while fuzzynav's navigator keeps its success rate but
+    less often the safe distance (docs/paper-controller.md, "Sensing").
 
     Parameters
     ----------
     footprint_m : (float, float), optional
-        The footprint whose front edge carries them (the robot's, :data:`HUSKY`, if
-        omitted).
+        The footprint that carries them (the robot's, :data:`HUSKY`, if omitted).
     side_angle_rad : float, optional
-        The side sensors' angle, in (0, pi/2] (the robot's if omitted).
+        The angle of every sonar that points off the heading, in (0, pi/2] (as
+        :meth:`~fuzzynav.world.robot.RobotDescription.with_sonar_side`; the robot's if
+        omitted).
 
     Returns
     -------
     tuple of SensorMount
     """
-    robot = HUSKY
-    side = robot.side_mount_rad if side_angle_rad is None else side_angle_rad
-    footprint = robot.footprint_m if footprint_m is None else footprint_m
-    return sonar_mounts(footprint, side, robot.lateral_fraction)
+    robot = HUSKY if footprint_m is None else HUSKY.with_footprint(footprint_m)
+    if side_angle_rad is not None:
+        robot = robot.with_sonar_side(side_angle_rad)
+    return robot.mounts
 
 
 @dataclass(frozen=True)

@@ -195,7 +195,9 @@ class Simulation:
         # The log is sized for the whole run up to a block (LOG_BLOCK_BYTES); a longer
         # run's earlier blocks go to the disk, so memory does not grow with the length.
         capacity = int(math.ceil(min(sc.duration_s, 3600.0) / self.control_period_s)) + 2
-        self._log = _LogBuffer(capacity, log_block_rows(len(sc.obstacles)))
+        self._log = _LogBuffer(
+            capacity, log_block_rows(len(sc.obstacles)), len(self.sensors.config.mounts)
+        )
         self._pending: dict | None = None
 
     @property
