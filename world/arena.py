@@ -29,14 +29,11 @@ sampled wherever a contact could hide between the ends of the step, so nothing p
 through anything silently, and :attr:`Arena.min_clearance_m` is the true minimum
 clearance (to within :data:`SWEEP_SPACING_M`), not only the one at the step ends.
 
-Speed: the control loop runs tens of thousands of steps per second, where every
-pymunk property read builds a ``Vec2d`` and every tiny numpy call costs a microsecond
-or more. So the hot path talks to the same Chipmunk functions pymunk's properties call,
-through pymunk's own cffi binding (:mod:`world.compat_pymunk`, checked against the
-pymunk version it was written for), and keeps the per-step scene (obstacle
+Speed: the control loop runs tens of thousands of steps per second, where every tiny
+numpy call costs a microsecond or more. The arena talks to pymunk through its public
+API only, reads the pose once per step, and keeps the per-step scene (obstacle
 centres and clearances) as plain floats, computed once per step and shared by the
-perception, the sensors' prefilter and the log. The public methods return exactly the
-numbers they returned before.
+perception, the sensors' prefilter and the log.
 """
 
 from __future__ import annotations
@@ -50,7 +47,6 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
-from fuzzynav.world import compat_pymunk as _compat
 from fuzzynav.world import kernels
 from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
 from fuzzynav.world.kernels import (
@@ -62,13 +58,6 @@ from fuzzynav.world.kernels import (
 )
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
-
-# Chipmunk's functions for the hot path (None without it: the public API is used)
-_cpBodyGetAngle = _compat.cpBodyGetAngle
-_cpBodyGetPosition = _compat.cpBodyGetPosition
-_cpBodySetAngularVelocity = _compat.cpBodySetAngularVelocity
-_cpBodySetPosition = _compat.cpBodySetPosition
-_cpBodySetVelocity = _compat.cpBodySetVelocity
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
@@ -197,10 +186,6 @@ class Arena:
         self.robot_shape.collision_type = ROBOT_COLLISION_TYPE
         self.robot_shape.filter = pymunk.ShapeFilter(categories=ROBOT_CATEGORY)
         self.space.add(self.robot, self.robot_shape)
-        # Chipmunk pointers for the hot path, when this pymunk exposes them.
-        self._robot_ptr = _compat.body_pointer(self.robot)
-        self._space_ptr = _compat.space_pointer(self.space)
-        self._fast_space_step = _compat.can_step_fast(self.space)
         self._pose = (0.0, 0.0, 0.0)
         self.space.on_collision(
             ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE, begin=self._on_contact
@@ -233,9 +218,7 @@ class Arena:
     def reset(self, start, heading_rad: float, target, obstacles=()) -> None:
         for obstacle in list(self.obstacles.values()):
             self.space.remove(obstacle.body, obstacle.shape)
-        # pymunk keeps removed shapes until the next step; resets without one kept them
-        # all (300 viewer Resets among 200 obstacles: 58 MB, issue 37)
-        _compat.forget_removed_shapes(self.space)
+        self._forget_removed_shapes()
         self.obstacles.clear()
         self._changed()
         self._ids = itertools.count()
@@ -264,9 +247,7 @@ class Arena:
         self._scene_ids = [o.id for o in self._scene_obstacles]
         self._scene_radii = [o.radius_m for o in self._scene_obstacles]
         self._moving = [
-            (i, o, _compat.body_pointer(o.body))
-            for i, o in enumerate(self._scene_obstacles)
-            if not o.is_static
+            (i, o, o.body) for i, o in enumerate(self._scene_obstacles) if not o.is_static
         ]
         self._moving_xy = None
         self._any_moving = bool(self._moving)
@@ -282,7 +263,7 @@ class Arena:
     def remove_obstacle(self, obstacle_id: int) -> None:
         obstacle = self.obstacles.pop(obstacle_id)
         self.space.remove(obstacle.body, obstacle.shape)
-        _compat.forget_removed_shapes(self.space)
+        self._forget_removed_shapes()
         self._changed()
 
     def move_obstacle(self, obstacle_id: int, position) -> None:
@@ -303,14 +284,10 @@ class Arena:
         return self._pose
 
     def _read_pose(self) -> None:
-        # Reading pymunk's Vec2d costs microseconds; the pose changes only in step/reset.
-        ptr = self._robot_ptr
-        if ptr is not None:
-            p = _cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
-        else:
-            p = self.robot.position
-            self._pose = (p.x, p.y, self.robot.angle)
+        # Read once per step or reset, and kept as floats.
+        robot = self.robot
+        x, y = robot.position
+        self._pose = (x, y, robot.angle)
 
     def _scene(self) -> _Scene:
         """The obstacles now as plain floats, cached until the next step or edit.
@@ -360,8 +337,7 @@ class Arena:
         Returns a list of ``(x, y, radius)`` (empty when nothing is in reach), or None
         when the space holds shapes the arena does not know (then ask pymunk).
         """
-        count = _compat.shape_count(self.space)
-        if count is None or count != len(self.obstacles) + 1:
+        if len(self.space.shapes) != len(self.obstacles) + 1:
             return None
         scene = self._scene()
         x, y, _ = self._pose
@@ -401,15 +377,10 @@ class Arena:
         half_turn = 0.5 * yaw_rate_rad_s * dt_s
         chord_scale = math.sin(half_turn) / half_turn if abs(half_turn) > 1e-9 else 1.0
         speed = forward_speed_m_s * chord_scale
-        ptr = self._robot_ptr
-        if ptr is not None:
-            mid_heading = _cpBodyGetAngle(ptr) + half_turn
-            _cpBodySetVelocity(ptr, (speed * _cos(mid_heading), speed * _sin(mid_heading)))
-            _cpBodySetAngularVelocity(ptr, yaw_rate_rad_s)
-        else:
-            mid_heading = self.robot.angle + half_turn
-            self.robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
-            self.robot.angular_velocity = yaw_rate_rad_s
+        robot = self.robot
+        mid_heading = self._pose[2] + half_turn
+        robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
+        robot.angular_velocity = yaw_rate_rad_s
 
         t_now = self.time_s
         t_next = t_now + dt_s
@@ -423,32 +394,22 @@ class Arena:
             moved = self._moving_xy
             cached = moved[1] if moved is not None and moved[0] == t_now else None
             after = []
-            for j, (_, obstacle, body_ptr) in enumerate(moving):
+            for j, (_, obstacle, body) in enumerate(moving):
                 x0, y0 = cached[j] if cached is not None else obstacle._xy_at(t_now)
                 x1, y1 = obstacle._xy_at(t_next)
                 after.append((x1, y1))
-                velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
-                if body_ptr is not None:
-                    _cpBodySetVelocity(body_ptr, velocity)
-                else:
-                    obstacle.body.velocity = velocity
+                body.velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
         first_new = len(self.collisions)
-        self._step_space(dt_s)
+        self.space.step(dt_s)
         self.time_s = t_next
-        if ptr is not None:
-            p = _cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
-        else:
-            self._read_pose()
+        x, y = robot.position
+        self._pose = (x, y, robot.angle)
         self._clearance_cache = None
         self._scene_cache = None
         if moving:
             self._obstacle_cache = None
-            for j, (_, obstacle, body_ptr) in enumerate(moving):
-                if body_ptr is not None:
-                    _cpBodySetPosition(body_ptr, after[j])
-                else:
-                    obstacle.body.position = after[j]
+            for j, (_, _, body) in enumerate(moving):
+                body.position = after[j]
             self._moving_xy = (t_next, after)
         if before is not None:
             self._sweep(
@@ -529,13 +490,12 @@ class Arena:
         self.min_clearance_m = smallest
         self._touching = touching
 
-    def _step_space(self, dt_s: float) -> None:
-        """``self.space.step(dt_s)``, through :func:`world.compat_pymunk.step_space`
-        when this pymunk allows it."""
-        if self._fast_space_step:
-            _compat.step_space(self.space, self._space_ptr, dt_s)
-        else:
-            self.space.step(dt_s)
+    def _forget_removed_shapes(self) -> None:
+        """Let pymunk let go of the shapes just removed: it keeps them until its next
+        step (for a step's callbacks), and resets without a step kept them all (300
+        viewer Resets among 200 obstacles: 58 MB). A step of 0 s does it and moves
+        nothing (Chipmunk returns at once on a zero step)."""
+        self.space.step(0.0)
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         robot_shape, other = arbiter.shapes
