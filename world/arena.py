@@ -11,14 +11,15 @@ restarts its law from where it is put, keeping its current velocity.
 Contacts are reported by pymunk in the step they happen (the robot's shape is a sensor,
 so pymunk reports the overlap without pushing anything) and kept as
 :class:`Collision` events. **One contact rule for both engines** (issue 37): the robot
-touches an obstacle when its footprint-to-surface clearance is ``<= 0``, touching
-included, as the batch engine (:mod:`world.batch`) judges it. Chipmunk does not always
-count an exact touch (clearance 0.0, e.g. an obstacle that comes to rest against the
-robot's side), so at the end of every step the arena also reports a contact for an
-obstacle whose computed clearance (:meth:`Arena.clearances`, the batch engine's formula)
-is ``<= 0`` and was ``> 0`` at the step's start, unless pymunk or the sweep already
-did; a touch it reported is not reported again when Chipmunk sees the overlap in the
-next step. (The paper's point robot is a 0.1 mm circle: Chipmunk sees a centre on a
+touches an obstacle when its footprint-to-surface clearance is at most
+:data:`~world.kernels.CONTACT_CLEARANCE_M` (a nanometre: touching included, and a path
+tangent to an obstacle judged alike whatever the last bits), as the batch engine
+(:mod:`world.batch`) judges it. At the end of every step the arena reports a contact
+for an obstacle whose computed clearance (:meth:`Arena.clearances`, the batch engine's
+formula) is at most that and was above it at the step's start, unless the sweep
+already did; Chipmunk's own contacts count only where that clearance confirms them
+(:meth:`Arena._confirm_contacts`), and a touch reported is not reported again when
+Chipmunk sees the overlap in the next step. (The paper's point robot is a 0.1 mm circle: Chipmunk sees a centre on a
 surface as an overlap, as the batch engine does.)
 
 pymunk compares the shapes only at the end of each step, so a
@@ -48,14 +49,15 @@ import numpy as np
 import pymunk
 
 from fuzzynav.world import kernels
-from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
 from fuzzynav.world.kernels import (
+    CONTACT_CLEARANCE_M,
     arc_poses,
     law_centre,
     law_path_bound,
     law_velocity,
     swept_clearances,
 )
+from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
 
@@ -194,7 +196,7 @@ class Arena:
         self.target = np.zeros(2)
         self.time_s = 0.0
         self.collisions: list[Collision] = []
-        #: obstacles whose clearance was <= 0 at the last step's end (the contact rule)
+        #: obstacles touching (the contact rule) at the last step's end
         self._touching: set[int] = set()
         self._ids = itertools.count()
         self._obstacle_cache: tuple[np.ndarray, np.ndarray, list[int]] | None = None
@@ -411,11 +413,30 @@ class Arena:
             for j, (_, _, body) in enumerate(moving):
                 body.position = after[j]
             self._moving_xy = (t_next, after)
+        if len(self.collisions) > first_new:
+            self._confirm_contacts(first_new)
         if before is not None:
             self._sweep(
                 before, pose_before, forward_speed_m_s, yaw_rate_rad_s, t_now, dt_s, first_new
             )
         return self.collisions[first_new:] if len(self.collisions) > first_new else []
+
+    def _confirm_contacts(self, first_new: int) -> None:
+        """Keep of the contacts Chipmunk began in this step only those the one contact
+        rule confirms: a footprint-to-surface clearance at most
+        :data:`~world.kernels.CONTACT_CLEARANCE_M` at the step's end (:meth:`_scene`,
+        the batch engine's formula). Chipmunk's own overlap test differs from the formula
+        by a few 1e-16 m at a tangent touch, where it saw contacts the batch engine did
+        not. The paper's point robot keeps Chipmunk's judgement."""
+        if self.footprint_m == (0.0, 0.0):
+            return
+        scene = self._scene()
+        clearance_of = dict(zip(scene.ids, scene.clearances))
+        self.collisions[first_new:] = [
+            event
+            for event in self.collisions[first_new:]
+            if clearance_of.get(event.obstacle_id, 0.0) <= CONTACT_CLEARANCE_M
+        ]
 
     # -- the swept test ----------------------------------------------------------------
 
@@ -442,6 +463,7 @@ class Arena:
         smallest = self.min_clearance_m
         reported = {c.obstacle_id for c in self.collisions[first_new:]}
         touch_rule = self.footprint_m != (0.0, 0.0)
+        touch = CONTACT_CLEARANCE_M if touch_rule else 0.0
         touching = set()
         touched: dict[int, int] = {}  # obstacle id -> its event's index, by the rule
         for j, (c0, c1) in enumerate(zip(before.clearances, after.clearances)):
@@ -449,10 +471,10 @@ class Arena:
             if low < smallest:
                 smallest = low
             obstacle = self._scene_obstacles[j]
-            if touch_rule and c1 <= 0.0:
+            if touch_rule and c1 <= touch:
                 touching.add(obstacle.id)
-                if c0 > 0.0 and obstacle.id not in reported:
-                    # the one contact rule: clearance <= 0, touching included (the
+                if c0 > touch and obstacle.id not in reported:
+                    # the one contact rule: clearance <= CONTACT_CLEARANCE_M (the
                     # sweep below may still place its start earlier in the step)
                     touched[obstacle.id] = len(self.collisions)
                     x, y, _ = self._pose
@@ -475,11 +497,11 @@ class Arena:
             if clearance[k] < smallest:
                 smallest = float(clearance[k])
             if (
-                c0 > 0.0
-                and clearance[k] <= 0.0
+                c0 > touch
+                and clearance[k] <= touch
                 and (obstacle.id not in reported or obstacle.id in touched)
             ):
-                first = int(np.argmax(clearance <= 0.0))
+                first = int(np.argmax(clearance <= touch))
                 x, y, _ = (float(p) for p in arc_poses(pose0, v, w, tau[first]))
                 ox, oy = obstacle._xy_at(t0 + float(tau[first]))
                 event = Collision(t0 + float(tau[first]), obstacle.id, (x, y), (ox, oy))

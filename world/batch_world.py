@@ -34,6 +34,7 @@ from fuzzynav.world.batch_state import BatchState, scenario_arrays
 from fuzzynav.world.husky import HuskyModel, step_product
 from fuzzynav.world.husky_params import N_STATES
 from fuzzynav.world.kernels import (
+    CONTACT_CLEARANCE_M,
     advance_pose,
     disturbance_values,
     footprint_clearances,
@@ -468,7 +469,8 @@ class BatchWorld:
             ddx, ddy = s.cx - s.x[:, None], s.cy - s.y[:, None]
             contact = s.present & (ddx * ddx + ddy * ddy < reach * reach)
         else:
-            contact = s.present & (s.clear <= 0.0)
+            contact = s.present & (s.clear <= CONTACT_CLEARANCE_M)
+        touch = 0.0 if self.point_robot else CONTACT_CLEARANCE_M
         robot_path = (np.abs(v) + np.abs(w) * self.half_diagonal) * dt
         path = np.broadcast_to(robot_path[:, None], c0.shape)
         if self._any_moving:
@@ -497,7 +499,7 @@ class BatchWorld:
             smallest = float(samples.min())
             r_run = s.run[row]
             min_clear[r_run] = min(min_clear[r_run], smallest)
-            if c0[row, j] > 0.0 and not contact[row, j] and smallest <= 0.0:
+            if c0[row, j] > touch and not contact[row, j] and smallest <= touch:
                 contact[row, j] = True
         hit = contact.any(axis=1)
         self.metrics.collided[s.run] |= hit

@@ -32,11 +32,19 @@ from fuzzynav.world.geometry import rectangle_clearances, target_inputs, wrap_an
 #: minimum over a step lies at most half this below the smallest sample, and no contact
 #: deeper than that is missed (:meth:`world.arena.Arena._sweep`).
 SWEEP_SPACING_M = 0.005
+#: The contact rule of both engines: the robot touches an obstacle when its
+#: footprint-to-surface clearance is at most this (m). Not 0: the engines compute the
+#: same clearance with libm's and numpy's functions, which may differ in the last bit,
+#: and an obstacle whose path is tangent to the robot's sits at 0 +- 1e-16 m, where
+#: those bits decided the outcome; a nanometre (the engines' path tolerance) is far from
+#: both.
+CONTACT_CLEARANCE_M = 1e-9
 #: The most samples in one step's sweep of one obstacle (100 m/s at a 1 s period is
 #: 20,000 samples at 5 mm: bounded, vectorised).
 SWEEP_MAX_SAMPLES = 50_000
 
 __all__ = [
+    "CONTACT_CLEARANCE_M",
     "advance_pose",
     "arc_poses",
     "disturbance_values",
