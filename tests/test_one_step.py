@@ -12,8 +12,7 @@ import pytest
 from fuzzynav.world import kernels
 from fuzzynav.world.arena import Arena, Obstacle
 from fuzzynav.world.batch_world import BatchWorld
-from fuzzynav.world.geometry import wrap_angle_scalar, wrap_angles
-from fuzzynav.world.perception import target_inputs
+from fuzzynav.world.geometry import target_input, wrap_angle_scalar, wrap_angles
 from fuzzynav.world.scenario import Disturbance, ObstacleSpec, load_scenario
 
 RNG = np.random.default_rng(36)
@@ -115,7 +114,7 @@ def test_the_target_inputs_for_one_pose_are_the_array_form():
     x, y, h = RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n)
     target = RNG.uniform(-20, 20, (n, 2))
     d_t, phi_t = kernels.target_inputs(x, y, h, target)
-    scalar = [target_inputs((x[i], y[i], h[i]), target[i].tolist()) for i in range(n)]
+    scalar = [target_input((x[i], y[i], h[i]), target[i].tolist()) for i in range(n)]
     assert _within_one_ulp([d for d, _ in scalar], d_t)
     # math.atan2 and numpy's arctan2 differ in the last bit of some: an ulp of the sum
     phi = np.array([phi for _, phi in scalar])
@@ -141,7 +140,7 @@ def test_the_scenarios_disturbance_is_the_array_form_bit_for_bit():
 
 @pytest.mark.parametrize("footprint, fov", [((0.99, 0.67), None), ((0.0, 0.0), math.pi)])
 def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
-    from fuzzynav.world.perception import _nearest_obstacle
+    from fuzzynav.world.kernels import nearest_obstacle
 
     arena = Arena(footprint)
     n_obstacles = 12
@@ -153,7 +152,7 @@ def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
         arena.reset((0.1, -0.2), heading, (9.0, 9.0), specs)
         x, y, h = (np.array([v]) for v in arena.pose)
         half = None if fov is None else 0.5 * fov
-        d_o, phi_o, _ = _nearest_obstacle(arena._scene(), arena.pose, 3.0, fov is not None, half)
+        d_o, phi_o, _ = nearest_obstacle(arena._scene(), arena.pose, 3.0, fov is not None, half)
         want_d, want_phi = kernels.ideal_obstacle_inputs(
             x, y, h, centres[None, :, 0], centres[None, :, 1], radii[None],
             np.ones((1, n_obstacles), bool), arena.clearances()[None],

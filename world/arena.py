@@ -49,6 +49,7 @@ import numpy as np
 import pymunk
 
 from fuzzynav.world import kernels
+from fuzzynav.world.geometry import rectangle_clearance
 from fuzzynav.world.kernels import (
     CONTACT_CLEARANCE_M,
     arc_poses,
@@ -67,7 +68,7 @@ ROBOT_CATEGORY = 0b1
 # Rays ignore the robot's own shape: they see every category but the robot's.
 RAY_FILTER = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ ROBOT_CATEGORY)
 
-_cos, _sin, _hypot = math.cos, math.sin, math.hypot
+_cos, _sin = math.cos, math.sin
 
 #: A step is swept when the ends could misjudge the minimum clearance by more than
 #: this (m) and the clearance could come below :data:`SWEEP_RELEVANT_M` in it.
@@ -294,9 +295,8 @@ class Arena:
     def _scene(self) -> _Scene:
         """The obstacles now as plain floats, cached until the next step or edit.
 
-        The clearances are :func:`world.geometry.rectangle_clearances` written for floats,
-        with the same operations in the same order, so the numbers are the same to the
-        bit (tests/test_world.py checks them against it).
+        The clearances are :func:`world.geometry.rectangle_clearance`, the float form of
+        the batch engine's :func:`~world.geometry.rectangle_clearances`.
         """
         scene = self._scene_cache
         if scene is None:
@@ -317,17 +317,12 @@ class Arena:
                     xy_flat[2 * i], xy_flat[2 * i + 1] = point
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
-            ns = -s
             length, width = self.footprint_m
             hx, hy = 0.5 * length, 0.5 * width
-            clearances = []
-            for (cx, cy), radius in zip(xy, self._scene_radii):
-                dx = cx - x
-                dy = cy - y
-                qx = abs(c * dx + s * dy) - hx
-                qy = abs(ns * dx + c * dy) - hy
-                inside = min(max(qx, qy), 0.0)
-                clearances.append(_hypot(max(qx, 0.0), max(qy, 0.0)) + inside - radius)
+            clearances = [
+                rectangle_clearance(c, s, cx - x, cy - y, radius, hx, hy)
+                for (cx, cy), radius in zip(xy, self._scene_radii)
+            ]
             scene = self._scene_cache = _new_tuple(
                 _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat)
             )
