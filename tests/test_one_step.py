@@ -217,3 +217,30 @@ def test_the_sonar_inputs_for_one_run_are_the_array_form():
         sensors.now = row
         _, d, _, phi, _, _ = perception._sense(arena, 0.0)
         assert _same_bits([d, phi], [d_o[i], phi_o[i]])
+
+
+def test_the_stop_rules_for_one_run_are_the_array_form():
+    from fuzzynav.world.run_limits import OUTCOMES, run_ending, run_endings
+
+    n = 2_000
+    to_target = RNG.uniform(0.0, 0.3, n)
+    tolerance = np.full(n, 0.15)
+    to_target[::7] = tolerance[::7]  # on the tolerance: reached
+    touched = RNG.random(n) < 0.3
+    time_s = RNG.uniform(0.0, 20.0, n)
+    timeout_at = np.full(n, 10.0)
+    time_s[::11] = timeout_at[::11]  # at the timeout: timed out
+    array = run_endings(to_target, tolerance, touched, time_s, timeout_at)
+    scalar = [
+        run_ending(*values)
+        for values in zip(
+            to_target.tolist(), tolerance.tolist(), touched.tolist(), time_s.tolist(),
+            timeout_at.tolist(),
+        )
+    ]  # fmt: skip
+    assert array.tolist() == scalar
+    assert set(scalar) == {-1, *range(len(OUTCOMES))}
+    # the target before a contact, a contact before the time
+    assert run_ending(0.1, 0.15, True, 11.0, 10.0) == OUTCOMES.index("reached")
+    assert run_ending(0.2, 0.15, True, 11.0, 10.0) == OUTCOMES.index("collided")
+    assert run_ending(0.2, 0.15, False, 10.0, 10.0) == OUTCOMES.index("timeout")

@@ -48,7 +48,7 @@ from fuzzynav.world.kernels import (
 )
 from fuzzynav.world.metrics import in_window
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
-from fuzzynav.world.run_limits import check_loop_settings
+from fuzzynav.world.run_limits import check_loop_settings, run_endings
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SCHEDULE_SLACK_S, SensorConfig
 
@@ -510,9 +510,8 @@ class BatchWorld:
         s, m = self.s, self.metrics
         t = s.t
         to_target = np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
-        reached = to_target <= s.tolerance
-        timeout = t >= s.timeout_at_s
-        ended = reached | hit | timeout
+        ending = run_endings(to_target, s.tolerance, hit, t, s.timeout_at_s)
+        ended = ending >= 0
         if self.stop_rule is not None:  # after every step, the last one too
             stalled = np.asarray(self.stop_rule(s.run, t, to_target), dtype=bool)
             cut = stalled & ~ended  # stopped before its end: the step is not logged
@@ -533,7 +532,7 @@ class BatchWorld:
         if not ended.any():
             self._codes[s.run] = -1
             return np.full(len(ended), -1, dtype=np.int64)
-        code = np.where(ended, np.where(stalled, 2, np.where(reached, 0, np.where(hit, 1, 2))), -1)
+        code = np.where(stalled, 2, ending)  # the stop rule's ending is a timeout
         finished = s.run[ended]
         m.outcome[finished] = code[ended]
         m.sim_time[finished] = np.where(cut, t0, t)[ended]

@@ -57,6 +57,7 @@ from fuzzynav.world.run_limits import Outcome as Outcome
 from fuzzynav.world.run_limits import check_loop_settings as check_loop_settings
 from fuzzynav.world.run_limits import check_run_size as check_run_size
 from fuzzynav.world.run_limits import log_bytes as log_bytes
+from fuzzynav.world.run_limits import run_ending
 from fuzzynav.world.run_limits import timeout_slack_s as timeout_slack_s
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
@@ -305,12 +306,15 @@ class Simulation:
         new_contacts = arena.step(forward_speed, yaw_rate, dt)
 
         x, y, _ = arena._pose
-        if math.hypot(target_xy[0] - x, target_xy[1] - y) <= self.scenario.tolerance_m:
-            self.outcome = "reached"
-        elif new_contacts and self.stop_on_collision:
-            self.outcome = "collided"
-        elif arena.time_s >= self._timeout_at_s:
-            self.outcome = "timeout"
+        ending = run_ending(
+            math.hypot(target_xy[0] - x, target_xy[1] - y),
+            self.scenario.tolerance_m,
+            bool(new_contacts) and self.stop_on_collision,
+            arena.time_s,
+            self._timeout_at_s,
+        )
+        if ending >= 0:
+            self.outcome = OUTCOMES[ending]
         if self.outcome is not None:
             d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
             nan = math.nan
