@@ -85,7 +85,13 @@ def _placements_of(mounts, footprint_m: tuple[float, float]) -> tuple[SonarPlace
     """The placements of ``mounts`` on a footprint of this length and width (m)."""
     half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
     return tuple(
-        SonarPlacement(m.name, m.x_m / half_length, m.y_m / half_width, m.angle_rad) for m in mounts
+        SonarPlacement(
+            m.name,
+            m.x_m / half_length if half_length else 0.0,
+            m.y_m / half_width if half_width else 0.0,
+            m.angle_rad,
+        )
+        for m in mounts
     )
 
 
