@@ -4,6 +4,7 @@ one core, in one run.
     .venv/bin/python bench/bench_batch.py [--n 1000] [--pymunk-sample 100]
         [--scaling 1,10,100,1000,10000] [--figure docs/img/batch_scaling.png]
     .venv/bin/python bench/bench_batch.py --crosscheck 500
+    .venv/bin/python bench/bench_batch.py --tangent 1000
 
 What it measures (CPU seconds of this process, pinned to one CPU, one BLAS thread):
 
@@ -26,6 +27,11 @@ twice, alternating (the CPU a sweep's smaller tasks cost).
 over every family, both perceptions and the paper, baseline and p controllers (and
 the paper's point robot), default period and full durations, batch against pymunk:
 outcome agreement, metric and trajectory differences.
+
+``--tangent N`` instead runs the seeded search of tangent layouts
+(:func:`world.layouts.tangent_layout`, seed 11: one obstacle whose path is tangent to
+the robot's straight one) with the P controller, which drives straight at the target and
+so grazes, in both engines: outcome and step agreement, the largest path difference.
 
 The machine may be shared: the two engines are measured in the same run, back to
 back, and CPU time (not wall time) is compared.
@@ -254,6 +260,43 @@ def crosscheck(n: int) -> dict:
     }
 
 
+def tangent_search(n: int) -> dict:
+    from fuzzynav.controller.batch import batch_controller
+    from fuzzynav.controller.registry import make_controller
+    from fuzzynav.world.batch import run_batch
+    from fuzzynav.world.layouts import tangent_layout
+    from fuzzynav.world.simulation import Simulation
+
+    scenarios = [tangent_layout(11, i) for i in range(n)]
+    batch = run_batch(scenarios, batch_controller(make_controller("p")), record_poses=True)
+    agree = grazes = 0
+    worst_pose = 0.0
+    outcomes: dict[str, int] = {}
+    differences = []
+    for i, sc in enumerate(scenarios):
+        ref = Simulation(sc, make_controller("p")).run()
+        mine = batch.metrics(i)
+        outcomes[ref.outcome] = outcomes.get(ref.outcome, 0) + 1
+        grazes += abs(ref.metrics["min_clearance_m"]) <= 1e-12
+        if (mine["outcome"], mine["steps"]) == (ref.outcome, ref.metrics["steps"]):
+            agree += 1
+            diff = float(np.abs(batch.poses[i][:, :2] - ref.log.pose[:, :2]).max())
+            worst_pose = max(worst_pose, diff)
+        else:
+            differences.append(
+                f"{sc.name}: pymunk {ref.outcome} at step {ref.metrics['steps']}, batch "
+                f"{mine['outcome']} at step {mine['steps']}"
+            )
+    return {
+        "runs": n,
+        "pymunk_outcomes": outcomes,
+        "grazes_within_1e-12_m": grazes,
+        "same_outcome_and_steps": agree,
+        "max_pose_diff_m_where_same": worst_pose,
+        "differences": differences,
+    }
+
+
 def figure(points: list[dict], pymunk_ms: float, path: Path) -> None:
     import matplotlib
 
@@ -290,6 +333,9 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--split", type=int, default=0, metavar="PARTS", help="--n as one batch and as PARTS"
     )
+    ap.add_argument(
+        "--tangent", type=int, default=0, metavar="N", help="run the tangent-layout search"
+    )
     ap.add_argument("--point", type=int, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     pinned = _pin_one_cpu()
@@ -304,8 +350,8 @@ def main(argv=None) -> int:
     if args.split:
         console.print(json.dumps(batch_split(args.n, args.split), indent=1))
         return 0
-    if args.crosscheck:
-        out = crosscheck(args.crosscheck)
+    if args.crosscheck or args.tangent:
+        out = crosscheck(args.crosscheck) if args.crosscheck else tangent_search(args.tangent)
         console.print(json.dumps(out, indent=1))
         if args.json:
             args.json.write_text(json.dumps(out, indent=1) + "\n")

@@ -1,5 +1,5 @@
-"""The private names fuzzynav takes from pymunk and viser are there, and do what
-the public API does (issue 36 item 5): an upgrade that moves one fails here, loudly,
+"""The private names fuzzynav takes from viser are there, and do what
+the public API does: an upgrade that moves one fails here, loudly,
 instead of silently slowing down or changing a run."""
 
 from __future__ import annotations
@@ -8,67 +8,7 @@ import asyncio
 import re
 import warnings
 
-import pymunk
 import pytest
-
-from fuzzynav.world import compat_pymunk
-
-
-def test_the_installed_pymunk_has_every_private_name_the_fast_path_uses():
-    if compat_pymunk.installed_major() != compat_pymunk.SUPPORTED_MAJOR:
-        pytest.fail(
-            f"pymunk {pymunk.version}: world/compat_pymunk.py was written for "
-            f"{compat_pymunk.SUPPORTED_MAJOR}.x; check its private names and update it"
-        )
-    assert compat_pymunk.FAST, "pymunk._chipmunk's cffi binding did not import"
-    space = pymunk.Space()
-    body = pymunk.Body(1.0, 1.0)
-    missing = [name for name in compat_pymunk.SPACE_STEP_STATE if not hasattr(space, name)]
-    assert not missing, f"pymunk {pymunk.version}: Space lacks {missing}"
-    assert compat_pymunk.space_pointer(space) is not None
-    assert compat_pymunk.body_pointer(body) is not None
-    assert compat_pymunk.shape_count(space) == 0
-    assert compat_pymunk.can_step_fast(space)
-
-
-def _falling_ball(step):
-    space = pymunk.Space()
-    space.gravity = (0.0, -9.81)
-    ball = pymunk.Body(1.0, 1.0)
-    ball.position = (0.0, 1.0)
-    ground = pymunk.Segment(space.static_body, (-5, 0), (5, 0), 0.01)
-    shape = pymunk.Circle(ball, 0.2)
-    touched = []
-    space.add(ball, shape, ground)
-    space.on_collision(begin=lambda arbiter, space, data: touched.append(len(touched)))
-    for _ in range(200):
-        step(space, 0.01)
-    return tuple(ball.position), tuple(ball.velocity), len(touched)
-
-
-def test_the_fast_space_step_is_space_step():
-    public = _falling_ball(lambda space, dt: space.step(dt))
-    fast = _falling_ball(
-        lambda space, dt: compat_pymunk.step_space(space, compat_pymunk.space_pointer(space), dt)
-    )
-    assert fast == public
-    assert public[2] >= 1  # the contact callback ran under both
-
-
-def test_removed_shapes_are_let_go_outside_a_step_and_kept_inside_one():
-    space = pymunk.Space()
-    shapes = [pymunk.Circle(space.static_body, 0.2, (k, 0.0)) for k in range(3)]
-    space.add(*shapes)
-    space.remove(*shapes)
-    assert len(space._removed_shapes) == 3  # pymunk keeps them until its next step ...
-    space._locked = True  # ... which a step in progress needs
-    compat_pymunk.forget_removed_shapes(space)
-    assert len(space._removed_shapes) == 3
-    space._locked = False
-    compat_pymunk.forget_removed_shapes(space)  # outside a step nothing needs them
-    assert len(space._removed_shapes) == 0
-    space.step(0.01)  # and the space steps on
-
 
 # -- viser (app/viewer/compat_viser.py) ---------------------------------------------------
 

@@ -114,7 +114,7 @@ def test_the_description_is_husky_toml():
     assert [m.name for m in HUSKY.mounts] == ["left", "front", "right"]
     assert all(m.x_m == HUSKY.half_length_m == 0.495 for m in HUSKY.mounts)
     assert HUSKY.mounts[0].y_m == pytest.approx(0.75 * 0.335)
-    assert set(ROBOT_TABLES) == set(DESCRIPTION_TABLES)
+    assert set(ROBOT_TABLES) == set(DESCRIPTION_TABLES) | {"sonars"}
 
 
 def test_the_worlds_defaults_are_the_description():
@@ -223,8 +223,21 @@ def test_a_bad_description_table_is_named(tmp_path):
 
     text = DEFAULT_PARAMETER_FILE.read_text(encoding="utf-8")
     path = tmp_path / "husky.toml"
-    path.write_text(text.replace("side_angle_deg = 45.0", "side_angle_deg = 120.0"))
-    with pytest.raises(ValueError, match=r"sonars\.side_angle_deg = 120\.0"):
+    path.write_text(text.replace("width_deg = 15.0", "width_deg = 190.0"))
+    with pytest.raises(ValueError, match=r"sonar_beam\.width_deg = 190\.0"):
+        RobotDescription.from_toml(path)
+    path.write_text(text.replace("angle_deg = -45.0", "angle_deg = -200.0"))
+    with pytest.raises(ValueError, match=r"sonars\[2\]\.angle_deg = -200\.0"):
+        RobotDescription.from_toml(path)
+    path.write_text(text.replace('name = "right"', 'name = "left"'))
+    with pytest.raises(ValueError, match=r"sonars\[2\]\.name = 'left': named twice"):
+        RobotDescription.from_toml(path)
+    path.write_text(text.replace("y_half_widths = 0.0", "y_half_widths = 0.0\nz_m = 1.0"))
+    with pytest.raises(ValueError, match=r"unknown key sonars\[1\]\.z_m"):
+        RobotDescription.from_toml(path)
+    no_sonars = text[: text.index("\n[[sonars]]\n")] + text[text.index("# --- Drive -") :]
+    path.write_text(no_sonars)
+    with pytest.raises(ValueError, match=r"\[\[sonars\]\]"):
         RobotDescription.from_toml(path)
     path.write_text(text.replace("\n[drive]\n", "\n[drive]\nvoltage_limit_kv = 1.0\n"))
     with pytest.raises(ValueError, match=r"unknown key drive\.voltage_limit_kv"):

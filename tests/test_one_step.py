@@ -12,8 +12,7 @@ import pytest
 from fuzzynav.world import kernels
 from fuzzynav.world.arena import Arena, Obstacle
 from fuzzynav.world.batch_world import BatchWorld
-from fuzzynav.world.geometry import wrap_angle_scalar, wrap_angles
-from fuzzynav.world.perception import target_inputs
+from fuzzynav.world.geometry import target_input, wrap_angle_scalar, wrap_angles
 from fuzzynav.world.scenario import Disturbance, ObstacleSpec, load_scenario
 
 RNG = np.random.default_rng(36)
@@ -115,7 +114,7 @@ def test_the_target_inputs_for_one_pose_are_the_array_form():
     x, y, h = RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n), RNG.uniform(-20, 20, n)
     target = RNG.uniform(-20, 20, (n, 2))
     d_t, phi_t = kernels.target_inputs(x, y, h, target)
-    scalar = [target_inputs((x[i], y[i], h[i]), target[i].tolist()) for i in range(n)]
+    scalar = [target_input((x[i], y[i], h[i]), target[i].tolist()) for i in range(n)]
     assert _within_one_ulp([d for d, _ in scalar], d_t)
     # math.atan2 and numpy's arctan2 differ in the last bit of some: an ulp of the sum
     phi = np.array([phi for _, phi in scalar])
@@ -141,7 +140,7 @@ def test_the_scenarios_disturbance_is_the_array_form_bit_for_bit():
 
 @pytest.mark.parametrize("footprint, fov", [((0.99, 0.67), None), ((0.0, 0.0), math.pi)])
 def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
-    from fuzzynav.world.perception import _nearest_obstacle
+    from fuzzynav.world.kernels import nearest_obstacle
 
     arena = Arena(footprint)
     n_obstacles = 12
@@ -153,7 +152,7 @@ def test_the_pymunk_engines_obstacle_inputs_are_the_array_form(footprint, fov):
         arena.reset((0.1, -0.2), heading, (9.0, 9.0), specs)
         x, y, h = (np.array([v]) for v in arena.pose)
         half = None if fov is None else 0.5 * fov
-        d_o, phi_o, _ = _nearest_obstacle(arena._scene(), arena.pose, 3.0, fov is not None, half)
+        d_o, phi_o, _ = nearest_obstacle(arena._scene(), arena.pose, 3.0, fov is not None, half)
         want_d, want_phi = kernels.ideal_obstacle_inputs(
             x, y, h, centres[None, :, 0], centres[None, :, 1], radii[None],
             np.ones((1, n_obstacles), bool), arena.clearances()[None],
@@ -218,3 +217,30 @@ def test_the_sonar_inputs_for_one_run_are_the_array_form():
         sensors.now = row
         _, d, _, phi, _, _ = perception._sense(arena, 0.0)
         assert _same_bits([d, phi], [d_o[i], phi_o[i]])
+
+
+def test_the_stop_rules_for_one_run_are_the_array_form():
+    from fuzzynav.world.run_limits import OUTCOMES, run_ending, run_endings
+
+    n = 2_000
+    to_target = RNG.uniform(0.0, 0.3, n)
+    tolerance = np.full(n, 0.15)
+    to_target[::7] = tolerance[::7]  # on the tolerance: reached
+    touched = RNG.random(n) < 0.3
+    time_s = RNG.uniform(0.0, 20.0, n)
+    timeout_at = np.full(n, 10.0)
+    time_s[::11] = timeout_at[::11]  # at the timeout: timed out
+    array = run_endings(to_target, tolerance, touched, time_s, timeout_at)
+    scalar = [
+        run_ending(*values)
+        for values in zip(
+            to_target.tolist(), tolerance.tolist(), touched.tolist(), time_s.tolist(),
+            timeout_at.tolist(),
+        )
+    ]  # fmt: skip
+    assert array.tolist() == scalar
+    assert set(scalar) == {-1, *range(len(OUTCOMES))}
+    # the target before a contact, a contact before the time
+    assert run_ending(0.1, 0.15, True, 11.0, 10.0) == OUTCOMES.index("reached")
+    assert run_ending(0.2, 0.15, True, 11.0, 10.0) == OUTCOMES.index("collided")
+    assert run_ending(0.2, 0.15, False, 10.0, 10.0) == OUTCOMES.index("timeout")

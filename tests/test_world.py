@@ -33,8 +33,9 @@ from fuzzynav.world.geometry import (
     wrap_angle,
     wrap_angle_scalar,
 )
+from fuzzynav.world.geometry import target_input as target_inputs
 from fuzzynav.world.husky import HuskyModel
-from fuzzynav.world.perception import Perception, ideal_obstacle_inputs, target_inputs
+from fuzzynav.world.perception import Perception, ideal_obstacle_inputs
 from fuzzynav.world.scenario import ObstacleSpec, Scenario, load_scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig, SensorMount, default_mounts
 from fuzzynav.world.simulation import Simulation

@@ -8,11 +8,14 @@ Obstacles follow the constant-acceleration law of the paper (Eq. 13-14),
 restarts its law from where it is put, keeping its current velocity.
 
 Contacts are kept as :class:`Collision` events. The robot touches an obstacle when its
-footprint-to-surface clearance is ``<= 0``, as the batch engine (:mod:`world.batch`)
-judges it, and every step is also judged as a sweep (:meth:`Arena._sweep`), so nothing
-passes through anything between two steps and :attr:`Arena.min_clearance_m` is the true
-minimum clearance (to within :data:`SWEEP_SPACING_M`). How and why: docs/robustness.md,
-"How collisions are judged".
+footprint-to-surface clearance is at most :data:`~world.kernels.CONTACT_CLEARANCE_M` (a
+nanometre: a path tangent to an obstacle is judged alike by both engines whatever the
+last bits), as the batch engine (:mod:`world.batch`) judges it; Chipmunk's own contacts
+count only where that clearance confirms them. Every step is also judged as a sweep
+(:meth:`Arena._sweep`), so nothing passes through anything between two steps and
+:attr:`Arena.min_clearance_m` is the true minimum clearance (to within
+:data:`SWEEP_SPACING_M`). The arena talks to pymunk through its public API only. How
+and why: docs/robustness.md, "How collisions are judged".
 """
 
 from __future__ import annotations
@@ -26,25 +29,19 @@ from typing import NamedTuple
 import numpy as np
 import pymunk
 
-from fuzzynav.world import compat_pymunk as _compat
 from fuzzynav.world import kernels
-from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
+from fuzzynav.world.geometry import rectangle_clearance
 from fuzzynav.world.kernels import (
+    CONTACT_CLEARANCE_M,
     arc_poses,
     law_centre,
     law_path_bound,
     law_velocity,
     swept_clearances,
 )
+from fuzzynav.world.kernels import SWEEP_SPACING_M as SWEEP_SPACING_M
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario import ObstacleSpec
-
-# Chipmunk's functions for the hot path (None without it: the public API is used)
-_cpBodyGetAngle = _compat.cpBodyGetAngle
-_cpBodyGetPosition = _compat.cpBodyGetPosition
-_cpBodySetAngularVelocity = _compat.cpBodySetAngularVelocity
-_cpBodySetPosition = _compat.cpBodySetPosition
-_cpBodySetVelocity = _compat.cpBodySetVelocity
 
 ROBOT_COLLISION_TYPE = 1
 OBSTACLE_COLLISION_TYPE = 2
@@ -52,7 +49,7 @@ ROBOT_CATEGORY = 0b1
 # Rays ignore the robot's own shape: they see every category but the robot's.
 RAY_FILTER = pymunk.ShapeFilter(mask=pymunk.ShapeFilter.ALL_MASKS() ^ ROBOT_CATEGORY)
 
-_cos, _sin, _hypot = math.cos, math.sin, math.hypot
+_cos, _sin = math.cos, math.sin
 
 #: A step is swept when the ends could misjudge the minimum clearance by more than
 #: this (m) and the clearance could come below :data:`SWEEP_RELEVANT_M` in it.
@@ -173,10 +170,6 @@ class Arena:
         self.robot_shape.collision_type = ROBOT_COLLISION_TYPE
         self.robot_shape.filter = pymunk.ShapeFilter(categories=ROBOT_CATEGORY)
         self.space.add(self.robot, self.robot_shape)
-        # Chipmunk pointers for the hot path, when this pymunk exposes them.
-        self._robot_ptr = _compat.body_pointer(self.robot)
-        self._space_ptr = _compat.space_pointer(self.space)
-        self._fast_space_step = _compat.can_step_fast(self.space)
         self._pose = (0.0, 0.0, 0.0)
         self.space.on_collision(
             ROBOT_COLLISION_TYPE, OBSTACLE_COLLISION_TYPE, begin=self._on_contact
@@ -185,7 +178,7 @@ class Arena:
         self.target = np.zeros(2)
         self.time_s = 0.0
         self.collisions: list[Collision] = []
-        #: obstacles whose clearance was <= 0 at the last step's end (the contact rule)
+        #: obstacles touching (the contact rule) at the last step's end
         self._touching: set[int] = set()
         self._ids = itertools.count()
         self._obstacle_cache: tuple[np.ndarray, np.ndarray, list[int]] | None = None
@@ -209,9 +202,7 @@ class Arena:
     def reset(self, start, heading_rad: float, target, obstacles=()) -> None:
         for obstacle in list(self.obstacles.values()):
             self.space.remove(obstacle.body, obstacle.shape)
-        # pymunk keeps removed shapes until the next step; resets without one kept them
-        # all (300 viewer Resets among 200 obstacles: 58 MB)
-        _compat.forget_removed_shapes(self.space)
+        self._forget_removed_shapes()
         self.obstacles.clear()
         self._changed()
         self._ids = itertools.count()
@@ -240,9 +231,7 @@ class Arena:
         self._scene_ids = [o.id for o in self._scene_obstacles]
         self._scene_radii = [o.radius_m for o in self._scene_obstacles]
         self._moving = [
-            (i, o, _compat.body_pointer(o.body))
-            for i, o in enumerate(self._scene_obstacles)
-            if not o.is_static
+            (i, o, o.body) for i, o in enumerate(self._scene_obstacles) if not o.is_static
         ]
         self._moving_xy = None
         self._any_moving = bool(self._moving)
@@ -258,7 +247,7 @@ class Arena:
     def remove_obstacle(self, obstacle_id: int) -> None:
         obstacle = self.obstacles.pop(obstacle_id)
         self.space.remove(obstacle.body, obstacle.shape)
-        _compat.forget_removed_shapes(self.space)
+        self._forget_removed_shapes()
         self._changed()
 
     def move_obstacle(self, obstacle_id: int, position) -> None:
@@ -279,21 +268,16 @@ class Arena:
         return self._pose
 
     def _read_pose(self) -> None:
-        # Reading pymunk's Vec2d costs microseconds; the pose changes only in step/reset.
-        ptr = self._robot_ptr
-        if ptr is not None:
-            p = _cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
-        else:
-            p = self.robot.position
-            self._pose = (p.x, p.y, self.robot.angle)
+        # Read once per step or reset, and kept as floats.
+        robot = self.robot
+        x, y = robot.position
+        self._pose = (x, y, robot.angle)
 
     def _scene(self) -> _Scene:
         """The obstacles now as plain floats, cached until the next step or edit.
 
-        The clearances are :func:`world.geometry.rectangle_clearances` written for floats,
-        with the same operations in the same order, so the numbers are the same to the
-        bit (tests/test_world.py checks them against it).
+        The clearances are :func:`world.geometry.rectangle_clearance`, the float form of
+        the batch engine's :func:`~world.geometry.rectangle_clearances`.
         """
         scene = self._scene_cache
         if scene is None:
@@ -314,17 +298,12 @@ class Arena:
                     xy_flat[2 * i], xy_flat[2 * i + 1] = point
             x, y, heading = self._pose
             c, s = _cos(heading), _sin(heading)
-            ns = -s
             length, width = self.footprint_m
             hx, hy = 0.5 * length, 0.5 * width
-            clearances = []
-            for (cx, cy), radius in zip(xy, self._scene_radii):
-                dx = cx - x
-                dy = cy - y
-                qx = abs(c * dx + s * dy) - hx
-                qy = abs(ns * dx + c * dy) - hy
-                inside = min(max(qx, qy), 0.0)
-                clearances.append(_hypot(max(qx, 0.0), max(qy, 0.0)) + inside - radius)
+            clearances = [
+                rectangle_clearance(c, s, cx - x, cy - y, radius, hx, hy)
+                for (cx, cy), radius in zip(xy, self._scene_radii)
+            ]
             scene = self._scene_cache = _new_tuple(
                 _Scene, (self._scene_ids, self._scene_radii, xy, clearances, xy_flat)
             )
@@ -336,8 +315,7 @@ class Arena:
         Returns a list of ``(x, y, radius)`` (empty when nothing is in reach), or None
         when the space holds shapes the arena does not know (then ask pymunk).
         """
-        count = _compat.shape_count(self.space)
-        if count is None or count != len(self.obstacles) + 1:
+        if len(self.space.shapes) != len(self.obstacles) + 1:
             return None
         scene = self._scene()
         x, y, _ = self._pose
@@ -377,15 +355,10 @@ class Arena:
         half_turn = 0.5 * yaw_rate_rad_s * dt_s
         chord_scale = math.sin(half_turn) / half_turn if abs(half_turn) > 1e-9 else 1.0
         speed = forward_speed_m_s * chord_scale
-        ptr = self._robot_ptr
-        if ptr is not None:
-            mid_heading = _cpBodyGetAngle(ptr) + half_turn
-            _cpBodySetVelocity(ptr, (speed * _cos(mid_heading), speed * _sin(mid_heading)))
-            _cpBodySetAngularVelocity(ptr, yaw_rate_rad_s)
-        else:
-            mid_heading = self.robot.angle + half_turn
-            self.robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
-            self.robot.angular_velocity = yaw_rate_rad_s
+        robot = self.robot
+        mid_heading = self._pose[2] + half_turn
+        robot.velocity = (speed * _cos(mid_heading), speed * _sin(mid_heading))
+        robot.angular_velocity = yaw_rate_rad_s
 
         t_now = self.time_s
         t_next = t_now + dt_s
@@ -399,38 +372,47 @@ class Arena:
             moved = self._moving_xy
             cached = moved[1] if moved is not None and moved[0] == t_now else None
             after = []
-            for j, (_, obstacle, body_ptr) in enumerate(moving):
+            for j, (_, obstacle, body) in enumerate(moving):
                 x0, y0 = cached[j] if cached is not None else obstacle._xy_at(t_now)
                 x1, y1 = obstacle._xy_at(t_next)
                 after.append((x1, y1))
-                velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
-                if body_ptr is not None:
-                    _cpBodySetVelocity(body_ptr, velocity)
-                else:
-                    obstacle.body.velocity = velocity
+                body.velocity = ((x1 - x0) / dt_s, (y1 - y0) / dt_s)
         first_new = len(self.collisions)
-        self._step_space(dt_s)
+        self.space.step(dt_s)
         self.time_s = t_next
-        if ptr is not None:
-            p = _cpBodyGetPosition(ptr)
-            self._pose = (p.x, p.y, _cpBodyGetAngle(ptr))
-        else:
-            self._read_pose()
+        x, y = robot.position
+        self._pose = (x, y, robot.angle)
         self._clearance_cache = None
         self._scene_cache = None
         if moving:
             self._obstacle_cache = None
-            for j, (_, obstacle, body_ptr) in enumerate(moving):
-                if body_ptr is not None:
-                    _cpBodySetPosition(body_ptr, after[j])
-                else:
-                    obstacle.body.position = after[j]
+            for j, (_, _, body) in enumerate(moving):
+                body.position = after[j]
             self._moving_xy = (t_next, after)
+        if len(self.collisions) > first_new:
+            self._confirm_contacts(first_new)
         if before is not None:
             self._sweep(
                 before, pose_before, forward_speed_m_s, yaw_rate_rad_s, t_now, dt_s, first_new
             )
         return self.collisions[first_new:] if len(self.collisions) > first_new else []
+
+    def _confirm_contacts(self, first_new: int) -> None:
+        """Keep of the contacts Chipmunk began in this step only those the one contact
+        rule confirms: a footprint-to-surface clearance at most
+        :data:`~world.kernels.CONTACT_CLEARANCE_M` at the step's end (:meth:`_scene`,
+        the batch engine's formula). Chipmunk's own overlap test differs from the formula
+        by a few 1e-16 m at a tangent touch, where it saw contacts the batch engine did
+        not. The paper's point robot keeps Chipmunk's judgement."""
+        if self.footprint_m == (0.0, 0.0):
+            return
+        scene = self._scene()
+        clearance_of = dict(zip(scene.ids, scene.clearances))
+        self.collisions[first_new:] = [
+            event
+            for event in self.collisions[first_new:]
+            if clearance_of.get(event.obstacle_id, 0.0) <= CONTACT_CLEARANCE_M
+        ]
 
     # -- the swept test ----------------------------------------------------------------
 
@@ -457,6 +439,7 @@ class Arena:
         smallest = self.min_clearance_m
         reported = {c.obstacle_id for c in self.collisions[first_new:]}
         touch_rule = self.footprint_m != (0.0, 0.0)
+        touch = CONTACT_CLEARANCE_M if touch_rule else 0.0
         touching = set()
         touched: dict[int, int] = {}  # obstacle id -> its event's index, by the rule
         for j, (c0, c1) in enumerate(zip(before.clearances, after.clearances)):
@@ -464,10 +447,10 @@ class Arena:
             if low < smallest:
                 smallest = low
             obstacle = self._scene_obstacles[j]
-            if touch_rule and c1 <= 0.0:
+            if touch_rule and c1 <= touch:
                 touching.add(obstacle.id)
-                if c0 > 0.0 and obstacle.id not in reported:
-                    # the one contact rule: clearance <= 0, touching included (the
+                if c0 > touch and obstacle.id not in reported:
+                    # the one contact rule: clearance <= CONTACT_CLEARANCE_M (the
                     # sweep below may still place its start earlier in the step)
                     touched[obstacle.id] = len(self.collisions)
                     x, y, _ = self._pose
@@ -490,11 +473,11 @@ class Arena:
             if clearance[k] < smallest:
                 smallest = float(clearance[k])
             if (
-                c0 > 0.0
-                and clearance[k] <= 0.0
+                c0 > touch
+                and clearance[k] <= touch
                 and (obstacle.id not in reported or obstacle.id in touched)
             ):
-                first = int(np.argmax(clearance <= 0.0))
+                first = int(np.argmax(clearance <= touch))
                 x, y, _ = (float(p) for p in arc_poses(pose0, v, w, tau[first]))
                 ox, oy = obstacle._xy_at(t0 + float(tau[first]))
                 event = Collision(t0 + float(tau[first]), obstacle.id, (x, y), (ox, oy))
@@ -505,13 +488,12 @@ class Arena:
         self.min_clearance_m = smallest
         self._touching = touching
 
-    def _step_space(self, dt_s: float) -> None:
-        """``self.space.step(dt_s)``, through :func:`world.compat_pymunk.step_space`
-        when this pymunk allows it."""
-        if self._fast_space_step:
-            _compat.step_space(self.space, self._space_ptr, dt_s)
-        else:
-            self.space.step(dt_s)
+    def _forget_removed_shapes(self) -> None:
+        """Let pymunk let go of the shapes just removed: it keeps them until its next
+        step (for a step's callbacks), and resets without a step kept them all (300
+        viewer Resets among 200 obstacles: 58 MB). A step of 0 s does it and moves
+        nothing (Chipmunk returns at once on a zero step)."""
+        self.space.step(0.0)
 
     def _on_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         robot_shape, other = arbiter.shapes

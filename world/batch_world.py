@@ -34,6 +34,7 @@ from fuzzynav.world.batch_state import BatchState, scenario_arrays
 from fuzzynav.world.husky import HuskyModel, step_product
 from fuzzynav.world.husky_params import N_STATES
 from fuzzynav.world.kernels import (
+    CONTACT_CLEARANCE_M,
     advance_pose,
     disturbance_values,
     footprint_clearances,
@@ -47,7 +48,7 @@ from fuzzynav.world.kernels import (
 )
 from fuzzynav.world.metrics import in_window
 from fuzzynav.world.perception import OBSTACLE_CUTOFF_M, check_geometry
-from fuzzynav.world.run_limits import check_loop_settings
+from fuzzynav.world.run_limits import check_loop_settings, run_endings
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import SCHEDULE_SLACK_S, SensorConfig
 
@@ -469,7 +470,8 @@ class BatchWorld:
             ddx, ddy = s.cx - s.x[:, None], s.cy - s.y[:, None]
             contact = s.present & (ddx * ddx + ddy * ddy < reach * reach)
         else:
-            contact = s.present & (s.clear <= 0.0)
+            contact = s.present & (s.clear <= CONTACT_CLEARANCE_M)
+        touch = 0.0 if self.point_robot else CONTACT_CLEARANCE_M
         robot_path = (np.abs(v) + np.abs(w) * self.half_diagonal) * dt
         path = np.broadcast_to(robot_path[:, None], c0.shape)
         if self._any_moving:
@@ -498,7 +500,7 @@ class BatchWorld:
             smallest = float(samples.min())
             r_run = s.run[row]
             min_clear[r_run] = min(min_clear[r_run], smallest)
-            if c0[row, j] > 0.0 and not contact[row, j] and smallest <= 0.0:
+            if c0[row, j] > touch and not contact[row, j] and smallest <= touch:
                 contact[row, j] = True
         hit = contact.any(axis=1)
         self.metrics.collided[s.run] |= hit
@@ -509,9 +511,8 @@ class BatchWorld:
         s, m = self.s, self.metrics
         t = s.t
         to_target = np.hypot(s.target[:, 0] - s.x, s.target[:, 1] - s.y)
-        reached = to_target <= s.tolerance
-        timeout = t >= s.timeout_at_s
-        ended = reached | hit | timeout
+        ending = run_endings(to_target, s.tolerance, hit, t, s.timeout_at_s)
+        ended = ending >= 0
         if self.stop_rule is not None:  # after every step, the last one too
             stalled = np.asarray(self.stop_rule(s.run, t, to_target), dtype=bool)
             cut = stalled & ~ended  # stopped before its end: the step is not logged
@@ -532,7 +533,7 @@ class BatchWorld:
         if not ended.any():
             self._codes[s.run] = -1
             return np.full(len(ended), -1, dtype=np.int64)
-        code = np.where(ended, np.where(stalled, 2, np.where(reached, 0, np.where(hit, 1, 2))), -1)
+        code = np.where(stalled, 2, ending)  # the stop rule's ending is a timeout
         finished = s.run[ended]
         m.outcome[finished] = code[ended]
         m.sim_time[finished] = np.where(cut, t0, t)[ended]

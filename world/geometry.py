@@ -2,7 +2,10 @@
 and every shape the viewer, the recordings and the figures draw.
 
 Angles are radians, counter-clockwise positive; lengths are metres. The robot frame has
-x forward and y to the left.
+x forward and y to the left. Where both engines need a formula, its array form (the
+batch engine's) and its float form (the pymunk engine's) sit side by side here
+(:func:`rectangle_clearances` / :func:`rectangle_clearance`, :func:`target_inputs` /
+:func:`target_input`, :func:`wrap_angles` / :func:`wrap_angle_scalar`).
 """
 
 from __future__ import annotations
@@ -10,6 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+_hypot, _atan2 = math.hypot, math.atan2
 
 #: A full turn: the default field of view, all around the robot.
 FULL_CIRCLE_RAD = 2.0 * math.pi
@@ -87,18 +92,17 @@ def to_world_frame(points, robot_xy, heading_rad: float) -> np.ndarray:
 def rectangle_circle_clearance(
     robot_xy, heading_rad: float, length_m: float, width_m: float, circle_xy, radius_m: float
 ) -> float:
-    """Distance between a rectangle centred on the robot and a circle's surface:
-    :func:`rectangle_clearances` for floats.
+    """Distance between a rectangle centred on the robot and a circle's surface
+    (:func:`rectangle_clearance` from a pose).
 
     Negative when they overlap (then it is minus the circle's penetration depth of its
     centre point, which is enough to decide contact).
     """
-    lx, ly = to_robot_frame(circle_xy, robot_xy, heading_rad)
-    hx, hy = 0.5 * length_m, 0.5 * width_m
-    qx, qy = abs(lx) - hx, abs(ly) - hy
-    outside = math.hypot(max(qx, 0.0), max(qy, 0.0))
-    inside = min(max(qx, qy), 0.0)
-    return outside + inside - radius_m
+    return rectangle_clearance(
+        math.cos(heading_rad), math.sin(heading_rad),
+        circle_xy[0] - robot_xy[0], circle_xy[1] - robot_xy[1], radius_m,
+        0.5 * length_m, 0.5 * width_m,
+    )  # fmt: skip
 
 
 def rectangle_circles_clearance(
@@ -117,14 +121,25 @@ def rectangle_circles_clearance(
     )  # fmt: skip
 
 
+def rectangle_clearance(
+    c: float, s: float, dx: float, dy: float, radius: float, half_length_m: float,
+    half_width_m: float,
+) -> float:  # fmt: skip
+    """:func:`rectangle_clearances` on floats: one obstacle of one run (the pymunk
+    engine's per-step scene, :meth:`world.arena.Arena._scene`). The same operations in
+    the same order; ``math.hypot`` may differ from numpy's in the last bit."""
+    qx = abs(c * dx + s * dy) - half_length_m
+    qy = abs(-s * dx + c * dy) - half_width_m
+    inside = min(max(qx, qy), 0.0)
+    return _hypot(max(qx, 0.0), max(qy, 0.0)) + inside - radius
+
+
 def rectangle_clearances(c, s, dx, dy, radius, half_length_m, half_width_m):
     """The one footprint-to-surface formula of both engines, on arrays that broadcast:
     a rectangle with heading cosine ``c`` and sine ``s`` and a circle whose centre is
     ``(dx, dy)`` from the rectangle's (:func:`world.kernels.footprint_clearances`,
-    :func:`world.kernels.swept_clearances`, :func:`rectangle_circles_clearance`); the
-    arena's per-step loop (:meth:`world.arena.Arena._scene`) and
-    :func:`rectangle_circle_clearance` are its forms for floats, checked against it by
-    tests/test_one_step.py).
+    :func:`world.kernels.swept_clearances`, :func:`rectangle_circles_clearance`); its
+    form for floats is :func:`rectangle_clearance`, beside it.
 
     Parameters
     ----------
@@ -281,10 +296,17 @@ def target_geometry(pose: np.ndarray, target_xy: np.ndarray) -> tuple[np.ndarray
     return target_inputs(pose[:, 0], pose[:, 1], pose[:, 2], target_xy)
 
 
+def target_input(pose, target) -> tuple[float, float]:
+    """:func:`target_inputs` on floats: ``(d_t, phi_t)`` of a target ``(x, y)`` seen
+    from a pose ``(x, y, heading)`` (the pymunk engine's perception)."""
+    dx, dy = target[0] - pose[0], target[1] - pose[1]
+    return _hypot(dx, dy), wrap_angle_scalar(_atan2(dy, dx) - pose[2])
+
+
 def target_inputs(x, y, heading, target) -> tuple[np.ndarray, np.ndarray]:
     """The target's distance and bearing from each robot, Eqs. 9-10: the batch engine's
     (:mod:`world.kernels`) and the drawings' (:func:`target_geometry`); its float form
-    is :func:`world.perception.target_inputs`.
+    is :func:`target_input`, beside it.
 
     Parameters
     ----------

@@ -40,7 +40,7 @@ _FOOTPRINT_TABLE = "footprint"
 _FOOTPRINT_KEYS = {"length_m": "footprint_length_m", "width_m": "footprint_width_m"}
 #: Tables of the same file that describe the robot beyond its dynamics (its sonars, its
 #: drive's limit): world/robot.py reads and checks them, the plant skips them.
-ROBOT_TABLES = ("sonars", "drive")
+ROBOT_TABLES = ("sonar_beam", "sonars", "drive")
 
 
 #: What a husky.toml value may be: far around the Husky's own numbers (a robot from a

@@ -1,16 +1,20 @@
-"""The array stages of one step, in one place: angle wrapping, the obstacles' motion
-law, footprint clearance, the pose update, the sonar rays, perception and the run
-metrics' per-row terms, each on arrays of many runs (the angle wrapping, the
-clearance formula and the target inputs are :mod:`world.geometry`'s, re-exported).
+"""The stages of one step, in one place: angle wrapping, the obstacles' motion law,
+footprint clearance, the pose update, the sonar rays, perception and the run metrics'
+per-row terms, each on arrays of many runs (the angle wrapping, the clearance formula
+and the target inputs are :mod:`world.geometry`'s, re-exported).
 
-The lockstep batch engine (:mod:`world.batch_world`) is made of these functions; the
-pymunk engine computes the same quantities with plain floats for one run
-(:mod:`world.arena`, :mod:`world.perception`, :mod:`world.sensors`), and each function
-names its scalar twin. The array forms do the twin's operations in the twin's order, so
-a run's numbers are the pymunk engine's to the bit wherever both use the same libm
-function (the one known exception: ``math.hypot`` there, numpy's ``hypot`` here, may
-differ in the last bit). :func:`wrap_angles` is :func:`world.geometry.wrap_angles`, the
-array form of :func:`world.geometry.wrap_angle`.
+The lockstep batch engine (:mod:`world.batch_world`) is made of these functions. The
+pymunk engine calls the same stages for one run: the motion law on floats
+(:func:`law_centre` and its kin take floats and arrays alike), and where speed needs a
+form of its own, the float form sits beside the array form (:func:`target_input` /
+:func:`target_inputs`, :func:`nearest_obstacle` / :func:`ideal_obstacle_inputs`,
+:func:`sonar_obstacle_input` / :func:`sonar_obstacle_inputs`,
+:func:`world.geometry.rectangle_clearance` / :func:`footprint_clearances`). The two
+forms do the same operations in the same order, but libm's and numpy's ``hypot``,
+``atan2`` and ``sin`` may differ in the last bit, so the engines are checked against each
+other by outcomes and by values within a stated tolerance (paths within 1e-9 m:
+tests/test_batch.py, tests/test_tangent.py), not bit for bit; the contact rule's
+nanometre (:data:`CONTACT_CLEARANCE_M`) keeps those bits from deciding an outcome.
 
 Shapes: ``n`` runs, ``M`` obstacle columns per run (absent obstacles have a NaN radius
 and are masked by the callers), ``B`` sonar rays. Lengths in m, angles in rad, times
@@ -25,24 +29,39 @@ from typing import Any
 
 import numpy as np
 
-from fuzzynav.world.geometry import rectangle_clearances, target_inputs, wrap_angles
+from fuzzynav.world.geometry import (
+    rectangle_clearances,
+    target_input,
+    target_inputs,
+    wrap_angle_scalar,
+    wrap_angles,
+)
 
 #: The sweep's sample spacing in relative motion (m): the footprint-to-surface clearance
 #: changes by at most the relative displacement of robot and obstacle, so the true
 #: minimum over a step lies at most half this below the smallest sample, and no contact
 #: deeper than that is missed (:meth:`world.arena.Arena._sweep`).
 SWEEP_SPACING_M = 0.005
+#: The contact rule of both engines: the robot touches an obstacle when its
+#: footprint-to-surface clearance is at most this (m). Not 0: the engines compute the
+#: same clearance with libm's and numpy's functions, which may differ in the last bit,
+#: and an obstacle whose path is tangent to the robot's sits at 0 +- 1e-16 m, where
+#: those bits decided the outcome; a nanometre (the engines' path tolerance) is far from
+#: both.
+CONTACT_CLEARANCE_M = 1e-9
 #: The most samples in one step's sweep of one obstacle (100 m/s at a 1 s period is
 #: 20,000 samples at 5 mm: bounded, vectorised).
 SWEEP_MAX_SAMPLES = 50_000
 
 __all__ = [
+    "CONTACT_CLEARANCE_M",
     "advance_pose",
     "arc_poses",
     "disturbance_values",
     "footprint_clearances",
     "ideal_obstacle_inputs",
     "line_deviation",
+    "nearest_obstacle",
     "obstacle_centres",
     "obstacle_law",
     "obstacle_path_bound",
@@ -51,8 +70,10 @@ __all__ = [
     "law_path_bound",
     "LAW_SIZE",
     "sonar_distances",
+    "sonar_obstacle_input",
     "sonar_obstacle_inputs",
     "swept_clearances",
+    "target_input",
     "target_inputs",
     "wrap_angles",
 ]
@@ -360,7 +381,7 @@ def ideal_obstacle_inputs(
     x, y, heading, cx, cy, radius, present, clear, half_field, point_robot, cutoff_m
 ) -> tuple[np.ndarray, np.ndarray]:
     """The nearest obstacle's distance and bearing in ideal perception, Eqs. 7-12 or the
-    footprint's clearance (:class:`world.perception.Perception`, ideal mode).
+    footprint's clearance; its float form is :func:`nearest_obstacle`.
 
     Parameters
     ----------
@@ -403,9 +424,69 @@ def ideal_obstacle_inputs(
     return d_o, np.where(seen, wrap_angles(bearing), np.nan)
 
 
+def nearest_obstacle(
+    scene, pose, cutoff_m: float, centre_to_centre: bool = False, half_field=None
+) -> tuple[float, float, int]:
+    """:func:`ideal_obstacle_inputs` on one run's floats (the pymunk engine's
+    perception): ``(d_o, phi_o, index in scene)`` of the nearest obstacle sensed from
+    ``pose``, NaN, NaN, -1 when none is within ``cutoff_m``.
+
+    Parameters
+    ----------
+    scene : world.arena's per-step scene
+        Its ``radii`` ([1]), centres ``xy`` ([2]) and footprint ``clearances`` ([3]).
+    pose : tuple of float
+        The robot's ``(x, y, heading)``.
+    cutoff_m : float
+        Obstacles farther than this are not sensed, m.
+    centre_to_centre : bool
+        The paper's point robot (Eq. 8): distances centre to centre.
+    half_field : float, optional
+        Half the field of view, rad (None: all around).
+    """
+    clearances = scene[3]
+    if not clearances:
+        return math.nan, math.nan, -1
+    x, y, heading = pose
+    if centre_to_centre:  # Eq. 8: a point robot's clearance plus the radius
+        clearances = [c + r for c, r in zip(clearances, scene[1])]
+    if half_field is not None:  # obstacles outside the field are not sensed
+        clearances = [
+            c
+            if abs(wrap_angle_scalar(math.atan2(cy - y, cx - x) - heading)) <= half_field
+            else math.inf
+            for c, (cx, cy) in zip(clearances, scene[2])
+        ]
+    k = clearances.index(min(clearances))  # np.argmin's first minimum
+    nearest = max(clearances[k], 0.0)
+    if nearest > cutoff_m:
+        return math.nan, math.nan, -1
+    cx, cy = scene[2][k]
+    return nearest, wrap_angle_scalar(math.atan2(cy - y, cx - x) - heading), k
+
+
+def sonar_obstacle_input(ranges: list, mount_angles: list, cutoff_m: float):
+    """:func:`sonar_obstacle_inputs` on one run's floats: ``(d_o, phi_o)``, the nearest
+    reading and its mount's angle, NaN, NaN beyond ``cutoff_m``.
+
+    Parameters
+    ----------
+    ranges : list of float
+        The readings, m (inf: no echo).
+    mount_angles : list of float
+        The sensors' angles in the robot frame, rad.
+    cutoff_m : float
+        Readings beyond this are no obstacle, m.
+    """
+    k = ranges.index(min(ranges))  # np.argmin's first minimum
+    if ranges[k] <= cutoff_m:
+        return ranges[k], mount_angles[k]
+    return math.nan, math.nan
+
+
 def sonar_obstacle_inputs(ranges, mount_angle, cutoff_m) -> tuple[np.ndarray, np.ndarray]:
-    """The nearest sonar reading and its mount's angle (:class:`world.perception.
-    Perception`, ultrasonic mode).
+    """The nearest sonar reading and its mount's angle (ultrasonic perception); its
+    float form is :func:`sonar_obstacle_input`.
 
     Parameters
     ----------

@@ -323,3 +323,56 @@ def generate_layouts(
     list of Scenario
     """
     return [generate_layout(family, seed, i, robot) for i in range(n)]
+
+
+#: How far past tangency a tangent layout's obstacle may sit (m, + outside the robot's
+#: swept band, - inside it): 0 and a few last bits either side.
+TANGENT_OFFSETS_M = (0.0, 1e-16, 5e-16, 1e-15, 2e-15, -1e-16)
+
+
+def tangent_layout(seed: int, index: int, robot: RobotDescription = HUSKY) -> Scenario:
+    """A layout whose one obstacle's path is tangent to the robot's straight path: the
+    obstacle (static, or moving along the robot's line, either way) sits half the
+    robot's width plus its radius off the start-target line, plus one of
+    :data:`TANGENT_OFFSETS_M`. A robot driven straight at the target grazes it; which
+    side of the contact rule a graze falls on is decided by a nanometre
+    (:data:`world.kernels.CONTACT_CLEARANCE_M`), not by the last bits of either engine
+    (``bench/bench_batch.py --tangent N``, ``tests/test_tangent.py``).
+
+    Parameters
+    ----------
+    seed, index : int
+        Layout ``index`` of the search with this seed (``default_rng([seed, index])``).
+    robot : RobotDescription
+        The robot whose width sets the tangent (the Husky if omitted).
+
+    Returns
+    -------
+    Scenario
+    """
+    rng = np.random.default_rng([seed, index])
+    heading = float(rng.uniform(-math.pi, math.pi))
+    distance = float(rng.uniform(6.0, 12.0))
+    radius = float(rng.uniform(0.1, 0.6))
+    ux, uy = math.cos(heading), math.sin(heading)
+    side = float(rng.choice([-1.0, 1.0]))
+    offset = float(TANGENT_OFFSETS_M[int(rng.integers(len(TANGENT_OFFSETS_M)))])
+    across = side * (robot.half_width_m + radius + offset)
+    along = float(rng.uniform(2.0, distance - 1.0))
+    speed = float(rng.uniform(-0.8, 0.8)) if index % 2 else 0.0
+    obstacle = ObstacleSpec(
+        (along * ux - across * uy, along * uy + across * ux),
+        radius,
+        velocity=(speed * ux, speed * uy),
+    )
+    scenario = Scenario(
+        name=f"tangent #{index} (seed {seed})",
+        duration_s=_duration_s(distance),
+        start=(0.0, 0.0),
+        heading_rad=heading,
+        target=(distance * ux, distance * uy),
+        tolerance_m=0.15,
+        obstacles=(obstacle,),
+    )
+    check_layout(scenario, robot.footprint_m)
+    return scenario

@@ -34,7 +34,7 @@ Two modes:
     180`` in their files): its robot senses obstacles with three front-mounted US-100s,
     which see nothing behind the axle line (docs/paper-controller.md).
 ``ultrasonic``
-    From the three range sensors: ``d_o`` is the smallest reading and ``phi_o`` is the
+    From the range sensors (any number): ``d_o`` is the smallest reading and ``phi_o`` is the
     mounting angle of the sensor that reads it (an ultrasonic sensor cannot say where in
     its cone the echo came from). Obstacles outside the beams are not seen.
 """
@@ -47,10 +47,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fuzzynav.world.arena import Arena
-from fuzzynav.world.geometry import FULL_CIRCLE_RAD, wrap_angle_scalar
+from fuzzynav.world.geometry import FULL_CIRCLE_RAD
+from fuzzynav.world.kernels import nearest_obstacle, sonar_obstacle_input, target_input
 from fuzzynav.world.sensors import RangeSensorArray
-
-_hypot, _atan2 = math.hypot, math.atan2
 
 OBSTACLE_CUTOFF_M = 3.0
 PERCEPTION_MODES = ("ideal", "ultrasonic")
@@ -149,56 +148,14 @@ def control_context(arena: Arena, period_s: float, ranges) -> ControlContext:
     )
 
 
-def target_inputs(pose, target) -> tuple[float, float]:
-    """(d_t, phi_t) of a target seen from a pose (x, y, heading): the scalar form of
-    :func:`world.kernels.target_inputs` (checked against it by tests/test_world.py)."""
-    dx, dy = target[0] - pose[0], target[1] - pose[1]
-    return _hypot(dx, dy), wrap_angle_scalar(_atan2(dy, dx) - pose[2])
-
-
 def ideal_obstacle_inputs(
     arena: Arena, cutoff_m: float = OBSTACLE_CUTOFF_M
 ) -> tuple[float, float, int]:
     """(d_o, phi_o, obstacle id) of the nearest obstacle by exact geometry; NaN, NaN, -1
-    when none is within ``cutoff_m``."""
+    when none is within ``cutoff_m`` (:func:`world.kernels.nearest_obstacle`)."""
     scene = arena._scene()
-    d_o, phi_o, k = _nearest_obstacle(scene, arena.pose, cutoff_m)
+    d_o, phi_o, k = nearest_obstacle(scene, arena.pose, cutoff_m)
     return d_o, phi_o, scene.ids[k] if k >= 0 else -1
-
-
-def _nearest_obstacle(
-    scene, pose, cutoff_m: float, centre_to_centre: bool = False, half_field=None
-) -> tuple[float, float, int]:
-    """(d_o, phi_o, index in ``scene``) of the nearest obstacle sensed from ``pose``,
-    NaN, NaN, -1 when none is within ``cutoff_m``: the scalar form of
-    :func:`world.kernels.ideal_obstacle_inputs` (its operations on one run's floats).
-    ``centre_to_centre``: the paper's point robot (Eq. 8); ``half_field``: half the field
-    of view, rad (None: all around)."""
-    clearances = scene[3]
-    if not clearances:
-        return math.nan, math.nan, -1
-    x, y, heading = pose
-    if centre_to_centre:  # Eq. 8: a point robot's clearance plus the radius
-        clearances = [c + r for c, r in zip(clearances, scene[1])]
-    if half_field is not None:
-        clearances = _outside_field_as_inf(clearances, scene[2], x, y, heading, half_field)
-    k = clearances.index(min(clearances))  # np.argmin's first minimum, without numpy
-    nearest = max(clearances[k], 0.0)
-    if nearest > cutoff_m:
-        return math.nan, math.nan, -1
-    cx, cy = scene[2][k]
-    return nearest, wrap_angle_scalar(_atan2(cy - y, cx - x) - heading), k
-
-
-def _outside_field_as_inf(clearances, centres, x, y, heading, half_field_rad):
-    """The clearances with every obstacle whose centre bears outside +- ``half_field_rad``
-    of the heading as inf (not sensed)."""
-    return [
-        c
-        if abs(wrap_angle_scalar(_atan2(cy - y, cx - x) - heading)) <= half_field_rad
-        else math.inf
-        for c, (cx, cy) in zip(clearances, centres)
-    ]
 
 
 class Perception:
@@ -246,11 +203,9 @@ class Perception:
     def _sense(self, arena: Arena, time_s: float, target_xy=None):
         """The inputs as floats: ``(d_t, d_o, phi_t, phi_o, ranges, ranges as a list)``.
 
-        :func:`target_inputs`, :func:`_nearest_obstacle`, and with the sonars the
-        nearest reading at its mount's angle (NaN, NaN beyond the cutoff): the
-        scalar forms of :func:`world.kernels.target_inputs`,
-        :func:`~world.kernels.ideal_obstacle_inputs` and
-        :func:`~world.kernels.sonar_obstacle_inputs`.
+        The float forms of the batch engine's stages: :func:`world.kernels.target_input`,
+        :func:`~world.kernels.nearest_obstacle` and, with the sonars, the nearest
+        reading at its mount's angle (:func:`~world.kernels.sonar_obstacle_input`).
         ``target_xy`` (two floats) saves reading ``arena.target`` when the caller has it.
         """
         sensors = self.sensors
@@ -265,15 +220,12 @@ class Perception:
             ranges_list = cached
         if target_xy is None:
             target_xy = arena.target
-        d_t, phi_t = target_inputs(arena._pose, target_xy)
+        d_t, phi_t = target_input(arena._pose, target_xy)
         if self.mode == "ideal":
-            d_o, phi_o, _ = _nearest_obstacle(
+            d_o, phi_o, _ = nearest_obstacle(
                 arena._scene(), arena._pose, self.cutoff_m, self._centre_to_centre,
                 self._half_field,
             )  # fmt: skip
         else:
-            d_o = phi_o = math.nan
-            k = ranges_list.index(min(ranges_list))  # np.argmin's first minimum
-            if ranges_list[k] <= self.cutoff_m:
-                d_o, phi_o = ranges_list[k], self._mount_angles[k]
+            d_o, phi_o = sonar_obstacle_input(ranges_list, self._mount_angles, self.cutoff_m)
         return d_t, d_o, phi_t, phi_o, ranges, ranges_list

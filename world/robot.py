@@ -2,9 +2,9 @@
 
 ``assets/husky.toml`` holds the Husky's linear-graph dynamics (:mod:`world.husky`) and,
 beside them, what the rest of the code knows of the robot: its collision footprint
-(``[footprint]``), its three sonars (``[sonars]``: the side ones' mounting angle, how far
-off the centre line they sit, the beam's width) and the drive's voltage limit
-(``[drive]``). :data:`HUSKY` is that file read once. The arena, the sensors, the scenario
+(``[footprint]``), its range sensors (any number of ``[[sonars]]``, each a name, a
+position in footprint units and an angle; ``[sonar_beam]``, the beam's width) and the
+drive's voltage limit (``[drive]``). :data:`HUSKY` is that file read once. The arena, the sensors, the scenario
 checks, the layout generator, both engines (through the sensors and the plant's
 parameters), the figures, the viewer and fuzzynav's navigator take the footprint and the
 sonar mounts from it, or from a description derived from it
@@ -26,9 +26,10 @@ __all__ = [
     "HUSKY",
     "DESCRIPTION_TABLES",
     "RobotDescription",
+    "SONAR_KEYS",
     "SensorMount",
+    "SonarPlacement",
     "brief",
-    "sonar_mounts",
 ]
 
 
@@ -43,49 +44,71 @@ class SensorMount:
 
 
 #: The tables of husky.toml read here, not by :class:`~fuzzynav.world.husky.HuskyParameters`:
-#: ``{table: {key: (unit, upper bound)}}``; every value a finite number > 0.
+#: ``{table: {key: (unit, upper bound)}}``; every value a finite number > 0. The sonars
+#: themselves are the array of tables ``[[sonars]]`` (:data:`SONAR_KEYS`).
 DESCRIPTION_TABLES: dict[str, dict[str, tuple[str, float]]] = {
-    "sonars": {
-        "side_angle_deg": ("degrees", 90.0),
-        "lateral_fraction": ("-", 1.0),
-        "beam_width_deg": ("degrees", 180.0),
-    },
+    "sonar_beam": {"width_deg": ("degrees", 180.0)},
     "drive": {"voltage_limit_v": ("V", 1e4)},
+}
+#: The numbers of one ``[[sonars]]`` entry (besides its ``name``): ``{key: (unit, low,
+#: high)}``, each a finite number in ``[low, high]``.
+SONAR_KEYS: dict[str, tuple[str, float, float]] = {
+    "x_half_lengths": ("half-lengths", -1.0, 1.0),
+    "y_half_widths": ("half-widths", -1.0, 1.0),
+    "angle_deg": ("degrees", -180.0, 180.0),
 }
 
 
-def sonar_mounts(
-    footprint_m: tuple[float, float], side_angle_rad: float, lateral_fraction: float
-) -> tuple[SensorMount, ...]:
-    """Left, front and right sonars on the footprint's front edge.
+@dataclass(frozen=True)
+class SonarPlacement:
+    """Where a sensor sits in footprint units, so that it follows a changed footprint:
+    ``x_half_lengths`` ahead of the centre (1 = the front edge), ``y_half_widths`` left
+    of the centre line (right negative), pointing ``angle_rad`` from the heading."""
 
-    Parameters
-    ----------
-    footprint_m : (float, float)
-        The footprint's length and width, m.
-    side_angle_rad : float
-        The side sonars' angle from the front one (left +, right -), in (0, pi/2].
-    lateral_fraction : float
-        How far off the centre line the side sonars sit, as a fraction of the half-width.
+    name: str
+    x_half_lengths: float
+    y_half_widths: float
+    angle_rad: float
 
-    Returns
-    -------
-    tuple of SensorMount
-        ``left``, ``front``, ``right``.
+    def mount(self, footprint_m: tuple[float, float]) -> SensorMount:
+        """The :class:`SensorMount` on a footprint of this length and width (m)."""
+        half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
+        return SensorMount(
+            self.name,
+            self.x_half_lengths * half_length,
+            self.y_half_widths * half_width,
+            self.angle_rad,
+        )
 
-    Raises
-    ------
-    ValueError
-        For a side angle outside (0, pi/2].
-    """
+
+def _placements_of(mounts, footprint_m: tuple[float, float]) -> tuple[SonarPlacement, ...]:
+    """The placements of ``mounts`` on a footprint of this length and width (m)."""
+    half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
+    return tuple(
+        SonarPlacement(
+            m.name,
+            m.x_m / half_length if half_length else 0.0,
+            m.y_m / half_width if half_width else 0.0,
+            m.angle_rad,
+        )
+        for m in mounts
+    )
+
+
+def _check_side_angle(side_angle_rad: float) -> None:
     if not (math.isfinite(side_angle_rad) and 0.0 < side_angle_rad <= math.pi / 2):
         raise ValueError(f"side_angle_rad = {side_angle_rad!r}: must be in (0, pi/2]")
-    half_length, half_width = 0.5 * footprint_m[0], 0.5 * footprint_m[1]
-    corner_y = lateral_fraction * half_width
-    return (
-        SensorMount("left", half_length, corner_y, side_angle_rad),
-        SensorMount("front", half_length, 0.0, 0.0),
-        SensorMount("right", half_length, -corner_y, -side_angle_rad),
+
+
+def _sided(placements, side_angle_rad: float) -> tuple[SonarPlacement, ...]:
+    """The placements with every one that points off the heading at +-``side_angle_rad``
+    (its own side kept)."""
+    _check_side_angle(side_angle_rad)
+    return tuple(
+        p
+        if p.angle_rad == 0.0
+        else replace(p, angle_rad=math.copysign(side_angle_rad, p.angle_rad))
+        for p in placements
     )
 
 
@@ -97,10 +120,8 @@ class RobotDescription:
     ----------
     footprint_m : (float, float)
         Length along the heading and width across it, m (collisions and clearances).
-    side_mount_rad : float
-        The side sonars' mounting angle (left +, right -) from the front one.
-    lateral_fraction : float
-        The side sonars' distance off the centre line, as a fraction of the half-width.
+    sonars : tuple of SonarPlacement
+        The range sensors, in footprint units (any number, at least one).
     beam_width_rad : float
         One sonar's cone; side sonars one beam width from the front one leave no gap.
     voltage_limit_v : float
@@ -108,12 +129,11 @@ class RobotDescription:
     mass_kg, inertia_kg_m2 : float
         The hull's mass and yaw inertia (the pymunk body's; the motion is the LG model's).
     mounts : tuple of SensorMount, optional
-        The sonars; by default the three of :func:`sonar_mounts` for the fields above.
+        The sonars in metres; by default ``sonars`` on the footprint.
     """
 
     footprint_m: tuple[float, float]
-    side_mount_rad: float
-    lateral_fraction: float
+    sonars: tuple[SonarPlacement, ...]
     beam_width_rad: float
     voltage_limit_v: float
     mass_kg: float
@@ -121,17 +141,11 @@ class RobotDescription:
     mounts: tuple[SensorMount, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "footprint_m", (float(self.footprint_m[0]), float(self.footprint_m[1]))
-        )
-        if not self.mounts:
-            object.__setattr__(
-                self,
-                "mounts",
-                sonar_mounts(self.footprint_m, self.side_mount_rad, self.lateral_fraction),
-            )
-        else:
-            object.__setattr__(self, "mounts", tuple(self.mounts))
+        footprint = (float(self.footprint_m[0]), float(self.footprint_m[1]))
+        object.__setattr__(self, "footprint_m", footprint)
+        object.__setattr__(self, "sonars", tuple(self.sonars))
+        mounts = tuple(self.mounts) or tuple(p.mount(footprint) for p in self.sonars)
+        object.__setattr__(self, "mounts", mounts)
 
     @property
     def half_length_m(self) -> float:
@@ -144,27 +158,33 @@ class RobotDescription:
         return 0.5 * self.footprint_m[1]
 
     @property
+    def side_mount_rad(self) -> float:
+        """The widest mount's angle off the heading, rad (the Husky's side sonars')."""
+        return max(abs(m.angle_rad) for m in self.mounts)
+
+    @property
     def gapless_side_mount_rad(self) -> float:
         """The side sonars' angle that leaves no blind sector ahead: one beam width."""
         return self.beam_width_rad
 
     def with_sonar_side(self, side_angle_rad: float) -> RobotDescription:
-        """The same robot with its side sonars at +-``side_angle_rad`` (``--sonar-side``).
+        """The same robot with every sonar that points off the heading at
+        +-``side_angle_rad``, on its side (``--sonar-side``).
 
         Parameters
         ----------
         side_angle_rad : float
-            The side sonars' new angle from the front one, in (0, pi/2].
+            The new angle from the heading, in (0, pi/2].
 
         Returns
         -------
         RobotDescription
         """
-        mounts = sonar_mounts(self.footprint_m, side_angle_rad, self.lateral_fraction)
-        return replace(self, side_mount_rad=float(side_angle_rad), mounts=mounts)
+        sonars = _sided(self.sonars, side_angle_rad)
+        return replace(self, sonars=sonars, mounts=())
 
     def with_footprint(self, footprint_m: tuple[float, float]) -> RobotDescription:
-        """The same robot with another footprint, its sonars moved onto the new front edge.
+        """The same robot with another footprint, its sonars carried with it.
 
         Parameters
         ----------
@@ -176,8 +196,7 @@ class RobotDescription:
         RobotDescription
         """
         length, width = float(footprint_m[0]), float(footprint_m[1])
-        mounts = sonar_mounts((length, width), self.side_mount_rad, self.lateral_fraction)
-        return replace(self, footprint_m=(length, width), mounts=mounts)
+        return replace(self, footprint_m=(length, width), mounts=())
 
     def with_mounts(self, mounts) -> RobotDescription:
         """The same robot with these sonars (a sensor configuration's own).
@@ -191,7 +210,8 @@ class RobotDescription:
         -------
         RobotDescription
         """
-        return replace(self, mounts=tuple(mounts))
+        mounts = tuple(mounts)
+        return replace(self, sonars=_placements_of(mounts, self.footprint_m), mounts=mounts)
 
     def with_parameters(
         self, parameters: HuskyParameters, mounts=None, voltage_limit_v: float | None = None
@@ -213,12 +233,15 @@ class RobotDescription:
         -------
         RobotDescription
         """
+        footprint = (parameters.footprint_length_m, parameters.footprint_width_m)
+        mounts = self.mounts if mounts is None else tuple(mounts)
         return replace(
             self,
-            footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
+            footprint_m=footprint,
             mass_kg=parameters.hull_mass_kg,
             inertia_kg_m2=parameters.hull_inertia_kg_m2,
-            mounts=self.mounts if mounts is None else tuple(mounts),
+            sonars=_placements_of(mounts, footprint),
+            mounts=mounts,
             voltage_limit_v=(
                 self.voltage_limit_v if voltage_limit_v is None else float(voltage_limit_v)
             ),
@@ -232,8 +255,8 @@ class RobotDescription:
         ----------
         path : str or Path
             The file: :class:`~fuzzynav.world.husky.HuskyParameters`' keys (the footprint,
-            mass and inertia are read from them) and the tables of
-            :data:`DESCRIPTION_TABLES`.
+            mass and inertia are read from them), the tables of
+            :data:`DESCRIPTION_TABLES` and the ``[[sonars]]`` (:data:`SONAR_KEYS`).
 
         Returns
         -------
@@ -243,8 +266,8 @@ class RobotDescription:
         ------
         ValueError
             As :meth:`HuskyParameters.from_toml`, and for a missing or unknown key of a
-            description table or a value that is not a number in its range (the file,
-            key and value named).
+            description table or a sonar, a value that is not a number in its range, or a
+            sonar's name missing or repeated (the file, key and value named).
         """
         path = Path(path)
         parameters = HuskyParameters.from_toml(path)
@@ -262,11 +285,7 @@ class RobotDescription:
                     raise ValueError(f"{path}: unknown key {table}.{key} = {shown(data[key])}")
             for key, (unit, upper) in keys.items():
                 value = data.get(key)
-                if (
-                    isinstance(value, bool)
-                    or not isinstance(value, (int, float))
-                    or not (0.0 < value <= upper)
-                ):
+                if not _is_number(value) or not (0.0 < value <= upper):
                     raise ValueError(
                         f"{path}: key {table}.{key} = {shown(value)}: must be a number "
                         f"> 0 and <= {upper:g} {unit}"
@@ -274,13 +293,56 @@ class RobotDescription:
                 values[key] = float(value)
         return cls(
             footprint_m=(parameters.footprint_length_m, parameters.footprint_width_m),
-            side_mount_rad=math.radians(values["side_angle_deg"]),
-            lateral_fraction=values["lateral_fraction"],
-            beam_width_rad=math.radians(values["beam_width_deg"]),
+            sonars=_read_sonars(document.get("sonars"), path),
+            beam_width_rad=math.radians(values["width_deg"]),
             voltage_limit_v=values["voltage_limit_v"],
             mass_kg=parameters.hull_mass_kg,
             inertia_kg_m2=parameters.hull_inertia_kg_m2,
         )
+
+
+def _is_number(value) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, float))
+
+
+def _read_sonars(entries, path: Path) -> tuple[SonarPlacement, ...]:
+    """The ``[[sonars]]`` of a parameter file, checked (:data:`SONAR_KEYS`)."""
+    if not isinstance(entries, list) or not entries:
+        raise ValueError(
+            f"{path}: [[sonars]] = {shown(entries)}: missing; give at least one "
+            f"[[sonars]] table (name, {', '.join(SONAR_KEYS)})"
+        )
+    sonars: list[SonarPlacement] = []
+    for i, entry in enumerate(entries):
+        where = f"sonars[{i}]"
+        if not isinstance(entry, dict):
+            raise ValueError(f"{path}: {where} = {shown(entry)}: must be a table")
+        for key in entry:
+            if key != "name" and key not in SONAR_KEYS:
+                raise ValueError(f"{path}: unknown key {where}.{key} = {shown(entry[key])}")
+        name = entry.get("name")
+        if not isinstance(name, str) or not name.strip():
+            raise ValueError(f"{path}: key {where}.name = {shown(name)}: must be a name")
+        if any(s.name == name for s in sonars):
+            raise ValueError(f"{path}: key {where}.name = {shown(name)}: named twice")
+        numbers = {}
+        for key, (unit, low, high) in SONAR_KEYS.items():
+            value = entry.get(key)
+            if not _is_number(value) or not (low <= value <= high):
+                raise ValueError(
+                    f"{path}: key {where}.{key} = {shown(value)}: must be a number "
+                    f"in [{low:g}, {high:g}] {unit}"
+                )
+            numbers[key] = float(value)
+        sonars.append(
+            SonarPlacement(
+                name,
+                numbers["x_half_lengths"],
+                numbers["y_half_widths"],
+                math.radians(numbers["angle_deg"]),
+            )
+        )
+    return tuple(sonars)
 
 
 def brief(controller, robot: RobotDescription) -> None:

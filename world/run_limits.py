@@ -1,6 +1,7 @@
 """How a run of the closed loop is bounded and how it ends.
 
-The outcomes a run may have (:data:`OUTCOMES`), the checks of the control period and the
+The outcomes a run may have (:data:`OUTCOMES`) and how a step ends a run
+(:func:`run_ending`, :func:`run_endings`), the checks of the control period and the
 voltage limit (:func:`check_loop_settings`), the slack of the timeout test
 (:func:`timeout_slack_s`) and the bounds on a run's steps and its log's memory
 (:func:`check_run_size`, :func:`log_bytes`). Both engines use them: the pymunk loop
@@ -54,6 +55,50 @@ def check_loop_settings(control_period_s: float, voltage_limit_v: float) -> None
         )
     if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
         raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
+
+
+def run_ending(
+    to_target_m: float, tolerance_m: float, touched: bool, time_s: float, timeout_at_s: float
+) -> int:
+    """How a run ends after a step, on one run's floats: an index into :data:`OUTCOMES`
+    (the target first, then a contact, then the time), -1 while it goes on. The pymunk
+    engine's stop rules; :func:`run_endings` is the batch engine's, beside it.
+
+    Parameters
+    ----------
+    to_target_m : float
+        The robot's centre to the target, m.
+    tolerance_m : float
+        The target's tolerance, m.
+    touched : bool
+        A contact began in the step (and ends the run).
+    time_s, timeout_at_s : float
+        The time after the step, and when the run times out (its duration less
+        :func:`timeout_slack_s`), s.
+    """
+    if to_target_m <= tolerance_m:
+        return 0
+    if touched:
+        return 1
+    return 2 if time_s >= timeout_at_s else -1
+
+
+def run_endings(to_target_m, tolerance_m, touched, time_s, timeout_at_s) -> np.ndarray:
+    """:func:`run_ending` on arrays, one entry per run (the batch engine's stop rules).
+
+    Parameters
+    ----------
+    to_target_m, tolerance_m, time_s, timeout_at_s : numpy.ndarray, (n,)
+        As :func:`run_ending`.
+    touched : numpy.ndarray, (n,) bool
+        As :func:`run_ending`.
+
+    Returns
+    -------
+    numpy.ndarray, (n,) int
+    """
+    timeout = np.where(time_s >= timeout_at_s, 2, -1)
+    return np.where(to_target_m <= tolerance_m, 0, np.where(touched, 1, timeout))
 
 
 #: The smallest slack of the timeout test (s): a run ends as ``timeout`` at the first

@@ -51,6 +51,7 @@ from fuzzynav.resources import (
     read_user_text,
 )
 from fuzzynav.world.geometry import rectangle_circle_clearance
+from fuzzynav.world.kernels import CONTACT_CLEARANCE_M
 from fuzzynav.world.robot import HUSKY
 from fuzzynav.world.scenario_format import (
     _ROBOT_KEYS,
@@ -365,7 +366,7 @@ def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_
         clearance = rectangle_circle_clearance(
             scenario.start, scenario.heading_rad, length, width, o.position, o.radius_m
         )
-        if clearance <= 0.0:
+        if clearance <= CONTACT_CLEARANCE_M:
             r.fail(
                 f"obstacles[{i}].position",
                 list(o.position),

@@ -17,8 +17,7 @@ any ray (a distance test on the centres it keeps as floats); with none, every re
 of the sensor and the disc's angular extent (its bearing +- asin(r / d)) overlaps the
 beam's, and a ray is cast only if it passes within a radius of such an obstacle's
 centre. Every test is conservative (1e-6 m and 1e-9 rad of slack), so a ray that could
-hit is always cast; the casts are Chipmunk's segment query through pymunk's cffi
-binding (the call ``Space.segment_query_first`` makes, minus building its result). A
+hit is always cast; the casts are pymunk's ``Space.segment_query_first``. A
 space holding shapes the arena does not know (added to ``arena.space`` directly) gets
 the general path: pymunk's bounding-box query per beam, then every ray of the beam.
 """
@@ -27,16 +26,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import pymunk
 
 from fuzzynav.world.arena import RAY_FILTER, Arena
-from fuzzynav.world.compat_pymunk import FAST as _FAST
-from fuzzynav.world.compat_pymunk import cpSpaceSegmentQueryFirst as _cpSpaceSegmentQueryFirst
-from fuzzynav.world.compat_pymunk import ffi as _ffi
-from fuzzynav.world.robot import HUSKY, SensorMount, sonar_mounts
+from fuzzynav.world.robot import HUSKY, SensorMount
 
 # Slack on the prefilter's distances and angles, far above the rounding of the centres
 # and directions it compares: it may let a ray through that misses, never the reverse.
@@ -57,34 +52,35 @@ GAPLESS_SIDE_MOUNT_RAD = HUSKY.gapless_side_mount_rad
 def default_mounts(
     footprint_m: tuple[float, float] | None = None, side_angle_rad: float | None = None
 ) -> tuple[SensorMount, ...]:
-    """Left, front and right sensors on the front edge, the side ones at +-``side_angle_rad``.
+    """The robot's sonars (husky.toml's ``[[sonars]]``), on another footprint or with
+    the side ones at +-``side_angle_rad`` if given.
 
     The paper names three US-100s (15-degree cones) and not how they are mounted. At the
-    robot's default angle (husky.toml's ``[sonars]``, 45 degrees) they leave gaps between
-    the beams but make the sensor that sees the nearest echo say clearly where the
-    obstacle is (left, ahead or right), which is what fuzzynav's navigator was designed
-    on. One beam width apart (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side
-    15``) they cover the sector ahead without a gap: the paper's memoryless controller
-    then passes an obstacle it loses between the wider beams, while fuzzynav's navigator
-    keeps its success rate but less often the safe distance (docs/paper-controller.md,
-    "Sensing").
+    robot's default angle (45 degrees) they leave gaps between the beams but make the
+    sensor that sees the nearest echo say clearly where the obstacle is (left, ahead or
+    right), which is what fuzzynav's navigator was designed on. One beam width apart
+    (``GAPLESS_SIDE_MOUNT_RAD``, ``fuzzynav run --sonar-side 15``) they cover the sector
+    ahead without a gap: the paper's memoryless controller then passes an obstacle it
+    loses between the wider beams, while fuzzynav's navigator keeps its success rate but
+    less often the safe distance (docs/paper-controller.md, "Sensing").
 
     Parameters
     ----------
     footprint_m : (float, float), optional
-        The footprint whose front edge carries them (the robot's, :data:`HUSKY`, if
-        omitted).
+        The footprint that carries them (the robot's, :data:`HUSKY`, if omitted).
     side_angle_rad : float, optional
-        The side sensors' angle, in (0, pi/2] (the robot's if omitted).
+        The angle of every sonar that points off the heading, in (0, pi/2] (as
+        :meth:`~fuzzynav.world.robot.RobotDescription.with_sonar_side`; the robot's if
+        omitted).
 
     Returns
     -------
     tuple of SensorMount
     """
-    robot = HUSKY
-    side = robot.side_mount_rad if side_angle_rad is None else side_angle_rad
-    footprint = robot.footprint_m if footprint_m is None else footprint_m
-    return sonar_mounts(footprint, side, robot.lateral_fraction)
+    robot = HUSKY if footprint_m is None else HUSKY.with_footprint(footprint_m)
+    if side_angle_rad is not None:
+        robot = robot.with_sonar_side(side_angle_rad)
+    return robot.mounts
 
 
 @dataclass(frozen=True)
@@ -135,8 +131,6 @@ class RangeSensorArray:
         self._offsets = [float(a) for a in self.config.ray_offsets_rad()]
         self._spread = max(abs(a) for a in self._offsets)  # rays' largest angle off centre
         self._constants_for: SensorConfig | None = None
-        self._info = _ffi.new("cpSegmentQueryInfo *") if _FAST else None
-        self._filter = _ffi.new("cpShapeFilter *", RAY_FILTER)[0] if _FAST else None
         self.reset(seed)
 
     def reset(self, seed: int | None = None) -> None:
@@ -194,10 +188,7 @@ class RangeSensorArray:
             # Nothing within reach of any ray: every cast would miss.
             self._store([math.inf] * n, None)
             return
-        space_ptr = getattr(arena, "_space_ptr", None)
-        info: Any = self._info  # a cffi cpSegmentQueryInfo *, or None without the fast path
-        shape_filter = self._filter
-        fast = space_ptr is not None and info is not None
+        query = arena.space.segment_query_first
         max_range = cfg.max_range_m
         offsets = self._offsets
         spread = self._spread
@@ -237,20 +228,12 @@ class RangeSensorArray:
                     else:
                         continue
                     end = (ox + max_range * ux, oy + max_range * uy)
-                    if fast:
-                        if _cpSpaceSegmentQueryFirst(
-                            space_ptr, (ox, oy), end, 0.0, shape_filter, info
-                        ):
-                            distance = info.alpha * max_range
-                            if distance < nearest:
-                                point = info.point
-                                nearest, hit = distance, (point.x, point.y)
-                    else:
-                        result = arena.space.segment_query_first((ox, oy), end, 0.0, RAY_FILTER)
-                        if result is not None:
-                            distance = result.alpha * max_range
-                            if distance < nearest:
-                                nearest, hit = distance, (result.point.x, result.point.y)
+                    result = query((ox, oy), end, 0.0, RAY_FILTER)
+                    if result is not None:
+                        distance = result.alpha * max_range
+                        if distance < nearest:
+                            point = result.point
+                            nearest, hit = distance, (point.x, point.y)
             if hit is not None:
                 nearest = self._reading(nearest)
                 if hits is None:

@@ -50,7 +50,7 @@ class SimulationLog:
     disturbance: np.ndarray  # (N,): the value added to every input
     controller_output_v: np.ndarray  # (N, 2): left, right before saturation
     voltages_v: np.ndarray  # (N, 2): left, right as applied
-    ranges_m: np.ndarray  # (N, 3): left, front, right sensor readings
+    ranges_m: np.ndarray  # (N, n_sensors): the range sensors' readings, in mount order
     target_xy: np.ndarray  # (N, 2)
     obstacle_xy: np.ndarray  # (N, n_obstacles, 2); NaN while an obstacle is absent
     obstacle_radii_m: np.ndarray  # (n_obstacles,)
@@ -85,15 +85,17 @@ class _LogBuffer:
     }
     _FLUSH_ROWS = 512
 
-    def __init__(self, capacity: int, block_rows: int):
+    def __init__(self, capacity: int, block_rows: int, n_sensors: int = 3):
         self.n = 0
+        #: ``_FIELDS`` with this run's number of range sensors
+        self.fields = {**self._FIELDS, "ranges_m": n_sensors}
         # block_rows: rows kept in memory at most; fuller blocks are written out to the
         # spool, a pair of unnamed temporary files.
         self.block_rows = max(block_rows, self._FLUSH_ROWS)
         self.capacity = max(min(capacity, self.block_rows), 16)
         self._spool: _LogSpool | None = None
         self._spilled = 0  # rows in the spool, before those in the matrices
-        self.width = sum(self._FIELDS.values())
+        self.width = sum(self.fields.values())
         self.rows = np.full((self.capacity, self.width), np.nan)
         self.obstacle_ids: list[int] = []
         self.obstacle_radii: list[float] = []
@@ -149,7 +151,7 @@ class _LogBuffer:
     def append(
         self, row: list[float], ids: list[int], radii, xy: list[float], clearances: list[float]
     ) -> None:
-        """Log one row: ``row`` in ``_FIELDS`` order; per obstacle present (``ids``),
+        """Log one row: ``row`` in ``fields`` order; per obstacle present (``ids``),
         its radius, its centre (in ``xy``, flat: x0, y0, x1, y1, ...) and clearance."""
         if ids is not self._ids_seen:
             self._set_columns(ids, radii)
@@ -230,7 +232,7 @@ class _LogBuffer:
             return array.copy() if copy else array
 
         fields, start = {}, 0
-        for name, width in self._FIELDS.items():
+        for name, width in self.fields.items():
             column = rows[:, start : start + width]
             fields[name] = take(column[:, 0] if name in ("time_s", "disturbance") else column)
             start += width

@@ -54,6 +54,7 @@ from fuzzynav.world.run_limits import Outcome as Outcome
 from fuzzynav.world.run_limits import check_loop_settings as check_loop_settings
 from fuzzynav.world.run_limits import check_run_size as check_run_size
 from fuzzynav.world.run_limits import log_bytes as log_bytes
+from fuzzynav.world.run_limits import run_ending
 from fuzzynav.world.run_limits import timeout_slack_s as timeout_slack_s
 from fuzzynav.world.run_limits import wheel_voltages
 from fuzzynav.world.scenario import Scenario
@@ -193,7 +194,9 @@ class Simulation:
         # The log is sized for the whole run up to a block (LOG_BLOCK_BYTES); a longer
         # run's earlier blocks go to the disk, so memory does not grow with the length.
         capacity = int(math.ceil(min(sc.duration_s, 3600.0) / self.control_period_s)) + 2
-        self._log = _LogBuffer(capacity, log_block_rows(len(sc.obstacles)))
+        self._log = _LogBuffer(
+            capacity, log_block_rows(len(sc.obstacles)), len(self.sensors.config.mounts)
+        )
         self._pending: dict | None = None
 
     @property
@@ -301,12 +304,15 @@ class Simulation:
         new_contacts = arena.step(forward_speed, yaw_rate, dt)
 
         x, y, _ = arena._pose
-        if math.hypot(target_xy[0] - x, target_xy[1] - y) <= self.scenario.tolerance_m:
-            self.outcome = "reached"
-        elif new_contacts and self.stop_on_collision:
-            self.outcome = "collided"
-        elif arena.time_s >= self._timeout_at_s:
-            self.outcome = "timeout"
+        ending = run_ending(
+            math.hypot(target_xy[0] - x, target_xy[1] - y),
+            self.scenario.tolerance_m,
+            bool(new_contacts) and self.stop_on_collision,
+            arena.time_s,
+            self._timeout_at_s,
+        )
+        if ending >= 0:
+            self.outcome = OUTCOMES[ending]
         if self.outcome is not None:
             d_t, d_o, phi_t, phi_o, _, ranges_list, disturbance = self._sense(None)
             nan = math.nan

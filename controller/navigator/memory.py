@@ -7,7 +7,7 @@ design): what it makes of its readings over time.
   arcs, and a sonar's nearest echo as a point, merged within ``merge_m`` and forgotten
   after ``memory_s``; at the sensors' rate, the remembered footprint distance per sector
   and the points not behind the robot (which the bearing planner reads).
-- **Sectors**: the three readings, the remembered sectors and (ideal perception) the
+- **Sectors**: the readings folded by their mounts' angles (:meth:`PerceptionMemory.fold`), the remembered sectors and (ideal perception) the
   nearest obstacle all around folded into left, front and right; each remembered
   sector distance grows back only at ``memory_grow_mps``; the front and the nearest
   obstacle count as nearer when they close faster than the robot's own motion explains
@@ -47,6 +47,38 @@ class PerceptionMemory:
         #: the footprint's half-sizes (m): the robot's (set_robot)
         self.hx, self.hy = _HX, _HY
         self.reset()
+
+    @property
+    def mounts(self) -> tuple[tuple[float, float, float], ...]:
+        """The sonars as ``(x, y, angle)`` (robot frame), any number: the front one is
+        the one pointing nearest straight ahead (the first of a tie), the others fold
+        into the left sector (angle > 0) or the right (angle <= 0)."""
+        return self._mounts
+
+    @mounts.setter
+    def mounts(self, mounts) -> None:
+        self._mounts = mounts = tuple(mounts)
+        angles = [abs(m[2]) for m in mounts]
+        front = angles.index(min(angles))
+        others = [k for k in range(len(mounts)) if k != front]
+        #: the front sonar's index and the left and right sectors' indices
+        self.front_index = front
+        self.left_indices = tuple(k for k in others if mounts[k][2] > 0.0)
+        self.right_indices = tuple(k for k in others if mounts[k][2] <= 0.0)
+        # the three-sonar Husky's left, front, right: unpacked as they come
+        self._in_order = (self.left_indices, front, self.right_indices) == ((0,), 1, (2,))
+
+    def fold(self, ranges) -> tuple[float, float, float]:
+        """The readings as ``(left, front, right)`` (m): the front sonar's, and the
+        nearest of each side's (inf for a side without a sonar or a reading)."""
+        if self._in_order and len(ranges) == 3:
+            left, front, right = ranges
+            return left, front, right
+        count = len(ranges)
+        front = ranges[self.front_index] if self.front_index < count else math.inf
+        left = min((ranges[k] for k in self.left_indices if k < count), default=math.inf)
+        right = min((ranges[k] for k in self.right_indices if k < count), default=math.inf)
+        return left, front, right
 
     def reset(self) -> None:
         self.mem = [math.inf, math.inf, math.inf]  # remembered left, front, right (m)
@@ -161,7 +193,7 @@ class PerceptionMemory:
         store_dt: float,
     ) -> tuple[float, float, float, float]:
         """The distances fed to the avoidance block: ``(left, front_eff, right, hint)``,
-        the readings ``ranges`` with the remembered sectors and (ideal
+        the readings ``ranges`` (:meth:`fold`) with the remembered sectors and (ideal
         perception) the nearest obstacle ``d_o``, ``phi_o`` folded in and held by the
         memory; ``front_eff`` is the front, shortened by its closing speed (time to
         contact) and ``hint`` the nearest obstacle's bearing when it is ahead (else 0).
@@ -169,7 +201,8 @@ class PerceptionMemory:
         apart)."""
         p = self.params
         vel = self.vel
-        left, front, right = ranges
+        left, front, right = self.fold(ranges)
+        raw_front = front
         fold = math.radians(p["side_fold_deg"])
         m_l, m_f, m_r = self.mem_sectors
         if m_l < left:
@@ -223,7 +256,6 @@ class PerceptionMemory:
         # 0.1 m in one period is a new echo, not motion either.
         front_eff = front_mem
         if store_tick:
-            raw_front = ranges[1]
             self.closing_f = 0.0
             if raw_front < 4.5 and self.prev_front < 4.5 and abs(vel[1]) < 0.2:
                 change = self.prev_front - raw_front
