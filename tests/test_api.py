@@ -194,12 +194,12 @@ def test_example_read_recording(tmp_path):
 def test_simulate_takes_the_field_of_view_and_the_sonar_mounting():
     """``field_of_view_deg`` and ``sonar_side_deg`` are ``run``'s ``--field-of-view`` and
     ``--sonar-side``: the same run as the command line's, and a different one from the
-    defaults (s1: the front half-plane; the sonars 45 degrees apart)."""
+    defaults (s1: a 60-degree cone ahead; the sonars 45 degrees apart)."""
     from fuzzynav.app.cli import main
 
     all_around = fuzzynav.simulate("s1", field_of_view_deg=360)
     front = fuzzynav.simulate("s1")
-    assert front._simulation.perception.field_of_view_rad == math.pi
+    assert front._simulation.perception.field_of_view_rad == pytest.approx(math.radians(60))
     assert all_around._simulation.perception.field_of_view_rad == 2 * math.pi
     assert all_around.metrics["path_length_m"] != front.metrics["path_length_m"]
     gapless = fuzzynav.simulate("s1", perception="ultrasonic", sonar_side_deg=15)

@@ -141,13 +141,14 @@ def test_angle_inputs_must_be_mirrored_and_the_wheels_share_their_terms(good):
 
 def test_the_scenarios_start_as_the_selected_reading_in_both_geometries():
     """The start heading is a reading of the text, never fitted: the one the readings
-    table selected (docs/data/paper_readings.json, by the rule written before the fits),
+    table selected (docs/data/paper_readings_behaviour.json, by the rule written before
+    the fits),
     the same for the Husky and the paper's point robot, with the reading's field of view."""
     import json
 
     from fuzzynav.app.experiments.paper_fit import select_reading
 
-    table = json.loads((ROOT / "docs" / "data" / "paper_readings.json").read_text())
+    table = json.loads((ROOT / "docs" / "data" / "paper_readings_behaviour.json").read_text())
     chosen = select_reading(table["results"])
     heading = float(chosen["reading"].split("heading ")[1].split(" rad")[0])
     field = float(chosen["reading"].split("field ")[1].split(" deg")[0])

@@ -33,9 +33,9 @@ def test_shipped_scenarios_match_the_paper():
     assert [o.position for o in s1.obstacles] == [(4.0, 4.0), (5.7, 5.0), (7.5, 6.4)]
     assert all(o.radius_m == 0.2 and o.is_static for o in s1.obstacles)
     assert s1.start == (0.0, 0.0) and s1.target == (8.0, 8.0)
-    assert s1.heading_rad == 0.0  # facing +x: the selected reading (issue 35)
-    # the paper's three front sonars: ideal perception senses the front half-plane
-    assert all(s.field_of_view_deg == pytest.approx(180.0) for s in (s1, s2, s3))
+    assert s1.heading_rad == 0.0  # facing +x: the selected reading
+    # ideal perception senses a 60-degree cone ahead: the readings table's field
+    assert all(s.field_of_view_deg == pytest.approx(60.0) for s in (s1, s2, s3))
     static, moving = s2.obstacles
     assert static.position == (4.0, 3.58) and static.is_static
     assert moving.position == (8.0, 8.0) and moving.radius_m == 0.3
