@@ -236,7 +236,10 @@ DONE_FINAL_PHI_T_RAD = 0.1
     "scenario",
     _not_met(
         {
-            "s2": "not met: minimum distance +86.5 % (path -2.8 %, MAD +8.3 %, RMSE -5.8 %, met)",
+            "s1": "not met: minimum distance 0.421 m, +64.6 % (path -2.7 %, MAD +22.7 %, "
+            "RMSE +24.8 %, met)",
+            "s2": "not met: minimum distance 0.626 m, +63.3 % (path -3.0 %, MAD +12.8 %, "
+            "RMSE -3.8 %, met)",
         }
     ),
 )
@@ -252,10 +255,10 @@ def test_paper_geometry_reproduces_table4_from_the_trace(traces, scenario):
     "scenario",
     _not_met(
         {
-            "s1": "not met: the first two obstacles passed at 0.84 and 0.50 m (paper 0.46 and "
-            "0.29; the third at 0.32 m, met)",
-            "s2": "not met: the first obstacle passed by at 0.74 m (paper 0.38; at 34.7 s against "
-            "29 s, and the second at 58.6 s and 0.72 m, met)",
+            "s1": "not met: the first and third obstacles passed at 1.00 and 0.66 m (paper 0.46 "
+            "and 0.26; the second at 0.42 m against 0.29, met)",
+            "s2": "not met: the static obstacle passed at 0.74 m and 37.2 s (paper 0.38 m, 29 s; "
+            "the moving one at 61.4 s and 0.63 m, met)",
         }
     ),
 )
@@ -303,6 +306,11 @@ def test_paper_geometry_does_not_crawl_to_the_target(traces, scenario):
     assert _from_trace(traces[scenario], scenario)["approach_speed_ratio"] >= 0.5
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="not met: s3's static pass 2.0 s later than s2's (met) but 0.01 m nearer, not "
+    "0.1-0.4 m farther (0.728 against 0.739 m); its MAD 0.652 against 0.646 m, met",
+)
 def test_paper_geometry_s3_disturbance_shows(traces):
     """The paper's s3 passes its static obstacle about 4 s later and 0.25 m farther than
     s2 (33 s, 0.63 m against 29 s, 0.38 m), with a MAD 10 % larger: 2-6 s later, 0.1-0.4 m
