@@ -470,13 +470,15 @@ def render_readme_headline(data: dict, generalise: dict | None) -> str:
         "membership functions drawn from 12 numbers under design rules a reviewer would ask "
         "of a hand-drawn controller (`controller/design_rules.py`), fitted in the paper's "
         "geometry (a point robot, `--geometry paper`) under the reading of the text its "
-        "results support, chosen among eight by a rule written down before the fits: a start "
-        "facing +x, ideal perception of the front half-plane, and Table 1's NONE as the "
-        "text has it (the goal rules hold only while no obstacle is sensed). It reaches "
-        f"s1-s3 and meets **{met} of the {len(checks)} done bounds**: Table 4's MAD, RMSE "
+        "results and its robot's behaviour support, chosen by a rule written down before "
+        "the fits: a start facing +x, ideal perception of a 60-degree cone ahead, and Table "
+        "1's NONE as the text has it (the goal rules hold only while no obstacle is sensed). "
+        f"It reaches s1-s3 and meets **{met} of the {len(checks)} done bounds**, among them "
+        "no crawl to the target: Table 4's MAD, RMSE "
         f"and minimum distance within {max(worst['mad_m'], worst['rmse_m'], worst['min_center_distance_m']):.0f} % "
         f"(paths {worst['path_length_m']:.1f} % short at most), s1's obstacles passed at "
-        f"{s1} m coming from the right of the line, the target bearing settling to "
+        f"{s1} m (the paper: 0.46, 0.29, 0.26) coming from the right of the line, the "
+        "target bearing settling to "
         f"{max(abs(m['final_phi_t_rad']) for m in runs.values()):.3f} rad; s3's right wheel "
         f"stays at {runs['s3']['max_voltage_v'][1]:.1f} V (the paper: clipped at 12 V). "
         "The Husky's footprint (the default world, the viewer's) is driven by its twin, "
@@ -537,9 +539,9 @@ LAYOUT_MEANINGS = {
     "d_t.r": "growth of each d_t spacing over the one before",
     "d_o.near": "where near stops holding 1 (m)",
     "d_o.far": "where far starts holding 1 (m; medium half-way)",
-    "phi_t.p": "centre of P (N at -p; rad)",
-    "phi_t.q": "VP holds 1 from p (1 + q) (VN mirrored), kept inside the universe",
-    "phi_o.p": "the same for the obstacle bearing (rad)",
+    "phi_t.vp": "where VP holds 1 (VN at -vp; rad), in the upper half of [0, 2 pi]",
+    "phi_t.q": "P's centre at vp / (1 + q) (N mirrored)",
+    "phi_o.vp": "the same for the obstacle bearing (rad), in the upper half of [0, pi]",
     "phi_o.q": "the same for the obstacle bearing",
     "v.e0": "where the wheels' VS holds 1 (V; the slow wheel of a turn)",
     "v.top": "where VL starts holding 1 (V)",
