@@ -20,7 +20,6 @@ from fuzzynav.app.viewer.budget import (
     scenario_charge,
 )
 from fuzzynav.app.viewer.state import (
-    EDITED_LABEL,
     MAX_UPLOAD_BYTES,
     NEW_OBSTACLE_RADIUS_M,
     UPLOADED_PREFIX,
@@ -257,42 +256,60 @@ class ScenarioEditing:
             )
             return [i for i, gap in zip(ids, gaps.tolist()) if gap <= 0.0]
 
-    def editor(self):
-        """The membership editor of the paper controller (built on first use)."""
+    def editor_kind(self) -> str:
+        """Which system the Editor edits: ``starter`` while the starter (or its edit)
+        drives, else ``paper`` (the paper controller, edited from whatever drives)."""
+        from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL, STARTER_LABEL
+
+        label = self.app.controller_label
+        return "starter" if label in (STARTER_LABEL, STARTER_EDITED_LABEL) else "paper"
+
+    def editor(self, kind: str | None = None):
+        """The editor of the system that drives (:meth:`editor_kind`), or of ``kind``
+        (built on first use)."""
         app = self.app
-        from fuzzynav.app.viewer.editor import PaperEditor
+        from fuzzynav.app.viewer.editor import PaperEditor, StarterEditor
 
         with app.lock:
+            kind = kind or self.editor_kind()
+            if kind == "starter":
+                if app.starter_edit is None:
+                    app.starter_edit = StarterEditor(app.geometry)
+                return app.starter_edit
             if app.paper_edit is None:
                 app.paper_edit = PaperEditor(app.geometry)
             return app.paper_edit
 
+    def _drive_edited(self, editor, controller, what: str) -> None:
+        """Drive with ``editor``'s edited system at once and say so."""
+        self.app.setup._install_controller(controller, editor.edited_label, quiet=True)
+        self.app._notice(f"Controller: {editor.edited_label} ({what}).", "info")
+
     def set_membership_parameter(self, name: str, value) -> None:
-        """Change one of the paper controller's membership parameters and drive with the
-        edited system at once (the run goes on)."""
-        app = self.app
+        """Change one membership parameter of the system that drives (the starter's
+        while it drives, else the paper controller's) and drive with the edited system at
+        once (the run goes on)."""
         editor = self.editor()
         try:
             controller = editor.set(name, value)
         except ValueError as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        self._drive_edited(editor, controller, f"{name} = {editor.value(name):.2f}")
 
     def set_inference_choice(self, field: str, value: str) -> None:
-        """Change one of the paper controller's inference choices (issue 27: AND,
-        implication, aggregation, defuzzification) and drive with it at once."""
-        app = self.app
+        """Change one of the edited system's inference choices (AND, implication,
+        aggregation, defuzzification) and drive with it at once."""
+        editor = self.editor()
         try:
-            controller = self.editor().set_choice(field, value)
+            controller = editor.set_choice(field, value)
         except ValueError as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        self._drive_edited(editor, controller, f"{field} {value}")
 
     def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
-        """Change the paper controller's rules (issue 38): ``set`` rule ``number`` to
+        """Change the rules of the system that drives: ``set`` rule ``number`` to
         ``text``, ``add`` ``text`` as a new rule, ``remove`` rule ``number``, ``undo`` the
         last rule edit; the robot drives with the edited system at once."""
-        app = self.app
         editor = self.editor()
         try:
             if action == "set":
@@ -307,17 +324,17 @@ class ScenarioEditing:
                 raise ValueError(f"rule edit {action!r}: set, add, remove or undo")
         except (TypeError, ValueError) as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        n = len(controller.fis.rules)
+        self._drive_edited(editor, controller, f"rule edit: {action}, {n} rules")
 
     def reset_membership_editor(self) -> None:
-        """Back to the shipped paper controller (and its parameters in the editor)."""
-        app = self.app
+        """Back to the shipped system the Editor edits (and its numbers)."""
         editor = self.editor()
         controller = editor.reset()
-        app.setup._install_controller(controller, "paper")
+        self.app.setup._install_controller(controller, editor.label)
 
     def edited_fis_text(self) -> str:
-        """The edited paper system as a MATLAB .fis file (text)."""
+        """The edited system as a MATLAB .fis file (text)."""
         return self.editor().fis_text()
 
     def move_target(self, xy) -> None:

@@ -60,33 +60,32 @@ def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
     return tunable.initial_vector(), False
 
 
-class PaperEditor:
-    """The edited paper system: a parameter vector, and the controller it builds."""
+class SystemEditor:
+    """An edited fuzzy system: a layout's parameter vector, its inference choices and
+    its rules, and the controller they build. :class:`PaperEditor` edits the paper
+    controller, :class:`StarterEditor` the starter; ``label`` names the shipped system
+    in the Controller dropdown, ``edited_label`` the edited one."""
 
-    def __init__(self, geometry: str = "husky"):
-        from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
-        from fuzzynav.controller.paper_design import PaperDesignTunable
-        from fuzzynav.controller.paper_partition import PaperPartitionTunable
+    label = "paper"
+    edited_label = "paper (edited)"
+    file_stem = "paper_edited"
 
-        self.geometry = geometry
-        self.shipped = paper_controller(geometry=geometry)
-        path = RULES_BY_GEOMETRY[geometry]
-        # The layout the shipped file was made in: the design layout (issue 25) for the
-        # shipped paper controller; the partition one (no holes) and the earlier
-        # 27-number one for rule bases written by older fits and tunes.
-        for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
-            self.tunable = candidate
-            self.start, self.exact = shipped_vector(candidate, self.shipped.fis, path)
-            if self.exact:
-                break
+    def _start_from(self, shipped, tunable, start, exact: bool) -> None:
+        self.shipped = shipped
+        self.tunable = tunable
+        self.start, self.exact = start, exact
         self.names = self.tunable.parameter_names()
         self.bounds = dict(zip(self.names, self.tunable.bounds()))
         self.vector = self.start.copy()
         self.edited = False
         self._controller = self.shipped
         self.inference = self.shipped.fis.inference
-        self.rules = None  # the rules as edited (issue 38); None: the shipped ones
+        self.rules = None  # the rules as edited; None: the shipped ones
         self._rule_undo: list = []  # the rules before each rule edit
+
+    def _fresh_shipped(self):
+        """The shipped controller, built anew (a reset drives with it)."""
+        raise NotImplementedError
 
     def choice(self, field: str) -> str:
         """The current value of an inference choice (an Inference field name)."""
@@ -102,7 +101,7 @@ class PaperEditor:
         except (TypeError, ValueError) as exc:
             raise ValueError(str(exc)) from None
         fis = self._controller.fis.replace(inference=inference)
-        controller = FisController(fis, name="paper (edited)")
+        controller = FisController(fis, name=self.edited_label)
         self.inference, self._controller, self.edited = inference, controller, True
         return controller
 
@@ -145,7 +144,7 @@ class PaperEditor:
         fis = fis.replace(inference=self.inference)
         if self.rules is not None:
             fis = fis.replace(rules=self.rules)
-        return FisController(fis, name="paper (edited)")
+        return FisController(fis, name=self.edited_label)
 
     # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
 
@@ -162,7 +161,7 @@ class PaperEditor:
         from fuzzynav.controller.fis_controller import FisController
 
         fis = self._controller.fis.replace(rules=tuple(rules))  # checks the structure
-        controller = FisController(fis, name="paper (edited)")
+        controller = FisController(fis, name=self.edited_label)
         self._rule_undo.append(self._controller.fis.rules)
         self.rules, self._controller, self.edited = tuple(rules), controller, True
         return controller
@@ -206,7 +205,7 @@ class PaperEditor:
             raise ValueError("no rule edit to undo")
         rules = self._rule_undo.pop()
         fis = self._controller.fis.replace(rules=rules)
-        self.rules, self._controller = rules, FisController(fis, name="paper (edited)")
+        self.rules, self._controller = rules, FisController(fis, name=self.edited_label)
         self.edited = True
         return self._controller
 
@@ -215,17 +214,15 @@ class PaperEditor:
         from fuzzynav.controller.rulebase import dumps_toml
 
         fis = self._controller.fis
-        return dumps_toml(fis.replace(name="paper_edited" if self.edited else fis.name))
+        return dumps_toml(fis.replace(name=self.file_stem if self.edited else fis.name))
 
     def reset(self):
-        """Back to the shipped controller."""
-        from fuzzynav.controller.paper import paper_controller
-
+        """Back to the shipped system."""
         self.rules = None
         self._rule_undo = []
         self.vector = self.start.copy()
         self.edited = False
-        self._controller = paper_controller(geometry=self.geometry)
+        self._controller = self._fresh_shipped()
         self.inference = self._controller.fis.inference
         return self._controller
 
@@ -236,4 +233,57 @@ class PaperEditor:
         from fuzzynav.controller.fis import dumps_fis
 
         fis = self._controller.fis
-        return dumps_fis(fis.replace(name="paper_edited" if self.edited else fis.name))
+        return dumps_fis(fis.replace(name=self.file_stem if self.edited else fis.name))
+
+
+class PaperEditor(SystemEditor):
+    """The edited paper system (the Husky's or the paper geometry's rule base)."""
+
+    def __init__(self, geometry: str = "husky"):
+        from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
+        from fuzzynav.controller.paper_design import PaperDesignTunable
+        from fuzzynav.controller.paper_partition import PaperPartitionTunable
+
+        self.geometry = geometry
+        shipped = paper_controller(geometry=geometry)
+        path = RULES_BY_GEOMETRY[geometry]
+        # The layout the shipped file was made in: the design layout for the shipped
+        # paper controller; the partition one (no holes) and the earlier 27-number one
+        # for rule bases written by older fits and tunes.
+        for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
+            start, exact = shipped_vector(candidate, shipped.fis, path)
+            if exact:
+                break
+        self._start_from(shipped, candidate, start, exact)
+
+    def _fresh_shipped(self):
+        from fuzzynav.controller.paper import paper_controller
+
+        return paper_controller(geometry=self.geometry)
+
+
+class StarterEditor(SystemEditor):
+    """The edited starter system (:mod:`.starter`): its six layout numbers, its
+    inference choices and its six rules."""
+
+    def __init__(self, geometry: str = "husky"):
+        from fuzzynav.app.viewer.starter import (
+            STARTER_EDITED_LABEL,
+            STARTER_LABEL,
+            StarterLayout,
+            starter_controller,
+        )
+
+        self.label, self.edited_label, self.file_stem = (
+            STARTER_LABEL,
+            STARTER_EDITED_LABEL,
+            "starter_edited",
+        )
+        self.geometry = geometry
+        layout = StarterLayout()
+        self._start_from(starter_controller(), layout, layout.initial_vector(), True)
+
+    def _fresh_shipped(self):
+        from fuzzynav.app.viewer.starter import starter_controller
+
+        return starter_controller()

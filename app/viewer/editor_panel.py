@@ -1,6 +1,7 @@
-"""The Editor tab: sliders for the paper controller's membership parameters (the
-tuner's parametrisation, :mod:`.editor`), its inference choices (issue 27), a download of
-the edited system and a reset.
+"""The Editor tab: sliders for the membership parameters of the system that drives (the
+starter's while it drives, else the paper controller's: :mod:`.editor`), its inference
+choices, its rules, a download of the edited system and a reset. Both systems' sliders
+are built once; only the driving one's are shown.
 All of the Editor panel's code is here: its layout, its callbacks and its sync."""
 
 from __future__ import annotations
@@ -73,7 +74,14 @@ EDITOR_LABELS = {
     "v.l_half": "L half-width (V)",
     "v.vl_offset": "VL starts after L (V)",
     "v.vl_ramp": "VL rises over (V)",
+    # the starter's layout (app/viewer/starter.py)
+    "d_t.near": "near holds 1 up to, far starts (m)",
+    "d_t.ramp": "far holds 1 after (m)",
+    "phi_t.full": "N, P hold 1 from (rad)",
+    "v.slow": "slow centre (V)",
+    "v.fast": "fast centre (V)",
 }
+EDITOR_KINDS = ("paper", "starter")
 
 
 class EditorPanel:
@@ -82,28 +90,30 @@ class EditorPanel:
     def __init__(self, view):
         self.view = view
         self.app = view.app
-        self.editor_sliders: dict = {}
         self.editor_choices: dict = {}
+        #: kind -> {"folders": [...], "sliders": {name: slider}, "term_plots": {...}}
+        self.sections: dict = {}
+        self._shown_kind = None
+
+    @property
+    def editor_sliders(self) -> dict:
+        """The sliders of the system the Editor edits now."""
+        section = self.sections.get(self.app.editor_kind())
+        return section["sliders"] if section else {}
+
+    @property
+    def term_plots(self) -> dict:
+        section = self.sections.get(self.app.editor_kind())
+        return section["term_plots"] if section else {}
 
     def build(self) -> None:
-        """Sliders for the paper controller's membership parameters (the tuner's
-        parametrisation: ordered terms stay valid), a download and a reset."""
+        """Sliders for the membership parameters of each system the Editor edits (its
+        layout's numbers: ordered terms stay valid), its rules and inference choices, a
+        download and a reset."""
         gui = self.view.server.gui
         app = self.app
         editor = app.editor()
-        note = (
-            "The sliders start from the shipped rule base's own numbers."
-            if editor.exact
-            else "The shipped rule base does not record its parameters: the sliders start "
-            "from the tuner's starting point (Reset drives with the shipped one)."
-        )
-        gui.add_html(
-            "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
-            "choice and the robot drives with the edited <b>paper</b> controller at once (the "
-            "run goes on). Each number places a term (where it holds 1 or is centred) or "
-            "sets a spacing between terms, so the terms stay in order whatever you do. "
-            f"{note}</div>"
-        )
+        self.intro_html = gui.add_html(self._intro(editor))
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Download .toml", "Reset to shipped")
         )
@@ -121,15 +131,41 @@ class EditorPanel:
                     )
                 )
                 self.editor_choices[field] = dropdown
-        self.editor_sliders = {}
+        for kind in EDITOR_KINDS:
+            self.sections[kind] = self._build_sliders(gui, app.editor(kind), kind)
+        self._shown_kind = app.editor_kind()
+
+    def _intro(self, editor) -> str:
+        note = (
+            "The sliders start from the shipped system's own numbers."
+            if editor.exact
+            else "The shipped rule base does not record its parameters: the sliders start "
+            "from the tuner's starting point (Reset drives with the shipped one)."
+        )
+        return (
+            "<div class='fz-editor-intro' style='font-size:0.85em;padding:0 6px'>Editing "
+            f"<b>{editor.label}</b>, the system that drives. Move a slider or change an "
+            "inference choice and the robot drives with the edited system at once (the run "
+            "goes on). Each number places a term (where it holds 1 or is centred) or sets a "
+            f"spacing between terms, so the terms stay in order whatever you do. {note}</div>"
+        )
+
+    def _build_sliders(self, gui, editor, kind: str) -> dict:
+        """One folder of sliders per variable of ``editor``'s layout, each with its
+        terms drawn to drag; shown while ``kind`` is the system the Editor edits."""
         groups: dict[str, list[str]] = {}
         for name in editor.names:
             groups.setdefault(name.split(".")[0], []).append(name)
         titles = {"v": "outputs left, right (V)"}
-        self.term_plots = {}  # group -> (html element, slider names): drag the corners
+        shown = kind == self.app.editor_kind()
+        section = {"folders": [], "sliders": {}, "term_plots": {}}
         for group, names in groups.items():
-            with gui.add_folder(titles.get(group, group), expand_by_default=group == "d_t"):
-                self.term_plots[group] = (gui.add_html(""), names)
+            folder = gui.add_folder(
+                titles.get(group, group), expand_by_default=group == "d_t", visible=shown
+            )
+            section["folders"].append(folder)
+            with folder:
+                section["term_plots"][group] = (gui.add_html(""), names)
                 for name in names:
                     lo, hi = editor.bounds[name]
                     slider = gui.add_slider(
@@ -138,14 +174,15 @@ class EditorPanel:
                         hi,
                         step=EDITOR_STEP,
                         initial_value=round(editor.value(name), 2),
-                        hint=f"{name} in the tuner's terms; {lo:g} to {hi:g}",
+                        hint=f"{name} in the layout's terms; {lo:g} to {hi:g}",
                     )
                     slider.on_update(
                         self.view.guarded(
-                            lambda e, name=name: app.set_membership_parameter(name, e.value)
+                            lambda e, name=name: self.app.set_membership_parameter(name, e.value)
                         )
                     )
-                    self.editor_sliders[name] = slider
+                    section["sliders"][name] = slider
+        return section
 
     def _draw_term_plots(self) -> None:
         """Each slider group's terms with a handle on every corner a slider moves
@@ -213,16 +250,17 @@ class EditorPanel:
         self._show_rule(n if action == "add" else number)
 
     def _on_editor_button(self, event) -> None:
+        editor = self.app.editor()
         if event.value == "Download .toml":
-            text = self.app.editor().toml_text()
+            text = editor.toml_text()
             event.client.send_file_download(
-                "paper_edited.toml", text.encode("utf-8"), save_immediately=True
+                f"{editor.file_stem}.toml", text.encode("utf-8"), save_immediately=True
             )
             return
         if event.value == "Download .fis":
-            text = self.app.edited_fis_text()
+            text = editor.fis_text()
             event.client.send_file_download(
-                "paper_edited.fis", text.encode("utf-8"), save_immediately=True
+                f"{editor.file_stem}.fis", text.encode("utf-8"), save_immediately=True
             )
             return
         self.app.reset_membership_editor()
@@ -234,15 +272,24 @@ class EditorPanel:
         self._show_rule(1)
 
     def sync(self) -> None:
-        """The sliders at the edited system's numbers (another tab may have moved them)."""
-        if getattr(self, "term_plots", None):
+        """The Editor as the system that drives has it: its sliders shown (and at its
+        numbers: another tab may have moved them), its rules, its choices."""
+        kind = self.app.editor_kind()
+        editor = self.app.editor(kind)
+        if kind != self._shown_kind:
+            self._shown_kind = kind
+            for other, section in self.sections.items():
+                for folder in section["folders"]:
+                    if folder.visible != (other == kind):
+                        folder.visible = other == kind
+            self.intro_html.content = self._intro(editor)
+            self._show_rule(1)
+        if self.sections:
             self._draw_term_plots()
-        if self.app.paper_edit is not None:
-            editor = self.app.paper_edit
-            for name, slider in self.editor_sliders.items():
-                value = round(editor.value(name), 2)  # as the slider shows it
-                if abs(slider.value - value) > 1e-9:
-                    slider.value = value
-            for field, dropdown in self.editor_choices.items():
-                if dropdown.value != editor.choice(field):
-                    dropdown.value = editor.choice(field)
+        for name, slider in self.editor_sliders.items():
+            value = round(editor.value(name), 2)  # as the slider shows it
+            if abs(slider.value - value) > 1e-9:
+                slider.value = value
+        for field, dropdown in self.editor_choices.items():
+            if dropdown.value != editor.choice(field):
+                dropdown.value = editor.choice(field)

@@ -148,7 +148,8 @@ class ViewerApp:
         self._trail = None
         self.run_label = ""
         self._run_changes: list = []
-        self.paper_edit = None  # the membership editor (PaperEditor), built on first use
+        self.paper_edit = None  # the paper's editor (PaperEditor), built on first use
+        self.starter_edit = None  # the starter's editor (StarterEditor), likewise
         # paused: a copy of a controller with a memory, asked at the inputs read now
         # (its answer and inference shown; the driving controller is not called)
         self._probe = None
@@ -362,8 +363,11 @@ class ViewerApp:
     def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
         return self.editing.obstacles_on_robot(at_start)
 
-    def editor(self):
-        return self.editing.editor()
+    def editor(self, kind: str | None = None):
+        return self.editing.editor(kind)
+
+    def editor_kind(self) -> str:
+        return self.editing.editor_kind()
 
     def set_membership_parameter(self, name: str, value) -> None:
         return self.editing.set_membership_parameter(name, value)

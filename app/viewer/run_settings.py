@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL, STARTER_LABEL
 from fuzzynav.app.viewer.state import (
     DEFAULT_DISTURBANCE,
     EDITED_LABEL,
@@ -38,13 +39,13 @@ class RunSettings:
 
     def controller_options(self) -> list[str]:
         app = self.app
-        from fuzzynav.app.viewer.starter import STARTER_LABEL
         from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
-        options.append(STARTER_LABEL)  # a lesson's first system (issue 38)
-        if app.paper_edit is not None and app.paper_edit.edited:
-            options.append(EDITED_LABEL)
+        options.append(STARTER_LABEL)  # a lesson's first system
+        for editor in (app.paper_edit, app.starter_edit):
+            if editor is not None and editor.edited:
+                options.append(editor.edited_label)
         if app.uploaded_label:
             options.append(app.uploaded_label)
         return options
@@ -52,7 +53,7 @@ class RunSettings:
     def set_controller(self, name: str) -> None:
         """Swap the controller by name; the run goes on from where it is."""
         app = self.app
-        from fuzzynav.app.viewer.starter import STARTER_LABEL, starter_controller
+        from fuzzynav.app.viewer.starter import starter_controller
 
         if app.uploaded_label and name == app.uploaded_label:
             inner = app.uploaded_controller
@@ -60,6 +61,8 @@ class RunSettings:
             inner = starter_controller()
         elif name == EDITED_LABEL and app.paper_edit is not None:
             inner = app.paper_edit.controller()
+        elif name == STARTER_EDITED_LABEL and app.starter_edit is not None:
+            inner = app.starter_edit.controller()
         else:
             try:
                 inner = app._make_named_controller(name, app.geometry)
@@ -296,8 +299,10 @@ class RunSettings:
         with app.lock:
             inner = app.controller.inner
             fis = getattr(inner, "fis", None)
-            named = app.controller_label in self.controller_options() and not (
-                app.controller_label == EDITED_LABEL or app.controller_label == app.uploaded_label
+            edited = (EDITED_LABEL, STARTER_EDITED_LABEL, app.uploaded_label)
+            named = (
+                app.controller_label in self.controller_options()
+                and app.controller_label not in edited
             )
             return {
                 "scenario_label": app.scenario_label,

@@ -12,6 +12,7 @@ import numpy as np
 from fuzzynav.app.viewer import surface_view
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
+from fuzzynav.app.viewer.teaching import Teaching
 
 SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
 SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
@@ -83,8 +84,12 @@ class SurfacePanel:
         self._surface_key = None  # recompute
         self.app._bump()
 
-    def _custom_plane(self, fis):
+    def _custom_plane(self, fis, read=(0, 1, 2, 3)):
+        """The chosen plane; over the two inputs the system reads when it reads only two
+        (the starter: d_t, phi_t), whatever the axes chosen."""
         xi, yi = self.surface_axes
+        if len(read) == 2 and {xi, yi} != set(read):
+            xi, yi = read
         held = np.array(self.surface_held, dtype=float)
         no_obstacle = self.surface_no_obstacle_cb.value and not ({xi, yi} & {1, 3})
         if no_obstacle:
@@ -127,8 +132,11 @@ class SurfacePanel:
             ranges = [tuple(v.range) for v in fis.inputs]
             held = np.array([5.0, np.nan, 0.0, np.nan])
             d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
+            read = Teaching.read_inputs(fis)
+            if not {1, 3} <= set(read):  # no (d_o, phi_o) plane for a system blind to them
+                return [self._custom_plane(fis, read)]
             return [
-                self._custom_plane(fis),
+                self._custom_plane(fis, read),
                 (
                     f"{names[1]}, {names[3]} with the target 5 m ahead",
                     fis,
