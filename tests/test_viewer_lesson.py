@@ -235,6 +235,8 @@ def test_serve_opens_a_lesson_file(tmp_path):
     server = serve("s2", port=0, block=False, open_message=False, lesson=path)
     try:
         assert server.app.scenario_label == "s1" and server.app.layout_edited
+        # the run is replayed on a thread of its own: the server serves meanwhile
+        assert server.app.wait_for(lambda a: a.message.startswith("Opened the lesson"))
         assert server.app.sim.time_s == pytest.approx(1.0)
         assert server.inference.firing_only_cb.value is True
     finally:
@@ -420,3 +422,137 @@ def test_rules_are_added_changed_removed_and_undone_validated_and_exported():
     # exported in TOML, read back the same
     app.edit_rules("set", 1, changed)
     assert loads_toml(app.editor().toml_text()).rules == app.fuzzy_system().rules
+
+
+def _run_with_switches_and_edits():
+    """A run of s1: paper, then the starter, edited, then fuzzynav, then a rule edit
+    (the paper's, edited), a change of noise between; paused at 13 s."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    for _ in range(150):
+        app.step_once()
+    app.set_controller(STARTER_LABEL)
+    for _ in range(100):
+        app.step_once()
+    app.set_membership_parameter("d_t.near", 1.5)
+    app.set_noise(0.02)
+    for _ in range(100):
+        app.step_once()
+    app.set_controller("fuzzynav")
+    for _ in range(200):
+        app.step_once()
+    app.edit_rules("set", 1, app.editor().rule_text(1).replace("right IS VS", "right IS S"))
+    for _ in range(100):
+        app.step_once()
+    return app
+
+
+def test_a_lesson_saved_after_switches_and_edits_reopens_at_the_same_inputs():
+    """A lesson saved mid-run after controller switches and edits reopens at the moment
+    saved: the run is replayed with each switch and edit at its step (it was replayed
+    with the last controller from t = 0: d_t 6.15 m where 3.87 m was saved)."""
+    app = _run_with_switches_and_edits()
+    text = app.lesson_text()
+    saved = app.controller.last_inputs.copy()
+    other = ViewerApp("s2", "p")
+    other.open_lesson(text, "lesson.json")
+    assert other.sim.time_s == pytest.approx(app.sim.time_s)
+    now = other.controller.last_inputs
+    assert abs(now[0] - saved[0]) <= 1e-6 and abs(now[2] - saved[2]) <= 1e-6, (now, saved)
+    np.testing.assert_allclose(other.sim.arena.pose, app.sim.arena.pose, atol=1e-9)
+    assert other.controller_label == app.controller_label == "paper (edited)"
+    assert other.fuzzy_system() == app.fuzzy_system()
+    assert other.message_level == "info" and other.message.startswith("Opened the lesson")
+
+
+def test_a_lesson_whose_run_had_a_drag_warns_that_the_replay_differs():
+    """A drag during the run cannot be replayed (the layout saved is the one the run
+    restarts from): the lesson opens, and says where and why the moment differs."""
+    app = ViewerApp("s1", "paper")
+    for _ in range(200):
+        app.step_once()
+    tx, ty = app.sim.arena.target
+    app.move_target((tx, ty + 4.0))
+    for _ in range(200):
+        app.step_once()
+    other = ViewerApp("s1", "paper")
+    other.open_lesson(app.lesson_text(), "dragged.json")
+    assert other.message_level == "warning"
+    assert "differs" in other.message and "the target moved at 4.00 s" in other.message
+
+
+def _world(app) -> tuple:
+    with app.lock:
+        return (
+            app.scenario_label,
+            app.controller_label,
+            app.sim.perception.mode,
+            app.geometry,
+            app.speed,
+            app.seed,
+            app.noise_std_m,
+            app.disturbance_on,
+            app.parts_off,
+            app.sim.time_s,
+            tuple(app.sim.arena.pose),
+            app.editing._layout_scenario(),
+            app.message,
+        )
+
+
+@pytest.mark.parametrize(
+    ("key", "old", "new"),
+    [
+        ("speed", '"speed": 1.0', '"speed": Infinity'),
+        ("speed", '"speed": 1.0', '"speed": 50'),
+        ("perception", '"geometry": "husky"', '"geometry": "paper"'),  # with ultrasonic
+        ("geometry", '"geometry": "husky"', '"geometry": "flat"'),
+        ("noise_std_m", '"noise_std_m": 0.0', '"noise_std_m": 5.0'),
+        ("parts_off", '"parts_off": []', '"parts_off": ["wings"]'),
+        ("controller", '"controller": "paper"', '"controller": "nosuch"'),
+        ("seed", '"seed": 0', '"seed": -5'),
+        (
+            "timeline[0]: perception",
+            '"perception": "ultrasonic",\n      "disturbance_on"',
+            '"perception": "sonar",\n      "disturbance_on"',
+        ),
+    ],
+)
+def test_a_refused_lesson_leaves_the_world_exactly_as_it_was(key, old, new):
+    """Every setting is checked before any is applied: a refused lesson names its file
+    and key, and leaves the world as it was (an infinite speed, an impossible geometry
+    and perception pair, ... left it switched to the lesson's scenario)."""
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper", perception="ultrasonic")
+    for _ in range(20):
+        app.step_once()
+    text = app.lesson_text()
+    assert old in text, old
+    bad = text.replace(old, new, 1)
+    world = ViewerApp("s3", "p")
+    world.set_speed(3.0)
+    for _ in range(5):
+        world.step_once()
+    before = _world(world)
+    with pytest.raises(ViewerError) as refused:
+        world.open_lesson(bad, "class-3.json")
+    assert "class-3.json" in str(refused.value) and key in str(refused.value)
+    assert _world(world) == before
+
+
+def test_a_long_lesson_is_replayed_on_a_thread_of_its_own():
+    """``serve --lesson`` with a long time serves at once: opening returns before the
+    replay has made a step (the world's lock is held here, so the replay cannot start),
+    and the replay then reaches the time on its own thread."""
+    app = ViewerApp("s1", "paper")
+    for _ in range(300):
+        app.step_once()
+    text = app.lesson_text()
+    other = ViewerApp("s2", "p")
+    with other.lock:
+        other.open_lesson(text, "long.json", background=True)
+        assert other.sim.time_s == 0.0 and other.message.startswith("Opening the lesson")
+    assert other.wait_for(lambda a: a.message.startswith("Opened the lesson"), timeout=60)
+    assert other.sim.time_s == pytest.approx(6.0)

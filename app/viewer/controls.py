@@ -335,7 +335,7 @@ class ControlPanel:
 
     def _on_lesson_open(self, event) -> None:
         uploaded = event.value
-        view = self.app.open_lesson(uploaded.content, uploaded.name)
+        view = self.app.open_lesson(uploaded.content, uploaded.name, background=True)
         self.scenario_dd.options = self.app.scenario_options()
         self.controller_dd.options = self.app.controller_options()
         self.view.apply_view(view)

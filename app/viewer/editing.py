@@ -343,6 +343,7 @@ class ScenarioEditing:
         with app.lock:
             app.sim.arena.move_target((x, y))
             app._target = (x, y)
+            self._note_unreplayed_locked("the target moved")
             # A controller that doubts target readings which move the target (fuzzynav,
             # against disturbed inputs) is told that this move is meant.
             new_target = getattr(app.controller.inner, "new_target", None)
@@ -361,6 +362,9 @@ class ScenarioEditing:
                 raise ViewerError("that obstacle does not exist (any more)")
             before = arena.obstacles[obstacle_id].position_at(arena.time_s)
             arena.move_obstacle(obstacle_id, (x, y))
+            self._note_unreplayed_locked(
+                f"{obstacle_label(self.obstacle_number(obstacle_id) - 1)} moved"
+            )
             # The layout (what a reset restarts from) shifts that obstacle's whole path.
             delta = np.array((x, y)) - before
             for k, (i, spec) in enumerate(app._layout):
@@ -369,6 +373,13 @@ class ScenarioEditing:
                     app._layout[k] = (i, dataclasses.replace(spec, position=moved))
             app.driver._resense_locked()
             app._bump()
+
+    def _note_unreplayed_locked(self, what: str) -> None:
+        """A change of the layout during a run: a lesson replays the run from the layout
+        as it is now, so it cannot replay this one (it says so when opened)."""
+        app = self.app
+        if app.sim.time_s > 0.0:
+            app._unreplayed.append(f"{what} at {app.sim.time_s:.2f} s")
 
     def suggest_obstacle_position(self) -> tuple[float, float]:
         """Where a new obstacle is most instructive: on the way from the robot to the target."""
@@ -405,6 +416,7 @@ class ScenarioEditing:
         with app.lock:
             self._check_room_locked()
             obstacle_id = app.sim.arena.add_obstacle(spec)
+            self._note_unreplayed_locked("an obstacle added")
             app._layout.append((obstacle_id, spec))
             self.charge_layout_locked()
             app.layout_id += 1
@@ -447,6 +459,7 @@ class ScenarioEditing:
             if obstacle_id not in arena.obstacles:
                 raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
+            self._note_unreplayed_locked("an obstacle removed")
             app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
             self.charge_layout_locked()
             app.layout_id += 1

@@ -209,6 +209,17 @@ class SystemEditor:
         self.edited = True
         return self._controller
 
+    def adopt(self, fis):
+        """Drive with ``fis``, an edit of this system saved in a lesson: its rules and
+        inference choices are the editor's again (the sliders keep their numbers: a
+        system's shapes do not give back the layout's numbers); returns the controller."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        self._controller = FisController(fis, name=self.edited_label)
+        self.rules, self.inference, self.edited = tuple(fis.rules), fis.inference, True
+        self._rule_undo = []
+        return self._controller
+
     def toml_text(self) -> str:
         """The edited system as a TOML rule base (``fuzzynav`` reads it back)."""
         from fuzzynav.controller.rulebase import dumps_toml

@@ -466,11 +466,12 @@ class ViewerApp:
 
         return dumps_lesson(self, view)
 
-    def open_lesson(self, content, source: str = "lesson.json") -> dict:
-        """Open a lesson file's content; returns its view (presentation, firing only)."""
+    def open_lesson(self, content, source: str = "lesson.json", background: bool = False) -> dict:
+        """Open a lesson file's content; returns its view (presentation, firing only).
+        With ``background`` its run is replayed on a thread of its own."""
         from fuzzynav.app.viewer.lesson import open_lesson
 
-        return open_lesson(self, content, source)
+        return open_lesson(self, content, source, background)
 
     # -- Reading (:mod:`.reading`) -----------------------------------------------------
 
