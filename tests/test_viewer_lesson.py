@@ -556,3 +556,29 @@ def test_a_long_lesson_is_replayed_on_a_thread_of_its_own():
         assert other.sim.time_s == 0.0 and other.message.startswith("Opening the lesson")
     assert other.wait_for(lambda a: a.message.startswith("Opened the lesson"), timeout=60)
     assert other.sim.time_s == pytest.approx(6.0)
+
+
+def test_the_rule_editor_refuses_the_rule_past_the_files_limit_and_the_lesson_reopens():
+    """The rule editor stops at the limit a rule base file holds (one constant,
+    controller.rulebase.MAX_RULES): the next Add is refused with a word, and the TOML
+    export and a saved lesson of that many rules open again (past it, both were refused
+    on reopening and the teacher's work was lost). The page's adds are built off its
+    thread, together."""
+    from fuzzynav.app.viewer.model import ViewerError
+    from fuzzynav.controller.rulebase import MAX_RULES, loads_toml
+
+    app = ViewerApp("s1", "paper")
+    rule = "if d_t is VS and phi_t is Z then left is VS and right is VS"
+    for _ in range(MAX_RULES - app.editor().rule_count()):
+        app.edit_rules("add", None, rule, wait=False)
+    assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == MAX_RULES, timeout=120)
+    with pytest.raises(ViewerError, match=f"the most a rule base file holds \\({MAX_RULES}\\)"):
+        app.edit_rules("add", None, rule, wait=False)
+    assert app.editor().rule_count() == MAX_RULES
+    assert len(loads_toml(app.editor().toml_text()).rules) == MAX_RULES
+    other = ViewerApp("s2", "p")
+    other.open_lesson(app.lesson_text(), "many-rules.json")
+    assert len(other.fuzzy_system().rules) == MAX_RULES and other.message_level == "info"
+    # undo goes back one add at a time
+    app.edit_rules("undo")
+    assert len(app.fuzzy_system().rules) == MAX_RULES - 1

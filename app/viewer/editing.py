@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import threading
 
 import numpy as np
 
@@ -43,6 +44,9 @@ class ScenarioEditing:
 
     def __init__(self, app):
         self.app = app
+        self._build_lock = threading.Lock()  # the page's rule edits, built off its thread
+        self._build_wanted = None  # (editor, action) of the last edit not built yet
+        self._building = False
 
     def scenario_options(self) -> list[str]:
         app = self.app
@@ -306,26 +310,58 @@ class ScenarioEditing:
             raise ViewerError(str(exc)) from None
         self._drive_edited(editor, controller, f"{field} {value}")
 
-    def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
+    def edit_rules(
+        self, action: str, number: int | None = None, text: str = "", wait: bool = True
+    ) -> None:
         """Change the rules of the system that drives: ``set`` rule ``number`` to
         ``text``, ``add`` ``text`` as a new rule, ``remove`` rule ``number``, ``undo`` the
-        last rule edit; the robot drives with the edited system at once."""
+        last rule edit; the robot drives with the edited system at once (``wait``), or as
+        soon as a thread of its own has built it (the page's edits: an edit then costs
+        the same at any size, and quick edits are built together)."""
         editor = self.editor()
         try:
             if action == "set":
-                controller = editor.set_rule(number, text)
+                editor.set_rule(number, text, build=False)
             elif action == "add":
-                controller = editor.add_rule(text)
+                editor.add_rule(text, build=False)
             elif action == "remove":
-                controller = editor.remove_rule(number)
+                editor.remove_rule(number, build=False)
             elif action == "undo":
-                controller = editor.undo_rule_edit()
+                editor.undo_rule_edit(build=False)
             else:
                 raise ValueError(f"rule edit {action!r}: set, add, remove or undo")
         except (TypeError, ValueError) as exc:
             raise ViewerError(str(exc)) from None
+        if wait:
+            self._drive_built(editor, action)
+            return
+        with self._build_lock:
+            self._build_wanted = (editor, action)
+            if self._building:
+                return
+            self._building = True
+        threading.Thread(target=self._build_loop, name="fuzzynav-rules", daemon=True).start()
+
+    def _drive_built(self, editor, action: str) -> None:
+        try:
+            controller = editor.build()
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
         n = len(controller.fis.rules)
         self._drive_edited(editor, controller, f"rule edit: {action}, {n} rules")
+
+    def _build_loop(self) -> None:
+        """Build the edited rules, off the world's lock, until no edit waits."""
+        while True:
+            with self._build_lock:
+                wanted, self._build_wanted = self._build_wanted, None
+                if wanted is None:
+                    self._building = False
+                    return
+            try:
+                self._drive_built(*wanted)
+            except ViewerError as exc:
+                self.app._notice(str(exc), "error")
 
     def reset_membership_editor(self) -> None:
         """Back to the shipped system the Editor edits (and its numbers)."""

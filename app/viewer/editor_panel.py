@@ -210,7 +210,7 @@ class EditorPanel:
         sentence in the box; change it and Apply, or Add it as a new rule, Remove the
         rule picked, Undo the last rule edit. Every sentence is read by the rule base's
         own parser (terms and variables checked); the robot drives with it at once."""
-        n = len(editor.controller().fis.rules)
+        n = editor.rule_count()
         with gui.add_folder("Rules (add, change, remove)", expand_by_default=False):
             self.rule_number = gui.add_number(
                 "Rule", 1, min=1, max=n, step=1, hint="the rule to read, change or remove"
@@ -228,7 +228,7 @@ class EditorPanel:
 
     def _show_rule(self, number: int) -> None:
         editor = self.app.editor()
-        n = len(editor.controller().fis.rules)
+        n = editor.rule_count()
         number = min(max(int(number), 1), n)
         if self.rule_number.max != n:
             self.rule_number.max = n
@@ -245,8 +245,8 @@ class EditorPanel:
         action = {"Apply": "set", "Add as new": "add", "Remove": "remove", "Undo": "undo"}[
             event.value
         ]
-        self.app.edit_rules(action, number, text)
-        n = len(self.app.editor().controller().fis.rules)
+        self.app.edit_rules(action, number, text, wait=False)  # built off this thread
+        n = self.app.editor().rule_count()
         self._show_rule(n if action == "add" else number)
 
     def _on_editor_button(self, event) -> None:

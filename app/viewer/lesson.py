@@ -36,7 +36,7 @@ import json
 import math
 import threading
 
-from fuzzynav.app.viewer.state import MAX_UPLOAD_BYTES, SPEED_RANGE, ViewerError
+from fuzzynav.app.viewer.state import MAX_UPLOAD_BYTES, NOISE_RANGE_M, SPEED_RANGE, ViewerError
 
 LESSON_KEY = "fuzzynav_lesson"
 LESSON_VERSION = 1
@@ -49,18 +49,20 @@ SETTING_KEYS = ("controller", "fis", "perception", "disturbance_on", "noise_std_
 
 
 def dumps_lesson(app, view: dict | None = None) -> str:
-    """The lesson of ``app`` as it is now (JSON text)."""
-    from fuzzynav.controller.rulebase import dumps_toml
-
+    """The lesson of ``app`` as it is now (JSON text). Each rule base is written once
+    (``rule_bases``) and named by its index; when the run's earlier rule bases would
+    take the file past :data:`~.state.MAX_UPLOAD_BYTES`, the timeline is left out and
+    the lesson says so (opened, it warns where its replay differs)."""
     with app.lock:
         s = app.settings()
+        bases: list = []
         data = {
             LESSON_KEY: LESSON_VERSION,
             "scenario_label": s["scenario_label"],
             "scenario_toml": app.base_scenario.to_toml(),
             "layout_toml": s["scenario"].to_toml(),
             "controller": s["controller"],
-            "rule_base_toml": dumps_toml(s["fis"]) if s["fis"] is not None else None,
+            "rule_base": _base_index(bases, s["fis"]),
             "perception": s["perception"],
             "geometry": s["geometry"],
             "disturbance_on": bool(s["disturbance_on"]),
@@ -70,22 +72,45 @@ def dumps_lesson(app, view: dict | None = None) -> str:
             "seed": app.seed,
             "time_s": round(float(app.sim.time_s), 6),
             "view": dict(view or {}),
-            "timeline": [_entry_json(entry) for entry in app._timeline],
             "inputs": [
                 None if not math.isfinite(v) else float(v) for v in app.controller.last_inputs
             ],
             "unreplayed": list(app._unreplayed),
         }
-    return json.dumps(data, indent=2) + "\n"
+        final = list(bases)
+        data["timeline"] = [_entry_json(entry, bases) for entry in app._timeline]
+    data["rule_bases"] = [_toml(fis) for fis in bases]
+    text = json.dumps(data, indent=2) + "\n"
+    if len(text.encode()) > MAX_UPLOAD_BYTES and len(bases) > len(final):
+        data["rule_bases"] = [_toml(fis) for fis in final]
+        data["timeline"] = None
+        data["unreplayed"].append("the run's earlier rule bases (too large to keep)")
+        text = json.dumps(data, indent=2) + "\n"
+    return text
 
 
-def _entry_json(entry: dict) -> dict:
+def _toml(fis) -> str:
     from fuzzynav.controller.rulebase import dumps_toml
 
+    return dumps_toml(fis)
+
+
+def _base_index(bases: list, fis) -> int | None:
+    """``fis``'s index in ``bases`` (added when new); None for a named controller."""
+    if fis is None:
+        return None
+    for k, known in enumerate(bases):
+        if known is fis or known == fis:
+            return k
+    bases.append(fis)
+    return len(bases) - 1
+
+
+def _entry_json(entry: dict, bases: list) -> dict:
     return {
         "step": int(entry["step"]),
         "controller": entry["controller"],
-        "rule_base_toml": dumps_toml(entry["fis"]) if entry["fis"] is not None else None,
+        "rule_base": _base_index(bases, entry["fis"]),
         "perception": entry["perception"],
         "disturbance_on": bool(entry["disturbance_on"]),
         "noise_std_m": float(entry["noise_std_m"]),
@@ -100,31 +125,51 @@ def _field(data: dict, key: str, kind, source: str):
     return value
 
 
-def _rule_base(data: dict, key: str, source: str):
-    """The rule base under ``key`` (TOML text), None when absent; built as a controller
-    so that one the engine cannot drive is refused before anything is applied."""
+def _rule_bases(data: dict, source: str) -> list:
+    """The lesson's rule bases (TOML texts), each read and built as a controller, so
+    that one the engine cannot drive is refused before anything is applied."""
     from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.controller.rulebase import loads_toml
 
-    if data.get(key) is None:
+    raw = data.get("rule_bases") or []
+    if not isinstance(raw, list):
+        raise ViewerError(f"{source}: rule_bases = {raw!r}: not a list of rule bases")
+    out = []
+    for k, text in enumerate(raw):
+        key = f"rule_bases[{k}]"
+        try:
+            fis = loads_toml(_field({key: text}, key, str, source), f"{source}: {key}")
+            FisController(fis)
+        except ValueError as exc:
+            raise ViewerError(f"{source}: {key}: {exc}") from None
+        out.append(fis)
+    return out
+
+
+def _rule_base(data: dict, source: str, bases: list):
+    """The rule base a lesson (or a timeline entry) drives with: ``rule_base``, an
+    index into ``rule_bases``, or (an older lesson) its own ``rule_base_toml``; None
+    for a named controller."""
+    if data.get("rule_base_toml") is not None:
+        return _rule_bases({"rule_bases": [data["rule_base_toml"]]}, source)[0]
+    index = data.get("rule_base")
+    if index is None:
         return None
-    try:
-        fis = loads_toml(_field(data, key, str, source), f"{source}: {key}")
-        FisController(fis)
-    except ValueError as exc:
-        raise ViewerError(f"{source}: {key}: {exc}") from None
-    return fis
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(bases):
+        raise ViewerError(
+            f"{source}: rule_base = {index!r}: not an index of rule_bases (0 to {len(bases) - 1})"
+        )
+    return bases[index]
 
 
-def _settings_of(data: dict, source: str, geometry: str) -> dict:
+def _settings_of(data: dict, source: str, geometry: str, bases: list) -> dict:
     """One set of what drives (the lesson's own, or a timeline entry's), checked."""
-    from fuzzynav.app.viewer.model import ViewerApp
-    from fuzzynav.app.viewer.run_settings import RunSettings
     from fuzzynav.app.viewer.starter import STARTER_LABEL
+    from fuzzynav.controller.fuzzynav_parts import load_parts
     from fuzzynav.controller.registry import controller_names
     from fuzzynav.world.perception import PERCEPTION_MODES
 
-    fis = _rule_base(data, "rule_base_toml", source)
+    fis = _rule_base(data, source, bases)
     controller = _field(data, "controller", str, source)
     known = set(controller_names()) | {STARTER_LABEL}
     if fis is None and controller not in known:
@@ -143,12 +188,13 @@ def _settings_of(data: dict, source: str, geometry: str) -> dict:
             "point robot takes ideal perception only"
         )
     noise = float(_field(data, "noise_std_m", (int, float), source))
-    try:
-        noise = ViewerApp._check_noise(noise)
-    except ViewerError as exc:
-        raise ViewerError(f"{source}: noise_std_m: {exc}") from None
+    if not (math.isfinite(noise) and NOISE_RANGE_M[0] <= noise <= NOISE_RANGE_M[1]):
+        raise ViewerError(
+            f"{source}: noise_std_m = {noise!r}: must be between {NOISE_RANGE_M[0]} and "
+            f"{NOISE_RANGE_M[1]} m"
+        )
     parts_off = _field(data, "parts_off", list, source)
-    known_parts = [p.name for p in RunSettings.part_options()]
+    known_parts = [p.name for p in load_parts()]
     if not all(isinstance(p, str) and p in known_parts for p in parts_off):
         raise ViewerError(
             f"{source}: parts_off = {parts_off!r}: not a list of fuzzynav's parts "
@@ -164,7 +210,7 @@ def _settings_of(data: dict, source: str, geometry: str) -> dict:
     }
 
 
-def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: float):
+def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: float, bases):
     """The run's timeline (a list of settings from a control step), checked; a lesson
     without one replays with its own settings from the start."""
     raw = data.get("timeline")
@@ -187,7 +233,7 @@ def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: f
                 f"(to step {last_step})"
             )
         last = step
-        out.append({"step": step, **_settings_of(entry, where, geometry)})
+        out.append({"step": step, **_settings_of(entry, where, geometry, bases)})
     return out
 
 
@@ -225,7 +271,8 @@ def read_lesson(
         raise ViewerError(
             f"{source}: geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}"
         )
-    settings = _settings_of(data, source, geometry)
+    bases = _rule_bases(data, source)
+    settings = _settings_of(data, source, geometry, bases)
     time_s = float(_field(data, "time_s", (int, float), source))
     if not (math.isfinite(time_s) and 0.0 <= time_s <= min(MAX_REPLAY_S, layout.duration_s)):
         raise ViewerError(f"{source}: time_s = {time_s!r}: must be within the run")
@@ -250,7 +297,7 @@ def read_lesson(
         "speed": speed,
         "seed": seed,
         "time_s": time_s,
-        "timeline": _timeline(data, source, geometry, time_s, control_period_s),
+        "timeline": _timeline(data, source, geometry, time_s, control_period_s, bases),
         "inputs": _saved_inputs(data, source),
         "unreplayed": [str(u) for u in data.get("unreplayed") or []][:20],
         "view": {k: bool(view[k]) for k in ("presentation", "firing_only") if k in view},

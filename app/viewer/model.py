@@ -375,8 +375,10 @@ class ViewerApp:
     def set_inference_choice(self, field: str, value: str) -> None:
         return self.editing.set_inference_choice(field, value)
 
-    def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
-        return self.editing.edit_rules(action, number, text)
+    def edit_rules(
+        self, action: str, number: int | None = None, text: str = "", wait: bool = True
+    ) -> None:
+        return self.editing.edit_rules(action, number, text, wait)
 
     def reset_membership_editor(self) -> None:
         return self.editing.reset_membership_editor()
