@@ -99,6 +99,9 @@ class ControlPanel:
             gui.add_html(colour_key_html())
         with gui.add_folder("Result"):
             self.view.status_line.add_result(gui)
+        # presentation mode's type: nothing under 12 px at 1280 x 800 (a <style> block,
+        # empty otherwise)
+        self.presentation_css = gui.add_html("")
 
     def _build_run_controls(self, gui) -> None:
         """The status, Run and Speed buttons, the run's history and the drag hint."""
