@@ -582,3 +582,36 @@ def test_the_rule_editor_refuses_the_rule_past_the_files_limit_and_the_lesson_re
     # undo goes back one add at a time
     app.edit_rules("undo")
     assert len(app.fuzzy_system().rules) == MAX_RULES - 1
+
+
+def test_a_drop_that_causes_a_collision_is_named_as_its_cause():
+    """An obstacle dropped in the robot's way during the run, and the robot then hits
+    it: the message names the obstacle and the drop, with its time (it said only
+    "collided with an obstacle")."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    app.set_controller(STARTER_LABEL)  # it reads no obstacle: it drives into one
+    for _ in range(50):
+        app.step_once()
+    x, y, _ = app.sim.arena.pose
+    tx, ty = app.sim.arena.target
+    d = np.hypot(tx - x, ty - y)
+    ob = next(iter(app.sim.arena.obstacles))  # put on the way to the target, 2 m ahead
+    app.move_obstacle(ob, (x + 2.0 * (tx - x) / d, y + 2.0 * (ty - y) / d))
+    for _ in range(2000):
+        if app.sim.done:
+            break
+        app.step_once()
+    assert app.metrics is not None and app.metrics["collisions"] >= 1
+    number = app.obstacle_number(ob)
+    assert f"collided with obstacle {number}, which was dropped in its way at t = 1.00 s" in (
+        app.message
+    ), app.message
+    # a collision without a drop names the obstacle only
+    app.reset()
+    for _ in range(3000):
+        if app.sim.done:
+            break
+        app.step_once()
+    assert "collided with obstacle" in app.message and "dropped" not in app.message

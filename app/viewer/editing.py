@@ -399,7 +399,7 @@ class ScenarioEditing:
             before = arena.obstacles[obstacle_id].position_at(arena.time_s)
             arena.move_obstacle(obstacle_id, (x, y))
             self._note_unreplayed_locked(
-                f"{obstacle_label(self.obstacle_number(obstacle_id) - 1)} moved"
+                f"{obstacle_label(self.obstacle_number(obstacle_id) - 1)} moved", obstacle_id
             )
             # The layout (what a reset restarts from) shifts that obstacle's whole path.
             delta = np.array((x, y)) - before
@@ -410,12 +410,16 @@ class ScenarioEditing:
             app.driver._resense_locked()
             app._bump()
 
-    def _note_unreplayed_locked(self, what: str) -> None:
+    def _note_unreplayed_locked(self, what: str, obstacle_id: int | None = None) -> None:
         """A change of the layout during a run: a lesson replays the run from the layout
-        as it is now, so it cannot replay this one (it says so when opened)."""
+        as it is now, so it cannot replay this one (it says so when opened); an obstacle
+        put down keeps the time, to be named if the robot then hits it."""
         app = self.app
         if app.sim.time_s > 0.0:
-            app._unreplayed.append(f"{what} at {app.sim.time_s:.2f} s")
+            if not app._unreplayed or not app._unreplayed[-1].startswith(what):
+                app._unreplayed.append(f"{what} at {app.sim.time_s:.2f} s")
+            if obstacle_id is not None:
+                app._drops[obstacle_id] = app.sim.time_s
 
     def suggest_obstacle_position(self) -> tuple[float, float]:
         """Where a new obstacle is most instructive: on the way from the robot to the target."""
@@ -452,7 +456,7 @@ class ScenarioEditing:
         with app.lock:
             self._check_room_locked()
             obstacle_id = app.sim.arena.add_obstacle(spec)
-            self._note_unreplayed_locked("an obstacle added")
+            self._note_unreplayed_locked("an obstacle added", obstacle_id)
             app._layout.append((obstacle_id, spec))
             self.charge_layout_locked()
             app.layout_id += 1

@@ -264,11 +264,27 @@ class RunHistory:
         app.metrics["collisions"] = len(result.collisions)
         text = {
             "reached": "reached the target",
-            "collided": "collided with an obstacle",
+            "collided": self._collision_text(result.collisions),
             "timeout": "ran out of time",
         }.get(result.outcome, result.outcome)
         level = "success" if result.outcome == "reached" else "warning"
         app._notice(f"Run ended at t = {app.sim.time_s:.2f} s: the robot {text}.", level)
+
+    def _collision_text(self, collisions) -> str:
+        """The obstacle hit, by its name on the arena; and when a drag put it down during
+        the run, that drop named as the cause."""
+        app = self.app
+        if not collisions:
+            return "collided with an obstacle"
+        hit = collisions[0].obstacle_id
+        name = f"obstacle {app.editing.obstacle_number(hit)}"
+        dropped = app._drops.get(hit)
+        if dropped is None:
+            return f"collided with {name}"
+        return (
+            f"collided with {name}, which was dropped in its way at t = {dropped:.2f} s "
+            "(the drop caused the collision)"
+        )
 
     def _settings(self) -> list[str]:
         """What drives the run now, in words: controller (and fuzzynav's parts off),
