@@ -615,3 +615,29 @@ def test_a_drop_that_causes_a_collision_is_named_as_its_cause():
             break
         app.step_once()
     assert "collided with obstacle" in app.message and "dropped" not in app.message
+
+
+def test_the_obstacle_plane_holds_a_target_near_enough_to_show_the_obstacle_rules():
+    """The Surface tab's (d_o, phi_o) map holds the target near, straight ahead, where
+    the paper's obstacle rules change the turn by more than 1.5 V over the plane (with
+    the target 5 m ahead the turn spanned 0.7 V: the map showed nearly nothing). The
+    starter, blind to obstacles, gets no such map."""
+    import types
+
+    from fuzzynav.app.viewer import surface_view
+    from fuzzynav.app.viewer.starter import starter_controller
+    from fuzzynav.app.viewer.surface_panel import SurfacePanel
+    from fuzzynav.controller.registry import make_controller
+
+    panel = SurfacePanel.__new__(SurfacePanel)
+    panel.surface_axes, panel.surface_held = (0, 2), [5.0, 1.0, 0.0, 0.0]
+    panel.surface_no_obstacle_cb = types.SimpleNamespace(value=True)
+    title, fis, xi, yi, x_range, y_range, held, _ = panel._surface_planes_for(
+        make_controller("paper")
+    )[1]
+    assert (xi, yi) == (1, 3) and "ahead" in title
+    _, _, out = surface_view.surface_grid(fis, xi, yi, x_range, y_range, held)
+    out = np.asarray(out)
+    turn = (out[..., 1] - out[..., 0]) / 2
+    assert np.ptp(turn) > 1.5, np.ptp(turn)
+    assert len(panel._surface_planes_for(starter_controller())) == 1
