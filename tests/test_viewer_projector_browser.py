@@ -190,3 +190,46 @@ def test_a_lesson_of_drags_switches_and_edits_logs_no_console_error(projector):
 def test_a_drag_of_an_obstacle_logs_nothing_at_all(projector):
     logged = _drags_switches_and_edits(*projector)
     assert logged == []
+
+
+JS_CAMERA_TILT = """
+() => {
+  const m = window.__viserMutable, cam = m.camera, root = m.nodeRefFromName[''];
+  const V = cam.position.constructor;
+  const d = new V(); cam.getWorldDirection(d);
+  const down = root.localToWorld(new V(0, 0, -1)).sub(root.localToWorld(new V(0, 0, 0))).normalize();
+  return Math.acos(Math.max(-1, Math.min(1, d.dot(down))));
+}
+"""
+
+
+def test_keyboard_nudges_of_an_editor_slider_leave_the_arena_seen_from_above(projector):
+    """An Editor slider nudged with the arrow keys while the robot drives: the slider
+    moves (the robot drives with the edit) and the camera keeps looking straight down
+    (viser's camera took the arrows too, and the arena turned to a tilted view)."""
+    server, page, _ = projector
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    app.set_speed(1.0)
+    app.play()
+    open_tab(page, "Editor")
+    try:
+        tilt = page.evaluate(JS_CAMERA_TILT)
+        assert tilt < 0.05, tilt
+        thumb = page.locator(".mantine-Slider-thumb:visible").first
+        thumb.scroll_into_view_if_needed()
+        thumb.focus()
+        tilts = []  # the camera after each press (the server's camera guard, which
+        # turns a tilted view back, must not be what keeps it flat)
+        for key in ("ArrowUp", "ArrowLeft", "ArrowLeft", "ArrowDown", "ArrowRight") * 4:
+            page.keyboard.down(key)
+            page.wait_for_timeout(60)
+            page.keyboard.up(key)
+            tilts.append(page.evaluate(JS_CAMERA_TILT))
+        assert app.wait_for(lambda a: a.controller_label == "paper (edited)", timeout=10)
+        assert max(tilts) < 0.05, tilts
+    finally:
+        app.pause()
+        app.reset_membership_editor()
+        app.set_controller("paper")

@@ -44,7 +44,7 @@ def colour_key_html() -> str:
     return f"<div class='fz-colour-key' style='font-size:0.8em;padding:0 6px'>{rows}</div>"
 
 
-# The keyboard (issue 38): space plays or pauses, the right arrow steps, R resets. viser
+# The keyboard: space plays or pauses, the right arrow steps, R resets. viser
 # offers no key events, and its HTML element sets innerHTML, where a <script> never
 # runs: an image that cannot load runs its onerror once, which installs one listener on
 # the page. A key presses the Run button of that name, so it travels as the button's own
@@ -60,7 +60,14 @@ _KEYS_JS = (
     "else if(e.key==='ArrowRight')n='Step';else if(e.key==='r'||e.key==='R')n='Reset';"
     "if(!n)return;var b=[].slice.call(document.querySelectorAll('button')).filter("
     "function(x){return x.textContent.trim()===n;})[0];if(!b)return;e.preventDefault();"
-    "e.stopPropagation();b.click();},true);}"
+    "e.stopPropagation();b.click();},true);"
+    # A slider's arrow keys move the slider only: viser's camera also takes the arrows
+    # (and WASDQE) from the document, unless the target is an input box, and a slider's
+    # thumb is not one; nudged from the keyboard, the arena turned to a tilted view.
+    # Stopped at the body, after the slider (React, under it) has taken the key.
+    "document.body.addEventListener('keydown',function(e){var t=e.target;"
+    "if(t&&t.closest&&t.closest('[role=slider],.mantine-Slider-root')&&"
+    "/^(Arrow|Key[WASDQE]$)/.test(e.code))e.stopPropagation();});}"
 )
 KEYS_HTML = (
     "<img class='fz-keys' alt='' src='data:,' style='display:none' onerror=\""
