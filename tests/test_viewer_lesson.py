@@ -365,7 +365,12 @@ def test_crowded_obstacles_are_labelled_by_their_number_on_their_top():
         while time.monotonic() < deadline and set(labels()) != {1, 2, 3}:
             time.sleep(0.1)
         time.sleep(0.3)
-        assert labels() == {k: (f"obstacle {k}", "center-left") for k in (1, 2, 3)}
+        # (obstacle 3, 2.5 m from the arena's right edge, on its left: cut there before)
+        assert labels() == {
+            1: ("obstacle 1", "center-left"),
+            2: ("obstacle 2", "center-left"),
+            3: ("obstacle 3", "center-right"),
+        }
     finally:
         server.stop()
 
@@ -641,3 +646,25 @@ def test_the_obstacle_plane_holds_a_target_near_enough_to_show_the_obstacle_rule
     turn = (out[..., 1] - out[..., 0]) / 2
     assert np.ptp(turn) > 1.5, np.ptp(turn)
     assert len(panel._surface_planes_for(starter_controller())) == 1
+
+
+def test_a_teachers_note_is_saved_with_the_lesson_and_shown_when_it_opens():
+    """Lesson → Teacher's note: kept in the lesson file and said when it is opened (in
+    the message and back in the box); one too long is refused, naming file and key."""
+    from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper")
+    app.set_note("Watch rule 9 as the robot nears obstacle 1.")
+    for _ in range(10):
+        app.step_once()
+    text = app.lesson_text()
+    other = ViewerApp("s2", "p")
+    other.open_lesson(text, "note.json")
+    assert other.note == "Watch rule 9 as the robot nears obstacle 1."
+    assert other.message.endswith("Teacher's note: Watch rule 9 as the robot nears obstacle 1.")
+    with pytest.raises(ViewerError, match="at most"):
+        app.set_note("x" * (MAX_NOTE_CHARS + 1))
+    long = text.replace('"note": "Watch', '"note": "' + "x" * MAX_NOTE_CHARS + "Watch")
+    with pytest.raises(ViewerError, match="long.json: note"):
+        other.open_lesson(long, "long.json")

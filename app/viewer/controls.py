@@ -10,6 +10,7 @@ import html
 
 import viser
 
+from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
 from fuzzynav.app.viewer.model import NOISE_RANGE_M, Snapshot, ViewerError
 from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 
@@ -238,6 +239,13 @@ class ControlPanel:
                 "Open lesson (.json)", icon=viser.Icon.UPLOAD, mime_type=".json"
             )
             self.lesson_open.on_upload(self.view.guarded(self._on_lesson_open))
+            self.lesson_note = gui.add_text(
+                "Teacher's note",
+                "",
+                hint="Saved with the lesson and shown to the class when it is opened "
+                f"(at most {MAX_NOTE_CHARS} characters)",
+            )
+            self.lesson_note.on_update(self.view.guarded(lambda e: self.app.set_note(e.value)))
         with gui.add_folder("View", expand_by_default=False):
             self.handles_cb = gui.add_checkbox(
                 "Show drag handles",
@@ -271,6 +279,8 @@ class ControlPanel:
             self.controller_dd.options = options
         if self.controller_dd.value != snap.controller_label and snap.controller_label in options:
             self.controller_dd.value = snap.controller_label
+        if self.lesson_note.value != self.app.note:
+            self.lesson_note.value = self.app.note
         if self.perception_dd.value != snap.perception:
             self.perception_dd.value = snap.perception
         if self.geometry_dd.value != snap.geometry:

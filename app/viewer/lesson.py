@@ -42,6 +42,7 @@ LESSON_KEY = "fuzzynav_lesson"
 LESSON_VERSION = 1
 MAX_REPLAY_S = 3600.0
 MAX_TIMELINE = 10_000  # changes of what drives, in one run
+MAX_NOTE_CHARS = 1000  # the teacher's note
 REPLAY_CHUNK_STEPS = 250  # steps replayed per hold of the world's lock
 INPUTS_MATCH = 1e-6  # the replay reached the saved moment: d_t and phi_t within this
 # What drives, as a lesson and each entry of its timeline hold it.
@@ -76,6 +77,7 @@ def dumps_lesson(app, view: dict | None = None) -> str:
                 None if not math.isfinite(v) else float(v) for v in app.controller.last_inputs
             ],
             "unreplayed": list(app._unreplayed),
+            "note": app.note,
         }
         final = list(bases)
         data["timeline"] = [_entry_json(entry, bases) for entry in app._timeline]
@@ -285,6 +287,12 @@ def read_lesson(
     seed = data.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise ViewerError(f"{source}: seed = {seed!r}: not an integer >= 0 (nor null)")
+    note = data.get("note") or ""
+    if not isinstance(note, str) or len(note) > MAX_NOTE_CHARS:
+        raise ViewerError(
+            f"{source}: note: not a text of at most {MAX_NOTE_CHARS} characters "
+            f"({type(note).__name__}, {len(note) if isinstance(note, str) else '-'})"
+        )
     view = data.get("view") or {}
     if not isinstance(view, dict):
         raise ViewerError(f"{source}: view = {view!r}: not a table")
@@ -300,6 +308,7 @@ def read_lesson(
         "timeline": _timeline(data, source, geometry, time_s, control_period_s, bases),
         "inputs": _saved_inputs(data, source),
         "unreplayed": [str(u) for u in data.get("unreplayed") or []][:20],
+        "note": note,
         "view": {k: bool(view[k]) for k in ("presentation", "firing_only") if k in view},
     }
 
@@ -326,6 +335,7 @@ def open_lesson(app, content: bytes | str, source: str = "lesson.json", backgrou
     app.driver.pause()
     with app.lock:
         app.seed = lesson["seed"]
+        app.note = lesson["note"]
         app.apply_settings({**lesson, "fis": None, "controller": app.controller_label})
         _apply_entry_locked(app, timeline[0])
         app.driver._reset_locked(app.editing._layout_scenario())  # the seed, from the start
@@ -410,6 +420,8 @@ def _say_opened_locked(app, lesson: dict, source: str) -> None:
     """The lesson is open: said, with a warning when the moment reached is not the one
     saved (d_t and phi_t compared to :data:`INPUTS_MATCH`)."""
     text = f"Opened the lesson {source} at t = {app.sim.time_s:.2f} s."
+    if lesson["note"]:
+        text += f" Teacher's note: {lesson['note']}"
     saved = lesson["inputs"]
     now = app.controller.last_inputs
     differs = []

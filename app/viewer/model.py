@@ -150,6 +150,7 @@ class ViewerApp:
         self._run_changes: list = []
         self.paper_edit = None  # the paper's editor (PaperEditor), built on first use
         self.starter_edit = None  # the starter's editor (StarterEditor), likewise
+        self.note = ""  # the teacher's note, saved with a lesson
         # paused: a copy of a controller with a memory, asked at the inputs read now
         # (its answer and inference shown; the driving controller is not called)
         self._probe = None
@@ -467,6 +468,17 @@ class ViewerApp:
         from fuzzynav.app.viewer.lesson import dumps_lesson
 
         return dumps_lesson(self, view)
+
+    def set_note(self, text) -> None:
+        """The teacher's note, saved with the lesson and shown when it is opened."""
+        from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
+
+        text = str(text)
+        if len(text) > MAX_NOTE_CHARS:
+            raise ViewerError(f"Teacher's note: {len(text)} characters, at most {MAX_NOTE_CHARS}")
+        with self.lock:
+            self.note = text
+            self._bump()
 
     def open_lesson(self, content, source: str = "lesson.json", background: bool = False) -> dict:
         """Open a lesson file's content; returns its view (presentation, firing only).
