@@ -3,6 +3,8 @@ a console error, in a real headless Chromium. The helpers are tests/test_viewer_
 
 from __future__ import annotations
 
+import time
+
 import pytest
 from test_viewer_browser import (  # noqa: F401  (browser: a fixture)
     browser,
@@ -233,3 +235,41 @@ def test_keyboard_nudges_of_an_editor_slider_leave_the_arena_seen_from_above(pro
         app.pause()
         app.reset_membership_editor()
         app.set_controller("paper")
+
+
+def test_the_editor_plots_show_the_current_input_as_a_line(projector):
+    """The Editor's term plots carry the input's value now as a red line, which follows
+    the robot (sent as a few bytes of CSS, not the plot again)."""
+    server, page, _ = projector
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    for _ in range(100):
+        app.step_once()
+    open_tab(page, "Editor")
+    js = (
+        "() => { const l = document.querySelector(\".fz-term-now[data-group='d_t']\");"
+        " const a = l && l.ownerSVGElement.querySelector('.fz-term-area');"
+        " if (!l || !a || getComputedStyle(l).display === 'none') return null;"
+        " const r = l.getBoundingClientRect(), q = a.getBoundingClientRect();"
+        " return (r.left + r.width / 2 - q.left) / q.width; }"
+    )
+
+    def at_value() -> bool:
+        lo, hi = app.fuzzy_system().inputs[0].range
+        want = (app.controller.last_inputs[0] - lo) / (hi - lo)
+        shown = page.evaluate(js)
+        return shown is not None and abs(shown - want) < 0.01
+
+    page.wait_for_function(f"() => ({js})() !== null", timeout=10_000)
+    deadline = time.monotonic() + 10
+    while not at_value() and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert at_value()
+    before = page.evaluate(js)
+    for _ in range(200):
+        app.step_once()
+    deadline = time.monotonic() + 10
+    while not at_value() and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    assert at_value() and page.evaluate(js) != before

@@ -114,6 +114,7 @@ class EditorPanel:
         app = self.app
         editor = app.editor()
         self.intro_html = gui.add_html(self._intro(editor))
+        self.now_html = gui.add_html("")  # the inputs' values on the plots (CSS)
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Download .toml", "Reset to shipped")
         )
@@ -183,6 +184,20 @@ class EditorPanel:
                     )
                     section["sliders"][name] = slider
         return section
+
+    def _draw_inputs_now(self, editor) -> None:
+        """The current inputs (those tried in What-if, while it is on) as red lines on
+        the Editor's plots."""
+        import math
+
+        from fuzzynav.app.viewer.term_drag import now_css
+
+        app = self.app
+        x = app.what_if if app.what_if is not None else app.controller.last_inputs
+        values = [round(float(v), 2) if math.isfinite(float(v)) else None for v in list(x)[:4]]
+        content = now_css(editor.controller().fis, values)
+        if self.now_html.content != content:
+            self.now_html.content = content
 
     def _draw_term_plots(self) -> None:
         """Each slider group's terms with a handle on every corner a slider moves
@@ -286,6 +301,7 @@ class EditorPanel:
             self._show_rule(1)
         if self.sections:
             self._draw_term_plots()
+            self._draw_inputs_now(editor)
         for name, slider in self.editor_sliders.items():
             value = round(editor.value(name), 2)  # as the slider shows it
             if abs(slider.value - value) > 1e-9:
