@@ -42,9 +42,12 @@ def box_of(page, handle):
 
 
 def wait_box(page, box, text: str) -> None:
-    page.wait_for_function(
-        "([e, t]) => e.value === t", arg=[box.element_handle(), text], timeout=10_000
-    )
+    try:
+        page.wait_for_function(
+            "([e, t]) => e.value === t", arg=[box.element_handle(), text], timeout=10_000
+        )
+    except Exception:
+        raise AssertionError(f"the box shows {box.input_value()!r}, not {text!r}") from None
 
 
 # d_t and phi_t's what-if sliders shown, d_o and phi_o's not (not in the page at all, or
@@ -166,3 +169,34 @@ def test_the_first_lesson_with_the_starter_in_every_view(starter):
     assert is_starter(app)
     # the surface follows the starter: one map, over (d_t, phi_t)
     assert [p[2:4] for p in server.surface._surface_planes] == [(0, 2)]
+
+
+def test_a_starter_rule_is_written_from_the_term_pickers_and_added(starter):
+    """Rules → Pick the terms: a list per variable, of the driving system's terms (the
+    starter's near and far for d_t); a pick writes the sentence, Add as new adds it."""
+    server, page, _ = starter
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    app.set_controller(STARTER_LABEL)
+    app.reset_membership_editor()  # the starter as shipped (an earlier test edited it)
+    open_tab(page, "Editor")
+    page.get_by_text("Rules (add, change, remove)", exact=True).click()
+    page.get_by_text("Pick the terms", exact=True).click()
+    try:
+        text_box = box_of(page, server.editor.rule_text)
+        wait_box(page, text_box, app.editor().rule_text(1))
+        uuid = compat_viser.handle_uuid(server.editor.rule_pickers[0])  # d_t's
+        page.locator(f"[id='{uuid}']").click()
+        options = page.get_by_role("option").all_inner_texts()
+        assert [o.strip() for o in options] == ["—", "near", "far"], options
+        page.get_by_role("option", name="near", exact=True).click()
+        want = "IF d_t IS near AND phi_t IS Z THEN left IS fast AND right IS fast"
+        wait_box(page, text_box, want)
+        page.get_by_role("button", name="Add as new").click()
+        assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == 7, timeout=10)
+        assert app.editor().rule_text(7) == want and is_starter(app)
+    finally:
+        page.get_by_text("Pick the terms", exact=True).click()
+        page.get_by_text("Rules (add, change, remove)", exact=True).click()
+        app.set_controller("paper")

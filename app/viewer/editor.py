@@ -162,9 +162,18 @@ class SystemEditor:
 
     # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
 
+    def rule_version(self) -> int:
+        """How many rule edits (and resets) were made: it changes with the rules."""
+        return self._version
+
     def rule_count(self) -> int:
         """How many rules the edited system has (built or not yet)."""
         return len(self._rules)
+
+    def rule(self, number: int):
+        """Rule ``number`` (from 1) as edited (a :class:`controller.fuzzy.Rule`)."""
+        with self._lock:
+            return self._rules[self._number(number)]
 
     def rule_text(self, number: int) -> str:
         """Rule ``number`` (from 1) as a sentence the editor reads back."""

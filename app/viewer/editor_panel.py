@@ -82,6 +82,7 @@ EDITOR_LABELS = {
     "v.fast": "fast centre (V)",
 }
 EDITOR_KINDS = ("paper", "starter")
+NO_TERM = "—"  # a rule picker's "this variable takes no part"
 
 
 class EditorPanel:
@@ -135,6 +136,7 @@ class EditorPanel:
         for kind in EDITOR_KINDS:
             self.sections[kind] = self._build_sliders(gui, app.editor(kind), kind)
         self._shown_kind = app.editor_kind()
+        self._show_rule(1)  # (the pickers at rule 1's terms)
 
     def _intro(self, editor) -> str:
         note = (
@@ -238,6 +240,19 @@ class EditorPanel:
             self.rule_buttons = gui.add_button_group(
                 "Rule edit", ("Apply", "Add as new", "Remove", "Undo")
             )
+            # Or pick the terms from lists: the sentence is written from them.
+            self.rule_pickers = []
+            fis = editor.controller().fis
+            with gui.add_folder("Pick the terms", expand_by_default=False):
+                for k, var in enumerate(fis.inputs + fis.outputs):
+                    picker = gui.add_dropdown(
+                        var.name,
+                        self._picker_options(var),
+                        initial_value=NO_TERM,
+                        hint=f"the rule's term of {var.name} ({NO_TERM}: it takes no part)",
+                    )
+                    picker.on_update(self.view.guarded(lambda e, k=k: self._on_picker(k, e.value)))
+                    self.rule_pickers.append(picker)
         self.rule_number.on_update(self.view.guarded(self._on_rule_number))
         self.rule_buttons.on_click(self.view.guarded(self._on_rule_button))
 
@@ -250,6 +265,35 @@ class EditorPanel:
         if self.rule_number.value != number:
             self.rule_number.value = number
         self.rule_text.value = editor.rule_text(number)
+        fis = editor.controller().fis
+        rule = editor.rule(number)
+        picks = list(rule.antecedent) + list(rule.consequent)
+        for picker, var, k in zip(self.rule_pickers, fis.inputs + fis.outputs, picks):
+            options = self._picker_options(var)
+            if tuple(picker.options) != options:
+                picker.options = options
+            value = NO_TERM if k is None else var.terms[k].name
+            if picker.value != value:
+                picker.value = value
+
+    @staticmethod
+    def _picker_options(var) -> tuple[str, ...]:
+        return (NO_TERM, *(t.name for t in var.terms))
+
+    def _on_picker(self, index: int, value: str) -> None:
+        """A term picked: the sentence in the box is written from the pickers (Apply or
+        Add as new then reads it as a typed one)."""
+        fis = self.app.editor().controller().fis
+        picks = [p.value for p in self.rule_pickers]
+        picks[index] = value
+        names = [v.name for v in fis.inputs + fis.outputs]
+        n_in = len(fis.inputs)
+
+        def clauses(part):
+            return " AND ".join(f"{n} IS {t}" for n, t in part if t != NO_TERM)
+
+        pairs = list(zip(names, picks))
+        self.rule_text.value = f"IF {clauses(pairs[:n_in])} THEN {clauses(pairs[n_in:])}"
 
     def _on_rule_number(self, event) -> None:
         self._show_rule(int(event.value))
@@ -299,6 +343,10 @@ class EditorPanel:
                         folder.visible = other == kind
             self.intro_html.content = self._intro(editor)
             self._show_rule(1)
+        rules_key = (kind, editor.rule_version())
+        if rules_key != getattr(self, "_shown_rules", None):  # edited here or elsewhere
+            self._shown_rules = rules_key
+            self._show_rule(int(self.rule_number.value))
         if self.sections:
             self._draw_term_plots()
             self._draw_inputs_now(editor)
