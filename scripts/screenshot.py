@@ -1,6 +1,7 @@
 """Make the viewer's screenshots: docs/img/viewer.png, and with ``--all`` the teacher's
 guide's (docs/viewer.md): the inference view, the control surface and the editor, each
-at 1280x800 and at 1920x1080 (docs/img/viewer-<view>-<width>.png).
+at 1280x800 and at 1920x1080, the inference view in presentation mode at 1280x800 (a
+projector's), and the Editor with the starter driving (docs/img/viewer-<view>-<width>.png).
 
 Starts the viewer in this process on a free port, opens it in headless Chromium
 (Debian's ``chromium`` package; ``playwright install`` is not needed), presses Play,
@@ -45,6 +46,9 @@ def main(argv=None) -> int:
         "--what-if", action="store_true", help="what-if mode on, phi_t set to -1.0 rad"
     )
     parser.add_argument(
+        "--starter", action="store_true", help="the starter system drives (the first lesson)"
+    )
+    parser.add_argument(
         "--all", action="store_true", help="the guide's screenshots (three views, two sizes)"
     )
     args = parser.parse_args(argv)
@@ -57,10 +61,16 @@ def main(argv=None) -> int:
             ("editor", "Editor", 1280, 800, False),
             ("editor", "Editor", 1920, 1080, False),
             ("whatif", "Inference", 1280, 800, "what-if"),
+            ("presentation", "Inference", 1280, 800, True),
+            ("starter", "Editor", 1280, 800, "starter"),
         ]
         for view, tab, width, height, mode in shots:
             out = ROOT / "docs" / "img" / f"viewer-{view}-{width}.png"
-            extra = {True: ["--presentation"], "what-if": ["--what-if"]}.get(mode, [])
+            extra = {
+                True: ["--presentation"],
+                "what-if": ["--what-if"],
+                "starter": ["--starter"],
+            }.get(mode, [])
             code = main(
                 [
                     "--tab",
@@ -109,6 +119,10 @@ def main(argv=None) -> int:
             # Headless Chromium renders WebGL in software and viser says so: close that.
             for button in page.locator(".mantine-Notification-closeButton").all():
                 button.click()
+            if args.starter:
+                from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+                app.set_controller(STARTER_LABEL)
             page.get_by_role("button", name="Play").click()
             app.set_speed(args.speed)
             app.wait_for(
@@ -119,6 +133,8 @@ def main(argv=None) -> int:
             if args.presentation:
                 page.get_by_text("View", exact=True).click()
                 page.get_by_role("checkbox", name="Presentation mode (large type)").click()
+                page.get_by_text("View", exact=True).click()  # closed: the status on top
+                page.evaluate("() => document.querySelector('.fz-status')?.scrollIntoView()")
             if args.tab:
                 page.get_by_role("tab", name=args.tab).click()
             if args.what_if:

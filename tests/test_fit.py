@@ -145,7 +145,12 @@ def test_the_papers_own_numbers_cost_nothing_and_any_arrival_beats_none():
 
 def test_the_story_costs_nothing_when_told_and_something_when_not():
     def run(name, passes, mad_m=0.6, approach=1.0):
-        return {"scenario": name, "passes": passes, "mad_m": mad_m, "approach_speed_ratio": approach}
+        return {
+            "scenario": name,
+            "passes": passes,
+            "mad_m": mad_m,
+            "approach_speed_ratio": approach,
+        }
 
     told = [
         run("s1", [(30.0, 0.46), (45.0, 0.29), (60.0, 0.26)]),

@@ -239,7 +239,7 @@ def test_fis_export_into_a_folder_never_replaces_a_file_unless_forced(capsys, tm
 
 
 def test_the_blocks_export_from_code_never_replaces_a_file_unless_overwrite(tmp_path):
-    from fuzzynav.controller.fuzzynav import export_fis
+    from fuzzynav.controller.navigator.controller import export_fis
 
     (tmp_path / "fuzzynav_avoid.fis").write_bytes(MINE)
     with pytest.raises(ValueError, match=r"fuzzynav_avoid.fis: exists already.*overwrite=True"):
@@ -255,7 +255,7 @@ def test_the_blocks_export_from_code_never_replaces_a_file_unless_overwrite(tmp_
 def test_tuned_memberships_never_replace_rule_bases_beside_the_file(tmp_path):
     """``FuzzyNavTunable(tune_memberships=True).save(x, path)`` wrote the two rule bases
     beside ``path`` over whatever was there."""
-    from fuzzynav.controller.fuzzynav_tuning import FuzzyNavTunable
+    from fuzzynav.controller.navigator.tuning import FuzzyNavTunable
 
     tunable = FuzzyNavTunable(tune_memberships=True)
     x = tunable.initial_vector()

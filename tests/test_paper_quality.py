@@ -127,7 +127,9 @@ def _husky_bounds(scenario, perception):
     sc = result.scenario
     xy = log.pose[:, :2]
     line = np.subtract(sc.target, sc.start)
-    side = (line[0] * (xy[:, 1] - sc.start[1]) - line[1] * (xy[:, 0] - sc.start[0])) / np.hypot(*line)
+    side = (line[0] * (xy[:, 1] - sc.start[1]) - line[1] * (xy[:, 0] - sc.start[0])) / np.hypot(
+        *line
+    )
     assert np.abs(side).max() <= 1.2, np.abs(side).max()
     assert np.nanmax(log.voltages_v) >= 9.0, np.nanmax(log.voltages_v)
     assert _approach_speed_ratio(log.time_s, xy, sc.target) >= 0.5

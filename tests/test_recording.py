@@ -878,7 +878,6 @@ def test_fuzzynav_recording_holds_both_blocks_and_its_parameters(tmp_path):
 def test_fuzzynav_doubted_target_readings_are_recorded_in_s3(tmp_path):
     """s3's disturbance (25-35 s): the internals plot marks the rows whose target reading
     fuzzynav doubted, all inside that window and most of it."""
-    from fuzzynav.app.recordings.internals import INTERNALS_PATH
     from fuzzynav.controller.navigator.controller import fuzzynav_controller
 
     controller = fuzzynav_controller()

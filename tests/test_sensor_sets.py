@@ -109,8 +109,8 @@ def test_the_rings_rays_start_on_the_footprints_edge():
 
 
 def test_fuzzynav_finds_its_front_sonar_by_mount():
-    from fuzzynav.controller.fuzzynav_memory import PerceptionMemory
-    from fuzzynav.controller.fuzzynav_robot import mounts_of
+    from fuzzynav.controller.navigator.memory import PerceptionMemory
+    from fuzzynav.controller.navigator.robot import mounts_of
 
     memory = PerceptionMemory(make_controller("fuzzynav").params)
     # the front sonar listed first, two on the left, one on the right

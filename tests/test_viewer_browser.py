@@ -998,8 +998,8 @@ JS_ON_CANVAS = """
 
 def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
     """Defect 7: presentation mode widened the left panel over the arena without
-    refitting the camera; the right panel, the status line and the arena's labels
-    stayed small. Now all of the arena stays on the narrower canvas, and they grow."""
+    refitting the camera; the status line and the arena's labels stayed small. Now all
+    of the arena stays on its canvas, still the largest thing on screen, and they grow."""
     app = served.app
     names = ["/target", "/start"] + [obstacle_node(app, i) for i in app.sim.arena.obstacles]
     page.wait_for_function(f"(n) => ({JS_ON_CANVAS})(n).length == 0", arg=names, timeout=15_000)
@@ -1019,9 +1019,12 @@ def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
         page.get_by_text("View", exact=True).click()
     box.click()
     try:
+        # the left panel widens a little (440 px), the right narrows (300 px): the arena
+        # stays the largest thing on screen (presentation mode's 720 + 420 px panels left
+        # it 132 px at 1280)
         page.wait_for_function(
-            "(w) => window.__viserMutable.canvas.getBoundingClientRect().width < w - 200",
-            arg=before["canvas"],
+            "() => [...document.querySelectorAll('style')]"
+            ".some((s) => s.textContent.includes('.mantine-Slider-markLabel'))",
             timeout=15_000,
         )
         # the camera follows the canvas's new shape
@@ -1030,7 +1033,7 @@ def test_presentation_mode_refits_the_arena_and_enlarges_the_type(served, page):
         assert page.evaluate(JS_ON_CANVAS, names) == []
         after = sizes()
         assert after["status"] > 1.2 * before["status"], (before, after)
-        assert after["right"] > before["right"] + 50, (before, after)
+        assert after["canvas"] > 500 and after["canvas"] > after["right"], (before, after)
         assert served.handles.target_label.font_screen_scale > 1.2
         assert all(
             n["label"].font_screen_scale > 1.2 for n in served.handles.obstacle_nodes.values()

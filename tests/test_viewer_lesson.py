@@ -235,6 +235,8 @@ def test_serve_opens_a_lesson_file(tmp_path):
     server = serve("s2", port=0, block=False, open_message=False, lesson=path)
     try:
         assert server.app.scenario_label == "s1" and server.app.layout_edited
+        # the run is replayed on a thread of its own: the server serves meanwhile
+        assert server.app.wait_for(lambda a: a.message.startswith("Opened the lesson"))
         assert server.app.sim.time_s == pytest.approx(1.0)
         assert server.inference.firing_only_cb.value is True
     finally:
@@ -363,7 +365,12 @@ def test_crowded_obstacles_are_labelled_by_their_number_on_their_top():
         while time.monotonic() < deadline and set(labels()) != {1, 2, 3}:
             time.sleep(0.1)
         time.sleep(0.3)
-        assert labels() == {k: (f"obstacle {k}", "center-left") for k in (1, 2, 3)}
+        # (obstacle 3, 2.5 m from the arena's right edge, on its left: cut there before)
+        assert labels() == {
+            1: ("obstacle 1", "center-left"),
+            2: ("obstacle 2", "center-left"),
+            3: ("obstacle 3", "center-right"),
+        }
     finally:
         server.stop()
 
@@ -420,3 +427,244 @@ def test_rules_are_added_changed_removed_and_undone_validated_and_exported():
     # exported in TOML, read back the same
     app.edit_rules("set", 1, changed)
     assert loads_toml(app.editor().toml_text()).rules == app.fuzzy_system().rules
+
+
+def _run_with_switches_and_edits():
+    """A run of s1: paper, then the starter, edited, then fuzzynav, then a rule edit
+    (the paper's, edited), a change of noise between; paused at 13 s."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    for _ in range(150):
+        app.step_once()
+    app.set_controller(STARTER_LABEL)
+    for _ in range(100):
+        app.step_once()
+    app.set_membership_parameter("d_t.near", 1.5)
+    app.set_noise(0.02)
+    for _ in range(100):
+        app.step_once()
+    app.set_controller("fuzzynav")
+    for _ in range(200):
+        app.step_once()
+    app.edit_rules("set", 1, app.editor().rule_text(1).replace("right IS VS", "right IS S"))
+    for _ in range(100):
+        app.step_once()
+    return app
+
+
+def test_a_lesson_saved_after_switches_and_edits_reopens_at_the_same_inputs():
+    """A lesson saved mid-run after controller switches and edits reopens at the moment
+    saved: the run is replayed with each switch and edit at its step (it was replayed
+    with the last controller from t = 0: d_t 6.15 m where 3.87 m was saved)."""
+    app = _run_with_switches_and_edits()
+    text = app.lesson_text()
+    saved = app.controller.last_inputs.copy()
+    other = ViewerApp("s2", "p")
+    other.open_lesson(text, "lesson.json")
+    assert other.sim.time_s == pytest.approx(app.sim.time_s)
+    now = other.controller.last_inputs
+    assert abs(now[0] - saved[0]) <= 1e-6 and abs(now[2] - saved[2]) <= 1e-6, (now, saved)
+    np.testing.assert_allclose(other.sim.arena.pose, app.sim.arena.pose, atol=1e-9)
+    assert other.controller_label == app.controller_label == "paper (edited)"
+    assert other.fuzzy_system() == app.fuzzy_system()
+    assert other.message_level == "info" and other.message.startswith("Opened the lesson")
+
+
+def test_a_lesson_whose_run_had_a_drag_warns_that_the_replay_differs():
+    """A drag during the run cannot be replayed (the layout saved is the one the run
+    restarts from): the lesson opens, and says where and why the moment differs."""
+    app = ViewerApp("s1", "paper")
+    for _ in range(200):
+        app.step_once()
+    tx, ty = app.sim.arena.target
+    app.move_target((tx, ty + 4.0))
+    for _ in range(200):
+        app.step_once()
+    other = ViewerApp("s1", "paper")
+    other.open_lesson(app.lesson_text(), "dragged.json")
+    assert other.message_level == "warning"
+    assert "differs" in other.message and "the target moved at 4.00 s" in other.message
+
+
+def _world(app) -> tuple:
+    with app.lock:
+        return (
+            app.scenario_label,
+            app.controller_label,
+            app.sim.perception.mode,
+            app.geometry,
+            app.speed,
+            app.seed,
+            app.noise_std_m,
+            app.disturbance_on,
+            app.parts_off,
+            app.sim.time_s,
+            tuple(app.sim.arena.pose),
+            app.editing._layout_scenario(),
+            app.message,
+        )
+
+
+@pytest.mark.parametrize(
+    ("key", "old", "new"),
+    [
+        ("speed", '"speed": 1.0', '"speed": Infinity'),
+        ("speed", '"speed": 1.0', '"speed": 50'),
+        ("perception", '"geometry": "husky"', '"geometry": "paper"'),  # with ultrasonic
+        ("geometry", '"geometry": "husky"', '"geometry": "flat"'),
+        ("noise_std_m", '"noise_std_m": 0.0', '"noise_std_m": 5.0'),
+        ("parts_off", '"parts_off": []', '"parts_off": ["wings"]'),
+        ("controller", '"controller": "paper"', '"controller": "nosuch"'),
+        ("seed", '"seed": 0', '"seed": -5'),
+        (
+            "timeline[0]: perception",
+            '"perception": "ultrasonic",\n      "disturbance_on"',
+            '"perception": "sonar",\n      "disturbance_on"',
+        ),
+    ],
+)
+def test_a_refused_lesson_leaves_the_world_exactly_as_it_was(key, old, new):
+    """Every setting is checked before any is applied: a refused lesson names its file
+    and key, and leaves the world as it was (an infinite speed, an impossible geometry
+    and perception pair, ... left it switched to the lesson's scenario)."""
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper", perception="ultrasonic")
+    for _ in range(20):
+        app.step_once()
+    text = app.lesson_text()
+    assert old in text, old
+    bad = text.replace(old, new, 1)
+    world = ViewerApp("s3", "p")
+    world.set_speed(3.0)
+    for _ in range(5):
+        world.step_once()
+    before = _world(world)
+    with pytest.raises(ViewerError) as refused:
+        world.open_lesson(bad, "class-3.json")
+    assert "class-3.json" in str(refused.value) and key in str(refused.value)
+    assert _world(world) == before
+
+
+def test_a_long_lesson_is_replayed_on_a_thread_of_its_own():
+    """``serve --lesson`` with a long time serves at once: opening returns before the
+    replay has made a step (the world's lock is held here, so the replay cannot start),
+    and the replay then reaches the time on its own thread."""
+    app = ViewerApp("s1", "paper")
+    for _ in range(300):
+        app.step_once()
+    text = app.lesson_text()
+    other = ViewerApp("s2", "p")
+    with other.lock:
+        other.open_lesson(text, "long.json", background=True)
+        assert other.sim.time_s == 0.0 and other.message.startswith("Opening the lesson")
+    assert other.wait_for(lambda a: a.message.startswith("Opened the lesson"), timeout=60)
+    assert other.sim.time_s == pytest.approx(6.0)
+
+
+def test_the_rule_editor_refuses_the_rule_past_the_files_limit_and_the_lesson_reopens():
+    """The rule editor stops at the limit a rule base file holds (one constant,
+    controller.rulebase.MAX_RULES): the next Add is refused with a word, and the TOML
+    export and a saved lesson of that many rules open again (past it, both were refused
+    on reopening and the teacher's work was lost). The page's adds are built off its
+    thread, together."""
+    from fuzzynav.app.viewer.model import ViewerError
+    from fuzzynav.controller.rulebase import MAX_RULES, loads_toml
+
+    app = ViewerApp("s1", "paper")
+    rule = "if d_t is VS and phi_t is Z then left is VS and right is VS"
+    for _ in range(MAX_RULES - app.editor().rule_count()):
+        app.edit_rules("add", None, rule, wait=False)
+    assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == MAX_RULES, timeout=120)
+    with pytest.raises(ViewerError, match=f"the most a rule base file holds \\({MAX_RULES}\\)"):
+        app.edit_rules("add", None, rule, wait=False)
+    assert app.editor().rule_count() == MAX_RULES
+    assert len(loads_toml(app.editor().toml_text()).rules) == MAX_RULES
+    other = ViewerApp("s2", "p")
+    other.open_lesson(app.lesson_text(), "many-rules.json")
+    assert len(other.fuzzy_system().rules) == MAX_RULES and other.message_level == "info"
+    # undo goes back one add at a time
+    app.edit_rules("undo")
+    assert len(app.fuzzy_system().rules) == MAX_RULES - 1
+
+
+def test_a_drop_that_causes_a_collision_is_named_as_its_cause():
+    """An obstacle dropped in the robot's way during the run, and the robot then hits
+    it: the message names the obstacle and the drop, with its time (it said only
+    "collided with an obstacle")."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    app.set_controller(STARTER_LABEL)  # it reads no obstacle: it drives into one
+    for _ in range(50):
+        app.step_once()
+    x, y, _ = app.sim.arena.pose
+    tx, ty = app.sim.arena.target
+    d = np.hypot(tx - x, ty - y)
+    ob = next(iter(app.sim.arena.obstacles))  # put on the way to the target, 2 m ahead
+    app.move_obstacle(ob, (x + 2.0 * (tx - x) / d, y + 2.0 * (ty - y) / d))
+    for _ in range(2000):
+        if app.sim.done:
+            break
+        app.step_once()
+    assert app.metrics is not None and app.metrics["collisions"] >= 1
+    number = app.obstacle_number(ob)
+    assert f"collided with obstacle {number}, which was dropped in its way at t = 1.00 s" in (
+        app.message
+    ), app.message
+    # a collision without a drop names the obstacle only
+    app.reset()
+    for _ in range(3000):
+        if app.sim.done:
+            break
+        app.step_once()
+    assert "collided with obstacle" in app.message and "dropped" not in app.message
+
+
+def test_the_obstacle_plane_holds_a_target_near_enough_to_show_the_obstacle_rules():
+    """The Surface tab's (d_o, phi_o) map holds the target near, straight ahead, where
+    the paper's obstacle rules change the turn by more than 1.5 V over the plane (with
+    the target 5 m ahead the turn spanned 0.7 V: the map showed nearly nothing). The
+    starter, blind to obstacles, gets no such map."""
+    import types
+
+    from fuzzynav.app.viewer import surface_view
+    from fuzzynav.app.viewer.starter import starter_controller
+    from fuzzynav.app.viewer.surface_panel import SurfacePanel
+    from fuzzynav.controller.registry import make_controller
+
+    panel = SurfacePanel.__new__(SurfacePanel)
+    panel.surface_axes, panel.surface_held = (0, 2), [5.0, 1.0, 0.0, 0.0]
+    panel.surface_no_obstacle_cb = types.SimpleNamespace(value=True)
+    title, fis, xi, yi, x_range, y_range, held, _ = panel._surface_planes_for(
+        make_controller("paper")
+    )[1]
+    assert (xi, yi) == (1, 3) and "ahead" in title
+    _, _, out = surface_view.surface_grid(fis, xi, yi, x_range, y_range, held)
+    out = np.asarray(out)
+    turn = (out[..., 1] - out[..., 0]) / 2
+    assert np.ptp(turn) > 1.5, np.ptp(turn)
+    assert len(panel._surface_planes_for(starter_controller())) == 1
+
+
+def test_a_teachers_note_is_saved_with_the_lesson_and_shown_when_it_opens():
+    """Lesson → Teacher's note: kept in the lesson file and said when it is opened (in
+    the message and back in the box); one too long is refused, naming file and key."""
+    from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper")
+    app.set_note("Watch rule 9 as the robot nears obstacle 1.")
+    for _ in range(10):
+        app.step_once()
+    text = app.lesson_text()
+    other = ViewerApp("s2", "p")
+    other.open_lesson(text, "note.json")
+    assert other.note == "Watch rule 9 as the robot nears obstacle 1."
+    assert other.message.endswith("Teacher's note: Watch rule 9 as the robot nears obstacle 1.")
+    with pytest.raises(ViewerError, match="at most"):
+        app.set_note("x" * (MAX_NOTE_CHARS + 1))
+    long = text.replace('"note": "Watch', '"note": "' + "x" * MAX_NOTE_CHARS + "Watch")
+    with pytest.raises(ViewerError, match="long.json: note"):
+        other.open_lesson(long, "long.json")

@@ -54,9 +54,8 @@ from fuzzynav.world.run_limits import Outcome as Outcome
 from fuzzynav.world.run_limits import check_loop_settings as check_loop_settings
 from fuzzynav.world.run_limits import check_run_size as check_run_size
 from fuzzynav.world.run_limits import log_bytes as log_bytes
-from fuzzynav.world.run_limits import run_ending
+from fuzzynav.world.run_limits import run_ending, wheel_voltages
 from fuzzynav.world.run_limits import timeout_slack_s as timeout_slack_s
-from fuzzynav.world.run_limits import wheel_voltages
 from fuzzynav.world.scenario import Scenario
 from fuzzynav.world.sensors import RangeSensorArray, SensorConfig
 from fuzzynav.world.sim_log import LOG_BLOCK_BYTES as LOG_BLOCK_BYTES

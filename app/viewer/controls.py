@@ -10,6 +10,7 @@ import html
 
 import viser
 
+from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
 from fuzzynav.app.viewer.model import NOISE_RANGE_M, Snapshot, ViewerError
 from fuzzynav.world.perception import GEOMETRIES, PERCEPTION_MODES
 
@@ -60,7 +61,14 @@ _KEYS_JS = (
     "else if(e.key==='ArrowRight')n='Step';else if(e.key==='r'||e.key==='R')n='Reset';"
     "if(!n)return;var b=[].slice.call(document.querySelectorAll('button')).filter("
     "function(x){return x.textContent.trim()===n;})[0];if(!b)return;e.preventDefault();"
-    "e.stopPropagation();b.click();},true);}"
+    "e.stopPropagation();b.click();},true);"
+    # A slider's arrow keys move the slider only: viser's camera also takes the arrows
+    # (and WASDQE) from the document, unless the target is an input box, and a slider's
+    # thumb is not one; nudged from the keyboard, the arena turned to a tilted view.
+    # Stopped at the body, after the slider (React, under it) has taken the key.
+    "document.body.addEventListener('keydown',function(e){var t=e.target;"
+    "if(t&&t.closest&&t.closest('[role=slider],.mantine-Slider-root')&&"
+    "/^(Arrow|Key[WASDQE]$)/.test(e.code))e.stopPropagation();});}"
 )
 KEYS_HTML = (
     "<img class='fz-keys' alt='' src='data:,' style='display:none' onerror=\""
@@ -99,6 +107,9 @@ class ControlPanel:
             gui.add_html(colour_key_html())
         with gui.add_folder("Result"):
             self.view.status_line.add_result(gui)
+        # presentation mode's type: nothing under 12 px at 1280 x 800 (a <style> block,
+        # empty otherwise)
+        self.presentation_css = gui.add_html("")
 
     def _build_run_controls(self, gui) -> None:
         """The status, Run and Speed buttons, the run's history and the drag hint."""
@@ -228,6 +239,13 @@ class ControlPanel:
                 "Open lesson (.json)", icon=viser.Icon.UPLOAD, mime_type=".json"
             )
             self.lesson_open.on_upload(self.view.guarded(self._on_lesson_open))
+            self.lesson_note = gui.add_text(
+                "Teacher's note",
+                "",
+                hint="Saved with the lesson and shown to the class when it is opened "
+                f"(at most {MAX_NOTE_CHARS} characters)",
+            )
+            self.lesson_note.on_update(self.view.guarded(lambda e: self.app.set_note(e.value)))
         with gui.add_folder("View", expand_by_default=False):
             self.handles_cb = gui.add_checkbox(
                 "Show drag handles",
@@ -261,6 +279,8 @@ class ControlPanel:
             self.controller_dd.options = options
         if self.controller_dd.value != snap.controller_label and snap.controller_label in options:
             self.controller_dd.value = snap.controller_label
+        if self.lesson_note.value != self.app.note:
+            self.lesson_note.value = self.app.note
         if self.perception_dd.value != snap.perception:
             self.perception_dd.value = snap.perception
         if self.geometry_dd.value != snap.geometry:
@@ -335,7 +355,7 @@ class ControlPanel:
 
     def _on_lesson_open(self, event) -> None:
         uploaded = event.value
-        view = self.app.open_lesson(uploaded.content, uploaded.name)
+        view = self.app.open_lesson(uploaded.content, uploaded.name, background=True)
         self.scenario_dd.options = self.app.scenario_options()
         self.controller_dd.options = self.app.controller_options()
         self.view.apply_view(view)

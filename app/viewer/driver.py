@@ -401,6 +401,9 @@ class RunDriver:
         app.metrics = None
         app.run_label = app.results._run_label()
         app._run_changes = [(0.0, app.results._settings())]
+        app._timeline = [app.results.timeline_entry_locked()]  # what a lesson replays
+        app._unreplayed = []  # what a lesson cannot replay (drags during the run)
+        app._drops = {}  # obstacle id -> when it was last put down during the run
         app.run_id += 1
         app.layout_id += 1
         self._anchor()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import threading
 
 import numpy as np
 
@@ -20,7 +21,6 @@ from fuzzynav.app.viewer.budget import (
     scenario_charge,
 )
 from fuzzynav.app.viewer.state import (
-    EDITED_LABEL,
     MAX_UPLOAD_BYTES,
     NEW_OBSTACLE_RADIUS_M,
     UPLOADED_PREFIX,
@@ -44,6 +44,9 @@ class ScenarioEditing:
 
     def __init__(self, app):
         self.app = app
+        self._build_lock = threading.Lock()  # the page's rule edits, built off its thread
+        self._build_wanted = None  # (editor, action) of the last edit not built yet
+        self._building = False
 
     def scenario_options(self) -> list[str]:
         app = self.app
@@ -101,7 +104,7 @@ class ScenarioEditing:
             raise ViewerError(str(exc)) from None
         from fuzzynav.world.simulation import check_run_size
 
-        try:  # the run's log within the memory budget, as `fuzzynav run` checks
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
             check_run_size(scenario.duration_s, app.sim.control_period_s, len(scenario.obstacles))
         except ValueError as exc:
             raise ViewerError(f"{label}: {exc}") from None
@@ -183,7 +186,7 @@ class ScenarioEditing:
         """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1
         (:func:`~fuzzynav.app.figures.style.obstacle_label`)."""
         # "static obstacle obstacles[1]" (the file's wording) reads "static obstacle 2",
-        # not "static obstacle obstacle 2"
+        # not "static obstacle obstacle 2" (issue 38)
         return re.sub(
             r"(?:\bobstacle\s+)?obstacles\[(\d+)\]",
             lambda m: obstacle_label(int(m.group(1))),
@@ -257,67 +260,117 @@ class ScenarioEditing:
             )
             return [i for i, gap in zip(ids, gaps.tolist()) if gap <= 0.0]
 
-    def editor(self):
-        """The membership editor of the paper controller (built on first use)."""
+    def editor_kind(self) -> str:
+        """Which system the Editor edits: ``starter`` while the starter (or its edit)
+        drives, else ``paper`` (the paper controller, edited from whatever drives)."""
+        from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL, STARTER_LABEL
+
+        label = self.app.controller_label
+        return "starter" if label in (STARTER_LABEL, STARTER_EDITED_LABEL) else "paper"
+
+    def editor(self, kind: str | None = None):
+        """The editor of the system that drives (:meth:`editor_kind`), or of ``kind``
+        (built on first use)."""
         app = self.app
-        from fuzzynav.app.viewer.editor import PaperEditor
+        from fuzzynav.app.viewer.editor import PaperEditor, StarterEditor
 
         with app.lock:
+            kind = kind or self.editor_kind()
+            if kind == "starter":
+                if app.starter_edit is None:
+                    app.starter_edit = StarterEditor(app.geometry)
+                return app.starter_edit
             if app.paper_edit is None:
                 app.paper_edit = PaperEditor(app.geometry)
             return app.paper_edit
 
+    def _drive_edited(self, editor, controller, what: str) -> None:
+        """Drive with ``editor``'s edited system at once and say so."""
+        self.app.setup._install_controller(controller, editor.edited_label, quiet=True)
+        self.app._notice(f"Controller: {editor.edited_label} ({what}).", "info")
+
     def set_membership_parameter(self, name: str, value) -> None:
-        """Change one of the paper controller's membership parameters and drive with the
-        edited system at once (the run goes on)."""
-        app = self.app
+        """Change one membership parameter of the system that drives (the starter's
+        while it drives, else the paper controller's) and drive with the edited system at
+        once (the run goes on)."""
         editor = self.editor()
         try:
             controller = editor.set(name, value)
         except ValueError as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        self._drive_edited(editor, controller, f"{name} = {editor.value(name):.2f}")
 
     def set_inference_choice(self, field: str, value: str) -> None:
-        """Change one of the paper controller's inference choices (AND,
-        implication, aggregation, defuzzification) and drive with it at once."""
-        app = self.app
+        """Change one of the edited system's inference choices (AND, implication,
+        aggregation, defuzzification) and drive with it at once."""
+        editor = self.editor()
         try:
-            controller = self.editor().set_choice(field, value)
+            controller = editor.set_choice(field, value)
         except ValueError as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        self._drive_edited(editor, controller, f"{field} {value}")
 
-    def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
-        """Change the paper controller's rules: ``set`` rule ``number`` to
+    def edit_rules(
+        self, action: str, number: int | None = None, text: str = "", wait: bool = True
+    ) -> None:
+        """Change the rules of the system that drives: ``set`` rule ``number`` to
         ``text``, ``add`` ``text`` as a new rule, ``remove`` rule ``number``, ``undo`` the
-        last rule edit; the robot drives with the edited system at once."""
-        app = self.app
+        last rule edit; the robot drives with the edited system at once (``wait``), or as
+        soon as a thread of its own has built it (the page's edits: an edit then costs
+        the same at any size, and quick edits are built together)."""
         editor = self.editor()
         try:
             if action == "set":
-                controller = editor.set_rule(number, text)
+                editor.set_rule(number, text, build=False)
             elif action == "add":
-                controller = editor.add_rule(text)
+                editor.add_rule(text, build=False)
             elif action == "remove":
-                controller = editor.remove_rule(number)
+                editor.remove_rule(number, build=False)
             elif action == "undo":
-                controller = editor.undo_rule_edit()
+                editor.undo_rule_edit(build=False)
             else:
                 raise ValueError(f"rule edit {action!r}: set, add, remove or undo")
         except (TypeError, ValueError) as exc:
             raise ViewerError(str(exc)) from None
-        app.setup._install_controller(controller, EDITED_LABEL, quiet=True)
+        if wait:
+            self._drive_built(editor, action)
+            return
+        with self._build_lock:
+            self._build_wanted = (editor, action)
+            if self._building:
+                return
+            self._building = True
+        threading.Thread(target=self._build_loop, name="fuzzynav-rules", daemon=True).start()
+
+    def _drive_built(self, editor, action: str) -> None:
+        try:
+            controller = editor.build()
+        except ValueError as exc:
+            raise ViewerError(str(exc)) from None
+        n = len(controller.fis.rules)
+        self._drive_edited(editor, controller, f"rule edit: {action}, {n} rules")
+
+    def _build_loop(self) -> None:
+        """Build the edited rules, off the world's lock, until no edit waits."""
+        while True:
+            with self._build_lock:
+                wanted, self._build_wanted = self._build_wanted, None
+                if wanted is None:
+                    self._building = False
+                    return
+            try:
+                self._drive_built(*wanted)
+            except ViewerError as exc:
+                self.app._notice(str(exc), "error")
 
     def reset_membership_editor(self) -> None:
-        """Back to the shipped paper controller (and its parameters in the editor)."""
-        app = self.app
+        """Back to the shipped system the Editor edits (and its numbers)."""
         editor = self.editor()
         controller = editor.reset()
-        app.setup._install_controller(controller, "paper")
+        self.app.setup._install_controller(controller, editor.label)
 
     def edited_fis_text(self) -> str:
-        """The edited paper system as a MATLAB .fis file (text)."""
+        """The edited system as a MATLAB .fis file (text)."""
         return self.editor().fis_text()
 
     def move_target(self, xy) -> None:
@@ -326,6 +379,7 @@ class ScenarioEditing:
         with app.lock:
             app.sim.arena.move_target((x, y))
             app._target = (x, y)
+            self._note_unreplayed_locked("the target moved")
             # A controller that doubts target readings which move the target (fuzzynav,
             # against disturbed inputs) is told that this move is meant.
             new_target = getattr(app.controller.inner, "new_target", None)
@@ -344,6 +398,9 @@ class ScenarioEditing:
                 raise ViewerError("that obstacle does not exist (any more)")
             before = arena.obstacles[obstacle_id].position_at(arena.time_s)
             arena.move_obstacle(obstacle_id, (x, y))
+            self._note_unreplayed_locked(
+                f"{obstacle_label(self.obstacle_number(obstacle_id) - 1)} moved", obstacle_id
+            )
             # The layout (what a reset restarts from) shifts that obstacle's whole path.
             delta = np.array((x, y)) - before
             for k, (i, spec) in enumerate(app._layout):
@@ -352,6 +409,17 @@ class ScenarioEditing:
                     app._layout[k] = (i, dataclasses.replace(spec, position=moved))
             app.driver._resense_locked()
             app._bump()
+
+    def _note_unreplayed_locked(self, what: str, obstacle_id: int | None = None) -> None:
+        """A change of the layout during a run: a lesson replays the run from the layout
+        as it is now, so it cannot replay this one (it says so when opened); an obstacle
+        put down keeps the time, to be named if the robot then hits it."""
+        app = self.app
+        if app.sim.time_s > 0.0:
+            if not app._unreplayed or not app._unreplayed[-1].startswith(what):
+                app._unreplayed.append(f"{what} at {app.sim.time_s:.2f} s")
+            if obstacle_id is not None:
+                app._drops[obstacle_id] = app.sim.time_s
 
     def suggest_obstacle_position(self) -> tuple[float, float]:
         """Where a new obstacle is most instructive: on the way from the robot to the target."""
@@ -388,6 +456,7 @@ class ScenarioEditing:
         with app.lock:
             self._check_room_locked()
             obstacle_id = app.sim.arena.add_obstacle(spec)
+            self._note_unreplayed_locked("an obstacle added", obstacle_id)
             app._layout.append((obstacle_id, spec))
             self.charge_layout_locked()
             app.layout_id += 1
@@ -430,6 +499,7 @@ class ScenarioEditing:
             if obstacle_id not in arena.obstacles:
                 raise ViewerError("that obstacle does not exist (any more)")
             arena.remove_obstacle(obstacle_id)
+            self._note_unreplayed_locked("an obstacle removed")
             app._layout = [(i, s) for i, s in app._layout if i != obstacle_id]
             self.charge_layout_locked()
             app.layout_id += 1

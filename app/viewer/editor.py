@@ -1,8 +1,8 @@
 """Edit the paper controller's membership functions while it drives.
 
 The sliders move the numbers of a layout that can rebuild the shipped rule base: the
-design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``:
-every slider position keeps the design rules), or, for rule bases written
+design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``
+of issue 25: every slider position keeps the design rules), or, for rule bases written
 by older fits and tunes, the partition layout of
 :mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
 :class:`fuzzynav.controller.paper.PaperTunable`. All build their shapes from positive
@@ -14,7 +14,7 @@ file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they r
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
 
-Beside the shapes, the inference choices: AND min or product, implication min
+Beside the shapes, the inference choices (issue 27): AND min or product, implication min
 or product, aggregation max, sum or probabilistic OR, defuzzification centroid,
 bisector, mean / smallest / largest of maximum, with MATLAB's meanings
 (:mod:`fuzzynav.controller.inference`). A choice rebuilds the controller as a slider
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import re
+import threading
 
 import numpy as np
 
@@ -60,33 +61,35 @@ def shipped_vector(tunable, shipped_fis, path) -> tuple[np.ndarray, bool]:
     return tunable.initial_vector(), False
 
 
-class PaperEditor:
-    """The edited paper system: a parameter vector, and the controller it builds."""
+class SystemEditor:
+    """An edited fuzzy system: a layout's parameter vector, its inference choices and
+    its rules, and the controller they build. :class:`PaperEditor` edits the paper
+    controller, :class:`StarterEditor` the starter; ``label`` names the shipped system
+    in the Controller dropdown, ``edited_label`` the edited one."""
 
-    def __init__(self, geometry: str = "husky"):
-        from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
-        from fuzzynav.controller.paper_design import PaperDesignTunable
-        from fuzzynav.controller.paper_partition import PaperPartitionTunable
+    label = "paper"
+    edited_label = "paper (edited)"
+    file_stem = "paper_edited"
 
-        self.geometry = geometry
-        self.shipped = paper_controller(geometry=geometry)
-        path = RULES_BY_GEOMETRY[geometry]
-        # The layout the shipped file was made in: the design layout for the
-        # shipped paper controller; the partition one (no holes) and the earlier
-        # 27-number one for rule bases written by older fits and tunes.
-        for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
-            self.tunable = candidate
-            self.start, self.exact = shipped_vector(candidate, self.shipped.fis, path)
-            if self.exact:
-                break
+    def _start_from(self, shipped, tunable, start, exact: bool) -> None:
+        self.shipped = shipped
+        self.tunable = tunable
+        self.start, self.exact = start, exact
         self.names = self.tunable.parameter_names()
         self.bounds = dict(zip(self.names, self.tunable.bounds()))
         self.vector = self.start.copy()
         self.edited = False
         self._controller = self.shipped
         self.inference = self.shipped.fis.inference
-        self.rules = None  # the rules as edited; None: the shipped ones
-        self._rule_undo: list = []  # the rules before each rule edit
+        self.rules = None  # the rules as edited (a tuple); None: the shipped ones
+        self._rules = list(shipped.fis.rules)  # the rules as edited, built or not yet
+        self._rule_undo: list = []  # how to undo each rule edit (one small step each)
+        self._version = self._built = 0  # rule edits made; the last one built
+        self._lock = threading.Lock()  # the rules, between the page and a build
+
+    def _fresh_shipped(self):
+        """The shipped controller, built anew (a reset drives with it)."""
+        raise NotImplementedError
 
     def choice(self, field: str) -> str:
         """The current value of an inference choice (an Inference field name)."""
@@ -101,9 +104,12 @@ class PaperEditor:
             inference = self.inference.replace(**{field: value})
         except (TypeError, ValueError) as exc:
             raise ValueError(str(exc)) from None
-        fis = self._controller.fis.replace(inference=inference)
-        controller = FisController(fis, name="paper (edited)")
+        with self._lock:
+            rules, version = tuple(self._rules), self._version
+        fis = self._controller.fis.replace(inference=inference, rules=rules)
+        controller = FisController(fis, name=self.edited_label)
         self.inference, self._controller, self.edited = inference, controller, True
+        self._built = max(self._built, version)
         return controller
 
     def value(self, name: str) -> float:
@@ -124,7 +130,12 @@ class PaperEditor:
             raise ValueError(f"{name} = {value!r}: must be between {lo} and {hi}")
         vector = self.vector.copy()
         vector[self.names.index(name)] = value
+        with self._lock:
+            version = self._version
         controller = self._build(vector)
+        with self._lock:
+            if version != self._built:
+                self.rules, self._built = controller.fis.rules, version
         self.vector, self._controller, self.edited = vector, controller, True
         return controller
 
@@ -143,89 +154,151 @@ class PaperEditor:
         except ValueError:
             fis = shaped
         fis = fis.replace(inference=self.inference)
-        if self.rules is not None:
-            fis = fis.replace(rules=self.rules)
-        return FisController(fis, name="paper (edited)")
+        with self._lock:
+            rules = tuple(self._rules) if self._built != self._version else self.rules
+        if rules is not None:
+            fis = fis.replace(rules=rules)
+        return FisController(fis, name=self.edited_label)
 
-    # -- the rules (add, change, remove, undo; validated; exported) -------------------
+    # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
+
+    def rule_version(self) -> int:
+        """How many rule edits (and resets) were made: it changes with the rules."""
+        return self._version
+
+    def rule_count(self) -> int:
+        """How many rules the edited system has (built or not yet)."""
+        return len(self._rules)
+
+    def rule(self, number: int):
+        """Rule ``number`` (from 1) as edited (a :class:`controller.fuzzy.Rule`)."""
+        with self._lock:
+            return self._rules[self._number(number)]
 
     def rule_text(self, number: int) -> str:
         """Rule ``number`` (from 1) as a sentence the editor reads back."""
         from fuzzynav.controller.rulebase import format_rule
 
-        fis = self._controller.fis
-        if not 1 <= int(number) <= len(fis.rules):
-            raise ValueError(f"rule {number}: there are rules 1 to {len(fis.rules)}")
-        return format_rule(fis, fis.rules[int(number) - 1])
-
-    def _with_rules(self, rules):
-        from fuzzynav.controller.fis_controller import FisController
-
-        fis = self._controller.fis.replace(rules=tuple(rules))  # checks the structure
-        controller = FisController(fis, name="paper (edited)")
-        self._rule_undo.append(self._controller.fis.rules)
-        self.rules, self._controller, self.edited = tuple(rules), controller, True
-        return controller
+        with self._lock:
+            n = len(self._rules)
+            if not 1 <= int(number) <= n:
+                raise ValueError(f"rule {number}: there are rules 1 to {n}")
+            rule = self._rules[int(number) - 1]
+        return format_rule(self._controller.fis, rule)
 
     def _parse(self, text: str):
         from fuzzynav.controller.rulebase import parse_rule
 
-        fis = self._controller.fis
+        fis = self._controller.fis  # (its variables: a rule edit leaves them)
         try:
             return parse_rule(str(text), list(fis.inputs), list(fis.outputs))
         except ValueError as exc:
             raise ValueError(f"rule {text!r}: {exc}") from None
 
-    def set_rule(self, number: int, text: str):
+    def _edit(self, do, undo) -> None:
+        """One rule edit on the list (``do(rules)``), and its undo; the system is built
+        by :meth:`build` (an edit costs the same at any size: no copy, no build)."""
+        with self._lock:
+            do(self._rules)
+            self._rule_undo.append(undo)
+            self._version += 1
+            self.edited = True
+
+    def _number(self, number) -> int:
+        n = len(self._rules)
+        if not 1 <= int(number) <= n:
+            raise ValueError(f"rule {number}: there are rules 1 to {n}")
+        return int(number) - 1
+
+    def set_rule(self, number: int, text: str, build: bool = True):
         """Rule ``number`` (from 1) becomes ``text`` ("if d_t is L and phi_t is Z then
-        left is M and right is M", optionally "weight 0.5"); returns the controller."""
-        rules = list(self._controller.fis.rules)
-        if not 1 <= int(number) <= len(rules):
-            raise ValueError(f"rule {number}: there are rules 1 to {len(rules)}")
-        rules[int(number) - 1] = self._parse(text)
-        return self._with_rules(rules)
+        left is M and right is M", optionally "weight 0.5"); returns the controller
+        (with ``build``; else None, and :meth:`build` makes it)."""
+        k = self._number(number)
+        rule, old = self._parse(text), self._rules[k]
+        self._edit(lambda r: r.__setitem__(k, rule), lambda r: r.__setitem__(k, old))
+        return self.build() if build else None
 
-    def add_rule(self, text: str):
-        """A new rule at the end; returns the controller."""
-        return self._with_rules(list(self._controller.fis.rules) + [self._parse(text)])
+    def add_rule(self, text: str, build: bool = True):
+        """A new rule at the end, up to :data:`controller.rulebase.MAX_RULES` (the most a
+        rule base file holds: the TOML export and a lesson read it back); returns the
+        controller (with ``build``)."""
+        from fuzzynav.controller.rulebase import MAX_RULES
 
-    def remove_rule(self, number: int):
-        rules = list(self._controller.fis.rules)
-        if not 1 <= int(number) <= len(rules):
-            raise ValueError(f"rule {number}: there are rules 1 to {len(rules)}")
-        if len(rules) == 1:
+        rule = self._parse(text)
+        if len(self._rules) >= MAX_RULES:
+            raise ValueError(
+                f"rule {text!r}: the system has {len(self._rules)} rules, the most a rule "
+                f"base file holds ({MAX_RULES}): remove one first"
+            )
+        self._edit(lambda r: r.append(rule), lambda r: r.pop())
+        return self.build() if build else None
+
+    def remove_rule(self, number: int, build: bool = True):
+        k = self._number(number)
+        if len(self._rules) == 1:
             raise ValueError("the last rule cannot be removed")
-        del rules[int(number) - 1]
-        return self._with_rules(rules)
+        old = self._rules[k]
+        self._edit(lambda r: r.pop(k), lambda r: r.insert(k, old))
+        return self.build() if build else None
 
-    def undo_rule_edit(self):
+    def undo_rule_edit(self, build: bool = True):
         """The rules as they were before the last rule edit; returns the controller."""
+        with self._lock:
+            if not self._rule_undo:
+                raise ValueError("no rule edit to undo")
+            self._rule_undo.pop()(self._rules)
+            self._version += 1
+            self.edited = True
+        return self.build() if build else None
+
+    def build(self):
+        """The controller of the rules as edited now (built once per edit made: a build
+        of many rules may lag several quick edits, and takes them all at once)."""
         from fuzzynav.controller.fis_controller import FisController
 
-        if not self._rule_undo:
-            raise ValueError("no rule edit to undo")
-        rules = self._rule_undo.pop()
-        fis = self._controller.fis.replace(rules=rules)
-        self.rules, self._controller = rules, FisController(fis, name="paper (edited)")
-        self.edited = True
+        with self._lock:
+            if self._built == self._version:
+                return self._controller
+            rules, version = tuple(self._rules), self._version
+        fis = self._controller.fis.replace(rules=rules)  # checks the structure
+        controller = FisController(fis, name=self.edited_label)
+        with self._lock:
+            if version > self._built:
+                self._built, self._controller, self.rules = version, controller, rules
+            return self._controller
+
+    def adopt(self, fis):
+        """Drive with ``fis``, an edit of this system saved in a lesson: its rules and
+        inference choices are the editor's again (the sliders keep their numbers: a
+        system's shapes do not give back the layout's numbers); returns the controller."""
+        from fuzzynav.controller.fis_controller import FisController
+
+        with self._lock:
+            self._controller = FisController(fis, name=self.edited_label)
+            self.rules, self.inference, self.edited = tuple(fis.rules), fis.inference, True
+            self._rules, self._rule_undo = list(fis.rules), []
+            self._version += 1
+            self._built = self._version
         return self._controller
 
     def toml_text(self) -> str:
         """The edited system as a TOML rule base (``fuzzynav`` reads it back)."""
         from fuzzynav.controller.rulebase import dumps_toml
 
-        fis = self._controller.fis
-        return dumps_toml(fis.replace(name="paper_edited" if self.edited else fis.name))
+        fis = self.build().fis
+        return dumps_toml(fis.replace(name=self.file_stem if self.edited else fis.name))
 
     def reset(self):
-        """Back to the shipped controller."""
-        from fuzzynav.controller.paper import paper_controller
-
-        self.rules = None
-        self._rule_undo = []
+        """Back to the shipped system."""
+        with self._lock:
+            self.rules = None
+            self._rules, self._rule_undo = list(self.shipped.fis.rules), []
+            self._version += 1
+            self._built = self._version
         self.vector = self.start.copy()
         self.edited = False
-        self._controller = paper_controller(geometry=self.geometry)
+        self._controller = self._fresh_shipped()
         self.inference = self._controller.fis.inference
         return self._controller
 
@@ -235,5 +308,58 @@ class PaperEditor:
     def fis_text(self) -> str:
         from fuzzynav.controller.fis import dumps_fis
 
-        fis = self._controller.fis
-        return dumps_fis(fis.replace(name="paper_edited" if self.edited else fis.name))
+        fis = self.build().fis
+        return dumps_fis(fis.replace(name=self.file_stem if self.edited else fis.name))
+
+
+class PaperEditor(SystemEditor):
+    """The edited paper system (the Husky's or the paper geometry's rule base)."""
+
+    def __init__(self, geometry: str = "husky"):
+        from fuzzynav.controller.paper import RULES_BY_GEOMETRY, PaperTunable, paper_controller
+        from fuzzynav.controller.paper_design import PaperDesignTunable
+        from fuzzynav.controller.paper_partition import PaperPartitionTunable
+
+        self.geometry = geometry
+        shipped = paper_controller(geometry=geometry)
+        path = RULES_BY_GEOMETRY[geometry]
+        # The layout the shipped file was made in: the design layout for the shipped
+        # paper controller; the partition one (no holes) and the earlier 27-number one
+        # for rule bases written by older fits and tunes.
+        for candidate in (PaperDesignTunable(), PaperPartitionTunable(), PaperTunable()):
+            start, exact = shipped_vector(candidate, shipped.fis, path)
+            if exact:
+                break
+        self._start_from(shipped, candidate, start, exact)
+
+    def _fresh_shipped(self):
+        from fuzzynav.controller.paper import paper_controller
+
+        return paper_controller(geometry=self.geometry)
+
+
+class StarterEditor(SystemEditor):
+    """The edited starter system (:mod:`.starter`): its six layout numbers, its
+    inference choices and its six rules."""
+
+    def __init__(self, geometry: str = "husky"):
+        from fuzzynav.app.viewer.starter import (
+            STARTER_EDITED_LABEL,
+            STARTER_LABEL,
+            StarterLayout,
+            starter_controller,
+        )
+
+        self.label, self.edited_label, self.file_stem = (
+            STARTER_LABEL,
+            STARTER_EDITED_LABEL,
+            "starter_edited",
+        )
+        self.geometry = geometry
+        layout = StarterLayout()
+        self._start_from(starter_controller(), layout, layout.initial_vector(), True)
+
+    def _fresh_shipped(self):
+        from fuzzynav.app.viewer.starter import starter_controller
+
+        return starter_controller()

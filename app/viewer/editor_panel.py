@@ -1,6 +1,7 @@
-"""The Editor tab: sliders for the paper controller's membership parameters (the
-tuner's parametrisation, :mod:`.editor`), its inference choices, a download of
-the edited system and a reset.
+"""The Editor tab: sliders for the membership parameters of the system that drives (the
+starter's while it drives, else the paper controller's: :mod:`.editor`), its inference
+choices, its rules, a download of the edited system and a reset. Both systems' sliders
+are built once; only the driving one's are shown.
 All of the Editor panel's code is here: its layout, its callbacks and its sync."""
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from fuzzynav.app.viewer.compat_viser import handle_uuid
 from fuzzynav.controller.inference import CHOICES
 
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
-# The Editor's inference choices: field of controller.inference.Inference,
+# The Editor's inference choices (issue 27): field of controller.inference.Inference,
 # label, and what the choice does, in words (MATLAB's names are the options).
 EDITOR_CHOICES = (
     ("and_method", "AND", "how a rule joins its clauses: min, or prod (their product)"),
@@ -39,10 +40,10 @@ EDITOR_LABELS = {
     "d_t.r": "each next spacing grows (×)",
     "d_o.near": "near holds 1 up to (m)",
     "d_o.far": "far holds 1 from (m)",
-    "phi_t.p": "P, N centre (rad)",
-    "phi_t.q": "VP, VN full from P's centre × (1 + q)",
-    "phi_o.p": "P, N centre (rad)",
-    "phi_o.q": "VP, VN full from P's centre × (1 + q)",
+    "phi_t.vp": "VP, VN hold 1 from (rad)",
+    "phi_t.q": "P, N centre at vp / (1 + q)",
+    "phi_o.vp": "VP, VN hold 1 from (rad)",
+    "phi_o.q": "P, N centre at vp / (1 + q)",
     "v.e0": "VS holds 1 at (V)",
     "v.top": "VL holds 1 at (V)",
     "v.r": "each next spacing grows (×)",
@@ -73,7 +74,15 @@ EDITOR_LABELS = {
     "v.l_half": "L half-width (V)",
     "v.vl_offset": "VL starts after L (V)",
     "v.vl_ramp": "VL rises over (V)",
+    # the starter's layout (app/viewer/starter.py)
+    "d_t.near": "near holds 1 up to, far starts (m)",
+    "d_t.ramp": "far holds 1 after (m)",
+    "phi_t.full": "N, P hold 1 from (rad)",
+    "v.slow": "slow centre (V)",
+    "v.fast": "fast centre (V)",
 }
+EDITOR_KINDS = ("paper", "starter")
+NO_TERM = "—"  # a rule picker's "this variable takes no part"
 
 
 class EditorPanel:
@@ -82,28 +91,31 @@ class EditorPanel:
     def __init__(self, view):
         self.view = view
         self.app = view.app
-        self.editor_sliders: dict = {}
         self.editor_choices: dict = {}
+        #: kind -> {"folders": [...], "sliders": {name: slider}, "term_plots": {...}}
+        self.sections: dict = {}
+        self._shown_kind = None
+
+    @property
+    def editor_sliders(self) -> dict:
+        """The sliders of the system the Editor edits now."""
+        section = self.sections.get(self.app.editor_kind())
+        return section["sliders"] if section else {}
+
+    @property
+    def term_plots(self) -> dict:
+        section = self.sections.get(self.app.editor_kind())
+        return section["term_plots"] if section else {}
 
     def build(self) -> None:
-        """Sliders for the paper controller's membership parameters (the tuner's
-        parametrisation: ordered terms stay valid), a download and a reset."""
+        """Sliders for the membership parameters of each system the Editor edits (its
+        layout's numbers: ordered terms stay valid), its rules and inference choices, a
+        download and a reset."""
         gui = self.view.server.gui
         app = self.app
         editor = app.editor()
-        note = (
-            "The sliders start from the shipped rule base's own numbers."
-            if editor.exact
-            else "The shipped rule base does not record its parameters: the sliders start "
-            "from the tuner's starting point (Reset drives with the shipped one)."
-        )
-        gui.add_html(
-            "<div style='font-size:0.85em;padding:0 6px'>Move a slider or change an inference "
-            "choice and the robot drives with the edited <b>paper</b> controller at once (the "
-            "run goes on). Each number places a term (where it holds 1 or is centred) or "
-            "sets a spacing between terms, so the terms stay in order whatever you do. "
-            f"{note}</div>"
-        )
+        self.intro_html = gui.add_html(self._intro(editor))
+        self.now_html = gui.add_html("")  # the inputs' values on the plots (CSS)
         self.editor_buttons = gui.add_button_group(
             "Edited system", ("Download .fis", "Download .toml", "Reset to shipped")
         )
@@ -121,15 +133,42 @@ class EditorPanel:
                     )
                 )
                 self.editor_choices[field] = dropdown
-        self.editor_sliders = {}
+        for kind in EDITOR_KINDS:
+            self.sections[kind] = self._build_sliders(gui, app.editor(kind), kind)
+        self._shown_kind = app.editor_kind()
+        self._show_rule(1)  # (the pickers at rule 1's terms)
+
+    def _intro(self, editor) -> str:
+        note = (
+            "The sliders start from the shipped system's own numbers."
+            if editor.exact
+            else "The shipped rule base does not record its parameters: the sliders start "
+            "from the tuner's starting point (Reset drives with the shipped one)."
+        )
+        return (
+            "<div class='fz-editor-intro' style='font-size:0.85em;padding:0 6px'>Editing "
+            f"<b>{editor.label}</b>, the system that drives. Move a slider or change an "
+            "inference choice and the robot drives with the edited system at once (the run "
+            "goes on). Each number places a term (where it holds 1 or is centred) or sets a "
+            f"spacing between terms, so the terms stay in order whatever you do. {note}</div>"
+        )
+
+    def _build_sliders(self, gui, editor, kind: str) -> dict:
+        """One folder of sliders per variable of ``editor``'s layout, each with its
+        terms drawn to drag; shown while ``kind`` is the system the Editor edits."""
         groups: dict[str, list[str]] = {}
         for name in editor.names:
             groups.setdefault(name.split(".")[0], []).append(name)
         titles = {"v": "outputs left, right (V)"}
-        self.term_plots = {}  # group -> (html element, slider names): drag the corners
+        shown = kind == self.app.editor_kind()
+        section = {"folders": [], "sliders": {}, "term_plots": {}}
         for group, names in groups.items():
-            with gui.add_folder(titles.get(group, group), expand_by_default=group == "d_t"):
-                self.term_plots[group] = (gui.add_html(""), names)
+            folder = gui.add_folder(
+                titles.get(group, group), expand_by_default=group == "d_t", visible=shown
+            )
+            section["folders"].append(folder)
+            with folder:
+                section["term_plots"][group] = (gui.add_html(""), names)
                 for name in names:
                     lo, hi = editor.bounds[name]
                     slider = gui.add_slider(
@@ -138,18 +177,33 @@ class EditorPanel:
                         hi,
                         step=EDITOR_STEP,
                         initial_value=round(editor.value(name), 2),
-                        hint=f"{name} in the tuner's terms; {lo:g} to {hi:g}",
+                        hint=f"{name} in the layout's terms; {lo:g} to {hi:g}",
                     )
                     slider.on_update(
                         self.view.guarded(
-                            lambda e, name=name: app.set_membership_parameter(name, e.value)
+                            lambda e, name=name: self.app.set_membership_parameter(name, e.value)
                         )
                     )
-                    self.editor_sliders[name] = slider
+                    section["sliders"][name] = slider
+        return section
+
+    def _draw_inputs_now(self, editor) -> None:
+        """The current inputs (those tried in What-if, while it is on) as red lines on
+        the Editor's plots."""
+        import math
+
+        from fuzzynav.app.viewer.term_drag import now_css
+
+        app = self.app
+        x = app.what_if if app.what_if is not None else app.controller.last_inputs
+        values = [round(float(v), 2) if math.isfinite(float(v)) else None for v in list(x)[:4]]
+        content = now_css(editor.controller().fis, values)
+        if self.now_html.content != content:
+            self.now_html.content = content
 
     def _draw_term_plots(self) -> None:
         """Each slider group's terms with a handle on every corner a slider moves
-        (shaped by dragging, beside the sliders); drawn again when the
+        (issue 38: shaped by dragging, beside the sliders); drawn again when the
         edited system changes."""
         from fuzzynav.app.viewer.term_drag import terms_drag_svg
 
@@ -169,11 +223,11 @@ class EditorPanel:
                 element.content = content
 
     def _build_rules(self, gui, editor) -> None:
-        """The rules, edited like a designer's: pick a rule by its number, its
+        """The rules, edited like a designer's (issue 38): pick a rule by its number, its
         sentence in the box; change it and Apply, or Add it as a new rule, Remove the
         rule picked, Undo the last rule edit. Every sentence is read by the rule base's
         own parser (terms and variables checked); the robot drives with it at once."""
-        n = len(editor.controller().fis.rules)
+        n = editor.rule_count()
         with gui.add_folder("Rules (add, change, remove)", expand_by_default=False):
             self.rule_number = gui.add_number(
                 "Rule", 1, min=1, max=n, step=1, hint="the rule to read, change or remove"
@@ -186,18 +240,60 @@ class EditorPanel:
             self.rule_buttons = gui.add_button_group(
                 "Rule edit", ("Apply", "Add as new", "Remove", "Undo")
             )
+            # Or pick the terms from lists: the sentence is written from them.
+            self.rule_pickers = []
+            fis = editor.controller().fis
+            with gui.add_folder("Pick the terms", expand_by_default=False):
+                for k, var in enumerate(fis.inputs + fis.outputs):
+                    picker = gui.add_dropdown(
+                        var.name,
+                        self._picker_options(var),
+                        initial_value=NO_TERM,
+                        hint=f"the rule's term of {var.name} ({NO_TERM}: it takes no part)",
+                    )
+                    picker.on_update(self.view.guarded(lambda e, k=k: self._on_picker(k, e.value)))
+                    self.rule_pickers.append(picker)
         self.rule_number.on_update(self.view.guarded(self._on_rule_number))
         self.rule_buttons.on_click(self.view.guarded(self._on_rule_button))
 
     def _show_rule(self, number: int) -> None:
         editor = self.app.editor()
-        n = len(editor.controller().fis.rules)
+        n = editor.rule_count()
         number = min(max(int(number), 1), n)
         if self.rule_number.max != n:
             self.rule_number.max = n
         if self.rule_number.value != number:
             self.rule_number.value = number
         self.rule_text.value = editor.rule_text(number)
+        fis = editor.controller().fis
+        rule = editor.rule(number)
+        picks = list(rule.antecedent) + list(rule.consequent)
+        for picker, var, k in zip(self.rule_pickers, fis.inputs + fis.outputs, picks):
+            options = self._picker_options(var)
+            if tuple(picker.options) != options:
+                picker.options = options
+            value = NO_TERM if k is None else var.terms[k].name
+            if picker.value != value:
+                picker.value = value
+
+    @staticmethod
+    def _picker_options(var) -> tuple[str, ...]:
+        return (NO_TERM, *(t.name for t in var.terms))
+
+    def _on_picker(self, index: int, value: str) -> None:
+        """A term picked: the sentence in the box is written from the pickers (Apply or
+        Add as new then reads it as a typed one)."""
+        fis = self.app.editor().controller().fis
+        picks = [p.value for p in self.rule_pickers]
+        picks[index] = value
+        names = [v.name for v in fis.inputs + fis.outputs]
+        n_in = len(fis.inputs)
+
+        def clauses(part):
+            return " AND ".join(f"{n} IS {t}" for n, t in part if t != NO_TERM)
+
+        pairs = list(zip(names, picks))
+        self.rule_text.value = f"IF {clauses(pairs[:n_in])} THEN {clauses(pairs[n_in:])}"
 
     def _on_rule_number(self, event) -> None:
         self._show_rule(int(event.value))
@@ -208,21 +304,22 @@ class EditorPanel:
         action = {"Apply": "set", "Add as new": "add", "Remove": "remove", "Undo": "undo"}[
             event.value
         ]
-        self.app.edit_rules(action, number, text)
-        n = len(self.app.editor().controller().fis.rules)
+        self.app.edit_rules(action, number, text, wait=False)  # built off this thread
+        n = self.app.editor().rule_count()
         self._show_rule(n if action == "add" else number)
 
     def _on_editor_button(self, event) -> None:
+        editor = self.app.editor()
         if event.value == "Download .toml":
-            text = self.app.editor().toml_text()
+            text = editor.toml_text()
             event.client.send_file_download(
-                "paper_edited.toml", text.encode("utf-8"), save_immediately=True
+                f"{editor.file_stem}.toml", text.encode("utf-8"), save_immediately=True
             )
             return
         if event.value == "Download .fis":
-            text = self.app.edited_fis_text()
+            text = editor.fis_text()
             event.client.send_file_download(
-                "paper_edited.fis", text.encode("utf-8"), save_immediately=True
+                f"{editor.file_stem}.fis", text.encode("utf-8"), save_immediately=True
             )
             return
         self.app.reset_membership_editor()
@@ -234,15 +331,29 @@ class EditorPanel:
         self._show_rule(1)
 
     def sync(self) -> None:
-        """The sliders at the edited system's numbers (another tab may have moved them)."""
-        if getattr(self, "term_plots", None):
+        """The Editor as the system that drives has it: its sliders shown (and at its
+        numbers: another tab may have moved them), its rules, its choices."""
+        kind = self.app.editor_kind()
+        editor = self.app.editor(kind)
+        if kind != self._shown_kind:
+            self._shown_kind = kind
+            for other, section in self.sections.items():
+                for folder in section["folders"]:
+                    if folder.visible != (other == kind):
+                        folder.visible = other == kind
+            self.intro_html.content = self._intro(editor)
+            self._show_rule(1)
+        rules_key = (kind, editor.rule_version())
+        if rules_key != getattr(self, "_shown_rules", None):  # edited here or elsewhere
+            self._shown_rules = rules_key
+            self._show_rule(int(self.rule_number.value))
+        if self.sections:
             self._draw_term_plots()
-        if self.app.paper_edit is not None:
-            editor = self.app.paper_edit
-            for name, slider in self.editor_sliders.items():
-                value = round(editor.value(name), 2)  # as the slider shows it
-                if abs(slider.value - value) > 1e-9:
-                    slider.value = value
-            for field, dropdown in self.editor_choices.items():
-                if dropdown.value != editor.choice(field):
-                    dropdown.value = editor.choice(field)
+            self._draw_inputs_now(editor)
+        for name, slider in self.editor_sliders.items():
+            value = round(editor.value(name), 2)  # as the slider shows it
+            if abs(slider.value - value) > 1e-9:
+                slider.value = value
+        for field, dropdown in self.editor_choices.items():
+            if dropdown.value != editor.choice(field):
+                dropdown.value = editor.choice(field)

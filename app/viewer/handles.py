@@ -38,6 +38,12 @@ def _xy(position) -> np.ndarray:
     return xy
 
 
+# An obstacle's label, on its right, needs about this much room before the arena's edge;
+# and it would lie on the target's label this near the target.
+LABEL_ROOM_M = 3.0
+TARGET_LABEL_ROOM_M = 1.2
+
+
 class DragHandles:
     """The target's and the obstacles' nodes of one :class:`app.viewer.server.ViewerServer`
     and what a drag on them does."""
@@ -174,11 +180,20 @@ class DragHandles:
             elif node["xy"] != ob.xy and node["name"] not in self.dragging:
                 node["handle"].position = (ob.xy[0], ob.xy[1], OBSTACLE_HEIGHT_M + 0.01)
                 node["xy"] = ob.xy
-        self._label_crowded(wanted)
+        self._label_crowded(wanted, snap)
 
-    def _label_crowded(self, wanted: dict) -> None:
+    def _label_left(self, ob, snap: Snapshot) -> bool:
+        """An obstacle's label goes on its left when, on its right, it would be cut at
+        the arena's right edge or lie on the target's label (s2's moving obstacle starts
+        on the target)."""
+        bounds = self.view.scene.bounds
+        near_edge = bounds is not None and ob.xy[0] > bounds[1] - LABEL_ROOM_M
+        return near_edge or math.dist(ob.xy, snap.target) < TARGET_LABEL_ROOM_M
+
+    def _label_crowded(self, wanted: dict, snap: Snapshot) -> None:
         """Obstacles close together (trap's posts) are labelled by their number on their
-        top, not "obstacle k" beside them (the labels overlapped); the others in full."""
+        top, not "obstacle k" beside them (the labels overlapped); the others in full,
+        on their right, or on their left where the right has no room."""
         for key, node in self.obstacle_nodes.items():
             ob = wanted.get(key)
             if ob is None:
@@ -186,9 +201,10 @@ class DragHandles:
             crowded = any(
                 math.dist(ob.xy, other.xy) < CROWDED_M for k, other in wanted.items() if k != key
             )
-            if node.get("crowded") == crowded:
+            place = "top" if crowded else "left" if self._label_left(ob, snap) else "right"
+            if node.get("crowded") == place:
                 continue
-            node["crowded"] = crowded
+            node["crowded"] = place
             label = node["label"]
             if crowded:
                 label.text = str(node["number"])
@@ -196,8 +212,9 @@ class DragHandles:
                 label.position = (0.0, 0.0, 0.02)
             else:
                 label.text = self._obstacle_label(node["number"], ob.is_static)
-                label.anchor = "center-left"
-                label.position = (ob.radius_m + 0.08, 0.0, 0.0)
+                side = -1.0 if place == "left" else 1.0
+                label.anchor = "center-right" if place == "left" else "center-left"
+                label.position = (side * (ob.radius_m + 0.08), 0.0, 0.0)
 
     @staticmethod
     def _obstacle_label(number: int, static: bool) -> str:

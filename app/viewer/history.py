@@ -264,11 +264,27 @@ class RunHistory:
         app.metrics["collisions"] = len(result.collisions)
         text = {
             "reached": "reached the target",
-            "collided": "collided with an obstacle",
+            "collided": self._collision_text(result.collisions),
             "timeout": "ran out of time",
         }.get(result.outcome, result.outcome)
         level = "success" if result.outcome == "reached" else "warning"
         app._notice(f"Run ended at t = {app.sim.time_s:.2f} s: the robot {text}.", level)
+
+    def _collision_text(self, collisions) -> str:
+        """The obstacle hit, by its name on the arena; and when a drag put it down during
+        the run, that drop named as the cause."""
+        app = self.app
+        if not collisions:
+            return "collided with an obstacle"
+        hit = collisions[0].obstacle_id
+        name = f"obstacle {app.editing.obstacle_number(hit)}"
+        dropped = app._drops.get(hit)
+        if dropped is None:
+            return f"collided with {name}"
+        return (
+            f"collided with {name}, which was dropped in its way at t = {dropped:.2f} s "
+            "(the drop caused the collision)"
+        )
 
     def _settings(self) -> list[str]:
         """What drives the run now, in words: controller (and fuzzynav's parts off),
@@ -298,12 +314,43 @@ class RunHistory:
         app = self.app
         return " · ".join([app.scenario_label, *self._settings()])
 
+    def timeline_entry_locked(self) -> dict:
+        """What drives the run now, as a lesson replays it: the control step it took
+        effect at, the controller (its label; its system when it is not a named one),
+        the perception, disturbance, noise and fuzzynav's parts."""
+        app = self.app
+        settings = app.setup.settings()
+        return {
+            "step": int(round(app.sim.time_s / app.sim.control_period_s)),
+            "controller": settings["controller"],
+            "fis": settings["fis"],
+            "perception": settings["perception"],
+            "disturbance_on": bool(settings["disturbance_on"]),
+            "noise_std_m": float(settings["noise_std_m"]),
+            "parts_off": tuple(settings["parts_off"]),
+        }
+
+    def _note_timeline_locked(self) -> None:
+        """Keep the change in the run's timeline (a lesson replays it); a change at the
+        same step as the last replaces it."""
+        app = self.app
+        entry = self.timeline_entry_locked()
+        timeline = getattr(app, "_timeline", None) or []
+        if timeline and timeline[-1]["step"] == entry["step"]:
+            timeline[-1] = entry
+        elif not timeline or {k: v for k, v in entry.items() if k != "step"} != {
+            k: v for k, v in timeline[-1].items() if k != "step"
+        }:
+            timeline.append(entry)
+        app._timeline = timeline
+
     def _note_change_locked(self) -> None:
         """After a change of what drives (controller, parts, perception, disturbance,
         noise): a run not started yet is labelled afresh; a run under way keeps what it
         started with, and the change is added with its time ("from 3.2 s: ...")."""
         app = self.app
         settings = self._settings()
+        self._note_timeline_locked()
         if app.sim.time_s <= 0.0 or not app._run_changes:
             app._run_changes = [(0.0, settings)]
             app.run_label = self._run_label()

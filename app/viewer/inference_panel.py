@@ -153,7 +153,14 @@ class InferencePanel:
         on = snap.what_if is not None
         if self.what_if_cb.value != on:
             self.what_if_cb.value = on
+        fis = self.app.what_if_system()
+        if getattr(self, "_read_for", (None,))[0] != id(fis):
+            read = self.app.inference.read_inputs(fis) if fis is not None else range(4)
+            self._read_for = (id(fis), tuple(read))
+        read = self._read_for[1]
         for k, box in enumerate(self.what_if_boxes):
+            if box.visible != (k in read):  # only the inputs the driving system reads
+                box.visible = k in read
             if box.disabled == on:
                 box.disabled = not on
             if on and math.isfinite(snap.what_if[k]):

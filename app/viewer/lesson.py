@@ -6,45 +6,64 @@ A lesson is a JSON file holding:
 - the scenario as loaded (its TOML text) and the layout as edited on it (drags, added
   and removed obstacles, the target), so that *layout edited* and **Restore** hold;
 - the controller by name, or its rule base (TOML text) when it was edited in the Editor
-  (shapes and inference choices) or uploaded;
+  (shapes, inference choices, rules) or uploaded;
 - the settings: perception, geometry, disturbance, sensor noise, fuzzynav's parts,
   speed, seed;
 - the view: presentation mode, *Firing rules only*;
-- the time: the run is replayed from the start to that time with the same seed (drags
-  made during the run are not replayed: the layout is the one saved), and left paused.
+- the time, and the run's timeline: what drove it from which control step (every switch
+  of controller, every edit, every change of perception, disturbance, noise or parts);
+- the inputs the controller read at that time, and what the run did that cannot be
+  replayed (a drag during the run).
 
-Everything read from a lesson is checked as an upload is: the size, the scenario by
-:func:`world.scenario.loads_scenario`, the rule base by
-:func:`controller.rulebase.loads_toml`, each setting by the viewer's own setter. A bad
-file raises :class:`ViewerError` naming what is wrong, and the world is left as it was
-whenever the file is refused before anything is applied.
+Opening replays the run from the start with the same seed, each change of the timeline
+at its step, to the saved time, and leaves it paused; the inputs reached are compared
+with the saved ones, and a difference (a drag during the run, a run without a seed) is
+said in a warning. The replay runs on a thread of its own, a few hundred steps at a
+time, so a server opening a long lesson serves at once (and every classroom tab replays
+on its own thread); a press that changes the run meanwhile stops it.
+
+Everything read from a lesson is checked before anything is applied: the size, the
+scenario by :func:`world.scenario.loads_scenario`, each rule base by
+:func:`controller.rulebase.loads_toml` and as a controller, each setting against what
+the viewer's setters accept (names, ranges, the geometry and perception together, the
+seed). A bad file raises :class:`ViewerError` naming the file, key and value, and the
+world is left exactly as it was.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import threading
 
-from fuzzynav.app.viewer.state import MAX_UPLOAD_BYTES, ViewerError
+from fuzzynav.app.viewer.state import MAX_UPLOAD_BYTES, NOISE_RANGE_M, SPEED_RANGE, ViewerError
 
 LESSON_KEY = "fuzzynav_lesson"
 LESSON_VERSION = 1
 MAX_REPLAY_S = 3600.0
+MAX_TIMELINE = 10_000  # changes of what drives, in one run
+MAX_NOTE_CHARS = 1000  # the teacher's note
+REPLAY_CHUNK_STEPS = 250  # steps replayed per hold of the world's lock
+INPUTS_MATCH = 1e-6  # the replay reached the saved moment: d_t and phi_t within this
+# What drives, as a lesson and each entry of its timeline hold it.
+SETTING_KEYS = ("controller", "fis", "perception", "disturbance_on", "noise_std_m", "parts_off")
 
 
 def dumps_lesson(app, view: dict | None = None) -> str:
-    """The lesson of ``app`` as it is now (JSON text)."""
-    from fuzzynav.controller.rulebase import dumps_toml
-
+    """The lesson of ``app`` as it is now (JSON text). Each rule base is written once
+    (``rule_bases``) and named by its index; when the run's earlier rule bases would
+    take the file past :data:`~.state.MAX_UPLOAD_BYTES`, the timeline is left out and
+    the lesson says so (opened, it warns where its replay differs)."""
     with app.lock:
         s = app.settings()
+        bases: list = []
         data = {
             LESSON_KEY: LESSON_VERSION,
             "scenario_label": s["scenario_label"],
             "scenario_toml": app.base_scenario.to_toml(),
             "layout_toml": s["scenario"].to_toml(),
             "controller": s["controller"],
-            "rule_base_toml": dumps_toml(s["fis"]) if s["fis"] is not None else None,
+            "rule_base": _base_index(bases, s["fis"]),
             "perception": s["perception"],
             "geometry": s["geometry"],
             "disturbance_on": bool(s["disturbance_on"]),
@@ -54,8 +73,51 @@ def dumps_lesson(app, view: dict | None = None) -> str:
             "seed": app.seed,
             "time_s": round(float(app.sim.time_s), 6),
             "view": dict(view or {}),
+            "inputs": [
+                None if not math.isfinite(v) else float(v) for v in app.controller.last_inputs
+            ],
+            "unreplayed": list(app._unreplayed),
+            "note": app.note,
         }
-    return json.dumps(data, indent=2) + "\n"
+        final = list(bases)
+        data["timeline"] = [_entry_json(entry, bases) for entry in app._timeline]
+    data["rule_bases"] = [_toml(fis) for fis in bases]
+    text = json.dumps(data, indent=2) + "\n"
+    if len(text.encode()) > MAX_UPLOAD_BYTES and len(bases) > len(final):
+        data["rule_bases"] = [_toml(fis) for fis in final]
+        data["timeline"] = None
+        data["unreplayed"].append("the run's earlier rule bases (too large to keep)")
+        text = json.dumps(data, indent=2) + "\n"
+    return text
+
+
+def _toml(fis) -> str:
+    from fuzzynav.controller.rulebase import dumps_toml
+
+    return dumps_toml(fis)
+
+
+def _base_index(bases: list, fis) -> int | None:
+    """``fis``'s index in ``bases`` (added when new); None for a named controller."""
+    if fis is None:
+        return None
+    for k, known in enumerate(bases):
+        if known is fis or known == fis:
+            return k
+    bases.append(fis)
+    return len(bases) - 1
+
+
+def _entry_json(entry: dict, bases: list) -> dict:
+    return {
+        "step": int(entry["step"]),
+        "controller": entry["controller"],
+        "rule_base": _base_index(bases, entry["fis"]),
+        "perception": entry["perception"],
+        "disturbance_on": bool(entry["disturbance_on"]),
+        "noise_std_m": float(entry["noise_std_m"]),
+        "parts_off": list(entry["parts_off"]),
+    }
 
 
 def _field(data: dict, key: str, kind, source: str):
@@ -65,10 +127,125 @@ def _field(data: dict, key: str, kind, source: str):
     return value
 
 
-def read_lesson(content: bytes | str, source: str = "lesson.json") -> dict:
-    """The checked settings of a lesson file (nothing applied yet)."""
+def _rule_bases(data: dict, source: str) -> list:
+    """The lesson's rule bases (TOML texts), each read and built as a controller, so
+    that one the engine cannot drive is refused before anything is applied."""
+    from fuzzynav.controller.fis_controller import FisController
     from fuzzynav.controller.rulebase import loads_toml
+
+    raw = data.get("rule_bases") or []
+    if not isinstance(raw, list):
+        raise ViewerError(f"{source}: rule_bases = {raw!r}: not a list of rule bases")
+    out = []
+    for k, text in enumerate(raw):
+        key = f"rule_bases[{k}]"
+        try:
+            fis = loads_toml(_field({key: text}, key, str, source), f"{source}: {key}")
+            FisController(fis)
+        except ValueError as exc:
+            raise ViewerError(f"{source}: {key}: {exc}") from None
+        out.append(fis)
+    return out
+
+
+def _rule_base(data: dict, source: str, bases: list):
+    """The rule base a lesson (or a timeline entry) drives with: ``rule_base``, an
+    index into ``rule_bases``, or (an older lesson) its own ``rule_base_toml``; None
+    for a named controller."""
+    if data.get("rule_base_toml") is not None:
+        return _rule_bases({"rule_bases": [data["rule_base_toml"]]}, source)[0]
+    index = data.get("rule_base")
+    if index is None:
+        return None
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(bases):
+        raise ViewerError(
+            f"{source}: rule_base = {index!r}: not an index of rule_bases (0 to {len(bases) - 1})"
+        )
+    return bases[index]
+
+
+def _settings_of(data: dict, source: str, geometry: str, bases: list) -> dict:
+    """One set of what drives (the lesson's own, or a timeline entry's), checked."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+    from fuzzynav.controller.navigator.parts import load_parts
+    from fuzzynav.controller.registry import controller_names
+    from fuzzynav.world.perception import PERCEPTION_MODES
+
+    fis = _rule_base(data, source, bases)
+    controller = _field(data, "controller", str, source)
+    known = set(controller_names()) | {STARTER_LABEL}
+    if fis is None and controller not in known:
+        raise ViewerError(
+            f"{source}: controller = {controller!r}: not available here "
+            f"(available: {', '.join(sorted(known))})"
+        )
+    perception = _field(data, "perception", str, source)
+    if perception not in PERCEPTION_MODES:
+        raise ViewerError(
+            f"{source}: perception = {perception!r}: choose one of {', '.join(PERCEPTION_MODES)}"
+        )
+    if geometry == "paper" and perception != "ideal":
+        raise ViewerError(
+            f"{source}: perception = {perception!r} with geometry = 'paper': the paper's "
+            "point robot takes ideal perception only"
+        )
+    noise = float(_field(data, "noise_std_m", (int, float), source))
+    if not (math.isfinite(noise) and NOISE_RANGE_M[0] <= noise <= NOISE_RANGE_M[1]):
+        raise ViewerError(
+            f"{source}: noise_std_m = {noise!r}: must be between {NOISE_RANGE_M[0]} and "
+            f"{NOISE_RANGE_M[1]} m"
+        )
+    parts_off = _field(data, "parts_off", list, source)
+    known_parts = [p.name for p in load_parts()]
+    if not all(isinstance(p, str) and p in known_parts for p in parts_off):
+        raise ViewerError(
+            f"{source}: parts_off = {parts_off!r}: not a list of fuzzynav's parts "
+            f"({', '.join(known_parts)})"
+        )
+    return {
+        "controller": controller,
+        "fis": fis,
+        "perception": perception,
+        "disturbance_on": _field(data, "disturbance_on", bool, source),
+        "noise_std_m": noise,
+        "parts_off": tuple(parts_off),
+    }
+
+
+def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: float, bases):
+    """The run's timeline (a list of settings from a control step), checked; a lesson
+    without one replays with its own settings from the start."""
+    raw = data.get("timeline")
+    if raw is None:
+        return None
+    if not isinstance(raw, list) or not raw or len(raw) > MAX_TIMELINE:
+        raise ViewerError(
+            f"{source}: timeline: not a list of 1 to {MAX_TIMELINE} entries ({type(raw).__name__})"
+        )
+    out, last = [], -1
+    last_step = int(round(time_s / period_s))
+    for k, entry in enumerate(raw):
+        where = f"{source}: timeline[{k}]"
+        if not isinstance(entry, dict):
+            raise ViewerError(f"{where}: {entry!r}: not a table")
+        step = _field(entry, "step", int, where)
+        if not (last < step <= last_step) or (k == 0 and step != 0):
+            raise ViewerError(
+                f"{where}: step = {step!r}: must grow from 0 and stay within the run "
+                f"(to step {last_step})"
+            )
+        last = step
+        out.append({"step": step, **_settings_of(entry, where, geometry, bases)})
+    return out
+
+
+def read_lesson(
+    content: bytes | str, source: str = "lesson.json", control_period_s: float = 0.02
+) -> dict:
+    """The checked settings of a lesson file (nothing applied yet)."""
+    from fuzzynav.world.perception import GEOMETRIES
     from fuzzynav.world.scenario import ScenarioError, loads_scenario
+    from fuzzynav.world.simulation import check_run_size
 
     raw = content.encode() if isinstance(content, str) else bytes(content)
     if len(raw) > MAX_UPLOAD_BYTES:
@@ -86,24 +263,36 @@ def read_lesson(content: bytes | str, source: str = "lesson.json") -> dict:
     try:
         base = loads_scenario(_field(data, "scenario_toml", str, source), f"{source}: scenario")
         layout = loads_scenario(_field(data, "layout_toml", str, source), f"{source}: layout")
+        check_run_size(layout.duration_s, control_period_s, len(layout.obstacles))
     except ScenarioError as exc:
         raise ViewerError(str(exc)) from None
-    fis_text = data.get("rule_base_toml")
-    fis = None
-    if fis_text is not None:
-        try:
-            fis = loads_toml(_field(data, "rule_base_toml", str, source), f"{source}: rule base")
-        except ValueError as exc:
-            raise ViewerError(str(exc)) from None
-    parts_off = _field(data, "parts_off", list, source)
-    if not all(isinstance(p, str) for p in parts_off):
-        raise ViewerError(f"{source}: parts_off = {parts_off!r}: not a list of part names")
+    except ValueError as exc:
+        raise ViewerError(f"{source}: layout_toml: {exc}") from None
+    geometry = _field(data, "geometry", str, source)
+    if geometry not in GEOMETRIES:
+        raise ViewerError(
+            f"{source}: geometry = {geometry!r}: choose one of {', '.join(GEOMETRIES)}"
+        )
+    bases = _rule_bases(data, source)
+    settings = _settings_of(data, source, geometry, bases)
     time_s = float(_field(data, "time_s", (int, float), source))
     if not (math.isfinite(time_s) and 0.0 <= time_s <= min(MAX_REPLAY_S, layout.duration_s)):
         raise ViewerError(f"{source}: time_s = {time_s!r}: must be within the run")
+    speed = float(_field(data, "speed", (int, float), source))
+    if not (math.isfinite(speed) and SPEED_RANGE[0] - 1e-9 <= speed <= SPEED_RANGE[1] + 1e-9):
+        raise ViewerError(
+            f"{source}: speed = {speed!r}: must be between {SPEED_RANGE[0]} and "
+            f"{SPEED_RANGE[1]} times real time"
+        )
     seed = data.get("seed")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
-        raise ViewerError(f"{source}: seed = {seed!r}: not an integer")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+        raise ViewerError(f"{source}: seed = {seed!r}: not an integer >= 0 (nor null)")
+    note = data.get("note") or ""
+    if not isinstance(note, str) or len(note) > MAX_NOTE_CHARS:
+        raise ViewerError(
+            f"{source}: note: not a text of at most {MAX_NOTE_CHARS} characters "
+            f"({type(note).__name__}, {len(note) if isinstance(note, str) else '-'})"
+        )
     view = data.get("view") or {}
     if not isinstance(view, dict):
         raise ViewerError(f"{source}: view = {view!r}: not a table")
@@ -111,41 +300,145 @@ def read_lesson(content: bytes | str, source: str = "lesson.json") -> dict:
         "scenario_label": label,
         "base_scenario": base,
         "scenario": layout,
-        "controller": _field(data, "controller", str, source),
-        "fis": fis,
-        "perception": _field(data, "perception", str, source),
-        "geometry": _field(data, "geometry", str, source),
-        "disturbance_on": _field(data, "disturbance_on", bool, source),
-        "noise_std_m": float(_field(data, "noise_std_m", (int, float), source)),
-        "parts_off": tuple(parts_off),
-        "speed": float(_field(data, "speed", (int, float), source)),
+        **settings,
+        "geometry": geometry,
+        "speed": speed,
         "seed": seed,
         "time_s": time_s,
+        "timeline": _timeline(data, source, geometry, time_s, control_period_s, bases),
+        "inputs": _saved_inputs(data, source),
+        "unreplayed": [str(u) for u in data.get("unreplayed") or []][:20],
+        "note": note,
         "view": {k: bool(view[k]) for k in ("presentation", "firing_only") if k in view},
     }
 
 
-def open_lesson(app, content: bytes | str, source: str = "lesson.json") -> dict:
-    """Open a lesson in ``app``: its scenario, layout, controller and settings, the run
-    replayed to its time and paused. Returns its view (for the page to apply)."""
-    lesson = read_lesson(content, source)
-    from fuzzynav.app.viewer.starter import STARTER_LABEL
-    from fuzzynav.controller.registry import controller_names
+def _saved_inputs(data: dict, source: str):
+    """The inputs read at the saved time ([d_t, d_o, phi_t, phi_o], null: not sensed)."""
+    raw = data.get("inputs")
+    if raw is None:
+        return None
+    if not (isinstance(raw, list) and len(raw) == 4) or not all(
+        v is None or isinstance(v, (int, float)) and not isinstance(v, bool) for v in raw
+    ):
+        raise ViewerError(f"{source}: inputs = {raw!r}: not four numbers (or null)")
+    return [math.nan if v is None else float(v) for v in raw]
 
-    known = set(controller_names()) | {STARTER_LABEL}
-    if lesson["fis"] is None and lesson["controller"] not in known:
-        raise ViewerError(
-            f"{source}: controller {lesson['controller']!r} is not available here "
-            f"(available: {', '.join(sorted(known))})"
-        )
-    app.seed = lesson["seed"]
-    app.apply_settings(lesson)
+
+def open_lesson(app, content: bytes | str, source: str = "lesson.json", background=False):
+    """Open a lesson in ``app``: its scenario, layout and settings, the run replayed to its
+    time (each change of its timeline at its step) and paused. Everything is checked
+    before anything is applied. With ``background`` the replay runs on a thread of its
+    own and this returns at once. Returns the lesson's view (for the page to apply)."""
+    lesson = read_lesson(content, source, app.sim.control_period_s)
+    timeline = lesson["timeline"] or [{"step": 0, **{k: lesson[k] for k in SETTING_KEYS}}]
+    app.driver.pause()
     with app.lock:
+        app.seed = lesson["seed"]
+        app.note = lesson["note"]
+        app.apply_settings({**lesson, "fis": None, "controller": app.controller_label})
+        _apply_entry_locked(app, timeline[0])
         app.driver._reset_locked(app.editing._layout_scenario())  # the seed, from the start
-        while app.sim.time_s + 0.5 * app.sim.control_period_s < lesson["time_s"]:
-            if app.sim.done:
-                break
-            app.driver._step_locked()
-        app.playing = False
-        app._notice(f"Opened the lesson {source} at t = {app.sim.time_s:.2f} s.", "info")
+        app._notice(f"Opening the lesson {source}: replaying to t = {lesson['time_s']:.2f} s…")
+        run_id = app.run_id
+    args = (app, lesson, list(timeline[1:]), source, run_id)
+    if background:
+        threading.Thread(target=_replay, args=args, name="fuzzynav-lesson", daemon=True).start()
+    else:
+        _replay(*args)
     return lesson["view"]
+
+
+def _apply_entry_locked(app, entry: dict) -> None:
+    """Drive with what a timeline entry says (only what differs is changed: a change of
+    noise rebuilds the sensors, as it did in the run)."""
+    from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL
+    from fuzzynav.app.viewer.state import EDITED_LABEL
+    from fuzzynav.controller.fis_controller import FisController
+
+    setup = app.setup
+    for name in [p.name for p in setup.part_options()]:
+        if (name in entry["parts_off"]) != (name in app.parts_off):
+            setup.set_part(name, name not in entry["parts_off"])
+    label, fis = entry["controller"], entry["fis"]
+    if fis is None:
+        if label != app.controller_label:
+            setup.set_controller(label)
+    else:
+        kind = {EDITED_LABEL: "paper", STARTER_EDITED_LABEL: "starter"}.get(label)
+        if kind is not None:  # the Editor's edit: the Editor holds it again
+            controller = app.editor(kind).adopt(fis)
+        else:
+            controller = FisController(fis, name=label)
+            app.uploaded_controller, app.uploaded_label = controller, label
+        setup._install_controller(controller, label, quiet=True)
+    if entry["perception"] != app.sim.perception.mode:
+        setup.set_perception(entry["perception"])
+    if entry["disturbance_on"] != app.disturbance_on:
+        setup.set_disturbance(entry["disturbance_on"])
+    if entry["noise_std_m"] != app.noise_std_m:
+        setup.set_noise(entry["noise_std_m"])
+
+
+def _replay(app, lesson: dict, changes: list, source: str, run_id: int) -> None:
+    """Step the run to the lesson's time, each change at its step, a chunk of steps per
+    hold of the lock; a press that changes the run meanwhile (Play, a reset, a switch)
+    stops the replay there, and it says so."""
+    period = app.sim.control_period_s
+    target = lesson["time_s"]
+    entries = None  # the timeline's length after the last chunk: another change stops us
+    while True:
+        with app.lock:
+            if (
+                app.run_id != run_id
+                or app.playing
+                or entries is not None
+                and len(app._timeline) != entries
+            ):
+                app._notice(
+                    f"The lesson {source} was replayed to t = {app.sim.time_s:.2f} s only: the "
+                    "run was changed meanwhile.",
+                    "warning",
+                )
+                return
+            for _ in range(REPLAY_CHUNK_STEPS):
+                step = int(round(app.sim.time_s / period))
+                while changes and changes[0]["step"] <= step:
+                    _apply_entry_locked(app, changes.pop(0))
+                if app.sim.time_s + 0.5 * period >= target or app.sim.done:
+                    break
+                app.driver._step_locked()
+            else:
+                entries = len(app._timeline)
+                continue
+            app.playing = False
+            _say_opened_locked(app, lesson, source)
+            return
+
+
+def _say_opened_locked(app, lesson: dict, source: str) -> None:
+    """The lesson is open: said, with a warning when the moment reached is not the one
+    saved (d_t and phi_t compared to :data:`INPUTS_MATCH`)."""
+    text = f"Opened the lesson {source} at t = {app.sim.time_s:.2f} s."
+    if lesson["note"]:
+        text += f" Teacher's note: {lesson['note']}"
+    saved = lesson["inputs"]
+    now = app.controller.last_inputs
+    differs = []
+    if saved is not None:
+        for k, name, unit in ((0, "d_t", "m"), (2, "phi_t", "rad")):
+            if not (abs(float(now[k]) - saved[k]) <= INPUTS_MATCH):
+                differs.append(f"{name} {float(now[k]):.2f} {unit} (saved: {saved[k]:.2f} {unit})")
+    if not differs:
+        app._notice(text, "info")
+        return
+    why = (
+        "the run had changes a replay cannot make: " + "; ".join(lesson["unreplayed"])
+        if lesson["unreplayed"]
+        else "the run had no fixed seed"
+        if lesson["seed"] is None
+        else "the replay took another path"
+    )
+    app._notice(
+        f"{text} The replay differs from the moment saved: {', '.join(differs)} ({why}).", "warning"
+    )

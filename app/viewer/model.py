@@ -131,7 +131,9 @@ class ViewerApp:
         self._trail = None
         self.run_label = ""
         self._run_changes: list = []
-        self.paper_edit = None  # the membership editor (PaperEditor), built on first use
+        self.paper_edit = None  # the paper's editor (PaperEditor), built on first use
+        self.starter_edit = None  # the starter's editor (StarterEditor), likewise
+        self.note = ""  # the teacher's note, saved with a lesson
         # paused: a copy of a controller with a memory, asked at the inputs read now
         # (its answer and inference shown; the driving controller is not called)
         self._probe = None
@@ -345,8 +347,11 @@ class ViewerApp:
     def obstacles_on_robot(self, at_start: bool = False) -> list[int]:
         return self.editing.obstacles_on_robot(at_start)
 
-    def editor(self):
-        return self.editing.editor()
+    def editor(self, kind: str | None = None):
+        return self.editing.editor(kind)
+
+    def editor_kind(self) -> str:
+        return self.editing.editor_kind()
 
     def set_membership_parameter(self, name: str, value) -> None:
         return self.editing.set_membership_parameter(name, value)
@@ -354,8 +359,10 @@ class ViewerApp:
     def set_inference_choice(self, field: str, value: str) -> None:
         return self.editing.set_inference_choice(field, value)
 
-    def edit_rules(self, action: str, number: int | None = None, text: str = "") -> None:
-        return self.editing.edit_rules(action, number, text)
+    def edit_rules(
+        self, action: str, number: int | None = None, text: str = "", wait: bool = True
+    ) -> None:
+        return self.editing.edit_rules(action, number, text, wait)
 
     def reset_membership_editor(self) -> None:
         return self.editing.reset_membership_editor()
@@ -445,11 +452,23 @@ class ViewerApp:
 
         return dumps_lesson(self, view)
 
-    def open_lesson(self, content, source: str = "lesson.json") -> dict:
-        """Open a lesson file's content; returns its view (presentation, firing only)."""
+    def set_note(self, text) -> None:
+        """The teacher's note, saved with the lesson and shown when it is opened."""
+        from fuzzynav.app.viewer.lesson import MAX_NOTE_CHARS
+
+        text = str(text)
+        if len(text) > MAX_NOTE_CHARS:
+            raise ViewerError(f"Teacher's note: {len(text)} characters, at most {MAX_NOTE_CHARS}")
+        with self.lock:
+            self.note = text
+            self._bump()
+
+    def open_lesson(self, content, source: str = "lesson.json", background: bool = False) -> dict:
+        """Open a lesson file's content; returns its view (presentation, firing only).
+        With ``background`` its run is replayed on a thread of its own."""
         from fuzzynav.app.viewer.lesson import open_lesson
 
-        return open_lesson(self, content, source)
+        return open_lesson(self, content, source, background)
 
     # -- Reading (:mod:`.reading`) -----------------------------------------------------
 

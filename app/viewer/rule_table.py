@@ -10,6 +10,7 @@ The row outlines never change and are sent once (:func:`rows_skeleton`, in
 from __future__ import annotations
 
 import html
+import math
 
 import numpy as np
 
@@ -154,7 +155,8 @@ def rules_head_svg(inf: Inference, ins, outs, head_id: str | None = None) -> str
             f" class='fz-col-name'>{html.escape(inf.input_labels[i])}</text>"
             f"<text x='{col_x(c) + 2:.0f}' y='22' font-size='8.5'"
             f" fill='{input_colour(inf.input_labels[i])}'>"
-            f"{html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
+            # (the column is narrow: "none", the term plots say "none sensed")
+            f"{'none' if math.isnan(value) else html.escape(_fmt_value(value, UNITS.get(var.name, var.unit or '')))}</text>"
         )
     for c, j in enumerate(outs, start=len(ins)):
         var = fis.outputs[j]
@@ -388,8 +390,8 @@ def rules_aggregate_svg(inf: Inference, ins, outs, weights=None) -> str:
             f" text-anchor='end' fill='#0f172a'>{inf.centroids[j]:.2f}</text>"
         )
     parts.append(
-        f"<text x='2' y='{y0 + 10:.1f}' font-size='8.5' fill='#334155'>aggregated</text>"
-        f"<text x='2' y='{y0 + 21:.1f}' font-size='8.5' fill='#334155'>{_defuzz_word(fis)}</text>"
+        f"<text x='2' y='{y0 + 12:.1f}' font-size='8.5' fill='#334155'>aggregated</text>"
+        f"<text x='2' y='{y0 + 27:.1f}' font-size='8.5' fill='#334155'>{_defuzz_word(fis)}</text>"
         "</svg>"
     )
     return "".join(parts)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL, STARTER_LABEL
 from fuzzynav.app.viewer.state import (
     DEFAULT_DISTURBANCE,
     EDITED_LABEL,
@@ -38,13 +39,13 @@ class RunSettings:
 
     def controller_options(self) -> list[str]:
         app = self.app
-        from fuzzynav.app.viewer.starter import STARTER_LABEL
         from fuzzynav.controller.registry import controller_names
 
         options = list(controller_names())
         options.append(STARTER_LABEL)  # a lesson's first system
-        if app.paper_edit is not None and app.paper_edit.edited:
-            options.append(EDITED_LABEL)
+        for editor in (app.paper_edit, app.starter_edit):
+            if editor is not None and editor.edited:
+                options.append(editor.edited_label)
         if app.uploaded_label:
             options.append(app.uploaded_label)
         return options
@@ -52,7 +53,7 @@ class RunSettings:
     def set_controller(self, name: str) -> None:
         """Swap the controller by name; the run goes on from where it is."""
         app = self.app
-        from fuzzynav.app.viewer.starter import STARTER_LABEL, starter_controller
+        from fuzzynav.app.viewer.starter import starter_controller
 
         if app.uploaded_label and name == app.uploaded_label:
             inner = app.uploaded_controller
@@ -60,6 +61,8 @@ class RunSettings:
             inner = starter_controller()
         elif name == EDITED_LABEL and app.paper_edit is not None:
             inner = app.paper_edit.controller()
+        elif name == STARTER_EDITED_LABEL and app.starter_edit is not None:
+            inner = app.starter_edit.controller()
         else:
             try:
                 inner = app._make_named_controller(name, app.geometry)
@@ -110,8 +113,8 @@ class RunSettings:
             c.last_output = np.asarray(inner(c.last_inputs), dtype=float).reshape(2)
         elif not app.playing:
             # Paused, any other controller (fuzzynav, with a memory; baseline; p) is
-            # asked through a copy of itself: its answer and its inference are shown,
-            # and the controller that drives is not disturbed by the call.
+            # asked through a copy of itself: its answer and its inference are shown
+            # (issue 38), and the controller that drives is not disturbed by the call.
             import copy
 
             try:
@@ -296,8 +299,10 @@ class RunSettings:
         with app.lock:
             inner = app.controller.inner
             fis = getattr(inner, "fis", None)
-            named = app.controller_label in self.controller_options() and not (
-                app.controller_label == EDITED_LABEL or app.controller_label == app.uploaded_label
+            edited = (EDITED_LABEL, STARTER_EDITED_LABEL, app.uploaded_label)
+            named = (
+                app.controller_label in self.controller_options()
+                and app.controller_label not in edited
             )
             return {
                 "scenario_label": app.scenario_label,
@@ -323,7 +328,7 @@ class RunSettings:
             self.set_geometry(settings["geometry"])
         label = settings["scenario_label"]
         # The teacher's scenario as loaded, then the teacher's edits on it: the students'
-        # status then says "layout edited" when the teacher's did, and their
+        # status then says "layout edited" when the teacher's did (issue 38), and their
         # Restore goes back to the scenario as loaded.
         base = settings.get("base_scenario", settings["scenario"])
         with app.lock:

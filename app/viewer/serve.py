@@ -149,7 +149,7 @@ def serve(
         except ValueError as exc:
             raise UsageError(f"--lesson: {exc}") from None
         try:
-            view = app.open_lesson(lesson_text, str(lesson))
+            view = app.open_lesson(lesson_text, str(lesson), background=True)
         except ViewerError as exc:
             raise UsageError(f"--lesson: {exc}") from None
     if classroom:
@@ -160,7 +160,7 @@ def serve(
         def make_app():
             world = ViewerApp(scenario, controller, geometry=geometry)
             if lesson_text is not None:  # every tab opens the lesson in its own world
-                world.open_lesson(lesson_text, str(lesson))
+                world.open_lesson(lesson_text, str(lesson), background=True)
             return world
 
         server = ClassroomServer(make_app, host=host, port=port)

@@ -39,7 +39,23 @@ from fuzzynav.app.viewer.status import StatusLine
 from fuzzynav.app.viewer.surface_panel import SurfacePanel
 
 NORMAL_WIDTHS = (400, 330)  # the left and right panels (px)
-PRESENTATION_WIDTHS = (720, 420)  # ... in presentation mode
+# Presentation mode's type, for a projector at 1280 x 800: no text under 12 px. The
+# SVG views scale with their panel, so their text is set in their own units: the rule
+# grid (up to ~460 units drawn in ~420 px), the term and step plots (300-330 units in
+# ~420 px).
+PRESENTATION_CSS = (
+    "<style>"
+    ".mantine-Slider-markLabel,.mantine-Button-label,.fz-drag-hint,.fz-drag-hint b,"
+    ".fz-surface,.fz-surface div,.fz-surface span,.fz-message,.fz-timeline,.fz-colour-key"
+    "{font-size:12.5px!important}"
+    ".fz-inference svg text,.fz-stepwise svg text,.fz-term-drag text"
+    "{font-size:10px!important}"
+    ".fz-inference svg.fz-rule-head-svg text,.fz-inference svg.fz-rules text,"
+    ".fz-inference svg.fz-aggregate-svg text,.fz-inference .fz-strengths text,"
+    "svg text.fz-rule-no.fz-rule-no{font-size:13.5px!important}"
+    "</style>"
+)
+PRESENTATION_WIDTHS = (440, 300)  # ... in presentation mode: the arena still the largest at 1280
 
 
 class ClientSurface:
@@ -215,6 +231,7 @@ class ViewerServer:
         left, right = PRESENTATION_WIDTHS if self.presentation else NORMAL_WIDTHS
         self.left_panel.set_width(left)
         self.server.gui.main_panel.set_width(right)
+        self.controls.presentation_css.content = PRESENTATION_CSS if on else ""
         with self.server.atomic():
             if self.scene.bounds is not None:
                 self.scene.frame_arena(self.scene.bounds)  # the metre marks, at the new size

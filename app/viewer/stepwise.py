@@ -107,10 +107,12 @@ def _plot(inf: Inference, o: int, curves, fill=None, line_at=None) -> str:
             f"<text x='{min(max(x, 20), W - 20):.1f}' y='{H + 22:.0f}' font-size='10' "
             f"text-anchor='middle'>{line_at:.2f}</text>"
         )
+    unit = _unit(var)
+    unit = f" {unit}" if unit else ""
     parts.append(
-        f"<text x='0' y='{H + 11:.0f}' font-size='8' fill='#64748b'>{lo:g}</text>"
-        f"<text x='{W:.0f}' y='{H + 11:.0f}' font-size='8' fill='#64748b' "
-        f"text-anchor='end'>{hi:g}</text></svg>"
+        f"<text x='0' y='{H + 11:.0f}' font-size='9' fill='#64748b'>{lo:g}{unit}</text>"
+        f"<text x='{W:.0f}' y='{H + 11:.0f}' font-size='9' fill='#64748b' "
+        f"text-anchor='end'>{hi:g}{unit}</text></svg>"
     )
     return "".join(parts)
 
@@ -162,7 +164,10 @@ def _fuzzification(inf: Inference) -> list[str]:
         "<p class='fz-step-say'>Each input's value is read on each of its terms: the "
         "degree to which the value is that term (0 to 1).</p><ul>"
     ]
+    read = [i for i in range(fis.n_inputs) if any(r.antecedent[i] is not None for r in fis.rules)]
     for i, var in enumerate(fis.inputs):
+        if i not in read:  # (the starter reads d_t and phi_t only)
+            continue
         value = float(inf.inputs[i])
         label = html.escape(inf.input_labels[i])
         if not np.isfinite(value):

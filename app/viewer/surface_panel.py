@@ -12,7 +12,12 @@ import numpy as np
 from fuzzynav.app.viewer import surface_view
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
+from fuzzynav.app.viewer.teaching import Teaching
 
+# The (d_o, phi_o) plane holds the target this far straight ahead: near enough that the
+# obstacle rules show (paper: the speed spans 4.7 V and the turn 2.1 V over the plane;
+# with the target 5 m ahead, 2.9 V and 0.7 V, a map that showed nearly nothing).
+OBSTACLE_PLANE_D_T_M = 2.0
 SURFACE_INPUTS = ("d_t", "d_o", "phi_t", "phi_o")
 SURFACE_RANGES = ((0.0, 12.0), (0.0, 4.0), (-math.pi, math.pi), (-math.pi / 2, math.pi / 2))
 
@@ -83,8 +88,12 @@ class SurfacePanel:
         self._surface_key = None  # recompute
         self.app._bump()
 
-    def _custom_plane(self, fis):
+    def _custom_plane(self, fis, read=(0, 1, 2, 3)):
+        """The chosen plane; over the two inputs the system reads when it reads only two
+        (the starter: d_t, phi_t), whatever the axes chosen."""
         xi, yi = self.surface_axes
+        if len(read) == 2 and {xi, yi} != set(read):
+            xi, yi = read
         held = np.array(self.surface_held, dtype=float)
         no_obstacle = self.surface_no_obstacle_cb.value and not ({xi, yi} & {1, 3})
         if no_obstacle:
@@ -125,12 +134,15 @@ class SurfacePanel:
         if fis is not None and fis.n_inputs == 4 and not hasattr(inner, "teaching_view"):
             names = fis.input_names
             ranges = [tuple(v.range) for v in fis.inputs]
-            held = np.array([5.0, np.nan, 0.0, np.nan])
+            held = np.array([OBSTACLE_PLANE_D_T_M, np.nan, 0.0, np.nan])
             d_o_range = (max(ranges[1][0], 0.0), min(ranges[1][1], 4.0))
+            read = Teaching.read_inputs(fis)
+            if not {1, 3} <= set(read):  # no (d_o, phi_o) plane for a system blind to them
+                return [self._custom_plane(fis, read)]
             return [
-                self._custom_plane(fis),
+                self._custom_plane(fis, read),
                 (
-                    f"{names[1]}, {names[3]} with the target 5 m ahead",
+                    f"{names[1]}, {names[3]} with the target {OBSTACLE_PLANE_D_T_M:g} m ahead",
                     fis,
                     1,
                     3,

@@ -50,6 +50,16 @@ class Teaching:
             return None
         return fis
 
+    @staticmethod
+    def read_inputs(fis) -> tuple[int, ...]:
+        """The indices of ``fis``'s inputs that some rule reads (the starter reads d_t
+        and phi_t only: What-if and the surface offer no others)."""
+        if fis is None:
+            return ()
+        return tuple(
+            i for i in range(fis.n_inputs) if any(r.antecedent[i] is not None for r in fis.rules)
+        )
+
     def start_what_if(self) -> None:
         """Pause and try inputs by hand: the whole inference follows the inputs set
         with :meth:`set_what_if_input`; the robot does not move. :meth:`stop_what_if`

@@ -80,6 +80,11 @@ def terms_drag_svg(editor, group: str, names, slider_ids: dict, slider_ranges: d
         f"<rect class='fz-term-area' x='0' y='0' width='{W:.0f}' height='{H:.0f}' "
         "fill='#f8fafc' stroke='#e2e8f0'/>",
     ]
+    if group in fis.input_names:  # the input's value now, moved by CSS (now_css)
+        parts.append(
+            f"<line class='fz-term-now' data-group='{html.escape(group)}' x1='0' x2='0' "
+            f"y1='0' y2='{H:.0f}' stroke='#dc2626' stroke-width='1.5' style='display:none'/>"
+        )
     for k, ys in enumerate(curves):
         colour = PALETTE[k % len(PALETTE)]
         parts.append(
@@ -119,4 +124,20 @@ def terms_drag_svg(editor, group: str, names, slider_ids: dict, slider_ranges: d
     return "".join(parts)
 
 
-__all__ = ["corner_sliders", "terms_drag_svg"]
+def now_css(fis, inputs) -> str:
+    """Where each input's value stands on its Editor plot, as CSS (a few bytes at the
+    panels' rate; the plots themselves are sent once per system): the red line of
+    :func:`terms_drag_svg` moved to the value, hidden when it is not sensed."""
+    rules = []
+    for name, var, value in zip(fis.input_names, fis.inputs, inputs):
+        lo, hi = var.range
+        sel = f".fz-term-now[data-group='{name}']"
+        if value is None or not lo <= value <= hi:
+            rules.append(f"{sel}{{display:none}}")
+            continue
+        x = (value - lo) / (hi - lo) * W
+        rules.append(f"{sel}{{display:inline!important;transform:translateX({x:.1f}px)}}")
+    return "<style>" + "".join(rules) + "</style>"
+
+
+__all__ = ["corner_sliders", "now_css", "terms_drag_svg"]
