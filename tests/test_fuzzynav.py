@@ -33,6 +33,17 @@ HELD_OUT_SEED = 7  # tuning used seed 1
 SWEEP_N = 30
 
 
+# The navigator's guards were measured on s1-s3 (and their jittered copies) sensing the
+# front half-plane in ideal perception; the paper's reading since narrowed those files'
+# field to 60 degrees (docs/paper-controller.md), which the navigator was not designed
+# for (docs/fuzzynav.md, "s1-s3's field of view"). The guards keep their conditions.
+DESIGNED_FIELD_DEG = 180.0
+
+
+def _as_designed(scenario):
+    return scenario.replace(field_of_view_deg=DESIGNED_FIELD_DEG)
+
+
 def _run(scenario, perception):
     return Simulation(scenario, fuzzynav_controller(), perception=perception, seed=0).run()
 
@@ -40,7 +51,7 @@ def _run(scenario, perception):
 @pytest.fixture(scope="module")
 def scenario_runs():
     return {
-        (name, mode): _run(load_scenario(name), mode)
+        (name, mode): _run(_as_designed(load_scenario(name)), mode)
         for name in ("s1", "s2", "s3")
         for mode in ("ideal", "ultrasonic")
     }
@@ -470,7 +481,7 @@ def test_s3_jittered_is_survived_in_ideal_perception(index):
     obstacle when disturbed nearest-obstacle samples were remembered."""
     from fuzzynav.world.layouts import generate_layout
 
-    scenario = generate_layout("paper_jitter", 1, index)
+    scenario = _as_designed(generate_layout("paper_jitter", 1, index))
     assert "s3" in scenario.name
     result = _run(scenario, "ideal")
     assert result.outcome == "reached", result.metrics
@@ -481,7 +492,7 @@ def test_jittered_paper_scenarios_are_reached_without_collision_in_ideal_percept
     """24 copies of s1-s3 moved by a few cm (paper_jitter, seed 7, never used to design):
     all reached without collision (before only sonar sightings were remembered, about a
     third of the jittered s3 runs collided after the disturbance)."""
-    layouts = generate_layouts("paper_jitter", 24, 7)
+    layouts = [_as_designed(sc) for sc in generate_layouts("paper_jitter", 24, 7)]
     for sc in layouts:
         r = _run(sc, "ideal")
         assert r.outcome == "reached" and not r.collided, (sc.name, r.metrics)
@@ -616,7 +627,7 @@ def test_s3s_disturbance_costs_next_to_nothing(scenario_runs, mode):
     assert abs(s3.metrics["path_length_m"] - s2.metrics["path_length_m"]) < 0.05
     off = fuzzynav_controller()
     off.params["target_gate_m"] = 0.0
-    without = Simulation(load_scenario("s3"), off, perception=mode, seed=0).run()
+    without = Simulation(_as_designed(load_scenario("s3")), off, perception=mode, seed=0).run()
     assert without.metrics["path_length_m"] > s3.metrics["path_length_m"] + 0.05
 
 

@@ -1,6 +1,6 @@
 """The Husky twin's bounds-first cost (scripts/paper_search.py --bounds-first), how
-rules/paper_husky.toml's last stages were fitted: the twin's bounds counted first, each
-residual uncapped beyond, chatter counted, a forced bound ten times (issue 35)."""
+rules/paper_husky.toml was fitted: the twin's bounds counted first, each residual
+uncapped beyond, chatter counted, a forced bound ten times."""
 
 from __future__ import annotations
 
@@ -30,6 +30,10 @@ def _run(**changes) -> dict:
         "mad_m": 0.4,  # the bound: 0.731 m, twice the paper's s1 MAD
         "final_phi_t_rad": 0.01,
         "chatter_steps": 0,
+        "pass_clearances_m": [0.5, 0.6, 0.4],  # the bound: their median at most 0.7 m
+        "largest_line_offset_m": 0.8,  # at most 1.2 m
+        "max_voltage_v": (10.0, 9.5),  # at least 9 V
+        "approach_speed_ratio": 0.9,  # at least 0.5
     }
     return run | changes
 
@@ -64,9 +68,20 @@ def test_a_forced_bound_weighs_ten_times(search):
     assert forced == pytest.approx(10.0 * base)
 
 
-def test_a_run_not_reached_misses_all_six(search):
+def test_a_run_not_reached_misses_all_ten(search):
     lost = search.twin_bounds_cost(_run(reached=False, closest_to_target_m=2.0), paper_results())
-    assert lost == pytest.approx(6000.0 + 20.0)
+    assert lost == pytest.approx(10000.0 + 20.0)
+
+
+def test_each_driving_bound_missed_counts(search):
+    paper = paper_results()
+    for changes in (
+        {"pass_clearances_m": [1.2, 0.9, 0.8]},
+        {"largest_line_offset_m": 1.5},
+        {"max_voltage_v": (6.0, 5.0)},
+        {"approach_speed_ratio": 0.3},
+    ):
+        assert search.twin_bounds_cost(_run(**changes), paper) > 1000.0, changes
 
 
 def test_force_twin_names_are_checked(search, capsys):

@@ -51,7 +51,7 @@ def test_free_indices():
 def test_local_search_keeps_the_fixed_parameters_and_is_deterministic(method):
     t = tunable("paper")
     names, x0 = t.parameter_names(), t.initial_vector()
-    free = free_indices(names, ["phi_o.p", "d_o.near"])
+    free = free_indices(names, ["phi_o.vp", "d_o.near"])
     runs = [
         tune(
             controller=t,

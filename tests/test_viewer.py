@@ -885,11 +885,11 @@ def test_the_field_of_view_is_drawn_where_ideal_perception_senses(served):
 
     a = served.app
     field = served.scene.field_of_view
-    assert a.snapshot().field_of_view_rad == pytest.approx(math.pi)
+    assert a.snapshot().field_of_view_rad == pytest.approx(math.radians(60.0))
     wait_for(lambda: field.visible)
     edges = np.asarray(field.points)[:2, 1, :2]  # in the robot's frame, x ahead
     bearings = sorted(math.degrees(math.atan2(y, x)) for x, y in edges)
-    assert bearings == pytest.approx([-90.0, 90.0], abs=1e-6)
+    assert bearings == pytest.approx([-30.0, 30.0], abs=1e-6)
     a.set_perception("ultrasonic")
     wait_for(lambda: not field.visible)
     a.set_perception("ideal")

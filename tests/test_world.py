@@ -517,7 +517,7 @@ def test_ideal_perception_senses_only_its_field_of_view():
 def test_the_simulation_takes_the_scenario_s_field_of_view():
     s1 = load_scenario("s1")
     sim = Simulation(s1, make_controller("paper"))
-    assert sim.perception.field_of_view_rad == pytest.approx(math.pi)
+    assert sim.perception.field_of_view_rad == pytest.approx(math.radians(60.0))
     sim.reset(scenario=s1.replace(field_of_view_deg=360.0))
     assert sim.perception.field_of_view_rad == 2 * math.pi
 

@@ -1,8 +1,8 @@
 """Edit the paper controller's membership functions while it drives.
 
 The sliders move the numbers of a layout that can rebuild the shipped rule base: the
-design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``
-of issue 25: every slider position keeps the design rules), or, for rule bases written
+design layout of :mod:`fuzzynav.controller.paper_design` (the shipped ``rules/paper.toml``:
+every slider position keeps the design rules), or, for rule bases written
 by older fits and tunes, the partition layout of
 :mod:`fuzzynav.controller.paper_partition` or the 27-number layout of
 :class:`fuzzynav.controller.paper.PaperTunable`. All build their shapes from positive
@@ -14,7 +14,7 @@ file records them (``# tuned vector:``, written by ``fuzzynav tune``) and they r
 that system; else from the tuner's starting point, and it says so. Reset drives with the
 shipped controller itself, exactly as ``paper`` is built.
 
-Beside the shapes, the inference choices (issue 27): AND min or product, implication min
+Beside the shapes, the inference choices: AND min or product, implication min
 or product, aggregation max, sum or probabilistic OR, defuzzification centroid,
 bisector, mean / smallest / largest of maximum, with MATLAB's meanings
 (:mod:`fuzzynav.controller.inference`). A choice rebuilds the controller as a slider
@@ -160,7 +160,7 @@ class SystemEditor:
             fis = fis.replace(rules=rules)
         return FisController(fis, name=self.edited_label)
 
-    # -- the rules (issue 38: add, change, remove, undo; validated; exported) --------
+    # -- the rules (add, change, remove, undo; validated; exported) -------------------
 
     def rule_version(self) -> int:
         """How many rule edits (and resets) were made: it changes with the rules."""

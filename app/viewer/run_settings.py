@@ -114,7 +114,7 @@ class RunSettings:
         elif not app.playing:
             # Paused, any other controller (fuzzynav, with a memory; baseline; p) is
             # asked through a copy of itself: its answer and its inference are shown
-            # (issue 38), and the controller that drives is not disturbed by the call.
+            # and the controller that drives is not disturbed by the call.
             import copy
 
             try:
@@ -328,7 +328,7 @@ class RunSettings:
             self.set_geometry(settings["geometry"])
         label = settings["scenario_label"]
         # The teacher's scenario as loaded, then the teacher's edits on it: the students'
-        # status then says "layout edited" when the teacher's did (issue 38), and their
+        # status then says "layout edited" when the teacher's did, and their
         # Restore goes back to the scenario as loaded.
         base = settings.get("base_scenario", settings["scenario"])
         with app.lock:
