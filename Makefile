@@ -57,6 +57,7 @@ report: $(VENV)/.installed
 	cp out/report/figures/paper/fig19_s2_angles_paper.png docs/img/paper_geometry_s2_angles.png
 	cp out/report/figures/paper/fig26_s3_voltages_paper.png docs/img/paper_geometry_s3_voltages.png
 	$(PY) scripts/paper_design_figure.py
+	$(PY) scripts/paper_behaviour_figure.py
 	$(PY) scripts/fuzzynav_figure.py
 	$(PY) scripts/crossing_figure.py
 	$(PY) scripts/jitter_figure.py

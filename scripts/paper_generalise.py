@@ -5,7 +5,7 @@ Both shipped rule bases of the paper's controller on ``--n`` layouts of the stan
 family, seed ``--seed`` (5: held out, never used by any fit): ``paper.toml`` in the
 paper's geometry (a point robot, ideal perception), its Husky twin ``paper_husky.toml``
 in the Husky's geometry with ideal perception and with the sonars (ideal perception
-senses the front half-plane, the shipped reading, unless ``--field-of-view``);
+senses the shipped reading's field, s1-s3's, unless ``--field-of-view``);
 fuzzynav's navigator beside it in the Husky geometry (its own sensing, within the
 budget). Each run is given 4x its layout's time budget; its outcome within the budget
 itself is read off the same run (the runs are deterministic: a run that arrives by the
@@ -161,8 +161,8 @@ def main(argv=None) -> int:
     p.add_argument(
         "--field-of-view",
         type=float,
-        default=180.0,
-        help="what ideal perception senses, as the shipped reading (s1-s3: 180)",
+        default=None,
+        help="what ideal perception senses, degrees (default: s1-s3's, the shipped reading)",
     )
     p.add_argument(
         "--keep-fuzzynav",
@@ -172,6 +172,10 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     SEED = args.seed
     layouts = generate_layouts("standard", args.n, args.seed)
+    if args.field_of_view is None:
+        from fuzzynav.world.scenario import load_scenario
+
+        args.field_of_view = load_scenario("s1").field_of_view_deg
     rows = paper_modes(layouts, args.field_of_view)
     if args.keep_fuzzynav:
         old = json.loads(args.json.read_text(encoding="utf-8"))

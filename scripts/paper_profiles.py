@@ -2,7 +2,7 @@
 moved by -10 % and +10 %, the others fixed (issue 35, item 6).
 
 For each move, s1-s3 run in the paper's geometry at the loop's 0.02 s (the batch engine,
-whose runs equal pymunk's) and are held to issue 35's 36 done bounds
+whose runs equal pymunk's) and are held to the done bounds
 (:func:`app.experiments.paper_docs.bound_checks`); the fit's cost is given beside. A number
 whose moves keep the bounds met and barely change the cost is one the paper's results
 leave free; a step past a bound of the layout is clipped to it (the design rules still

@@ -14,16 +14,16 @@ from fuzzynav.controller.fuzzy import FuzzySystem, Rule, Term, Variable
 from fuzzynav.controller.rulebase import read_toml
 
 ROOT = Path(__file__).resolve().parents[1]
-# The Husky twin: the paper's Table 1 with MATLAB's NONE, a system a .fis can hold (the
-# paper-geometry rule base reads NONE as the text does, and its export is refused:
-# tests/test_none_reading.py).
+# The Husky twin. Its rule base reads Table 1's NONE as the text does, which a .fis cannot
+# say (the export is refused: tests/test_none_reading.py); with MATLAB's NONE it is a
+# system a .fis can hold, the one these tests write.
 PAPER_TOML = ROOT / "assets" / "rules" / "paper_husky.toml"
 nan = float("nan")
 
 
 @pytest.fixture(scope="module")
 def paper() -> FuzzySystem:
-    return read_toml(PAPER_TOML)
+    return read_toml(PAPER_TOML).replace(unsensed_none=())
 
 
 def _X(n, seed=0):

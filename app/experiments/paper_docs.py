@@ -207,7 +207,7 @@ def render_paper(data: dict) -> str:
         f"{runs['s3']['max_voltage_v'][1]:.2f} V (the paper's reaches the 12 V saturation: "
         f"{'reached' if runs['s3']['max_voltage_v'][1] >= SATURATION_V - 0.01 else 'not reached'}"
         f"). Pace: the mean speed over the last 2 m is {ratios} times the run's median speed "
-        "in s1, s2, s3 (a crawl would be far below 1).",
+        "in s1, s2, s3 (the no-crawl bound: at least 0.5).",
         "",
         f"**The done bounds: {met} of {len(checks)} met.** Not met: "
         + (

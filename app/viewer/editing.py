@@ -104,7 +104,7 @@ class ScenarioEditing:
             raise ViewerError(str(exc)) from None
         from fuzzynav.world.simulation import check_run_size
 
-        try:  # the run's log within the memory budget, as `fuzzynav run` checks (issue 26)
+        try:  # the run's log within the memory budget, as `fuzzynav run` checks
             check_run_size(scenario.duration_s, app.sim.control_period_s, len(scenario.obstacles))
         except ValueError as exc:
             raise ViewerError(f"{label}: {exc}") from None
@@ -186,7 +186,7 @@ class ScenarioEditing:
         """``obstacles[k]`` (the scenario file's name) as the page says it: obstacle k+1
         (:func:`~fuzzynav.app.figures.style.obstacle_label`)."""
         # "static obstacle obstacles[1]" (the file's wording) reads "static obstacle 2",
-        # not "static obstacle obstacle 2" (issue 38)
+        # not "static obstacle obstacle 2"
         return re.sub(
             r"(?:\bobstacle\s+)?obstacles\[(\d+)\]",
             lambda m: obstacle_label(int(m.group(1))),

@@ -10,7 +10,7 @@ from fuzzynav.app.viewer.compat_viser import handle_uuid
 from fuzzynav.controller.inference import CHOICES
 
 EDITOR_STEP = 0.01  # the editor's sliders (two decimals: the number boxes show them whole)
-# The Editor's inference choices (issue 27): field of controller.inference.Inference,
+# The Editor's inference choices: field of controller.inference.Inference,
 # label, and what the choice does, in words (MATLAB's names are the options).
 EDITOR_CHOICES = (
     ("and_method", "AND", "how a rule joins its clauses: min, or prod (their product)"),
@@ -203,7 +203,7 @@ class EditorPanel:
 
     def _draw_term_plots(self) -> None:
         """Each slider group's terms with a handle on every corner a slider moves
-        (issue 38: shaped by dragging, beside the sliders); drawn again when the
+        (shaped by dragging, beside the sliders); drawn again when the
         edited system changes."""
         from fuzzynav.app.viewer.term_drag import terms_drag_svg
 
@@ -223,7 +223,7 @@ class EditorPanel:
                 element.content = content
 
     def _build_rules(self, gui, editor) -> None:
-        """The rules, edited like a designer's (issue 38): pick a rule by its number, its
+        """The rules, edited like a designer's: pick a rule by its number, its
         sentence in the box; change it and Apply, or Add it as a new rule, Remove the
         rule picked, Undo the last rule edit. Every sentence is read by the rule base's
         own parser (terms and variables checked); the robot drives with it at once."""
