@@ -48,6 +48,9 @@ def export_fis(
             raise ValueError(f"{path}: the file name must end in .fis")
         if not path.parent.exists():
             raise ValueError(f"{path}: directory {path.parent} does not exist")
+        if ctrl.fis.unsensed_none:  # (after the output guard, as the writer would)
+            check_output_path(path, "fis export", replace=replace, folder=True)
+            raise ValueError(_unwritable_none(path, ctrl))
         _write(ctrl.fis, path, replace)
         return [path]
     systems = ctrl.rule_blocks()
@@ -85,6 +88,19 @@ def _write(system, path: Path, replace: bool = True) -> None:
         write_text_atomically(path, dumps_fis(system))
     except OSError as exc:
         raise ValueError(f"{path}: not written ({exc.strerror or exc})") from None
+
+
+def _unwritable_none(path: Path, ctrl) -> str:
+    """Why ``ctrl``'s rule base has no .fis form: its rules read NONE as the text does."""
+    from fuzzynav.resources import escape_controls
+
+    inputs = ", ".join(ctrl.fis.unsensed_none)
+    return (
+        f"{path}: not written: {ctrl.fis.name}'s rules read NONE for {inputs} as 'sensed "
+        "nothing' (the paper's text), which a .fis cannot say (MATLAB reads NONE as 'takes "
+        "no part', and would drive otherwise); it is shipped as the TOML rule base "
+        f"rules/{escape_controls(Path(ctrl.source).name)}"
+    )
 
 
 def _signature(system) -> str:

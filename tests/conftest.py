@@ -25,3 +25,13 @@ def write_toml(tmp_path):
 
 def in_ci() -> bool:
     return bool(os.environ.get("CI"))
+
+
+@pytest.fixture(scope="session")
+def matlab_twin():
+    """The default paper controller's rule base (the Husky twin) with MATLAB's NONE: a
+    system a .fis can hold. The shipped one reads Table 1's NONE as the text does, which
+    a .fis cannot say (its export is refused)."""
+    from fuzzynav.controller.rulebase import read_toml
+
+    return read_toml(ROOT / "assets" / "rules" / "paper_husky.toml").replace(unsensed_none=())

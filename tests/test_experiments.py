@@ -6,10 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fuzzynav import simulate
 from fuzzynav.app.cli import main
 from fuzzynav.app.experiments.objective import Case, Objective, run_cost
 from fuzzynav.app.experiments.tuning import tune
-from fuzzynav.controller.fis import read_fis
+from fuzzynav.controller.fis import read_fis, write_fis
 from fuzzynav.controller.paper import FIRST_DESIGN
 from fuzzynav.controller.registry import make_controller
 from fuzzynav.controller.rulebase import read_toml
@@ -197,9 +198,17 @@ def test_compare_table(capsys):
     assert main(["compare", "--controllers", "baseline", "--sweep-n", "-1"]) == 2
 
 
-def test_fis_export_round_trip(tmp_path, capsys):
+def test_fis_export_round_trip(tmp_path, capsys, matlab_twin):
+    """``fis export`` refuses the default controller, whose rules read NONE as the text
+    does (a .fis cannot say it), in one line naming the file and why; the twin with
+    MATLAB's NONE goes through a .fis and ``run --fis`` drives as it does in memory."""
     path = tmp_path / "paper.fis"
-    assert main(["fis", "export", str(path)]) == 0
+    assert main(["fis", "export", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith(f"fuzzynav: error: {path}: not written")
+    assert "a .fis cannot say" in err and "rules/paper_husky.toml" in err
+    assert not path.exists()
+    write_fis(matlab_twin, path)
     text = path.read_text()
     for label in (
         "'d_t'",
@@ -216,14 +225,13 @@ def test_fis_export_round_trip(tmp_path, capsys):
         "'VP'",
     ):
         assert label in text
-    assert read_fis(path) == make_controller("paper").fis
+    assert read_fis(path) == matlab_twin
     capsys.readouterr()
     assert main(["run", "s1", "--fis", str(path), "--json"]) == 0
     via_fis = json.loads(capsys.readouterr().out)
-    assert main(["run", "s1", "--controller", "paper", "--json"]) == 0
-    via_toml = json.loads(capsys.readouterr().out)
+    in_memory = simulate("s1", fis=matlab_twin).metrics
     for key in ("outcome", "path_length_m", "min_clearance_m", "steps"):
-        assert via_fis[key] == via_toml[key]
+        assert via_fis[key] == in_memory[key]
 
 
 def test_fis_export_bad_path(tmp_path, capsys):

@@ -1051,10 +1051,11 @@ def test_the_stored_reproduce_command_repeats_the_run(tmp_path, short_scenario, 
     assert (tmp_path / "b.csv").read_text() == (tmp_path / "a.csv").read_text()
 
 
-def test_reproduce_names_a_fis_file_with_its_digest(tmp_path, short_scenario, capsys):
-    fis = tmp_path / "mine.fis"
-    assert main(["fis", "export", str(fis)]) == 0
-    capsys.readouterr()
+def test_reproduce_names_a_fis_file_with_its_digest(tmp_path, short_scenario, capsys, matlab_twin):
+    from fuzzynav.controller.fis import write_fis
+
+    fis = tmp_path / "mine.fis"  # (the shipped rules read NONE as the text does: no .fis)
+    write_fis(matlab_twin, fis)
     rrd = tmp_path / "fis.rrd"
     first = _run_json(
         ["run", str(short_scenario), "--fis", str(fis), "--rrd", str(rrd), "--json"], capsys

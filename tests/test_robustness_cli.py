@@ -89,13 +89,19 @@ def test_fis_export_to_a_read_only_place_is_a_clear_error(capsys, monkeypatch, t
     def refuse(*args, **kwargs):
         raise PermissionError(errno.EROFS, "Read-only file system")
 
-    old = tmp_path / "paper.fis"
+    # (the baseline's blocks: the paper controller's rules have no .fis form)
+    old = tmp_path / "baseline_goal.fis"
     old.write_text("an old file")
     monkeypatch.setattr(safe_files.tempfile, "mkstemp", refuse)
-    code, err = run_cli(capsys, "fis", "export", str(old))
-    assert code == 2 and "paper.fis: not written (Read-only file system)" in err
+    code, err = run_cli(
+        capsys, "fis", "export", str(tmp_path), "--controller", "baseline", "--force"
+    )
+    assert code == 2 and "baseline_goal.fis: not written (Read-only file system)" in err
     assert old.read_text() == "an old file"
-    code, err = run_cli(capsys, "fis", "export", "/proc/no-such-dir/x.fis")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["baseline_goal.fis"]
+    code, err = run_cli(
+        capsys, "fis", "export", "/proc/no-such-dir/blocks", "--controller", "baseline"
+    )
     assert code == 2 and "error" in err
 
 
@@ -105,13 +111,15 @@ def test_fis_export_on_a_full_disk_keeps_the_old_file(capsys, monkeypatch, tmp_p
     def full(tmp, path):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    old = tmp_path / "paper.fis"
+    old = tmp_path / "baseline_goal.fis"  # (the paper controller's rules: no .fis form)
     old.write_text("an old file")
     monkeypatch.setattr(safe_files, "commit", full)
-    code, err = run_cli(capsys, "fis", "export", str(old))
+    code, err = run_cli(
+        capsys, "fis", "export", str(tmp_path), "--controller", "baseline", "--force"
+    )
     assert code == 2 and "No space left on device" in err
     assert old.read_text() == "an old file"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["paper.fis"]  # no temporaries
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["baseline_goal.fis"]  # no temporaries
 
 
 def test_figures_on_a_full_disk_are_a_clear_error_and_the_recording_is_kept(

@@ -109,17 +109,22 @@ def test_fis_export_default_name_never_replaces_a_file(capsys, tmp_path, monkeyp
     code, err = run_cli(capsys, "fis", "export")
     assert code == 2 and "paper.fis: exists already" in err and "--force" in err
     assert (tmp_path / "paper.fis").read_text() == "my own tuning\n"
-    assert main(["fis", "export", "--force"]) == 0  # asked: replaced
-    assert (tmp_path / "paper.fis").read_text().startswith("[System]")
-    # a path the user gives is asked for
-    assert main(["fis", "export", "paper.fis"]) == 0
+    # asked, or a name given: the paper controller's rules read NONE as the text does,
+    # which has no .fis form; nothing written
+    for argv in (["--force"], ["paper.fis"]):
+        code, err = run_cli(capsys, "fis", "export", *argv)
+        assert code == 2 and "paper.fis: not written" in err and "a .fis cannot say" in err
+        assert (tmp_path / "paper.fis").read_text() == "my own tuning\n"
     # several blocks: the default folder's files, all checked before one is written
     (tmp_path / "fuzzynav_fis").mkdir()
     (tmp_path / "fuzzynav_fis" / "fuzzynav_avoid.fis").write_text("mine\n")
     capsys.readouterr()
     code, err = run_cli(capsys, "fis", "export", "--controller", "fuzzynav")
-    assert code == 2 and "exists already" in err
+    assert code == 2 and "exists already" in err and "--force" in err
     assert sorted(p.name for p in (tmp_path / "fuzzynav_fis").iterdir()) == ["fuzzynav_avoid.fis"]
+    assert (tmp_path / "fuzzynav_fis" / "fuzzynav_avoid.fis").read_text() == "mine\n"
+    assert main(["fis", "export", "--controller", "fuzzynav", "--force"]) == 0  # asked
+    assert (tmp_path / "fuzzynav_fis" / "fuzzynav_avoid.fis").read_text().startswith("[System]")
 
 
 @pytest.mark.timeout(120)
@@ -230,19 +235,23 @@ def test_sweep_with_workers_in_a_script_without_main_guard_ends(tmp_path):
 
 def test_a_fis_assigned_to_a_controller_binds_by_name(tmp_path):
     """``c.fis = read_fis(f)`` with the inputs renumbered bound them by position and
-    timed out, where ``simulate(..., fis=f)`` bound by name and reached."""
+    timed out, where ``simulate(..., fis=f)`` bound by name and reached. Both now drive
+    as the system in its own order does."""
     from fuzzynav.controller.fis_controller import reordered
 
     c = fuzzynav.make_controller("paper")
+    system = c.fis.replace(unsensed_none=())  # MATLAB's NONE: a system a .fis can hold
     renumbered = tmp_path / "renumbered.fis"
-    fuzzynav.write_fis(reordered(c.fis, inputs=(2, 0, 3, 1), outputs=(1, 0)), renumbered)
+    fuzzynav.write_fis(reordered(system, inputs=(2, 0, 3, 1), outputs=(1, 0)), renumbered)
     c.fis = fuzzynav.read_fis(renumbered)
     assert [v.name for v in c.fis.inputs] == ["d_t", "d_o", "phi_t", "phi_o"]
     assert [v.name for v in c.fis.outputs] == ["left", "right"]
     assigned = fuzzynav.simulate("s1", controller=c)
     by_option = fuzzynav.simulate("s1", fis=renumbered)
-    assert assigned.outcome == by_option.outcome == "reached"
-    np.testing.assert_array_equal(assigned.trace["x_m"], by_option.trace["x_m"])
+    in_order = fuzzynav.simulate("s1", fis=system)
+    assert assigned.outcome == by_option.outcome == in_order.outcome
+    np.testing.assert_array_equal(assigned.trace["x_m"], in_order.trace["x_m"])
+    np.testing.assert_array_equal(by_option.trace["x_m"], in_order.trace["x_m"])
 
 
 def test_a_fis_that_cannot_drive_is_refused_when_assigned():
@@ -365,8 +374,8 @@ def test_a_scenario_duration_is_checked_when_replaced(value, words):
         load_scenario("s1").replace(duration_s=value)
 
 
-def test_unchanged_paths_still_work(tmp_path, p_run):
+def test_unchanged_paths_still_work(tmp_path, p_run, matlab_twin):
     """The guard refuses what it must and nothing else."""
-    out = fuzzynav.write_fis(fuzzynav.make_controller("paper").fis, tmp_path / "mine.fis")
+    out = fuzzynav.write_fis(matlab_twin, tmp_path / "mine.fis")
     assert Path(out).read_text().startswith("[System]")
     assert fuzzynav.write_fis(fuzzynav.read_fis(out), out) == out  # a path given: replaced

@@ -46,9 +46,13 @@ def test_an_output_that_is_the_runs_scenario_is_refused(capsys, tiny, option):
     assert tiny.read_text() == TINY
 
 
-def test_an_output_that_is_the_runs_fis_is_refused_through_a_link(capsys, tiny, tmp_path):
-    fis = tmp_path / "mine.fis"
-    assert main(["fis", "export", str(fis)]) == 0
+def test_an_output_that_is_the_runs_fis_is_refused_through_a_link(
+    capsys, tiny, tmp_path, matlab_twin
+):
+    from fuzzynav.controller.fis import write_fis
+
+    fis = tmp_path / "mine.fis"  # (the shipped rules read NONE as the text does: no .fis)
+    write_fis(matlab_twin, fis)
     before = fis.read_bytes()
     link = tmp_path / "link.csv"
     link.symlink_to(fis)

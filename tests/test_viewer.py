@@ -256,11 +256,9 @@ def test_an_oversized_upload_is_refused(app):
 
 
 @pytest.mark.skipif(FUZZY is None, reason="no fuzzy controller in this build")
-def test_a_good_fis_upload_drives_and_keeps_the_world(app, tmp_path):
-    from fuzzynav.controller.registry import make_controller
-
-    path = tmp_path / "mine.fis"
-    write_fis(make_controller("paper").fis, path)
+def test_a_good_fis_upload_drives_and_keeps_the_world(app, tmp_path, matlab_twin):
+    path = tmp_path / "mine.fis"  # (the shipped rules read NONE as the text does: no .fis)
+    write_fis(matlab_twin, path)
     app.play()
     assert app.wait_for(lambda a: a.sim.time_s > 0.3, timeout=10)
     app.pause()

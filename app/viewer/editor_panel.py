@@ -176,7 +176,8 @@ class EditorPanel:
                         lo,
                         hi,
                         step=EDITOR_STEP,
-                        initial_value=round(editor.value(name), 2),
+                        # rounded to the step, kept inside the bounds (pi is a bound)
+                        initial_value=min(max(round(editor.value(name), 2), lo), hi),
                         hint=f"{name} in the layout's terms; {lo:g} to {hi:g}",
                     )
                     slider.on_update(
