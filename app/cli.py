@@ -300,14 +300,18 @@ COMMAND_DOCS = {
         "Work with MATLAB Fuzzy Logic Toolbox .fis files (GNU Octave's fuzzy-logic-toolkit "
         "reads them as the same system).",
         [
-            "fuzzynav fis export paper.fis",
+            "fuzzynav fis export baseline_fis/ --controller baseline",
             "fuzzynav fis export fuzzynav_fis/ --controller fuzzynav",
         ],
     ),
     "fis export": (
-        "Write a controller's rule base as MATLAB .fis: one file for paper, one per block "
-        "(goal, avoid) for fuzzynav and baseline.",
-        ["fuzzynav fis export paper.fis", "fuzzynav fis export blocks/ --controller baseline"],
+        "Write a controller's rule base as MATLAB .fis: one per block (goal, avoid) for "
+        "fuzzynav and baseline; the paper's rule bases read Table 1's NONE as the text has "
+        "it, which a .fis cannot say, so they are refused (their TOML files are the rule base).",
+        [
+            "fuzzynav fis export blocks/ --controller baseline",
+            "fuzzynav fis export nav/ --controller fuzzynav",
+        ],
     ),
     "tune": (
         "Tune a controller's membership functions by differential evolution (or a local "

@@ -1,9 +1,11 @@
 """``fuzzynav fis export PATH``: a controller's fuzzy rule base as MATLAB ``.fis`` files.
 
-The paper controller is one fuzzy system: one file, inputs in the order d_t, d_o, phi_t,
+A paper controller is one fuzzy system: one file, inputs in the order d_t, d_o, phi_t,
 phi_o, outputs left then right, the paper's labels (VS S M L VL; near medium far; VN N Z
-P VP). ``fuzzynav run s1 --fis PATH`` drives the robot with such a file (or one of your
-own). fuzzynav and the baseline are two blocks each (goal seeking and avoidance) joined by
+P VP); the shipped paper rule bases read Table 1's NONE as the text has it, which a
+``.fis`` cannot say, so exporting them is refused with a sentence (exit 2) and their TOML
+files are the rule base. ``fuzzynav run s1 --fis PATH`` drives the robot with a ``.fis``
+of your own. fuzzynav and the baseline are two blocks each (goal seeking and avoidance) joined by
 crisp code: PATH is then a directory, given one ``<controller>_<block>.fis`` per block
 (fuzzynav's crisp parameters, which no ``.fis`` holds, are in its shipped
 ``fuzzynav_params.toml``). Without PATH: ``paper.fis``, or ``<controller>_fis/``, in the

@@ -16,6 +16,7 @@ worker processes, importable by name (a module-level ``def``, not a lambda).
 
 from __future__ import annotations
 
+import functools
 import inspect
 from collections.abc import Callable
 from typing import Any
@@ -132,9 +133,17 @@ def _check_scalar(function: Callable[[np.ndarray], Any]) -> None:
 
 
 def is_controller_function(value: object) -> bool:
-    """A plain function (or other callable that is not a class) of one positional
-    argument with no ``reset``: a controller written as a function, not a factory."""
-    if isinstance(value, type) or not callable(value) or callable(getattr(value, "reset", None)):
+    """A plain function (a ``def``, a lambda, a method, a builtin or a
+    ``functools.partial``) of one positional argument: a controller written as a
+    function, not a factory. An object of a class of one's own is a controller object,
+    held to the protocol (a ``reset`` among it), even where it is callable."""
+    plain = (
+        inspect.isfunction(value)
+        or inspect.ismethod(value)
+        or inspect.isbuiltin(value)
+        or isinstance(value, functools.partial)
+    )
+    if not plain:
         return False
     try:
         parameters = inspect.signature(value).parameters.values()

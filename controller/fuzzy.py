@@ -360,7 +360,7 @@ class FuzzySystem:
         self._rule_terms = []
         for o in range(n_out):
             rs = [r_i for r_i, r in enumerate(self.rules) if r.consequent[o] is not None]
-            ks = [self.rules[r_i].consequent[o] for r_i in rs]
+            ks = [k for k in (r.consequent[o] for r in self.rules) if k is not None]
             self._rule_terms.append((rs, np.ascontiguousarray(self._mfg[o, ks, :, None])))
 
     # ------------------------------------------------------------------ one row

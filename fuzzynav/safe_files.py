@@ -108,7 +108,7 @@ class OutputScope:
         self.overwrite = overwrite
         self.remedy = remedy
         self._written: set[Path] = set()
-        self._tokens: list[contextvars.Token] = []
+        self._tokens: list[contextvars.Token[OutputScope | None]] = []
 
     def check(self, paths: Iterable[StrPath]) -> None:
         """ValueError naming the first of ``paths`` that exists and was not written in
@@ -135,7 +135,7 @@ class OutputScope:
         self._tokens.append(_ACTIVE_SCOPE.set(self))
         return self
 
-    def __exit__(self, *exc_info) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         _ACTIVE_SCOPE.reset(self._tokens.pop())
 
 

@@ -200,7 +200,7 @@ def _run(
     from fuzzynav.app.experiments.rows import row_key
     from fuzzynav.app.experiments.studies import run_jobs
 
-    finished: dict[tuple, dict] = {}
+    finished: dict[tuple[object, ...], dict[str, object]] = {}
     try:
         with (
             _study_runner(executor, workers, scheduler, out, resume, jobs) as (runner, log),
@@ -266,7 +266,7 @@ def summarize(rows: Sequence[SweepRow], *, show: bool = True) -> dict[str, objec
             f"rows of {len(studies)} studies ({', '.join(map(str, sorted(studies, key=str)))}): "
             "summarize each study's rows apart"
         )
-    out = summarize_rows(cast(list[dict], rows))
+    out = summarize_rows(cast(list[dict[str, object]], rows))
     out.pop("runs")
     out.pop("wall_time_s")
     if show:

@@ -16,8 +16,8 @@ from test_viewer_browser import browser, open_tab, page, served, shared, step  #
 
 from fuzzynav.app.viewer.editor import PaperEditor
 from fuzzynav.app.viewer.model import ViewerApp, ViewerError
-from fuzzynav.controller.fis import loads_fis
 from fuzzynav.controller.inference import Inference
+from fuzzynav.controller.rulebase import loads_toml
 
 
 def test_the_editor_keeps_its_choices_through_slider_moves_and_resets():
@@ -30,8 +30,12 @@ def test_the_editor_keeps_its_choices_through_slider_moves_and_resets():
     lo, hi = editor.bounds[name]
     moved = editor.set(name, (lo + hi) / 2)
     assert moved.fis.inference.agg_method == "probor"
-    assert "AggMethod='probor'" in editor.fis_text()
-    assert loads_fis(editor.fis_text()).inference.agg_method == "probor"
+    # the downloaded rule base carries it (its rules read NONE as the text does: a .fis
+    # cannot say that, and its TOML is the download)
+    assert 'aggregation = "probor"' in editor.toml_text()
+    assert loads_toml(editor.toml_text()).inference.agg_method == "probor"
+    with pytest.raises(ValueError, match="a .fis cannot say"):
+        editor.fis_text()
     with pytest.raises(ValueError, match="must be one of"):
         editor.set_choice("defuzz_method", "median")
     assert editor.reset().fis.inference == Inference()
@@ -52,7 +56,9 @@ def test_the_viewer_drives_with_a_choice_at_once_and_refuses_an_unknown_one():
     assert not np.allclose(app.controller.last_output, before)
     with pytest.raises(ViewerError, match="imp_method = 'max'"):
         app.set_inference_choice("imp_method", "max")
-    assert "DefuzzMethod='lom'" in app.edited_fis_text()
+    assert loads_toml(app.editor().toml_text()).inference.defuzz_method == "lom"
+    with pytest.raises(ViewerError, match=r"Download \.fis: .*a \.fis cannot say.*Download \.toml"):
+        app.edited_fis_text()  # the download's sentence, in the page
 
 
 @pytest.mark.browser
@@ -98,13 +104,16 @@ def test_editor_choices_change_the_inference_view_and_the_downloaded_fis(served,
     for value in after:
         assert f"{value:.2f}" in text
 
-    # the downloaded .fis carries the choices and reads back to the driving system
+    # the downloaded rule base carries the choices and reads back to the driving system;
+    # its rules read NONE as the text does, which a .fis cannot say: the page says so
     open_tab(page, "Editor")
+    page.get_by_role("button", name="Download .fis").click()
+    page.get_by_text("a .fis cannot say").first.wait_for(timeout=10_000)
     with page.expect_download(timeout=15_000) as download:
-        page.get_by_role("button", name="Download .fis").click()
+        page.get_by_role("button", name="Download .toml").click()
     text = Path(download.value.path()).read_text()
-    assert "ImpMethod='prod'" in text and "DefuzzMethod='mom'" in text
-    back = loads_fis(text)
+    assert 'implication = "prod"' in text and 'defuzzification = "mom"' in text
+    back = loads_toml(text)
     assert back == app.controller.inner.fis
     x = app.controller.last_inputs
     assert np.array_equal(back.evaluate_one(x), app.controller.inner.fis.evaluate_one(x))

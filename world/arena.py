@@ -188,9 +188,9 @@ class Arena:
         self._scene_ids: list[int] = []
         self._scene_radii: list[float] = []
         self._static_xy: tuple[list, list] | None = None
-        # Moving obstacles: (index in the scene, obstacle, Chipmunk body or None), and
+        # Moving obstacles: (index in the scene, obstacle, Chipmunk body), and
         # (time, their centres then) from the last step, which the next one reuses.
-        self._moving: list[tuple[int, Obstacle, object]] = []
+        self._moving: list[tuple[int, Obstacle, pymunk.Body]] = []
         self._moving_xy: tuple[float, list] | None = None
         self._any_moving = False
         self.min_clearance_m = math.inf  # the true minimum over every step (swept)

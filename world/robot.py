@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TypeGuard
 
 from fuzzynav.resources import InputError, loads_user_toml, read_user_text, shown
 from fuzzynav.world.husky_params import DEFAULT_PARAMETER_FILE, HuskyParameters
@@ -301,7 +302,7 @@ class RobotDescription:
         )
 
 
-def _is_number(value) -> bool:
+def _is_number(value: object) -> TypeGuard[float]:
     return not isinstance(value, bool) and isinstance(value, (int, float))
 
 

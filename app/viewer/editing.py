@@ -370,8 +370,18 @@ class ScenarioEditing:
         self.app.setup._install_controller(controller, editor.label)
 
     def edited_fis_text(self) -> str:
-        """The edited system as a MATLAB .fis file (text)."""
-        return self.editor().fis_text()
+        """The edited system as a MATLAB .fis file (text). ViewerError when its rules
+        read NONE as the paper's text does, which a .fis cannot say (its TOML holds it)."""
+        editor = self.editor()
+        unsensed = editor.build().fis.unsensed_none
+        if unsensed:
+            raise ViewerError(
+                f"Download .fis: {editor.label}'s rules read NONE for {', '.join(unsensed)} "
+                "as 'sensed nothing' (the paper's text), which a .fis cannot say (MATLAB "
+                "reads NONE as 'takes no part', and would drive otherwise): Download .toml "
+                "saves the rule base whole"
+            )
+        return editor.fis_text()
 
     def move_target(self, xy) -> None:
         app = self.app

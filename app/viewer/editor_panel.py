@@ -318,7 +318,7 @@ class EditorPanel:
             )
             return
         if event.value == "Download .fis":
-            text = editor.fis_text()
+            text = self.app.edited_fis_text()  # a sentence if a .fis cannot hold it
             event.client.send_file_download(
                 f"{editor.file_stem}.fis", text.encode("utf-8"), save_immediately=True
             )
