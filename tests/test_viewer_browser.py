@@ -1259,9 +1259,9 @@ def test_the_inputs_are_drawn_on_the_robot_in_the_term_plots_colours(served, pag
 
     app = served.app
     app.set_controller("paper")
-    for _ in range(800):  # until obstacle 1 is sensed
+    for _ in range(4000):  # until obstacle 1 is sensed (in s1's 60-degree cone) as drawn
         app.step_once()
-        if np.isfinite(app.controller.last_inputs[1]):
+        if np.all(np.isfinite(app.snapshot().inputs)):
             break
     snap = app.snapshot()
     d_t, d_o, phi_t, phi_o = snap.inputs
