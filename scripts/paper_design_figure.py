@@ -82,7 +82,9 @@ def main() -> None:
         ax.grid(True, lw=0.3, alpha=0.6)
         ax.legend(fontsize=7, loc="center right")
     fig.suptitle(
-        f"Paper controller ({args.rules.name}), drawn from 12 numbers (controller/paper_design.py)",
+        f"Paper controller ({args.rules.name}): membership functions fitted by fuzzynav, not "
+        "the paper's (its Figs. 6-11 are not in the text); drawn from 12 numbers "
+        "(controller/paper_design.py)",
         fontsize=11,
     )
     fig.tight_layout()
