@@ -83,7 +83,7 @@ def main() -> None:
         ax.legend(fontsize=7, loc="center right")
     fig.suptitle(
         f"Paper controller ({args.rules.name}): membership functions fitted by fuzzynav, not "
-        "the paper's (its Figs. 6-11 are not in the text); drawn from 12 numbers "
+        "the paper's\n(its Figs. 6-11 are not in the text); drawn from 12 numbers "
         "(controller/paper_design.py)",
         fontsize=11,
     )
