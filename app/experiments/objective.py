@@ -47,6 +47,16 @@ SAFE_CLEARANCE_M = 0.25
 CLEARANCE_MARGIN_M = 0.05
 
 
+def full_vector(vector, base, free) -> np.ndarray:
+    """A tunable's whole vector from a search over a subset of it: ``base`` with
+    ``base[free]`` replaced by ``vector`` (``vector`` itself when ``free`` is None)."""
+    if free is None:
+        return np.asarray(vector, float)
+    x = np.asarray(base, float).copy()
+    x[free] = np.asarray(vector, float)
+    return x
+
+
 @dataclass(frozen=True)
 class Case:
     """One run of the cost: a scenario (name or Scenario) in one perception mode."""
@@ -229,11 +239,7 @@ class Objective:
 
     def full(self, vector) -> np.ndarray:
         """The tunable's whole vector for an argument of this objective."""
-        if self.free is None:
-            return np.asarray(vector, float)
-        x = self.base.copy()
-        x[self.free] = np.asarray(vector, float)
-        return x
+        return full_vector(vector, self.base, self.free)
 
     def runs(self, vector) -> list:
         return self._runs(self.tunable.build(self.full(vector)))

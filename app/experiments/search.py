@@ -34,6 +34,7 @@ from fuzzynav.app.experiments.objective import (
     STALL_S,
     Case,
     Objective,
+    full_vector,
     outcome_cost,
 )
 
@@ -194,11 +195,7 @@ class _ControllerCost:
 
     def full(self, vector) -> np.ndarray:
         """The tunable's whole vector for an argument of this cost."""
-        if self.free is None:
-            return np.asarray(vector, float)
-        x = self.base.copy()
-        x[self.free] = np.asarray(vector, float)
-        return x
+        return full_vector(vector, self.base, self.free)
 
     def __call__(self, vector) -> float:
         return float(self.cost(self.tunable.build(self.full(vector))))
