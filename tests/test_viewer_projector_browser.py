@@ -94,7 +94,8 @@ def test_presentation_mode_at_1280_reads_from_the_back_and_the_arena_is_largest(
     for _ in range(300):
         app.step_once()
     page.get_by_text("View", exact=True).click()
-    page.get_by_role("checkbox", name="Presentation mode").check()
+    # a click, not check(): the box's state comes back from the server, later under load
+    page.get_by_role("checkbox", name="Presentation mode").click()
     try:
         page.wait_for_function(
             "() => !!document.querySelector('style') && [...document.querySelectorAll('style')]"
