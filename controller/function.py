@@ -143,7 +143,7 @@ def is_controller_function(value: object) -> bool:
         or inspect.isbuiltin(value)
         or isinstance(value, functools.partial)
     )
-    if not plain:
+    if not plain or not callable(value):
         return False
     try:
         parameters = inspect.signature(value).parameters.values()
