@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 import fuzzynav
 from fuzzynav.controller.interface import Controller, FuzzyController
@@ -17,7 +18,7 @@ class Mine:
     def reset(self) -> None:
         pass
 
-    def __call__(self, inputs: np.ndarray) -> tuple[float, float]:
+    def __call__(self, inputs: npt.NDArray[np.float64]) -> tuple[float, float]:
         d_t, d_o, phi_t, phi_o = inputs
         turn = 4.0 * phi_t if math.isnan(d_o) else 4.0 * (phi_t - phi_o)
         return 5.0 - turn, 5.0 + turn
