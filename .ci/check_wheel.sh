@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Build the wheel, install it into a fresh venv outside the checkout and use it from an
-# empty folder as a new user would: --version, run s1 --json, fis export, serve (HTTP 200),
+# empty folder as a new user would: --version, run s1 --json, fis export (the baseline's
+# blocks; the paper's refused), serve (HTTP 200),
 # then `pip install world` (an unrelated package of that name) and all of it again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -81,8 +82,11 @@ import fuzzynav
 v = package_versions()
 assert v['fuzzynav'] == fuzzynav.__version__ and 'git' not in v, v
 "
-    "$fz" fis export
-    test -s paper.fis
+    # the paper's rule bases read the text's NONE, which a .fis cannot say: refused, exit 2
+    if "$fz" fis export 2>fis.err; then echo "fis export of the paper controller passed"; exit 1; fi
+    grep -q "a .fis cannot say" fis.err || { cat fis.err; exit 1; }
+    "$fz" fis export blocks --controller baseline
+    test -s blocks/baseline_goal.fis
     "$fz" run s1 --controller p --rrd s1.rrd >/dev/null 2>&1
     test -s s1.rrd
     port=$("$work/venv/bin/python" -c "import socket; s=socket.socket(); s.bind(('127.0.0.1', 0)); print(s.getsockname()[1])")
@@ -101,7 +105,7 @@ assert v['fuzzynav'] == fuzzynav.__version__ and 'git' not in v, v
         ! -name '*.pyc' | grep -q .; then
         echo "something wrote into the installed package:"; exit 1
     fi
-    rm -f run.json paper.fis s1.rrd serve.log
+    rm -rf run.json fis.err blocks s1.rrd serve.log
 }
 
 use_it
