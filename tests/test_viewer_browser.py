@@ -6,6 +6,7 @@ CI installs it, so there a missing browser is a failure, not a skip.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import math
 import os
@@ -140,6 +141,26 @@ def open_page(browser, url):
     )
     page.wait_for_timeout(500)
     return page
+
+
+@contextlib.contextmanager
+def served_page(browser, console_kinds=("error",)):
+    """A viewer on s1 with the paper controller, a page open on it, and the page's
+    console messages of ``console_kinds`` and its uncaught errors, as (server, page,
+    messages); closed after."""
+    from fuzzynav.app.viewer.model import ViewerApp
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    server = ViewerServer(ViewerApp("s1", "paper"), port=0)
+    page = open_page(browser, server.url)
+    messages: list[str] = []
+    page.on("console", lambda m: messages.append(m.text) if m.type in console_kinds else None)
+    page.on("pageerror", lambda e: messages.append(str(e)))
+    try:
+        yield server, page, messages
+    finally:
+        page.context.close()
+        server.stop()
 
 
 def canvas_pixels(page) -> np.ndarray:

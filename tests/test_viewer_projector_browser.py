@@ -10,11 +10,10 @@ from test_viewer_browser import (  # noqa: F401  (browser: a fixture)
     browser,
     drag_node,
     obstacle_node,
-    open_page,
     open_tab,
+    served_page,
 )
 
-from fuzzynav.app.viewer.model import ViewerApp
 from fuzzynav.controller.registry import controller_names
 
 pytestmark = [
@@ -69,17 +68,8 @@ JS_AREAS = """
 
 @pytest.fixture(scope="module")
 def projector(browser):  # noqa: F811
-    from fuzzynav.app.viewer.server import ViewerServer
-
-    app = ViewerApp("s1", "paper")
-    server = ViewerServer(app, port=0)
-    page = open_page(browser, server.url)
-    errors: list[str] = []
-    page.on("console", lambda m: errors.append(m.text) if m.type in ("error", "warning") else None)
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    yield server, page, errors
-    page.context.close()
-    server.stop()
+    with served_page(browser, ("error", "warning")) as served:
+        yield served
 
 
 def test_presentation_mode_at_1280_reads_from_the_back_and_the_arena_is_largest(projector):

@@ -6,10 +6,9 @@ tests/test_viewer_browser.py's."""
 from __future__ import annotations
 
 import pytest
-from test_viewer_browser import browser, open_page, open_tab  # noqa: F401  (a fixture)
+from test_viewer_browser import browser, open_tab, served_page  # noqa: F401  (a fixture)
 
 from fuzzynav.app.viewer import compat_viser
-from fuzzynav.app.viewer.model import ViewerApp
 from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL, STARTER_LABEL
 from fuzzynav.controller.registry import controller_names
 
@@ -22,17 +21,8 @@ pytestmark = [
 
 @pytest.fixture(scope="module")
 def starter(browser):  # noqa: F811
-    from fuzzynav.app.viewer.server import ViewerServer
-
-    app = ViewerApp("s1", "paper")
-    server = ViewerServer(app, port=0)
-    page = open_page(browser, server.url)
-    errors: list[str] = []
-    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    yield server, page, errors
-    page.context.close()
-    server.stop()
+    with served_page(browser) as served:
+        yield served
 
 
 def box_of(page, handle):
