@@ -28,6 +28,11 @@ docs/paper-controller.md ("What binds").
     .venv/bin/python scripts/paper_binds.py --only 9   (one experiment again, by index)
     .venv/bin/python scripts/paper_binds.py --twin   (the Husky twin's, about 15 minutes)
     .venv/bin/python scripts/paper_binds.py --twin-mad   (s1's MAD alone, about 25 minutes)
+
+History: this script made data for docs/paper-controller.md's history section (the rule
+bases shipped until 2026-12-06). The layout's angle numbers, the done bounds and
+``paper_readings.py``'s readings have changed since, so it reproduces those data only
+from the commit that made them (git log of the data file); it is kept for that.
 """
 
 from __future__ import annotations

@@ -1,5 +1,4 @@
-"""Does the paper's controller generalise? Held-out layouts, reported, never tuned to
-(issue 35, item 5).
+"""Does the paper's controller generalise? Held-out layouts, reported, never tuned to.
 
 Both shipped rule bases of the paper's controller on ``--n`` layouts of the standard
 family, seed ``--seed`` (5: held out, never used by any fit): ``paper.toml`` in the

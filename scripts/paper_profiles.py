@@ -1,5 +1,5 @@
 """What the paper's results pin down: each design number of the shipped paper rule base
-moved by -10 % and +10 %, the others fixed (issue 35, item 6).
+moved by -10 % and +10 %, the others fixed.
 
 For each move, s1-s3 run in the paper's geometry at the loop's 0.02 s (the batch engine,
 whose runs equal pymunk's) and are held to the done bounds

@@ -18,6 +18,11 @@ smaller fit cost), applied to the stage-2 results.
 
     .venv/bin/python scripts/paper_readings_count.py \\
         --json docs/data/paper_readings_count.json [--only 0,2] [--workers 2]
+
+History: this script made data for docs/paper-controller.md's history section (the rule
+bases shipped until 2026-12-06). The layout's angle numbers, the done bounds and
+``paper_readings.py``'s readings have changed since, so it reproduces those data only
+from the commit that made them (git log of the data file); it is kept for that.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""docs/paper-controller.md cannot drift (issue 35): its generated blocks are what
+"""docs/paper-controller.md cannot drift: its generated blocks are what
 ``scripts/paper_check.py`` renders from docs/data/*.json, and the data are what the
 shipped rule bases do today; the viewer names the rule base that drives."""
 

@@ -302,7 +302,7 @@ def test_paper_geometry_passes_the_obstacles_when_and_where_the_paper_says(trace
 
 @pytest.mark.parametrize("scenario", ["s1", "s2", "s3"])
 def test_paper_geometry_voltages_jump_at_most_twice(traces, scenario):
-    """Issue 35's 'no chatter': at most 2 steps a run where a wheel's applied voltage
+    """The done bounds' 'no chatter': at most 2 steps a run where a wheel's applied voltage
     jumps by more than 2 V, from the trace, counted as Table 4's ``voltage_jumps`` and
     the docs' bound count them (world.metrics: a step whose time is in s3's 25-35 s
     disturbance is not counted; the jump as it switches off, just after, is)."""
@@ -353,7 +353,7 @@ def test_paper_geometry_s3_disturbance_shows(traces):
 
 def test_paper_geometry_s1_comes_at_its_obstacles_from_the_right(traces):
     """The paper's s1 passes its obstacles coming from the right of the start-target
-    line (issue 35): the path goes at least 0.1 m right of it (from the trace)."""
+    line: the path goes at least 0.1 m right of it (from the trace)."""
     sc = load_scenario("s1")
     t = traces["s1"]
     line = np.subtract(sc.target, sc.start)
