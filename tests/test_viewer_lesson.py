@@ -668,3 +668,33 @@ def test_a_teachers_note_is_saved_with_the_lesson_and_shown_when_it_opens():
     long = text.replace('"note": "Watch', '"note": "' + "x" * MAX_NOTE_CHARS + "Watch")
     with pytest.raises(ViewerError, match="long.json: note"):
         other.open_lesson(long, "long.json")
+
+
+def test_a_rule_edit_made_while_an_earlier_one_builds_is_driven_after_it(monkeypatch):
+    """The page's rule edits are built off its thread: an edit made while an earlier
+    build is under way (forced here: the first build waits after taking its copy of the
+    rules) is not lost; the robot ends driving with both, and the editor counts both."""
+    import threading
+
+    from fuzzynav.controller import fis_controller
+
+    app = ViewerApp("s1", "paper")
+    first = app.editor().rule_count()
+    started, release = threading.Event(), threading.Event()
+    original = fis_controller.FisController
+
+    class Held(original):
+        def __init__(self, *args, **kwargs):
+            if not started.is_set():
+                started.set()
+                assert release.wait(30)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(fis_controller, "FisController", Held)
+    rule = "if d_t is VS and phi_t is Z then left is VS and right is VS"
+    app.edit_rules("add", None, rule, wait=False)
+    assert started.wait(30)  # the first build holds its copy of one added rule
+    app.edit_rules("add", None, rule.replace("is Z", "is P"), wait=False)
+    release.set()
+    assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == first + 2, timeout=30)
+    assert app.editor().rule_count() == first + 2
