@@ -24,17 +24,14 @@ import numpy as np  # noqa: E402
 from fuzzynav.app.experiments.paper_fit import measure  # noqa: E402
 from fuzzynav.app.published import SCENARIOS, paper_results  # noqa: E402
 from fuzzynav.app.runs import run_scenario  # noqa: E402
+from fuzzynav.world.kernels import law_centre, obstacle_law  # noqa: E402
 
 OURS, PAPERS = "tab:blue", "tab:red"
 
 
 def obstacle_centre(obstacle, t: float) -> np.ndarray:
     """Where ``obstacle`` is at ``t`` s (its law, Eqs. 13-14)."""
-    return (
-        np.asarray(obstacle.position, float)
-        + np.asarray(obstacle.velocity, float) * t
-        + 0.5 * np.asarray(obstacle.acceleration, float) * t * t
-    )
+    return np.array(law_centre(obstacle_law(obstacle), t))
 
 
 def draw(rules: str, out: Path) -> None:

@@ -525,15 +525,19 @@ def fit_measures(
     return out
 
 
-def largest_right_offset(scenario, poses) -> float:
-    """How far right of the start-target line the robot's centre went (m, 0 if never):
-    the paper's s1 comes at its obstacles from the right of that line."""
+def line_offsets(scenario, poses) -> np.ndarray:
+    """The robot's centre's signed distance from the start-target line at every pose
+    (m; negative: right of the line, looking along it)."""
     start = np.asarray(scenario.start, dtype=float)
     line = np.asarray(scenario.target, dtype=float) - start
     xy = np.asarray(poses, dtype=float)[:, :2] - start
-    # the cross product's sign: negative = right of the line, looking along it
-    side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
-    return float(max(0.0, -side.min()))
+    return (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
+
+
+def largest_right_offset(scenario, poses) -> float:
+    """How far right of the start-target line the robot's centre went (m, 0 if never):
+    the paper's s1 comes at its obstacles from the right of that line."""
+    return float(max(0.0, -line_offsets(scenario, poses).min()))
 
 
 #: "The last 2 m" of a run: how near the target its approach speed is measured (m).
@@ -559,32 +563,24 @@ def approach_speed_ratio(poses, time_s, target, within_m: float = APPROACH_M) ->
 
 def largest_line_offset(scenario, poses) -> float:
     """How far from the start-target line the robot's centre went, either side (m)."""
-    start = np.asarray(scenario.start, dtype=float)
-    line = np.asarray(scenario.target, dtype=float) - start
-    xy = np.asarray(poses, dtype=float)[:, :2] - start
-    side = (line[0] * xy[:, 1] - line[1] * xy[:, 0]) / float(np.hypot(*line))
-    return float(np.abs(side).max())
+    return float(np.abs(line_offsets(scenario, poses)).max())
 
 
 def pass_clearances(scenario, poses, time_s) -> list[float]:
     """Per obstacle, the least clearance from the robot's footprint to its surface over
     the logged poses (m): how close each pass came. Each obstacle moves by its law."""
     from fuzzynav.world.geometry import rectangle_clearances
+    from fuzzynav.world.kernels import law_centre, obstacle_law
     from fuzzynav.world.robot import HUSKY
 
     pose = np.asarray(poses, dtype=float)
-    t = np.asarray(time_s, dtype=float)[:, None]
+    t = np.asarray(time_s, dtype=float)
     length, width = HUSKY.footprint_m
     out = []
     for obstacle in scenario.obstacles:
-        centre = (
-            np.asarray(obstacle.position, dtype=float)
-            + np.asarray(obstacle.velocity, dtype=float) * t
-            + 0.5 * np.asarray(obstacle.acceleration, dtype=float) * t**2
-        )
+        cx, cy = law_centre(obstacle_law(obstacle), t)
         clearance = rectangle_clearances(
-            np.cos(pose[:, 2]), np.sin(pose[:, 2]),
-            centre[:, 0] - pose[:, 0], centre[:, 1] - pose[:, 1],
+            np.cos(pose[:, 2]), np.sin(pose[:, 2]), cx - pose[:, 0], cy - pose[:, 1],
             obstacle.radius_m, 0.5 * length, 0.5 * width,
         )  # fmt: skip
         out.append(float(np.min(clearance)))
