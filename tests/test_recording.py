@@ -1556,3 +1556,55 @@ def test_the_fuzzy_logic_at_the_cursor_is_replayed(fuzzy_run):
         assert np.array_equal(t, decided)
         heights = np.array([[p[1] for p in s[0]] for s in shapes])
         assert heights.max() > 0.2 and heights.max() <= 1.0 + 1e-6
+
+
+def test_a_recordings_size_counts_what_the_copier_has_not_written_yet():
+    """The viewer's session budget reads a recording's size from what rerun has handed
+    over, not from the file, which the copier thread fills later (a busy machine)."""
+    import threading
+    import time
+
+    from fuzzynav.app.recordings.files import SinkPipe
+
+    release = threading.Event()
+    written = []
+
+    def slow_write(chunks):
+        for chunk in chunks:
+            written.append(len(chunk))
+            release.wait(30)
+
+    pipe = SinkPipe(slow_write)
+    fd = os.open(pipe.name, os.O_WRONLY)
+    try:
+        os.write(fd, b"x" * 100)
+        deadline = time.monotonic() + 10
+        while not written and time.monotonic() < deadline:
+            time.sleep(0.01)
+        os.write(fd, b"y" * 200)  # waits in the pipe: the copier is still writing
+        assert written == [100]
+        assert pipe.bytes_received() == 300
+    finally:
+        os.close(fd)
+        release.set()
+        assert pipe.close() is None
+    assert sum(written) == 300
+
+
+def test_a_live_recordings_size_is_every_row_sent(tmp_path):
+    """bytes_written flushes rerun first: the file, once closed, is no smaller than the
+    size the budget read, and the size grows as rows are sent."""
+    sim = build_simulation("s1", "p")
+    recorder = LiveRecorder(tmp_path / "live.rrd", min_interval_s=0.0)
+    assert recorder.bytes_written() == 0
+    sim.step()
+    recorder.update(sim, force=True)
+    first = recorder.bytes_written()
+    assert first > 0
+    for _ in range(100):
+        sim.step()
+    recorder.update(sim, force=True)
+    second = recorder.bytes_written()
+    assert second > first
+    recorder.close(sim)
+    assert (tmp_path / "live.rrd").stat().st_size >= second

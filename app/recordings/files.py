@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -48,12 +49,14 @@ class _Copier(threading.Thread):
         self.read_fd = read_fd
         self.write = write  # write(chunks): writes an iterable of bytes, or raises
         self.error: BaseException | None = None
+        self.bytes_read = 0
 
     def _chunks(self):
         while True:
             data = os.read(self.read_fd, COPY_BYTES)
             if not data:
                 return
+            self.bytes_read += len(data)
             yield data
 
     def run(self) -> None:
@@ -93,6 +96,19 @@ class SinkPipe:
     def error(self) -> BaseException | None:
         """The copier's first failure (a full disk), or None."""
         return self._copier.error
+
+    def bytes_received(self) -> int:
+        """Bytes rerun has written into the pipe so far: those the copier has read and
+        those still waiting in the pipe."""
+        waiting = 0
+        with contextlib.suppress(ImportError, OSError):  # (no FIONREAD, or the pipe ended)
+            import fcntl
+            import termios
+
+            buffer = bytearray(4)
+            fcntl.ioctl(self._copier.read_fd, termios.FIONREAD, buffer)
+            waiting = int.from_bytes(buffer, sys.byteorder)
+        return self._copier.bytes_read + waiting
 
     def close(self) -> BaseException | None:
         """Close this end, wait for the copier to write the rest; its error, or None."""

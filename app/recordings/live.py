@@ -20,6 +20,9 @@ from .internals import controller_fis, rule_system
 from .plot_events import send_plot_events
 from .scene import static_world
 
+#: The longest :meth:`LiveRecorder.bytes_written` waits for rerun to flush.
+FLUSH_TIMEOUT_S = 2.0
+
 
 class LiveRecorder:
     """Append a running simulation to a recording, a chunk of steps at a time.
@@ -193,6 +196,18 @@ class LiveRecorder:
             extra_metadata=extra,
             geometry=sim.geometry,
         )
+
+    def bytes_written(self) -> int:
+        """Bytes of the file so far: rerun's pipeline flushed first (at most
+        ``FLUSH_TIMEOUT_S``), so every row sent counts. 0 for a stream the caller
+        opened, or before the first update."""
+        if self._pipe is None or self._rec is None or self.closed:
+            return 0
+        try:
+            self._rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+        except Exception:  # noqa: BLE001 - a slow or failed sink: count what arrived
+            pass
+        return self._pipe.bytes_received()
 
     def update(self, sim, *, force: bool = False) -> int:
         """Send the rows logged since the last chunk if ``chunk_steps`` of them wait and

@@ -188,11 +188,8 @@ class RunDriver:
         if now - self._size_checked < 1.0:
             return 0
         self._size_checked = now
-        tmp = getattr(self.app._recorder, "_tmp", None)
-        try:
-            return os.stat(tmp).st_size if tmp is not None else 0
-        except OSError:
-            return 0
+        recorder = self.app._recorder
+        return recorder.bytes_written() if recorder is not None else 0
 
     def _close_recorder_locked(self) -> None:
         app = self.app
