@@ -895,3 +895,31 @@ def test_the_field_of_view_is_drawn_where_ideal_perception_senses(served):
     a.load_scenario("crossing")  # senses all around
     assert a.snapshot().field_of_view_rad == pytest.approx(2 * math.pi)
     wait_for(lambda: not field.visible)
+
+
+def test_a_sentence_being_typed_outlives_the_refresh_after_a_rule_edit():
+    """The Editor's refresh after a rule edit built elsewhere (its thread, another tab)
+    leaves a sentence the user has typed since in the box; with nothing typed, the box
+    follows the rule base."""
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    app = ViewerApp("s1", "paper")
+    server = ViewerServer(app, port=0)
+    try:
+        panel = server.editor
+        panel.sync()
+        rule_1 = app.editor().rule_text(1)
+        assert panel.rule_text.value == rule_1
+        typed = "IF d_t IS VN THEN left IS Z AND right IS Z"
+        panel.rule_text.value = typed  # what a client's typing sets
+        app.edit_rules("set", 2, app.editor().rule_text(2).replace("1.0", "0.5"), wait=True)
+        panel.sync()
+        assert panel.rule_text.value == typed
+        panel._on_rule_number(type("Event", (), {"value": 1})())  # the user moves on
+        assert panel.rule_text.value == rule_1
+        app.edit_rules("set", 2, app.editor().rule_text(2), wait=True)
+        app.edit_rules("remove", 1, "", wait=True)
+        panel.sync()
+        assert panel.rule_text.value == app.editor().rule_text(1) != rule_1
+    finally:
+        server.stop()

@@ -105,6 +105,9 @@ def test_the_first_lesson_with_the_starter_in_every_view(starter):
         assert app.message_level == "info" and app.fuzzy_system().rules == before
         edited = "IF d_t IS far AND phi_t IS Z THEN left IS fast AND right IS slow"
         text_box.fill(edited)
+        assert app.wait_for(lambda a: server.editor.rule_text.value == edited, timeout=10), (
+            server.editor.rule_text.value
+        )
         page.get_by_role("button", name="Apply").click()
         assert app.wait_for(lambda a: a.fuzzy_system().rules[0] != before[0], timeout=10), (
             app.message

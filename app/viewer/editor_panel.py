@@ -238,6 +238,7 @@ class EditorPanel:
                 editor.rule_text(1),
                 hint="if <input> is <term> and ... then <output> is <term> and ... [weight w]",
             )
+            self._written_sentence = editor.rule_text(1)  # the box's text as this panel set it
             self.rule_buttons = gui.add_button_group(
                 "Rule edit", ("Apply", "Add as new", "Remove", "Undo")
             )
@@ -257,7 +258,10 @@ class EditorPanel:
         self.rule_number.on_update(self.view.guarded(self._on_rule_number))
         self.rule_buttons.on_click(self.view.guarded(self._on_rule_button))
 
-    def _show_rule(self, number: int) -> None:
+    def _show_rule(self, number: int, keep_typed: bool = False) -> None:
+        """Show rule ``number`` in the box and the pickers; with ``keep_typed``, a
+        sentence the user has typed since the panel last wrote the box stays (a refresh
+        after an edit built elsewhere must not take away what is being typed)."""
         editor = self.app.editor()
         n = editor.rule_count()
         number = min(max(int(number), 1), n)
@@ -265,7 +269,8 @@ class EditorPanel:
             self.rule_number.max = n
         if self.rule_number.value != number:
             self.rule_number.value = number
-        self.rule_text.value = editor.rule_text(number)
+        if not (keep_typed and self.rule_text.value != self._written_sentence):
+            self._write_sentence(editor.rule_text(number))
         fis = editor.controller().fis
         rule = editor.rule(number)
         picks = list(rule.antecedent) + list(rule.consequent)
@@ -294,7 +299,11 @@ class EditorPanel:
             return " AND ".join(f"{n} IS {t}" for n, t in part if t != NO_TERM)
 
         pairs = list(zip(names, picks))
-        self.rule_text.value = f"IF {clauses(pairs[:n_in])} THEN {clauses(pairs[n_in:])}"
+        self._write_sentence(f"IF {clauses(pairs[:n_in])} THEN {clauses(pairs[n_in:])}")
+
+    def _write_sentence(self, text: str) -> None:
+        self._written_sentence = text
+        self.rule_text.value = text
 
     def _on_rule_number(self, event) -> None:
         self._show_rule(int(event.value))
@@ -347,7 +356,7 @@ class EditorPanel:
         rules_key = (kind, editor.rule_version())
         if rules_key != getattr(self, "_shown_rules", None):  # edited here or elsewhere
             self._shown_rules = rules_key
-            self._show_rule(int(self.rule_number.value))
+            self._show_rule(int(self.rule_number.value), keep_typed=True)
         if self.sections:
             self._draw_term_plots()
             self._draw_inputs_now(editor)
