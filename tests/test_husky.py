@@ -438,3 +438,51 @@ def test_energy_decays_with_zero_input(model: HuskyModel) -> None:
         energy.append(0.5 * x @ storage @ x)
     assert np.all(np.diff(energy) < 0)
     assert math.isclose(energy[-1], 0.0, abs_tol=1e-3 * energy[0])
+
+
+@pytest.mark.parametrize(
+    "dt_s, tolerance", [(1e-4, 1e-13), (0.02, 1e-13), (0.05, 1e-13), (1.0, 1e-11)]
+)
+def test_the_matrix_exponential_is_scipys(dt_s, tolerance):
+    """The ZOH's matrix exponential (numpy alone, so that a first run does not load
+    scipy.linalg) agrees with scipy.linalg.expm on the plant's augmented matrix to 1e-13
+    of its largest entry at the steps runs take (up to 0.05 s; at 1 s, twelve squarings,
+    to 1e-11: both methods' rounding grows with the squarings), and on random and zero
+    matrices."""
+    from scipy.linalg import expm
+
+    from fuzzynav.world.husky import assemble_state_space, matrix_exponential
+
+    A, B = assemble_state_space(HuskyParameters.from_toml(DEFAULT_PARAMETER_FILE))
+    n, m = B.shape
+    k = n + m
+    augmented = np.zeros((2 * k, 2 * k))
+    augmented[:n, :n], augmented[:n, n:k], augmented[:k, k:] = A, B, np.eye(k)
+    want = expm(augmented * dt_s)
+    got = matrix_exponential(augmented * dt_s)
+    assert_allclose(got, want, rtol=0, atol=tolerance * abs(want).max())
+    rng = np.random.default_rng(int(dt_s * 1e4))
+    for scale in (1e-3, 1.0, 30.0):
+        M = rng.normal(size=(5, 5)) * scale
+        want = expm(M)
+        assert_allclose(matrix_exponential(M), want, rtol=0, atol=1e-12 * abs(want).max())
+    assert_allclose(matrix_exponential(np.zeros((3, 3))), np.eye(3), rtol=0, atol=0)
+    with pytest.raises(ValueError, match="NaN"):
+        matrix_exponential(np.full((2, 2), np.nan))
+
+
+def test_a_first_run_does_not_load_scipy():
+    """A run of a shipped scenario needs numpy and pymunk, not scipy (a first call waits
+    for every module it loads)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, fuzzynav; fuzzynav.simulate('s1', 'paper');"
+        "print(sorted({m.split('.')[0] + '.' + m.split('.')[1] for m in sys.modules"
+        " if m.startswith('scipy.')}))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120
+    ).stdout
+    assert out.strip() == "[]", out

@@ -217,3 +217,37 @@ def test_a_disturbance_beyond_reason_is_named(write_toml):
     with pytest.raises(ScenarioError) as info:
         load_scenario(write_toml(VALID + table.format(a=1e300)))
     assert info.value.key == "disturbance.amplitude" and "1e+300" in str(info.value)
+
+
+@pytest.mark.parametrize("count", [2, 5, 64, 65, 300])
+def test_the_first_overlap_is_the_same_found_by_every_pair_or_by_the_tree(count):
+    """first_overlap checks every pair up to ALL_PAIRS_UP_TO obstacles and uses a k-d tree
+    beyond; either way it names the pair the plain double loop finds first (smallest j,
+    then smallest i), touching circles (a gap equal to the radii) not overlapping."""
+    import random
+
+    from fuzzynav.world.scenario import ALL_PAIRS_UP_TO, ObstacleSpec, first_overlap
+
+    assert 5 < ALL_PAIRS_UP_TO < 300
+    rng = random.Random(count)
+    for trial in range(40):
+        spread = rng.choice([2.0, 10.0, 60.0])
+        obstacles = [
+            ObstacleSpec((rng.uniform(0, spread), rng.uniform(0, spread)), rng.uniform(0.1, 0.6))
+            for _ in range(count)
+        ]
+        if trial == 0:  # two that touch exactly: 3-4-5
+            obstacles = [ObstacleSpec((0.0, 0.0), 2.0), ObstacleSpec((3.0, 4.0), 3.0)] + [
+                ObstacleSpec((100.0 + 2 * k, 100.0), 0.5) for k in range(count - 2)
+            ]
+        want = next(
+            (
+                (i, j)
+                for j in range(count)
+                for i in range(j)
+                if math.dist(obstacles[i].position, obstacles[j].position)
+                < obstacles[i].radius_m + obstacles[j].radius_m
+            ),
+            None,
+        )
+        assert first_overlap(obstacles) == want, (count, trial)

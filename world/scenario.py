@@ -386,25 +386,35 @@ def check_layout(scenario: Scenario, footprint_m: tuple[float, float] = DEFAULT_
         )
 
 
+#: Up to this many obstacles :func:`first_overlap` checks every pair: quicker than loading
+#: scipy.spatial for its k-d tree, which a first run would wait for.
+ALL_PAIRS_UP_TO = 64
+
+
 def first_overlap(obstacles) -> tuple[int, int] | None:
     """The first pair ``(i, j)``, ``i < j``, of circles that overlap (centres nearer than
     the sum of the radii), in the order of ``j`` then ``i``; None if none do.
 
-    A k-d tree of the centres gives the candidate pairs (centres within twice the largest
-    radius), so a layout of well-spread obstacles costs O(n log n), not the O(n^2) of
-    every pair; :data:`MAX_OBSTACLES` bounds the worst case.
+    Up to :data:`ALL_PAIRS_UP_TO` obstacles every pair is checked; beyond, a k-d tree of
+    the centres gives the candidate pairs (centres within twice the largest radius), so
+    a layout of well-spread obstacles costs O(n log n), not the O(n^2) of every pair;
+    :data:`MAX_OBSTACLES` bounds the worst case.
     """
     if len(obstacles) < 2:
         return None
     import numpy as np
-    from scipy.spatial import cKDTree
 
     centres = np.array([o.position for o in obstacles], dtype=float)
     radii = np.array([o.radius_m for o in obstacles], dtype=float)
-    pairs = cKDTree(centres).query_pairs(2.0 * float(radii.max()), output_type="ndarray")
-    if not len(pairs):
-        return None
-    i, j = pairs[:, 0], pairs[:, 1]
+    if len(obstacles) <= ALL_PAIRS_UP_TO:
+        i, j = np.triu_indices(len(obstacles), k=1)
+    else:
+        from scipy.spatial import cKDTree
+
+        pairs = cKDTree(centres).query_pairs(2.0 * float(radii.max()), output_type="ndarray")
+        if not len(pairs):
+            return None
+        i, j = pairs[:, 0], pairs[:, 1]
     gap = np.hypot(*(centres[i] - centres[j]).T)
     hit = gap < radii[i] + radii[j]
     if not hit.any():
