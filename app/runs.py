@@ -9,6 +9,7 @@ from pathlib import Path
 
 from fuzzynav.controller.registry import make_controller
 from fuzzynav.world.perception import check_geometry
+from fuzzynav.world.robot import sonar_side_refusal
 from fuzzynav.world.scenario import DEFAULT_FOOTPRINT_M, Scenario, check_scenario, load_scenario
 from fuzzynav.world.sensors import SensorConfig, default_mounts
 from fuzzynav.world.simulation import Simulation, SimulationResult
@@ -100,6 +101,10 @@ def build_simulation(
         scenario = load_scenario(scenario, footprint_m=footprint)
     if field_of_view_deg is not None:
         scenario = scenario.replace(field_of_view_deg=field_of_view_deg)
+    if sonar_side_deg is not None:  # the robot's sensors must have side sonars to turn
+        why = sonar_side_refusal(default_mounts())
+        if why is not None:
+            raise ValueError(f"sonar_side_deg = {sonar_side_deg:g} (--sonar-side): {why}")
     ctrl = (
         controller_object
         if controller_object is not None

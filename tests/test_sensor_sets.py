@@ -143,3 +143,37 @@ def test_fuzzynav_drives_with_any_sensor_set(config):
     assert memory.mounts[memory.front_index][2] == 0.0
     assert result.log.ranges_m.shape[1] == len(config.mounts)
     assert result.outcome == "reached"
+
+
+def test_a_side_angle_for_a_ring_of_rays_is_refused(monkeypatch, capsys):
+    """``--sonar-side`` turns the side sonars; a ring of rays all around has none (turned,
+    its 16 rays collapsed onto +-DEG and its rear ones looked forward across the body):
+    refused, naming the option and value, on the robot's description, in the API and
+    at the command line (exit 2); a set with no sensor off the heading has nothing to
+    turn. The Husky's three sonars still take it."""
+    import fuzzynav
+    from fuzzynav.app.cli import main
+    from fuzzynav.world import sensors
+
+    ring = HUSKY.with_mounts(ring_mounts(16))
+    with pytest.raises(ValueError, match=r"side_angle_rad = 0\.5: .*ray5 at 112\.5.*ring of rays"):
+        ring.with_sonar_side(0.5)
+    sim = Simulation(
+        generate_layout("standard", 7, 3),
+        make_controller("paper"),
+        perception="ultrasonic",
+        sensor_config=lidar_config(16),
+    )
+    with pytest.raises(ValueError, match="ring of rays"):
+        sim.robot.with_sonar_side(0.5)
+    front_only = HUSKY.with_mounts(HUSKY.mounts[1:2])
+    with pytest.raises(ValueError, match="no side sonar to turn"):
+        front_only.with_sonar_side(0.5)
+    assert [m.angle_rad for m in HUSKY.with_sonar_side(0.5).mounts] == [0.5, 0.0, -0.5]
+    # the robot's own sensor set is the ring: the option is refused before a run
+    monkeypatch.setattr(sensors, "HUSKY", ring)
+    with pytest.raises(ValueError, match=r"sonar_side_deg = 30 \(--sonar-side\): .*ring of rays"):
+        fuzzynav.simulate("s1", perception="ultrasonic", sonar_side_deg=30)
+    assert main(["run", "s1", "--perception", "ultrasonic", "--sonar-side", "30"]) == 2
+    err = capsys.readouterr().err
+    assert "error: sonar_side_deg = 30 (--sonar-side): the robot's sensors look behind" in err

@@ -698,3 +698,152 @@ def test_a_rule_edit_made_while_an_earlier_one_builds_is_driven_after_it(monkeyp
     release.set()
     assert app.wait_for(lambda a: len(a.fuzzy_system().rules) == first + 2, timeout=30)
     assert app.editor().rule_count() == first + 2
+
+
+def _edited_both(sliders_at: float, choice: tuple, rule: int):
+    """A world whose Editor edited the starter (a slider), then the paper controller (a
+    slider at ``sliders_at`` of its range, an inference choice, rule ``rule``'s
+    weight), paused after some steps."""
+    from fuzzynav.app.viewer.starter import STARTER_LABEL
+
+    app = ViewerApp("s1", "paper")
+    app.set_controller(STARTER_LABEL)
+    lo, hi = app.editor().bounds["d_t.near"]
+    app.set_membership_parameter("d_t.near", lo + sliders_at * (hi - lo))
+    for _ in range(50):
+        app.step_once()
+    app.set_controller("paper")
+    for name in app.editor().names[:3]:
+        lo, hi = app.editor().bounds[name]
+        app.set_membership_parameter(name, lo + sliders_at * (hi - lo))
+    app.set_inference_choice(*choice)
+    app.edit_rules("set", rule, app.editor().rule_text(rule) + " weight 0.5")
+    for _ in range(100):
+        app.step_once()
+    return app
+
+
+def _editors(app) -> dict:
+    """What each Editor holds: its sliders' numbers, its rules, its choices; and the
+    controllers offered."""
+    from fuzzynav.app.viewer.editor_panel import EDITOR_CHOICES
+
+    out = {"offered": app.controller_options()}
+    for kind in ("paper", "starter"):
+        editor = app.editor(kind)
+        out[kind] = (
+            {name: editor.value(name) for name in editor.names},
+            [editor.rule_text(k) for k in range(1, editor.rule_count() + 1)],
+            {field: editor.choice(field) for field, _, _ in EDITOR_CHOICES},
+            editor.edited,
+        )
+    return out
+
+
+def test_a_reopened_lesson_brings_its_editor_not_the_worlds_own():
+    """A lesson opened in a world whose Editor had edits of its own: the Editor holds
+    the lesson's (each system's sliders at the numbers saved, its rules, its choices;
+    the sliders kept the world's numbers), and a slider then moved keeps the lesson's
+    other shapes (it rebuilt them from the world's numbers). A lesson without edits
+    leaves the Editor afresh; an older lesson (no editors) still opens."""
+    import json
+
+    from fuzzynav.app.viewer.model import ViewerError
+
+    saved = _edited_both(0.25, ("defuzz_method", "bisector"), 1)
+    text = saved.lesson_text()
+    world = _edited_both(0.75, ("agg_method", "sum"), 2)
+    world.open_lesson(text, "edited.json")
+    assert world.controller_label == "paper (edited)"
+    assert _editors(world) == _editors(saved)
+    name = saved.editor().names[5]  # a slider moved to its own number: nothing changes
+    world.set_membership_parameter(name, saved.editor().value(name))
+    assert world.fuzzy_system() == saved.fuzzy_system()
+    # a lesson of the shipped systems: the Editor afresh
+    world.open_lesson(ViewerApp("s1", "paper").lesson_text(), "plain.json")
+    assert _editors(world) == _editors(ViewerApp("s1", "paper"))
+    assert "paper (edited)" not in world.controller_options()
+    # an older lesson (no editors): the last edit of each system, its sliders as shipped
+    data = json.loads(text)
+    del data["editors"]
+    world.open_lesson(json.dumps(data), "old.json")
+    assert world.fuzzy_system() == saved.fuzzy_system()
+    assert _editors(world)["paper"][1:] == _editors(saved)["paper"][1:]
+    assert _editors(world)["paper"][0] == _editors(ViewerApp("s1", "paper"))["paper"][0]
+    # refused with file, key and value; the world kept
+    first = saved.editor().names[0]
+    for change, why in (
+        (lambda d: d["editors"]["paper"]["numbers"].update({first: 1e6}), f"{first} = 1000000"),
+        (
+            lambda d: d["editors"]["paper"]["numbers"].pop(first),
+            "not the layout's numbers (missing: d_t",
+        ),
+        (lambda d: d["editors"].update({"fuzzynav": {}}), "editors = "),
+        (lambda d: d["editors"]["starter"].update({"rule_base": 0}), "variables and terms"),
+    ):
+        data = json.loads(text)
+        change(data)
+        before = _world(world), _editors(world)
+        with pytest.raises(ViewerError, match="bad.json: editors") as refused:
+            world.open_lesson(json.dumps(data), "bad.json")
+        assert why in str(refused.value)
+        assert (_world(world), _editors(world)) == before
+
+
+def test_a_reopened_lesson_is_shown_as_saved_in_every_panel():
+    """The page of a world that opened a lesson shows what the saved world's page
+    showed: the Editor's sliders, choices and rule, the What-if boxes, the surface, the
+    inference and its step by step (the world had its own edits, tried inputs and a
+    stage open before)."""
+    import re
+    import time
+
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    def drawn(server):
+        app = server.app
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            version = app.version
+            if server.render._last_panel_version == version:
+                time.sleep(0.3)  # and nothing changes meanwhile
+                if server.render._last_panel_version == app.version == version:
+                    return True
+            time.sleep(0.05)
+        return False
+
+    def shown(server):
+        editor, inference = server.editor, server.inference
+        return {
+            "sliders": {name: slider.value for name, slider in editor.editor_sliders.items()},
+            "choices": {field: box.value for field, box in editor.editor_choices.items()},
+            "rule": (
+                editor.rule_text.value,
+                server.app.editor().rule_text(int(editor.rule_number.value)),
+            ),
+            "what-if": (inference.what_if_cb.value, [b.value for b in inference.what_if_boxes]),
+            "surface": server.surface.surface_html.content,
+            "inference": re.sub(r"\bfz\d+", "fz", inference.inference_html.content),
+            "stage": inference.stage_html.content,
+        }
+
+    saved = _edited_both(0.25, ("defuzz_method", "bisector"), 1)
+    text = saved.lesson_text()
+    world = _edited_both(0.75, ("agg_method", "sum"), 2)
+    servers = [ViewerServer(saved, port=0), ViewerServer(world, port=0)]
+    try:
+        world.start_what_if()
+        world.set_what_if_input(0, 3.0)
+        for server in servers:
+            server.inference.stage = 2  # the rules' AND, step by step
+            server.inference.redraw()
+        assert drawn(servers[1])
+        world.open_lesson(text, "edited.json")
+        assert drawn(servers[0]) and drawn(servers[1])
+        want, got = shown(servers[0]), shown(servers[1])
+        assert got == want
+        assert got["rule"][0] == got["rule"][1]
+        assert want["what-if"][1][0] == pytest.approx(saved.controller.last_inputs[0], abs=0.01)
+    finally:
+        for server in servers:
+            server.stop()

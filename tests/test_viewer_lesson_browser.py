@@ -580,6 +580,55 @@ def test_a_lesson_is_saved_from_the_page_and_opened_again_from_it(lesson, tmp_pa
         page.get_by_text("Lesson", exact=True).click()
 
 
+def test_a_lesson_opened_from_the_page_shows_its_editor_numbers(lesson, tmp_path):
+    """A lesson saved with an Editor edit and opened from the page after the Editor was
+    moved again: the page's Editor shows the lesson's number (it kept the one moved)."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    app.set_controller("paper")
+    name = "d_t.top"
+    lo, hi = app.editor().bounds[name]
+    saved, moved = (round(lo + f * (hi - lo), 2) for f in (0.3, 0.7))
+    app.set_membership_parameter(name, saved)
+    for _ in range(20):
+        app.step_once()
+    path = tmp_path / "edited.json"
+    path.write_text(app.lesson_text(), encoding="utf-8")
+    app.set_membership_parameter(name, moved)
+    open_tab(page, "Editor")
+    boxes = page.locator("input[inputmode='decimal']")
+
+    def box_of(value):
+        for k in range(boxes.count()):
+            if abs(float(boxes.nth(k).input_value() or "nan") - value) < 1e-6:
+                return k
+        return None
+
+    deadline = time.monotonic() + 10
+    while box_of(moved) is None and time.monotonic() < deadline:
+        page.wait_for_timeout(100)
+    k = box_of(moved)
+    assert k is not None, f"no number box holds {name} = {moved}"
+    page.get_by_text("Lesson", exact=True).click()
+    try:
+        with page.expect_file_chooser(timeout=15_000) as chooser:
+            page.get_by_role("button", name="Open lesson (.json)").click()
+        chooser.value.set_files(path)
+        assert app.wait_for(lambda a: a.message.startswith("Opened the lesson"), timeout=20)
+        assert app.editor().value(name) == pytest.approx(saved)
+        page.wait_for_function(
+            "([k, v]) => Math.abs(+document.querySelectorAll(\"input[inputmode='decimal']\")[k]"
+            ".value - v) < 1e-6",
+            arg=[k, saved],
+            timeout=10_000,
+        )
+    finally:
+        page.get_by_text("Lesson", exact=True).click()
+        app.reset_membership_editor()
+
+
 def test_one_inference_is_walked_step_by_step_in_the_page(lesson):
     """Issue 38: Step by step → Next walks the moment through the five stages, each
     drawn and said with its numbers; Back goes back; Off leaves; the run pauses."""

@@ -31,6 +31,7 @@ __all__ = [
     "SensorMount",
     "SonarPlacement",
     "brief",
+    "sonar_side_refusal",
 ]
 
 
@@ -101,10 +102,44 @@ def _check_side_angle(side_angle_rad: float) -> None:
         raise ValueError(f"side_angle_rad = {side_angle_rad!r}: must be in (0, pi/2]")
 
 
+def sonar_side_refusal(sensors) -> str | None:
+    """Why a side angle (``--sonar-side``) cannot mean anything for these sensors, or
+    None when it can. It turns the side sonars: those that point off the heading, within
+    90 degrees of it. A set without one has nothing to turn; a set with a sensor that
+    looks further back (a ring of rays all around, ``world/lidar.py``) has no side
+    sonars: turned, its rays would collapse onto two directions and its rear ones look
+    forward across the body.
+
+    Parameters
+    ----------
+    sensors : sequence of SensorMount or SonarPlacement
+        The robot's range sensors (a name and an ``angle_rad`` each).
+
+    Returns
+    -------
+    str or None
+    """
+    behind = [p for p in sensors if abs(p.angle_rad) > math.pi / 2 + 1e-9]
+    if behind:
+        names = ", ".join(f"{p.name} at {math.degrees(p.angle_rad):g}" for p in behind[:3])
+        more = f" and {len(behind) - 3} more" if len(behind) > 3 else ""
+        return (
+            f"the robot's sensors look behind the side ({names} degrees{more}): a sensor "
+            "set all around, such as a ring of rays, has no side sonars to turn"
+        )
+    if all(p.angle_rad == 0.0 for p in sensors):
+        return "none of the robot's sensors points off the heading: no side sonar to turn"
+    return None
+
+
 def _sided(placements, side_angle_rad: float) -> tuple[SonarPlacement, ...]:
     """The placements with every one that points off the heading at +-``side_angle_rad``
-    (its own side kept)."""
+    (its own side kept); ValueError when that cannot mean anything for them
+    (:func:`sonar_side_refusal`)."""
     _check_side_angle(side_angle_rad)
+    why = sonar_side_refusal(placements)
+    if why is not None:
+        raise ValueError(f"side_angle_rad = {side_angle_rad!r}: {why}")
     return tuple(
         p
         if p.angle_rad == 0.0
@@ -180,6 +215,12 @@ class RobotDescription:
         Returns
         -------
         RobotDescription
+
+        Raises
+        ------
+        ValueError
+            The angle is out of range, or the robot has no side sonars to turn
+            (:func:`sonar_side_refusal`: none off the heading, or a ring all around).
         """
         sonars = _sided(self.sonars, side_angle_rad)
         return replace(self, sonars=sonars, mounts=())

@@ -268,10 +268,58 @@ class SystemEditor:
                 self._built, self._controller, self.rules = version, controller, rules
             return self._controller
 
+    def numbers(self) -> dict[str, float]:
+        """The layout's numbers the sliders show (name: value), as a lesson keeps them."""
+        return {name: float(v) for name, v in zip(self.names, self.vector)}
+
+    def vector_of(self, numbers) -> np.ndarray:
+        """``numbers`` (name: value, every number of the layout, each within its bounds
+        or at its starting value) as the layout's vector; ValueError naming the number."""
+        if not isinstance(numbers, dict):
+            raise ValueError(f"numbers = {numbers!r:.40}: not a table of numbers")
+        missing = [n for n in self.names if n not in numbers]
+        unknown = [str(n) for n in numbers if n not in self.names]
+        if missing or unknown:
+            raise ValueError(
+                f"numbers: not the layout's numbers (missing: {', '.join(missing) or '-'}; "
+                f"unknown: {', '.join(unknown[:5]) or '-'})"
+            )
+        vector = self.start.copy()
+        for k, name in enumerate(self.names):
+            value, (lo, hi) = numbers[name], self.bounds[name]
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (lo <= value <= hi or value == self.start[k])
+            ):
+                raise ValueError(
+                    f"numbers: {name} = {value!r}: must be a number between {lo} and {hi}"
+                )
+            vector[k] = value
+        return vector
+
+    def restore(self, fis, numbers):
+        """The editor as a lesson left it: driving ``fis``, its edit of this system (its
+        rules, inference choices and shapes), with the sliders at the layout's
+        ``numbers`` that made those shapes; returns the controller. ValueError (nothing
+        changed) when the numbers are not the layout's or ``fis`` is not this system's
+        (its variables and terms)."""
+        vector = self.vector_of(numbers)
+        shipped = self.shipped.fis
+
+        def terms(system):
+            return [(v.name, [t.name for t in v.terms]) for v in system.inputs + system.outputs]
+
+        if terms(fis) != terms(shipped):
+            raise ValueError(f"its variables and terms are not those of {self.label}")
+        controller = self.adopt(fis)
+        self.vector = vector
+        return controller
+
     def adopt(self, fis):
-        """Drive with ``fis``, an edit of this system saved in a lesson: its rules and
-        inference choices are the editor's again (the sliders keep their numbers: a
-        system's shapes do not give back the layout's numbers); returns the controller."""
+        """Drive with ``fis``, an edit of this system: its rules and inference choices
+        are the editor's again (its sliders' numbers are :meth:`restore`'s: a system's
+        shapes do not give back the layout's numbers); returns the controller."""
         from fuzzynav.controller.fis_controller import FisController
 
         with self._lock:

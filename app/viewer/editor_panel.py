@@ -209,10 +209,10 @@ class EditorPanel:
         from fuzzynav.app.viewer.term_drag import terms_drag_svg
 
         editor = self.app.editor()
-        key = id(editor.controller().fis)
-        if key == getattr(self, "_term_plots_for", None):
+        fis = editor.controller().fis
+        if fis is getattr(self, "_term_plots_for", None):  # (held: its id is never reused)
             return
-        self._term_plots_for = key
+        self._term_plots_for = fis
         ids = {name: handle_uuid(slider) for name, slider in self.editor_sliders.items()}
         ranges = {name: (s.min, s.max) for name, s in self.editor_sliders.items()}
         for group, (element, names) in self.term_plots.items():
@@ -342,7 +342,8 @@ class EditorPanel:
 
     def sync(self) -> None:
         """The Editor as the system that drives has it: its sliders shown (and at its
-        numbers: another tab may have moved them), its rules, its choices."""
+        numbers: another tab may have moved them, a lesson opened brings its own), its
+        rules, its choices."""
         kind = self.app.editor_kind()
         editor = self.app.editor(kind)
         if kind != self._shown_kind:
@@ -353,10 +354,12 @@ class EditorPanel:
                         folder.visible = other == kind
             self.intro_html.content = self._intro(editor)
             self._show_rule(1)
-        rules_key = (kind, editor.rule_version())
-        if rules_key != getattr(self, "_shown_rules", None):  # edited here or elsewhere
-            self._shown_rules = rules_key
-            self._show_rule(int(self.rule_number.value), keep_typed=True)
+        shown = getattr(self, "_shown_rules", (None, None))
+        # edited here or elsewhere (what is being typed stays), or another editor (a
+        # lesson opened brings its own: its rule shown whatever was typed)
+        if shown[0] is not editor or shown[1] != editor.rule_version():
+            self._shown_rules = (editor, editor.rule_version())
+            self._show_rule(int(self.rule_number.value), keep_typed=shown[0] is editor)
         if self.sections:
             self._draw_term_plots()
             self._draw_inputs_now(editor)

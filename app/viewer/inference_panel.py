@@ -148,7 +148,8 @@ class InferencePanel:
                     box.value = min(max(box.value, lo), hi)
 
     def sync(self, snap: Snapshot) -> None:
-        """What-if mode's box and numbers as the world has them."""
+        """What-if mode's box and numbers as the world has them: the inputs tried, or
+        (off, paused) the inputs of the moment shown, which What-if would start from."""
         self._fit_what_if_ranges()
         on = snap.what_if is not None
         if self.what_if_cb.value != on:
@@ -158,13 +159,14 @@ class InferencePanel:
             read = self.app.inference.read_inputs(fis) if fis is not None else range(4)
             self._read_for = (id(fis), tuple(read))
         read = self._read_for[1]
+        tried = snap.what_if if on else None if snap.playing else snap.inputs
         for k, box in enumerate(self.what_if_boxes):
             if box.visible != (k in read):  # only the inputs the driving system reads
                 box.visible = k in read
             if box.disabled == on:
                 box.disabled = not on
-            if on and math.isfinite(snap.what_if[k]):
-                shown = min(max(round(float(snap.what_if[k]), 2), box.min), box.max)
+            if tried is not None and math.isfinite(tried[k]):
+                shown = min(max(round(float(tried[k]), 2), box.min), box.max)
                 if abs(box.value - shown) > 5e-3:
                     box.value = shown
 

@@ -7,6 +7,8 @@ A lesson is a JSON file holding:
   and removed obstacles, the target), so that *layout edited* and **Restore** hold;
 - the controller by name, or its rule base (TOML text) when it was edited in the Editor
   (shapes, inference choices, rules) or uploaded;
+- the Editor: each system it edited (the paper controller, the starter), its rule base
+  and the layout's numbers its sliders showed;
 - the settings: perception, geometry, disturbance, sensor noise, fuzzynav's parts,
   speed, seed;
 - the view: presentation mode, *Firing rules only*;
@@ -64,6 +66,7 @@ def dumps_lesson(app, view: dict | None = None) -> str:
             "layout_toml": s["scenario"].to_toml(),
             "controller": s["controller"],
             "rule_base": _base_index(bases, s["fis"]),
+            "editors": _editors_json(app, bases),
             "perception": s["perception"],
             "geometry": s["geometry"],
             "disturbance_on": bool(s["disturbance_on"]),
@@ -89,6 +92,18 @@ def dumps_lesson(app, view: dict | None = None) -> str:
         data["unreplayed"].append("the run's earlier rule bases (too large to keep)")
         text = json.dumps(data, indent=2) + "\n"
     return text
+
+
+def _editors_json(app, bases: list) -> dict:
+    """Each system the Editor edited: its rule base (an index) and its sliders' numbers."""
+    editors = {}
+    for kind, editor in (("paper", app.paper_edit), ("starter", app.starter_edit)):
+        if editor is not None and editor.edited:
+            editors[kind] = {
+                "rule_base": _base_index(bases, editor.controller().fis),
+                "numbers": editor.numbers(),
+            }
+    return editors
 
 
 def _toml(fis) -> str:
@@ -239,6 +254,47 @@ def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: f
     return out
 
 
+def _editors(data: dict, source: str, geometry: str, bases: list, entries: list) -> dict:
+    """The Editor as the lesson left it: for each system it edited (``paper``,
+    ``starter``), an editor of its own holding that edit (its rule base, its sliders at
+    the saved numbers), checked; a system not listed starts afresh. A lesson without
+    ``editors`` (an older file) gives each editor the last edit of it that drove in
+    ``entries`` (its sliders at the shipped numbers: that file kept no others)."""
+    from fuzzynav.app.viewer.editor import PaperEditor, StarterEditor
+    from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL
+    from fuzzynav.app.viewer.state import EDITED_LABEL
+
+    makers = {"paper": PaperEditor, "starter": StarterEditor}
+    raw = data.get("editors")
+    if raw is None:
+        kinds = {EDITED_LABEL: "paper", STARTER_EDITED_LABEL: "starter"}
+        last = {kinds[e["controller"]]: e["fis"] for e in entries if e["controller"] in kinds}
+        out = {kind: makers[kind](geometry) for kind, fis in last.items() if fis is not None}
+        for kind, editor in out.items():
+            editor.adopt(last[kind])
+        return out
+    if not isinstance(raw, dict) or not set(raw) <= set(makers):
+        raise ViewerError(
+            f"{source}: editors = {sorted(raw) if isinstance(raw, dict) else raw!r}: not a "
+            f"table of {' and '.join(makers)}"
+        )
+    out = {}
+    for kind, saved in raw.items():
+        where = f"{source}: editors.{kind}"
+        if not isinstance(saved, dict):
+            raise ViewerError(f"{where}: {saved!r}: not a table")
+        fis = _rule_base(saved, where, bases)
+        if fis is None:
+            raise ViewerError(f"{where}: rule_base = None: the edit's rule base is needed")
+        editor = makers[kind](geometry)
+        try:
+            editor.restore(fis, saved.get("numbers"))
+        except ValueError as exc:
+            raise ViewerError(f"{where}: {exc}") from None
+        out[kind] = editor
+    return out
+
+
 def read_lesson(
     content: bytes | str, source: str = "lesson.json", control_period_s: float = 0.02
 ) -> dict:
@@ -296,6 +352,7 @@ def read_lesson(
     view = data.get("view") or {}
     if not isinstance(view, dict):
         raise ViewerError(f"{source}: view = {view!r}: not a table")
+    timeline = _timeline(data, source, geometry, time_s, control_period_s, bases)
     return {
         "scenario_label": label,
         "base_scenario": base,
@@ -305,7 +362,8 @@ def read_lesson(
         "speed": speed,
         "seed": seed,
         "time_s": time_s,
-        "timeline": _timeline(data, source, geometry, time_s, control_period_s, bases),
+        "timeline": timeline,
+        "editors": _editors(data, source, geometry, bases, timeline or [settings]),
         "inputs": _saved_inputs(data, source),
         "unreplayed": [str(u) for u in data.get("unreplayed") or []][:20],
         "note": note,
@@ -337,6 +395,10 @@ def open_lesson(app, content: bytes | str, source: str = "lesson.json", backgrou
         app.seed = lesson["seed"]
         app.note = lesson["note"]
         app.apply_settings({**lesson, "fis": None, "controller": app.controller_label})
+        # the Editor as the lesson left it: its edits, or afresh (the page's views
+        # follow the editors), whatever this world had edited before
+        app.paper_edit = lesson["editors"].get("paper")
+        app.starter_edit = lesson["editors"].get("starter")
         _apply_entry_locked(app, timeline[0])
         app.driver._reset_locked(app.editing._layout_scenario())  # the seed, from the start
         app._notice(f"Opening the lesson {source}: replaying to t = {lesson['time_s']:.2f} s…")
@@ -366,11 +428,13 @@ def _apply_entry_locked(app, entry: dict) -> None:
             setup.set_controller(label)
     else:
         kind = {EDITED_LABEL: "paper", STARTER_EDITED_LABEL: "starter"}.get(label)
-        if kind is not None:  # the Editor's edit: the Editor holds it again
-            controller = app.editor(kind).adopt(fis)
-        else:
+        editor = app.editor(kind) if kind is not None else None
+        if editor is not None and editor.edited and editor.controller().fis == fis:
+            controller = editor.controller()  # the edit the Editor holds (the lesson's last)
+        else:  # uploaded, or an earlier edit (it drives; the Editor keeps the last)
             controller = FisController(fis, name=label)
-            app.uploaded_controller, app.uploaded_label = controller, label
+            if kind is None:
+                app.uploaded_controller, app.uploaded_label = controller, label
         setup._install_controller(controller, label, quiet=True)
     if entry["perception"] != app.sim.perception.mode:
         setup.set_perception(entry["perception"])
