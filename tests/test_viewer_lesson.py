@@ -847,3 +847,31 @@ def test_a_reopened_lesson_is_shown_as_saved_in_every_panel():
     finally:
         for server in servers:
             server.stop()
+
+
+def test_a_teachers_push_brings_the_teachers_editor_as_a_lesson_does():
+    """A classroom push (the teacher's ``settings`` taken by ``apply_settings``) to a
+    world whose Editor had edits of its own: its Editor holds the teacher's (each
+    system's sliders, rules and choices), as a lesson of the teacher's world brings
+    them, and a slider then moved keeps the teacher's other shapes (it rebuilt them from
+    the student's numbers). The editors are the student's own (an edit there leaves the
+    teacher's); a push without edits leaves the Editor afresh."""
+    teacher = _edited_both(0.25, ("defuzz_method", "bisector"), 1)
+    student = _edited_both(0.75, ("agg_method", "sum"), 2)
+    lessoned = _edited_both(0.75, ("agg_method", "sum"), 2)
+    lessoned.open_lesson(teacher.lesson_text(), "teacher.json")
+    student.apply_settings(teacher.settings())
+    assert student.controller_label == "paper (edited)"
+    assert student.fuzzy_system() == teacher.fuzzy_system()
+    assert _editors(student) == _editors(teacher) == _editors(lessoned)
+    name = teacher.editor().names[5]  # a slider moved to its own number: nothing changes
+    student.set_membership_parameter(name, teacher.editor().value(name))
+    assert student.fuzzy_system() == teacher.fuzzy_system()
+    lo, hi = student.editor().bounds[name]
+    student.set_membership_parameter(name, lo + 0.9 * (hi - lo))
+    student.edit_rules("remove", 3)
+    assert _editors(teacher) == _editors(lessoned)
+    # a push of the shipped systems: the Editor afresh
+    student.apply_settings(ViewerApp("s1", "paper").settings())
+    assert _editors(student) == _editors(ViewerApp("s1", "paper"))
+    assert student.controller_label == "paper"
