@@ -102,7 +102,7 @@ def build_simulation(
     if field_of_view_deg is not None:
         scenario = scenario.replace(field_of_view_deg=field_of_view_deg)
     if sonar_side_deg is not None:  # the robot's sensors must have side sonars to turn
-        why = sonar_side_refusal(default_mounts())
+        why = sonar_side_refusal(default_mounts(), geometry)
         if why is not None:
             raise ValueError(f"sonar_side_deg = {sonar_side_deg:g} (--sonar-side): {why}")
     ctrl = (

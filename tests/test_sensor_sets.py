@@ -177,3 +177,30 @@ def test_a_side_angle_for_a_ring_of_rays_is_refused(monkeypatch, capsys):
     assert main(["run", "s1", "--perception", "ultrasonic", "--sonar-side", "30"]) == 2
     err = capsys.readouterr().err
     assert "error: sonar_side_deg = 30 (--sonar-side): the robot's sensors look behind" in err
+
+
+def test_a_side_angle_for_the_paper_geometry_is_refused(tmp_path, capsys):
+    """The paper geometry's robot is a point without sonars (its inputs exact, its
+    ranges none): ``--sonar-side`` there changed nothing of the run, and was taken
+    silently. Refused, naming the option and the geometry, before anything runs or is
+    written: in build_simulation, simulate and at the command line (exit 2). The
+    Husky geometry still takes it."""
+    import fuzzynav
+    from fuzzynav.app.cli import main
+    from fuzzynav.app.runs import build_simulation
+
+    why = r"sonar_side_deg = 30 \(--sonar-side\): with geometry = 'paper'.*no sonars"
+    with pytest.raises(ValueError, match=why):
+        build_simulation("s1", "paper", geometry="paper", sonar_side_deg=30)
+    with pytest.raises(ValueError, match=why):
+        fuzzynav.simulate("s1", geometry="paper", sonar_side_deg=30)
+    trace = tmp_path / "trace.csv"
+    argv = ["run", "s1", "--geometry", "paper", "--sonar-side", "30", "--trace", str(trace)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "error: sonar_side_deg = 30 (--sonar-side): with geometry = 'paper'" in err, err
+    assert "Traceback" not in err and not trace.exists()
+    sim = build_simulation("s1", "paper", geometry="husky", sonar_side_deg=30)
+    assert [m.angle_rad for m in sim.sensors.config.mounts] == pytest.approx(
+        [math.radians(30), 0.0, -math.radians(30)]
+    )

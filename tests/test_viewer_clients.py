@@ -256,6 +256,78 @@ def test_classroom_tabs_drive_their_own_worlds_and_the_teacher_pushes_to_all(cla
     assert "Traceback" not in err, err[-3000:]
 
 
+def _edit_paper(app, at: float, choice: tuple, rule: int) -> None:
+    """The paper controller edited in ``app``'s Editor: its first three sliders at
+    ``at`` of their range, an inference choice, rule ``rule``'s weight."""
+    app.set_controller("paper")
+    for name in app.editor().names[:3]:
+        lo, hi = app.editor().bounds[name]
+        app.set_membership_parameter(name, round(lo + at * (hi - lo), 2))
+    app.set_inference_choice(*choice)
+    app.edit_rules("set", rule, app.editor().rule_text(rule) + " weight 0.5")
+
+
+def test_a_teachers_push_brings_the_teachers_editor_to_every_tab(classroom, capfd):
+    """A student's tab whose Editor had edits of its own takes the teacher's push: its
+    page's Editor shows the teacher's sliders, choices and rules (not the student's
+    earlier numbers), and a slider moved there rebuilds the teacher's system from the
+    teacher's numbers; the teacher's Editor is left as it was."""
+    from fuzzynav.app.viewer.editor import PaperEditor
+
+    clients = ScriptedClients(classroom.url)
+    try:
+        (student,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 1, 30), classroom.sessions
+        (teacher,) = clients.connect(1)
+        assert wait_until(lambda: len(classroom.sessions) == 2, 30), classroom.sessions
+        s, t = (classroom.sessions[k] for k in sorted(classroom.sessions))
+        _edit_paper(s.app, 0.75, ("agg_method", "sum"), 2)
+        _edit_paper(t.app, 0.25, ("defuzz_method", "bisector"), 1)
+        clients.press(teacher, t.teacher_token_box, "teach-me")
+        assert wait_until(lambda: t.teacher_push.visible, 10), t.app.message
+        editor = t.app.editor()
+        saved = (editor.controller().fis, editor.numbers())
+        clients.press(teacher, t.teacher_push, True)
+        assert s.app.wait_for(
+            lambda x: (
+                x.controller_label == "paper (edited)" and x.editor().numbers() == editor.numbers()
+            ),
+            timeout=20,
+        ), (s.app.controller_label, s.app.message)
+        assert s.app.fuzzy_system() == t.app.fuzzy_system()
+        mine = s.app.editor()
+        assert [mine.rule_text(k) for k in range(1, mine.rule_count() + 1)] == [
+            editor.rule_text(k) for k in range(1, editor.rule_count() + 1)
+        ]
+
+        def shown():
+            panel = s.editor
+            return (
+                {name: slider.value for name, slider in panel.editor_sliders.items()},
+                {field: box.value for field, box in panel.editor_choices.items()},
+            )
+
+        want = (
+            {name: round(editor.value(name), 2) for name in editor.names},
+            {field: editor.choice(field) for field in s.editor.editor_choices},
+        )
+        assert wait_until(lambda: shown() == want, 20), (shown(), want)
+        # a slider moved in the student's page: the teacher's other shapes are kept
+        name = editor.names[5]
+        lo, hi = editor.bounds[name]
+        value = round(lo + 0.6 * (hi - lo), 2)
+        clients.press(student, s.editor.editor_sliders[name], value)
+        assert s.app.wait_for(lambda x: x.editor().value(name) == value, timeout=20)
+        expected = PaperEditor(t.app.geometry)
+        expected.restore(*saved)
+        assert s.app.fuzzy_system() == expected.set(name, value).fis
+        assert t.app.editor() is editor and (editor.controller().fis, editor.numbers()) == saved
+    finally:
+        clients.close()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err, err[-3000:]
+
+
 def test_forty_tabs_joining_a_classroom_do_not_stall_the_tabs_already_there(classroom, capfd):
     clients = ScriptedClients(classroom.url)
     try:

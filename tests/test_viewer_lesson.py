@@ -790,27 +790,30 @@ def test_a_reopened_lesson_brings_its_editor_not_the_worlds_own():
         assert (_world(world), _editors(world)) == before
 
 
+def _drawn(server) -> bool:
+    """Whether ``server``'s panels are drawn at its world's version (and stay so)."""
+    import time
+
+    app = server.app
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        version = app.version
+        if server.render._last_panel_version == version:
+            time.sleep(0.3)  # and nothing changes meanwhile
+            if server.render._last_panel_version == app.version == version:
+                return True
+        time.sleep(0.05)
+    return False
+
+
 def test_a_reopened_lesson_is_shown_as_saved_in_every_panel():
     """The page of a world that opened a lesson shows what the saved world's page
     showed: the Editor's sliders, choices and rule, the What-if boxes, the surface, the
     inference and its step by step (the world had its own edits, tried inputs and a
     stage open before)."""
     import re
-    import time
 
     from fuzzynav.app.viewer.server import ViewerServer
-
-    def drawn(server):
-        app = server.app
-        deadline = time.monotonic() + 30
-        while time.monotonic() < deadline:
-            version = app.version
-            if server.render._last_panel_version == version:
-                time.sleep(0.3)  # and nothing changes meanwhile
-                if server.render._last_panel_version == app.version == version:
-                    return True
-            time.sleep(0.05)
-        return False
 
     def shown(server):
         editor, inference = server.editor, server.inference
@@ -837,9 +840,9 @@ def test_a_reopened_lesson_is_shown_as_saved_in_every_panel():
         for server in servers:
             server.inference.stage = 2  # the rules' AND, step by step
             server.inference.redraw()
-        assert drawn(servers[1])
+        assert _drawn(servers[1])
         world.open_lesson(text, "edited.json")
-        assert drawn(servers[0]) and drawn(servers[1])
+        assert _drawn(servers[0]) and _drawn(servers[1])
         want, got = shown(servers[0]), shown(servers[1])
         assert got == want
         assert got["rule"][0] == got["rule"][1]
@@ -847,3 +850,80 @@ def test_a_reopened_lesson_is_shown_as_saved_in_every_panel():
     finally:
         for server in servers:
             server.stop()
+
+
+def test_a_teachers_push_brings_the_teachers_editor_as_a_lesson_does():
+    """A classroom push (the teacher's ``settings`` taken by ``apply_settings``) to a
+    world whose Editor had edits of its own: its Editor holds the teacher's (each
+    system's sliders, rules and choices), as a lesson of the teacher's world brings
+    them, and a slider then moved keeps the teacher's other shapes (it rebuilt them from
+    the student's numbers). The editors are the student's own (an edit there leaves the
+    teacher's); a push without edits leaves the Editor afresh."""
+    teacher = _edited_both(0.25, ("defuzz_method", "bisector"), 1)
+    student = _edited_both(0.75, ("agg_method", "sum"), 2)
+    lessoned = _edited_both(0.75, ("agg_method", "sum"), 2)
+    lessoned.open_lesson(teacher.lesson_text(), "teacher.json")
+    student.apply_settings(teacher.settings())
+    assert student.controller_label == "paper (edited)"
+    assert student.fuzzy_system() == teacher.fuzzy_system()
+    assert _editors(student) == _editors(teacher) == _editors(lessoned)
+    name = teacher.editor().names[5]  # a slider moved to its own number: nothing changes
+    student.set_membership_parameter(name, teacher.editor().value(name))
+    assert student.fuzzy_system() == teacher.fuzzy_system()
+    lo, hi = student.editor().bounds[name]
+    student.set_membership_parameter(name, lo + 0.9 * (hi - lo))
+    student.edit_rules("remove", 3)
+    assert _editors(teacher) == _editors(lessoned)
+    # a push of the shipped systems: the Editor afresh
+    student.apply_settings(ViewerApp("s1", "paper").settings())
+    assert _editors(student) == _editors(ViewerApp("s1", "paper"))
+    assert student.controller_label == "paper"
+
+
+def test_what_if_boxes_say_none_sensed_for_an_input_not_sensed_now():
+    """The greyed What-if boxes of a paused moment (a lesson opened) whose d_o and phi_o
+    are not sensed (no obstacle in view) hold no number and say *none sensed*, as the
+    term plots do, not the numbers of the moment shown before; tried in What-if, the
+    same; a number set shows again."""
+    from fuzzynav.app.viewer.server import ViewerServer
+
+    NONE_SENSED = "none sensed"  # what the term plots say of such an input
+    empty = ViewerApp("s1", "paper")
+    for obstacle_id in list(empty.sim.arena.obstacles):
+        empty.remove_obstacle(obstacle_id)
+    for _ in range(20):
+        empty.step_once()
+    assert np.isnan(empty.controller.last_inputs[[1, 3]]).all()
+    app = ViewerApp("s1", "paper")
+    app.add_obstacle(ahead(app, 2.0))
+    server = ViewerServer(app, port=0)
+    boxes = server.inference.what_if_boxes
+
+    def shown():
+        return [(box.label, box.value) for box in boxes]
+
+    try:
+        app.step_once()
+        assert _drawn(server)
+        sensed = app.controller.last_inputs.copy()
+        assert np.isfinite(sensed).all()
+        labels = [label for label, _ in shown()]
+        assert [value for _, value in shown()] == pytest.approx(np.round(sensed, 2))
+        assert not any(NONE_SENSED in label for label in labels)
+        app.open_lesson(empty.lesson_text(), "empty.json")
+        assert _drawn(server)
+        now = app.controller.last_inputs
+        for k, (label, value) in enumerate(shown()):
+            if k in (1, 3):
+                assert label == f"{labels[k]}: {NONE_SENSED}" and math.isnan(value), shown()
+            else:
+                assert label == labels[k] and value == pytest.approx(round(now[k], 2))
+        app.start_what_if()
+        assert _drawn(server)
+        assert [math.isnan(value) for _, value in shown()] == [False, True, False, True]
+        app.set_what_if_input(1, 1.5)
+        assert _drawn(server)
+        assert shown()[1] == (labels[1], 1.5)
+        assert shown()[3][0] == f"{labels[3]}: {NONE_SENSED}"
+    finally:
+        server.stop()

@@ -472,6 +472,51 @@ def test_what_ifs_boxes_take_every_value_their_sliders_offer_and_the_refusal_goe
     page.wait_for_function("() => !document.querySelector('.fz-message')", timeout=10_000)
 
 
+def test_what_ifs_box_of_an_input_not_sensed_holds_no_number_and_takes_one(lesson):
+    """Paused at a moment with no obstacle in view, the What-if boxes of d_o and phi_o
+    (not sensed) show no number, not the last moment's, and their labels say *none
+    sensed*; in What-if mode a number typed into the empty d_o box is tried."""
+    server, page = lesson
+    app = server.app
+    app.pause()
+    app.load_scenario("s1")
+    x, y, heading = app.sim.arena.pose
+    app.add_obstacle((x + 2.0 * np.cos(heading), y + 2.0 * np.sin(heading)))
+    open_tab(page, "Inference")
+    page.get_by_text("What-if", exact=True).click()
+    boxes = page.locator(".fz-inference >> xpath=ancestor::*[.//input][1]").locator(
+        "input[inputmode='decimal']:visible"
+    )
+    try:
+        d_o = round(float(app.controller.last_inputs[1]), 2)
+        page.wait_for_function(
+            "([b, v]) => b.length > 1 && Math.abs(+b[1].value - v) < 5e-3 && b[1].value !== ''",
+            arg=[boxes.element_handles(), d_o],
+            timeout=10_000,
+        )
+        for obstacle_id in list(app.sim.arena.obstacles):
+            app.remove_obstacle(obstacle_id)
+        assert np.isnan(app.controller.last_inputs[[1, 3]]).all()
+        for label in ("d_o (m): none sensed", "phi_o (rad): none sensed"):
+            page.get_by_text(label, exact=True).wait_for(timeout=10_000)
+        assert boxes.nth(1).input_value() == "" and boxes.nth(3).input_value() == ""
+        assert boxes.nth(0).input_value() != ""
+        page.get_by_role("checkbox", name="What-if mode").click()
+        assert app.wait_for(lambda a: a.what_if is not None, timeout=10)
+        page.wait_for_function(
+            "(b) => !b.disabled", arg=boxes.nth(1).element_handle(), timeout=10_000
+        )
+        boxes.nth(1).fill("1.5")
+        boxes.nth(1).press("Enter")
+        assert app.wait_for(lambda a: a.what_if[1] == 1.5, timeout=10), app.message
+        page.get_by_text("d_o (m)", exact=True).wait_for(timeout=10_000)
+        page.get_by_role("checkbox", name="What-if mode").click()
+        assert app.wait_for(lambda a: a.what_if is None, timeout=10)
+    finally:
+        page.get_by_text("What-if", exact=True).click()
+        app.load_scenario("s1")
+
+
 def test_keyboard_space_plays_and_pauses_right_arrow_steps_r_resets(lesson):
     """Issue 38: keyboard control, as a teacher at the projector expects it: space plays
     and pauses, the right arrow steps one control period, R resets; not while typing in

@@ -102,23 +102,32 @@ def _check_side_angle(side_angle_rad: float) -> None:
         raise ValueError(f"side_angle_rad = {side_angle_rad!r}: must be in (0, pi/2]")
 
 
-def sonar_side_refusal(sensors) -> str | None:
+def sonar_side_refusal(sensors, geometry: str = "husky") -> str | None:
     """Why a side angle (``--sonar-side``) cannot mean anything for these sensors, or
     None when it can. It turns the side sonars: those that point off the heading, within
     90 degrees of it. A set without one has nothing to turn; a set with a sensor that
     looks further back (a ring of rays all around, ``world/lidar.py``) has no side
     sonars: turned, its rays would collapse onto two directions and its rear ones look
-    forward across the body.
+    forward across the body. In the paper's geometry the robot is a point without
+    sonars (its inputs exact, its ranges none): the angle would change nothing.
 
     Parameters
     ----------
     sensors : sequence of SensorMount or SonarPlacement
         The robot's range sensors (a name and an ``angle_rad`` each).
+    geometry : {"husky", "paper"}
+        The robot's geometry (``world/perception.py``).
 
     Returns
     -------
     str or None
     """
+    if geometry == "paper":
+        return (
+            "with geometry = 'paper' the robot is the paper's point, which has no sonars "
+            "(its inputs are exact): a side angle would change nothing (geometry 'husky' "
+            "has the sonars)"
+        )
     behind = [p for p in sensors if abs(p.angle_rad) > math.pi / 2 + 1e-9]
     if behind:
         names = ", ".join(f"{p.name} at {math.degrees(p.angle_rad):g}" for p in behind[:3])

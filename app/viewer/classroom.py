@@ -4,7 +4,7 @@ Each tab that connects gets its own :class:`app.viewer.model.ViewerApp` (its rob
 its controller) and its own scene and panels (a :class:`app.viewer.server.ViewerServer` on
 the tab's client-scoped viser API, :class:`app.viewer.server.ClientSurface`). A tab that
 types the teacher's token (printed at start) in its **Teacher** folder can push its
-scenario (with its layout as edited) and settings to every other tab.
+scenario (with its layout as edited), settings and Editor to every other tab.
 
 The worlds are built one after the other on a thread of their own, not on viser's
 worker threads: forty tabs joining at once then wait their turn for their page, while
@@ -174,7 +174,7 @@ class ClassroomServer:
             push = gui.add_button(
                 "Push my world's setup to the class",
                 visible=False,
-                hint="Every tab restarts in this tab's scenario, layout and settings",
+                hint="Every tab restarts in this tab's scenario, layout, settings and Editor",
             )
             lock = gui.add_checkbox(
                 "Lock the students' controls",
@@ -330,8 +330,9 @@ class ClassroomServer:
                 view.app._bump()
 
     def push_from(self, client_id: int) -> int:
-        """The teacher's scenario (as edited) and settings to every other tab's world;
-        returns how many tabs took them."""
+        """The teacher's scenario (as edited), settings and Editor (each tab's editors
+        its own, holding the teacher's edits, as a lesson brings them) to every other
+        tab's world; returns how many tabs took them."""
         with self._lock:
             if client_id not in self.teachers:
                 raise ViewerError("only the teacher's tab can push to the class")

@@ -41,6 +41,7 @@ ANTECEDENT_FILL = "#f59e0b"
 CONSEQUENT_FILL = "#2563eb"
 FIRING_ROW = "#fef3c7"
 OUTLINE = "#94a3b8"
+NONE_SENSED = "none sensed"  # what an input not sensed (d_o, phi_o: NaN) reads as
 
 # How the teaching views name a controller's inputs when the engine's name would
 # mislead: fuzzynav's goal block is fed the planner's bearing in an input named phi_t,
@@ -178,7 +179,7 @@ def _x_of(value, lo, hi, x0, w) -> float | None:
 
 def _fmt_value(value: float, unit: str) -> str:
     if not math.isfinite(value):
-        return "none sensed" if math.isnan(value) else f"{value}"
+        return NONE_SENSED if math.isnan(value) else f"{value}"
     return f"{value:.2f} {unit}".strip()
 
 

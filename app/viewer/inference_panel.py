@@ -12,6 +12,7 @@ import numpy as np
 
 from fuzzynav.app.viewer import views
 from fuzzynav.app.viewer.compat_viser import handle_uuid
+from fuzzynav.app.viewer.drawing import NONE_SENSED
 from fuzzynav.app.viewer.model import Snapshot, ViewerError
 from fuzzynav.app.viewer.status import set_html
 
@@ -68,6 +69,7 @@ class InferencePanel:
             )
             self.what_if_cb.on_update(self.view.guarded(self._on_what_if))
             self.what_if_boxes = []
+            self._what_if_labels = []  # each box's own label (a "none sensed" is added)
             for k, (name, lo, hi, unit) in enumerate(
                 (
                     ("d_t", 0.0, 20.0, "m"),
@@ -77,14 +79,15 @@ class InferencePanel:
                 )
             ):
                 # A slider per input: drag it (a real drag control) or type into its box.
+                self._what_if_labels.append(f"{name} ({unit})")
                 box = gui.add_slider(
-                    f"{name} ({unit})",
+                    self._what_if_labels[-1],
                     min=round(lo, 2),
                     max=round(hi, 2),
                     step=0.01,
                     initial_value=0.0,
                     disabled=True,
-                    hint="drag, or type a value (d_o, phi_o: none sensed until you do)",
+                    hint=f"drag, or type a value (d_o, phi_o: {NONE_SENSED} until you do)",
                 )
                 box.on_update(
                     self.view.guarded(lambda e, k=k: self.app.set_what_if_input(k, e.value))
@@ -144,12 +147,14 @@ class InferencePanel:
             lo, hi = math.ceil(lo * 100 - 1e-9) / 100, math.floor(hi * 100 + 1e-9) / 100
             if (box.min, box.max) != (lo, hi) and lo < hi:
                 box.min, box.max = lo, hi
-                if not lo <= box.value <= hi:
+                if math.isfinite(box.value) and not lo <= box.value <= hi:
                     box.value = min(max(box.value, lo), hi)
 
     def sync(self, snap: Snapshot) -> None:
         """What-if mode's box and numbers as the world has them: the inputs tried, or
-        (off, paused) the inputs of the moment shown, which What-if would start from."""
+        (off, paused) the inputs of the moment shown, which What-if would start from. An
+        input not sensed (d_o, phi_o: NaN) holds no number and its label says so, as the
+        term plots do."""
         self._fit_what_if_ranges()
         on = snap.what_if is not None
         if self.what_if_cb.value != on:
@@ -165,10 +170,19 @@ class InferencePanel:
                 box.visible = k in read
             if box.disabled == on:
                 box.disabled = not on
-            if tried is not None and math.isfinite(tried[k]):
-                shown = min(max(round(float(tried[k]), 2), box.min), box.max)
-                if abs(box.value - shown) > 5e-3:
-                    box.value = shown
+            if tried is None:
+                continue
+            sensed = math.isfinite(tried[k])
+            label = self._what_if_labels[k] + ("" if sensed else f": {NONE_SENSED}")
+            if box.label != label:
+                box.label = label
+            if not sensed:
+                if not math.isnan(box.value):
+                    box.value = math.nan  # (the page's box shows no number)
+                continue
+            shown = min(max(round(float(tried[k]), 2), box.min), box.max)
+            if not abs(box.value - shown) <= 5e-3:
+                box.value = shown
 
     def _system_uid(self, fis, labels, output_labels) -> str:
         """An id prefix for this system's SVG definitions (new when the system changes)."""

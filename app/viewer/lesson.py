@@ -96,14 +96,49 @@ def dumps_lesson(app, view: dict | None = None) -> str:
 
 def _editors_json(app, bases: list) -> dict:
     """Each system the Editor edited: its rule base (an index) and its sliders' numbers."""
-    editors = {}
-    for kind, editor in (("paper", app.paper_edit), ("starter", app.starter_edit)):
-        if editor is not None and editor.edited:
-            editors[kind] = {
-                "rule_base": _base_index(bases, editor.controller().fis),
-                "numbers": editor.numbers(),
-            }
-    return editors
+    return {
+        kind: {"rule_base": _base_index(bases, fis), "numbers": numbers}
+        for kind, (fis, numbers) in editor_states(app).items()
+    }
+
+
+def editor_states(app) -> dict:
+    """Each system ``app``'s Editor edited (``paper``, ``starter``): (its rule base, its
+    sliders' numbers), as a lesson keeps them and a teacher pushes them."""
+    return {
+        kind: (editor.controller().fis, editor.numbers())
+        for kind, editor in (("paper", app.paper_edit), ("starter", app.starter_edit))
+        if editor is not None and editor.edited
+    }
+
+
+def fresh_editors(states: dict, geometry: str) -> dict:
+    """An editor of its own for each system of ``states`` (:func:`editor_states`),
+    holding exactly that edit: its rule base, and its sliders at the numbers (None: an
+    older lesson's edit, the sliders at the shipped numbers). ValueError naming the
+    system when an edit is not that system's or its numbers not the layout's."""
+    from fuzzynav.app.viewer.editor import PaperEditor, StarterEditor
+
+    makers = {"paper": PaperEditor, "starter": StarterEditor}
+    out = {}
+    for kind, (fis, numbers) in states.items():
+        editor = makers[kind](geometry)
+        try:
+            if numbers is None:
+                editor.adopt(fis)
+            else:
+                editor.restore(fis, numbers)
+        except ValueError as exc:
+            raise ValueError(f"editors.{kind}: {exc}") from None
+        out[kind] = editor
+    return out
+
+
+def install_editors_locked(app, editors: dict) -> None:
+    """The Editor holds ``editors`` (kind: editor, :func:`fresh_editors`); a system not
+    among them starts afresh (the page's views follow the editors)."""
+    app.paper_edit = editors.get("paper")
+    app.starter_edit = editors.get("starter")
 
 
 def _toml(fis) -> str:
@@ -255,30 +290,26 @@ def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: f
 
 
 def _editors(data: dict, source: str, geometry: str, bases: list, entries: list) -> dict:
-    """The Editor as the lesson left it: for each system it edited (``paper``,
-    ``starter``), an editor of its own holding that edit (its rule base, its sliders at
-    the saved numbers), checked; a system not listed starts afresh. A lesson without
+    """The Editor as the lesson left it (:func:`editor_states`' form): each system it
+    edited (``paper``, ``starter``), its rule base and its sliders' numbers, checked by
+    building its editor; a system not listed starts afresh. A lesson without
     ``editors`` (an older file) gives each editor the last edit of it that drove in
     ``entries`` (its sliders at the shipped numbers: that file kept no others)."""
-    from fuzzynav.app.viewer.editor import PaperEditor, StarterEditor
     from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL
     from fuzzynav.app.viewer.state import EDITED_LABEL
 
-    makers = {"paper": PaperEditor, "starter": StarterEditor}
+    kinds = ("paper", "starter")
     raw = data.get("editors")
     if raw is None:
-        kinds = {EDITED_LABEL: "paper", STARTER_EDITED_LABEL: "starter"}
-        last = {kinds[e["controller"]]: e["fis"] for e in entries if e["controller"] in kinds}
-        out = {kind: makers[kind](geometry) for kind, fis in last.items() if fis is not None}
-        for kind, editor in out.items():
-            editor.adopt(last[kind])
-        return out
-    if not isinstance(raw, dict) or not set(raw) <= set(makers):
+        by_label = {EDITED_LABEL: "paper", STARTER_EDITED_LABEL: "starter"}
+        last = {by_label[e["controller"]]: e["fis"] for e in entries if e["controller"] in by_label}
+        return {kind: (fis, None) for kind, fis in last.items() if fis is not None}
+    if not isinstance(raw, dict) or not set(raw) <= set(kinds):
         raise ViewerError(
             f"{source}: editors = {sorted(raw) if isinstance(raw, dict) else raw!r}: not a "
-            f"table of {' and '.join(makers)}"
+            f"table of {' and '.join(kinds)}"
         )
-    out = {}
+    states = {}
     for kind, saved in raw.items():
         where = f"{source}: editors.{kind}"
         if not isinstance(saved, dict):
@@ -286,13 +317,15 @@ def _editors(data: dict, source: str, geometry: str, bases: list, entries: list)
         fis = _rule_base(saved, where, bases)
         if fis is None:
             raise ViewerError(f"{where}: rule_base = None: the edit's rule base is needed")
-        editor = makers[kind](geometry)
-        try:
-            editor.restore(fis, saved.get("numbers"))
-        except ValueError as exc:
-            raise ViewerError(f"{where}: {exc}") from None
-        out[kind] = editor
-    return out
+        numbers = saved.get("numbers")
+        if not isinstance(numbers, dict):
+            raise ViewerError(f"{where}: numbers = {numbers!r:.40}: not a table of numbers")
+        states[kind] = (fis, numbers)
+    try:
+        fresh_editors(states, geometry)
+    except ValueError as exc:
+        raise ViewerError(f"{source}: {exc}") from None
+    return states
 
 
 def read_lesson(
@@ -394,12 +427,9 @@ def open_lesson(app, content: bytes | str, source: str = "lesson.json", backgrou
     with app.lock:
         app.seed = lesson["seed"]
         app.note = lesson["note"]
-        app.apply_settings({**lesson, "fis": None, "controller": app.controller_label})
-        # the Editor as the lesson left it: its edits, or afresh (the page's views
-        # follow the editors), whatever this world had edited before
-        app.paper_edit = lesson["editors"].get("paper")
-        app.starter_edit = lesson["editors"].get("starter")
-        _apply_entry_locked(app, timeline[0])
+        # the scenario and layout, the Editor as the lesson left it (its edits, or
+        # afresh, whatever this world had edited before) and what drove at the start
+        app.apply_settings({**lesson, **timeline[0]})
         app.driver._reset_locked(app.editing._layout_scenario())  # the seed, from the start
         app._notice(f"Opening the lesson {source}: replaying to t = {lesson['time_s']:.2f} s…")
         run_id = app.run_id
@@ -411,9 +441,11 @@ def open_lesson(app, content: bytes | str, source: str = "lesson.json", backgrou
     return lesson["view"]
 
 
-def _apply_entry_locked(app, entry: dict) -> None:
-    """Drive with what a timeline entry says (only what differs is changed: a change of
-    noise rebuilds the sensors, as it did in the run)."""
+def apply_entry_locked(app, entry: dict) -> None:
+    """Drive with what a timeline entry (or a teacher's push) says: fuzzynav's parts,
+    the controller (an edit the Editor holds drives as the Editor's own), perception,
+    disturbance and noise; only what differs is changed (a change of noise rebuilds the
+    sensors, as it did in the run)."""
     from fuzzynav.app.viewer.starter import STARTER_EDITED_LABEL
     from fuzzynav.app.viewer.state import EDITED_LABEL
     from fuzzynav.controller.fis_controller import FisController
@@ -468,7 +500,7 @@ def _replay(app, lesson: dict, changes: list, source: str, run_id: int) -> None:
             for _ in range(REPLAY_CHUNK_STEPS):
                 step = int(round(app.sim.time_s / period))
                 while changes and changes[0]["step"] <= step:
-                    _apply_entry_locked(app, changes.pop(0))
+                    apply_entry_locked(app, changes.pop(0))
                 if app.sim.time_s + 0.5 * period >= target or app.sim.done:
                     break
                 app.driver._step_locked()

@@ -294,8 +294,11 @@ class RunSettings:
     def settings(self) -> dict:
         """What a teacher pushes to the class (``--classroom``): the scenario with its
         layout as edited, the controller (by name, or its rule base when edited or
-        uploaded), the perception, geometry, disturbance, noise, parts and speed."""
+        uploaded), the Editor's edits (:func:`.lesson.editor_states`), the perception,
+        geometry, disturbance, noise, parts and speed."""
         app = self.app
+        from fuzzynav.app.viewer.lesson import editor_states
+
         with app.lock:
             inner = app.controller.inner
             fis = getattr(inner, "fis", None)
@@ -310,6 +313,7 @@ class RunSettings:
                 "base_scenario": app.base_scenario,
                 "controller": app.controller_label,
                 "fis": None if named else fis,
+                "editors": editor_states(app),
                 "perception": app.sim.perception.mode,
                 "geometry": app.geometry,
                 "disturbance_on": app.disturbance_on,
@@ -319,10 +323,17 @@ class RunSettings:
             }
 
     def apply_settings(self, settings: dict) -> None:
-        """Take a teacher's :meth:`settings`: this world restarts in them, paused at t = 0."""
+        """Take a teacher's :meth:`settings` (or a lesson's): this world restarts in them,
+        paused at t = 0, its Editor holding editors of its own with exactly the edits of
+        ``settings["editors"]`` (a system not among them afresh), as a lesson opened does."""
         app = self.app
-        from fuzzynav.controller.fis_controller import FisController
+        from fuzzynav.app.viewer.lesson import (
+            apply_entry_locked,
+            fresh_editors,
+            install_editors_locked,
+        )
 
+        editors = fresh_editors(settings.get("editors") or {}, settings["geometry"])
         app.driver.pause()
         if settings["geometry"] != app.geometry:
             self.set_geometry(settings["geometry"])
@@ -337,21 +348,10 @@ class RunSettings:
             else:  # the teacher's scenario (uploaded) under the teacher's name
                 app.editing.keep_uploaded(label, base)
         app.editing.load_scenario(label)
-        if settings["scenario"] != base:
-            with app.lock:
+        with app.lock:
+            if settings["scenario"] != base:
                 app.driver._reset_locked(settings["scenario"])
-        for name in [p.name for p in self.part_options()]:
-            if (name in settings["parts_off"]) != (name in app.parts_off):
-                self.set_part(name, name not in settings["parts_off"])
-        if settings["fis"] is not None:
-            app.uploaded_controller = FisController(settings["fis"], name=settings["controller"])
-            app.uploaded_label = settings["controller"]
-            self._install_controller(app.uploaded_controller, settings["controller"])
-        elif settings["controller"] != app.controller_label:
-            self.set_controller(settings["controller"])
-        if settings["perception"] != app.sim.perception.mode:
-            self.set_perception(settings["perception"])
-        self.set_disturbance(settings["disturbance_on"])
-        self.set_noise(settings["noise_std_m"])
+            install_editors_locked(app, editors)
+            apply_entry_locked(app, settings)
         app.driver.set_speed(settings["speed"])
         app._notice("The teacher set this world up.", "info")
