@@ -470,7 +470,9 @@ def read_fis(path: str | Path) -> FuzzySystem:
     -------
     FuzzySystem
     """
-    return _read_fis(path)
+    from fuzzynav.safe_files import as_path
+
+    return _read_fis(as_path(path, "read_fis: path"))
 
 
 def write_fis(system: FuzzySystem, path: str | Path) -> Path:
@@ -492,5 +494,7 @@ def write_fis(system: FuzzySystem, path: str | Path) -> Path:
     """
     from fuzzynav.safe_files import check_output_path, write_text_atomically
 
+    if not isinstance(system, FuzzySystem):
+        raise TypeError(f"write_fis: system = {type(system).__name__}: not a FuzzySystem")
     check_output_path(path, "write_fis: path")  # never into the installed package
     return write_text_atomically(path, dumps_fis(system))
