@@ -36,6 +36,7 @@ from fuzzynav.app.args import (
     comma_list,
     float_in,
     integer_in,
+    named_list,
     print_json,
     seed_type,
 )
@@ -215,7 +216,7 @@ def _add_study_options(p) -> None:
     )
     p.add_argument(
         "--perception",
-        type=comma_list,
+        type=named_list,
         default=["ideal", "ultrasonic"],
         help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
     )
@@ -263,7 +264,7 @@ def _add_search_options(p) -> None:
     )
     p.add_argument(
         "--free",
-        type=comma_list,
+        type=named_list,
         metavar="PREFIXES",
         help="tune only the parameters whose names start with one of these "
         "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector",
