@@ -398,7 +398,14 @@ def serve(
         The running server when ``block`` is False; else None, after Ctrl-C.
     """
     from fuzzynav.app.viewer.serve import serve as serve_viewer
+    from fuzzynav.safe_files import as_path
 
+    switches = {"block": block, "classroom": classroom, "open_message": open_message}
+    for name, value in switches.items():
+        if not isinstance(value, bool):  # "no" is true: block="no" served for ever
+            raise TypeError(f"{name} = {value!r}: must be True or False")
+    if lesson is not None:
+        lesson = as_path(lesson, "lesson")
     server = serve_viewer(
         scenario,
         host=host,

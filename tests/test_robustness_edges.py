@@ -467,3 +467,20 @@ def test_the_interface_names_paths_and_switches_of_the_wrong_kind(tmp_path):
         run.save_rrd(5)
     with pytest.raises(TypeError, match="figures: folder = ''"):
         run.figures("")
+
+
+def test_serve_refuses_switches_and_paths_of_the_wrong_kind_before_serving(monkeypatch):
+    """``serve(block="no")`` served until Ctrl-C ("no" is true), ``classroom="no"``
+    started a classroom, ``lesson=5`` raised os.fspath's TypeError without its name."""
+    import fuzzynav.app.viewer.serve as serve_module
+
+    started = []
+    monkeypatch.setattr(serve_module, "serve", lambda *a, **k: started.append(k))
+    for name in ("block", "classroom", "open_message"):
+        with pytest.raises(TypeError, match=f"{name} = 'no': must be True or False"):
+            fuzzynav.serve(port=0, **{name: "no"})
+    with pytest.raises(TypeError, match="lesson = 5: must be a path"):
+        fuzzynav.serve(port=0, block=False, lesson=5)
+    assert started == []
+    fuzzynav.serve(port=0, block=False)
+    assert len(started) == 1
