@@ -203,6 +203,16 @@ def comma_list(text: str) -> list[str]:
     return [item.strip() for item in text.split(",") if item.strip()]
 
 
+def named_list(text: str) -> list[str]:
+    """An argparse ``type``: a comma-separated option that names at least one item
+    (``--controllers ''`` ran every controller, ``--free ''`` searched every number:
+    an empty value is refused, as ``,,`` is)."""
+    items = comma_list(text)
+    if not items:
+        raise argparse.ArgumentTypeError(f"{text!r}: names nothing (give NAME[,NAME...])")
+    return items
+
+
 def off_flag(parts_off) -> str:
     """The ``--off`` that switches these parts off again in a command line ("" for none)."""
     return f" --off {shlex.quote(','.join(parts_off))}" if parts_off else ""

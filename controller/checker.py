@@ -143,16 +143,16 @@ def _capability_problems(controller, caps, decisions) -> list[str]:
             problems.append("set_parts_off accepted an unknown part name")
         controller.set_parts_off([])
     if "batch" in caps and decisions is not None and np.isfinite(decisions).all():
-        batch = type(controller).batched([controller])
+        batch = type(controller).batched([controller], None)  # as documented: two arguments
         if not isinstance(batch, BatchController):
             problems.append("batched() made no object with decide(inputs, runs, ranges_m)")
         else:
             runs = np.arange(len(SAMPLE_INPUTS))
-            together = np.asarray(
-                batch.decide(SAMPLE_INPUTS.copy(), runs, SAMPLE_RANGES_M.copy()), dtype=float
-            )
-            if together.shape != decisions.shape or not np.allclose(
-                together, decisions, rtol=0, atol=1e-9
+            raw = np.asarray(batch.decide(SAMPLE_INPUTS.copy(), runs, SAMPLE_RANGES_M.copy()))
+            if raw.dtype.kind not in "iuf":
+                problems.append(f"its batch form returned {raw.dtype} values, not voltages")
+            elif raw.shape != decisions.shape or not np.allclose(
+                raw.astype(float), decisions, rtol=0, atol=1e-9
             ):
                 problems.append("its batch form decides otherwise than the controller")
     return problems

@@ -115,6 +115,14 @@ class _Reader:
             raise self.err(lineno, f"{what}: too large (at most {limit})", t)
         return -int(digits) if t.startswith("-") else int(digits)
 
+    def count(self, lineno: int, text: str, what: str, limit: int) -> int:
+        """A count of sections or terms: an integer from 1 to ``limit`` (``NumInputs=-2``
+        was read, then reported as sections ``[Input1]..[Input-2]`` missing)."""
+        value = self.int_(lineno, text, what, limit)
+        if value < 1:
+            raise self.err(lineno, f"{what}: must be at least 1", text.strip())
+        return value
+
     def string(self, lineno: int, text: str, what: str) -> str:
         m = _STR_RE.match(text.strip())
         if not m:
@@ -253,7 +261,7 @@ def _variable(
     rng = rd.vector(*kv["Range"], "Range")
     if len(rng) != 2 or not rng[0] < rng[1]:
         raise rd.err(kv["Range"][0], "Range must be [lo hi] with lo < hi", kv["Range"][1])
-    nmf = rd.int_(*kv["NumMFs"], "NumMFs", MAX_TERMS)
+    nmf = rd.count(*kv["NumMFs"], "NumMFs", MAX_TERMS)
     if sorted(mfs) != list(range(1, nmf + 1)):
         raise rd.err(
             kv["NumMFs"][0],
@@ -381,8 +389,8 @@ def loads_fis(text: str, source: str = "<string>") -> FuzzySystem:
     sysd = _system_keys(rd, sys_sec)
     name = rd.string(*sysd["Name"], "Name")
     choices = _system_choices(rd, sysd, sys_sec[2])
-    n_in = rd.int_(*sysd["NumInputs"], "NumInputs", MAX_VARIABLES)
-    n_out = rd.int_(*sysd["NumOutputs"], "NumOutputs", MAX_VARIABLES)
+    n_in = rd.count(*sysd["NumInputs"], "NumInputs", MAX_VARIABLES)
+    n_out = rd.count(*sysd["NumOutputs"], "NumOutputs", MAX_VARIABLES)
     n_rules = rd.int_(*sysd["NumRules"], "NumRules", MAX_RULES)
     inputs = _variables(rd, sections, "Input", n_in, sys_sec[2])
     outputs = _variables(rd, sections, "Output", n_out, sys_sec[2])

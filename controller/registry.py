@@ -106,6 +106,8 @@ class ControllerEntry:
             raise ValueError(f"{where}: calling it with {args} failed: {exc}") from exc
         except ValueError as exc:  # a controller function that decides nothing usable
             raise ValueError(f"{where}: {exc}") from exc
+        except Exception as exc:  # noqa: BLE001 - a user's factory may raise anything
+            raise ValueError(f"{where}: it raised {exc!r}") from exc
         if not (callable(getattr(made, "reset", None)) and callable(made)):
             raise ValueError(
                 f"{where}: made {shown(made)}, not a controller (an object with reset() "
@@ -167,6 +169,13 @@ def register_controller(
         raise ValueError(
             f"controller name {name!r}: a letter, then up to 39 letters, digits, _ or -"
         )
+    flags = {"geometry_aware": geometry_aware, "fis_export": fis_export, "replace": replace}
+    for flag, value in {**flags, "batchable": batchable}.items():
+        if not isinstance(value, bool) and not (flag == "batchable" and value is None):
+            # "no" is true: batchable="no" sent a controller to the batch engine
+            raise TypeError(f"controller {name!r}: {flag} = {value!r}: must be True or False")
+    if tunable is not None and not (isinstance(tunable, str) and IMPORT_PATTERN.fullmatch(tunable)):
+        raise ValueError(f"controller {name!r}: tunable = {tunable!r}: give 'module:attribute'")
     if name in _REGISTRY and not replace:
         raise ValueError(f"controller name {name!r}: already registered (pass replace=True)")
     if isinstance(factory, str):

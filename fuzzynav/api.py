@@ -398,7 +398,14 @@ def serve(
         The running server when ``block`` is False; else None, after Ctrl-C.
     """
     from fuzzynav.app.viewer.serve import serve as serve_viewer
+    from fuzzynav.safe_files import as_path
 
+    switches = {"block": block, "classroom": classroom, "open_message": open_message}
+    for name, value in switches.items():
+        if not isinstance(value, bool):  # "no" is true: block="no" served for ever
+            raise TypeError(f"{name} = {value!r}: must be True or False")
+    if lesson is not None:
+        lesson = as_path(lesson, "lesson")
     server = serve_viewer(
         scenario,
         host=host,
@@ -470,7 +477,9 @@ def read_fis(path: str | Path) -> FuzzySystem:
     -------
     FuzzySystem
     """
-    return _read_fis(path)
+    from fuzzynav.safe_files import as_path
+
+    return _read_fis(as_path(path, "read_fis: path"))
 
 
 def write_fis(system: FuzzySystem, path: str | Path) -> Path:
@@ -492,5 +501,7 @@ def write_fis(system: FuzzySystem, path: str | Path) -> Path:
     """
     from fuzzynav.safe_files import check_output_path, write_text_atomically
 
+    if not isinstance(system, FuzzySystem):
+        raise TypeError(f"write_fis: system = {type(system).__name__}: not a FuzzySystem")
     check_output_path(path, "write_fis: path")  # never into the installed package
     return write_text_atomically(path, dumps_fis(system))

@@ -9,6 +9,7 @@ cannot drive run one at a time on the pymunk engine, with a warning.
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -121,6 +122,8 @@ def evaluate(
         raise ValueError("controllers: a list of controllers (or names), one per candidate")
     if not controllers:
         raise ValueError("controllers: none given")
+    if cost is not None and not callable(cost):
+        raise TypeError(f"cost = {cost!r}: not callable (cost(metrics) -> float of one run)")
     candidates = [
         make_controller(c, geometry=geometry) if isinstance(c, str) else c for c in controllers
     ]
@@ -145,8 +148,20 @@ def evaluate(
                 metrics[k] = found
     costs = None
     if cost is not None:
-        costs = np.array([[float(cost(m)) for m in row] for row in metrics], dtype=np.float64)
+        costs = np.array([[_cost_of(cost, m) for m in row] for row in metrics], dtype=np.float64)
     return Evaluation(metrics, costs, scenarios, engines)
+
+
+def _cost_of(cost: Callable[[Mapping[str, Any]], float], metrics: Mapping[str, Any]) -> float:
+    """``cost(metrics)`` as a float; ValueError naming what it returned otherwise."""
+    value = cost(metrics)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        from fuzzynav.resources import shorten
+
+        raise ValueError(
+            f"cost returned {shorten(repr(value), 80)}: must return a real number (lower is better)"
+        )
+    return float(value)
 
 
 def _layouts(
@@ -158,12 +173,18 @@ def _layouts(
     from fuzzynav.app.experiments.study_sources import scenario_list
     from fuzzynav.world.layouts import generate_layout
 
-    if isinstance(layouts, int) and not isinstance(layouts, bool):
+    if isinstance(layouts, numbers.Integral) and not isinstance(layouts, bool):
+        layouts = int(layouts)
         seed = sweep_command.DEFAULT_SEED if seed is None else seed
         integer_value(seed, "seed", 0)
         integer_value(start, "start", 0)
         sweep_command.check_sweep("p", layouts, family)  # the count and family, as --n
         return [generate_layout(family, seed, start + i) for i in range(layouts)], seed
+    if isinstance(layouts, bool | numbers.Number):
+        raise ValueError(
+            f"layouts = {layouts!r}: an integer (how many layouts) or scenarios (names, "
+            "files, a folder, Scenario objects, a list of them)"
+        )
     if seed is not None or start:
         raise ValueError("seed, start: for generated layouts (an int); not with scenarios")
     footprint = (0.0, 0.0) if geometry == "paper" else None

@@ -47,6 +47,8 @@ from fuzzynav.gym_setup import (
     ObservationArray,
     Setup,
     checked_action,
+    checked_options,
+    checked_seed,
 )
 from fuzzynav.world.kernels import law_centre, obstacle_law
 from fuzzynav.world.scenario import Scenario
@@ -219,9 +221,10 @@ class HuskyEnv(gym.Env[ObservationArray, FloatArray]):
         tuple
             The observation (7,) and an empty info dict.
         """
-        super().reset(seed=seed)
+        options = checked_options(options, ("scenario",))
+        super().reset(seed=checked_seed(seed))
         scenario, sonar_seed = self._setup.draw(self.np_random)
-        if options and options.get("scenario") is not None:
+        if options.get("scenario") is not None:
             scenario = self._setup.scenario(options["scenario"], 'options["scenario"]')
         self.scenario = scenario
         self._setup.world.reset([scenario], [sonar_seed])
@@ -353,17 +356,27 @@ class HuskyVectorEnv(VectorEnv[ObservationArray, FloatArray, FloatArray | BoolAr
             The observations (num_envs, 7) and an empty info dict.
         """
         n = self.num_envs
+        options = checked_options(options, ("reset_mask",))
         if seed is None:
             seeds: list[int | None] = [None] * n
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            first = checked_seed(seed)
+            seeds = [first + i for i in range(n)]
+        elif isinstance(seed, Sequence) and not isinstance(seed, str | bytes):
+            seeds = [checked_seed(s, f"seed[{i}]") for i, s in enumerate(seed)]
             if len(seeds) != n:
                 raise ValueError(f"seed has {len(seeds)} entries for {n} environments")
+        else:
+            raise ValueError(f"seed = {seed!r}: None, an integer >= 0 or one per environment")
         mask = np.ones(n, dtype=bool)
-        if options and options.get("reset_mask") is not None:
-            mask = np.asarray(options["reset_mask"], dtype=bool).reshape(n)
+        if options.get("reset_mask") is not None:
+            mask = np.asarray(options["reset_mask"])
+            if mask.dtype != np.bool_ or mask.shape != (n,):
+                raise ValueError(
+                    f"options['reset_mask'] of {mask.dtype} and shape {mask.shape}: must be "
+                    f"booleans of shape ({n},)"
+                )
+            mask = mask.copy()
         if not self._started:
             mask[:] = True
         for i in np.flatnonzero(mask).tolist():

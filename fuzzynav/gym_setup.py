@@ -69,6 +69,9 @@ SPEED_BOUND_MPS = 10.0
 YAW_RATE_BOUND_RADPS = 20.0
 #: Maximum ``num_envs`` of :class:`fuzzynav.gym.HuskyVectorEnv` (a sweep's largest ``n``).
 MAX_NUM_ENVS = 100_000
+#: The largest layout index a reset may draw (``layouts``' stop is at most this + 1):
+#: numpy's generator draws int64 indices.
+MAX_LAYOUT_INDEX = 2**63 - 2
 OBSERVATION_HIGH = np.array(
     [
         DISTANCE_BOUND_M,
@@ -122,7 +125,32 @@ def _layout_range(layouts: object) -> tuple[int, int]:
     low, high = pair
     if not 0 <= low < high:
         raise ValueError(f"layouts = {layouts!r}: {rule}")
+    if high > MAX_LAYOUT_INDEX + 1:
+        raise ValueError(f"layouts = {layouts!r}: stop must be at most {MAX_LAYOUT_INDEX + 1}")
     return low, high
+
+
+def checked_seed(value: object, name: str = "seed") -> int | None:
+    """A reset's seed: None, or an integer >= 0 (a numpy integer too) as a Python int;
+    ValueError naming it otherwise (NaN, -1, a string), as the command line's ``--seed``."""
+    return None if value is None else integer_value(value, name, 0)
+
+
+def checked_options(options: object, known: tuple[str, ...]) -> dict[str, Any]:
+    """A reset's ``options``: None or a dict of the ``known`` keys; ValueError naming an
+    unknown key (a misspelt ``"scenaro"`` was ignored) or anything else given."""
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(
+            f"options = {options!r}: must be None or a dict (keys: {', '.join(known)})"
+        )
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        raise ValueError(
+            f"options: unknown key(s) {', '.join(unknown)} (known: {', '.join(known)})"
+        )
+    return options
 
 
 def _observation_dtype(value: object) -> np.dtype[Any]:
@@ -184,6 +212,11 @@ class Setup:
         if scenarios is not None:
             if isinstance(scenarios, Scenario | str | Path):
                 scenarios = [scenarios]  # one scenario, not a string read per character
+            if isinstance(scenarios, bytes) or not isinstance(scenarios, Sequence):
+                raise ValueError(
+                    f"scenarios = {scenarios!r}: a Scenario, a shipped name, a scenario file "
+                    "or a sequence (list, tuple) of them"
+                )
             self.scenarios = [self.scenario(sc, "scenarios") for sc in scenarios]
             if not self.scenarios:
                 raise ValueError("scenarios: the list is empty")

@@ -104,8 +104,10 @@ class OutputScope:
         overwrite: bool = False,
         remedy: str = "give --force to replace it, or another folder",
     ) -> None:
+        if not isinstance(overwrite, bool):  # "no" is true, and would replace
+            raise TypeError(f"{option}: overwrite = {overwrite!r}: must be True or False")
         self.option = option
-        self.overwrite = overwrite
+        self.overwrite = bool(overwrite)
         self.remedy = remedy
         self._written: set[Path] = set()
         self._tokens: list[contextvars.Token[OutputScope | None]] = []
@@ -368,6 +370,14 @@ def refuse_installed(path: StrPath, option: str) -> None:
             )
 
 
+def as_path(path: object, option: str) -> Path:
+    """``path`` (a str or path-like) as a Path; TypeError naming ``option`` for anything
+    else (an int, None) or an empty text (which would be the current folder)."""
+    if not isinstance(path, str | os.PathLike) or path == "":
+        raise TypeError(f"{option} = {path!r}: must be a path (a str or a pathlib.Path)")
+    return Path(path)
+
+
 def check_output_path(
     path: StrPath,
     option: str,
@@ -395,7 +405,7 @@ def check_output_path(
     (``app.figures.style.check_writable_dir`` makes the folder and probes it)."""
     from fuzzynav.resources import escape_controls
 
-    path = Path(path)
+    path = as_path(path, option)
     shown = escape_controls(str(path))
     target = _target(path)
     refuse_installed(path, option)

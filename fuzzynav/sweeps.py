@@ -252,12 +252,18 @@ def summarize(rows: Sequence[SweepRow], *, show: bool = True) -> dict[str, objec
     ValueError
         No rows, or rows of several studies (it names them).
     """
+    from fuzzynav.app.experiments.sweep import SUMMARY_KEYS, summary_table
     from fuzzynav.app.experiments.sweep import summarize as summarize_rows
-    from fuzzynav.app.experiments.sweep import summary_table
 
+    if not isinstance(show, bool):  # "no" is true: it would print
+        raise TypeError(f"show = {show!r}: must be True or False")
     rows = list(rows)
     if not rows:
         raise ValueError("rows: none given")
+    for k, row in enumerate(rows):
+        missing = [key for key in SUMMARY_KEYS if not isinstance(row, dict) or key not in row]
+        if missing:
+            raise ValueError(f"rows[{k}]: not a row of fuzzynav.sweep (lacks {', '.join(missing)})")
     studies = {
         (r.get("controller"), r.get("family"), r.get("seed"), r.get("perception")) for r in rows
     }
@@ -355,6 +361,8 @@ def _study_runner(
     from fuzzynav.app.experiments.rows import check_row, describe_row, row_key
     from fuzzynav.safe_files import check_output_path
 
+    if not isinstance(resume, bool):  # "no" is true: it would take the file as ours
+        raise TypeError(f"resume = {resume!r}: must be True or False")
     if resume and out is None:
         raise ValueError("resume: give out, the .jsonl file to resume")
     kind = kind or ("local" if workers > 1 else "serial")

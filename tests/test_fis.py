@@ -205,6 +205,10 @@ BAD = [
     ("Range=[0 30]", "Range=[30 0]", "lo < hi", 31),
     ("Range=[0 30]", "Range=[0 1e999]", "not a finite number", 31),
     ("NumMFs=2", "NumMFs=two", "not an integer", 25),
+    # a count below 1 was read, then reported as sections [Input1]..[Input-2] missing
+    ("NumMFs=2", "NumMFs=-2", "NumMFs: must be at least 1", 25),
+    ("NumInputs=2", "NumInputs=-2", "NumInputs: must be at least 1", 5),
+    ("NumOutputs=1", "NumOutputs=0", "NumOutputs: must be at least 1", 6),
     ("Name='food'", "Name='food'\nColor='red'", "unknown [Input2] key 'Color'", 24),
     ("Name='tipper'", "Name='tipper'\nDisableStructuralChecks=0", "unknown [System] key", 3),
     ("1 1, 1 (1) : 1", "1 1, 1 (1) : 1\n\n", None, None),  # blank lines are fine (control)

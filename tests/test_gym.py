@@ -414,3 +414,44 @@ def test_float32_observations_pass_the_checker_and_round_the_float64_ones():
     assert vector.observation_space.contains(vector.step(np.zeros((3, 2)))[0])
     with pytest.raises(ValueError, match="observation_dtype = "):
         fgym.HuskyEnv(observation_dtype="float16")
+
+
+def test_reset_settings_of_the_wrong_kind_are_refused_by_name():
+    """A reset's seed and options are checked by name: a negative or NaN seed was
+    gymnasium's own error (not a ValueError), a misspelt option key was ignored (the
+    scenario drawn instead of the one asked for), options that were no dict raised
+    AttributeError, and a reset mask of strings or of another length was taken or
+    reshaped."""
+    env = fgym.HuskyEnv()
+    for seed, name in ((-1, "seed = -1"), (math.nan, "seed = nan"), ("3", "seed = '3'")):
+        with pytest.raises(ValueError, match=re.escape(name)):
+            env.reset(seed=seed)
+    with pytest.raises(ValueError, match="unknown key.*scenaro"):
+        env.reset(seed=0, options={"scenaro": "s1"})
+    with pytest.raises(ValueError, match="options = \\['scenario'\\]"):
+        env.reset(seed=0, options=["scenario"])
+    env.reset(seed=np.int64(3), options={"scenario": "s1"})  # a numpy seed is a seed
+    assert env.scenario is not None and env.scenario.name.startswith("Scenario 1")
+    envs = fgym.HuskyVectorEnv(num_envs=2)
+    for seed, name in (([0, -5], "seed[1] = -5"), ([0, math.nan], "seed[1] = nan"), ("ab", "'ab'")):
+        with pytest.raises(ValueError, match=re.escape(name)):
+            envs.reset(seed=seed)
+    envs.reset(seed=0)
+    for mask in (["no", "no"], [0.5, 2.0], [True, False, True]):
+        with pytest.raises(ValueError, match="reset_mask"):
+            envs.reset(options={"reset_mask": mask})
+    with pytest.raises(ValueError, match="unknown key.*scenario"):
+        envs.reset(options={"scenario": "s1"})  # the vector form draws its own
+
+
+def test_scenarios_and_layouts_of_the_wrong_kind_are_refused_by_name():
+    """``scenarios=5`` raised TypeError ('int' object is not iterable), a dict ran its
+    keys as scenario names, a layout range past int64 failed at the first reset, and a
+    control period given as text raised numpy's TypeError without its name."""
+    for bad in (5, {"s1": 1}, b"s1"):
+        with pytest.raises(ValueError, match="scenarios = "):
+            fgym.HuskyEnv(scenarios=bad)
+    with pytest.raises(ValueError, match="layouts = .*stop must be at most"):
+        fgym.HuskyEnv(layouts=(0, 10**30))
+    with pytest.raises(ValueError, match="control_period_s = '0.02'"):
+        fgym.HuskyEnv(control_period_s="0.02")

@@ -164,6 +164,24 @@ def test_run_figures_never_replaces_a_file_unless_overwrite(tmp_path, write_toml
     assert (tmp_path / "voltages.png").read_bytes() != MINE
 
 
+def test_an_overwrite_that_is_no_bool_is_refused_and_replaces_nothing(tmp_path, write_toml):
+    """``overwrite="no"`` (a true text) replaced the user's file; every scope (Run.figures,
+    a navigator's save and block export, the report) now takes True or False only."""
+    from fuzzynav.safe_files import OutputScope
+
+    run = fuzzynav.simulate(write_toml(TINY, name="mine.toml"), controller="p")
+    tmp_path = tmp_path / "figures"
+    tmp_path.mkdir()
+    (tmp_path / "voltages.png").write_bytes(MINE)
+    for bad in ("no", 1, None):
+        with pytest.raises(TypeError, match=f"overwrite = {bad!r}: must be True or False"):
+            run.figures(tmp_path, overwrite=bad)
+        with pytest.raises(TypeError, match="OUT: overwrite = "):
+            OutputScope("OUT", overwrite=bad)
+    assert _listing(tmp_path) == ["voltages.png"]
+    assert (tmp_path / "voltages.png").read_bytes() == MINE
+
+
 def test_run_figures_option_never_replaces_a_file_unless_forced(capsys, tmp_path, write_toml):
     """``run --figures DIR``: refused before the run, the other outputs not written."""
     scenario = write_toml(TINY, name="mine.toml")

@@ -106,6 +106,13 @@ def test_registration_refuses_bad_names_taken_names_and_non_factories(toy):
         register_controller("broken", 3, description="x")
     with pytest.raises(ValueError, match="description"):
         register_controller("quiet", ToyController, description=" ")
+    # a flag that is no bool ("no" is true: batchable="no" was taken as batchable)
+    for flag in ("batchable", "geometry_aware", "fis_export", "replace"):
+        with pytest.raises(TypeError, match=f"{flag} = 'no': must be True or False"):
+            register_controller("flagged", ToyController, description="x", **{flag: "no"})
+    with pytest.raises(ValueError, match="tunable = 5"):
+        register_controller("flagged", ToyController, description="x", tunable=5)
+    assert "flagged" not in controller_names()
 
 
 class _NoReset:
@@ -141,9 +148,33 @@ class _WrongBatch(ToyController):
         return Zero()
 
 
+class _DocumentedBatch(ToyController):
+    """``batched(controllers, run_sets)`` exactly as controller/interface.py writes it
+    (no default): the checker called it with one argument (TypeError)."""
+
+    @classmethod
+    def batched(cls, controllers, run_sets):
+        return BatchableToy.batched(controllers, run_sets)
+
+
+class _TextBatch(ToyController):
+    @classmethod
+    def batched(cls, controllers, run_sets=None):
+        class Text:
+            def decide(self, inputs, runs, ranges_m=None):
+                return np.full((len(inputs), 2), "a")
+
+        return Text()
+
+
+def test_the_checker_calls_batched_as_documented():
+    assert "batch" in check_controller(_DocumentedBatch())
+
+
 @pytest.mark.parametrize(
     ("controller", "says"),
     [
+        (_TextBatch(), "batch form returned <U1 values"),  # was float()'s ValueError
         (_NoReset(), "no reset"),
         (lambda inputs: [0.0, 0.0], "no reset"),
         (_NaNOut(), "non-finite"),
@@ -209,6 +240,7 @@ def test_a_controller_that_declares_needs_context_gets_the_world_as_the_simulati
         ("math:pow", "calling it with no arguments failed"),
         ("math:sqrt", "it raised TypeError"),  # one argument: a controller function
         ("os:getcwd", "not a controller"),
+        ("toy_controller:failing_factory", "it raised RuntimeError"),  # was RuntimeError
     ],
 )
 def test_a_module_factory_that_makes_no_controller_is_a_value_error_naming_it(spec, says):

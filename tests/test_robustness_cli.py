@@ -316,3 +316,28 @@ def test_ctrl_c_during_start_up_prints_no_traceback(after_s):
     text = "".join(line for line in lines if not line.startswith("import time:"))
     assert "Traceback" not in text, text
     assert process.returncode in (0, 130), (process.returncode, text)
+
+
+def test_an_empty_list_option_is_refused_not_taken_for_its_default(capsys, monkeypatch, tmp_path):
+    """``report OUT --controllers ''`` wrote the whole default report, ``compare
+    --controllers ''`` ran every controller, ``tune --free ''`` searched every number:
+    an option that names nothing is refused (exit 2, nothing run), as ``,,`` was."""
+    import fuzzynav.app.experiments.compare as compare_module
+    import fuzzynav.app.experiments.tuning as tuning_module
+    import fuzzynav.app.figures.report as report_module
+
+    ran = []
+    monkeypatch.setattr(report_module, "write_report", lambda *a, **k: ran.append("report"))
+    monkeypatch.setattr(compare_module, "compare", lambda *a, **k: ran.append("compare"))
+    monkeypatch.setattr(tuning_module, "tune", lambda *a, **k: ran.append("tune"))
+    for argv in (
+        ["report", str(tmp_path / "out"), "--controllers", ""],
+        ["compare", "--controllers", ""],
+        ["tune", "--free", "", "--out", str(tmp_path / "t.toml")],
+        ["tune", "--perception", "", "--out", str(tmp_path / "t.toml")],
+    ):
+        code = main(argv)
+        err = capsys.readouterr().err
+        assert code == 2 and "Traceback" not in err, argv
+        assert "''" in err and ("names nothing" in err or "names no controller" in err), err
+    assert ran == [] and not (tmp_path / "out").exists()

@@ -379,3 +379,108 @@ def test_unchanged_paths_still_work(tmp_path, p_run, matlab_twin):
     out = fuzzynav.write_fis(matlab_twin, tmp_path / "mine.fis")
     assert Path(out).read_text().startswith("[System]")
     assert fuzzynav.write_fis(fuzzynav.read_fis(out), out) == out  # a path given: replaced
+
+
+@pytest.mark.parametrize(
+    ("argument", "value"),
+    [
+        ("popsize", 0),  # ran, CMA-ES taking 4
+        ("popsize", math.nan),  # "cannot convert float NaN to integer"
+        ("seed", -1),  # numpy's "expected non-negative integer"
+        ("seed", math.nan),  # numpy's TypeError
+        ("workers", 0),  # ran in this process
+        ("engine", "gpu"),  # ran on pymunk
+        ("control_period_s", math.nan),  # taken, unused without cases
+        ("clearance_weight", math.nan),
+        ("radius", math.nan),  # scipy's "argument of inverse must be within the given bounds"
+        ("radius", -1.0),  # "centres must be at least three and increasing"
+        ("generations", 10**9),  # the command line's --maxiter stops at 100,000
+        ("x0", [1.0, 2.0]),  # "operands could not be broadcast together"
+        ("x0", [math.nan] * 12),
+        ("x0", "abc"),
+        ("free", [99]),  # IndexError
+        ("free", [-1]),  # ran, searching the last number
+        ("free", []),  # "not enough values to unpack"
+    ],
+)
+def test_tune_refuses_each_argument_out_of_reason_by_name(argument, value):
+    """tune's arguments are held to the command line's ranges before any cost is asked:
+    each refusal is a ValueError naming the argument and its value (some ran, the others
+    failed deep in numpy or scipy with words that named neither)."""
+    asked = []
+
+    def cost(controller):
+        asked.append(controller)
+        return 1.0
+
+    with pytest.raises(ValueError, match=f"^{argument} = "):
+        fuzzynav.tune(cost, **{"generations": 1, argument: value})
+    assert not asked
+    with pytest.raises(TypeError, match="cost = 5: not callable"):
+        fuzzynav.tune(5, generations=1)
+
+
+def test_evaluate_and_sweep_name_layouts_and_costs_of_the_wrong_kind():
+    """``layouts=2.0`` and ``scenarios=5`` raised "'float' object is not iterable", a numpy
+    count was taken for scenarios, a cost that is no function failed after every run and
+    one returning text failed with float()'s words."""
+    for bad in (2.0, math.nan, True):
+        with pytest.raises(ValueError, match=f"layouts = {bad!r}: an integer"):
+            fuzzynav.evaluate(["p"], layouts=bad)
+    with pytest.raises(ValueError, match="scenarios = 5: not a scenario"):
+        fuzzynav.sweep("p", scenarios=5)
+    with pytest.raises(ValueError, match="scenarios = "):
+        fuzzynav.evaluate(["p"], layouts={"s1": 1})
+    assert len(fuzzynav.evaluate(["p"], layouts=np.int64(1)).scenarios) == 1
+    started = []
+    with pytest.raises(TypeError, match="cost = 5: not callable"):
+        fuzzynav.evaluate(["p"], layouts=1, cost=5, progress=lambda *a: started.append(a))
+    assert not started  # refused before the runs
+    with pytest.raises(ValueError, match="cost returned 'x': must return a real number"):
+        fuzzynav.evaluate(["p"], layouts=1, cost=lambda m: "x")
+
+
+def test_the_interface_names_paths_and_switches_of_the_wrong_kind(tmp_path):
+    """A path that is no path (5, None, "") and a switch that is no bool ("no" is true)
+    are refused by name: ``resume="no"`` went on with a file, ``summarize(show="no")``
+    printed, ``write_fis("text", ...)`` raised AttributeError, ``load_scenario(5)`` and
+    ``simulate(None)`` looked for a file called "5" or "None"."""
+    with pytest.raises(TypeError, match="resume = 'no': must be True or False"):
+        fuzzynav.sweep("p", n=1, out=tmp_path / "rows.jsonl", resume="no")
+    assert not (tmp_path / "rows.jsonl").exists()
+    with pytest.raises(TypeError, match="out = 5: must be a path"):
+        fuzzynav.sweep("p", n=1, out=5)
+    rows = fuzzynav.sweep("p", n=1)
+    with pytest.raises(TypeError, match="show = 'no'"):
+        fuzzynav.summarize(rows, show="no")
+    with pytest.raises(ValueError, match=r"rows\[0\]: not a row of fuzzynav.sweep"):
+        fuzzynav.summarize([{"a": 1}], show=False)
+    with pytest.raises(TypeError, match="system = str: not a FuzzySystem"):
+        fuzzynav.write_fis("text", tmp_path / "a.fis")
+    with pytest.raises(TypeError, match="read_fis: path = None"):
+        fuzzynav.read_fis(None)
+    for bad in (5, None, ""):
+        with pytest.raises(TypeError, match=f"scenario = {bad!r}: a shipped scenario's name"):
+            fuzzynav.simulate(bad)
+    run = fuzzynav.simulate("s1", "p")
+    with pytest.raises(TypeError, match="save_rrd: path = 5"):
+        run.save_rrd(5)
+    with pytest.raises(TypeError, match="figures: folder = ''"):
+        run.figures("")
+
+
+def test_serve_refuses_switches_and_paths_of_the_wrong_kind_before_serving(monkeypatch):
+    """``serve(block="no")`` served until Ctrl-C ("no" is true), ``classroom="no"``
+    started a classroom, ``lesson=5`` raised os.fspath's TypeError without its name."""
+    import fuzzynav.app.viewer.serve as serve_module
+
+    started = []
+    monkeypatch.setattr(serve_module, "serve", lambda *a, **k: started.append(k))
+    for name in ("block", "classroom", "open_message"):
+        with pytest.raises(TypeError, match=f"{name} = 'no': must be True or False"):
+            fuzzynav.serve(port=0, **{name: "no"})
+    with pytest.raises(TypeError, match="lesson = 5: must be a path"):
+        fuzzynav.serve(port=0, block=False, lesson=5)
+    assert started == []
+    fuzzynav.serve(port=0, block=False)
+    assert len(started) == 1

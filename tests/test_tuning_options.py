@@ -38,6 +38,35 @@ def test_read_vector_from_a_saved_rule_base_and_from_a_checkpoint(tmp_path):
         read_vector(ck, t.parameter_names())
 
 
+def test_a_starting_vector_file_of_nonsense_is_named_before_the_search(tmp_path, capsys):
+    """``--x0`` of twelve NaNs started the search (its progress bar drawn) and failed in
+    it without naming the file; a header item without ``=`` failed with dict()'s words
+    ("dictionary update sequence element #0 has length 1")."""
+    t = tunable("paper")
+    names = t.parameter_names()
+    ck = tmp_path / "ck.txt"
+    ck.write_text(" ".join(["nan"] * len(names)) + "\n")
+    with pytest.raises(ValueError, match=f"ck.txt: {names[0]} = nan: must be a finite number"):
+        read_vector(ck, names)
+    [saved] = t.save(t.initial_vector(), tmp_path / "x.toml")
+    text = saved.read_text()
+    header = next(line for line in text.splitlines() if line.startswith("# tuned vector:"))
+    first = header.split(":", 1)[1].split(",")[0].strip()
+    for bad, why in (
+        (first.split("=")[0], "is not NAME=NUMBER"),
+        (first.split("=")[0] + "=inf", "must be a finite number"),
+        (first.split("=")[0] + "=abc", "could not convert"),
+    ):
+        saved.write_text(text.replace(first, bad, 1))
+        with pytest.raises(ValueError, match=f"x.toml: .*{why}"):
+            read_vector(saved, names)
+    out = tmp_path / "o.toml"
+    code = main(["tune", "--scenarios", "s1", "--maxiter", "1", "--x0", str(ck), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "ck.txt" in err and "Traceback" not in err and not out.exists()
+    assert "generation" not in err  # refused before the search started
+
+
 def test_free_indices():
     names = tunable("paper").parameter_names()
     idx = free_indices(names, ["phi_t", "d_o"])

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from fuzzynav.app.viewer.lesson import read_lesson
 from fuzzynav.app.viewer.model import ViewerApp
 from fuzzynav.controller.registry import controller_names
 
@@ -545,6 +546,57 @@ def test_a_refused_lesson_leaves_the_world_exactly_as_it_was(key, old, new):
         world.open_lesson(bad, "class-3.json")
     assert "class-3.json" in str(refused.value) and key in str(refused.value)
     assert _world(world) == before
+
+
+@pytest.mark.parametrize(
+    ("key", "old", "new"),
+    [
+        ("noise_std_m", '"noise_std_m": 0.0', '"noise_std_m": 1' + "0" * 400),  # OverflowError
+        ("time_s", '"time_s": ', '"time_s": 1' + "0" * 400 + ', "was": '),
+        ("speed", '"speed": 1.0', '"speed": 1' + "0" * 400),
+        ("unreplayed", '"unreplayed": []', '"unreplayed": 5'),  # TypeError
+        ("unreplayed", '"unreplayed": []', '"unreplayed": "a drag"'),  # read per character
+        ("view", '"view": {}', '"view": {"presentation": "no"}'),  # "no" was presentation on
+        ("sped", '"speed": 1.0', '"speed": 1.0, "sped": 3.0'),  # a misspelt key was ignored
+        ("timeline[0]: unknown key", '"step": 0,', '"step": 0, "perceptoin": "ideal",'),
+        ("scenario_label", '"scenario_label": "s1"', '"scenario_label": "' + "s" * 5000 + '"'),
+        ("nested too deep", '"view": {}', '"view": ' + "[" * 5000 + "]" * 5000),  # RecursionError
+    ],
+)
+def test_a_lesson_of_wrong_kinds_is_refused_by_name_and_changes_nothing(key, old, new):
+    """Values of the wrong kind or beyond reason in a lesson file: each is one
+    ViewerError naming the file and key, the world as it was (an integer of 400 digits
+    raised OverflowError, ``unreplayed: 5`` TypeError, JSON nested 5,000 deep
+    RecursionError; a misspelt key and a view of texts were taken)."""
+    from fuzzynav.app.viewer.model import ViewerError
+
+    app = ViewerApp("s1", "paper", perception="ultrasonic")
+    for _ in range(20):
+        app.step_once()
+    text = app.lesson_text()
+    assert old in text, old
+    bad = text.replace(old, new, 1)
+    world = ViewerApp("s3", "p")
+    before = _world(world)
+    with pytest.raises(ViewerError) as refused:
+        world.open_lesson(bad, "class-4.json")
+    assert "class-4.json" in str(refused.value) and key in str(refused.value)
+    assert _world(world) == before
+
+
+def test_a_lesson_s_label_and_unreplayed_texts_cannot_drive_a_terminal():
+    """The scenario's label and what the run did are shown as they are read: control
+    characters are written as escapes, as every name from a file is."""
+    app = ViewerApp("s1", "paper")
+    text = app.lesson_text()
+    other = ViewerApp("s1", "paper")
+    bad = text.replace('"scenario_label": "s1"', '"scenario_label": "s1\\u001b[2J"', 1)
+    bad = bad.replace('"unreplayed": []', '"unreplayed": ["a drag\\u001b[31m"]', 1)
+    lesson = read_lesson(bad, "ctl.json")
+    assert lesson["scenario_label"] == "s1\\x1b[2J"
+    assert lesson["unreplayed"] == ["a drag\\x1b[31m"]
+    other.open_lesson(bad, "ctl.json")
+    assert "\x1b" not in other.scenario_label
 
 
 def test_a_long_lesson_is_replayed_on_a_thread_of_its_own():

@@ -63,3 +63,8 @@ def toy_law(inputs) -> tuple[float, float]:
 def toy_decide(inputs: np.ndarray) -> np.ndarray:
     """The same law vectorised as one plain function: (n, 4) inputs -> (n, 2) volts."""
     return ToyBatch([ToyController()]).decide(np.asarray(inputs, dtype=float), None)
+
+
+def failing_factory():
+    """A factory that fails as a user's may (no hardware, a missing file)."""
+    raise RuntimeError("no hardware here")

@@ -12,6 +12,7 @@ what a run may be and when it is over.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Literal, get_args
 
 import numpy as np
@@ -46,14 +47,21 @@ def check_loop_settings(control_period_s: float, voltage_limit_v: float) -> None
     [:data:`MIN_CONTROL_PERIOD_S`, :data:`MAX_CONTROL_PERIOD_S`] or the voltage limit
     is not a positive number (both engines' check)."""
     if not (
-        math.isfinite(control_period_s)
+        isinstance(control_period_s, numbers.Real)
+        and not isinstance(control_period_s, bool)
+        and math.isfinite(control_period_s)
         and MIN_CONTROL_PERIOD_S <= control_period_s <= MAX_CONTROL_PERIOD_S
     ):
         raise ValueError(
             f"control_period_s = {control_period_s!r}: must be from "
             f"{MIN_CONTROL_PERIOD_S:g} to {MAX_CONTROL_PERIOD_S:g} s"
         )
-    if not (math.isfinite(voltage_limit_v) and voltage_limit_v > 0):
+    if not (
+        isinstance(voltage_limit_v, numbers.Real)
+        and not isinstance(voltage_limit_v, bool)
+        and math.isfinite(voltage_limit_v)
+        and voltage_limit_v > 0
+    ):
         raise ValueError(f"voltage_limit_v = {voltage_limit_v!r}: must be positive")
 
 

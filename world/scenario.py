@@ -40,6 +40,7 @@ The format's keys and bounds, the checked reading of its values and its writer a
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -449,6 +450,11 @@ def load_scenario(
         The file is not valid TOML or fails validation; a missing file is a
         :class:`ScenarioNotFoundError`, also a ``FileNotFoundError``.
     """
+    if not isinstance(name_or_path, str | os.PathLike) or name_or_path == "":
+        raise TypeError(
+            f"scenario = {name_or_path!r}: a shipped scenario's name (such as 's1'), a "
+            "scenario file's path or a Scenario"
+        )
     path = resolve_scenario_path(name_or_path)
     source = str(path)
     if not path.exists() and not path.is_symlink():

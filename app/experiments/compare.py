@@ -11,8 +11,8 @@ from fuzzynav.app.args import (
     add_field_of_view_option,
     add_geometry_option,
     add_perception_option,
-    comma_list,
     integer_in,
+    named_list,
     print_json,
     seed_type,
 )
@@ -297,7 +297,7 @@ def add_commands(subparsers) -> None:
     add_field_of_view_option(c)
     c.add_argument(
         "--controllers",
-        type=comma_list,
+        type=named_list,
         help="comma-separated (default: paper,baseline,fuzzynav,p where available)",
     )
     add_perception_option(c)

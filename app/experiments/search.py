@@ -368,12 +368,13 @@ def tune(
     -------
     TuneResult
     """
-    if isinstance(generations, bool) or not isinstance(generations, int) or generations < 1:
-        raise ValueError(f"generations = {generations!r}: an integer >= 1")
+    _check_tune_arguments(
+        cost, population_cost, engine, generations=generations, popsize=popsize, seed=seed,
+        workers=workers, radius=radius, control_period_s=control_period_s,
+        clearance_weight=clearance_weight,
+    )  # fmt: skip
     tunable = _tunable(controller)
-    all_bounds = np.asarray(tunable.bounds(), float)
-    x0 = np.asarray(tunable.initial_vector() if x0 is None else x0, float)
-    x0 = np.clip(x0, all_bounds[:, 0], all_bounds[:, 1])
+    all_bounds, x0, free = _start_and_free(tunable, x0, free)
     objective = _objective(
         tunable, (cost, population_cost, cases), x0, free, control_period_s, clearance_weight
     )
@@ -393,6 +394,80 @@ def tune(
         vector, float(result.fun), tunable.build(vector), list(tunable.parameter_names()),
         report.history, steps, int(result.nfev),
     )  # fmt: skip
+
+
+#: tune's numbers and their ranges: the command line's (``fuzzynav tune --maxiter``,
+#: ``--popsize``, ``--seed``, ``--workers``, ``--radius``, ``--dt``, ``--clearance-weight``).
+_TUNE_INTEGERS = {"generations": (1, 100_000), "popsize": (1, 1000), "seed": (0, None)}
+_TUNE_NUMBERS = {"radius": (1e-9, 1e3, ""), "clearance_weight": (0.0, 1e9, "")}
+
+
+def _check_tune_arguments(cost, population_cost, engine: str, **values) -> None:
+    """TypeError for a cost that is not callable; ValueError naming an unknown engine or
+    the first of tune's numeric arguments outside the command line's range for it (a
+    NaN, a negative seed, ``popsize=0``, a string)."""
+    for name, given in (("cost", cost), ("population_cost", population_cost)):
+        if given is not None and not callable(given):
+            raise TypeError(f"{name} = {given!r}: not callable (a function of the controller)")
+    if engine not in ("pymunk", "batch"):
+        raise ValueError(f"engine = {engine!r}: must be pymunk or batch")
+    from fuzzynav.app.args import integer_value, number_value
+    from fuzzynav.app.experiments.executor import MAX_WORKERS
+    from fuzzynav.world.run_limits import MAX_CONTROL_PERIOD_S, MIN_CONTROL_PERIOD_S
+
+    integers = {**_TUNE_INTEGERS, "workers": (1, MAX_WORKERS)}
+    numbers = {
+        **_TUNE_NUMBERS,
+        "control_period_s": (MIN_CONTROL_PERIOD_S, MAX_CONTROL_PERIOD_S, " s"),
+    }
+    for name, value in values.items():
+        if name in integers:
+            integer_value(value, name, *integers[name])
+        elif value is not None:  # radius: None means no narrowing
+            number_value(value, name, *numbers[name])
+
+
+def _start_and_free(tunable, x0, free) -> tuple[np.ndarray, np.ndarray, list[int] | None]:
+    """The tunable's bounds, the start (``x0`` checked and clipped into them) and the
+    indices searched (``free`` checked)."""
+    all_bounds = np.asarray(tunable.bounds(), float)
+    start = np.clip(_start_vector(x0, tunable, len(all_bounds)), *all_bounds.T)
+    return all_bounds, start, _free_indices(free, len(all_bounds))
+
+
+def _start_vector(x0, tunable, size: int) -> np.ndarray:
+    """The search's start: the tunable's own, or ``x0``, ``size`` finite numbers."""
+    if x0 is None:
+        return np.asarray(tunable.initial_vector(), float)
+    try:
+        vector = np.asarray(x0, float)
+    except (TypeError, ValueError):
+        vector = None
+    if vector is None or vector.shape != (size,) or not np.isfinite(vector).all():
+        from fuzzynav.resources import shorten
+
+        raise ValueError(
+            f"x0 = {shorten(repr(x0), 120)}: must be {size} finite numbers, one per "
+            "design number of the controller"
+        )
+    return vector
+
+
+def _free_indices(free, size: int) -> list[int] | None:
+    """``free`` as a list of distinct indices of the vector (None: every number)."""
+    if free is None:
+        return None
+    rule = f"must be distinct integers from 0 to {size - 1}, at least one"
+    if isinstance(free, str | bytes) or not isinstance(free, Sequence | np.ndarray):
+        raise ValueError(f"free = {free!r}: {rule}")
+    indices = []
+    for value in free:
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise ValueError(f"free = {list(free)!r}: {rule} ({value!r} is not an integer)")
+        indices.append(int(value))
+    if not indices or len(set(indices)) != len(indices) or not all(0 <= k < size for k in indices):
+        raise ValueError(f"free = {indices!r}: {rule}")
+    return indices
 
 
 def _objective(tunable, costs, x0, free, control_period_s, clearance_weight) -> Any:

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import hashlib
 import pickle
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from fuzzynav.resources import shorten
 from fuzzynav.world.scenario import Scenario
 
 __all__ = ["scenario_list", "controller_label", "scenario_set_jobs", "SET_PREFIX"]
@@ -58,6 +59,11 @@ def scenario_list(scenarios, footprint_m=None) -> list[Scenario]:
     kwargs = {} if footprint_m is None else {"footprint_m": footprint_m}
     if isinstance(scenarios, Scenario | str | Path):
         scenarios = [scenarios]
+    if not isinstance(scenarios, Iterable) or isinstance(scenarios, bytes | Mapping):
+        raise ValueError(
+            f"scenarios = {shorten(repr(scenarios), 80)}: not a scenario, file, folder or "
+            "shipped name, nor a list of them"
+        )
     out: list[Scenario] = []
     for item in scenarios:
         if isinstance(item, Scenario):

@@ -76,6 +76,13 @@ def check_sweep(controller, n, family, parts_off=()) -> tuple[str, ...]:
     return parts_off
 
 
+#: The keys of a sweep's row that :func:`summarize` reads.
+SUMMARY_KEYS = ("controller", "parts_off", "family", "perception", "seed", "success",
+                "reached", "collided", "outcome", "path_length_m", "path_ratio",
+                "time_ratio", "score", "straight_ratio", "shortest_path_m",
+                "min_clearance_m")  # fmt: skip
+
+
 def summarize(rows: list[dict], *, wall_time_s: float | None = None) -> dict:
     """The summary of one sweep's rows (one controller, family, seed, perception)."""
     first = rows[0]

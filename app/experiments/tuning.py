@@ -36,6 +36,7 @@ from fuzzynav.app.args import (
     comma_list,
     float_in,
     integer_in,
+    named_list,
     print_json,
     seed_type,
 )
@@ -47,7 +48,7 @@ from fuzzynav.app.experiments.objective import (
 )
 from fuzzynav.app.experiments.search import tune
 from fuzzynav.app.provenance import reproduce_line, shell_command
-from fuzzynav.resources import escape_controls
+from fuzzynav.resources import escape_controls, shorten
 from fuzzynav.safe_files import write_text_atomically
 
 
@@ -94,11 +95,21 @@ def read_vector(path: Path, names: list[str]) -> np.ndarray:
     text = read_user_text(path, "starting vector (rule base or checkpoint)")
     for line in text.splitlines():
         if line.startswith("# tuned vector:"):
-            pairs = dict(item.strip().split("=") for item in line.split(":", 1)[1].split(","))
+            items = [item.strip() for item in line.split(":", 1)[1].split(",")]
+            bad = [item for item in items if item.count("=") != 1]
+            if bad:
+                raise ValueError(
+                    f"{path}: tuned vector: {shorten(bad[0], 60)!r} is not NAME=NUMBER"
+                )
+            pairs = dict(item.split("=") for item in items)
             missing = [n for n in names if n not in pairs]
             if missing:
                 raise ValueError(f"{path}: tuned vector lacks {', '.join(missing)}")
-            return np.array([float(pairs[n]) for n in names])
+            try:
+                values = [float(pairs[n]) for n in names]
+            except ValueError as exc:
+                raise ValueError(f"{path}: tuned vector: {exc}") from None
+            return _finite_vector(values, names, path)
     try:
         values = [float(v) for v in text.split()]
     except ValueError:
@@ -107,7 +118,17 @@ def read_vector(path: Path, names: list[str]) -> np.ndarray:
         ) from None
     if len(values) != len(names):
         raise ValueError(f"{path}: {len(values)} numbers, the tunable has {len(names)} parameters")
-    return np.array(values)
+    return _finite_vector(values, names, path)
+
+
+def _finite_vector(values, names: list[str], path: Path) -> np.ndarray:
+    """``values`` as an array; ValueError naming the file and the first number that is
+    NaN or infinite (it started a search that failed in scipy)."""
+    vector = np.array(values, dtype=float)
+    for name, value in zip(names, vector):
+        if not math.isfinite(value):
+            raise ValueError(f"{path}: {name} = {value}: must be a finite number")
+    return vector
 
 
 def free_indices(names: list[str], prefixes) -> list[int] | None:
@@ -195,7 +216,7 @@ def _add_study_options(p) -> None:
     )
     p.add_argument(
         "--perception",
-        type=comma_list,
+        type=named_list,
         default=["ideal", "ultrasonic"],
         help=f"comma-separated perception modes ({', '.join(PERCEPTION_MODES)}; default both)",
     )
@@ -243,7 +264,7 @@ def _add_search_options(p) -> None:
     )
     p.add_argument(
         "--free",
-        type=comma_list,
+        type=named_list,
         metavar="PREFIXES",
         help="tune only the parameters whose names start with one of these "
         "(comma-separated, e.g. phi_t,d_o); the rest stay at the start vector",

@@ -344,7 +344,7 @@ def cmd_report(args) -> int:
     offered = controller_names()
     wanted = (
         [c.strip() for c in args.controllers.split(",") if c.strip()]
-        if args.controllers
+        if args.controllers is not None  # `--controllers ''` ran the default set
         else [c for c in DEFAULT_CONTROLLERS if c in offered]
     )
     if args.controllers is not None and not wanted:  # `--controllers ,` wrote an empty table

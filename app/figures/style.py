@@ -40,9 +40,9 @@ OBSTACLE_COLORS = list(palette.OBSTACLES)
 def check_writable_dir(path, option: str = "--figures") -> Path:
     """Create ``path`` if needed and make sure files can be written in it; ValueError
     with the reason otherwise."""
-    from fuzzynav.safe_files import refuse_installed
+    from fuzzynav.safe_files import as_path, refuse_installed
 
-    path = Path(path)
+    path = as_path(path, option)
     refuse_installed(path, option)  # never among the shipped rule bases and scenarios
     if path.exists() and not path.is_dir():
         raise ValueError(f"{option} {path}: exists and is not a directory")

@@ -49,6 +49,17 @@ REPLAY_CHUNK_STEPS = 250  # steps replayed per hold of the world's lock
 INPUTS_MATCH = 1e-6  # the replay reached the saved moment: d_t and phi_t within this
 # What drives, as a lesson and each entry of its timeline hold it.
 SETTING_KEYS = ("controller", "fis", "perception", "disturbance_on", "noise_std_m", "parts_off")
+MAX_LABEL_CHARS = 200  # the scenario's label, as a rule base's name
+MAX_UNREPLAYED = 20  # what the run did that a replay cannot make, as said when it opens
+VIEW_KEYS = ("presentation", "firing_only")
+# The keys a lesson file and each entry of its timeline may hold (``rule_base_toml``: an
+# older lesson's rule base); any other is refused, naming it (a misspelt key was ignored).
+ENTRY_KEYS = ("step", "controller", "rule_base", "rule_base_toml", "perception",
+              "disturbance_on", "noise_std_m", "parts_off")  # fmt: skip
+LESSON_KEYS = (LESSON_KEY, "scenario_label", "scenario_toml", "layout_toml", "controller",
+               "rule_base", "rule_base_toml", "rule_bases", "perception", "geometry",
+               "disturbance_on", "noise_std_m", "parts_off", "speed", "seed", "time_s",
+               "view", "inputs", "unreplayed", "note", "timeline")  # fmt: skip
 
 
 def dumps_lesson(app, view: dict | None = None) -> str:
@@ -177,6 +188,28 @@ def _field(data: dict, key: str, kind, source: str):
     return value
 
 
+def _number(data: dict, key: str, source: str) -> float:
+    """``data[key]``, a JSON number, as a float (an integer of 400 digits is refused by
+    name, not left to overflow)."""
+    value = _field(data, key, (int, float), source)
+    try:
+        return float(value)
+    except OverflowError:
+        raise ViewerError(
+            f"{source}: {key} = <an integer of {value.bit_length()} bits>: too large"
+        ) from None
+
+
+def _known_keys(data: dict, known: tuple[str, ...], where: str) -> None:
+    """ViewerError naming a key ``data`` may not hold (a misspelt one was ignored)."""
+    from fuzzynav.resources import escape_controls, shorten
+
+    unknown = [k for k in data if k not in known]
+    if unknown:
+        shown = ", ".join(escape_controls(shorten(repr(k), 60)) for k in unknown[:5])
+        raise ViewerError(f"{where}: unknown key(s) {shown} (a lesson holds: {', '.join(known)})")
+
+
 def _rule_bases(data: dict, source: str) -> list:
     """The lesson's rule bases (TOML texts), each read and built as a controller, so
     that one the engine cannot drive is refused before anything is applied."""
@@ -239,7 +272,7 @@ def _settings_of(data: dict, source: str, geometry: str, bases: list) -> dict:
             f"{source}: perception = {perception!r} with geometry = 'paper': the paper's "
             "point robot takes ideal perception only"
         )
-    noise = float(_field(data, "noise_std_m", (int, float), source))
+    noise = _number(data, "noise_std_m", source)
     if not (math.isfinite(noise) and NOISE_RANGE_M[0] <= noise <= NOISE_RANGE_M[1]):
         raise ViewerError(
             f"{source}: noise_std_m = {noise!r}: must be between {NOISE_RANGE_M[0]} and "
@@ -278,6 +311,7 @@ def _timeline(data: dict, source: str, geometry: str, time_s: float, period_s: f
         where = f"{source}: timeline[{k}]"
         if not isinstance(entry, dict):
             raise ViewerError(f"{where}: {entry!r}: not a table")
+        _known_keys(entry, ENTRY_KEYS, where)
         step = _field(entry, "step", int, where)
         if not (last < step <= last_step) or (k == 0 and step != 0):
             raise ViewerError(
@@ -332,6 +366,7 @@ def read_lesson(
     content: bytes | str, source: str = "lesson.json", control_period_s: float = 0.02
 ) -> dict:
     """The checked settings of a lesson file (nothing applied yet)."""
+    from fuzzynav.resources import shorten
     from fuzzynav.world.perception import GEOMETRIES
     from fuzzynav.world.scenario import ScenarioError, loads_scenario
     from fuzzynav.world.simulation import check_run_size
@@ -343,12 +378,15 @@ def read_lesson(
         data = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise ViewerError(f"{source}: not a lesson file (JSON): {exc}") from None
+    except RecursionError:
+        raise ViewerError(f"{source}: not a lesson file (JSON nested too deep)") from None
     if not isinstance(data, dict) or data.get(LESSON_KEY) != LESSON_VERSION:
         raise ViewerError(
             f"{source}: not a fuzzynav lesson (no {LESSON_KEY} = {LESSON_VERSION}); save one "
             "from the page's Lesson folder"
         )
-    label = _field(data, "scenario_label", str, source)
+    _known_keys(data, LESSON_KEYS, source)
+    label = _label(data, source)
     try:
         base = loads_scenario(_field(data, "scenario_toml", str, source), f"{source}: scenario")
         layout = loads_scenario(_field(data, "layout_toml", str, source), f"{source}: layout")
@@ -364,10 +402,10 @@ def read_lesson(
         )
     bases = _rule_bases(data, source)
     settings = _settings_of(data, source, geometry, bases)
-    time_s = float(_field(data, "time_s", (int, float), source))
+    time_s = _number(data, "time_s", source)
     if not (math.isfinite(time_s) and 0.0 <= time_s <= min(MAX_REPLAY_S, layout.duration_s)):
         raise ViewerError(f"{source}: time_s = {time_s!r}: must be within the run")
-    speed = float(_field(data, "speed", (int, float), source))
+    speed = _number(data, "speed", source)
     if not (math.isfinite(speed) and SPEED_RANGE[0] - 1e-9 <= speed <= SPEED_RANGE[1] + 1e-9):
         raise ViewerError(
             f"{source}: speed = {speed!r}: must be between {SPEED_RANGE[0]} and "
@@ -383,8 +421,13 @@ def read_lesson(
             f"({type(note).__name__}, {len(note) if isinstance(note, str) else '-'})"
         )
     view = data.get("view") or {}
-    if not isinstance(view, dict):
-        raise ViewerError(f"{source}: view = {view!r}: not a table")
+    if not isinstance(view, dict) or not all(
+        k in VIEW_KEYS and isinstance(v, bool) for k, v in view.items()
+    ):
+        raise ViewerError(
+            f"{source}: view = {shorten(repr(view), 120)}: not a table of "
+            f"{' and '.join(VIEW_KEYS)}, each true or false"
+        )
     timeline = _timeline(data, source, geometry, time_s, control_period_s, bases)
     return {
         "scenario_label": label,
@@ -398,10 +441,40 @@ def read_lesson(
         "timeline": timeline,
         "editors": _editors(data, source, geometry, bases, timeline or [settings]),
         "inputs": _saved_inputs(data, source),
-        "unreplayed": [str(u) for u in data.get("unreplayed") or []][:20],
+        "unreplayed": _unreplayed(data, source),
         "note": note,
-        "view": {k: bool(view[k]) for k in ("presentation", "firing_only") if k in view},
+        "view": dict(view),
     }
+
+
+def _label(data: dict, source: str) -> str:
+    """The scenario's label as the page shows it: a text of at most
+    :data:`MAX_LABEL_CHARS`, its control characters written as escapes."""
+    from fuzzynav.resources import escape_controls
+
+    label = _field(data, "scenario_label", str, source)
+    if len(label) > MAX_LABEL_CHARS:
+        raise ViewerError(
+            f"{source}: scenario_label: a text of {len(label)} characters (at most "
+            f"{MAX_LABEL_CHARS})"
+        )
+    return escape_controls(label)
+
+
+def _unreplayed(data: dict, source: str) -> list[str]:
+    """What the run did that a replay cannot make: a list of texts, the first
+    :data:`MAX_UNREPLAYED` kept (said when the lesson opens)."""
+    from fuzzynav.resources import escape_controls
+
+    raw = data.get("unreplayed") or []
+    if not isinstance(raw, list) or not all(
+        isinstance(u, str) and len(u) <= MAX_NOTE_CHARS for u in raw
+    ):
+        raise ViewerError(
+            f"{source}: unreplayed: not a list of texts of at most {MAX_NOTE_CHARS} "
+            f"characters ({type(raw).__name__})"
+        )
+    return [escape_controls(u) for u in raw[:MAX_UNREPLAYED]]
 
 
 def _saved_inputs(data: dict, source: str):
