@@ -979,3 +979,19 @@ def test_what_if_boxes_say_none_sensed_for_an_input_not_sensed_now():
         assert shown()[3][0] == f"{labels[3]}: {NONE_SENSED}"
     finally:
         server.stop()
+
+
+def test_a_misspelt_key_in_a_lessons_editor_is_refused_by_name():
+    """A key an ``editors`` entry does not hold is named, not ignored, and the world
+    stays as it was."""
+    import json
+
+    from fuzzynav.app.viewer.model import ViewerError
+
+    data = json.loads(_edited_both(0.25, ("defuzz_method", "bisector"), 1).lesson_text())
+    data["editors"]["paper"]["numbrs"] = {}
+    world = ViewerApp("s3", "p")
+    before = _world(world)
+    with pytest.raises(ViewerError, match=r"misspelt\.json: editors\.paper.*'numbrs'"):
+        world.open_lesson(json.dumps(data), "misspelt.json")
+    assert _world(world) == before

@@ -56,10 +56,11 @@ VIEW_KEYS = ("presentation", "firing_only")
 # older lesson's rule base); any other is refused, naming it (a misspelt key was ignored).
 ENTRY_KEYS = ("step", "controller", "rule_base", "rule_base_toml", "perception",
               "disturbance_on", "noise_std_m", "parts_off")  # fmt: skip
+EDITOR_KEYS = ("rule_base", "rule_base_toml", "numbers")  # an entry of ``editors``
 LESSON_KEYS = (LESSON_KEY, "scenario_label", "scenario_toml", "layout_toml", "controller",
                "rule_base", "rule_base_toml", "rule_bases", "perception", "geometry",
                "disturbance_on", "noise_std_m", "parts_off", "speed", "seed", "time_s",
-               "view", "inputs", "unreplayed", "note", "timeline")  # fmt: skip
+               "view", "inputs", "unreplayed", "note", "timeline", "editors")  # fmt: skip
 
 
 def dumps_lesson(app, view: dict | None = None) -> str:
@@ -348,6 +349,7 @@ def _editors(data: dict, source: str, geometry: str, bases: list, entries: list)
         where = f"{source}: editors.{kind}"
         if not isinstance(saved, dict):
             raise ViewerError(f"{where}: {saved!r}: not a table")
+        _known_keys(saved, EDITOR_KEYS, where)
         fis = _rule_base(saved, where, bases)
         if fis is None:
             raise ViewerError(f"{where}: rule_base = None: the edit's rule base is needed")
