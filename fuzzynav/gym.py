@@ -360,7 +360,7 @@ class HuskyVectorEnv(VectorEnv[ObservationArray, FloatArray, FloatArray | BoolAr
         if seed is None:
             seeds: list[int | None] = [None] * n
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            first = checked_seed(seed)
+            first = integer_value(seed, "seed", 0)
             seeds = [first + i for i in range(n)]
         elif isinstance(seed, Sequence) and not isinstance(seed, str | bytes):
             seeds = [checked_seed(s, f"seed[{i}]") for i, s in enumerate(seed)]
