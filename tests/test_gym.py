@@ -214,25 +214,25 @@ def test_bad_settings_are_refused_by_name():
 
 def test_the_docs_numbers_are_the_examples():
     """docs/gym.md states what docs/examples/gym_random_search.py wrote."""
+    from load_file import load_file
+
+    module = load_file(ROOT / "examples" / "gym_random_search.py")
     data = json.loads((ROOT / "docs" / "data" / "gym_random_search.json").read_text())
     text = (ROOT / "docs" / "gym.md").read_text()
     for row in data["rows"]:
-        line = next(li for li in text.splitlines() if li.startswith(f"| {row['policy']} |"))
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[1:] == [
-            f"{row['reached']}/{data['held_out']}",
-            f"{row['collided']}/{data['held_out']}",
-            f"{row['timeout']}/{data['held_out']}",
-            f"{row['mean_return']:.2f}",
-        ]
-    args, settings = data["args"], data["settings"]
+        assert module.table_row(row, data["held_out"]) in text.splitlines(), row["policy"]
+    args, settings, search = data["args"], data["settings"], data["search"]
+    assert settings == module.SETTINGS
     stated = [
         f"{args['population']}\ncandidates",
         f"{args['layouts']} training layouts",
         f"{args['population'] * args['layouts']}\nsub-environments",
+        f"runs {args['generations']} generations",
         f"{data['held_out']} held-out layouts",
         f"a {settings['control_period_s']:g} s step",
-        f"at\nmost {settings['max_duration_s']:g} s",
+        f"training episodes of at most {settings['train_max_duration_s']:g} s",
+        f"{settings['held_out_budget_factor']:g} times its layout's time budget",
+        f"took {search['cpu_s']:.0f} s of CPU time",
     ]
     flat = re.sub(r"\s+", " ", text)
     for phrase in stated:
@@ -249,18 +249,30 @@ def test_the_docs_rows_are_todays_controllers():
     data = json.loads((ROOT / "docs" / "data" / "gym_random_search.json").read_text())
     n, seed = data["held_out"], data["args"]["seed"] + 1
     weights = np.asarray(data["weights"])[None]
+    all_round, paper_field = (
+        module.held_out_layouts(),
+        module.held_out_layouts(module.PAPER_FIELD_OF_VIEW_DEG),
+    )
     policies = {
-        "linear (CEM)": lambda k: module.linear_policy(weights, np.zeros(k, dtype=int)),
-        "paper (fuzzy)": module.paper_policy,
+        "linear (CEM)": (
+            lambda k: module.linear_policy(weights, np.zeros(k, dtype=int)),
+            all_round,
+        ),
+        "paper (fuzzy)": (module.paper_policy, all_round),
+        f"paper (fuzzy), its {module.PAPER_FIELD_OF_VIEW_DEG:g}-degree field": (
+            module.paper_policy,
+            paper_field,
+        ),
     }
+    assert [row["policy"] for row in data["rows"]] == list(policies)
     for row in data["rows"]:
-        now = module.held_out(policies[row["policy"]], n, seed)
+        policy, layouts = policies[row["policy"]]
+        now = module.held_out(policy, n, seed, layouts)
         assert now["mean_return"] == pytest.approx(row["mean_return"], rel=1e-9, abs=1e-12), row[
             "policy"
         ]
-        assert {k: now[k] for k in ("reached", "collided", "timeout")} == {
-            k: row[k] for k in ("reached", "collided", "timeout")
-        }, row["policy"]
+        keys = ("reached", "collided", "timeout", "median_time_to_target_s")
+        assert {k: now[k] for k in keys} == {k: row[k] for k in keys}, row["policy"]
 
 
 def test_the_example_runs_small(capsys):
@@ -274,6 +286,7 @@ def test_the_example_runs_small(capsys):
     out = capsys.readouterr().out
     assert "4 held-out layouts" in out
     assert "| linear (CEM) |" in out and "| paper (fuzzy) |" in out
+    assert "| paper (fuzzy), its 60-degree field |" in out
 
 
 def test_an_obstacle_not_sensed_reads_as_the_cutoff():
