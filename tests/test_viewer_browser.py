@@ -540,13 +540,17 @@ def test_switching_controller_while_paused_shows_the_new_controllers_voltages(se
     app.set_controller("paper")
     expected = np.clip(app.controller.inner(app.controller.last_inputs), -12, 12)
     assert np.allclose(app.snapshot().voltages_v, expected)
-    page.wait_for_function(
-        "(v) => document.body.innerText.includes('V' + String.fromCharCode(10) + 'L') ||"
-        " document.body.innerText.includes(v)",
-        arg=f"{expected[0]:.1f} V",
-        timeout=15_000,
-    )
-    assert f"{expected[0]:.1f} V" in page.locator(".fz-status").inner_text()
+    want = f"{expected[0]:.1f} V"
+    try:  # the status box itself, once the server's push of the switch has arrived
+        page.wait_for_function(
+            "([v]) => (document.querySelector('.fz-status')?.innerText || '').includes(v)"
+            " && document.querySelector('.fz-status').innerText.includes('paper')",
+            arg=[want],
+            timeout=15_000,
+        )
+    except Exception:
+        status = page.locator(".fz-status").inner_text()
+        raise AssertionError(f"the status shows {status!r}, not {want} with paper") from None
 
 
 def test_surface_shows_heatmaps_and_the_operating_point_moves(served, page):
