@@ -90,7 +90,7 @@ def test_presentation_mode_at_1280_reads_from_the_back_and_the_arena_is_largest(
         page.wait_for_function(
             "() => !!document.querySelector('style') && [...document.querySelectorAll('style')]"
             ".some((s) => s.textContent.includes('.mantine-Slider-markLabel'))",
-            timeout=10_000,
+            timeout=30_000,  # the server's push of the mode's style, late under load
         )
         areas = None
         for _ in range(40):  # the panels widen, the canvas narrows: until it settles
@@ -102,10 +102,18 @@ def test_presentation_mode_at_1280_reads_from_the_back_and_the_arena_is_largest(
         assert areas["canvas"] > areas["left"] and areas["canvas"] > areas["right"], areas
         open_tab(page, "Inference")
         page.get_by_text("Step by step", exact=True).click()
-        page.get_by_role("button", name="Next ▶").click()
-        page.wait_for_function(
-            "() => document.querySelector('.fz-stepwise')?.dataset.stage == '1'", timeout=10_000
-        )
+        # a stage shown (a click on a button the page is still drawing can be lost: again)
+        staged = "() => Number(document.querySelector('.fz-stepwise')?.dataset.stage) >= 1"
+        for _ in range(3):
+            if server.inference.stage == 0:
+                page.get_by_role("button", name="Next ▶").click()
+            try:
+                page.wait_for_function(staged, timeout=10_000)
+                break
+            except Exception:
+                pass
+        else:
+            raise AssertionError(f"step by step shows no stage (server: {server.inference.stage})")
         for tab in ("Inference", "Surface", "Editor"):
             open_tab(page, tab)
             page.wait_for_timeout(700)
