@@ -176,9 +176,9 @@ def matrix_exponential(M: np.ndarray) -> np.ndarray:
     matrix exponential revisited", SIAM J. Matrix Anal. Appl. 26(4), 2005).
 
     :math:`e^M = (r_{13}(M / 2^s))^{2^s}` with :math:`s` the least power that brings
-    :math:`\lVert M \rVert_1 / 2^s` under :math:`\theta_{13} = 5.37`; the same method as
-    ``scipy.linalg.expm`` (agreement to 1e-13 at a run's steps is tested), in numpy alone, so that a first
-    run need not load ``scipy.linalg``.
+    :math:`\lVert M \rVert_1 / 2^s` under :math:`\theta_{13} = 5.37`: the method
+    ``scipy.linalg.expm`` refines (it agrees to 1e-13 at a run's steps, tested), in numpy
+    alone, so that a first run need not load ``scipy.linalg``.
     """
     M = np.asarray(M, dtype=float)
     norm = float(np.abs(M).sum(axis=0).max()) if M.size else 0.0
